@@ -1,0 +1,1 @@
+"""Camera drivers, synchronisation, encoding, detectors, recording, and the synthetic world."""

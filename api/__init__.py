@@ -1,0 +1,1 @@
+"""HTTP front end (FastAPI): REST API, WebSocket status, the clinician web page."""

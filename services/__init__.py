@@ -1,0 +1,1 @@
+"""Thin processes that wire acquisition and reconstruction to the Zenoh bus, and the CLI."""
