@@ -1,0 +1,73 @@
+"""2D keypoint detections from several synchronised cameras: the input of every reconstruction."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from reconstruction.camera import Rig
+from reconstruction.skeletons import Skeleton, get_skeleton
+
+
+@dataclass(frozen=True, eq=False)
+class Detections:
+    """One person's 2D keypoints seen by C cameras over T frames.
+
+    Attributes:
+        keypoints: (C, T, J, 3) float: x px, y px, confidence in [0, 1]. Missing views are NaN or have
+            confidence 0.
+        camera_names: (C,) names, matched to the calibration by name.
+        times_s: (T,) frame times in s (monotonic).
+        skeleton: the keypoint layout (J joints).
+    """
+
+    keypoints: np.ndarray
+    camera_names: tuple[str, ...]
+    times_s: np.ndarray
+    skeleton: Skeleton
+
+    def __post_init__(self) -> None:
+        kp = np.asarray(self.keypoints, dtype=np.float64)
+        names = tuple(str(n) for n in self.camera_names)
+        skel = get_skeleton(self.skeleton) if isinstance(self.skeleton, str) else self.skeleton
+        if kp.ndim != 4 or kp.shape[-1] != 3:
+            raise ValueError(f"keypoints: expected shape (C, T, J, 3), got {kp.shape}")
+        c, t, j, _ = kp.shape
+        if len(names) != c:
+            raise ValueError(f"camera_names: {len(names)} names for {c} cameras in keypoints")
+        if len(set(names)) != c:
+            raise ValueError(f"camera_names: duplicates in {list(names)}")
+        if j != skel.num_joints:
+            raise ValueError(f"keypoints: {j} joints but skeleton {skel.name} has {skel.num_joints}")
+        times = np.asarray(self.times_s, dtype=np.float64).reshape(-1)
+        if times.shape != (t,):
+            raise ValueError(f"times_s: expected {t} times (one per frame), got {times.shape[0]}")
+        if t > 1 and not np.all(np.diff(times) > 0):
+            raise ValueError("times_s: must be strictly increasing")
+        conf = kp[..., 2]
+        if np.any(np.isfinite(conf) & ((conf < 0) | (conf > 1))):
+            raise ValueError("keypoints: confidence (last channel) must lie in [0, 1]")
+        object.__setattr__(self, "keypoints", kp)
+        object.__setattr__(self, "camera_names", names)
+        object.__setattr__(self, "times_s", times)
+        object.__setattr__(self, "skeleton", skel)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """(C, T, J)."""
+        c, t, j, _ = self.keypoints.shape
+        return c, t, j
+
+    def aligned_to(self, rig: Rig) -> tuple[Detections, Rig]:
+        """Reorder to the rig's camera order restricted to the cameras seen here.
+
+        Raises ValueError naming the cameras that are not in the calibration.
+        """
+        sub = rig.subset(self.camera_names)  # raises naming missing cameras
+        return self, sub
+
+    def confident(self, threshold: float = 0.5) -> np.ndarray:
+        """(C, T, J) bool: finite x, y and confidence > threshold."""
+        kp = self.keypoints
+        return np.isfinite(kp).all(-1) & (np.nan_to_num(kp[..., 2]) > threshold)
