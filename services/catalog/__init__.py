@@ -1,0 +1,46 @@
+"""The trial catalog: SQLAlchemy 2 tables and repository functions (SQLite by default, any URL).
+
+Typical use::
+
+    cat = open_catalog("runs/catalog.sqlite")          # or "postgresql+psycopg://..."
+    t = start_trial(cat, subject_id="P001", session="visit1")
+    set_state(cat, t.id, "recorded"); enqueue_job(cat, t.id)
+"""
+
+from services.catalog.audit import entries as audit_entries
+from services.catalog.audit import record as audit
+from services.catalog.calibrations import add_calibration, get_calibration, latest_calibration
+from services.catalog.db import Catalog, SchemaMismatch, database_url, open_catalog, schema_version
+from services.catalog.ids import new_trial_id, validate_id
+from services.catalog.jobs import (
+    JobInfo,
+    complete_job,
+    enqueue_job,
+    fail_job,
+    jobs_for_trial,
+    lease_job,
+    renew_lease,
+)
+from services.catalog.results import ResultInfo, get_result, stages_available, store_result
+from services.catalog.states import IllegalTransition, TrialState
+from services.catalog.trials import (
+    RecordingBusy,
+    TrialInfo,
+    TrialNotFound,
+    current_recording,
+    get_trial,
+    list_trials,
+    set_progress,
+    set_state,
+    start_trial,
+)
+
+__all__ = [
+    "Catalog", "SchemaMismatch", "database_url", "open_catalog", "schema_version",
+    "TrialState", "IllegalTransition", "RecordingBusy", "TrialInfo", "TrialNotFound",
+    "start_trial", "get_trial", "list_trials", "set_state", "set_progress", "current_recording",
+    "JobInfo", "enqueue_job", "lease_job", "renew_lease", "complete_job", "fail_job", "jobs_for_trial",
+    "ResultInfo", "store_result", "get_result", "stages_available",
+    "add_calibration", "get_calibration", "latest_calibration",
+    "audit", "audit_entries", "new_trial_id", "validate_id",
+]

@@ -1,0 +1,106 @@
+"""Opening the catalog database: SQLite by default (a file path), any SQLAlchemy URL otherwise.
+
+SQLite is opened in WAL mode with a busy timeout and every transaction starts with ``BEGIN IMMEDIATE``,
+so several processes (API, workers) can write without "database is locked" surprises and a lease is
+taken atomically. The schema version is checked on open.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from sqlalchemy import Engine, create_engine, event, select
+from sqlalchemy.orm import Session, sessionmaker
+
+from services.catalog.models import SCHEMA_VERSION, Base, SchemaInfo
+
+log = logging.getLogger(__name__)
+
+
+class SchemaMismatch(RuntimeError):
+    """The database was written by a different schema version of gaitcap."""
+
+
+def database_url(path_or_url: str | Path) -> str:
+    """A SQLAlchemy URL: URLs (``scheme://...``) pass through, anything else is a SQLite file path."""
+    text = str(path_or_url)
+    if "://" in text:
+        return text
+    path = Path(text).expanduser().resolve()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return f"sqlite:///{path}"
+
+
+def _sqlite_engine(url: str) -> Engine:
+    engine = create_engine(url, connect_args={"timeout": 30, "check_same_thread": False})
+
+    @event.listens_for(engine, "connect")
+    def _on_connect(dbapi_conn, _record) -> None:
+        dbapi_conn.isolation_level = None  # we issue BEGIN ourselves
+        cur = dbapi_conn.cursor()
+        cur.execute("PRAGMA journal_mode=WAL")
+        cur.execute("PRAGMA foreign_keys=ON")
+        cur.execute("PRAGMA busy_timeout=30000")
+        cur.execute("PRAGMA synchronous=NORMAL")
+        cur.close()
+
+    @event.listens_for(engine, "begin")
+    def _on_begin(conn) -> None:
+        conn.exec_driver_sql("BEGIN IMMEDIATE")
+
+    return engine
+
+
+@dataclass(frozen=True, eq=False)
+class Catalog:
+    """An open catalog: the engine and a session factory. Use :meth:`session` for one transaction."""
+
+    url: str
+    engine: Engine
+    sessions: sessionmaker
+
+    @contextlib.contextmanager
+    def session(self) -> Iterator[Session]:
+        """One transaction: committed on success, rolled back on error."""
+        with self.sessions.begin() as s:
+            yield s
+
+    def close(self) -> None:
+        self.engine.dispose()
+
+
+def open_catalog(path_or_url: str | Path, *, create: bool = True) -> Catalog:
+    """Open (and by default create) the catalog at a SQLite path or a SQLAlchemy URL.
+
+    Raises SchemaMismatch when the stored schema version differs from :data:`SCHEMA_VERSION`.
+    """
+    url = database_url(path_or_url)
+    engine = _sqlite_engine(url) if url.startswith("sqlite") else create_engine(url, pool_pre_ping=True)
+    if create:
+        Base.metadata.create_all(engine)
+    catalog = Catalog(url=url, engine=engine, sessions=sessionmaker(engine, expire_on_commit=False))
+    _check_version(catalog)
+    return catalog
+
+
+def _check_version(catalog: Catalog) -> None:
+    with catalog.session() as s:
+        row = s.get(SchemaInfo, "version")
+        if row is None:
+            s.add(SchemaInfo(key="version", value=str(SCHEMA_VERSION)))
+            s.add(SchemaInfo(key="created_at", value=f"{time.time():.3f}"))
+            return
+        if row.value != str(SCHEMA_VERSION):
+            raise SchemaMismatch(
+                f"catalog {catalog.url}: schema version {row.value}, this gaitcap expects {SCHEMA_VERSION}"
+            )
+
+
+def schema_version(catalog: Catalog) -> int:
+    with catalog.session() as s:
+        return int(s.scalars(select(SchemaInfo.value).where(SchemaInfo.key == "version")).one())

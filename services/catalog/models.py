@@ -1,0 +1,145 @@
+"""SQLAlchemy 2 tables of the trial catalog. All times are UNIX epoch seconds (float, UTC).
+
+The schema is portable (SQLite by default, PostgreSQL from a URL): no vendor types, JSON kept as text.
+``SCHEMA_VERSION`` is stored in ``schema_info``; :mod:`services.catalog.db` refuses a database whose
+version differs, so an old file is never silently misread.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import Float, ForeignKey, Index, Integer, String, Text, UniqueConstraint
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+
+SCHEMA_VERSION = 1
+
+
+class Base(DeclarativeBase):
+    pass
+
+
+class SchemaInfo(Base):
+    __tablename__ = "schema_info"
+    key: Mapped[str] = mapped_column(String(64), primary_key=True)
+    value: Mapped[str] = mapped_column(String(256))
+
+
+class Subject(Base):
+    """A patient, known only by a pseudonymous id (no names, no birth dates)."""
+
+    __tablename__ = "subjects"
+    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    created_at: Mapped[float] = mapped_column(Float)
+
+
+class SessionRow(Base):
+    """A visit of one subject (several trials)."""
+
+    __tablename__ = "sessions"
+    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    subject_id: Mapped[str] = mapped_column(ForeignKey("subjects.id"), index=True)
+    created_at: Mapped[float] = mapped_column(Float)
+
+
+class Calibration(Base):
+    """A camera calibration (aniposelib TOML text, translation in metres)."""
+
+    __tablename__ = "calibrations"
+    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    created_at: Mapped[float] = mapped_column(Float)
+    source: Mapped[str] = mapped_column(String(256), default="")
+    toml: Mapped[str] = mapped_column(Text)
+    report_json: Mapped[str] = mapped_column(Text, default="{}")
+
+
+class Trial(Base):
+    """One walking trial. ``recording_slot`` is 1 while recording and NULL otherwise: the unique
+    constraint makes "only one trial records at a time" atomic across API processes."""
+
+    __tablename__ = "trials"
+    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    session_id: Mapped[str] = mapped_column(ForeignKey("sessions.id"), index=True)
+    subject_id: Mapped[str] = mapped_column(ForeignKey("subjects.id"), index=True)
+    state: Mapped[str] = mapped_column(String(16), index=True)
+    recording_slot: Mapped[int | None] = mapped_column(Integer, unique=True, nullable=True)
+    created_at: Mapped[float] = mapped_column(Float)
+    updated_at: Mapped[float] = mapped_column(Float)
+    started_at: Mapped[float | None] = mapped_column(Float, nullable=True)
+    stopped_at: Mapped[float | None] = mapped_column(Float, nullable=True)
+    recording_path: Mapped[str] = mapped_column(String(1024), default="")
+    calibration_id: Mapped[str | None] = mapped_column(ForeignKey("calibrations.id"), nullable=True)
+    stage: Mapped[str] = mapped_column(String(64), default="")
+    progress: Mapped[float] = mapped_column(Float, default=0.0)
+    error: Mapped[str] = mapped_column(Text, default="")
+    notes: Mapped[str] = mapped_column(Text, default="")
+
+
+class Job(Base):
+    """Work for a worker, held under a lease: a worker that dies stops renewing and, once
+    ``lease_expires_at`` has passed, another worker takes the job over."""
+
+    __tablename__ = "jobs"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    trial_id: Mapped[str] = mapped_column(ForeignKey("trials.id"), index=True)
+    kind: Mapped[str] = mapped_column(String(32), default="process")
+    state: Mapped[str] = mapped_column(String(16), index=True)  # queued | running | done | failed
+    attempts: Mapped[int] = mapped_column(Integer, default=0)
+    max_attempts: Mapped[int] = mapped_column(Integer, default=3)
+    worker_id: Mapped[str] = mapped_column(String(128), default="")
+    lease_expires_at: Mapped[float] = mapped_column(Float, default=0.0)
+    created_at: Mapped[float] = mapped_column(Float)
+    started_at: Mapped[float | None] = mapped_column(Float, nullable=True)
+    finished_at: Mapped[float | None] = mapped_column(Float, nullable=True)
+    error: Mapped[str] = mapped_column(Text, default="")
+
+
+class Result(Base):
+    """Gait metrics of one processing stage (``preliminary`` or ``refined``) of a trial."""
+
+    __tablename__ = "results"
+    __table_args__ = (UniqueConstraint("trial_id", "stage"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    trial_id: Mapped[str] = mapped_column(ForeignKey("trials.id"), index=True)
+    stage: Mapped[str] = mapped_column(String(16))
+    method: Mapped[str] = mapped_column(String(128), default="")
+    created_at: Mapped[float] = mapped_column(Float)
+    elapsed_s: Mapped[float] = mapped_column(Float, default=0.0)
+    report_json: Mapped[str] = mapped_column(Text, default="{}")
+    quality_json: Mapped[str] = mapped_column(Text, default="{}")
+    artifacts_json: Mapped[str] = mapped_column(Text, default="{}")
+
+
+class Step(Base):
+    """One step of a result: side, time and the step's parameters (JSON, units in the keys)."""
+
+    __tablename__ = "steps"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    result_id: Mapped[int] = mapped_column(ForeignKey("results.id", ondelete="CASCADE"), index=True)
+    index: Mapped[int] = mapped_column(Integer)
+    side: Mapped[str] = mapped_column(String(8))
+    time_s: Mapped[float] = mapped_column(Float)
+    values_json: Mapped[str] = mapped_column(Text)
+
+
+class Summary(Base):
+    """One summary parameter of a result (e.g. ``step_length_mm`` mean and SD over the steps)."""
+
+    __tablename__ = "summaries"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    result_id: Mapped[int] = mapped_column(ForeignKey("results.id", ondelete="CASCADE"), index=True)
+    name: Mapped[str] = mapped_column(String(64))
+    value: Mapped[float | None] = mapped_column(Float, nullable=True)
+    sd: Mapped[float | None] = mapped_column(Float, nullable=True)
+    unit: Mapped[str] = mapped_column(String(16), default="")
+
+
+class AuditEntry(Base):
+    """Who did what to which trial (start, stop, view, download, ...)."""
+
+    __tablename__ = "audit_log"
+    __table_args__ = (Index("ix_audit_trial_time", "trial_id", "at"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    at: Mapped[float] = mapped_column(Float)
+    actor: Mapped[str] = mapped_column(String(128))
+    action: Mapped[str] = mapped_column(String(32))
+    trial_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    detail: Mapped[str] = mapped_column(Text, default="")

@@ -1,0 +1,101 @@
+"""Gait results per processing stage (preliminary, refined) with their steps and summaries."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+
+from sqlalchemy import delete, select
+
+from services.catalog.db import Catalog
+from services.catalog.models import Result, Step, Summary
+
+STAGES = ("preliminary", "refined")
+
+
+@dataclass(frozen=True)
+class ResultInfo:
+    trial_id: str
+    stage: str
+    method: str
+    created_at: float
+    elapsed_s: float
+    report: dict
+    quality: dict
+    artifacts: dict
+    steps: list[dict] = field(default_factory=list)
+    summary: dict[str, dict] = field(default_factory=dict)
+
+
+def _num(x) -> float | None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def _summary_rows(summary: dict) -> list[Summary]:
+    rows = []
+    for name, item in summary.items():
+        if isinstance(item, dict):
+            rows.append(Summary(name=name, value=_num(item.get("mean", item.get("value"))),
+                                sd=_num(item.get("sd")), unit=str(item.get("unit", ""))))
+        else:
+            rows.append(Summary(name=name, value=_num(item), sd=None, unit=""))
+    return rows
+
+
+def store_result(
+    catalog: Catalog, *, trial_id: str, stage: str, method: str, steps: list[dict], summary: dict,
+    report: dict | None = None, quality: dict | None = None, artifacts: dict | None = None,
+    elapsed_s: float = 0.0,
+) -> None:
+    """Store (or replace) the result of one stage. ``steps``: dicts with ``side``, ``time_s`` and the
+    step's parameters (units in the keys); ``summary``: name -> number or {mean, sd, unit}."""
+    if stage not in STAGES:
+        raise ValueError(f"stage: must be one of {STAGES}, got {stage!r}")
+    with catalog.session() as s:
+        old = s.scalars(select(Result).where(Result.trial_id == trial_id, Result.stage == stage)).first()
+        if old is not None:
+            s.execute(delete(Step).where(Step.result_id == old.id))
+            s.execute(delete(Summary).where(Summary.result_id == old.id))
+            s.delete(old)
+            s.flush()
+        res = Result(trial_id=trial_id, stage=stage, method=method, created_at=time.time(),
+                     elapsed_s=float(elapsed_s), report_json=json.dumps(report or {}, default=float),
+                     quality_json=json.dumps(quality or {}, default=float),
+                     artifacts_json=json.dumps(artifacts or {}))
+        s.add(res)
+        s.flush()
+        for i, step in enumerate(steps):
+            s.add(Step(result_id=res.id, index=i, side=str(step.get("side", "")),
+                       time_s=_num(step.get("time_s")) or 0.0, values_json=json.dumps(step, default=float)))
+        for row in _summary_rows(summary):
+            row.result_id = res.id
+            s.add(row)
+
+
+def get_result(catalog: Catalog, trial_id: str, stage: str | None = None) -> ResultInfo | None:
+    """The given stage, or the best available (refined, else preliminary). None if none yet."""
+    stages = [stage] if stage else ["refined", "preliminary"]
+    with catalog.session() as s:
+        for st in stages:
+            res = s.scalars(select(Result).where(Result.trial_id == trial_id, Result.stage == st)).first()
+            if res is None:
+                continue
+            steps = [json.loads(r.values_json) for r in
+                     s.scalars(select(Step).where(Step.result_id == res.id).order_by(Step.index))]
+            summary = {r.name: {"mean": r.value, "sd": r.sd, "unit": r.unit} for r in
+                       s.scalars(select(Summary).where(Summary.result_id == res.id).order_by(Summary.id))}
+            return ResultInfo(res.trial_id, res.stage, res.method, res.created_at, res.elapsed_s,
+                              json.loads(res.report_json), json.loads(res.quality_json),
+                              json.loads(res.artifacts_json), steps, summary)
+    return None
+
+
+def stages_available(catalog: Catalog, trial_id: str) -> list[str]:
+    with catalog.session() as s:
+        return list(s.scalars(select(Result.stage).where(Result.trial_id == trial_id)))
