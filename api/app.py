@@ -1,0 +1,73 @@
+"""The FastAPI application factory: ``create_app(settings, link)``.
+
+``link`` connects the API to the live system (recorder, camera health, previews); without one the API
+serves the catalog only. Binds 127.0.0.1 by default (see :mod:`api.server`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+from pathlib import Path
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, JSONResponse
+from fastapi.staticfiles import StaticFiles
+
+from api import routes_live, routes_results, routes_trials
+from api.settings import Settings
+from services import catalog as cat
+from services.live import NoLink
+
+log = logging.getLogger(__name__)
+STATIC = Path(__file__).parent / "static"
+
+
+def _field_errors(exc: RequestValidationError) -> JSONResponse:
+    """422 whose ``detail`` names the field(s): ``"subject_id: String should match pattern ..."``."""
+    parts = []
+    for err in exc.errors():
+        loc = [str(p) for p in err.get("loc", ()) if p not in ("body", "query", "path")]
+        parts.append(f"{'.'.join(loc) or 'body'}: {err.get('msg', 'invalid')}")
+    return JSONResponse(status_code=422, content={"detail": "; ".join(parts), "errors": jsonable(exc.errors())})
+
+
+def jsonable(errors) -> list[dict]:
+    return [{k: (v if isinstance(v, str | int | float | list | type(None)) else str(v)) for k, v in e.items()}
+            for e in errors]
+
+
+def create_app(settings: Settings, link=None) -> FastAPI:
+    """Build the app; the catalog opens (and its schema is checked) at start-up."""
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: FastAPI):
+        app.state.catalog = cat.open_catalog(settings.catalog_url)
+        log.info("catalog %s, data %s", app.state.catalog.url, settings.data_dir)
+        try:
+            yield
+        finally:
+            app.state.catalog.close()
+            app.state.link.close()
+
+    app = FastAPI(title="gaitcap clinic API", version="1", lifespan=lifespan,
+                  description="Start and stop gait trials, follow processing, fetch gait metrics and files. "
+                              "Every route except /health needs the API token (Bearer header or ?token=).")
+    app.state.settings = settings
+    app.state.link = link if link is not None else NoLink()
+    app.add_exception_handler(RequestValidationError, lambda _r, exc: _field_errors(exc))
+    app.include_router(routes_trials.router)
+    app.include_router(routes_results.router)
+    app.include_router(routes_live.router)
+    app.mount("/static", StaticFiles(directory=STATIC), name="static")
+
+    @app.get("/health", tags=["health"], summary="Liveness check (no token needed)")
+    def health(request: Request) -> dict:
+        return {"status": "ok", "recorder": type(request.app.state.link).__name__ != "NoLink"}
+
+    @app.get("/", include_in_schema=False)
+    def page() -> FileResponse:
+        return FileResponse(STATIC / "index.html", media_type="text/html")
+
+    return app

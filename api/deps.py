@@ -1,0 +1,30 @@
+"""Shared request helpers: the app's catalog, link and settings; converting rows for the API."""
+
+from __future__ import annotations
+
+from fastapi import HTTPException, Request
+
+from api.schemas import STATE_WORDS, TrialOut
+from services import catalog as cat
+
+
+def catalog_of(request: Request) -> cat.Catalog:
+    return request.app.state.catalog
+
+
+def checked_trial_id(trial_id: str) -> str:
+    try:
+        return cat.validate_id(trial_id, field="trial_id")
+    except ValueError as exc:
+        raise HTTPException(status_code=422, detail=str(exc)) from None
+
+
+def trial_out(db: cat.Catalog, t: cat.TrialInfo) -> TrialOut:
+    text = STATE_WORDS.get(t.state, t.state)
+    if t.state == "processing" and t.stage:
+        text = f"Processing: {t.stage}"
+    return TrialOut(
+        id=t.id, subject_id=t.subject_id, session=t.session, state=t.state, state_text=text,
+        created_at=t.created_at, started_at=t.started_at, stopped_at=t.stopped_at, duration_s=t.duration_s,
+        stage=t.stage, progress=t.progress, error=t.error, results=sorted(cat.stages_available(db, t.id)),
+    )

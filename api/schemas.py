@@ -1,0 +1,61 @@
+"""Request and response bodies of the REST API (pydantic)."""
+
+from __future__ import annotations
+
+import datetime as dt
+
+from pydantic import BaseModel, ConfigDict, Field
+
+ID_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$"
+
+STATE_WORDS = {
+    "recording": "Recording",
+    "recorded": "Recorded, waiting for processing",
+    "processing": "Processing",
+    "done": "Done",
+    "failed": "Failed",
+}
+
+
+class StartTrial(BaseModel):
+    """Start recording a trial of ``subject_id`` (pseudonymous id, never a name) in ``session``."""
+
+    model_config = ConfigDict(extra="forbid")
+    subject_id: str = Field(pattern=ID_PATTERN, description="Pseudonymous subject id, e.g. P0042")
+    session: str = Field(default_factory=lambda: dt.date.today().isoformat(), pattern=ID_PATTERN,
+                         description="Session (visit) label; default today's date")
+
+
+class TrialOut(BaseModel):
+    id: str
+    subject_id: str
+    session: str
+    state: str
+    state_text: str
+    created_at: float = Field(description="UNIX time, s")
+    started_at: float | None
+    stopped_at: float | None
+    duration_s: float | None
+    stage: str
+    progress: float = Field(description="Processing progress in [0, 1]")
+    error: str
+    results: list[str] = Field(default_factory=list, description="Result stages available")
+
+
+class CameraOut(BaseModel):
+    name: str
+    fps: float
+    healthy: bool
+    status: str
+    age_s: float
+
+
+class GaitOut(BaseModel):
+    trial_id: str
+    stage: str
+    method: str
+    elapsed_s: float = Field(description="Processing time of this stage, s")
+    summary: dict[str, dict]
+    steps: list[dict]
+    quality: dict
+    downloads: dict[str, str]

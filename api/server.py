@@ -1,0 +1,51 @@
+"""Running the API under uvicorn (127.0.0.1 by default), in the foreground or in a thread (tests)."""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+
+import uvicorn
+
+from api.app import create_app
+from api.settings import Settings
+
+
+def uvicorn_config(settings: Settings, link=None, *, log_level: str = "warning") -> uvicorn.Config:
+    return uvicorn.Config(create_app(settings, link), host=settings.host, port=settings.port,
+                          log_level=log_level, ws="websockets-sansio", lifespan="on", access_log=False)
+
+
+def serve(settings: Settings, link=None, *, log_level: str = "info") -> None:
+    """Serve until interrupted (SIGINT/SIGTERM)."""
+    uvicorn.Server(uvicorn_config(settings, link, log_level=log_level)).run()
+
+
+@dataclass
+class ThreadedServer:
+    """A uvicorn server in a background thread; ``url`` once started. Stop with :meth:`stop`."""
+
+    server: uvicorn.Server
+    thread: threading.Thread
+
+    @property
+    def url(self) -> str:
+        cfg = self.server.config
+        return f"http://{cfg.host}:{cfg.port}"
+
+    def stop(self, timeout_s: float = 10.0) -> None:
+        self.server.should_exit = True
+        self.thread.join(timeout_s)
+
+
+def serve_in_thread(settings: Settings, link=None, *, timeout_s: float = 20.0) -> ThreadedServer:
+    server = uvicorn.Server(uvicorn_config(settings, link))
+    thread = threading.Thread(target=server.run, name="gaitcap-api", daemon=True)
+    thread.start()
+    deadline = time.monotonic() + timeout_s
+    while not server.started:
+        if not thread.is_alive() or time.monotonic() > deadline:
+            raise RuntimeError(f"API did not start on {settings.host}:{settings.port}")
+        time.sleep(0.02)
+    return ThreadedServer(server, thread)

@@ -1,0 +1,263 @@
+// gaitcap clinic page: plain JS, no build step. Talks to the API with the access token.
+"use strict";
+
+const $ = (sel) => document.querySelector(sel);
+const state = { token: null, recording: null, followed: null, shownResult: null, cameras: {}, statusWs: null, busy: false };
+
+// ---------- access token ----------
+function readToken() {
+  const m = location.hash.match(/token=([^&]+)/);
+  if (m) {
+    sessionStorage.setItem("gaitcap-token", decodeURIComponent(m[1]));
+    history.replaceState(null, "", location.pathname + location.search);
+  }
+  return sessionStorage.getItem("gaitcap-token");
+}
+
+async function api(path, options = {}) {
+  const headers = Object.assign({ Authorization: "Bearer " + state.token }, options.headers || {});
+  if (options.body && typeof options.body !== "string") {
+    options.body = JSON.stringify(options.body);
+    headers["Content-Type"] = "application/json";
+  }
+  const res = await fetch(path, Object.assign({}, options, { headers }));
+  if (res.status === 401) { showLogin("The access code is not valid. Please enter it again."); throw new Error("not signed in"); }
+  if (!res.ok) {
+    let msg = res.status + " " + res.statusText;
+    try { const body = await res.json(); if (body.detail) msg = typeof body.detail === "string" ? body.detail : JSON.stringify(body.detail); } catch (e) { /* not JSON */ }
+    const err = new Error(msg); err.status = res.status; throw err;
+  }
+  return res.headers.get("content-type")?.includes("json") ? res.json() : res.text();
+}
+
+function withToken(url) { return url + (url.includes("?") ? "&" : "?") + "token=" + encodeURIComponent(state.token); }
+
+function showLogin(message) {
+  $("#app").hidden = true; $("#login").hidden = false;
+  const e = $("#login-error"); e.hidden = !message; e.textContent = message || "";
+  if (state.statusWs) { state.statusWs.onclose = null; state.statusWs.close(); state.statusWs = null; }
+}
+
+async function signIn(token) {
+  state.token = token;
+  await api("/trials?limit=1");
+  sessionStorage.setItem("gaitcap-token", token);
+  $("#login").hidden = true; $("#app").hidden = false;
+  connectStatus(); connectPreviews();
+}
+
+// ---------- messages ----------
+function showError(text) { const e = $("#error"); e.textContent = text; e.hidden = !text; }
+function setStatus(text, recording) { const s = $("#record-status"); s.textContent = text; s.classList.toggle("recording", !!recording); }
+
+// ---------- start / stop ----------
+async function startTrial() {
+  showError("");
+  const subject = $("#subject").value.trim();
+  if (!subject) { showError("Please enter the patient ID (a pseudonym such as P0042) before starting."); $("#subject").focus(); return; }
+  state.busy = true; $("#start").disabled = true;
+  setStatus("Starting the recording…");
+  try {
+    const trial = await api("/trials", { method: "POST", body: { subject_id: subject, session: $("#session").value.trim() || undefined } });
+    state.recording = trial; state.followed = null; renderRecording();
+  } catch (e) {
+    if (e.status === 409) showError("Another recording is already running: " + e.message);
+    else if (e.status === 422) showError("Please check the form: " + e.message);
+    else if (e.status === 503) showError("The cameras or the recorder are not ready: " + e.message);
+    else showError("Could not start: " + e.message);
+    setStatus("Not recording.");
+  }
+  state.busy = false; renderRecording();
+}
+
+async function stopTrial() {
+  if (!state.recording) return;
+  showError("");
+  state.busy = true; $("#stop").disabled = true;
+  setStatus("Stopping and saving the recording…");
+  try {
+    const trial = await api("/trials/" + encodeURIComponent(state.recording.id) + "/stop", { method: "POST" });
+    state.recording = null; follow(trial.id);
+    setStatus("Saved. Computing the results…");
+  } catch (e) {
+    showError("Could not stop: " + e.message);
+  }
+  state.busy = false; renderRecording();
+}
+
+function renderRecording() {
+  const rec = state.recording;
+  $("#start").disabled = !!rec || state.busy; $("#stop").disabled = !rec || state.busy;
+  $("#subject").disabled = !!rec; $("#session").disabled = !!rec;
+  if (rec) {
+    const secs = Math.max(0, Date.now() / 1000 - rec.started_at);
+    setStatus(`Recording patient ${rec.subject_id} — ${fmtDuration(secs)}. Press Stop when the walk is finished.`, true);
+  }
+}
+
+// ---------- live status ----------
+function connectStatus() {
+  const proto = location.protocol === "https:" ? "wss" : "ws";
+  const ws = new WebSocket(`${proto}://${location.host}/ws/status?token=${encodeURIComponent(state.token)}`);
+  state.statusWs = ws;
+  ws.onopen = () => setConnection(true);
+  ws.onmessage = (ev) => onStatus(JSON.parse(ev.data));
+  ws.onclose = () => { setConnection(false); if (state.statusWs === ws) setTimeout(connectStatus, 1000); };
+}
+
+function setConnection(ok) {
+  const c = $("#connection");
+  c.textContent = ok ? "Connected" : "Connection lost – retrying…";
+  c.className = "pill " + (ok ? "pill-ok" : "pill-bad");
+}
+
+function onStatus(snap) {
+  const wasRecording = state.recording;
+  state.recording = snap.recording;
+  if (!snap.recording && wasRecording && !state.followed) follow(wasRecording.id);
+  renderRecording();
+  renderTrials(snap.trials);
+  renderCameras(snap.cameras);
+  const followed = snap.trials.find((t) => t.id === state.followed);
+  if (followed) updateFollowed(followed);
+}
+
+function renderTrials(trials) {
+  const body = $("#trials tbody");
+  body.innerHTML = "";
+  if (!trials.length) { body.innerHTML = '<tr><td colspan="6" class="muted">No trials yet.</td></tr>'; return; }
+  for (const t of trials) {
+    const tr = document.createElement("tr");
+    tr.dataset.trial = t.id;
+    const progress = t.state === "processing" ? ` <progress max="1" value="${t.progress}"></progress>` : "";
+    tr.innerHTML = `<td>${fmtTime(t.started_at || t.created_at)}</td><td>${esc(t.subject_id)}</td><td>${esc(t.session)}</td>
+      <td>${t.duration_s == null ? "" : fmtDuration(t.duration_s)}</td>
+      <td><span class="state state-${t.state}">${esc(t.state_text)}</span>${progress}${t.error ? `<div class="error">${esc(t.error)}</div>` : ""}</td>
+      <td>${t.results.length ? '<button class="btn view">View results</button>' : ""}</td>`;
+    const btn = tr.querySelector(".view");
+    if (btn) btn.onclick = () => follow(t.id);
+    body.appendChild(tr);
+  }
+}
+
+// ---------- cameras ----------
+function renderCameras(cams) {
+  const grid = $("#cameras");
+  const bad = cams.filter((c) => !c.healthy).length;
+  $("#camera-summary").textContent = cams.length ? `${cams.length} cameras, ${bad ? bad + " with a problem" : "all working"}` : "";
+  if (!cams.length) { grid.innerHTML = '<p class="muted">No cameras seen yet. Check that the cameras are switched on.</p>'; state.cameras = {}; return; }
+  if (grid.querySelector("p")) grid.innerHTML = "";
+  for (const c of cams) {
+    let tile = state.cameras[c.name];
+    if (!tile) {
+      tile = document.createElement("div");
+      tile.className = "camera"; tile.dataset.camera = c.name;
+      tile.innerHTML = `<img alt="Camera ${esc(c.name)} preview"><div class="cap"><span class="name">${esc(c.name)}</span><span class="fps"></span></div>`;
+      grid.appendChild(tile); state.cameras[c.name] = tile;
+    }
+    tile.className = "camera " + (c.healthy ? "ok" : "bad");
+    tile.querySelector(".fps").textContent = c.healthy ? `${c.fps.toFixed(1)} fps` : `${c.status} (${c.fps.toFixed(1)} fps)`;
+  }
+}
+
+function connectPreviews() {
+  const proto = location.protocol === "https:" ? "wss" : "ws";
+  const ws = new WebSocket(`${proto}://${location.host}/ws/preview?fps=4&token=${encodeURIComponent(state.token)}`);
+  ws.binaryType = "arraybuffer";
+  ws.onmessage = (ev) => {
+    const bytes = new Uint8Array(ev.data);
+    const name = new TextDecoder().decode(bytes.subarray(1, 1 + bytes[0]));
+    const tile = state.cameras[name];
+    if (!tile) return;
+    const img = tile.querySelector("img");
+    const url = URL.createObjectURL(new Blob([bytes.subarray(1 + bytes[0])], { type: "image/jpeg" }));
+    const old = img.src; img.src = url; if (old.startsWith("blob:")) URL.revokeObjectURL(old);
+  };
+  ws.onclose = () => setTimeout(connectPreviews, 2000);
+}
+
+// ---------- results ----------
+function follow(trialId) {
+  state.followed = trialId; state.shownResult = null;
+  $("#results").hidden = false;
+  $("#results-title").textContent = "trial " + trialId;
+  $("#results-stage").textContent = "Computing the results… the first numbers appear a few seconds after Stop.";
+  $("#results-stage").className = "stage";
+  $("#results-summary").innerHTML = ""; $("#results-summary").dataset.stage = "";
+  $("#steps-table thead").innerHTML = ""; $("#steps-table tbody").innerHTML = "";
+  $("#report-plot").removeAttribute("src"); $("#downloads").innerHTML = "";
+  api("/trials/" + encodeURIComponent(trialId)).then(updateFollowed).catch((e) => showError(e.message));
+}
+
+function updateFollowed(t) {
+  const best = t.results.includes("refined") ? "refined" : t.results.includes("preliminary") ? "preliminary" : null;
+  if (t.state === "failed") {
+    $("#results-stage").textContent = "Processing failed: " + (t.error || "unknown error") + (best ? " (showing the last results)" : "");
+    $("#results-stage").className = "stage error";
+  } else if (!best) {
+    $("#results-stage").textContent = t.state === "recording" ? "Recording…" : `${t.state_text}… (${Math.round(100 * t.progress)} %)`;
+  }
+  if (best && state.shownResult !== best) { state.shownResult = best; loadResult(t.id, best, t.state); }
+  else if (best === "preliminary" && t.state === "processing") {
+    $("#results-stage").textContent = `Preliminary results. Refining the 3D reconstruction… (${Math.round(100 * t.progress)} %)`;
+  }
+}
+
+async function loadResult(trialId, stage, trialState) {
+  const g = await api(`/trials/${encodeURIComponent(trialId)}/gait?stage=${stage}`);
+  const label = stage === "refined" ? "Final results (refined 3D reconstruction)." : "Preliminary results. Refining the 3D reconstruction…";
+  $("#results-stage").textContent = label;
+  $("#results-stage").className = "stage " + stage;
+  const summary = $("#results-summary");
+  summary.innerHTML = "";
+  for (const [name, m] of Object.entries(g.summary)) {
+    if (m.mean == null) continue;
+    const [text, unit] = nice(name, m.unit);
+    const sd = m.sd != null ? ` ± ${fmtNum(m.sd)}` : "";
+    summary.insertAdjacentHTML("beforeend", `<div class="metric" data-metric="${esc(name)}"><div class="name">${esc(text)}</div>
+      <div class="value">${fmtNum(m.mean)}<span class="unit">${sd} ${esc(unit)}</span></div></div>`);
+  }
+  if (!summary.children.length) summary.innerHTML = '<p class="muted">No complete steps were found in this walk.</p>';
+  summary.dataset.stage = stage;
+  renderSteps(g.steps);
+  $("#report-plot").src = withToken(`/trials/${encodeURIComponent(trialId)}/report.png?stage=${stage}&t=${Date.now()}`);
+  const names = { steps_csv: "Steps (CSV)", trajectory_csv: "3D trajectory (CSV)", trajectory_trc: "3D trajectory (TRC)",
+    report_png: "Report plot (PNG)", rerun_rrd: "3D view for Rerun (.rrd)", recording_mcap: "Raw recording (MCAP)" };
+  $("#downloads").innerHTML = "Downloads: " + Object.entries(names).filter(([k]) => g.downloads[k])
+    .map(([k, text]) => `<a href="${withToken(g.downloads[k])}" download>${text}</a>`).join("");
+}
+
+function renderSteps(steps) {
+  const head = $("#steps-table thead"), body = $("#steps-table tbody");
+  body.innerHTML = ""; head.innerHTML = "";
+  if (!steps.length) return;
+  const cols = [];
+  for (const s of steps) for (const k of Object.keys(s)) if (!cols.includes(k) && (typeof s[k] !== "object" || s[k] === null)) cols.push(k);
+  head.innerHTML = "<tr><th>#</th>" + cols.map((c) => { const [t, u] = nice(c, ""); return `<th>${esc(t)}${u ? " (" + esc(u) + ")" : ""}</th>`; }).join("") + "</tr>";
+  steps.forEach((s, i) => {
+    body.insertAdjacentHTML("beforeend", "<tr><td>" + (i + 1) + "</td>" + cols.map((c) => `<td>${typeof s[c] === "number" ? fmtNum(s[c]) : esc(String(s[c] ?? ""))}</td>`).join("") + "</tr>");
+  });
+}
+
+// ---------- formatting ----------
+const UNITS = [["_steps_per_min", "steps/min"], ["_per_min", "/min"], ["_m_per_s", "m/s"], ["_mm_per_s", "mm/s"],
+  ["_mm", "mm"], ["_pct", "%"], ["_percent", "%"], ["_deg", "°"], ["_s", "s"], ["_m", "m"], ["_hz", "Hz"]];
+function nice(name, unit) {
+  let text = name, u = unit || "";
+  for (const [suffix, label] of UNITS) if (text.endsWith(suffix)) { text = text.slice(0, -suffix.length); u = u || label; break; }
+  text = text.replace(/_/g, " ");
+  return [text.charAt(0).toUpperCase() + text.slice(1), u];
+}
+function fmtNum(x) { return Math.abs(x) >= 100 ? x.toFixed(0) : Math.abs(x) >= 10 ? x.toFixed(1) : x.toFixed(2); }
+function fmtDuration(s) { const m = Math.floor(s / 60); return `${m}:${String(Math.floor(s % 60)).padStart(2, "0")}`; }
+function fmtTime(t) { return t ? new Date(t * 1000).toLocaleString() : ""; }
+function esc(s) { return String(s).replace(/[&<>"']/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;" }[c])); }
+
+// ---------- boot ----------
+$("#start").onclick = startTrial;
+$("#stop").onclick = stopTrial;
+$("#session").value = new Date().toISOString().slice(0, 10);
+$("#login-form").onsubmit = (ev) => { ev.preventDefault(); signIn($("#token-input").value.trim()).catch((e) => showLogin(e.message === "not signed in" ? "The access code is not valid." : e.message)); };
+setInterval(renderRecording, 1000);
+const saved = readToken();
+if (saved) signIn(saved).catch(() => {}); else showLogin("");

@@ -1,0 +1,75 @@
+"""Where a trial's files live: ``<data_dir>/trials/<trial_id>/`` with a fixed set of names.
+
+Shared by the worker (writes) and the API (serves). Names are fixed, ids validated, so a request can
+never reach outside the trial's folder. Files are written to a temporary name and renamed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from services.catalog.ids import validate_id
+
+STAGES = ("preliminary", "refined")
+
+# artifact key -> file name inside a stage folder
+STAGE_FILES = {
+    "trajectory_npz": "trajectory.npz",
+    "trajectory_trc": "trajectory.trc",
+    "rerun_rrd": "trajectory.rrd",
+    "gait_json": "gait.json",
+    "steps_csv": "steps.csv",
+    "report_png": "report.png",
+}
+
+
+@dataclass(frozen=True)
+class TrialFiles:
+    """The files of one trial."""
+
+    root: Path
+
+    @property
+    def recording(self) -> Path:
+        """The trial's MCAP (frames, keypoints, calibration, metadata)."""
+        return self.root / "recording.mcap"
+
+    def stage_file(self, stage: str, key: str) -> Path:
+        if stage not in STAGES:
+            raise ValueError(f"stage: must be one of {STAGES}, got {stage!r}")
+        if key not in STAGE_FILES:
+            raise ValueError(f"artifact: must be one of {sorted(STAGE_FILES)}, got {key!r}")
+        return self.root / stage / STAGE_FILES[key]
+
+    def existing(self, stage: str) -> dict[str, str]:
+        """artifact key -> path of the files of ``stage`` that exist."""
+        return {k: str(self.stage_file(stage, k)) for k in STAGE_FILES if self.stage_file(stage, k).exists()}
+
+
+def trial_files(data_dir: str | Path, trial_id: str) -> TrialFiles:
+    validate_id(trial_id, field="trial_id")
+    return TrialFiles(Path(data_dir) / "trials" / trial_id)
+
+
+@contextlib.contextmanager
+def atomic_path(path: Path) -> Iterator[Path]:
+    """Yield a temporary path next to ``path``; on success it is renamed onto ``path`` (never half-written)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def write_bytes_atomic(path: Path, data: bytes) -> None:
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)

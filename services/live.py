@@ -1,0 +1,66 @@
+"""What the API needs from the live system, as small protocols, plus their Zenoh implementation.
+
+The API (HTTP only) never talks to cameras: it asks a :class:`TrialRecorder` to start and stop the
+trial's recording and reads camera health and JPEG previews from a :class:`LiveView`. ``BusLink``
+(``services.bus_link``) implements both over Zenoh.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+
+class RecorderUnavailable(RuntimeError):
+    """The recorder did not answer (not running, or the bus is down)."""
+
+
+@dataclass(frozen=True)
+class CameraHealth:
+    """One camera as seen on the bus: frame rate (Hz), health in words, last frame age (s)."""
+
+    name: str
+    fps: float
+    healthy: bool
+    status: str
+    age_s: float
+    details: dict = field(default_factory=dict)
+
+
+class TrialRecorder(Protocol):
+    def start(self, *, trial_id: str, path: str, metadata: dict) -> None:
+        """Begin recording ``trial_id`` into the MCAP at ``path``; RecorderUnavailable on failure."""
+
+    def stop(self, trial_id: str) -> dict:
+        """Stop and close the MCAP; returns the recorder's summary (frames, drops, ...)."""
+
+
+class LiveView(Protocol):
+    def cameras(self) -> list[CameraHealth]:
+        """Cameras seen recently, sorted by name."""
+
+    def preview(self, camera: str) -> tuple[float, bytes] | None:
+        """(receive time s, JPEG bytes) of the newest preview frame of ``camera``, or None."""
+
+
+class Link(TrialRecorder, LiveView, Protocol):
+    def close(self) -> None: ...
+
+
+class NoLink:
+    """No live system attached (the API serves the catalog only; Start answers 503)."""
+
+    def start(self, *, trial_id: str, path: str, metadata: dict) -> None:
+        raise RecorderUnavailable("no recorder is connected to this server (started without the bus)")
+
+    def stop(self, trial_id: str) -> dict:
+        raise RecorderUnavailable("no recorder is connected to this server (started without the bus)")
+
+    def cameras(self) -> list[CameraHealth]:
+        return []
+
+    def preview(self, camera: str) -> tuple[float, bytes] | None:
+        return None
+
+    def close(self) -> None:
+        pass

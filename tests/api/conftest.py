@@ -1,0 +1,58 @@
+"""A real uvicorn on 127.0.0.1 with a real SQLite catalog; the live system behind it is a small
+in-test link that records the recorder calls (the full stack runs in the browser and fault tests)."""
+
+import socket
+import time
+
+import httpx
+import pytest
+
+from api.server import serve_in_thread
+from api.settings import Settings
+from services.live import CameraHealth, RecorderUnavailable
+
+TOKEN = "test-token-123456"
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class RecordingLink:
+    """Stands in for the recorder and cameras: remembers calls, serves two preview frames."""
+
+    def __init__(self):
+        self.calls, self.fail = [], False
+        self.jpeg = bytes.fromhex("ffd8ffe000104a464946") + b"\x00" * 20 + bytes.fromhex("ffd9")
+
+    def start(self, *, trial_id, path, metadata):
+        if self.fail:
+            raise RecorderUnavailable("recorder did not answer within 2 s")
+        self.calls.append(("start", trial_id, path, metadata))
+
+    def stop(self, trial_id):
+        self.calls.append(("stop", trial_id))
+        return {"frames": 10}
+
+    def cameras(self):
+        return [CameraHealth("cam0", 30.0, True, "ok", 0.01), CameraHealth("cam1", 12.0, False, "low frame rate", 0.5)]
+
+    def preview(self, camera):
+        return (time.time(), self.jpeg) if camera in ("cam0", "cam1") else None
+
+    def close(self):
+        pass
+
+
+@pytest.fixture
+def server(tmp_path):
+    settings = Settings(tokens={TOKEN: "alice"}, catalog_url=str(tmp_path / "catalog.sqlite"),
+                        data_dir=tmp_path / "data", port=free_port(), status_period_s=0.1)
+    link = RecordingLink()
+    srv = serve_in_thread(settings, link)
+    client = httpx.Client(base_url=srv.url, headers={"Authorization": f"Bearer {TOKEN}"}, timeout=10)
+    yield srv, client, link, settings
+    client.close()
+    srv.stop()
