@@ -1,0 +1,37 @@
+"""Several people in view: cross-view association, tracking, choosing the patient, person boxes.
+
+Input: :class:`MultiPersonDetections` (C, T, P, J, 3) with people in arbitrary order per camera and
+frame. :func:`associate` -> :class:`Tracks`; a selector (:class:`WalkwayTrack`,
+:class:`NearestStartTrack`, :class:`ManualTrack`) picks the patient; :func:`patient_detections` gives
+the :class:`~reconstruction.detections.Detections` that reconstruction uses; :func:`person_boxes`
+reprojects a 3D reconstruction into per-camera boxes for top-down detectors.
+"""
+
+from reconstruction.association.boxes import BoxConfig, person_boxes
+from reconstruction.association.crossview import AssociationConfig, FramePeople, associate_frames
+from reconstruction.association.evaluation import AssociationScore, score_association
+from reconstruction.association.multi import MultiPersonDetections
+from reconstruction.association.pipeline import (
+    PatientSelection,
+    PipelineConfig,
+    associate,
+    associate_and_select,
+    default_selector,
+)
+from reconstruction.association.selection import (
+    ManualTrack,
+    NearestStartTrack,
+    TrackSelector,
+    WalkwayTrack,
+    patient_detections,
+    select_track_at_pixel,
+)
+from reconstruction.association.tracking import TrackingConfig, Tracks, link_tracks
+
+__all__ = [
+    "AssociationConfig", "AssociationScore", "BoxConfig", "FramePeople", "ManualTrack",
+    "MultiPersonDetections", "NearestStartTrack", "PatientSelection", "PipelineConfig", "TrackSelector",
+    "TrackingConfig", "Tracks", "WalkwayTrack", "associate", "associate_and_select", "associate_frames",
+    "default_selector", "link_tracks", "patient_detections", "person_boxes", "score_association",
+    "select_track_at_pixel",
+]

@@ -1,0 +1,155 @@
+"""Temporal linking: per-frame people -> tracks with stable ids.
+
+Each frame's people are matched to the live tracks by an optimal assignment (Hungarian) on the 3D
+distance between a person's root and the track's predicted root (last root + velocity x elapsed time).
+The gate grows with the elapsed time, so a track survives missed frames and short occlusions for up to
+``max_gap_s``; people who appear start new tracks, tracks not seen for longer end. Very short tracks
+(flicker) are dropped at the end. The loop is over frames only, on arrays of a few people.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from reconstruction.association.crossview import FramePeople
+
+_FAR = 1e12
+
+
+@dataclass(frozen=True)
+class TrackingConfig:
+    """Settings of the temporal linking.
+
+    Attributes:
+        gate_mm: a person may join a track whose predicted root is within this distance ...
+        max_speed_mm_s: ... plus this speed times the time since the track was last seen.
+        max_gap_s: a track not seen for longer ends.
+        velocity_smoothing: weight of the newest velocity estimate (exponential smoothing, 0..1].
+        min_track_s: tracks shorter than this (first to last frame) are discarded.
+    """
+
+    gate_mm: float = 350.0
+    max_speed_mm_s: float = 2500.0
+    max_gap_s: float = 1.5
+    velocity_smoothing: float = 0.3
+    min_track_s: float = 0.2
+
+    def __post_init__(self) -> None:
+        for name in ("gate_mm", "max_speed_mm_s", "max_gap_s", "velocity_smoothing"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"TrackingConfig.{name} must be > 0, got {getattr(self, name)}")
+        if self.velocity_smoothing > 1 or self.min_track_s < 0:
+            raise ValueError("TrackingConfig: velocity_smoothing must be <= 1 and min_track_s >= 0")
+
+
+@dataclass(frozen=True, eq=False)
+class Tracks:
+    """People linked over time.
+
+    Attributes:
+        detection_track: (C, T, P) int: track id of detection (c, t, p), -1 for none.
+        root_mm: (M, T, 3) each track's root (mean of its association joints), NaN where not seen.
+        points_mm: (M, T, Ja, 3) each track's association joints, NaN where not seen.
+        views: (M, T) number of cameras that see the track in each frame.
+        joint_indices: (Ja,) skeleton indices of the association joints.
+        camera_names: (C,) camera order of ``detection_track``.
+        times_s: (T,) frame times.
+    Track ids are 0..M-1 in order of first appearance.
+    """
+
+    detection_track: np.ndarray
+    root_mm: np.ndarray
+    points_mm: np.ndarray
+    views: np.ndarray
+    joint_indices: tuple[int, ...]
+    camera_names: tuple[str, ...]
+    times_s: np.ndarray
+
+    @property
+    def num_tracks(self) -> int:
+        return self.root_mm.shape[0]
+
+    @property
+    def ids(self) -> tuple[int, ...]:
+        return tuple(range(self.num_tracks))
+
+    def check_id(self, track_id: int) -> int:
+        """``track_id`` as int; ValueError naming the valid ids when it does not exist."""
+        if not isinstance(track_id, int | np.integer) or not 0 <= int(track_id) < self.num_tracks:
+            raise ValueError(f"track id {track_id!r} does not exist (tracks: {list(self.ids)})")
+        return int(track_id)
+
+    def seen(self) -> np.ndarray:
+        """(M, T) bool: frames in which each track is seen."""
+        return self.views > 0
+
+
+def link_tracks(people: FramePeople, times_s: np.ndarray, camera_names, config: TrackingConfig) -> Tracks:
+    """Link per-frame people into tracks (see the module docstring)."""
+    times_s = np.asarray(times_s, dtype=np.float64)
+    t_, k_ = people.views.shape
+    track_of = np.full((t_, k_), -1)  # frame person -> track
+    last_root, last_time, velocity = [], [], []
+    for t in range(t_):
+        present = np.flatnonzero(people.views[t] > 0)
+        if present.size == 0:
+            continue
+        roots = people.root_mm[t, present]
+        live = [i for i in range(len(last_root)) if times_s[t] - last_time[i] <= config.max_gap_s]
+        matched = _match(roots, live, last_root, last_time, velocity, times_s[t], config)
+        for row, k in enumerate(present):
+            i = matched.get(row)
+            if i is None:
+                i = len(last_root)
+                last_root.append(roots[row])
+                last_time.append(times_s[t])
+                velocity.append(np.zeros(3))
+            else:
+                dt = times_s[t] - last_time[i]
+                v_new = (roots[row] - last_root[i]) / dt
+                a = config.velocity_smoothing
+                velocity[i] = (1 - a) * velocity[i] + a * v_new
+                last_root[i], last_time[i] = roots[row], times_s[t]
+            track_of[t, k] = i
+    return _build(people, track_of, len(last_root), times_s, tuple(camera_names), config)
+
+
+def _match(roots, live, last_root, last_time, velocity, now, config) -> dict[int, int]:
+    """Hungarian assignment of this frame's people (rows) to live tracks -> {row: track index}."""
+    if not live:
+        return {}
+    dt = np.array([now - last_time[i] for i in live])
+    pred = np.stack([last_root[i] for i in live]) + np.stack([velocity[i] for i in live]) * dt[:, None]
+    dist = np.linalg.norm(roots[:, None, :] - pred[None], axis=-1)  # (rows, live)
+    gate = config.gate_mm + config.max_speed_mm_s * dt
+    cost = np.where(dist <= gate[None], dist, _FAR)
+    rows, cols = linear_sum_assignment(cost)
+    return {int(r): live[c] for r, c in zip(rows, cols, strict=True) if cost[r, c] < _FAR}
+
+
+def _build(people: FramePeople, track_of, m_, times_s, camera_names, config) -> Tracks:
+    t_ = len(times_s)
+    frames = [np.flatnonzero((track_of == i).any(1)) for i in range(m_)]
+    keep = [i for i in range(m_) if frames[i].size and times_s[frames[i][-1]] - times_s[frames[i][0]]
+            >= config.min_track_s]
+    remap = np.full(m_ + 1, -1)
+    remap[keep] = np.arange(len(keep))
+    track_of = remap[track_of]  # -1 stays -1 via the last entry
+    ja = people.points_mm.shape[2]
+    m_ = len(keep)
+    root = np.full((m_, t_, 3), np.nan)
+    points = np.full((m_, t_, ja, 3), np.nan)
+    views = np.zeros((m_, t_), int)
+    tt, kk = np.nonzero(track_of >= 0)
+    ids = track_of[tt, kk]
+    root[ids, tt] = people.root_mm[tt, kk]
+    points[ids, tt] = people.points_mm[tt, kk]
+    views[ids, tt] = people.views[tt, kk]
+    labels = people.labels
+    frame = np.broadcast_to(np.arange(t_)[None, :, None], labels.shape)
+    det_track = np.where(labels >= 0, track_of[frame, np.maximum(labels, 0)], -1)
+    return Tracks(detection_track=det_track, root_mm=root, points_mm=points, views=views,
+                  joint_indices=people.joint_indices, camera_names=camera_names, times_s=times_s)
