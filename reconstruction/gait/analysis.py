@@ -1,0 +1,122 @@
+"""The gait analysis entry point: a 3D trajectory in, a GaitReport out."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from reconstruction.gait.bouts import Bouts, Pass, find_bouts
+from reconstruction.gait.config import GaitConfig
+from reconstruction.gait.events import Contact, detect_contacts, rest_speed_mm_s
+from reconstruction.gait.parameters import Step, pass_steps, progression_direction, summarise
+from reconstruction.gait.quality import TrajectoryQuality, contact_confidence
+from reconstruction.gait.report import GaitReport
+from reconstruction.gait.tracks import FootTracks, foot_joint_indices
+from reconstruction.gait.walkway import AlignmentConfig, WalkwayTrial, align_walkway
+
+log = logging.getLogger(__name__)
+
+
+def _walking_speed(bouts: Bouts, config: GaitConfig) -> float:
+    if not bouts.passes:
+        kinds = {s.kind for s in bouts.segments}
+        if kinds <= {"standing", "gap"}:
+            raise ValueError("standing only: the body centre never moves faster than "
+                             f"{config.min_walking_speed_mm_s:.0f} mm/s, so there are no steps to analyse")
+        raise ValueError(f"no straight walking pass of at least {config.min_pass_s} s (only turns or short "
+                         "walking bouts), so there are no steps to analyse")
+    return float(np.median([p.speed_mm_s for p in bouts.passes]))
+
+
+def _confidences(contacts, tracks: FootTracks, joint_names, quality, config) -> dict[int, float]:
+    feet, _ = foot_joint_indices(joint_names)
+    out = {}
+    for c in contacts:
+        start = c.heel_strike_s if np.isfinite(c.heel_strike_s) else tracks.times_s[0]
+        end = c.toe_off_s if np.isfinite(c.toe_off_s) else tracks.times_s[-1]
+        a, b = np.searchsorted(tracks.times_s, [start, end])
+        joints = feet[:2] if c.foot == "left" else feet[2:]
+        out[id(c)] = contact_confidence(heel_spread_mm=c.heel_spread_mm, frames=slice(a, b + 1),
+                                        joints=joints, quality=quality, config=config)
+    return out
+
+
+def _steps(bouts: Bouts, contacts: Sequence[Contact], confidence) -> tuple[list[Step], list[Pass], list[str]]:
+    steps, passes, warnings = [], [], []
+    for p in bouts.passes:
+        found, notes = pass_steps(p, contacts, contacts, confidence, first_index=len(steps))
+        steps += found
+        warnings += notes
+        seq = [c for c in contacts if c.valid and p.contains(c.heel_strike_s)]
+        d = progression_direction([c.foot for c in seq], np.array([c.heel_mm[:2] for c in seq]),
+                                  np.asarray(p.direction))
+        passes.append(Pass(p.index, p.start_s, p.end_s, (float(d[0]), float(d[1])), p.speed_mm_s))
+    return steps, passes, warnings
+
+
+def analyze_gait(
+    points_mm: np.ndarray,
+    times_s: np.ndarray,
+    joint_names: Sequence[str],
+    *,
+    sample: Callable[[np.ndarray], np.ndarray] | None = None,
+    quality: TrajectoryQuality | None = None,
+    config: GaitConfig = GaitConfig(),
+) -> GaitReport:
+    """Gait events, bouts and spatiotemporal parameters of one trial.
+
+    Args:
+        points_mm: (T, J, 3) joint positions (mm, z up, floor near z = 0); NaN where unknown.
+        times_s: (T,) frame times (s, strictly increasing).
+        joint_names: (J,) snake_case names; needs left/right heel and big toe (or foot index).
+        sample: optional continuous trajectory ``sample(times_s (N,)) -> (N, J, 3)`` mm for sub-frame
+            events (e.g. an implicit fit); a cubic spline through the frames otherwise.
+        quality: optional per-frame/joint number of views and reprojection error (confidence).
+        config: thresholds.
+
+    Raises:
+        ValueError: too short a trial, missing joints, too many NaN, standing only, no pass or no step.
+    """
+    tracks = FootTracks.from_points(points_mm, times_s, joint_names, sample=sample, config=config)
+    if quality is not None and quality.num_views.shape != np.shape(points_mm)[:2]:
+        raise ValueError(f"quality: shape {quality.num_views.shape} does not match points_mm "
+                         f"{np.shape(points_mm)[:2]}")
+    bouts = find_bouts(tracks, config)
+    speed = _walking_speed(bouts, config)
+    contacts = detect_contacts(tracks, speed, config)
+    confidence = _confidences(contacts, tracks, joint_names, quality, config)
+    steps, passes, warnings = _steps(bouts, contacts, confidence)
+    if tracks.gaps_s:
+        warnings.append("data gaps (no contacts measured there): " + ", ".join(
+            f"{a:.2f}-{b:.2f} s" for a, b in tracks.gaps_s))
+    outside = [c for c in contacts if c.valid and bouts.pass_at(c.heel_strike_s) is None]
+    if outside:
+        warnings.append(f"{len(outside)} contact(s) in turns, standing or at pass edges were not used "
+                        "as steps")
+    if not steps:
+        raise ValueError(f"no steps found: {len(contacts)} foot contact(s) detected in {len(passes)} "
+                         "pass(es), but no pair of consecutive left/right contacts inside one pass")
+    return GaitReport(tuple(steps), summarise(steps, len(passes)), tuple(passes), bouts.segments,
+                      contacts, tuple(warnings))
+
+
+def compare_with_walkway(
+    trials: Sequence[tuple[np.ndarray, np.ndarray, Sequence[str]]],
+    walkway: Sequence[WalkwayTrial],
+    *,
+    samples: Sequence[Callable[[np.ndarray], np.ndarray] | None] | None = None,
+    config: GaitConfig = GaitConfig(),
+    alignment: AlignmentConfig = AlignmentConfig(),
+):
+    """Align a session's trials ``(points_mm, times_s, joint_names)`` with their walkway exports
+    (same order) and return the ``WalkwayComparison`` (one transform, one offset per trial)."""
+    samples = list(samples) if samples is not None else [None] * len(trials)
+    tracks, rest = [], []
+    for (points, times, names), sample in zip(trials, samples, strict=True):
+        t = FootTracks.from_points(points, times, names, sample=sample, config=config)
+        speed = _walking_speed(find_bouts(t, config), config)
+        tracks.append(t)
+        rest.append(rest_speed_mm_s(speed, config))
+    return align_walkway(tracks, walkway, rest, alignment)

@@ -1,0 +1,108 @@
+"""Walking bouts, turns and standing from the body centre; the line of progression of each pass.
+
+Method: the horizontal body centre (mid-hip, else the feet) is smoothed with a moving average of about
+one stride (``bout_smoothing_s``) so the step-to-step sway cancels. Frames faster than
+``min_walking_speed_mm_s`` are walking, the rest standing. Walking frames whose heading turns faster
+than ``max_turn_rate_deg_s``, or that deviate from their pass's median heading by more than
+``max_heading_deviation_deg``, are turns. Straight walking runs of at least ``min_pass_s`` are passes.
+Bias: the smoothing widens turns and standing by up to half a window, so a step right next to a turn
+may be dropped; steps are never invented.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from reconstruction.gait.config import GaitConfig
+from reconstruction.gait.tracks import CENTER, FootTracks
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A stretch of the trial: kind is "pass" (straight walking), "turn", "standing" or "gap" (no data);
+    times in s."""
+
+    kind: str
+    start_s: float
+    end_s: float
+
+
+@dataclass(frozen=True)
+class Pass:
+    """One straight walking pass.
+
+    Attributes:
+        index: 0-based pass number in the trial.
+        start_s, end_s: time span (s).
+        direction: (2,) unit horizontal direction of progression (x, y).
+        speed_mm_s: median body-centre speed during the pass (mm/s).
+    """
+
+    index: int
+    start_s: float
+    end_s: float
+    direction: tuple[float, float]
+    speed_mm_s: float
+
+    def contains(self, t_s: float) -> bool:
+        return self.start_s <= t_s <= self.end_s
+
+
+@dataclass(frozen=True)
+class Bouts:
+    """Segmentation of a trial: segments in time order and the passes among them."""
+
+    segments: tuple[Segment, ...]
+    passes: tuple[Pass, ...]
+
+    def pass_at(self, t_s: float) -> Pass | None:
+        return next((p for p in self.passes if p.contains(t_s)), None)
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    return list(zip(edges[::2].tolist(), (edges[1::2] - 1).tolist(), strict=True))
+
+
+def _centre_motion(tracks: FootTracks, config: GaitConfig):
+    times = tracks.times_s
+    dt = float(np.median(np.diff(times)))
+    window = max(1, int(round(config.bout_smoothing_s / dt)))
+    xy = uniform_filter1d(tracks.frames_mm[:, CENTER, :2], window, axis=0, mode="nearest")
+    vel = np.gradient(xy, times, axis=0)
+    speed = np.linalg.norm(vel, axis=1)
+    heading = np.unwrap(np.arctan2(vel[:, 1], vel[:, 0]))
+    rate = np.degrees(np.abs(np.gradient(heading, times)))
+    return vel, speed, heading, rate
+
+
+def find_bouts(tracks: FootTracks, config: GaitConfig = GaitConfig()) -> Bouts:
+    """Split a trial into passes, turns and standing (see the module docstring)."""
+    times = tracks.times_s
+    vel, speed, heading, rate = _centre_motion(tracks, config)
+    walking = (speed > config.min_walking_speed_mm_s) & tracks.valid
+    straight = walking & (rate <= config.max_turn_rate_deg_s)
+    # Second pass: within each straight run, frames far from the run's median heading are turns too.
+    for a, b in _runs(straight):
+        med = np.median(heading[a:b + 1])
+        dev = np.degrees(np.abs(heading[a:b + 1] - med))
+        straight[a:b + 1] &= dev <= config.max_heading_deviation_deg
+    passes = []
+    for a, b in _runs(straight):
+        if times[b] - times[a] < config.min_pass_s:
+            straight[a:b + 1] = False
+            continue
+        v = vel[a:b + 1].sum(axis=0)
+        direction = v / np.linalg.norm(v)
+        passes.append(Pass(len(passes), float(times[a]), float(times[b]),
+                           (float(direction[0]), float(direction[1])), float(np.median(speed[a:b + 1]))))
+    kinds = np.where(straight, 0, np.where(walking, 1, np.where(tracks.valid, 2, 3)))
+    segments = []
+    edges = np.flatnonzero(np.diff(kinds)) + 1
+    for a, b in zip(np.r_[0, edges], np.r_[edges, len(times)], strict=True):
+        kind = ("pass", "turn", "standing", "gap")[kinds[a]]
+        segments.append(Segment(kind, float(times[a]), float(times[b - 1])))
+    return Bouts(tuple(segments), tuple(passes))

@@ -1,0 +1,56 @@
+"""Settings of the gait analysis (one frozen dataclass, every threshold in named units)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class GaitConfig:
+    """Thresholds of bout, event and parameter detection.
+
+    Attributes:
+        min_trial_s: shortest trial analysed (s).
+        max_fill_gap_s: NaN gaps up to this long are interpolated; longer gaps are excluded (s).
+        smoothing_window_s: Savitzky-Golay window applied to sampled frames before events are located
+            when no continuous trajectory is given (s; 0 disables). Cubic polynomial, so smooth motion
+            passes unchanged; it only suppresses frame-to-frame reconstruction noise.
+        bout_smoothing_s: moving-average window on the body centre for speed and heading (s).
+        min_walking_speed_mm_s: body-centre speed above which a person is walking (mm/s).
+        max_turn_rate_deg_s: heading rate above which walking counts as turning (deg/s).
+        max_heading_deviation_deg: largest heading deviation from a pass's median heading (deg).
+        min_pass_s: shortest straight walking segment kept as a pass (s).
+        rest_speed_fraction: foot point at rest when slower than this fraction of the walking speed.
+        min_rest_speed_mm_s: lower bound of that rest-speed threshold (mm/s).
+        max_contact_lift_mm: a foot is on the ground only if heel or toe is within this height of its
+            stance height (mm).
+        min_stance_s: shortest foot contact kept (s).
+        min_swing_s: shorter swings are treated as a noise blip inside one contact (s).
+        event_resolution_s: resolution of sub-frame event location on the continuous trajectory (s).
+        full_confidence_views: cameras needed at a contact for full confidence (with quality given).
+        reprojection_scale_px: reprojection error that lowers confidence by a factor e (px).
+        stance_spread_scale_mm: spread of the heel during stance that lowers confidence by e (mm).
+    """
+
+    min_trial_s: float = 2.0
+    max_fill_gap_s: float = 0.25
+    smoothing_window_s: float = 0.0
+    bout_smoothing_s: float = 1.0
+    min_walking_speed_mm_s: float = 150.0
+    max_turn_rate_deg_s: float = 35.0
+    max_heading_deviation_deg: float = 25.0
+    min_pass_s: float = 1.5
+    rest_speed_fraction: float = 0.08
+    min_rest_speed_mm_s: float = 40.0
+    max_contact_lift_mm: float = 80.0
+    min_stance_s: float = 0.12
+    min_swing_s: float = 0.12
+    event_resolution_s: float = 0.001
+    full_confidence_views: int = 3
+    reprojection_scale_px: float = 10.0
+    stance_spread_scale_mm: float = 20.0
+
+    def __post_init__(self) -> None:
+        for name, value in self.__dict__.items():
+            if not value >= 0:
+                raise ValueError(f"GaitConfig.{name} must be >= 0, got {value}")

@@ -1,0 +1,141 @@
+"""Heel strike and toe off of each foot from heel and toe kinematics alone (foot-velocity method).
+
+Method: a foot is on the ground while its heel or its toe is at rest, i.e. slower than a rest-speed
+threshold ``v_rest = max(min_rest_speed_mm_s, rest_speed_fraction x walking speed)``, and heel or toe is
+within ``max_contact_lift_mm`` of its stance height. Heel strike (initial contact) is the moment the
+first of heel and toe comes to rest; toe off is the moment the last one leaves rest. Contacts shorter
+than ``min_stance_s`` and swings shorter than ``min_swing_s`` are noise and removed. Both events are
+then located on the continuous trajectory (the caller's sampler, else a cubic spline through the frames)
+at ``event_resolution_s`` by finding the threshold crossing between the two frames that bracket it.
+
+Known biases: a foot decelerates smoothly into contact and accelerates smoothly out of it, so heel strike
+is detected slightly early and toe off slightly late, by the time the foot needs to pass from
+``v_rest`` to zero speed (a few ms on typical gait at the default threshold, more for slow shuffling
+gait). Reconstruction noise raises the apparent speed at rest; a higher threshold or smoothing
+(``smoothing_window_s``) compensates at the cost of a larger bias. Toe walkers' "heel strike" is their
+initial contact with the toe.
+
+Heel and toe positions at a contact are the median of each point over the frames of the contact when
+that point is at rest (the stationary heel point during stance).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from reconstruction.gait.config import GaitConfig
+from reconstruction.gait.tracks import HEEL, SIDES, TOE, FootTracks
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One foot contact (footfall).
+
+    Attributes:
+        foot: "left" or "right".
+        heel_strike_s: initial contact (s); NaN if the contact began before the data.
+        toe_off_s: last contact (s); NaN if it ended after the data.
+        heel_mm: (3,) stationary heel point (mm).
+        toe_mm: (3,) stationary toe point (mm).
+        heel_spread_mm: median horizontal distance of the resting heel from heel_mm (mm).
+        valid: heel strike located and no untrusted data gap during the contact (toe off may be NaN).
+    """
+
+    foot: str
+    heel_strike_s: float
+    toe_off_s: float
+    heel_mm: tuple[float, float, float]
+    toe_mm: tuple[float, float, float]
+    heel_spread_mm: float
+    valid: bool
+
+
+def rest_speed_mm_s(walking_speed_mm_s: float, config: GaitConfig) -> float:
+    """The rest-speed threshold for a trial walked at ``walking_speed_mm_s`` (mm/s)."""
+    return max(config.min_rest_speed_mm_s, config.rest_speed_fraction * walking_speed_mm_s)
+
+
+def _clean(mask: np.ndarray, times_s: np.ndarray, min_false_s: float, min_true_s: float) -> np.ndarray:
+    """Fill short interior False runs, then drop short True runs."""
+    out = mask.copy()
+    for value, min_s, interior_only in ((False, min_false_s, True), (True, min_true_s, False)):
+        edges = np.flatnonzero(np.diff(np.r_[0, (out == value).astype(int), 0]))
+        for a, b in zip(edges[::2], edges[1::2], strict=True):
+            if interior_only and (a == 0 or b == len(out)):
+                continue
+            span = times_s[min(b, len(out) - 1)] - times_s[max(a - 1, 0)]
+            if span < min_s:
+                out[a:b] = not value
+    return out
+
+
+def _crossings(tracks: FootTracks, side: str, brackets: np.ndarray, v_rest: float, *, falling: bool,
+               resolution_s: float) -> np.ndarray:
+    """Sub-frame times where min(heel, toe) speed crosses v_rest inside each (t0, t1) bracket."""
+    if len(brackets) == 0:
+        return np.zeros(0)
+    n = max(2, int(np.ceil(np.max(brackets[:, 1] - brackets[:, 0]) / resolution_s)) + 1)
+    frac = np.linspace(0.0, 1.0, n)
+    grid = brackets[:, :1] + (brackets[:, 1:] - brackets[:, :1]) * frac  # (E, n)
+    speed = tracks.speed_mm_s(grid.ravel())
+    f = (np.minimum(speed[:, HEEL[side]], speed[:, TOE[side]]) - v_rest).reshape(grid.shape)
+    hit = (f < 0) if falling else (f >= 0)
+    out = np.empty(len(brackets))
+    for e in range(len(brackets)):
+        j = int(np.argmax(hit[e])) if hit[e].any() else n - 1
+        if j == 0:
+            out[e] = grid[e, 0]
+            continue
+        f0, f1 = f[e, j - 1], f[e, j]
+        w = f0 / (f0 - f1) if f0 != f1 else 1.0
+        out[e] = grid[e, j - 1] + np.clip(w, 0.0, 1.0) * (grid[e, j] - grid[e, j - 1])
+    return out
+
+
+def _rest_point(points_mm: np.ndarray, speed: np.ndarray, v_rest: float) -> tuple[np.ndarray, float]:
+    """Median of a point (F, 3) over its at-rest frames and the horizontal spread around it (mm)."""
+    rest = speed < v_rest
+    if not rest.any():
+        rest = speed <= speed.min()
+    pts = points_mm[rest]
+    centre = np.median(pts, axis=0)
+    spread = float(np.median(np.linalg.norm(pts[:, :2] - centre[:2], axis=1)))
+    return centre, spread
+
+
+def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
+                    config: GaitConfig = GaitConfig()) -> tuple[Contact, ...]:
+    """All foot contacts of the trial, both feet, ordered by heel strike (see the module docstring)."""
+    times = tracks.times_s
+    v_rest = rest_speed_mm_s(walking_speed_mm_s, config)
+    speed = tracks.speed_mm_s(times)
+    frames = tracks.frames_mm
+    dt = float(np.median(np.diff(times)))
+    contacts: list[Contact] = []
+    for side in SIDES:
+        h, t = HEEL[side], TOE[side]
+        z_heel = np.percentile(frames[tracks.valid, h, 2], 10)
+        z_toe = np.percentile(frames[tracks.valid, t, 2], 10)
+        low = ((frames[:, h, 2] - z_heel) < config.max_contact_lift_mm) | (
+            (frames[:, t, 2] - z_toe) < config.max_contact_lift_mm)
+        rest = (np.minimum(speed[:, h], speed[:, t]) < v_rest) & low
+        rest = _clean(rest, times, config.min_swing_s, config.min_stance_s)
+        edges = np.flatnonzero(np.diff(np.r_[0, rest.astype(int), 0]))
+        runs = list(zip(edges[::2], edges[1::2] - 1, strict=True))
+        starts = np.array([[times[a - 1], times[a]] for a, _ in runs if a > 0]).reshape(-1, 2)
+        ends = np.array([[times[b], times[b + 1]] for _, b in runs if b < len(times) - 1]).reshape(-1, 2)
+        hs = iter(_crossings(tracks, side, starts, v_rest, falling=True, resolution_s=config.event_resolution_s))
+        to = iter(_crossings(tracks, side, ends, v_rest, falling=False, resolution_s=config.event_resolution_s))
+        for a, b in runs:
+            t_hs = next(hs) if a > 0 else np.nan
+            t_to = next(to) if b < len(times) - 1 else np.nan
+            heel, spread = _rest_point(frames[a:b + 1, h], speed[a:b + 1, h], v_rest)
+            toe, _ = _rest_point(frames[a:b + 1, t], speed[a:b + 1, t], v_rest)
+            ok = bool(np.isfinite(t_hs) and tracks.is_valid(times[a] - 3 * dt, times[b] + 3 * dt))
+            contacts.append(Contact(side, float(t_hs), float(t_to), tuple(map(float, heel)),
+                                    tuple(map(float, toe)), spread, ok))
+    order = np.argsort([c.heel_strike_s if np.isfinite(c.heel_strike_s) else -np.inf for c in contacts],
+                       kind="stable")
+    return tuple(contacts[i] for i in order)

@@ -1,0 +1,206 @@
+"""Spatiotemporal parameters per step and per trial.
+
+Definitions (heel positions are the stationary heel points of the contacts, see ``events``):
+- step length: from the previous contralateral heel contact to this one, along the pass's direction of
+  progression; stride length: from the previous ipsilateral heel contact, along progression.
+- step width: perpendicular distance from this heel contact to the line through the contralateral
+  foot's contacts before and after it (the walkway's "base of support").
+- the gait cycle of a step runs from the previous ipsilateral heel strike to this one: stride time;
+  stance = until that foot's toe off; swing = the rest; double support = initial (until the
+  contralateral toe off) + terminal (from the contralateral heel strike); single support = contralateral
+  swing. Percentages are of the stride time. Step time = since the previous contralateral heel strike.
+- direction of progression of a pass: the common direction of two parallel lines fitted to its left and
+  its right heel contacts (exact for straight walking); the body-centre direction when too few contacts.
+A step is formed only when this contact and the previous contralateral contact both lie in the same
+pass (steps in turns and standing are excluded); parameters that need a missing contact are NaN.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from reconstruction.gait.bouts import Pass
+from reconstruction.gait.events import Contact
+
+STEP_PARAMETERS = (
+    "step_length_mm", "stride_length_mm", "step_width_mm", "step_time_s", "stride_time_s",
+    "stance_time_s", "swing_time_s", "single_support_s", "double_support_s", "stance_pct", "swing_pct",
+    "single_support_pct", "double_support_pct",
+)
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step, ending at this foot's heel strike. Lengths mm, times s, percentages of the cycle."""
+
+    index: int
+    pass_index: int
+    foot: str
+    heel_strike_s: float
+    toe_off_s: float
+    heel_mm: tuple[float, float, float]
+    toe_mm: tuple[float, float, float]
+    step_length_mm: float
+    stride_length_mm: float
+    step_width_mm: float
+    step_time_s: float
+    stride_time_s: float
+    stance_time_s: float
+    swing_time_s: float
+    single_support_s: float
+    double_support_s: float
+    stance_pct: float
+    swing_pct: float
+    single_support_pct: float
+    double_support_pct: float
+    confidence: float
+
+
+def progression_direction(feet: Sequence[str], heels_xy_mm: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """(2,) unit direction of two parallel lines through the left and the right heel contacts.
+
+    feet: (N,) "left"/"right"; heels_xy_mm: (N, 2). Each side's points are centred on their own mean;
+    the pooled scatter's main axis is the direction, oriented like ``fallback``. Falls back to
+    ``fallback`` with fewer than 3 centred points.
+    """
+    fallback = np.asarray(fallback, dtype=np.float64)
+    heels = np.asarray(heels_xy_mm, dtype=np.float64).reshape(-1, 2)
+    feet = np.asarray(feet)
+    centred = []
+    for side in ("left", "right"):
+        pts = heels[feet == side]
+        if len(pts) >= 2:
+            centred.append(pts - pts.mean(axis=0))
+    if sum(len(c) for c in centred) < 3:
+        return fallback / np.linalg.norm(fallback)
+    pts = np.concatenate(centred)
+    _, vecs = np.linalg.eigh(pts.T @ pts)
+    d = vecs[:, -1]
+    return d if d @ fallback >= 0 else -d
+
+
+def _width(heel: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance (mm) of 2D point heel from the line through a and b."""
+    ab = b - a
+    norm = np.linalg.norm(ab)
+    if norm < 1e-9:
+        return float("nan")
+    return float(abs(ab[0] * (heel - a)[1] - ab[1] * (heel - a)[0]) / norm)
+
+
+def _nonneg(x: float) -> float:
+    return x if np.isfinite(x) and x >= 0 else float("nan")
+
+
+def _timing(k: Contact, p: Contact | None, c: Contact, c0: Contact | None) -> dict[str, float]:
+    nan = float("nan")
+    out = dict.fromkeys(STEP_PARAMETERS[3:], nan)
+    out["step_time_s"] = _nonneg(k.heel_strike_s - c.heel_strike_s)
+    if p is None:
+        return out
+    stride = _nonneg(k.heel_strike_s - p.heel_strike_s)
+    stance = _nonneg(p.toe_off_s - p.heel_strike_s)
+    swing = _nonneg(k.heel_strike_s - p.toe_off_s)
+    ds_term = _nonneg(p.toe_off_s - c.heel_strike_s)
+    ds_init = _nonneg(c0.toe_off_s - p.heel_strike_s) if c0 is not None else nan
+    single = _nonneg(c.heel_strike_s - c0.toe_off_s) if c0 is not None else nan
+    out.update(stride_time_s=stride, stance_time_s=stance, swing_time_s=swing,
+               single_support_s=single, double_support_s=ds_init + ds_term)
+    for name in ("stance", "swing", "single_support", "double_support"):
+        seconds = out[f"{name}_s" if "support" in name else f"{name}_time_s"]
+        out[f"{name}_pct"] = 100.0 * seconds / stride if stride > 0 else nan
+    return out
+
+
+def pass_steps(pass_: Pass, contacts: Sequence[Contact], all_contacts: Sequence[Contact],
+               confidence: dict[int, float], first_index: int = 0) -> tuple[list[Step], list[str]]:
+    """Steps of one pass from the trial's contacts (ordered by heel strike), plus warnings.
+
+    ``confidence`` maps id(contact) -> confidence in [0, 1]; a step gets the lower of its two contacts.
+    """
+    seq = [c for c in contacts if c.valid and pass_.contains(c.heel_strike_s)]
+    direction = progression_direction([c.foot for c in seq], np.array([c.heel_mm[:2] for c in seq]),
+                                      np.asarray(pass_.direction))
+    steps, warnings = [], []
+    for i in range(1, len(seq)):
+        k, c = seq[i], seq[i - 1]
+        if c.foot == k.foot:
+            warnings.append(f"pass {pass_.index}: two {k.foot} contacts in a row at {c.heel_strike_s:.2f} s "
+                            f"and {k.heel_strike_s:.2f} s (a contact was missed); no step there")
+            continue
+        p = seq[i - 2] if i >= 2 and seq[i - 2].foot == k.foot else None
+        n = seq[i + 1] if i + 1 < len(seq) and seq[i + 1].foot == c.foot else None
+        earlier = [x for x in all_contacts if x.foot == c.foot and p is not None
+                   and x.heel_strike_s < p.heel_strike_s]
+        c0 = earlier[-1] if earlier else None
+        heel, heel_c = np.asarray(k.heel_mm[:2]), np.asarray(c.heel_mm[:2])
+        values = _timing(k, p, c, c0)
+        values["step_length_mm"] = float((heel - heel_c) @ direction)
+        values["stride_length_mm"] = (float((heel - np.asarray(p.heel_mm[:2])) @ direction)
+                                      if p is not None else float("nan"))
+        values["step_width_mm"] = _width(heel, heel_c, np.asarray(n.heel_mm[:2])) if n else float("nan")
+        conf = min(confidence.get(id(k), 1.0), confidence.get(id(c), 1.0))
+        steps.append(Step(first_index + len(steps), pass_.index, k.foot, k.heel_strike_s, k.toe_off_s,
+                          k.heel_mm, k.toe_mm, confidence=conf,
+                          **{name: values[name] for name in STEP_PARAMETERS}))
+    return steps, warnings
+
+
+@dataclass(frozen=True)
+class Stats:
+    """Summary statistics of one parameter: count, mean, SD (ddof=1) and CV (% of the mean)."""
+
+    n: int
+    mean: float
+    sd: float
+    cv_pct: float
+
+    @classmethod
+    def of(cls, values: Sequence[float]) -> Stats:
+        x = np.asarray([v for v in values if np.isfinite(v)], dtype=np.float64)
+        if len(x) == 0:
+            return cls(0, float("nan"), float("nan"), float("nan"))
+        mean = float(x.mean())
+        sd = float(x.std(ddof=1)) if len(x) > 1 else float("nan")
+        return cls(len(x), mean, sd, 100.0 * sd / abs(mean) if mean else float("nan"))
+
+
+@dataclass(frozen=True)
+class GaitSummary:
+    """Per-trial summary.
+
+    Attributes:
+        num_steps, num_passes: counts of analysed steps and passes.
+        cadence_steps_min: 60 / mean step time (steps/min).
+        gait_speed_m_s: total stride length / total stride time (m/s).
+        parameters: name -> {"all" | "left" | "right" -> Stats}.
+        asymmetry_pct: name -> 100 |left mean - right mean| / mean of both (symmetry index, %).
+    """
+
+    num_steps: int
+    num_passes: int
+    cadence_steps_min: float
+    gait_speed_m_s: float
+    parameters: dict[str, dict[str, Stats]] = field(default_factory=dict)
+    asymmetry_pct: dict[str, float] = field(default_factory=dict)
+
+
+def summarise(steps: Sequence[Step], num_passes: int) -> GaitSummary:
+    """Per-trial and per-side statistics, cadence, gait speed and asymmetry of ``steps``."""
+    params, asym = {}, {}
+    for name in STEP_PARAMETERS:
+        groups = {"all": steps, "left": [s for s in steps if s.foot == "left"],
+                  "right": [s for s in steps if s.foot == "right"]}
+        params[name] = {g: Stats.of([getattr(s, name) for s in group]) for g, group in groups.items()}
+        left, right = params[name]["left"].mean, params[name]["right"].mean
+        mid = 0.5 * (left + right)
+        asym[name] = float(100.0 * abs(left - right) / abs(mid)) if np.isfinite(mid) and mid else float("nan")
+    step_time = params["step_time_s"]["all"].mean
+    pairs = [(s.stride_length_mm, s.stride_time_s) for s in steps
+             if np.isfinite(s.stride_length_mm) and np.isfinite(s.stride_time_s)]
+    speed = sum(p[0] for p in pairs) / sum(p[1] for p in pairs) / 1000.0 if pairs else float("nan")
+    cadence = 60.0 / step_time if np.isfinite(step_time) and step_time > 0 else float("nan")
+    return GaitSummary(len(steps), num_passes, float(cadence), float(speed), params, asym)

@@ -1,0 +1,103 @@
+"""GaitReport: everything gait analysis found in one trial, serialisable to JSON and CSV."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from reconstruction.gait.bouts import Pass, Segment
+from reconstruction.gait.events import Contact
+from reconstruction.gait.parameters import STEP_PARAMETERS, GaitSummary, Step
+from reconstruction.gait.walkway import WalkwayComparison
+
+CSV_COLUMNS = (
+    "index", "pass_index", "foot", "heel_strike_s", "toe_off_s", "heel_x_mm", "heel_y_mm", "heel_z_mm",
+    "toe_x_mm", "toe_y_mm", "toe_z_mm", *STEP_PARAMETERS, "confidence",
+)
+
+
+def _plain(value: Any) -> Any:
+    """Dataclasses/tuples/dicts -> JSON-ready values; NaN and inf -> None."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if hasattr(value, "tolist"):
+        return _plain(value.tolist())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    return value
+
+
+def _atomic_write(path: str | Path, text: str) -> None:
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", newline="") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+@dataclass(frozen=True)
+class GaitReport:
+    """Gait analysis of one trial.
+
+    Attributes:
+        steps: analysed steps (see ``parameters.Step``; mm, s, % of cycle).
+        summary: cadence, speed, per-side statistics and asymmetry.
+        passes: straight passes with their direction of progression.
+        segments: the trial split into pass / turn / standing / gap (s).
+        contacts: every detected foot contact, including those in turns (s, mm).
+        warnings: human-readable notes on what was excluded and why.
+        walkway: comparison with a walkway export, when one was given.
+    """
+
+    steps: tuple[Step, ...]
+    summary: GaitSummary
+    passes: tuple[Pass, ...]
+    segments: tuple[Segment, ...]
+    contacts: tuple[Contact, ...]
+    warnings: tuple[str, ...] = ()
+    walkway: WalkwayComparison | None = None
+
+    def with_walkway(self, comparison: WalkwayComparison) -> GaitReport:
+        return dataclasses.replace(self, walkway=comparison)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: steps (list of objects), summary, passes, segments, contacts, warnings,
+        walkway (or None). NaN values become None."""
+        return _plain(self)
+
+    def to_json(self, **kwargs: Any) -> str:
+        return json.dumps(self.to_dict(), allow_nan=False, **kwargs)
+
+    def to_csv(self) -> str:
+        """One row per step, columns ``CSV_COLUMNS`` (empty cell for NaN)."""
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(CSV_COLUMNS)
+        for s in self.steps:
+            row = [s.index, s.pass_index, s.foot, s.heel_strike_s, s.toe_off_s, *s.heel_mm, *s.toe_mm,
+                   *(getattr(s, p) for p in STEP_PARAMETERS), s.confidence]
+            writer.writerow(["" if isinstance(v, float) and not math.isfinite(v) else
+                             (f"{v:.6g}" if isinstance(v, float) else v) for v in row])
+        return buf.getvalue()
+
+    def write_json(self, path: str | Path) -> None:
+        _atomic_write(path, self.to_json(indent=2) + "\n")
+
+    def write_csv(self, path: str | Path) -> None:
+        _atomic_write(path, self.to_csv())

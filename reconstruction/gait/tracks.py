@@ -1,0 +1,170 @@
+"""The foot and body-centre tracks gait analysis works on, as continuous functions of time.
+
+`FootTracks.from_points` picks heel, toe and body-centre joints by name from any skeleton, fills short
+NaN gaps (longer ones are marked invalid, never analysed) and wraps the result in a continuous sampler:
+either the caller's own ``sample(times_s) -> (N, J, 3)`` (e.g. an implicit trajectory) or a cubic spline
+through the frames. Events are then located on that continuous function at sub-frame precision.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.signal import savgol_filter
+
+from reconstruction.gait.config import GaitConfig
+
+SIDES = ("left", "right")
+# Row order of the tracked points: left heel, left toe, right heel, right toe, body centre.
+HEEL = {"left": 0, "right": 2}
+TOE = {"left": 1, "right": 3}
+CENTER = 4
+_TOE_NAMES = ("big_toe", "foot_index")
+_CENTER_NAMES = (("left_hip", "right_hip"), ("pelvis",), ("hip",), ("mid_hip",))
+
+Sampler = Callable[[np.ndarray], np.ndarray]
+
+
+def _find(names: Sequence[str], wanted: str) -> int | None:
+    return names.index(wanted) if wanted in names else None
+
+
+def foot_joint_indices(joint_names: Sequence[str]) -> tuple[list[int], list[int]]:
+    """Indices of [left heel, left toe, right heel, right toe] and of the body-centre joints.
+
+    Raises ValueError naming the missing joint when the skeleton has no heels or toes.
+    """
+    names = [str(n) for n in joint_names]
+    feet = []
+    for side in SIDES:
+        heel = _find(names, f"{side}_heel")
+        if heel is None:
+            raise ValueError(f"joint_names: no '{side}_heel' joint (gait analysis needs heels and toes)")
+        toe = next((_find(names, f"{side}_{t}") for t in _TOE_NAMES if f"{side}_{t}" in names), None)
+        if toe is None:
+            raise ValueError(f"joint_names: no '{side}_big_toe' joint (gait analysis needs heels and toes)")
+        feet += [heel, toe]
+    center = next(([names.index(n) for n in group] for group in _CENTER_NAMES
+                   if all(n in names for n in group)), feet)
+    return feet, center
+
+
+def _fill_gaps(values: np.ndarray, times_s: np.ndarray, max_gap_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Interpolate NaN runs (T, K, 3) per frame; return filled values and a (T,) mask of trusted frames."""
+    bad = ~np.isfinite(values).all(axis=(1, 2))
+    good_idx = np.flatnonzero(~bad)
+    filled = values.copy()
+    if bad.any():
+        flat = values.reshape(len(times_s), -1)
+        out = np.empty_like(flat)
+        for c in range(flat.shape[1]):
+            out[:, c] = np.interp(times_s, times_s[good_idx], flat[good_idx, c])
+        filled = out.reshape(values.shape)
+    valid = ~bad
+    # Short interior gaps are trusted once interpolated; long gaps and gaps at the ends are not.
+    edges = np.flatnonzero(np.diff(np.r_[0, bad.astype(int), 0]))
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        interior = start > 0 and stop < len(times_s)
+        span = times_s[min(stop, len(times_s) - 1)] - times_s[max(start - 1, 0)]
+        if interior and span <= max_gap_s:
+            valid[start:stop] = True
+    return filled, valid
+
+
+@dataclass(frozen=True, eq=False)
+class FootTracks:
+    """Heel, toe and body-centre tracks of one trial.
+
+    Attributes:
+        times_s: (T,) frame times (s, strictly increasing).
+        frames_mm: (T, 5, 3) left heel, left toe, right heel, right toe, body centre (mm, z up),
+            with short NaN gaps filled.
+        valid: (T,) False on frames inside long NaN gaps (nothing is measured there).
+        sampler: continuous ``sample(times_s (N,)) -> (N, 5, 3)`` mm of the same points.
+        gap_s: list of (start s, end s) of the untrusted gaps.
+    """
+
+    times_s: np.ndarray
+    frames_mm: np.ndarray
+    valid: np.ndarray
+    sampler: Sampler
+    gaps_s: tuple[tuple[float, float], ...]
+
+    @classmethod
+    def from_points(
+        cls,
+        points_mm: np.ndarray,
+        times_s: np.ndarray,
+        joint_names: Sequence[str],
+        *,
+        sample: Callable[[np.ndarray], np.ndarray] | None = None,
+        config: GaitConfig = GaitConfig(),
+    ) -> FootTracks:
+        """Validate a (T, J, 3) trajectory and build the tracks (see the module docstring)."""
+        points = np.asarray(points_mm, dtype=np.float64)
+        times = np.asarray(times_s, dtype=np.float64)
+        if points.ndim != 3 or points.shape[-1] != 3:
+            raise ValueError(f"points_mm: expected shape (T, J, 3), got {points.shape}")
+        if times.shape != (points.shape[0],):
+            raise ValueError(f"times_s: expected shape ({points.shape[0]},), got {times.shape}")
+        if len(joint_names) != points.shape[1]:
+            raise ValueError(f"joint_names: {len(joint_names)} names for {points.shape[1]} joints")
+        if not np.isfinite(times).all() or (np.diff(times) <= 0).any():
+            raise ValueError("times_s: must be finite and strictly increasing")
+        if len(times) < 4 or times[-1] - times[0] < config.min_trial_s:
+            duration = times[-1] - times[0] if len(times) else 0.0
+            raise ValueError(f"trial too short: {duration:.2f} s (need at least {config.min_trial_s} s)")
+        feet, center = foot_joint_indices(joint_names)
+        frames = np.concatenate([points[:, feet], points[:, center].mean(axis=1, keepdims=True)], axis=1)
+        finite = np.isfinite(frames).all(axis=(1, 2))
+        if finite.sum() < max(4, 0.25 * len(times)):
+            raise ValueError(f"heel/toe joints are NaN in {np.sum(~finite)} of {len(times)} frames: "
+                             "not enough data for gait analysis")
+        filled, valid = _fill_gaps(frames, times, config.max_fill_gap_s)
+        gaps = _runs(~valid, times)
+        if sample is not None:
+            index = np.asarray(feet + [center[0]])
+
+            def sampler(t: np.ndarray, _index=index, _center=center) -> np.ndarray:
+                full = np.asarray(sample(np.asarray(t, dtype=np.float64)), dtype=np.float64)
+                out = full[:, _index]
+                out[:, CENTER] = full[:, _center].mean(axis=1)
+                return out
+
+            frames_out = sampler(times)
+        else:
+            frames_out = _smooth(filled, times, config.smoothing_window_s)
+            spline = CubicSpline(times, frames_out, axis=0, extrapolate=True)
+
+            def sampler(t: np.ndarray, _spline=spline) -> np.ndarray:
+                return _spline(np.asarray(t, dtype=np.float64))
+
+        return cls(times, frames_out, valid, sampler, gaps)
+
+    def speed_mm_s(self, times_s: np.ndarray, h_s: float = 1e-3) -> np.ndarray:
+        """(N, 5) speed of each tracked point (mm/s) by a central difference on the sampler."""
+        t = np.asarray(times_s, dtype=np.float64)
+        both = self.sampler(np.concatenate([t + h_s, t - h_s]))
+        return np.linalg.norm(both[: len(t)] - both[len(t):], axis=-1) / (2 * h_s)
+
+    def is_valid(self, start_s: float, end_s: float) -> bool:
+        """True when [start_s, end_s] overlaps no untrusted gap."""
+        return all(end_s < a or start_s > b for a, b in self.gaps_s)
+
+
+def _smooth(frames: np.ndarray, times_s: np.ndarray, window_s: float) -> np.ndarray:
+    if window_s <= 0:
+        return frames
+    dt = float(np.median(np.diff(times_s)))
+    window = int(round(window_s / dt)) | 1
+    if window < 5 or window > len(times_s):
+        return frames
+    return savgol_filter(frames, window, 3, axis=0, mode="interp")
+
+
+def _runs(mask: np.ndarray, times_s: np.ndarray) -> tuple[tuple[float, float], ...]:
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    return tuple((float(times_s[a]), float(times_s[b - 1])) for a, b in zip(edges[::2], edges[1::2], strict=True))

@@ -1,0 +1,139 @@
+import numpy as np
+import pytest
+
+from reconstruction.gait import GaitConfig, TrajectoryQuality, analyze_gait
+
+
+def _match(report, walk):
+    """Detected contacts matched to the walker's by heel position: list of (contact, k)."""
+    out = []
+    for c in report.contacts:
+        d = np.linalg.norm(walk.heels_mm - np.asarray(c.heel_mm[:2]), axis=1)
+        k = int(np.argmin(d))
+        assert d[k] < 1.0 and walk.feet[k] == c.foot
+        out.append((c, k))
+    return out
+
+
+def test_straight_walk_events_and_parameters(walker):
+    walk = walker()
+    report = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names)
+    assert len(report.passes) == 1
+    d = np.radians(30.0)
+    assert np.allclose(report.passes[0].direction, [np.cos(d), np.sin(d)], atol=1e-6)
+    matched = _match(report, walk)
+    assert len(matched) == len(walk.feet)
+    for c, k in matched:
+        if np.isfinite(walk.hs_s[k]):
+            assert abs(c.heel_strike_s - walk.hs_s[k]) < 1 / 30
+        if np.isfinite(walk.to_s[k]):
+            assert abs(c.toe_off_s - walk.to_s[k]) < 1 / 30
+    assert len(report.steps) >= 6
+    for s in report.steps:
+        assert s.step_length_mm == pytest.approx(650.0, abs=1.0)
+        assert np.isnan(s.stride_length_mm) or s.stride_length_mm == pytest.approx(1300.0, abs=1.0)
+        assert np.isnan(s.step_width_mm) or s.step_width_mm == pytest.approx(140.0, abs=1.0)
+        assert np.isnan(s.step_time_s) or s.step_time_s == pytest.approx(0.55, abs=0.005)
+        assert np.isnan(s.stance_pct) or s.stance_pct == pytest.approx(62.0, abs=100 / 30 / 1.1)
+    summary = report.summary
+    assert summary.cadence_steps_min == pytest.approx(60 / 0.55, rel=0.01)
+    assert summary.gait_speed_m_s == pytest.approx(1.3 / 1.1, rel=0.01)
+    assert summary.parameters["step_length_mm"]["left"].n >= 2
+    assert summary.asymmetry_pct["step_length_mm"] < 0.5
+
+
+def test_continuous_sampler_gives_sub_frame_events(walker):
+    walk = walker()
+    report = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names, sample=walk.sample)
+    errors = [c.heel_strike_s - walk.hs_s[k] for c, k in _match(report, walk) if np.isfinite(walk.hs_s[k])]
+    # Minimum-jerk landing: detected slightly early (documented bias), far below a frame.
+    assert max(abs(e) for e in errors) < 0.015
+
+
+def test_u_turn_splits_passes_and_excludes_turn_steps(walker):
+    walk = walker(segments=(("line", 5000), ("arc", 500, 180), ("line", 5000)))
+    report = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names)
+    assert len(report.passes) == 2
+    assert np.dot(report.passes[0].direction, report.passes[1].direction) < -0.99
+    assert any(s.kind == "turn" for s in report.segments)
+    for s in report.steps:
+        assert s.step_length_mm == pytest.approx(650.0, abs=1.0)
+        assert np.isnan(s.step_width_mm) or s.step_width_mm == pytest.approx(140.0, abs=1.0)
+    assert {s.pass_index for s in report.steps} == {0, 1}
+
+
+def test_turn_in_the_middle_of_a_pass_gives_no_bogus_steps(walker):
+    walk = walker(segments=(("line", 4000), ("arc", 600, 90), ("line", 4000)))
+    report = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names)
+    assert len(report.passes) == 2
+    for s in report.steps:
+        assert s.step_length_mm == pytest.approx(650.0, abs=1.0)
+
+
+def test_standing_only_is_refused(walker):
+    walk = walker()
+    still = np.repeat(walk.points_mm[:1], len(walk.times_s), axis=0)
+    with pytest.raises(ValueError, match="standing only"):
+        analyze_gait(still, walk.times_s, walk.joint_names)
+
+
+def test_short_trial_and_missing_joints_are_refused(walker):
+    walk = walker()
+    with pytest.raises(ValueError, match="too short"):
+        analyze_gait(walk.points_mm[:20], walk.times_s[:20], walk.joint_names)
+    names = tuple("nose" if n == "left_heel" else n for n in walk.joint_names)
+    with pytest.raises(ValueError, match="left_heel"):
+        analyze_gait(walk.points_mm, walk.times_s, names)
+
+
+def test_long_nan_gap_drops_contacts_there(walker):
+    walk = walker(segments=(("line", 8000),))
+    points = walk.points_mm.copy()
+    gap = (walk.times_s > 3.0) & (walk.times_s < 4.0)
+    points[gap, 4] = np.nan
+    report = analyze_gait(points, walk.times_s, walk.joint_names)
+    assert any("gap" in w for w in report.warnings)
+    for c in report.contacts:
+        if c.valid:
+            assert not (2.9 < c.heel_strike_s < 4.1) and not (2.9 < c.toe_off_s < 4.1)
+    for s in report.steps:
+        assert s.step_length_mm == pytest.approx(650.0, abs=1.0)
+    # A short gap is interpolated and changes nothing.
+    points = walk.points_mm.copy()
+    points[(walk.times_s > 3.0) & (walk.times_s < 3.1), 4] = np.nan
+    assert len(analyze_gait(points, walk.times_s, walk.joint_names).steps) > 6
+
+
+def test_noisy_reconstruction_keeps_events_within_a_frame(walker):
+    walk = walker(segments=(("line", 8000),))
+    rng = np.random.default_rng(0)
+    noisy = walk.points_mm + rng.normal(0, 3.0, walk.points_mm.shape)
+    config = GaitConfig(smoothing_window_s=0.2, rest_speed_fraction=0.15)
+    report = analyze_gait(noisy, walk.times_s, walk.joint_names, config=config)
+    matched = _match_loose(report, walk)
+    assert len(matched) >= len(walk.feet) - 1
+    for c, k in matched:
+        if np.isfinite(walk.hs_s[k]) and np.isfinite(c.heel_strike_s):
+            assert abs(c.heel_strike_s - walk.hs_s[k]) < 1 / 30
+    for s in report.steps:
+        assert s.step_length_mm == pytest.approx(650.0, abs=6.0)
+
+
+def _match_loose(report, walk):
+    out = []
+    for c in report.contacts:
+        d = np.linalg.norm(walk.heels_mm - np.asarray(c.heel_mm[:2]), axis=1)
+        k = int(np.argmin(d))
+        assert d[k] < 10.0 and walk.feet[k] == c.foot
+        out.append((c, k))
+    return out
+
+
+def test_quality_lowers_confidence(walker):
+    walk = walker()
+    t, j = walk.points_mm.shape[:2]
+    good = TrajectoryQuality(np.full((t, j), 6), np.full((t, j), 2.0))
+    bad = TrajectoryQuality(np.full((t, j), 1), np.full((t, j), 30.0))
+    c_good = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names, quality=good).steps[0].confidence
+    c_bad = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names, quality=bad).steps[0].confidence
+    assert 0.7 < c_good <= 1.0 and c_bad < 0.1
