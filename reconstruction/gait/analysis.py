@@ -88,9 +88,9 @@ def analyze_gait(
     contacts = detect_contacts(tracks, speed, config)
     confidence = _confidences(contacts, tracks, joint_names, quality, config)
     steps, passes, warnings = _steps(bouts, contacts, confidence)
-    if tracks.gaps_s:
+    if tracks.all_gaps_s:
         warnings.append("data gaps (no contacts measured there): " + ", ".join(
-            f"{a:.2f}-{b:.2f} s" for a, b in tracks.gaps_s))
+            f"{a:.2f}-{b:.2f} s" for a, b in tracks.all_gaps_s))
     outside = [c for c in contacts if c.valid and bouts.pass_at(c.heel_strike_s) is None]
     if outside:
         warnings.append(f"{len(outside)} contact(s) in turns, standing or at pass edges were not used "

@@ -83,7 +83,8 @@ def find_bouts(tracks: FootTracks, config: GaitConfig = GaitConfig()) -> Bouts:
     """Split a trial into passes, turns and standing (see the module docstring)."""
     times = tracks.times_s
     vel, speed, heading, rate = _centre_motion(tracks, config)
-    walking = (speed > config.min_walking_speed_mm_s) & tracks.valid
+    valid = tracks.valid[:, CENTER]
+    walking = (speed > config.min_walking_speed_mm_s) & valid
     straight = walking & (rate <= config.max_turn_rate_deg_s)
     # Second pass: within each straight run, frames far from the run's median heading are turns too.
     for a, b in _runs(straight):
@@ -99,7 +100,7 @@ def find_bouts(tracks: FootTracks, config: GaitConfig = GaitConfig()) -> Bouts:
         direction = v / np.linalg.norm(v)
         passes.append(Pass(len(passes), float(times[a]), float(times[b]),
                            (float(direction[0]), float(direction[1])), float(np.median(speed[a:b + 1]))))
-    kinds = np.where(straight, 0, np.where(walking, 1, np.where(tracks.valid, 2, 3)))
+    kinds = np.where(straight, 0, np.where(walking, 1, np.where(valid, 2, 3)))
     segments = []
     edges = np.flatnonzero(np.diff(kinds)) + 1
     for a, b in zip(np.r_[0, edges], np.r_[edges, len(times)], strict=True):

@@ -116,8 +116,8 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
     contacts: list[Contact] = []
     for side in SIDES:
         h, t = HEEL[side], TOE[side]
-        z_heel = np.percentile(frames[tracks.valid, h, 2], 10)
-        z_toe = np.percentile(frames[tracks.valid, t, 2], 10)
+        z_heel = np.percentile(frames[tracks.valid[:, h], h, 2], 10)
+        z_toe = np.percentile(frames[tracks.valid[:, t], t, 2], 10)
         low = ((frames[:, h, 2] - z_heel) < config.max_contact_lift_mm) | (
             (frames[:, t, 2] - z_toe) < config.max_contact_lift_mm)
         rest = (np.minimum(speed[:, h], speed[:, t]) < v_rest) & low
@@ -133,7 +133,7 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
             t_to = next(to) if b < len(times) - 1 else np.nan
             heel, spread = _rest_point(frames[a:b + 1, h], speed[a:b + 1, h], v_rest)
             toe, _ = _rest_point(frames[a:b + 1, t], speed[a:b + 1, t], v_rest)
-            ok = bool(np.isfinite(t_hs) and tracks.is_valid(times[a] - 3 * dt, times[b] + 3 * dt))
+            ok = bool(np.isfinite(t_hs) and tracks.is_valid(times[a] - 4 * dt, times[b] + 4 * dt, (h, t)))
             contacts.append(Contact(side, float(t_hs), float(t_to), tuple(map(float, heel)),
                                     tuple(map(float, toe)), spread, ok))
     order = np.argsort([c.heel_strike_s if np.isfinite(c.heel_strike_s) else -np.inf for c in contacts],

@@ -129,7 +129,7 @@ def pass_steps(pass_: Pass, contacts: Sequence[Contact], all_contacts: Sequence[
         k, c = seq[i], seq[i - 1]
         if c.foot == k.foot:
             warnings.append(f"pass {pass_.index}: two {k.foot} contacts in a row at {c.heel_strike_s:.2f} s "
-                            f"and {k.heel_strike_s:.2f} s (a contact was missed); no step there")
+                            f"and {k.heel_strike_s:.2f} s (the contact between was missed or unusable); no step there")
             continue
         p = seq[i - 2] if i >= 2 and seq[i - 2].foot == k.foot else None
         n = seq[i + 1] if i + 1 < len(seq) and seq[i + 1].foot == c.foot else None

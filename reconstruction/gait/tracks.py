@@ -53,24 +53,23 @@ def foot_joint_indices(joint_names: Sequence[str]) -> tuple[list[int], list[int]
 
 
 def _fill_gaps(values: np.ndarray, times_s: np.ndarray, max_gap_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """Interpolate NaN runs (T, K, 3) per frame; return filled values and a (T,) mask of trusted frames."""
-    bad = ~np.isfinite(values).all(axis=(1, 2))
-    good_idx = np.flatnonzero(~bad)
+    """Interpolate NaN runs of each point of (T, K, 3); return filled values and a (T, K) trusted mask."""
     filled = values.copy()
-    if bad.any():
-        flat = values.reshape(len(times_s), -1)
-        out = np.empty_like(flat)
-        for c in range(flat.shape[1]):
-            out[:, c] = np.interp(times_s, times_s[good_idx], flat[good_idx, c])
-        filled = out.reshape(values.shape)
-    valid = ~bad
-    # Short interior gaps are trusted once interpolated; long gaps and gaps at the ends are not.
-    edges = np.flatnonzero(np.diff(np.r_[0, bad.astype(int), 0]))
-    for start, stop in zip(edges[::2], edges[1::2], strict=True):
-        interior = start > 0 and stop < len(times_s)
-        span = times_s[min(stop, len(times_s) - 1)] - times_s[max(start - 1, 0)]
-        if interior and span <= max_gap_s:
-            valid[start:stop] = True
+    valid = np.isfinite(values).all(axis=2)
+    for k in range(values.shape[1]):
+        bad = ~valid[:, k]
+        if not bad.any():
+            continue
+        good = np.flatnonzero(~bad)
+        for c in range(3):
+            filled[:, k, c] = np.interp(times_s, times_s[good], values[good, k, c])
+        # Short interior gaps are trusted once interpolated; long gaps and gaps at the ends are not.
+        edges = np.flatnonzero(np.diff(np.r_[0, bad.astype(int), 0]))
+        for start, stop in zip(edges[::2], edges[1::2], strict=True):
+            interior = start > 0 and stop < len(times_s)
+            span = times_s[min(stop, len(times_s) - 1)] - times_s[max(start - 1, 0)]
+            if interior and span <= max_gap_s:
+                valid[start:stop, k] = True
     return filled, valid
 
 
@@ -82,16 +81,16 @@ class FootTracks:
         times_s: (T,) frame times (s, strictly increasing).
         frames_mm: (T, 5, 3) left heel, left toe, right heel, right toe, body centre (mm, z up),
             with short NaN gaps filled.
-        valid: (T,) False on frames inside long NaN gaps (nothing is measured there).
+        valid: (T, 5) False inside long NaN gaps of a point (nothing is measured there).
         sampler: continuous ``sample(times_s (N,)) -> (N, 5, 3)`` mm of the same points.
-        gap_s: list of (start s, end s) of the untrusted gaps.
+        gaps_s: per point, (start s, end s) of its untrusted gaps.
     """
 
     times_s: np.ndarray
     frames_mm: np.ndarray
     valid: np.ndarray
     sampler: Sampler
-    gaps_s: tuple[tuple[float, float], ...]
+    gaps_s: tuple[tuple[tuple[float, float], ...], ...]
 
     @classmethod
     def from_points(
@@ -124,7 +123,7 @@ class FootTracks:
             raise ValueError(f"heel/toe joints are NaN in {np.sum(~finite)} of {len(times)} frames: "
                              "not enough data for gait analysis")
         filled, valid = _fill_gaps(frames, times, config.max_fill_gap_s)
-        gaps = _runs(~valid, times)
+        gaps = tuple(_runs(~valid[:, k], times) for k in range(valid.shape[1]))
         if sample is not None:
             index = np.asarray(feet + [center[0]])
 
@@ -150,9 +149,14 @@ class FootTracks:
         both = self.sampler(np.concatenate([t + h_s, t - h_s]))
         return np.linalg.norm(both[: len(t)] - both[len(t):], axis=-1) / (2 * h_s)
 
-    def is_valid(self, start_s: float, end_s: float) -> bool:
-        """True when [start_s, end_s] overlaps no untrusted gap."""
-        return all(end_s < a or start_s > b for a, b in self.gaps_s)
+    def is_valid(self, start_s: float, end_s: float, rows: Sequence[int] = range(5)) -> bool:
+        """True when [start_s, end_s] overlaps no untrusted gap of the given point rows."""
+        return all(end_s < a or start_s > b for k in rows for a, b in self.gaps_s[k])
+
+    @property
+    def all_gaps_s(self) -> list[tuple[float, float]]:
+        """Sorted untrusted gaps of any point (s)."""
+        return sorted({g for gaps in self.gaps_s for g in gaps})
 
 
 def _smooth(frames: np.ndarray, times_s: np.ndarray, window_s: float) -> np.ndarray:
