@@ -1,0 +1,209 @@
+"""Simulated cameras: the synthetic world rendered from each rig camera.
+
+Each :class:`SimulatedCamera` plays one camera of a synthetic trial (``acquisition.synthetic``): it
+renders frame ``i`` at the chosen resolution and frame rate and stamps it with the camera's clock:
+
+    timestamp_ns = start_ns + i * period_ns + clock_offsets_ns[c] + jitter_ns[c, i]
+
+Optional faults: dropped frame ids (the id is skipped, as a real camera's counter would) and a camera that
+stops after a given frame id (the iterator ends and the status says ``error``). Ground truth rides along
+in ``Frame.truth`` (``{"frame_index": i, "trial_time_s": t}``).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from acquisition.drivers.base import CaptureSettings, DriverStatus, Frame, is_ptp_jump, wait_until_ns
+
+log = logging.getLogger(__name__)
+
+RenderFn = Callable[[Any, int, int, tuple[int, int]], np.ndarray]
+
+
+@dataclass(frozen=True)
+class SimulatedFaults:
+    """Faults of one simulated camera.
+
+    Attributes:
+        drop_frame_ids: frame ids that are never delivered (counted as drops).
+        stop_after_frame_id: the camera dies after delivering this frame id (None: never).
+    """
+
+    drop_frame_ids: frozenset[int] = frozenset()
+    stop_after_frame_id: int | None = None
+
+
+def _default_render(trial: Any, camera_index: int, frame_index: int, size_px: tuple[int, int]) -> np.ndarray:
+    from acquisition.synthetic.render import render_frame
+
+    return render_frame(trial, camera_index, frame_index, size_px=size_px)
+
+
+def trial_fps(trial: Any) -> float:
+    """The synthetic trial's frame rate in frames/s (from its ``times_s``)."""
+    times = np.asarray(trial.times_s, dtype=np.float64)
+    if times.size < 2:
+        raise ValueError("trial: needs at least 2 frames to know its frame rate")
+    return float(1.0 / np.median(np.diff(times)))
+
+
+class SimulatedCamera:
+    """One camera of a synthetic trial, behind the :class:`~acquisition.drivers.base.CameraDriver` protocol.
+
+    Args:
+        trial: a synthetic trial (``.rig``, ``.times_s`` (T,), ``.clock_offsets_ns`` (C,),
+            ``.jitter_ns`` (C, T)).
+        camera_index: which rig camera this is.
+        realtime: pace frames on the wall clock (live use); False delivers as fast as possible.
+        faults: optional dropped frames / stop.
+        render: ``render(trial, camera_index, frame_index, size_px) -> (H, W, 3) uint8``.
+    """
+
+    def __init__(
+        self,
+        trial: Any,
+        camera_index: int,
+        *,
+        realtime: bool = True,
+        faults: SimulatedFaults = SimulatedFaults(),
+        render: RenderFn = _default_render,
+    ) -> None:
+        num = len(trial.rig)
+        if not 0 <= camera_index < num:
+            raise ValueError(f"camera_index: {camera_index} outside the rig's {num} cameras")
+        self.trial = trial
+        self.camera_index = camera_index
+        self.name = trial.rig[camera_index].name
+        self.realtime = realtime
+        self.faults = faults
+        self._render = render
+        self._settings = CaptureSettings(fps=trial_fps(trial), exposure_us=None)
+        self._status = DriverStatus(camera=self.name)
+        self._start_ns: int | None = None
+        self._stopped = False
+
+    def open(self) -> None:
+        self._status.state = "open"
+
+    def configure(self, settings: CaptureSettings) -> None:
+        if self._status.state == "closed":
+            raise ValueError(f"camera {self.name}: configure() before open()")
+        self._settings = settings
+        self._status.state = "configured"
+
+    @property
+    def settings(self) -> CaptureSettings:
+        return self._settings
+
+    @property
+    def size_px(self) -> tuple[int, int]:
+        return self._settings.size_px or tuple(int(v) for v in self.trial.rig[self.camera_index].size_px)
+
+    def num_frames(self) -> int:
+        """How many frame ids the trial covers at the configured frame rate."""
+        duration_s = float(self.trial.times_s[-1] - self.trial.times_s[0]) + 1.0 / trial_fps(self.trial)
+        return int(np.floor(duration_s * self._settings.fps + 1e-9))
+
+    def start(self, at_ns: int | None = None) -> None:
+        if self._status.state not in ("configured", "open"):
+            raise ValueError(f"camera {self.name}: start() in state {self._status.state}")
+        self._start_ns = time.time_ns() if at_ns is None else int(at_ns)
+        self._stopped = False
+        self._status.state = "running"
+        self._status.started_wall_s = self._start_ns / 1e9 if self.realtime else time.time()
+
+    def _trial_index(self, frame_id: int) -> int:
+        t0 = float(self.trial.times_s[0])
+        t = t0 + frame_id / self._settings.fps
+        idx = int(np.searchsorted(self.trial.times_s, t - 1e-9))
+        return min(idx, len(self.trial.times_s) - 1)
+
+    def timestamp_ns(self, frame_id: int) -> int:
+        """The camera timestamp of ``frame_id`` (ns): start + i * period + clock offset + jitter."""
+        idx = self._trial_index(frame_id)
+        c = self.camera_index
+        offset = int(np.asarray(self.trial.clock_offsets_ns)[c])
+        jitter = int(np.asarray(self.trial.jitter_ns)[c, idx])
+        return int(self._start_ns + frame_id * self._settings.period_ns + offset + jitter)
+
+    def frames(self) -> Iterator[Frame]:
+        if self._start_ns is None:
+            raise ValueError(f"camera {self.name}: frames() before start()")
+        period = self._settings.period_ns
+        last_ts: int | None = None
+        last_id: int | None = None
+        for frame_id in range(self.num_frames()):
+            if self._stopped:
+                break
+            if frame_id in self.faults.drop_frame_ids:
+                continue
+            ts = self.timestamp_ns(frame_id)
+            if self.realtime:
+                wait_until_ns(ts)
+            idx = self._trial_index(frame_id)
+            image = self._render(self.trial, self.camera_index, idx, self.size_px)
+            jump = last_ts is not None and is_ptp_jump(ts - last_ts, period * (frame_id - last_id))
+            frame = Frame(
+                camera=self.name,
+                image=image,
+                timestamp_ns=ts,
+                frame_id=frame_id,
+                ptp_jump=jump,
+                truth={"frame_index": idx, "trial_time_s": float(self.trial.times_s[idx])},
+            )
+            self._status.count(frame)
+            last_ts, last_id = ts, frame_id
+            yield frame
+            if self.faults.stop_after_frame_id is not None and frame_id >= self.faults.stop_after_frame_id:
+                self._status.state = "error"
+                self._status.error = f"camera {self.name} stopped delivering frames after frame {frame_id}"
+                log.warning(self._status.error)
+                return
+        if self._status.state == "running":
+            self._status.state = "stopped"
+
+    def stop(self) -> None:
+        self._stopped = True
+        if self._status.state == "running":
+            self._status.state = "stopped"
+
+    def status(self) -> DriverStatus:
+        return self._status
+
+
+def simulated_rig(
+    trial: Any,
+    *,
+    size_px: tuple[int, int] = (640, 480),
+    fps: float | None = None,
+    realtime: bool = True,
+    faults: dict[str, SimulatedFaults] | None = None,
+    cameras: list[str] | None = None,
+    render: RenderFn = _default_render,
+) -> list[SimulatedCamera]:
+    """Open and configure one :class:`SimulatedCamera` per rig camera (or per name in ``cameras``)."""
+    faults = faults or {}
+    names = trial.rig.names if cameras is None else cameras
+    unknown = sorted(set(faults) - set(trial.rig.names))
+    if unknown:
+        raise ValueError(f"faults: unknown cameras {unknown}")
+    drivers = []
+    for name in names:
+        cam = SimulatedCamera(
+            trial,
+            trial.rig.index_of([name])[0],
+            realtime=realtime,
+            faults=faults.get(name, SimulatedFaults()),
+            render=render,
+        )
+        cam.open()
+        cam.configure(CaptureSettings(fps=fps or trial_fps(trial), exposure_us=None, size_px=size_px))
+        drivers.append(cam)
+    return drivers

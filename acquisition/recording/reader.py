@@ -1,0 +1,346 @@
+"""Read trial MCAPs: detections, calibration, metadata, frames; recover files cut short by a crash.
+
+Complete files are read through the MCAP index (keypoints without touching image chunks). A file without
+a valid summary (``<path>.part`` left by a recorder that died, or a truncated copy) is scanned record by
+record: every complete chunk is used, a chunk that fails its CRC or decompression is skipped and counted,
+and the scan stops at the first cut or unreadable record. Nothing here can loop forever: every read
+consumes bytes of a finite file and record lengths are capped at the file size.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mcap.exceptions import McapError
+from mcap.reader import SeekingReader
+from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader, breakup_chunk
+
+from acquisition.encoding import parse_image_message
+from acquisition.recording import layout
+from reconstruction.calibration_io import rig_from_toml_text
+from reconstruction.camera import Rig
+from reconstruction.detections import Detections
+
+log = logging.getLogger(__name__)
+
+TopicFilter = Callable[[str], bool]
+
+
+def resolve_recording(path: str | os.PathLike) -> Path:
+    """``path`` if it exists, else ``path.part`` (a recording in progress or cut short)."""
+    p = Path(path)
+    if p.is_file():
+        return p
+    part = p.with_name(p.name + layout.PART_SUFFIX)
+    if part.is_file():
+        return part
+    raise FileNotFoundError(f"recording {p} not found (nor {part.name})")
+
+
+def _seeking(f, size: int) -> SeekingReader:
+    return SeekingReader(f, record_size_limit=max(size, 1))
+
+
+def is_complete(path: str | os.PathLike) -> bool:
+    """True when the file ends with a valid MCAP footer and summary (safe for indexed reads)."""
+    p = resolve_recording(path)
+    size = p.stat().st_size
+    try:
+        with open(p, "rb") as f:
+            return _seeking(f, size).get_summary() is not None
+    except (McapError, ValueError, EOFError, OSError, KeyError, IndexError):
+        return False
+
+
+@dataclass
+class ScanState:
+    """What a record-by-record scan found besides messages."""
+
+    path: Path
+    complete: bool = False
+    chunks: int = 0
+    corrupt_chunks: int = 0
+    error: str | None = None
+    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
+    attachments: dict[str, bytes] = field(default_factory=dict)
+    schemas: dict[int, Schema] = field(default_factory=dict)
+    channels: dict[int, Channel] = field(default_factory=dict)
+
+
+def _check_magic(path: Path) -> None:
+    with open(path, "rb") as f:
+        head = f.read(8)
+    if head != b"\x89MCAP0\r\n":
+        raise ValueError(f"{path}: not an MCAP file (bad magic {head[:8]!r})")
+
+
+def _chunk_records(chunk: Chunk, state: ScanState) -> list:
+    try:
+        records = breakup_chunk(chunk, validate_crc=True)
+    except Exception as exc:  # CRC mismatch, lz4/zstd errors, cut records inside the chunk
+        state.corrupt_chunks += 1
+        log.warning("%s: skipping a corrupt chunk (%s)", state.path, exc)
+        return []
+    state.chunks += 1
+    return records
+
+
+def scan(path: Path, state: ScanState, wanted: TopicFilter | None = None) -> Iterator[tuple[str, Message]]:
+    """Yield (topic, message) of every complete record in file order; fills ``state``."""
+    _check_magic(path)
+    size = path.stat().st_size
+    with open(path, "rb") as f:
+        reader = StreamReader(f, validate_crcs=False, emit_chunks=True, record_size_limit=max(size, 1))
+        records = reader.records
+        while True:
+            try:
+                record = next(records)
+            except StopIteration:
+                return
+            except Exception as exc:  # EndOfFile, RecordLengthLimitExceeded, garbage
+                state.error = f"{type(exc).__name__} after {state.chunks} complete chunks: {exc}".strip()
+                return
+            inner = _chunk_records(record, state) if isinstance(record, Chunk) else [record]
+            for rec in inner:
+                if isinstance(rec, Schema):
+                    state.schemas[rec.id] = rec
+                elif isinstance(rec, Channel):
+                    state.channels[rec.id] = rec
+                elif isinstance(rec, Metadata):
+                    state.metadata[rec.name] = dict(rec.metadata)
+                elif isinstance(rec, Attachment):
+                    state.attachments[rec.name] = bytes(rec.data)
+                elif isinstance(rec, Footer):
+                    state.complete = True
+                elif isinstance(rec, Message):
+                    channel = state.channels.get(rec.channel_id)
+                    if channel is None:
+                        continue
+                    if wanted is None or wanted(channel.topic):
+                        yield channel.topic, rec
+
+
+def iter_messages(path: str | os.PathLike, wanted: TopicFilter) -> Iterator[tuple[str, Message]]:
+    """(topic, message) for topics accepted by ``wanted``: indexed when complete, else scanned."""
+    p = resolve_recording(path)
+    if is_complete(p):
+        size = p.stat().st_size
+        with open(p, "rb") as f:
+            reader = _seeking(f, size)
+            summary = reader.get_summary()
+            topics = sorted({c.topic for c in summary.channels.values() if wanted(c.topic)})
+            if not topics:
+                return
+            for _, channel, message in reader.iter_messages(topics=topics, log_time_order=True):
+                yield channel.topic, message
+        return
+    state = ScanState(p)
+    yield from scan(p, state, wanted)
+    if state.error:
+        log.warning("%s is incomplete: read up to the cut (%s)", p, state.error)
+
+
+def _first_json(path: str | os.PathLike, topic: str) -> dict[str, Any] | None:
+    for _, message in iter_messages(path, lambda t: t == topic):
+        return json.loads(message.data)
+    return None
+
+
+def read_metadata(path: str | os.PathLike) -> dict[str, Any]:
+    """The trial metadata given at the start of the recording."""
+    meta = _first_json(path, layout.TRIAL_METADATA_TOPIC)
+    if meta is None:
+        raise ValueError(f"{path}: no trial metadata recorded ({layout.TRIAL_METADATA_TOPIC})")
+    return meta
+
+
+def read_calibration(path: str | os.PathLike) -> Rig:
+    """The calibration recorded with the trial, as a :class:`~reconstruction.camera.Rig`."""
+    calib = _first_json(path, layout.CALIBRATION_TOPIC)
+    if calib is None:
+        raise ValueError(f"{path}: no calibration recorded ({layout.CALIBRATION_TOPIC})")
+    return rig_from_toml_text(calib["toml"], source=f"{path} {layout.CALIBRATION_TOPIC}")
+
+
+def read_summary(path: str | os.PathLike) -> dict[str, Any]:
+    """The recorder's summary (frames, gaps per camera, error); {} when the recording was cut short."""
+    p = resolve_recording(path)
+    if not is_complete(p):
+        return {}
+    with open(p, "rb") as f:
+        for record in _seeking(f, p.stat().st_size).iter_metadata():
+            if record.name == layout.SUMMARY_RECORD:
+                return {k: json.loads(v) for k, v in record.metadata.items()}
+    return {}
+
+
+def read_status(path: str | os.PathLike) -> dict[str, list[dict[str, Any]]]:
+    """{camera: [status messages in time order]}."""
+    out: dict[str, list[dict[str, Any]]] = {}
+    for topic, message in iter_messages(path, layout.is_status_topic):
+        out.setdefault(layout.camera_of_topic(topic), []).append(json.loads(message.data))
+    return out
+
+
+@dataclass(frozen=True)
+class RecordedFrame:
+    """One recorded frame (JPEG still compressed)."""
+
+    camera: str
+    frame_id: int
+    timestamp_ns: int
+    jpeg: bytes
+
+    def image(self) -> np.ndarray:
+        from acquisition.encoding import decode_jpeg
+
+        return decode_jpeg(self.jpeg, what=f"camera {self.camera} frame {self.frame_id}")
+
+
+def iter_frames(path: str | os.PathLike, camera: str | None = None) -> Iterator[RecordedFrame]:
+    """Frames in log-time order (all cameras, or one)."""
+
+    def wanted(topic: str) -> bool:
+        return layout.is_image_topic(topic) and (camera is None or layout.camera_of_topic(topic) == camera)
+
+    for topic, message in iter_messages(path, wanted):
+        img = parse_image_message(message.data)
+        yield RecordedFrame(layout.camera_of_topic(topic), int(message.sequence), img.timestamp_ns, img.jpeg)
+
+
+@dataclass(frozen=True, eq=False)
+class KeypointRecording:
+    """Every person's keypoints from a recording.
+
+    Attributes:
+        camera_names: (C,).
+        frame_ids: (T,) consecutive frame ids from the first to the last seen.
+        times_s: (T,) s since the first frame set (median camera timestamp per frame id).
+        skeleton: skeleton name.
+        people: (C, T, P, J, 3) x px, y px, conf; P = most people seen in one frame; missing: NaN, conf 0.
+        timestamps_ns: (C, T) camera timestamps, -1 where the frame is missing.
+    """
+
+    camera_names: tuple[str, ...]
+    frame_ids: np.ndarray
+    times_s: np.ndarray
+    skeleton: str
+    people: np.ndarray
+    timestamps_ns: np.ndarray
+
+    def patient(self) -> Detections:
+        """people[0] of every frame (the detector's first person) as reconstruction input."""
+        c, t, _, j, _ = self.people.shape
+        kp = self.people[:, :, 0] if self.people.shape[2] else _missing((c, t, j))
+        return Detections(kp, self.camera_names, self.times_s, self.skeleton)
+
+
+def _missing(shape: tuple[int, ...]) -> np.ndarray:
+    out = np.full((*shape, 3), np.nan)
+    out[..., 2] = 0.0
+    return out
+
+
+def _frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
+    ts = np.where(timestamps_ns >= 0, timestamps_ns, np.nan).astype(np.float64)
+    with np.errstate(all="ignore"):
+        med = np.nanmedian(np.where(np.isnan(ts).all(0, keepdims=True), 0, ts), axis=0)
+    have = ~np.isnan(ts).all(axis=0)
+    if have.sum() == 0:
+        raise ValueError("keypoints: no timestamps")
+    idx = np.arange(ts.shape[1])
+    filled = np.interp(idx, idx[have], med[have]) if have.sum() > 1 else med[have][0] + idx * 1e9 / 30
+    return (filled - filled[0]) / 1e9
+
+
+def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) -> KeypointRecording:
+    """All keypoints, frame sets aligned by frame id; cameras in calibration order (else sorted)."""
+    per_cam: dict[str, dict[int, tuple[int, list]]] = {}
+    skeletons = set()
+    for topic, message in iter_messages(path, layout.is_keypoints_topic):
+        msg = json.loads(message.data)
+        skeletons.add(msg["skeleton"])
+        per_cam.setdefault(layout.camera_of_topic(topic), {})[int(msg["frame_id"])] = (
+            int(msg["timestamp_ns"]), msg["people"])
+    if not per_cam:
+        raise ValueError(f"{path}: no keypoints recorded")
+    if len(skeletons) != 1:
+        raise ValueError(f"{path}: keypoints of several skeletons {sorted(skeletons)}")
+    names = _camera_order(path, per_cam, cameras)
+    fids = [f for cam in per_cam.values() for f in cam]
+    first, last = min(fids), max(fids)
+    frame_ids = np.arange(first, last + 1)
+    most = max((len(p) for cam in per_cam.values() for _, p in cam.values()), default=0)
+    joints = next((len(p[0]) for cam in per_cam.values() for _, p in cam.values() if p), 0)
+    people = _missing((len(names), frame_ids.size, most, joints))
+    stamps = np.full((len(names), frame_ids.size), -1, dtype=np.int64)
+    for c, name in enumerate(names):
+        for fid, (ts, ppl) in per_cam.get(name, {}).items():
+            stamps[c, fid - first] = ts
+            if ppl:
+                people[c, fid - first, : len(ppl)] = np.asarray(ppl, dtype=np.float64).reshape(len(ppl), joints, 3)
+    return KeypointRecording(tuple(names), frame_ids, _frame_times_s(stamps), skeletons.pop(), people, stamps)
+
+
+def _camera_order(path, per_cam: dict, cameras: list[str] | None) -> list[str]:
+    if cameras is not None:
+        unknown = sorted(set(cameras) - set(per_cam))
+        if unknown:
+            raise ValueError(f"{path}: no keypoints recorded for cameras {unknown}")
+        return list(cameras)
+    try:
+        order = [n for n in read_calibration(path).names if n in per_cam]
+    except ValueError:
+        order = []
+    return order + sorted(set(per_cam) - set(order))
+
+
+def read_detections(path: str | os.PathLike, cameras: list[str] | None = None) -> Detections:
+    """The patient's keypoints (C, T, J, 3) as :class:`~reconstruction.detections.Detections`."""
+    return read_keypoints(path, cameras).patient()
+
+
+@dataclass(frozen=True)
+class RecoveryReport:
+    """What :func:`recover` found and wrote."""
+
+    source: Path
+    output: Path | None
+    was_complete: bool
+    chunks: int
+    corrupt_chunks: int
+    messages: dict[str, int]
+    error: str | None
+
+
+def recover(path: str | os.PathLike, out: str | os.PathLike | None = None) -> RecoveryReport:
+    """Read every complete chunk of a recording cut short and write them as a valid MCAP.
+
+    ``out`` defaults to the recording's final name (``x.mcap`` for ``x.mcap.part``); a complete file is
+    only checked (no output written). ValueError when nothing readable is in the file.
+    """
+    from acquisition.recording.rewrite import rewrite_scanned
+
+    src = resolve_recording(path)
+    if is_complete(src):
+        counts: dict[str, int] = {}
+        for topic, _ in iter_messages(src, lambda t: True):
+            counts[topic] = counts.get(topic, 0) + 1
+        return RecoveryReport(src, None, True, 0, 0, counts, None)
+    target = Path(out) if out is not None else src.with_name(src.name.removesuffix(layout.PART_SUFFIX))
+    if target == src or target.exists():
+        raise ValueError(f"recover: output {target} exists (or is the input); give another path")
+    state = ScanState(src)
+    counts = rewrite_scanned(scan(src, state), state, target)
+    if not counts:
+        target.unlink(missing_ok=True)
+        raise ValueError(f"{src}: no complete chunk could be read ({state.error})")
+    return RecoveryReport(src, target, False, state.chunks, state.corrupt_chunks, counts, state.error)
