@@ -1,0 +1,76 @@
+"""NPZ files of keypoints: several people per camera and frame in, one chosen person out.
+
+Multi-person file keys: ``keypoints`` (C, T, P, J, 3) x px, y px, confidence; ``camera_names`` (C,)
+str; ``times_s`` (T,); ``skeleton`` (str). A single-person file has ``keypoints`` (C, T, J, 3) and
+the same other keys, plus whatever extra arrays the writer adds (e.g. ``track_id``).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from reconstruction.association.multi import MultiPersonDetections
+from reconstruction.detections import Detections
+
+_KEYS = ("keypoints", "camera_names", "times_s", "skeleton")
+
+
+def load_multi_npz(path: str | Path) -> MultiPersonDetections:
+    """Read a multi-person keypoint file (ValueError naming a missing key or bad array)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"keypoint file {path} does not exist")
+    with np.load(path, allow_pickle=False) as data:
+        missing = [k for k in _KEYS if k not in data.files]
+        if missing:
+            raise ValueError(f"{path}: missing arrays {missing} (has {sorted(data.files)})")
+        kp = data["keypoints"]
+        if kp.ndim == 4:
+            kp = kp[:, :, None]  # one person per camera and frame
+        return MultiPersonDetections(keypoints=kp, camera_names=tuple(str(n) for n in data["camera_names"]),
+                                     times_s=data["times_s"], skeleton=str(data["skeleton"]))
+
+
+def save_multi_npz(multi: MultiPersonDetections, path: str | Path) -> None:
+    """Write a multi-person keypoint file atomically."""
+    _write(path, keypoints=multi.keypoints, camera_names=np.array(multi.camera_names),
+           times_s=multi.times_s, skeleton=np.array(multi.skeleton.name))
+
+
+def save_detections_npz(detections: Detections, path: str | Path, **extra: np.ndarray) -> None:
+    """Write one person's detections (plus extra arrays) atomically."""
+    clash = sorted(set(extra) & set(_KEYS))
+    if clash:
+        raise ValueError(f"extra arrays may not be named {clash}")
+    _write(path, keypoints=detections.keypoints, camera_names=np.array(detections.camera_names),
+           times_s=detections.times_s, skeleton=np.array(detections.skeleton.name), **extra)
+
+
+def load_detections_npz(path: str | Path) -> Detections:
+    """Read a single-person keypoint file written by :func:`save_detections_npz`."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"keypoint file {path} does not exist")
+    with np.load(path, allow_pickle=False) as data:
+        missing = [k for k in _KEYS if k not in data.files]
+        if missing:
+            raise ValueError(f"{path}: missing arrays {missing} (has {sorted(data.files)})")
+        return Detections(keypoints=data["keypoints"], camera_names=tuple(str(n) for n in data["camera_names"]),
+                          times_s=data["times_s"], skeleton=str(data["skeleton"]))
+
+
+def _write(path: str | Path, **arrays: np.ndarray) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
