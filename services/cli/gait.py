@@ -1,0 +1,99 @@
+"""``gaitcap gait RESULT.npz``: gait events and spatiotemporal parameters of a reconstructed trial."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+
+from services.cli._common import user_errors
+
+_TABLE = ("step_length_mm", "stride_length_mm", "step_width_mm", "step_time_s", "stride_time_s",
+          "stance_pct", "swing_pct", "double_support_pct")
+
+
+def _load(path: Path):
+    import numpy as np
+
+    from reconstruction.gait import TrajectoryQuality
+
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
+    with np.load(path, allow_pickle=False) as data:
+        missing = [k for k in ("points_mm", "times_s", "joint_names") if k not in data.files]
+        if missing:
+            raise ValueError(f"{path}: missing array(s) {', '.join(missing)} (need points_mm, times_s, "
+                             "joint_names)")
+        points, times = data["points_mm"], data["times_s"]
+        names = [str(n) for n in data["joint_names"]]
+        quality = None
+        if "num_views" in data.files and "reprojection_px" in data.files:
+            quality = TrajectoryQuality(data["num_views"], data["reprojection_px"])
+    return points, times, names, quality
+
+
+def _pick_trial(trials, result: Path):
+    if len(trials) == 1:
+        return trials[0]
+    named = [t for t in trials if t.name == result.stem]
+    if not named:
+        raise ValueError(f"walkway CSV holds trials {[t.name for t in trials]}; none is named {result.stem!r}")
+    return named[0]
+
+
+def _fmt(x: float, digits: int = 1) -> str:
+    return "-" if x is None or not math.isfinite(x) else f"{x:.{digits}f}"
+
+
+def _echo_summary(report) -> None:
+    s = report.summary
+    typer.echo(f"steps {s.num_steps} in {s.num_passes} pass(es); cadence {_fmt(s.cadence_steps_min)} "
+               f"steps/min; gait speed {_fmt(s.gait_speed_m_s, 2)} m/s")
+    typer.echo(f"{'parameter':<20}{'left mean':>11}{'SD':>8}{'right mean':>12}{'SD':>8}{'asym %':>8}")
+    for name in _TABLE:
+        p, d = s.parameters[name], 3 if name.endswith("_s") else 1
+        typer.echo(f"{name:<20}{_fmt(p['left'].mean, d):>11}{_fmt(p['left'].sd, d):>8}"
+                   f"{_fmt(p['right'].mean, d):>12}{_fmt(p['right'].sd, d):>8}{_fmt(s.asymmetry_pct[name]):>8}")
+    if report.walkway is not None:
+        w = report.walkway
+        typer.echo(f"walkway: scale {w.transform.scale:.4f}, offsets "
+                   + ", ".join(f"{k} {v:+.2f} s" for k, v in w.offsets_s.items()))
+        typer.echo(f"{'residual (mm)':<20}{'n':>5}{'mean':>8}{'SD':>8}{'RMSE':>8}{'sigma_IQR':>11}")
+        for name, r in w.residuals.items():
+            typer.echo(f"{name:<20}{r.n:>5}{_fmt(r.mean):>8}{_fmt(r.sd):>8}{_fmt(r.rmse):>8}"
+                       f"{_fmt(r.sigma_iqr):>11}")
+    for warning in report.warnings:
+        typer.echo(f"note: {warning}", err=True)
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("gait")
+    def gait(
+        result: Path = typer.Argument(..., help="NPZ with points_mm (T,J,3), times_s (T,), joint_names (J,)."),
+        walkway: Path | None = typer.Option(None, "--walkway", help="Walkway export CSV to compare with."),
+        as_json: bool = typer.Option(False, "--json", help="Print the report as one JSON object."),
+        csv_path: Path | None = typer.Option(None, "--csv", help="Write one CSV row per step to FILE."),
+        plot_path: Path | None = typer.Option(None, "--plot", help="Write a PNG of the heel traces to FILE."),
+    ) -> None:
+        """Gait events, bouts and spatiotemporal parameters of a reconstructed trial."""
+        from reconstruction.gait import analyze_gait, compare_with_walkway, read_walkway_csv
+        from reconstruction.gait.plot import heel_traces_png
+
+        with user_errors():
+            points, times, names, quality = _load(result)
+            report = analyze_gait(points, times, names, quality=quality)
+            if walkway is not None:
+                trial = _pick_trial(read_walkway_csv(walkway), result)
+                report = report.with_walkway(compare_with_walkway([(points, times, names)], [trial]))
+            if csv_path is not None:
+                report.write_csv(csv_path)
+            if plot_path is not None:
+                png = heel_traces_png(report, points, times, names)
+                tmp = plot_path.with_name(f".{plot_path.name}.tmp")
+                tmp.write_bytes(png)
+                tmp.replace(plot_path)
+        if as_json:
+            typer.echo(report.to_json())
+        else:
+            _echo_summary(report)
