@@ -2,7 +2,7 @@
 
 Environment: ``GAITCAP_TOKEN`` (one token, user ``clinic``) or ``GAITCAP_TOKENS`` (``user:token,...``),
 ``GAITCAP_CATALOG`` (SQLite path or SQLAlchemy URL), ``GAITCAP_DATA_DIR``, ``GAITCAP_HOST`` (default
-127.0.0.1), ``GAITCAP_PORT`` (8000), ``GAITCAP_ZENOH_CONNECT`` (comma-separated endpoints; empty: no bus).
+127.0.0.1), ``GAITCAP_PORT`` (8000). The bus (``GAITCAP_BUS``) is opened by ``gaitcap serve``, not here.
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ class Settings:
     data_dir: Path
     host: str = "127.0.0.1"
     port: int = 8000
-    zenoh_connect: tuple[str, ...] = ()
     status_period_s: float = 0.5
     extra: dict = field(default_factory=dict)
 
@@ -57,7 +56,6 @@ class Settings:
             data_dir=data_dir,
             host=env.get("GAITCAP_HOST", "127.0.0.1"),
             port=int(env.get("GAITCAP_PORT", "8000")),
-            zenoh_connect=tuple(filter(None, env.get("GAITCAP_ZENOH_CONNECT", "").split(","))),
         )
         values.update(overrides)
         return cls(**values)

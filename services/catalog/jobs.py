@@ -14,7 +14,8 @@ from dataclasses import dataclass
 from sqlalchemy import or_, select, update
 
 from services.catalog.db import Catalog
-from services.catalog.models import Job
+from services.catalog.models import Job, Trial
+from services.catalog.states import TrialState
 
 QUEUED, RUNNING, DONE, FAILED = "queued", "running", "done", "failed"
 
@@ -62,6 +63,7 @@ def lease_job(catalog: Catalog, worker_id: str, *, lease_s: float = 10.0, kind: 
             if job.attempts >= job.max_attempts:
                 job.state, job.finished_at = FAILED, now
                 job.error = (job.error or "") + f" gave up after {job.attempts} attempts"
+                _fail_trial(s, job.trial_id, f"processing stopped {job.attempts} times (worker lost); gave up")
                 continue
             taken = s.execute(
                 update(Job).where(Job.id == job.id, _takeable(now))
@@ -74,6 +76,12 @@ def lease_job(catalog: Catalog, worker_id: str, *, lease_s: float = 10.0, kind: 
                 s.refresh(job)
                 return _info(job)
     return None
+
+
+def _fail_trial(s, trial_id: str, error: str) -> None:
+    trial = s.get(Trial, trial_id)
+    if trial is not None and trial.state in (TrialState.RECORDED.value, TrialState.PROCESSING.value):
+        trial.state, trial.error, trial.updated_at, trial.stage = TrialState.FAILED.value, error, time.time(), ""
 
 
 def renew_lease(catalog: Catalog, job_id: int, worker_id: str, *, lease_s: float = 10.0) -> bool:

@@ -48,6 +48,7 @@ def test_job_gives_up_after_max_attempts(db):
     assert cat.lease_job(c, "w2") is None
     job = cat.jobs_for_trial(c, tid)[0]
     assert job.state == "failed" and "gave up" in job.error
+    assert cat.get_trial(c, tid).state == "failed" and "gave up" in cat.get_trial(c, tid).error
 
 
 def test_fail_job_stores_the_error(db):

@@ -1,0 +1,99 @@
+"""The API's link to the live system over Zenoh: the recorder's queryables, camera status, previews.
+
+Implements :class:`services.live.Link` with ``services.bus.control`` clients on a session of the
+``api`` node (peer mode, explicit endpoints; see ``services.bus.session``).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+from services.live import CameraHealth, RecorderUnavailable
+
+log = logging.getLogger(__name__)
+STALE_S = 3.0  # no status or frame for this long: the camera is reported as "no signal"
+
+
+def camera_health(name: str, status: dict | None, frame_age_s: float | None, now_s: float) -> CameraHealth:
+    """Health in words from the camera's latest status message and the age of its newest frame."""
+    status = status or {}
+    fps = float(status.get("fps") or 0.0)
+    status_age = now_s - status.get("time_ns", 0) / 1e9 if status else float("inf")
+    age = min(status_age, frame_age_s if frame_age_s is not None else float("inf"))
+    health = str(status.get("health", "ok" if frame_age_s is not None else "unknown"))
+    if age > STALE_S:
+        words, ok = "no signal", False
+    elif status.get("error"):
+        words, ok = f"error: {status['error']}", False
+    elif health != "ok":
+        words, ok = health, False
+    else:
+        words, ok = "ok", True
+    details = {k: status.get(k) for k in ("state", "frames", "drops", "ptp_jumps") if k in status}
+    return CameraHealth(name, fps, ok, words, age if age != float("inf") else -1.0, details)
+
+
+class BusLink:
+    def __init__(self, bus, *, node: str | None = "api", timeout_s: float = 10.0) -> None:
+        from services.bus.control import CameraStatusBoard, PreviewFrames, RecorderClient
+        from services.bus.session import declare_alive, open_session
+
+        self.bus = bus
+        self.session = open_session(bus, node)
+        self._alive = declare_alive(self.session, bus, node) if node else None
+        self.recorder = RecorderClient(self.session, bus.keys, timeout_s=timeout_s)
+        self.status_board = CameraStatusBoard(self.session, bus.keys)
+        self.previews = PreviewFrames(self.session, bus.keys)
+
+    def start(self, *, trial_id: str, path: str, metadata: dict) -> None:
+        from services.bus.control import RecorderError
+
+        meta = dict(metadata)
+        calibration = meta.pop("calibration_toml", "") or None
+        try:
+            self.recorder.start(trial_id=trial_id, path=path, metadata=meta, calibration_toml=calibration)
+        except RecorderError as exc:
+            raise RecorderUnavailable(str(exc)) from None
+
+    def stop(self, trial_id: str) -> dict:
+        from services.bus.control import RecorderError
+
+        try:
+            return self.recorder.stop(trial_id).get("summary", {})
+        except RecorderError as exc:
+            raise RecorderUnavailable(str(exc)) from None
+
+    def cameras(self) -> list[CameraHealth]:
+        now = time.time()
+        statuses = self.status_board.snapshot()
+        frames = self.previews.latest()
+        names = sorted(set(statuses) | set(frames))
+        return [camera_health(n, statuses.get(n), now - frames[n].received_s if n in frames else None, now)
+                for n in names]
+
+    def preview(self, camera: str) -> tuple[float, bytes] | None:
+        frame = self.previews.latest().get(camera)
+        return None if frame is None else (frame.received_s, frame.jpeg)
+
+    def close(self) -> None:
+        for item in (self.status_board, self.previews):
+            try:
+                item.close()
+            except Exception:  # closing during shutdown: nothing left to do
+                log.debug("closing %s failed", item, exc_info=True)
+        if self._alive is not None:
+            self._alive.undeclare()
+        self.session.close()
+
+
+class BusProgress:
+    """Publishes worker progress on ``<prefix>/worker/progress/<trial_id>`` (JSON)."""
+
+    def __init__(self, session, bus) -> None:
+        self.session, self.prefix = session, bus.keys.prefix
+
+    def publish(self, trial_id: str, payload: dict) -> None:
+        from services.bus.keys import dumps
+
+        self.session.put(f"{self.prefix}/worker/progress/{trial_id}", dumps(payload))

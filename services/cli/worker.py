@@ -1,0 +1,54 @@
+"""``gaitcap worker``: the reconstruction worker (takes recorded trials from the catalog's job table)."""
+
+from __future__ import annotations
+
+import signal
+import threading
+from pathlib import Path
+
+import typer
+
+from services.cli._common import user_errors
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def worker(
+        data_dir: Path = typer.Option(Path("runs/clinic"), "--data-dir", envvar="GAITCAP_DATA_DIR"),
+        catalog: str = typer.Option("", "--catalog", envvar="GAITCAP_CATALOG",
+                                    help="SQLite path or SQLAlchemy URL (default DATA_DIR/catalog.sqlite)."),
+        worker_id: str = typer.Option("", "--id", help="Worker name (default host-pid)."),
+        lease_s: float = typer.Option(10.0, "--lease", help="Job lease (s); renewed every third of it."),
+        no_refine: bool = typer.Option(False, "--no-refine", help="Preliminary results only."),
+        bus: Path | None = typer.Option(None, "--bus", envvar="GAITCAP_BUS", help="Bus file (JSON5)."),
+        no_bus: bool = typer.Option(False, "--no-bus", help="Do not publish progress on the bus."),
+        node: str = typer.Option("worker", "--node", help="Bus node name of this worker."),
+        warm_up: bool = typer.Option(True, "--warm-up/--no-warm-up", help="Compile JAX code at start."),
+    ) -> None:
+        """Process recorded trials: preliminary then refined gait metrics, files, progress on the bus."""
+        from services.worker import Worker, WorkerConfig, warm_worker
+
+        with user_errors():
+            cfg = WorkerConfig(catalog_url=catalog or str(data_dir / "catalog.sqlite"), data_dir=data_dir,
+                               lease_s=lease_s, refine=not no_refine,
+                               **({"worker_id": worker_id} if worker_id else {}))
+            progress, session = None, None
+            if not no_bus:
+                from services.bus.session import declare_alive, default_bus_config, open_session
+                from services.bus_link import BusProgress
+
+                bus_cfg = default_bus_config(bus)
+                session = open_session(bus_cfg, node)
+                _token = declare_alive(session, bus_cfg, node)  # noqa: F841  (held while running)
+                progress = BusProgress(session, bus_cfg)
+            w = Worker(cfg, progress=progress)
+        stop = threading.Event()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: stop.set())
+        if warm_up:
+            typer.echo(f"worker {cfg.worker_id}: warming up (compiling) ...", err=True)
+            typer.echo(f"worker {cfg.worker_id}: warm in {warm_worker(cache_dir=data_dir / '.jax-cache'):.1f} s", err=True)
+        typer.echo(f"worker {cfg.worker_id}: ready", err=True)
+        w.run(stop)
+        if session is not None:
+            session.close()

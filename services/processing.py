@@ -1,0 +1,146 @@
+"""The worker's computation of one trial: recording -> preliminary and refined trajectories -> gait.
+
+Pure orchestration of ``acquisition.recording`` (reader) and ``reconstruction`` (maths); files are
+written by :mod:`services.trial_outputs`. Robust triangulation is run on detections padded to a
+frame-count bucket so a warm worker does not recompile JAX for every new trial length.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from reconstruction.calibration_io import load_rig
+from reconstruction.camera import Rig
+from reconstruction.detections import Detections
+
+log = logging.getLogger(__name__)
+FRAME_BUCKET = 512
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """One reconstruction of a trial.
+
+    Attributes:
+        method: what produced it (words).
+        points_mm: (T, J, 3) mm, NaN where unknown.
+        times_s: (T,) s.
+        joint_names: (J,) names.
+        num_views: (T, J) views that agreed (0 where NaN), or None.
+        sample: continuous trajectory ``sample(times_s (N,)) -> (N, J, 3)`` mm, or None.
+        metrics: method's quality metrics (GC_d, losses, ...), JSON-ready.
+        elapsed_s: compute time s.
+    """
+
+    method: str
+    points_mm: np.ndarray
+    times_s: np.ndarray
+    joint_names: tuple[str, ...]
+    num_views: np.ndarray | None = None
+    sample: Callable[[np.ndarray], np.ndarray] | None = None
+    metrics: dict | None = None
+    elapsed_s: float = 0.0
+
+
+def load_recording(mcap_path: Path, *, fallback_calibration: Path | None = None) -> tuple[Detections, Rig]:
+    """The patient's 2D detections and the rig's calibration from a trial MCAP.
+
+    The calibration recorded in the MCAP is used; ``fallback_calibration`` (TOML/JSON) when it has none.
+    """
+    from acquisition.recording.reader import read_calibration, read_detections
+
+    detections = read_detections(mcap_path)
+    try:
+        rig = read_calibration(mcap_path)
+    except (ValueError, KeyError) as exc:
+        if fallback_calibration is None:
+            raise ValueError(f"recording {mcap_path.name}: no calibration in it ({exc})") from None
+        rig = load_rig(fallback_calibration)
+    return detections, rig
+
+
+def bucket_frames(num_frames: int, bucket: int = FRAME_BUCKET) -> int:
+    return max(bucket, -(-num_frames // bucket) * bucket)
+
+
+def pad_detections(det: Detections, num_frames: int) -> Detections:
+    """Append frames with no observations (confidence 0, NaN pixels) up to ``num_frames``."""
+    c, t, j = det.shape
+    if num_frames <= t:
+        return det
+    dt = float(np.median(np.diff(det.times_s))) if t > 1 else 1 / 30
+    pad = np.full((c, num_frames - t, j, 3), np.nan)
+    pad[..., 2] = 0.0
+    times = np.concatenate([det.times_s, det.times_s[-1] + dt * np.arange(1, num_frames - t + 1)])
+    return replace(det, keypoints=np.concatenate([det.keypoints, pad], axis=1), times_s=times)
+
+
+def preliminary(det: Detections, rig: Rig) -> Trajectory:
+    """Robust triangulation (the paper's), on a frame-count bucket to reuse compiled code."""
+    from reconstruction.triangulation import robust_triangulate
+
+    t0 = time.perf_counter()
+    _, t, _ = det.shape
+    result = robust_triangulate(pad_detections(det, bucket_frames(t)), rig)
+    points = np.asarray(result.points_mm)[:t]
+    views = np.asarray(result.quality)[:t]
+    return Trajectory("robust triangulation", points, det.times_s, det.skeleton.joint_names,
+                      num_views=views, metrics={}, elapsed_s=time.perf_counter() - t0)
+
+
+def refined(det: Detections, rig: Rig) -> Trajectory:
+    """The default implicit trajectory fit (continuous in time)."""
+    from reconstruction.methods import ImplicitConfig, reconstruct
+
+    t0 = time.perf_counter()
+    rec = reconstruct(det, rig, method=ImplicitConfig())
+    return Trajectory("implicit trajectory fit", np.asarray(rec.points_mm), np.asarray(rec.times_s),
+                      tuple(rec.joint_names), num_views=None, sample=rec.sample,
+                      metrics=dict(getattr(rec, "metrics", {}) or {}), elapsed_s=time.perf_counter() - t0)
+
+
+def warm_up(rig: Rig, skeleton, *, frames: tuple[int, ...] = (FRAME_BUCKET, 2 * FRAME_BUCKET)) -> float:
+    """Compile robust triangulation for the usual frame buckets; returns the time spent (s)."""
+    t0 = time.perf_counter()
+    c, j = len(rig.cameras), skeleton.num_joints
+    rng = np.random.default_rng(0)
+    for t in frames:
+        pts = rng.uniform(-300, 300, (t * j, 3)) + np.array([0.0, 0.0, 900.0])
+        xy = np.stack([cam.project(pts) for cam in rig.cameras]).reshape(c, t, j, 2)
+        kp = np.concatenate([xy, np.ones((c, t, j, 1))], axis=-1)
+        det = Detections(kp, rig.names, np.arange(t) / 30.0, skeleton)
+        preliminary(det, rig)
+    return time.perf_counter() - t0
+
+
+def ring_rig(num_cameras: int = 10, *, radius_mm: float = 5000.0, height_mm: float = 2000.0) -> Rig:
+    """A ring of cameras looking at the origin (only for compiling code of the right shapes)."""
+    from reconstruction.camera import Camera, matrix_to_rodrigues
+
+    cams = []
+    for i in range(num_cameras):
+        a = 2 * np.pi * i / num_cameras
+        center = np.array([radius_mm * np.cos(a), radius_mm * np.sin(a), height_mm])
+        z = -center / np.linalg.norm(center)
+        x = np.cross(z, [0.0, 0.0, 1.0])
+        x /= np.linalg.norm(x)
+        rot = np.stack([x, np.cross(z, x), z])
+        cams.append(Camera(name=f"cam{i}", size_px=(640, 480),
+                           matrix_px=np.array([[600.0, 0, 320], [0, 600.0, 240], [0, 0, 1]]),
+                           dist=np.zeros(5), rvec=matrix_to_rodrigues(rot), tvec_mm=-rot @ center))
+    return Rig(cameras=tuple(cams))
+
+
+def enable_compile_cache(path: Path) -> None:
+    """JAX's persistent compilation cache, so a restarted worker is warm sooner."""
+    import jax
+
+    path.mkdir(parents=True, exist_ok=True)
+    jax.config.update("jax_compilation_cache_dir", str(path))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)

@@ -1,0 +1,141 @@
+"""Writing one processing stage's files (npz, TRC, Rerun .rrd, gait JSON/CSV, report PNG) and turning a
+GaitReport into the catalog's step rows and summary. Every file is written to a temporary name and
+renamed, so a reader never sees half a file."""
+
+from __future__ import annotations
+
+import io
+import logging
+import math
+
+import numpy as np
+
+from services.artifacts import TrialFiles, atomic_path, write_bytes_atomic
+from services.processing import Trajectory
+
+log = logging.getLogger(__name__)
+
+STEP_COLUMNS = ("step_length_mm", "stride_length_mm", "step_width_mm", "step_time_s", "stride_time_s",
+                "stance_pct", "swing_pct", "double_support_pct", "confidence")
+SUMMARY_PARAMS = (("step_length_mm", "mm"), ("stride_length_mm", "mm"), ("step_width_mm", "mm"),
+                  ("step_time_s", "s"), ("stance_pct", "%"), ("double_support_pct", "%"))
+
+
+def _f(x) -> float | None:
+    return float(x) if x is not None and math.isfinite(float(x)) else None
+
+
+def steps_of(report) -> list[dict]:
+    """Catalog step rows: side, time_s, then the main parameters (units in the names)."""
+    return [{"side": s.foot, "time_s": round(float(s.heel_strike_s), 3), "pass": s.pass_index,
+             **{k: _f(getattr(s, k)) for k in STEP_COLUMNS}} for s in report.steps]
+
+
+def summary_of(report) -> dict[str, dict]:
+    """Catalog summary: cadence, speed, step count and mean +- SD of the main parameters."""
+    s = report.summary
+    out = {"gait_speed_m_per_s": {"mean": _f(s.gait_speed_m_s), "unit": "m/s"},
+           "cadence_steps_per_min": {"mean": _f(s.cadence_steps_min), "unit": "steps/min"}}
+    for name, unit in SUMMARY_PARAMS:
+        stats = s.parameters.get(name, {}).get("all")
+        if stats is not None:
+            out[name] = {"mean": _f(stats.mean), "sd": _f(stats.sd), "unit": unit}
+    sym = s.asymmetry_pct.get("step_length_mm")
+    if sym is not None:
+        out["step_length_asymmetry_pct"] = {"mean": _f(sym), "unit": "%"}
+    out["steps_count"] = {"mean": float(s.num_steps), "unit": ""}
+    return out
+
+
+def write_npz(path, traj: Trajectory) -> None:
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, points_mm=traj.points_mm, times_s=traj.times_s, joint_names=np.array(traj.joint_names),
+                 num_views=traj.num_views if traj.num_views is not None else np.zeros(0))
+
+
+def trc_text(traj: Trajectory, *, name: str) -> str:
+    """OpenSim TRC (mm, y up is not assumed: the lab's z-up axes are kept)."""
+    t, j, _ = traj.points_mm.shape
+    rate = (t - 1) / (traj.times_s[-1] - traj.times_s[0]) if t > 1 else 30.0
+    head = [f"PathFileType\t4\t(X/Y/Z)\t{name}",
+            "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
+            f"{rate:.3f}\t{rate:.3f}\t{t}\t{j}\tmm\t{rate:.3f}\t1\t{t}",
+            "Frame#\tTime\t" + "\t\t\t".join(traj.joint_names) + "\t\t",
+            "\t\t" + "\t".join(f"X{i + 1}\tY{i + 1}\tZ{i + 1}" for i in range(j)), ""]
+    rows = []
+    for k in range(t):
+        vals = "\t".join("" if not np.isfinite(v) else f"{v:.3f}" for v in traj.points_mm[k].reshape(-1))
+        rows.append(f"{k + 1}\t{traj.times_s[k]:.5f}\t{vals}")
+    return "\n".join(head + rows) + "\n"
+
+
+def write_rrd(path, traj: Trajectory, *, trial_id: str, bones) -> None:
+    """A Rerun recording (joints and bones over time, z up); no viewer, no network."""
+    import rerun as rr
+
+    t, j, _ = traj.points_mm.shape
+    with atomic_path(path) as tmp:
+        rec = rr.RecordingStream("gaitcap", recording_id=trial_id)
+        rec.save(str(tmp))
+        rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        index = [rr.TimeColumn("time", duration=traj.times_s)]
+        pts = np.nan_to_num(traj.points_mm.astype(np.float32))
+        rec.send_columns("world/joints", indexes=index,
+                         columns=rr.Points3D.columns(positions=pts.reshape(-1, 3)).partition([j] * t))
+        if bones:
+            strips = pts[:, np.asarray(bones)]
+            rec.send_columns("world/bones", indexes=index,
+                             columns=rr.LineStrips3D.columns(strips=strips.reshape(-1, 2, 3)).partition([len(bones)] * t))
+        rec.flush()
+        rec.disconnect()
+
+
+def report_png(traj: Trajectory, report, *, title: str) -> bytes:
+    """Heel height and forward heel position over time for both feet, with the heel strikes used."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 5.5), dpi=100)
+    ax_h, ax_x = fig.subplots(2, 1, sharex=True)
+    colors = {"left": "#1f77b4", "right": "#d62728"}
+    for side, color in colors.items():
+        name = f"{side}_heel"
+        if name not in traj.joint_names:
+            continue
+        heel = traj.points_mm[:, traj.joint_names.index(name)]
+        ax_h.plot(traj.times_s, heel[:, 2], color=color, lw=1.2, label=f"{side} heel")
+        ax_x.plot(traj.times_s, heel[:, 0], color=color, lw=1.2, label=f"{side} heel x")
+        ax_x.plot(traj.times_s, heel[:, 1], color=color, lw=1.0, ls="--", label=f"{side} heel y")
+        if report is not None:
+            strikes = [s.heel_strike_s for s in report.steps if s.foot == side]
+            z = np.interp(strikes, traj.times_s, np.nan_to_num(heel[:, 2])) if strikes else []
+            ax_h.plot(strikes, z, "v", color=color, ms=7, label=f"{side} heel strikes")
+    ax_h.set_ylabel("heel height (mm)")
+    ax_x.set_ylabel("heel position (mm)")
+    ax_x.set_xlabel("time (s)")
+    ax_h.legend(loc="upper right", fontsize=8, ncol=2)
+    ax_x.legend(loc="upper right", fontsize=7, ncol=2)
+    ax_h.set_title(title, fontsize=11)
+    for ax in (ax_h, ax_x):
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+def write_stage(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str, bones=(),
+                rrd: bool = True) -> dict[str, str]:
+    """Write every file of one stage; returns artifact key -> path."""
+    write_npz(files.stage_file(stage, "trajectory_npz"), traj)
+    write_bytes_atomic(files.stage_file(stage, "trajectory_trc"), trc_text(traj, name=f"{trial_id}.trc").encode())
+    if report is not None:
+        report.write_json(files.stage_file(stage, "gait_json"))
+        report.write_csv(files.stage_file(stage, "steps_csv"))
+    title = f"Trial {trial_id}: {stage} ({traj.method})"
+    write_bytes_atomic(files.stage_file(stage, "report_png"), report_png(traj, report, title=title))
+    if rrd:
+        write_rrd(files.stage_file(stage, "rerun_rrd"), traj, trial_id=trial_id, bones=bones)
+    return files.existing(stage)

@@ -1,0 +1,217 @@
+"""The reconstruction worker: takes recorded trials from the catalog's job table (under a lease), reads
+the MCAP, stores PRELIMINARY gait metrics (robust triangulation) first, then the REFINED ones (implicit
+fit), writes the files and reports progress on the bus.
+
+Several workers may run; each renews its lease while it works. A worker that dies stops renewing and
+its job is taken over by another once the lease has expired (the trial stays ``processing``). The
+process stays warm: JAX code is compiled once at start (:meth:`Worker.warm_up`).
+
+Progress on the bus: ``<prefix>/worker/progress/<trial_id>`` JSON ``{"trial_id", "state", "stage",
+"progress" (0..1), "result" (null | "preliminary" | "refined"), "worker", "time_ns"}``.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+from services import catalog as cat
+from services.artifacts import trial_files
+from services.processing import (
+    Trajectory,
+    enable_compile_cache,
+    load_recording,
+    preliminary,
+    refined,
+    ring_rig,
+    warm_up,
+)
+from services.trial_outputs import steps_of, summary_of, write_stage
+
+log = logging.getLogger(__name__)
+
+
+class LeaseLost(RuntimeError):
+    """Another worker has taken this job over (our lease expired)."""
+
+
+class ProgressSink(Protocol):
+    def publish(self, trial_id: str, payload: dict) -> None: ...
+
+
+class NoProgress:
+    def publish(self, trial_id: str, payload: dict) -> None:
+        pass
+
+
+@dataclass(frozen=True)
+class WorkerConfig:
+    """catalog_url: SQLite path or URL; data_dir: trial files; lease_s: job lease (s), renewed every
+    lease_s / 3; poll_s: how often the job table is polled (s); refine: run the implicit fit."""
+
+    catalog_url: str
+    data_dir: Path
+    worker_id: str = f"{socket.gethostname()}-{os.getpid()}"
+    lease_s: float = 10.0
+    poll_s: float = 0.2
+    refine: bool = True
+    fallback_calibration: Path | None = None
+
+    def __post_init__(self) -> None:
+        if self.lease_s < 1.0:
+            raise ValueError(f"lease_s: must be >= 1 s, got {self.lease_s}")
+        if self.poll_s <= 0:
+            raise ValueError(f"poll_s: must be > 0, got {self.poll_s}")
+
+
+class LeaseKeeper:
+    """Renews a job's lease in a background thread; ``lost`` is set when renewal fails."""
+
+    def __init__(self, db: cat.Catalog, job: cat.JobInfo, worker_id: str, lease_s: float) -> None:
+        self.db, self.job, self.worker_id, self.lease_s = db, job, worker_id, lease_s
+        self.lost, self._stop = threading.Event(), threading.Event()
+        self._thread = threading.Thread(target=self._run, name=f"lease-{job.id}", daemon=True)
+
+    def __enter__(self) -> LeaseKeeper:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._stop.set()
+        self._thread.join(5)
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.lease_s / 3):
+            try:
+                if not cat.renew_lease(self.db, self.job.id, self.worker_id, lease_s=self.lease_s):
+                    self.lost.set()
+                    return
+            except Exception:  # a transient DB error: try again next period
+                log.exception("lease renewal of job %s failed", self.job.id)
+
+    def check(self) -> None:
+        if self.lost.is_set():
+            raise LeaseLost(f"job {self.job.id} of trial {self.job.trial_id} was taken over")
+
+
+class Worker:
+    def __init__(self, config: WorkerConfig, *, db: cat.Catalog | None = None,
+                 progress: ProgressSink | None = None) -> None:
+        self.config = config
+        self.db = db or cat.open_catalog(config.catalog_url)
+        self.progress = progress or NoProgress()
+
+    # ------------------------------------------------------------------ loop
+    def run(self, stop: threading.Event) -> None:
+        """Process jobs until ``stop`` is set."""
+        log.info("worker %s polling %s", self.config.worker_id, self.db.url)
+        while not stop.is_set():
+            if not self.run_once():
+                stop.wait(self.config.poll_s)
+
+    def run_once(self) -> bool:
+        """Take and process one job; False when there was none."""
+        job = cat.lease_job(self.db, self.config.worker_id, lease_s=self.config.lease_s)
+        if job is None:
+            return False
+        log.info("job %s: trial %s (attempt %s)", job.id, job.trial_id, job.attempts)
+        with LeaseKeeper(self.db, job, self.config.worker_id, self.config.lease_s) as lease:
+            try:
+                self.process(job.trial_id, lease)
+            except LeaseLost as exc:
+                log.warning("%s; leaving it to the other worker", exc)
+                return True
+            except Exception as exc:  # any failure ends the trial as failed, with the reason
+                log.exception("trial %s failed", job.trial_id)
+                if not lease.lost.is_set() and cat.fail_job(self.db, job.id, self.config.worker_id, str(exc)):
+                    self._fail_trial(job.trial_id, exc)
+                return True
+            if not cat.complete_job(self.db, job.id, self.config.worker_id):
+                log.warning("job %s: lease lost before completion", job.id)
+        return True
+
+    def _fail_trial(self, trial_id: str, exc: Exception) -> None:
+        message = f"{type(exc).__name__}: {exc}" if not isinstance(exc, ValueError) else str(exc)
+        try:
+            cat.set_state(self.db, trial_id, "failed", error=message[:2000], stage="")
+        except cat.IllegalTransition:
+            log.warning("trial %s could not be marked failed", trial_id)
+        self._report(trial_id, "failed", "failed", 1.0, None)
+
+    # ------------------------------------------------------------------ one trial
+    def _report(self, trial_id: str, state: str, stage: str, progress: float, result: str | None) -> None:
+        cat.set_progress(self.db, trial_id, stage=stage, progress=progress)
+        self.progress.publish(trial_id, {"trial_id": trial_id, "state": state, "stage": stage,
+                                         "progress": progress, "result": result,
+                                         "worker": self.config.worker_id, "time_ns": time.time_ns()})
+
+    def process(self, trial_id: str, lease: LeaseKeeper) -> None:
+        trial = cat.get_trial(self.db, trial_id)
+        if trial.state == "recorded":
+            cat.set_state(self.db, trial_id, "processing", stage="starting", progress=0.0)
+        elif trial.state != "processing":  # done or failed meanwhile: nothing to do
+            log.info("trial %s is %s; skipping", trial_id, trial.state)
+            return
+        files = trial_files(self.config.data_dir, trial_id)
+        self._report(trial_id, "processing", "reading the recording", 0.05, None)
+        det, rig = load_recording(files.recording, fallback_calibration=self.config.fallback_calibration)
+        det, rig = det.aligned_to(rig)
+        self._report(trial_id, "processing", "first 3D reconstruction", 0.1, None)
+        traj = preliminary(det, rig)
+        lease.check()
+        self._store(trial_id, "preliminary", traj, det, rrd=not self.config.refine)
+        if self.config.refine:
+            self._report(trial_id, "processing", "refining the 3D reconstruction", 0.4, "preliminary")
+            traj = refined(det, rig)
+            lease.check()
+            self._store(trial_id, "refined", traj, det, rrd=True)
+        cat.set_state(self.db, trial_id, "done", expect="processing", stage="done", progress=1.0)
+        self._report(trial_id, "done", "done", 1.0, "refined" if self.config.refine else "preliminary")
+
+    def _store(self, trial_id: str, stage: str, traj: Trajectory, det, *, rrd: bool) -> None:
+        import numpy as np
+
+        from reconstruction.gait import TrajectoryQuality, analyze_gait
+
+        t0 = time.perf_counter()
+        report, problem = None, ""
+        quality = None if traj.num_views is None else TrajectoryQuality(
+            num_views=traj.num_views, reprojection_px=np.full(traj.num_views.shape, np.nan))
+        try:
+            report = analyze_gait(traj.points_mm, traj.times_s, list(traj.joint_names), sample=traj.sample,
+                                  quality=quality)
+        except ValueError as exc:
+            problem = str(exc)
+            log.warning("trial %s %s: no gait parameters: %s", trial_id, stage, exc)
+        files = trial_files(self.config.data_dir, trial_id)
+        artifacts = write_stage(files, stage, traj, report, trial_id=trial_id, bones=det.skeleton.bone_indices,
+                                rrd=rrd)
+        extra = {"warnings": list(report.warnings) if report else [], "problem": problem,
+                 "compute_s": round(traj.elapsed_s, 3), "gait_and_files_s": round(time.perf_counter() - t0, 3)}
+        cat.store_result(self.db, trial_id=trial_id, stage=stage, method=traj.method,
+                         steps=steps_of(report) if report else [], summary=summary_of(report) if report else {},
+                         report=extra, quality=traj.metrics or {}, artifacts=artifacts,
+                         elapsed_s=traj.elapsed_s + time.perf_counter() - t0)
+        log.info("trial %s: %s results stored (%.2f s compute)", trial_id, stage, traj.elapsed_s)
+
+
+def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:
+    """Compile the preliminary stage for ``cameras`` cameras and load the plotting code; seconds spent."""
+    from reconstruction.skeletons import get_skeleton
+    from services.trial_outputs import report_png
+
+    t0 = time.perf_counter()
+    if cache_dir is not None:
+        enable_compile_cache(cache_dir)
+    warm_up(ring_rig(cameras), get_skeleton(skeleton))
+    import numpy as np
+
+    traj = Trajectory("warm-up", np.zeros((3, 1, 3)), np.arange(3.0), ("left_heel",))
+    report_png(traj, None, title="warm-up")
+    return time.perf_counter() - t0
