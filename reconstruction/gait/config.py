@@ -22,6 +22,10 @@ class GaitConfig:
         min_pass_s: shortest straight walking segment kept as a pass (s).
         rest_speed_fraction: foot point at rest when slower than this fraction of the walking speed.
         min_rest_speed_mm_s: lower bound of that rest-speed threshold (mm/s).
+        min_event_speed_mm_s: events are located where the foot's speed crosses this (mm/s), or
+            ``event_noise_factor`` x the median speed at rest when the trajectory is noisier, at most the
+            rest threshold: the lower, the smaller the early/late bias of the events.
+        event_noise_factor: see min_event_speed_mm_s.
         max_contact_lift_mm: a foot is on the ground only if heel or toe is within this height of its
             stance height (mm).
         min_stance_s: shortest foot contact kept (s).
@@ -42,6 +46,8 @@ class GaitConfig:
     min_pass_s: float = 1.5
     rest_speed_fraction: float = 0.08
     min_rest_speed_mm_s: float = 40.0
+    min_event_speed_mm_s: float = 10.0
+    event_noise_factor: float = 3.0
     max_contact_lift_mm: float = 80.0
     min_stance_s: float = 0.12
     min_swing_s: float = 0.12

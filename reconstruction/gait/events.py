@@ -71,26 +71,32 @@ def _clean(mask: np.ndarray, times_s: np.ndarray, min_false_s: float, min_true_s
     return out
 
 
-def _crossings(tracks: FootTracks, side: str, brackets: np.ndarray, v_rest: float, *, falling: bool,
+def _crossings(tracks: FootTracks, side: str, brackets: np.ndarray, v_event: float, *, falling: bool,
                resolution_s: float) -> np.ndarray:
-    """Sub-frame times where min(heel, toe) speed crosses v_rest inside each (t0, t1) bracket."""
+    """Sub-frame times where min(heel, toe) speed crosses v_event inside each (t0, t1) bracket.
+
+    falling: the first time the speed drops below v_event (heel strike); else the time it last rises
+    above it (toe off). Linear interpolation between samples ``resolution_s`` apart.
+    """
     if len(brackets) == 0:
         return np.zeros(0)
     n = max(2, int(np.ceil(np.max(brackets[:, 1] - brackets[:, 0]) / resolution_s)) + 1)
-    frac = np.linspace(0.0, 1.0, n)
-    grid = brackets[:, :1] + (brackets[:, 1:] - brackets[:, :1]) * frac  # (E, n)
+    grid = brackets[:, :1] + (brackets[:, 1:] - brackets[:, :1]) * np.linspace(0.0, 1.0, n)  # (E, n)
     speed = tracks.speed_mm_s(grid.ravel())
-    f = (np.minimum(speed[:, HEEL[side]], speed[:, TOE[side]]) - v_rest).reshape(grid.shape)
-    hit = (f < 0) if falling else (f >= 0)
+    f = (np.minimum(speed[:, HEEL[side]], speed[:, TOE[side]]) - v_event).reshape(grid.shape)
     out = np.empty(len(brackets))
     for e in range(len(brackets)):
-        j = int(np.argmax(hit[e])) if hit[e].any() else n - 1
-        if j == 0:
-            out[e] = grid[e, 0]
+        below = np.flatnonzero(f[e] < 0)
+        if len(below) == 0:  # never that slow: fall back to the middle of the bracket
+            out[e] = 0.5 * (grid[e, 0] + grid[e, -1])
             continue
-        f0, f1 = f[e, j - 1], f[e, j]
-        w = f0 / (f0 - f1) if f0 != f1 else 1.0
-        out[e] = grid[e, j - 1] + np.clip(w, 0.0, 1.0) * (grid[e, j] - grid[e, j - 1])
+        j0, j1 = (below[0] - 1, below[0]) if falling else (below[-1], below[-1] + 1)
+        if j0 < 0 or j1 >= n:
+            out[e] = grid[e, max(min(j1, n - 1), 0)]
+            continue
+        f0, f1 = f[e, j0], f[e, j1]
+        w = f0 / (f0 - f1) if f0 != f1 else 0.0
+        out[e] = grid[e, j0] + np.clip(w, 0.0, 1.0) * (grid[e, j1] - grid[e, j0])
     return out
 
 
@@ -103,6 +109,14 @@ def _rest_point(points_mm: np.ndarray, speed: np.ndarray, v_rest: float) -> tupl
     centre = np.median(pts, axis=0)
     spread = float(np.median(np.linalg.norm(pts[:, :2] - centre[:2], axis=1)))
     return centre, spread
+
+
+def _event_speed(heel_speed, toe_speed, rest, v_rest: float, config: GaitConfig) -> float:
+    """Speed whose crossing marks an event: ``event_noise_factor`` x the median foot speed while at rest
+    (the trajectory's noise floor), at least ``min_event_speed_mm_s`` and at most ``v_rest``."""
+    still = np.minimum(heel_speed, toe_speed)[rest]
+    noise = float(np.median(still)) if len(still) else v_rest
+    return float(np.clip(config.event_noise_factor * noise, config.min_event_speed_mm_s, v_rest))
 
 
 def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
@@ -124,10 +138,12 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
         rest = _clean(rest, times, config.min_swing_s, config.min_stance_s)
         edges = np.flatnonzero(np.diff(np.r_[0, rest.astype(int), 0]))
         runs = list(zip(edges[::2], edges[1::2] - 1, strict=True))
-        starts = np.array([[times[a - 1], times[a]] for a, _ in runs if a > 0]).reshape(-1, 2)
-        ends = np.array([[times[b], times[b + 1]] for _, b in runs if b < len(times) - 1]).reshape(-1, 2)
-        hs = iter(_crossings(tracks, side, starts, v_rest, falling=True, resolution_s=config.event_resolution_s))
-        to = iter(_crossings(tracks, side, ends, v_rest, falling=False, resolution_s=config.event_resolution_s))
+        last = len(times) - 1
+        starts = np.array([[times[a - 1], times[min(a + 2, b)]] for a, b in runs if a > 0]).reshape(-1, 2)
+        ends = np.array([[times[max(b - 2, a)], times[b + 1]] for a, b in runs if b < last]).reshape(-1, 2)
+        v_event = _event_speed(speed[:, h], speed[:, t], rest, v_rest, config)
+        hs = iter(_crossings(tracks, side, starts, v_event, falling=True, resolution_s=config.event_resolution_s))
+        to = iter(_crossings(tracks, side, ends, v_event, falling=False, resolution_s=config.event_resolution_s))
         for a, b in runs:
             t_hs = next(hs) if a > 0 else np.nan
             t_to = next(to) if b < len(times) - 1 else np.nan
