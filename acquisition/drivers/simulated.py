@@ -207,3 +207,44 @@ def simulated_rig(
         cam.configure(CaptureSettings(fps=fps or trial_fps(trial), exposure_us=None, size_px=size_px))
         drivers.append(cam)
     return drivers
+
+
+@dataclass(frozen=True)
+class SimTrialSpec:
+    """How to rebuild the same synthetic trial in several processes (camera and detector nodes).
+
+    Attributes mirror ``acquisition.synthetic.make_trial(preset, seconds, cameras, people, seed, fps)``.
+    """
+
+    preset: str = "walk"
+    seconds: float = 3.0
+    cameras: int = 10
+    people: int = 1
+    seed: int = 0
+    fps: float = 30.0
+
+    def make(self) -> Any:
+        from acquisition.synthetic import make_trial
+
+        return make_trial(self.preset, seconds=self.seconds, cameras=self.cameras, people=self.people,
+                          seed=self.seed, fps=self.fps)
+
+
+def parse_faults(drops: list[str], stops: list[str]) -> dict[str, SimulatedFaults]:
+    """CLI fault specs -> faults: ``CAM:ID,ID,...`` drops those frame ids; ``CAM:ID`` stops after ID."""
+    dropped: dict[str, set[int]] = {}
+    stopped: dict[str, int] = {}
+    for spec in drops:
+        cam, _, ids = spec.partition(":")
+        try:
+            dropped.setdefault(cam, set()).update(int(i) for i in ids.split(",") if i)
+        except ValueError:
+            raise ValueError(f"--drop: expected CAMERA:ID,ID,..., got {spec!r}") from None
+    for spec in stops:
+        cam, _, fid = spec.partition(":")
+        try:
+            stopped[cam] = int(fid)
+        except ValueError:
+            raise ValueError(f"--stop: expected CAMERA:FRAME_ID, got {spec!r}") from None
+    return {cam: SimulatedFaults(frozenset(dropped.get(cam, ())), stopped.get(cam))
+            for cam in set(dropped) | set(stopped)}

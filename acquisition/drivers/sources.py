@@ -1,0 +1,82 @@
+"""Typed camera-source configs: each builds the opened and configured drivers of one host.
+
+``SimulatedSource`` (synthetic world), ``VideoSource`` (files / webcams), ``FlirSource`` (PySpin).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from acquisition.drivers.base import CameraDriver, CaptureSettings
+from acquisition.drivers.simulated import SimTrialSpec, parse_faults, simulated_rig
+
+
+@dataclass(frozen=True)
+class SimulatedSource:
+    """Simulated cameras of a synthetic trial (all, or the named subset)."""
+
+    spec: SimTrialSpec = SimTrialSpec()
+    cameras: list[str] | None = None
+    size_px: tuple[int, int] = (640, 480)
+    fps: float = 30.0
+    drops: tuple[str, ...] = ()
+    stops: tuple[str, ...] = ()
+    realtime: bool = True
+
+    def build(self) -> list[CameraDriver]:
+        trial = self.spec.make()
+        return simulated_rig(trial, size_px=self.size_px, fps=self.fps, realtime=self.realtime,
+                             faults=parse_faults(list(self.drops), list(self.stops)), cameras=self.cameras)
+
+
+@dataclass(frozen=True)
+class VideoSource:
+    """Video files (camera named after the file stem) and webcams (``webcam<index>``)."""
+
+    files: tuple[str, ...] = ()
+    webcams: tuple[int, ...] = ()
+    fps: float = 30.0
+    realtime: bool = True
+
+    def build(self) -> list[CameraDriver]:
+        from acquisition.drivers.video import VideoCamera, WebcamCamera
+
+        if not self.files and not self.webcams:
+            raise ValueError("video source: give --video FILE and/or --webcam INDEX")
+        drivers: list[CameraDriver] = [VideoCamera(Path(f), realtime=self.realtime) for f in self.files]
+        drivers += [WebcamCamera(i) for i in self.webcams]
+        for d in drivers:
+            d.open()
+            d.configure(CaptureSettings(fps=self.fps, exposure_us=None))
+        return drivers
+
+
+@dataclass(frozen=True)
+class FlirSource:
+    """FLIR Spinnaker GigE cameras by serial number (PTP-synchronised, scheduled start)."""
+
+    serials: tuple[str, ...] = ()
+    names: tuple[str, ...] = ()
+    fps: float = 30.0
+    exposure_us: float = 15000.0
+    pixel_format: str = "BayerRG8"
+    packet_size: int = 9000
+    packet_delay: int = 4000
+
+    def build(self) -> list[CameraDriver]:
+        from acquisition.drivers.flir import FlirSystem, GigESettings
+
+        if not self.serials:
+            raise ValueError("flir source: give --serials S1,S2,...")
+        if self.names and len(self.names) != len(self.serials):
+            raise ValueError(f"flir source: {len(self.names)} names for {len(self.serials)} serials")
+        system = FlirSystem()
+        cams = system.cameras(list(self.serials), names=list(self.names) or None,
+                              gige=GigESettings(packet_size=self.packet_size, packet_delay=self.packet_delay))
+        settings = CaptureSettings(fps=self.fps, exposure_us=self.exposure_us, pixel_format=self.pixel_format)
+        for cam in cams:
+            cam.open()
+            cam.configure(settings)
+        system.wait_ptp_locked(cams)
+        return cams

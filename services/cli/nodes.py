@@ -1,0 +1,187 @@
+"""``gaitcap node camera|detector|recorder``: run one bus node as a process (until Ctrl-C / SIGTERM).
+
+Every node takes ``--bus FILE`` (JSON5 bus file, else ``$GAITCAP_BUS``, else the local default on
+127.0.0.1:7447+) and ``--node NAME`` (its name in the bus file: the endpoint it listens on and the
+liveliness token ``<prefix>/alive/<node>``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import signal
+import threading
+from pathlib import Path
+
+import typer
+
+from services.cli._common import user_errors
+
+log = logging.getLogger("gaitcap.node")
+
+node_app = typer.Typer(help="Run a bus node (camera, detector, recorder) as a process.", no_args_is_help=True)
+
+BUS_OPT = typer.Option(None, "--bus", help="Bus file (JSON5); default $GAITCAP_BUS or local 127.0.0.1:7447+.")
+
+
+def _stop_event() -> threading.Event:
+    """An event set by SIGTERM / SIGINT (so nodes finish cleanly)."""
+    event = threading.Event()
+
+    def _handler(signum, _frame):
+        log.info("signal %s: stopping", signum)
+        event.set()
+
+    signal.signal(signal.SIGTERM, _handler)
+    signal.signal(signal.SIGINT, _handler)
+    return event
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise ValueError(f"--size: expected WIDTHxHEIGHT, got {text!r}") from None
+    return w, h
+
+
+def _sim_options(preset: str, seconds: float, cameras: int, people: int, seed: int, fps: float):
+    from acquisition.drivers.simulated import SimTrialSpec
+
+    return SimTrialSpec(preset=preset, seconds=seconds, cameras=cameras, people=people, seed=seed, fps=fps)
+
+
+@node_app.command("camera")
+def camera_cmd(
+    node: str = typer.Option("camera-0", "--node", help="Node name (bus file entry)."),
+    bus: Path | None = BUS_OPT,
+    source: str = typer.Option("simulated", "--source", help="simulated | video | flir"),
+    cameras: str | None = typer.Option(None, "--cameras", help="Comma-separated camera names (default: all)."),
+    size: str = typer.Option("640x480", "--size", help="Image size WIDTHxHEIGHT px (simulated)."),
+    fps: float = typer.Option(30.0, "--fps", help="Frame rate, frames/s."),
+    jpeg_quality: int = typer.Option(90, "--jpeg-quality"),
+    start_at_ns: int | None = typer.Option(None, "--start-at-ns", help="Synchronised start, wall clock ns."),
+    sim_preset: str = typer.Option("walk", "--sim-preset"),
+    sim_seconds: float = typer.Option(3.0, "--sim-seconds"),
+    sim_cameras: int = typer.Option(10, "--sim-cameras"),
+    sim_people: int = typer.Option(1, "--sim-people"),
+    sim_seed: int = typer.Option(0, "--sim-seed"),
+    drop: list[str] = typer.Option([], "--drop", help="Simulated fault CAM:ID,ID (dropped frame ids)."),
+    stop: list[str] = typer.Option([], "--stop", help="Simulated fault CAM:ID (camera dies after ID)."),
+    videos: list[Path] = typer.Option([], "--video", help="Video file(s) (source video); camera = file stem."),
+    webcam: list[int] = typer.Option([], "--webcam", help="Webcam index (source video)."),
+    serials: str | None = typer.Option(None, "--serials", help="FLIR serial numbers, comma-separated."),
+    exposure_us: float = typer.Option(15000.0, "--exposure-us", help="FLIR fixed exposure, us."),
+    pixel_format: str = typer.Option("BayerRG8", "--pixel-format"),
+    packet_size: int = typer.Option(9000, "--packet-size", help="FLIR GigE packet size (jumbo 9000)."),
+    packet_delay: int = typer.Option(4000, "--packet-delay", help="FLIR GigE inter-packet delay (ticks)."),
+) -> None:
+    """Publish the frames and status of one host's cameras."""
+    from acquisition.drivers.sources import FlirSource, SimulatedSource, VideoSource
+    from services.bus.session import default_bus_config, open_session
+    from services.camera_node import CameraNode
+
+    with user_errors():
+        names = [c for c in (cameras or "").split(",") if c] or None
+        builders = {
+            "simulated": lambda: SimulatedSource(
+                spec=_sim_options(sim_preset, sim_seconds, sim_cameras, sim_people, sim_seed, fps),
+                cameras=names, size_px=_size(size), fps=fps, drops=tuple(drop), stops=tuple(stop)),
+            "video": lambda: VideoSource(files=tuple(str(v) for v in videos), webcams=tuple(webcam), fps=fps),
+            "flir": lambda: FlirSource(serials=tuple(s for s in (serials or "").split(",") if s),
+                                       names=tuple(names or ()), fps=fps, exposure_us=exposure_us,
+                                       pixel_format=pixel_format, packet_size=packet_size,
+                                       packet_delay=packet_delay),
+        }
+        if source not in builders:
+            raise ValueError(f"--source: {source!r} is not one of {sorted(builders)}")
+        drivers = builders[source]().build()
+        cfg = default_bus_config(bus)
+        session = open_session(cfg, node)
+    stopper = _stop_event()
+    cam_node = CameraNode(session, cfg, node, drivers, jpeg_quality=jpeg_quality)
+    threading.Thread(target=lambda: (stopper.wait(), cam_node.stop()), daemon=True).start()
+    try:
+        published = cam_node.run(start_at_ns)
+        typer.echo(f"camera node {node}: published {published}")
+    finally:
+        cam_node.close()
+        session.close()
+
+
+def _param(text: str) -> tuple[str, object]:
+    import json
+
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise ValueError(f"--param: expected KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except json.JSONDecodeError:
+        return key, value
+
+
+@node_app.command("detector")
+def detector_cmd(
+    node: str = typer.Option("detector", "--node"),
+    bus: Path | None = BUS_OPT,
+    detector: str = typer.Option("simulated", "--detector", help="Detector kind (acquisition.detectors)."),
+    param: list[str] = typer.Option([], "--param", help="Detector config field KEY=VALUE (JSON value)."),
+    workers: int = typer.Option(1, "--workers"),
+    sim_preset: str = typer.Option("walk", "--sim-preset"),
+    sim_seconds: float = typer.Option(3.0, "--sim-seconds"),
+    sim_cameras: int = typer.Option(10, "--sim-cameras"),
+    sim_people: int = typer.Option(1, "--sim-people"),
+    sim_seed: int = typer.Option(0, "--sim-seed"),
+    fps: float = typer.Option(30.0, "--fps", help="Frame rate of the simulated trial."),
+) -> None:
+    """Detect 2D keypoints on every frame of the bus and publish them."""
+    import acquisition.detectors  # noqa: F401  (registers the detector kinds)
+    from acquisition.detectors.base import config_class
+    from services.bus.session import default_bus_config, open_session
+    from services.detector_node import DetectorNode
+
+    with user_errors():
+        params = dict(_param(p) for p in param)
+        cls = config_class(detector)
+        if "trial" in {f.name for f in dataclasses.fields(cls)}:  # simulated: the synthetic trial
+            params["trial"] = _sim_options(sim_preset, sim_seconds, sim_cameras, sim_people, sim_seed, fps).make()
+        det = cls(**params).build()
+        cfg = default_bus_config(bus)
+        session = open_session(cfg, node)
+    stopper = _stop_event()
+    det_node = DetectorNode(session, cfg, node, det, workers=workers)
+    stopper.wait()
+    det_node.close()
+    session.close()
+    typer.echo(f"detector node {node}: {det_node.detected} frames, {det_node.skipped} skipped, {det_node.failed} failed")
+
+
+@node_app.command("recorder")
+def recorder_cmd(
+    node: str = typer.Option("recorder", "--node"),
+    bus: Path | None = BUS_OPT,
+    compression: str = typer.Option("lz4", "--compression", help="lz4 | none"),
+    chunk_mb: float = typer.Option(4.0, "--chunk-mb", help="Image chunk size, MB."),
+    flush_s: float = typer.Option(1.0, "--flush-s", help="At most this much data is lost on a crash, s."),
+) -> None:
+    """Record trials (started and stopped over the bus) into MCAP files."""
+    from acquisition.recording.writer import WriterSettings
+    from services.bus.session import default_bus_config, open_session
+    from services.recorder_node import RecorderNode
+
+    with user_errors():
+        settings = WriterSettings(compression=compression, chunk_size_bytes=int(chunk_mb * 2**20),
+                                  flush_interval_s=flush_s)
+        cfg = default_bus_config(bus)
+        session = open_session(cfg, node)
+    stopper = _stop_event()
+    rec = RecorderNode(session, cfg, node, settings=settings)
+    typer.echo(f"recorder node {node} ready on {cfg.prefix}")
+    stopper.wait()
+    rec.close()
+    session.close()
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(node_app, name="node")
