@@ -1,0 +1,71 @@
+"""The fit problem shared by both trajectory representations."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax.numpy as jnp
+import numpy as np
+
+from reconstruction.camera import Rig
+from reconstruction.detections import Detections
+from reconstruction.losses import Problem, make_observations
+from reconstruction.projection import camera_arrays
+
+
+@dataclass(frozen=True, eq=False)
+class FitOutput:
+    """Attributes: points_mm (T, J, 3); history: loss per step; parts: final loss terms;
+    trajectory: callable times_s (K,) -> (K, J, 3) mm, or None for discrete results."""
+
+    points_mm: np.ndarray
+    history: np.ndarray
+    parts: dict[str, float]
+    trajectory: object | None = None
+
+
+def fit_problem(
+    detections: Detections, rig: Rig, weights: np.ndarray, *, gamma: float = 0.5
+) -> Problem:
+    """Observations weighted by ``weights`` (C, T, J) (robust weights or confidences), with views at
+    or below confidence ``gamma`` given weight 0 (as the authors' code)."""
+    conf = np.nan_to_num(detections.keypoints[..., 2])
+    w = np.where(conf > gamma, np.nan_to_num(weights), 0.0)
+    skel = detections.skeleton
+    limbs = np.array(skel.limb_indices, dtype=np.int32).reshape(-1, 2)
+    return Problem(
+        obs=make_observations(detections.keypoints, w),
+        cams=camera_arrays(rig.subset(detections.camera_names)),
+        limb_a=jnp.asarray(limbs[:, 0]),
+        limb_b=jnp.asarray(limbs[:, 1]),
+    )
+
+
+def fill_gaps(points_mm: np.ndarray, times_s: np.ndarray, joint_names) -> np.ndarray:
+    """Fill NaN frames of each joint by linear interpolation in time (ends held constant).
+
+    Raises ValueError naming the joints that are never triangulated (nothing to fit them to).
+    """
+    pts = np.array(points_mm, dtype=np.float64)
+    finite = np.isfinite(pts).all(-1)  # (T, J)
+    never = [joint_names[j] for j in np.flatnonzero(~finite.any(0))]
+    if never:
+        raise ValueError(
+            f"joints {never} have fewer than 2 usable views (confidence above the threshold) in every "
+            "frame; cannot fit them (lower gamma or drop those joints)"
+        )
+    for j in np.flatnonzero(~finite.all(0)):
+        ok = finite[:, j]
+        for k in range(3):
+            pts[:, j, k] = np.interp(times_s, times_s[ok], pts[ok, j, k])
+    return pts
+
+
+def to_fit_layout(points_mm: np.ndarray) -> jnp.ndarray:
+    """(T, J, 3) -> (3, T, J) float32."""
+    return jnp.asarray(np.transpose(points_mm, (2, 0, 1)), jnp.float32)
+
+
+def from_fit_layout(points) -> np.ndarray:
+    """(3, T, J) -> (T, J, 3) float64."""
+    return np.transpose(np.asarray(points, dtype=np.float64), (1, 2, 0))

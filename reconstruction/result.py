@@ -1,0 +1,93 @@
+"""The result of a reconstruction, and its NPZ file."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class Reconstruction:
+    """One person's 3D trajectory.
+
+    Attributes:
+        method: name of the method that made it ("robust", "implicit", ...).
+        points_mm: (T, J, 3) mm; NaN where a triangulation had fewer than 2 usable views.
+        times_s: (T,) s.
+        joint_names: (J,) names (skeleton order).
+        camera_names: (C,) names (order of ``camera_weights``).
+        camera_weights: (C, T, J) weight of each view: robust-triangulation weights, or for fits
+            exp(-reprojection px / 20) x confidence.
+        quality: (T, J) effective number of agreeing views (sum of camera weights; 0 where NaN).
+        losses: final loss terms of a fit ({} for triangulations), plus "steps" and "seconds".
+        metrics: see :func:`reconstruction.metrics.compute_metrics`.
+        trajectory: for implicit fits, times_s (K,) -> (K, J, 3) mm; None otherwise.
+    """
+
+    method: str
+    points_mm: np.ndarray
+    times_s: np.ndarray
+    joint_names: tuple[str, ...]
+    camera_names: tuple[str, ...]
+    camera_weights: np.ndarray
+    quality: np.ndarray
+    losses: dict = field(default_factory=dict)
+    metrics: dict = field(default_factory=dict)
+    trajectory: Callable[[np.ndarray], np.ndarray] | None = None
+
+    def sample(self, times_s) -> np.ndarray:
+        """Points (K, J, 3) mm at arbitrary times within the trial.
+
+        Implicit results evaluate their fitted function; discrete results interpolate linearly between
+        frames (NaN where either neighbour is NaN). Times outside the trial raise ValueError.
+        """
+        t = np.asarray(times_s, dtype=np.float64).reshape(-1)
+        if self.trajectory is not None:
+            return self.trajectory(t)
+        lo, hi = self.times_s[0], self.times_s[-1]
+        if t.size and (np.nanmin(t) < lo - 1e-6 or np.nanmax(t) > hi + 1e-6 or not np.isfinite(t).all()):
+            raise ValueError(f"times_s: outside the trial [{lo:.4f}, {hi:.4f}] s")
+        idx = np.clip(np.searchsorted(self.times_s, t, side="right") - 1, 0, len(self.times_s) - 1)
+        nxt = np.minimum(idx + 1, len(self.times_s) - 1)
+        span = np.where(nxt > idx, self.times_s[nxt] - self.times_s[idx], 1.0)
+        a = ((t - self.times_s[idx]) / span)[:, None, None]
+        return (1 - a) * self.points_mm[idx] + a * self.points_mm[nxt]
+
+    def save_npz(self, path: str | os.PathLike) -> None:
+        """Write ``points_mm``, ``times_s``, ``joint_names``, ``camera_names``, ``camera_weights``,
+        ``quality`` atomically (temp file + rename)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.savez(
+                    f, points_mm=self.points_mm, times_s=self.times_s, joint_names=np.array(self.joint_names),
+                    camera_names=np.array(self.camera_names), camera_weights=self.camera_weights,
+                    quality=self.quality, method=np.array(self.method),
+                )
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+
+
+def load_npz(path: str | os.PathLike) -> Reconstruction:
+    """Read a file written by :meth:`Reconstruction.save_npz` (ValueError naming a missing array)."""
+    with np.load(path, allow_pickle=False) as data:
+        missing = [k for k in ("points_mm", "times_s", "joint_names", "camera_weights") if k not in data.files]
+        if missing:
+            raise ValueError(f"{path}: missing arrays {missing}")
+        names = tuple(str(n) for n in data["camera_names"]) if "camera_names" in data.files else ()
+        return Reconstruction(
+            method=str(data["method"]) if "method" in data.files else "",
+            points_mm=data["points_mm"], times_s=data["times_s"],
+            joint_names=tuple(str(n) for n in data["joint_names"]), camera_names=names,
+            camera_weights=data["camera_weights"],
+            quality=data["quality"] if "quality" in data.files else np.zeros(data["points_mm"].shape[:2]),
+        )
