@@ -1,0 +1,65 @@
+"""The worker on a real catalog and a real trial MCAP of a synthetic walk: results against ground truth."""
+
+import numpy as np
+import pytest
+
+from services import catalog as cat
+from services.artifacts import trial_files
+from services.worker import Worker, WorkerConfig
+
+from .conftest import write_trial_mcap
+
+
+@pytest.fixture(scope="module")
+def walk():
+    from acquisition.synthetic import make_trial
+
+    return make_trial("clean", seconds=12, cameras=6, people=1, seed=3, fps=30)
+
+
+def _recorded_trial(tmp_path, walk):
+    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+    t = cat.start_trial(db, subject_id="P1", session="s1",
+                        recording_path_for=lambda tid: trial_files(tmp_path, tid).recording)
+    write_trial_mcap(walk, trial_files(tmp_path, t.id).recording)
+    cat.set_state(db, t.id, "recorded")
+    cat.enqueue_job(db, t.id)
+    return db, t.id
+
+
+def test_worker_stores_preliminary_results_close_to_truth(tmp_path, walk):
+    db, tid = _recorded_trial(tmp_path, walk)
+    published = []
+
+    class Sink:
+        def publish(self, trial_id, payload):
+            published.append(payload)
+
+    w = Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False, lease_s=5), db=db, progress=Sink())
+    assert w.run_once() and not w.run_once()
+    trial = cat.get_trial(db, tid)
+    assert trial.state == "done" and trial.progress == 1.0
+    r = cat.get_result(db, tid, "preliminary")
+    assert r.steps and r.method == "robust triangulation"
+    truth = walk.truth.steps
+    errors = []
+    for step in r.steps:  # each measured step against the true step of the same foot at that heel strike
+        same = np.flatnonzero((truth.foot == step["side"]) & (np.abs(truth.heel_strike_s - step["time_s"]) < 0.1))
+        assert same.size == 1, step
+        errors.append(step["step_length_mm"] - truth.step_length_mm[same[0]])
+    assert len(errors) >= 8 and np.median(np.abs(errors)) < 15.0, errors
+    files = trial_files(tmp_path, tid)
+    for key in ("trajectory_npz", "trajectory_trc", "gait_json", "steps_csv", "report_png", "rerun_rrd"):
+        assert files.stage_file("preliminary", key).stat().st_size > 100, key
+    assert [p["stage"] for p in published][-1] == "done" and published[0]["state"] == "processing"
+    assert cat.jobs_for_trial(db, tid)[0].state == "done"
+
+
+def test_a_bad_recording_fails_the_trial_with_the_reason(tmp_path, walk):
+    db, tid = _recorded_trial(tmp_path, walk)
+    trial_files(tmp_path, tid).recording.write_bytes(b"not an mcap file")
+    w = Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db)
+    assert w.run_once()
+    trial = cat.get_trial(db, tid)
+    assert trial.state == "failed" and trial.error
+    assert cat.jobs_for_trial(db, tid)[0].state == "failed"
