@@ -1,0 +1,76 @@
+import numpy as np
+import pytest
+
+synthetic = pytest.importorskip("acquisition.synthetic.truth")
+from acquisition.synthetic.params import WalkParams  # noqa: E402
+from acquisition.synthetic.path import plan_walk  # noqa: E402
+from acquisition.synthetic.walker import Body, simulate_body  # noqa: E402
+from acquisition.synthetic.walkway import WalkwayExportParams, make_walkway_export  # noqa: E402
+from reconstruction.gait import analyze_gait, compare_with_walkway  # noqa: E402
+from reconstruction.skeletons import get_skeleton  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def trial():
+    params = WalkParams()
+    plan = plan_walk(params, 24.0)
+    times = np.arange(0.0, plan.duration_s, 1 / 30)
+    points = simulate_body(plan, params, times)
+    truth = synthetic.gait_truth(plan, Body.from_params(params), times[-1])
+    return times, points, truth, (lambda t: simulate_body(plan, params, t))
+
+
+def test_export_holds_straight_footfalls_in_the_walkway_frame(trial):
+    _, _, truth, _ = trial
+    export = make_walkway_export(truth.steps, params=WalkwayExportParams(position_noise_mm=0.0, time_noise_s=0.0))
+    rows = export.step_rows
+    assert len(rows) >= 10 and (truth.steps.pass_index[rows] >= 0).all()
+    back = truth.steps.heel_mm[rows, :2] - 13.0 * truth.steps.direction[rows, :2]
+    assert np.allclose(export.transform.apply(back), export.trial.heel_xy_mm, atol=1e-6)
+    assert np.allclose(export.trial.first_contact_s + export.time_offset_s, truth.steps.heel_strike_s[rows])
+    # x runs along the walkway: consecutive footfalls of a pass progress mostly in x.
+    dx = np.abs(np.diff(export.trial.heel_xy_mm[:, 0]))
+    dy = np.abs(np.diff(export.trial.heel_xy_mm[:, 1]))
+    assert np.median(dx) > 5 * np.median(dy)
+
+
+def test_ground_truth_events_and_parameters_are_recovered(trial):
+    times, points, truth, sample = trial
+    names = get_skeleton("halpe26").joint_names
+    report = analyze_gait(points, times, names, sample=sample)
+    for side in ("left", "right"):
+        true_hs, true_to = truth.heel_strike_s[side], truth.toe_off_s[side]
+        for c in report.contacts:
+            if c.foot == side and np.isfinite(c.heel_strike_s):
+                assert np.min(np.abs(true_hs - c.heel_strike_s)) < 1 / 30
+            if c.foot == side and np.isfinite(c.toe_off_s):
+                assert np.min(np.abs(true_to - c.toe_off_s)) < 1 / 30
+    st = truth.steps
+    assert len(report.steps) >= 0.8 * np.sum(st.pass_index >= 0)
+    for s in report.steps:
+        k = int(np.argmin(np.abs(st.heel_strike_s - s.heel_strike_s)))
+        assert st.foot[k] == s.foot
+        assert s.step_length_mm == pytest.approx(st.step_length_mm[k], abs=1.0)
+        if np.isfinite(s.stride_length_mm):
+            assert s.stride_length_mm == pytest.approx(st.stride_length_mm[k], abs=1.0)
+        if np.isfinite(s.step_width_mm):
+            assert s.step_width_mm == pytest.approx(st.step_width_mm[k], abs=1.0)
+        assert np.allclose(s.heel_mm, st.heel_mm[k], atol=1.0)
+
+
+def test_alignment_recovers_the_walkway_and_leaves_noise_level_residuals(trial):
+    times, points, truth, _ = trial
+    export = make_walkway_export(truth.steps, params=WalkwayExportParams(seed=3))
+    names = get_skeleton("halpe26").joint_names
+    result = compare_with_walkway([(points, times, names)], [export.trial])
+    assert result.offsets_s["0"] == pytest.approx(export.time_offset_s, abs=0.03)
+    assert result.transform.scale == pytest.approx(export.transform.scale, abs=1e-3)
+    assert abs(result.transform.rotation_rad - export.transform.rotation_rad) < 2e-3
+    assert result.forward_bias_mm == pytest.approx(13.0, abs=1.5)
+    res = result.residuals
+    assert res["heel_forward_mm"].mean == pytest.approx(13.0, abs=1.5)  # the pressure-vs-vision offset
+    for name in ("heel_forward_mm", "heel_lateral_mm", "toe_lateral_mm", "step_length_mm", "step_width_mm"):
+        assert res[name].n >= 10
+        assert res[name].sigma_iqr < 5.0, name  # noise is 2 mm per point
+    for name in ("heel_lateral_mm", "step_length_mm", "stride_length_mm", "step_width_mm"):
+        assert abs(res[name].mean) < 2.0, name
