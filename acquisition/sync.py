@@ -1,7 +1,10 @@
 """Synchronisation: group frames from all cameras into frame sets by timestamp and check the lab's criteria.
 
 Frames are assigned to slots of one frame period: ``slot = round((timestamp_ns - t0_ns) / period_ns)``
-with ``t0_ns`` the median first timestamp over the cameras. A frame set is one slot; a camera missing
+with ``t0_ns`` the median first timestamp over the cameras; or, when the cameras' frame ids count from
+one synchronised start (the FLIR and simulated drivers), ``slot = frame_id``. From timestamps alone a
+camera offset by more than half a period is ambiguous (it lands in the neighbouring set), so pass frame
+ids to measure spreads near the 30 ms criterion at 30 fps. A frame set is one slot; a camera missing
 from a slot between its first and the trial's last slot is a skip (a dropped frame), a camera with two
 frames in one slot a duplicate. The spread of a set is max - min timestamp over the cameras present.
 
@@ -71,9 +74,11 @@ class FrameSets:
 
 
 def group_frames(
-    timestamps_ns: Mapping[str, np.ndarray], *, period_ns: int, t0_ns: int | None = None
+    timestamps_ns: Mapping[str, np.ndarray], *, period_ns: int, t0_ns: int | None = None,
+    frame_ids: Mapping[str, np.ndarray] | None = None,
 ) -> FrameSets:
-    """Group each camera's frame timestamps (ns, in delivery order) into frame sets of one period."""
+    """Group each camera's frame timestamps (ns, in delivery order) into frame sets of one period
+    (by frame id when ``frame_ids`` are given for every camera)."""
     if period_ns <= 0:
         raise ValueError(f"period_ns: must be > 0, got {period_ns}")
     cams = tuple(timestamps_ns)
@@ -84,7 +89,16 @@ def group_frames(
     if not firsts:
         raise ValueError("timestamps_ns: no frames from any camera")
     t0 = int(np.median(firsts)) if t0_ns is None else int(t0_ns)
-    slot_of = {c: np.rint((s - t0) / period_ns).astype(np.int64) for c, s in series.items()}
+    if frame_ids is not None:
+        missing = sorted(set(cams) - set(frame_ids))
+        if missing:
+            raise ValueError(f"frame_ids: none given for cameras {missing}")
+        slot_of = {c: np.asarray(frame_ids[c], dtype=np.int64).reshape(-1) for c in cams}
+        bad = [c for c in cams if slot_of[c].shape != series[c].shape]
+        if bad:
+            raise ValueError(f"frame_ids: not one per timestamp for cameras {bad}")
+    else:
+        slot_of = {c: np.rint((s - t0) / period_ns).astype(np.int64) for c, s in series.items()}
     all_slots = np.unique(np.concatenate([v for v in slot_of.values()]))
     first, last = int(all_slots.min()), int(all_slots.max())
     slots = np.arange(first, last + 1)
@@ -148,9 +162,10 @@ def check_sync(
     *,
     period_ns: int,
     criteria: PassCriteria = PassCriteria(),
+    frame_ids: Mapping[str, np.ndarray] | None = None,
 ) -> SyncReport:
     """Group the frames and judge them against ``criteria``; ``problems`` names each failing camera."""
-    sets = group_frames(timestamps_ns, period_ns=period_ns)
+    sets = group_frames(timestamps_ns, period_ns=period_ns, frame_ids=frame_ids)
     skips = sets.skips()
     fps = {c: camera_fps(timestamps_ns[c]) for c in sets.cameras}
     spread = sets.spread_ms()

@@ -74,6 +74,7 @@ class SimulatedCamera:
         realtime: bool = True,
         faults: SimulatedFaults = SimulatedFaults(),
         render: RenderFn = _default_render,
+        max_frames: int | None = None,
     ) -> None:
         num = len(trial.rig)
         if not 0 <= camera_index < num:
@@ -84,6 +85,7 @@ class SimulatedCamera:
         self.realtime = realtime
         self.faults = faults
         self._render = render
+        self.max_frames = max_frames
         self._settings = CaptureSettings(fps=trial_fps(trial), exposure_us=None)
         self._status = DriverStatus(camera=self.name)
         self._start_ns: int | None = None
@@ -107,9 +109,10 @@ class SimulatedCamera:
         return self._settings.size_px or tuple(int(v) for v in self.trial.rig[self.camera_index].size_px)
 
     def num_frames(self) -> int:
-        """How many frame ids the trial covers at the configured frame rate."""
+        """How many frame ids are played: the trial at the configured frame rate (or ``max_frames``)."""
         duration_s = float(self.trial.times_s[-1] - self.trial.times_s[0]) + 1.0 / trial_fps(self.trial)
-        return int(np.floor(duration_s * self._settings.fps + 1e-9))
+        n = int(np.floor(duration_s * self._settings.fps + 1e-9))
+        return n if self.max_frames is None else min(n, self.max_frames)
 
     def start(self, at_ns: int | None = None) -> None:
         if self._status.state not in ("configured", "open"):
@@ -187,13 +190,14 @@ def simulated_rig(
     faults: dict[str, SimulatedFaults] | None = None,
     cameras: list[str] | None = None,
     render: RenderFn = _default_render,
+    max_frames: int | None = None,
 ) -> list[SimulatedCamera]:
     """Open and configure one :class:`SimulatedCamera` per rig camera (or per name in ``cameras``)."""
     faults = faults or {}
     names = trial.rig.names if cameras is None else cameras
-    unknown = sorted(set(faults) - set(trial.rig.names))
+    unknown = sorted((set(faults) | set(names)) - set(trial.rig.names))
     if unknown:
-        raise ValueError(f"faults: unknown cameras {unknown}")
+        raise ValueError(f"cameras {unknown} are not in the synthetic rig {trial.rig.names}")
     drivers = []
     for name in names:
         cam = SimulatedCamera(
@@ -202,6 +206,7 @@ def simulated_rig(
             realtime=realtime,
             faults=faults.get(name, SimulatedFaults()),
             render=render,
+            max_frames=max_frames,
         )
         cam.open()
         cam.configure(CaptureSettings(fps=fps or trial_fps(trial), exposure_us=None, size_px=size_px))
@@ -216,8 +221,8 @@ class SimTrialSpec:
     Attributes mirror ``acquisition.synthetic.make_trial(preset, seconds, cameras, people, seed, fps)``.
     """
 
-    preset: str = "walk"
-    seconds: float = 3.0
+    preset: str = "paper"
+    seconds: float = 6.0
     cameras: int = 10
     people: int = 1
     seed: int = 0

@@ -23,11 +23,13 @@ class SimulatedSource:
     drops: tuple[str, ...] = ()
     stops: tuple[str, ...] = ()
     realtime: bool = True
+    max_frames: int | None = None
 
     def build(self) -> list[CameraDriver]:
         trial = self.spec.make()
         return simulated_rig(trial, size_px=self.size_px, fps=self.fps, realtime=self.realtime,
-                             faults=parse_faults(list(self.drops), list(self.stops)), cameras=self.cameras)
+                             faults=parse_faults(list(self.drops), list(self.stops)), cameras=self.cameras,
+                             max_frames=self.max_frames)
 
 
 @dataclass(frozen=True)
