@@ -1,0 +1,35 @@
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+from typer.testing import CliRunner
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "reconstruction" / "gait"))
+from conftest import make_walk  # noqa: E402
+
+from services.cli import app  # noqa: E402
+
+
+def test_gait_command_json_csv_plot(tmp_path):
+    walk = make_walk(segments=(("line", 5000), ("arc", 500, 180), ("line", 5000)))
+    npz = tmp_path / "trial.npz"
+    np.savez(npz, points_mm=walk.points_mm, times_s=walk.times_s, joint_names=np.array(walk.joint_names))
+    runner = CliRunner()
+    res = runner.invoke(app, ["gait", str(npz), "--json", "--csv", str(tmp_path / "s.csv"),
+                              "--plot", str(tmp_path / "p.png")])
+    assert res.exit_code == 0, res.output
+    report = json.loads(res.stdout.strip().splitlines()[-1])
+    assert len(report["steps"]) >= 8 and report["summary"]["num_passes"] == 2
+    assert abs(report["steps"][0]["step_length_mm"] - 650.0) < 1.0
+    assert (tmp_path / "s.csv").read_text().count("\n") == len(report["steps"]) + 1
+    assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
+    text = runner.invoke(app, ["gait", str(npz)])
+    assert text.exit_code == 0 and "cadence" in text.stdout
+
+
+def test_gait_command_bad_input(tmp_path):
+    npz = tmp_path / "bad.npz"
+    np.savez(npz, points_mm=np.zeros((10, 3, 3)))
+    res = CliRunner().invoke(app, ["gait", str(npz)])
+    assert res.exit_code == 2 and "times_s" in res.output
