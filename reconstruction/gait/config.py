@@ -56,6 +56,13 @@ class GaitConfig:
     reprojection_scale_px: float = 10.0
     stance_spread_scale_mm: float = 20.0
 
+    @classmethod
+    def reconstructed(cls, **changes) -> GaitConfig:
+        """Settings for noisy reconstructions (e.g. robust triangulation): 0.3 s Savitzky-Golay smoothing
+        and a rest threshold of 25 % of walking speed. On the synthetic "paper" preset, robust
+        triangulation gave 16 of 19 straight steps, heel strikes within 15 ms, step length SD 5 mm."""
+        return cls(**{"smoothing_window_s": 0.3, "rest_speed_fraction": 0.25, **changes})
+
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
             if not value >= 0:

@@ -75,21 +75,25 @@ def register(app: typer.Typer) -> None:
         as_json: bool = typer.Option(False, "--json", help="Print the report as one JSON object."),
         csv_path: Path | None = typer.Option(None, "--csv", help="Write one CSV row per step to FILE."),
         plot_path: Path | None = typer.Option(None, "--plot", help="Write a PNG of the heel traces to FILE."),
+        clean: bool = typer.Option(False, "--clean", help="Noise-free input (ground truth): no smoothing, "
+                                   "lower thresholds, smaller event bias."),
     ) -> None:
         """Gait events, bouts and spatiotemporal parameters of a reconstructed trial."""
-        from reconstruction.gait import analyze_gait, compare_with_walkway, read_walkway_csv
+        from reconstruction.gait import GaitConfig, analyze_gait, compare_with_walkway, read_walkway_csv
         from reconstruction.gait.plot import heel_traces_png
 
         with user_errors():
             points, times, names, quality = _load(result)
-            report = analyze_gait(points, times, names, quality=quality)
+            config = GaitConfig() if clean else GaitConfig.reconstructed()
+            report = analyze_gait(points, times, names, quality=quality, config=config)
             if walkway is not None:
                 trial = _pick_trial(read_walkway_csv(walkway), result)
-                report = report.with_walkway(compare_with_walkway([(points, times, names)], [trial]))
+                report = report.with_walkway(
+                    compare_with_walkway([(points, times, names)], [trial], config=config))
             if csv_path is not None:
                 report.write_csv(csv_path)
             if plot_path is not None:
-                png = heel_traces_png(report, points, times, names)
+                png = heel_traces_png(report, points, times, names, config=config)
                 tmp = plot_path.with_name(f".{plot_path.name}.tmp")
                 tmp.write_bytes(png)
                 tmp.replace(plot_path)
