@@ -1,0 +1,155 @@
+import math
+
+import numpy as np
+import pytest
+
+from acquisition.synthetic import WalkParams
+from acquisition.synthetic.path import SIDE_NAME, plan_walk
+from acquisition.synthetic.truth import gait_truth
+from acquisition.synthetic.walker import SKELETON, Body, limb_lengths, simulate_body
+
+FPS = 240.0
+
+
+def _walk(params: WalkParams, seconds: float = 16.0):
+    plan = plan_walk(params, seconds)
+    times = np.arange(int(seconds * FPS)) / FPS
+    body = Body.from_params(params)
+    return plan, times, simulate_body(plan, params, times, body), body
+
+
+@pytest.fixture(scope="module", params=["normal", "hemiparetic"])
+def walk(request):
+    params = WalkParams() if request.param == "normal" else WalkParams.hemiparetic("left")
+    return (params, *_walk(params, 30.0 if request.param == "normal" else 24.0))
+
+
+def test_limb_lengths_are_constant(walk):
+    params, plan, times, pts, body = walk
+    lengths = limb_lengths(pts)
+    assert np.abs(lengths - lengths[0]).max() < 1e-6
+    # every bone of the drawing skeleton that lies within one rigid segment is rigid too
+    for a, b in (("left_heel", "left_ankle"), ("right_big_toe", "right_ankle"), ("left_eye", "right_ear")):
+        d = np.linalg.norm(pts[:, SKELETON.index(a)] - pts[:, SKELETON.index(b)], axis=-1)
+        assert np.ptp(d) < 1e-6
+
+
+def test_feet_stay_above_the_floor_and_body_upright(walk):
+    params, plan, times, pts, body = walk
+    assert pts[..., 2].min() > -1e-9
+    assert np.all(pts[:, SKELETON.index("head"), 2] > 0.9 * params.height_mm)
+
+
+def _side_idx(side, name):
+    return SKELETON.index(f"{side}_{name}")
+
+
+def test_heel_stationary_from_strike_to_rise_and_toe_from_flat_to_toe_off(walk):
+    params, plan, times, pts, body = walk
+    for c in plan.steps:
+        side = SIDE_NAME[c.side]
+        heel = pts[:, _side_idx(side, "heel")]
+        m = (times >= c.t_hs) & (times <= min(c.t_hr, times[-1]))
+        assert m.sum() > 5
+        assert np.abs(heel[m, :2] - c.heel_xy).max() < 1e-6
+        assert np.ptp(heel[m, 2]) < 1e-6
+        toe = pts[:, _side_idx(side, "big_toe")]
+        m = (times >= c.t_ff) & (times <= min(c.t_to, times[-1]))
+        assert np.abs(toe[m] - toe[m][0]).max() < 1e-6
+
+
+def test_heel_strike_is_the_heel_speed_minimum(walk):
+    params, plan, times, pts, body = walk
+    truth = gait_truth(plan, body)
+    for side in ("left", "right"):
+        heel = pts[:, _side_idx(side, "heel")]
+        speed = np.linalg.norm(np.gradient(heel, times, axis=0), axis=-1)
+        for t_hs in truth.heel_strike_s[side]:
+            i = int(round(t_hs * FPS))
+            before = speed[i - int(0.15 * FPS):i - 1]
+            # decelerating into the contact, then still
+            assert np.all(np.diff(before[-10:]) < 0)
+            assert speed[i + 2] < 1e-6
+            first_still = i - 3 + int(np.argmax(speed[i - 3:] < 1.0))
+            assert abs(times[first_still] - t_hs) <= 1.5 / FPS
+
+
+def test_measured_step_parameters_equal_the_requested_ones(walk):
+    params, plan, times, pts, body = walk
+    truth = gait_truth(plan, body)
+    st = truth.steps
+    assert st.straight.sum() >= 8
+    # heel positions measured from the trajectory at the stationary phases
+    contacts = [c for c in plan.contacts]
+    measured = {}
+    for k, c in enumerate(contacts):
+        side = SIDE_NAME[c.side]
+        heel = pts[:, _side_idx(side, "heel"), :2]
+        lo = max(c.t_hs, 0.0)
+        m = (times >= lo) & (times <= min(c.t_hr, times[-1]))
+        measured[k] = np.median(heel[m], axis=0)
+    step_rows = [k for k, c in enumerate(contacts) if c.kind != "stand"]
+    n_checked = 0
+    for row, k in enumerate(step_rows):
+        if not st.straight[row]:
+            continue
+        d = st.direction[row, :2]
+        side = contacts[k].side
+        step = (measured[k] - measured[k - 1]) @ d
+        stride = (measured[k] - measured[k - 2]) @ d
+        a, b = measured[k - 1], measured[k + 1]
+        ab = (b - a) / np.linalg.norm(b - a)
+        width = abs(ab[0] * (measured[k] - a)[1] - ab[1] * (measured[k] - a)[0])
+        assert step == pytest.approx(params.side_step_length_mm(SIDE_NAME[side]), abs=1.0)
+        assert stride == pytest.approx(2 * params.step_length_mm, abs=1.0)
+        assert width == pytest.approx(params.step_width_mm, abs=1.0)
+        assert st.step_length_mm[row] == pytest.approx(step, abs=1e-6)
+        assert st.step_width_mm[row] == pytest.approx(width, abs=1e-6)
+        n_checked += 1
+    assert n_checked >= 8
+
+
+def test_cadence_and_speed_on_straight_passes(walk):
+    params, plan, times, pts, body = walk
+    s = gait_truth(plan, body).summary()
+    assert s["cadence_spm"] == pytest.approx(params.cadence_spm, rel=0.02)
+    assert s["speed_m_s"] * 1000 == pytest.approx(params.speed_mm_s, rel=0.02)
+    pelvis = pts[:, SKELETON.index("pelvis")]
+    # standing at both ends: the pelvis does not move
+    assert np.ptp(pelvis[times < 0.5], axis=0).max() < 1e-6
+    assert np.ptp(pelvis[times > times[-1] - 0.5], axis=0).max() < 1e-6
+
+
+def test_hemiparetic_steps_are_asymmetric():
+    params = WalkParams.hemiparetic("left")
+    plan, times, pts, body = _walk(params, 24.0)
+    st = gait_truth(plan, body).steps
+    m = st.straight
+    sound = params.short_side
+    other = "left" if sound == "right" else "right"
+    assert np.allclose(st.step_length_mm[m & (st.foot == sound)], params.side_step_length_mm(sound), atol=1e-6)
+    assert np.allclose(st.step_length_mm[m & (st.foot == other)], params.side_step_length_mm(other), atol=1e-6)
+    assert params.side_step_length_mm(sound) < params.side_step_length_mm(other)
+
+
+def test_turns_are_marked_and_walk_stays_in_the_room():
+    params = WalkParams()
+    plan = plan_walk(params, 30.0)
+    kinds = [c.kind for c in plan.contacts]
+    assert kinds.count("turn") == 2 * params.turn_steps  # three passes, two turns in 30 s
+    truth = gait_truth(plan, Body.from_params(params))
+    assert np.all(truth.steps.pass_index[truth.steps.kind == "turn"] == -1)
+    assert set(np.unique(truth.steps.pass_index)) == {-1, 0, 1, 2}
+    xy = np.array([c.heel_xy for c in plan.contacts])
+    assert np.all(np.abs(xy) < np.array([3700.0, 4000.0]) - 500)
+
+
+def test_bad_params_are_named():
+    with pytest.raises(ValueError, match="step_length_mm"):
+        WalkParams(step_length_mm=50)
+    with pytest.raises(ValueError, match="short_side"):
+        WalkParams(short_side="middle")
+    with pytest.raises(ValueError, match="too short"):
+        plan_walk(WalkParams(), 3.0)
+    assert WalkParams.from_json(WalkParams.hemiparetic().to_json()) == WalkParams.hemiparetic()
+    assert math.isclose(WalkParams().speed_mm_s, 650 * 110 / 60)
