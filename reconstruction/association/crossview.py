@@ -6,11 +6,13 @@ Method (closed-form array maths over the whole clip; the only loops are over a f
 2. Every pair of detections in two different cameras is a hypothesis; its rays are intersected in
    closed form joint by joint. A hypothesis holds when enough joints' rays pass within
    ``ray_gap_mm`` of each other (in front of both cameras); its 3D root is the mean of those midpoints.
-3. Each detection's 3D position is the median of the roots of its holding hypotheses (one per partner
-   view), which outvotes chance matches between different people.
-4. Detections linked by a holding hypothesis whose positions agree within ``merge_radius_mm`` are
-   joined; connected components are the people of that frame (at most one detection per camera is
-   trusted for a person's 3D points: a camera with two detections in one component is left out).
+3. Each detection's 3D position is the consensus of the roots of its holding hypotheses (one per
+   partner detection): the densest cluster. Pairs of the same person all land on that person; chance
+   matches between different people (frequent for people side by side: with cameras at one height,
+   horizontal offsets hardly show in the epipolar geometry) land elsewhere, scattered.
+4. Detections linked by a holding hypothesis whose root agrees with both detections' positions
+   (within ``consensus_radius_mm``) are joined; connected components are the people of that frame (a
+   camera with two detections in one component is left out of that person's first triangulation).
 5. Each person's association joints are triangulated from its rays, then every camera's detections are
    assigned to people by reprojection error (greedy, one detection per person and camera, gated
    relative to the detection's size), and the people are triangulated again from the final assignment.
@@ -44,9 +46,10 @@ class AssociationConfig:
         min_joints: a detection needs this many confident association joints; a hypothesis this many
             agreeing joints.
         min_inlier_fraction: fraction of the shared joints that must agree for a hypothesis to hold.
-        merge_radius_mm: detections whose 3D positions lie within this distance may be one person.
-        reprojection_gate: a detection joins a person when its mean reprojection error is below this
-            fraction of the detection's box diagonal.
+        consensus_radius_mm: hypotheses (pairs of detections) whose 3D roots lie within this distance
+            agree; a pair links two detections when its root is this near both their consensus positions.
+        reprojection_gate: a detection joins a person when its median reprojection error is below
+            this fraction of the detection's box diagonal.
         min_views: people seen by fewer cameras are dropped.
     """
 
@@ -55,12 +58,12 @@ class AssociationConfig:
     ray_gap_mm: float = 120.0
     min_joints: int = 4
     min_inlier_fraction: float = 0.6
-    merge_radius_mm: float = 250.0
-    reprojection_gate: float = 0.2
+    consensus_radius_mm: float = 120.0
+    reprojection_gate: float = 0.1
     min_views: int = 2
 
     def __post_init__(self) -> None:
-        for name in ("ray_gap_mm", "merge_radius_mm", "reprojection_gate"):
+        for name in ("ray_gap_mm", "consensus_radius_mm", "reprojection_gate"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"AssociationConfig.{name} must be > 0, got {getattr(self, name)}")
         if self.min_joints < 1 or self.min_views < 2:
@@ -104,6 +107,7 @@ class _Rays:
     dirs: np.ndarray  # (C, T, P, Ja, 3)
     mask: np.ndarray  # (C, T, P, Ja)
     pixels_px: np.ndarray  # (C, T, P, Ja, 2), NaN where not confident
+    flip: np.ndarray  # (Ja,) index of each association joint's left/right mirror among them
     scale_px: np.ndarray  # (C, T, P) box diagonal of the detection
 
 
@@ -112,15 +116,21 @@ def associate_frames(multi: MultiPersonDetections, rig: Rig, config: Association
     rig = rig.subset(multi.camera_names)
     jidx = config.joint_indices(multi.skeleton)
     rays = _rays(multi, rig, jidx, config)
-    hyp_ok, hyp_root = _hypotheses(rays, config)
-    node_root = _node_roots(hyp_ok, hyp_root)
-    comp = _components(hyp_ok, node_root, config)  # (T, N) component index or -1
+    hyp_ok, hyp_root, hyp_gap = _hypotheses(rays, config)
+    node_root = _node_roots(hyp_ok, hyp_root, hyp_gap, config)
+    comp = _components(hyp_ok, hyp_root, node_root, config)  # (T, N) component index or -1
     c_, t_, p_ = rays.mask.shape[:3]
     comp = _drop_same_camera_conflicts(comp, c_, p_)
     points = _triangulate_groups(rays, comp)
-    labels = _assign_by_reprojection(rig, rays, points, config)
+    if points.shape[1] == 0:
+        return _nobody(c_, t_, p_, len(jidx), jidx)
+    cost, flipped = _reprojection_cost(rig, rays, points, config)
+    comp = _absorb_explained(comp, cost)
+    points = _triangulate_groups(rays, comp, flipped=_of_group(flipped, comp), num_groups=points.shape[1])
+    cost, flipped = _reprojection_cost(rig, rays, points, config)
+    labels = _assign_greedy(_prefer_linked(cost, comp))
     final = labels.transpose(1, 0, 2).reshape(t_, c_ * p_)
-    points = _triangulate_groups(rays, final, num_groups=points.shape[1])
+    points = _triangulate_groups(rays, final, flipped=_of_group(flipped, final), num_groups=points.shape[1])
     views = np.stack([(labels == k).any(-1).sum(0) for k in range(points.shape[1])], -1)  # (T, K)
     absent = views < config.min_views
     points[absent] = np.nan
@@ -130,6 +140,11 @@ def associate_frames(multi: MultiPersonDetections, rig: Rig, config: Association
     with np.errstate(invalid="ignore"), _quiet():
         root = np.nanmean(points, axis=2)
     return FramePeople(labels=labels, points_mm=points, root_mm=root, views=views, joint_indices=jidx)
+
+
+def _nobody(c_: int, t_: int, p_: int, ja: int, jidx) -> FramePeople:
+    return FramePeople(labels=np.full((c_, t_, p_), -1), points_mm=np.full((t_, 0, ja, 3), np.nan),
+                       root_mm=np.full((t_, 0, 3), np.nan), views=np.zeros((t_, 0), int), joint_indices=jidx)
 
 
 class _quiet:
@@ -157,7 +172,9 @@ def _rays(multi: MultiPersonDetections, rig: Rig, jidx, config: AssociationConfi
     mask &= (mask.sum(-1) >= config.min_joints)[..., None]
     pixels = np.where(mask[..., None], kp[:, :, :, jidx, :2], np.nan)
     origins, dirs = pixel_rays(rig, pixels)
-    return _Rays(origins_mm=origins, dirs=dirs, mask=mask, pixels_px=pixels,
+    perm = multi.skeleton.flip_permutation
+    flip = np.array([jidx.index(perm[j]) if perm[j] in jidx else i for i, j in enumerate(jidx)])
+    return _Rays(origins_mm=origins, dirs=dirs, mask=mask, pixels_px=pixels, flip=flip,
                  scale_px=np.nan_to_num(scale, nan=0.0))
 
 
@@ -165,8 +182,9 @@ def _hypotheses(rays: _Rays, config: AssociationConfig) -> tuple[np.ndarray, np.
     """All camera pairs x detection pairs.
 
     Returns:
-        ok (C, C, T, P, P) bool (symmetric: ok[a, b, t, p, q] == ok[b, a, t, q, p]) and the
-        hypothesis roots (C, C, T, P, P, 3) mm (NaN where not ok).
+        ok (C, C, T, P, P) bool (symmetric: ok[a, b, t, p, q] == ok[b, a, t, q, p]), the
+        hypothesis roots (C, C, T, P, P, 3) mm and the mean ray gap of the agreeing joints
+        (C, C, T, P, P) mm (NaN where not ok).
     """
     c_, t_, p_, ja, _ = rays.dirs.shape
     ia, ib = np.triu_indices(c_, 1)
@@ -192,38 +210,60 @@ def _hypotheses(rays: _Rays, config: AssociationConfig) -> tuple[np.ndarray, np.
     with np.errstate(invalid="ignore", divide="ignore"):
         root = (o[ia] + o[ib])[:, None, None, None, :] / 2 + (sd1 + ud2) / (2 * n_in[..., None])
     root[~ok] = np.nan
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_gap = np.where(ok, (np.where(inlier, gap, 0.0)).sum(2) / n_in, np.nan)
     ok_full = np.zeros((c_, c_, t_, p_, p_), bool)
     root_full = np.full((c_, c_, t_, p_, p_, 3), np.nan)
+    gap_full = np.full((c_, c_, t_, p_, p_), np.nan)
     ok_full[ia, ib], ok_full[ib, ia] = ok, ok.swapaxes(-1, -2)
     root_full[ia, ib], root_full[ib, ia] = root, root.swapaxes(2, 3)
-    return ok_full, root_full
+    gap_full[ia, ib], gap_full[ib, ia] = mean_gap, mean_gap.swapaxes(-1, -2)
+    return ok_full, root_full, gap_full
 
 
-def _node_roots(ok: np.ndarray, root: np.ndarray) -> np.ndarray:
-    """Median over partner views of the hypothesis roots of each detection -> (T, N, 3), N = C * P."""
-    c_, _, t_, p_, _ = ok.shape
-    r = root.transpose(2, 0, 3, 1, 4, 5).reshape(t_, c_ * p_, c_ * p_, 3)  # (T, N, partners, 3)
-    srt = np.sort(r, axis=2)  # NaN last
-    n = np.isfinite(r[..., 0]).sum(-1)  # (T, N)
-    lo = np.maximum(n - 1, 0) // 2
-    hi = np.minimum(n // 2, r.shape[2] - 1)
-    a = np.take_along_axis(srt, lo[..., None, None], axis=2)[:, :, 0]
-    b = np.take_along_axis(srt, hi[..., None, None], axis=2)[:, :, 0]
-    med = (a + b) / 2
-    med[n == 0] = np.nan
-    return med
+def _node_roots(ok: np.ndarray, root: np.ndarray, gap: np.ndarray, config: AssociationConfig) -> np.ndarray:
+    """Consensus 3D position of each detection -> (T, N, 3), N = C * P (NaN: no consensus).
 
-
-def _components(ok: np.ndarray, node_root: np.ndarray, config: AssociationConfig) -> np.ndarray:
-    """Connected components of agreeing detections -> (T, N) dense component index or -1."""
+    Among the roots of a detection's holding hypotheses (one per partner detection), the one with most
+    others within ``consensus_radius_mm`` (ties: smallest ray gap) wins; the consensus is the mean of
+    the roots near it. True partners all land on the person; chance matches land elsewhere, scattered.
+    """
     c_, _, t_, p_, _ = ok.shape
     n_ = c_ * p_
-    adj = ok.transpose(2, 0, 3, 1, 4).reshape(t_, n_, n_)
-    diff = node_root[:, :, None, :] - node_root[:, None, :, :]
+    r = root.transpose(2, 0, 3, 1, 4, 5).reshape(t_, n_, n_, 3)  # (T, N, partners, 3)
+    g = gap.transpose(2, 0, 3, 1, 4).reshape(t_, n_, n_)
+    valid = np.isfinite(r[..., 0])
+    rz = np.where(valid[..., None], r, 0.0)
+    sq = (rz * rz).sum(-1)
+    d2 = sq[..., :, None] + sq[..., None, :] - 2 * np.matmul(rz, rz.swapaxes(-1, -2))
+    near = (d2 < config.consensus_radius_mm**2) & valid[..., :, None] & valid[..., None, :]
+    count = near.sum(-1)  # (T, N, partners)
+    score = np.where(valid, count - np.clip(np.nan_to_num(g, nan=1e9) / config.ray_gap_mm, 0, 0.99), -1.0)
+    best = np.argmax(score, axis=-1)  # (T, N)
+    members = np.take_along_axis(near, best[..., None, None], axis=2)[:, :, 0]  # (T, N, partners)
+    n = members.sum(-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = (members[..., None] * rz).sum(2) / n[..., None]
+    out[n == 0] = np.nan
+    return out
+
+
+def _components(ok: np.ndarray, hyp_root: np.ndarray, node_root: np.ndarray,
+                config: AssociationConfig) -> np.ndarray:
+    """Connected components of agreeing detections -> (T, N) dense component index or -1.
+
+    Two detections are linked when their hypothesis holds and its root lies within
+    ``consensus_radius_mm`` of both detections' consensus positions.
+    """
+    c_, _, t_, p_, _ = ok.shape
+    n_ = c_ * p_
+    h = hyp_root.transpose(2, 0, 3, 1, 4, 5).reshape(t_, n_, n_, 3)
+    r2 = config.consensus_radius_mm**2
     with np.errstate(invalid="ignore"):
-        near = (diff * diff).sum(-1) < config.merge_radius_mm**2
-    reach = (adj & near).astype(np.float32)
-    reach = np.maximum(reach, np.eye(n_, dtype=np.float32))
+        near_a = ((h - node_root[:, :, None, :]) ** 2).sum(-1) < r2
+        near_b = ((h - node_root[:, None, :, :]) ** 2).sum(-1) < r2
+    adj = ok.transpose(2, 0, 3, 1, 4).reshape(t_, n_, n_) & near_a & near_b
+    reach = np.maximum(adj.astype(np.float32), np.eye(n_, dtype=np.float32))
     for _ in range(int(np.ceil(np.log2(max(n_, 2))))):
         reach = np.minimum(np.matmul(reach, reach), 1.0)
     first = np.argmax(reach > 0, axis=-1)  # smallest member index = component label
@@ -245,34 +285,96 @@ def _drop_same_camera_conflicts(comp: np.ndarray, c_: int, p_: int) -> np.ndarra
     return np.where(bad, -1, comp)
 
 
-def _triangulate_groups(rays: _Rays, groups: np.ndarray, num_groups: int | None = None) -> np.ndarray:
-    """Triangulate the association joints of each group of detections -> (T, K, Ja, 3) mm."""
+def _of_group(flipped: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """(C, T, P, K) flags and (T, N) groups -> (C, T, P) flag of each detection for its own group."""
+    c_, t_, p_, _ = flipped.shape
+    g = groups.reshape(t_, c_, p_).transpose(1, 0, 2)
+    return np.take_along_axis(flipped, np.maximum(g, 0)[..., None], -1)[..., 0] & (g >= 0)
+
+
+def _triangulate_groups(rays: _Rays, groups: np.ndarray, *, flipped: np.ndarray | None = None,
+                        num_groups: int | None = None) -> np.ndarray:
+    """Triangulate the association joints of each group of detections -> (T, K, Ja, 3) mm.
+
+    ``flipped`` (C, T, P) marks detections mirrored left/right; their joints are un-mirrored first.
+    """
     c_, t_, p_, ja, _ = rays.dirs.shape
     k_ = num_groups if num_groups is not None else max(int(groups.max()) + 1, 1)
     onehot = (groups[:, None, :] == np.arange(k_)[None, :, None]).astype(np.float64)  # (T, K, N)
-    mask = rays.mask.transpose(1, 0, 2, 3).reshape(t_, c_ * p_, ja)
+    dirs, mask = rays.dirs, rays.mask
+    if flipped is not None:
+        dirs = np.where(flipped[..., None, None], dirs[..., rays.flip, :], dirs)
+        mask = np.where(flipped[..., None], mask[..., rays.flip], mask)
+    mask = mask.transpose(1, 0, 2, 3).reshape(t_, c_ * p_, ja)
     weights = onehot[..., None] * mask[:, None].astype(np.float64)  # (T, K, N, Ja)
-    dirs = rays.dirs.transpose(1, 0, 2, 3, 4).reshape(t_, c_ * p_, ja, 3)
+    dirs = dirs.transpose(1, 0, 2, 3, 4).reshape(t_, c_ * p_, ja, 3)
     origins = np.repeat(rays.origins_mm, p_, axis=0)
     points, _ = triangulate_rays(origins, dirs, weights)
     return points
 
 
-def _assign_by_reprojection(rig: Rig, rays: _Rays, points_mm: np.ndarray, config) -> np.ndarray:
-    """Greedy per camera and frame: each detection to the person that reprojects nearest -> (C, T, P)."""
-    c_, t_, p_, ja, _ = rays.dirs.shape
-    k_ = points_mm.shape[1]
-    labels = np.full((c_, t_, p_), -1)
-    if k_ == 0:
-        return labels
+def _reprojection_cost(rig: Rig, rays: _Rays, points_mm: np.ndarray, config) -> tuple[np.ndarray, np.ndarray]:
+    """(C, T, P, K) median reprojection error of person k's joints against detection p, divided by the
+    detection's box diagonal; inf where fewer than ``min_joints`` joints compare or above the gate.
+
+    A detection mirrored left/right by the detector is compared mirrored too (the smaller cost counts);
+    the second result (C, T, P, K) bool says where the mirrored comparison won.
+    """
     proj = rig.project(points_mm)  # (C, T, K, Ja, 2)
+    straight = _median_cost(rays, proj, config)
+    mirrored = _median_cost(rays, proj[..., rays.flip, :], config)
+    return np.minimum(straight, mirrored), mirrored < straight
+
+
+def _median_cost(rays: _Rays, proj: np.ndarray, config) -> np.ndarray:
     err = np.linalg.norm(rays.pixels_px[:, :, :, None] - proj[:, :, None], axis=-1)  # (C, T, P, K, Ja)
-    valid = np.isfinite(err)
-    n = valid.sum(-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cost = np.where(valid, err, 0).sum(-1) / n / np.maximum(rays.scale_px, 1.0)[..., None]
-    cost = np.where(n >= config.min_joints, cost, np.inf)
-    cost = np.where(cost < config.reprojection_gate, cost, np.inf)
+    n = np.isfinite(err).sum(-1)
+    srt = np.sort(err, axis=-1)  # NaN last
+    lo = np.take_along_axis(srt, (np.maximum(n - 1, 0) // 2)[..., None], -1)[..., 0]
+    hi = np.take_along_axis(srt, np.minimum(n // 2, err.shape[-1] - 1)[..., None], -1)[..., 0]
+    with np.errstate(invalid="ignore"):
+        cost = (lo + hi) / 2 / np.maximum(rays.scale_px, 1.0)[..., None]
+        ok = (n >= config.min_joints) & (cost < config.reprojection_gate)
+    return np.where(ok, cost, np.inf)
+
+
+def _absorb_explained(comp: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Relabel a group into a larger one whose reprojection explains most of its detections.
+
+    A person whose detections split into two groups (e.g. different joints visible, or a poor
+    two-view triangulation) yields a small group that the large group's 3D points reproject onto.
+    Args: comp (T, N) group of each detection; cost (C, T, P, K) from :func:`_reprojection_cost`.
+    """
+    c_, t_, p_, k_ = cost.shape
+    if k_ < 2:
+        return comp
+    onehot = (comp[..., None] == np.arange(k_)).astype(np.float32)  # (T, N, K)
+    fits = np.isfinite(cost).transpose(1, 0, 2, 3).reshape(t_, c_ * p_, k_).astype(np.float32)
+    explained = np.matmul(onehot.swapaxes(1, 2), fits)  # (T, K_small, K_big): members of l fitting k
+    size = onehot.sum(1)  # (T, K)
+    bigger = (size[:, None, :] > size[:, :, None]) | (
+        (size[:, None, :] == size[:, :, None]) & (np.arange(k_)[None, :] < np.arange(k_)[:, None]))
+    absorb = bigger & (explained > 0.5 * size[:, :, None]) & (size[:, :, None] > 0)
+    score = np.where(absorb, size[:, None, :], -1.0)
+    target = np.where(absorb.any(-1), np.argmax(score, -1), np.arange(k_))  # (T, K)
+    for _ in range(2):  # follow chains a -> b -> c
+        target = np.take_along_axis(target, target, axis=1)
+    return np.where(comp >= 0, np.take_along_axis(target, np.maximum(comp, 0), axis=1), -1)
+
+
+def _prefer_linked(cost: np.ndarray, comp: np.ndarray) -> np.ndarray:
+    """Detections already linked to a group by 3D agreement go to that group first (cost - 1) when
+    its reprojection also fits; the others compete by reprojection alone."""
+    c_, t_, p_, k_ = cost.shape
+    own = comp.reshape(t_, c_, p_).transpose(1, 0, 2)[..., None] == np.arange(k_)  # (C, T, P, K)
+    return np.where(own & np.isfinite(cost), cost - 1.0, cost)
+
+
+def _assign_greedy(cost: np.ndarray) -> np.ndarray:
+    """Per camera and frame, detections to people by increasing cost, one each -> (C, T, P), -1 none."""
+    cost = cost.copy()
+    c_, t_, p_, k_ = cost.shape
+    labels = np.full((c_, t_, p_), -1)
     ci, ti = np.meshgrid(np.arange(c_), np.arange(t_), indexing="ij")
     for _ in range(min(p_, k_)):
         flat = cost.reshape(c_, t_, p_ * k_)

@@ -3,7 +3,8 @@
 Selectors are small frozen classes with ``choose(tracks) -> track id``:
 
 - :class:`WalkwayTrack` (automatic): the person who walks the walkway, i.e. who covers the most distance
-  along the walkway axis while inside its corridor. The walkway is given by two floor points or, when
+  along the walkway axis near its centre line (each step weighted by a Gaussian of the distance from
+  the line, so someone walking beside the patient scores less). The walkway is given by two floor points or, when
   not given, runs along the main direction of motion through a given point (by default the centre of
   the camera rig, which surrounds the walkway).
 - :class:`NearestStartTrack` (automatic): the person who comes nearest a configured start position early
@@ -56,7 +57,8 @@ class WalkwayTrack:
         start_mm, end_mm: two points (x, y, z mm) on the walkway's centre line; None: estimated (the main
             direction of all tracks' motion, through ``through_mm``).
         through_mm: a point on the centre line when the ends are not given (None: the tracks' mean).
-        corridor_half_width_mm: distance from the centre line within which walking counts.
+        corridor_half_width_mm: walking this far from the centre line counts e^-2 (13 %) as much as on
+            the line (Gaussian weight with sigma = half the corridor width).
         up_axis: index of the vertical world axis (the floor is the other two).
     """
 
@@ -96,17 +98,19 @@ class WalkwayTrack:
         return origin, direction
 
     def scores(self, tracks: Tracks) -> np.ndarray:
-        """(M,) distance (mm) each track covers along the walkway while inside the corridor."""
+        """(M,) distance (mm) each track covers along the walkway, weighted by nearness to its line."""
         _require_tracks(tracks)
         origin, direction = self.line(tracks)
         rel = _floor(tracks.root_mm, self.up_axis) - origin  # (M, T, 2)
         along = rel @ direction
         lateral = np.abs(rel[..., 0] * direction[1] - rel[..., 1] * direction[0])
         out = np.zeros(tracks.num_tracks)
+        sigma = self.corridor_half_width_mm / 2
         for m in range(tracks.num_tracks):
             seen = np.isfinite(along[m])
-            a, inside = along[m][seen], lateral[m][seen] <= self.corridor_half_width_mm
-            out[m] = np.sum(np.abs(np.diff(a)) * (inside[1:] & inside[:-1]))
+            a, lat = along[m][seen], lateral[m][seen]
+            weight = np.exp(-0.5 * (np.maximum(lat[1:], lat[:-1]) / sigma) ** 2)
+            out[m] = np.sum(np.abs(np.diff(a)) * weight)
         return out
 
     def choose(self, tracks: Tracks) -> int:

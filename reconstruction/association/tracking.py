@@ -3,7 +3,8 @@
 Each frame's people are matched to the live tracks by an optimal assignment (Hungarian) on the 3D
 distance between a person's root and the track's predicted root (last root + velocity x elapsed time).
 The gate grows with the elapsed time, so a track survives missed frames and short occlusions for up to
-``max_gap_s``; people who appear start new tracks, tracks not seen for longer end. Very short tracks
+``max_gap_s``; people who appear start new tracks (unless they sit on a person already matched in that
+frame: a second copy of that person), tracks not seen for longer end. Very short tracks
 (flicker) are dropped at the end. The loop is over frames only, on arrays of a few people.
 """
 
@@ -29,6 +30,8 @@ class TrackingConfig:
         max_gap_s: a track not seen for longer ends.
         velocity_smoothing: weight of the newest velocity estimate (exponential smoothing, 0..1].
         min_track_s: tracks shorter than this (first to last frame) are discarded.
+        duplicate_mm: an unmatched person this close to a matched one in the same frame is taken for a
+            second copy of that person and starts no track (its detections stay unassigned).
     """
 
     gate_mm: float = 350.0
@@ -36,6 +39,7 @@ class TrackingConfig:
     max_gap_s: float = 1.5
     velocity_smoothing: float = 0.3
     min_track_s: float = 0.2
+    duplicate_mm: float = 300.0
 
     def __post_init__(self) -> None:
         for name in ("gate_mm", "max_speed_mm_s", "max_gap_s", "velocity_smoothing"):
@@ -100,8 +104,11 @@ def link_tracks(people: FramePeople, times_s: np.ndarray, camera_names, config: 
         roots = people.root_mm[t, present]
         live = [i for i in range(len(last_root)) if times_s[t] - last_time[i] <= config.max_gap_s]
         matched = _match(roots, live, last_root, last_time, velocity, times_s[t], config)
+        taken = roots[list(matched)] if matched else np.empty((0, 3))
         for row, k in enumerate(present):
             i = matched.get(row)
+            if i is None and len(taken) and np.min(np.linalg.norm(taken - roots[row], axis=-1)) < config.duplicate_mm:
+                continue  # a second copy of a person already tracked in this frame: no new track
             if i is None:
                 i = len(last_root)
                 last_root.append(roots[row])

@@ -70,8 +70,10 @@ class Scene:
     points_mm: np.ndarray  # (people, T, J, 3)
 
 
-def make_scene(*, frames=60, people=3, num_cameras=8, noise_px=1.5, seed=0, fps=30.0, drop=0.0) -> Scene:
-    """Patient (id 0) walks along x; a therapist walks beside at y = +650 mm; a third person stands."""
+def make_scene(*, frames=60, people=3, num_cameras=8, noise_px=1.5, seed=0, fps=30.0, drop=0.0,
+               beside_mm=650.0, crossing=False) -> Scene:
+    """Patient (id 0) walks along x; a therapist walks beside at y = ``beside_mm``; a third person
+    stands (or, with ``crossing``, walks across the walkway and back)."""
     rng = np.random.default_rng(seed)
     t = np.arange(frames) / fps
     leg = 4500.0 / 1200.0  # s per pass along the walkway at 1.2 m/s, then turn and walk back
@@ -82,7 +84,15 @@ def make_scene(*, frames=60, people=3, num_cameras=8, noise_px=1.5, seed=0, fps=
     if people >= 2:
         tracks.append(person_points(np.stack([x - 150, np.full_like(x, 650)], -1), heading,
                                     2 * np.pi * t + 1))
-    if people >= 3:
+    if people >= 2:
+        tracks[1] = person_points(np.stack([x - 150, np.full_like(x, beside_mm)], -1), heading,
+                                  2 * np.pi * t + 1)
+    if people >= 3 and crossing:
+        y = 2500 * np.cos(2 * np.pi * t / 6)
+        tracks.append(person_points(np.stack([np.full_like(y, 300), y], -1),
+                                    np.where(np.sin(2 * np.pi * t / 6) > 0, -np.pi / 2, np.pi / 2),
+                                    2 * np.pi * t))
+    elif people >= 3:
         tracks.append(person_points(np.tile([800.0, -1800.0], (frames, 1)), np.full(frames, 1.0),
                                     np.zeros(frames)))
     pts = np.stack(tracks)  # (people, T, J, 3)

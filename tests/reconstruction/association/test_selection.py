@@ -28,7 +28,7 @@ def test_walkway_selector_picks_the_walker_not_the_therapist_beside_or_the_bysta
     explicit = WalkwayTrack(start_mm=(-2000, 0, 0), end_mm=(2000, 0, 0), corridor_half_width_mm=400)
     scores = explicit.scores(tracks)
     assert explicit.choose(tracks) == patient
-    assert scores[_track_of_person(scene, tracks, 1)] == 0  # therapist walks outside the corridor
+    assert scores[_track_of_person(scene, tracks, 1)] < 0.01 * scores[patient]  # outside the corridor
     beside = WalkwayTrack(start_mm=(-2000, 650, 0), end_mm=(2000, 650, 0), corridor_half_width_mm=300)
     assert beside.choose(tracks) == _track_of_person(scene, tracks, 1)
 
