@@ -91,7 +91,7 @@ class DetectorNode:
         if people.size:  # JSON has no NaN: a joint with any non-finite value becomes [0, 0, conf 0]
             people = np.where(np.isfinite(people).all(axis=-1, keepdims=True), people, 0.0)
         out = {"camera": camera, "frame_id": frame_id, "timestamp_ns": msg.timestamp_ns,
-               "skeleton": self.skeleton, "people": np.round(people, 3).tolist(), "detector_ms": round(ms, 3)}
+               "skeleton": self.skeleton, "people": np.round(people, 4).tolist(), "detector_ms": round(ms, 3)}
         self._publisher(camera).put(dumps(out))
         self.detected += 1
 

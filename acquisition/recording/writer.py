@@ -45,7 +45,8 @@ class WriterSettings:
 
 
 def _flat_metadata(metadata: dict[str, Any]) -> dict[str, str]:
-    return {str(k): v if isinstance(v, str) else json.dumps(v) for k, v in metadata.items()}
+    """MCAP metadata records hold strings: every value JSON-encoded."""
+    return {str(k): json.dumps(v) for k, v in metadata.items()}
 
 
 class TrialWriter:
