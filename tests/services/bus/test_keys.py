@@ -1,0 +1,34 @@
+import pytest
+
+from services.bus.keys import DEFAULT_PREFIX, Keys, check_name, dumps, loads
+
+
+def test_key_expressions():
+    k = Keys("gaitcap/lab1")
+    assert k.image("cam01") == "gaitcap/lab1/camera/cam01/image"
+    assert k.image() == "gaitcap/lab1/camera/*/image"
+    assert k.status("cam01") == "gaitcap/lab1/camera/cam01/status"
+    assert k.keypoints("c-2") == "gaitcap/lab1/keypoints/c-2"
+    assert k.recorder_start == "gaitcap/lab1/recorder/start" and k.recorder_events.endswith("/recorder/events")
+    assert k.alive("recorder") == "gaitcap/lab1/alive/recorder" and k.alive() == "gaitcap/lab1/alive/**"
+    assert k.camera_of("gaitcap/lab1/camera/cam01/image") == "cam01"
+    assert k.camera_of("gaitcap/lab1/keypoints/cam02") == "cam02"
+    assert Keys().prefix == DEFAULT_PREFIX
+
+
+def test_bad_names_and_prefixes():
+    for bad in ("a/b", "cam*", "", "x y"):
+        with pytest.raises(ValueError, match="camera"):
+            check_name(bad, what="camera")
+    with pytest.raises(ValueError, match="prefix"):
+        Keys("gaitcap/*")
+    with pytest.raises(ValueError, match="names no camera"):
+        Keys().camera_of("other/camera/x/image")
+
+
+def test_json_payloads():
+    assert loads(dumps({"a": 1}), what="x") == {"a": 1}
+    with pytest.raises(ValueError, match="status of cam1: payload is not JSON"):
+        loads(b"\xff", what="status of cam1")
+    with pytest.raises(ValueError, match="JSON object"):
+        loads(b"[1]", what="x")

@@ -1,0 +1,141 @@
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from services.bus.session import (
+    BusConfig,
+    alive_nodes,
+    declare_alive,
+    default_bus_config,
+    load_bus_config,
+    open_session,
+    watch_alive,
+    zenoh_config,
+)
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def free_bus(names, prefix="gaitcap/test"):
+    socks = [socket.socket() for _ in names]
+    for s in socks:
+        s.bind(("127.0.0.1", 0))
+    ports = [s.getsockname()[1] for s in socks]
+    for s in socks:
+        s.close()
+    return BusConfig({n: f"tcp/127.0.0.1:{p}" for n, p in zip(names, ports, strict=True)}, prefix=prefix)
+
+
+def test_bus_file_json5(tmp_path):
+    f = tmp_path / "rig.json5"
+    f.write_text("""{
+      // two hosts
+      prefix: 'gaitcap/lab1',
+      lease_ms: 2000,
+      nodes: {
+        "camera-0": "tcp/192.168.50.10:7447",   /* acquisition PC */
+        recorder: "tcp/192.168.50.20:7447",
+      },
+    }""")
+    cfg = load_bus_config(f)
+    assert cfg.prefix == "gaitcap/lab1" and cfg.lease_ms == 2000
+    assert cfg.listen_for("recorder") == ["tcp/192.168.50.20:7447"]
+    assert cfg.connect_for("recorder") == ["tcp/192.168.50.10:7447"]
+    assert cfg.listen_for("cli") == [] and len(cfg.connect_for("cli")) == 2
+
+
+def test_shipped_deploy_configs_load():
+    files = sorted((ROOT / "deploy" / "zenoh").glob("*.json5"))
+    assert files
+    for f in files:
+        cfg = load_bus_config(f)
+        assert any(n.startswith("camera") for n in cfg.nodes) and "recorder" in cfg.nodes
+
+
+@pytest.mark.parametrize("text,match", [
+    ('{"nodes": {"a": "127.0.0.1:1"}}', "endpoint"),
+    ('{"nodes": {"a b": "tcp/127.0.0.1:1"}}', "bus node"),
+    ('{"nodes": {}, "color": 1}', "unknown fields"),
+    ('{"nodes": {"a": "tcp/h:1", "b": "tcp/h:1"}}', "used twice"),
+    ("{nodes: ", "not valid JSON5"),
+])
+def test_bad_bus_files(tmp_path, text, match):
+    f = tmp_path / "bad.json5"
+    f.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        load_bus_config(f)
+
+
+def test_default_is_local_peer_without_scouting(monkeypatch, tmp_path):
+    monkeypatch.delenv("GAITCAP_BUS", raising=False)
+    cfg = default_bus_config()
+    assert cfg.nodes["recorder"] == "tcp/127.0.0.1:7447"
+    conf = json.loads(str(zenoh_config(cfg, "recorder")))
+    assert conf["mode"] == "peer"
+    assert conf["scouting"]["multicast"]["enabled"] is False and conf["scouting"]["gossip"]["enabled"] is False
+    assert conf["listen"]["endpoints"] == ["tcp/127.0.0.1:7447"]
+    assert "tcp/127.0.0.1:7447" not in conf["connect"]["endpoints"]
+    f = tmp_path / "b.json"
+    f.write_text(json.dumps({"nodes": {"x": "tcp/127.0.0.1:9"}}))
+    monkeypatch.setenv("GAITCAP_BUS", str(f))
+    assert default_bus_config().nodes == {"x": "tcp/127.0.0.1:9"}
+
+
+def test_peers_exchange_and_liveliness_sees_a_killed_node():
+    bus = free_bus(["a", "b"])
+    sa = open_session(bus, "a")
+    got, changes = [], []
+    done = threading.Event()
+    sub = sa.declare_subscriber(f"{bus.prefix}/t", lambda s: (got.append(s.payload.to_bytes()), done.set()))
+    watcher = watch_alive(sa, bus, lambda node, alive: changes.append((node, alive)))
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    code = (
+        "import sys, time, json\n"
+        "from services.bus.session import BusConfig, open_session, declare_alive\n"
+        f"bus = BusConfig(json.loads({json.dumps(json.dumps(bus.nodes))}), prefix={bus.prefix!r})\n"
+        "s = open_session(bus, 'b'); tok = declare_alive(s, bus, 'b')\n"
+        "time.sleep(0.5)\n"
+        "while True:\n"
+        f"    s.put({bus.prefix + '/t'!r}, b'hello'); time.sleep(0.1)\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", code], env=env, cwd=str(ROOT))
+    try:
+        assert done.wait(20), "no message from the peer process"
+        assert got[0] == b"hello"
+        deadline = time.monotonic() + 10
+        while ("b", True) not in changes and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert ("b", True) in changes and "b" in alive_nodes(sa, bus)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        t0 = time.monotonic()
+        while ("b", False) not in changes and time.monotonic() - t0 < 5:
+            time.sleep(0.02)
+        assert ("b", False) in changes, "killed node not seen gone"
+        assert time.monotonic() - t0 < 2.0
+    finally:
+        proc.kill()
+        sub.undeclare()
+        watcher.undeclare()
+        sa.close()
+
+
+def test_own_token_and_bad_node_name():
+    bus = free_bus(["n1"])
+    s = open_session(bus, "n1")
+    try:
+        tok = declare_alive(s, bus, "n1")
+        assert alive_nodes(s, bus) == {"n1"}
+        tok.undeclare()
+        with pytest.raises(ValueError, match="node"):
+            open_session(bus, "bad/name")
+    finally:
+        s.close()
