@@ -83,6 +83,8 @@ class NoisePreset:
     outlier_rate: probability that a keypoint is misplaced; outlier_frac: displacement range (fraction of
     body height). swap_rate: per camera and frame, chance a left/right swap starts; swap_frames: mean run.
     miss_rate: chance per camera and frame that the person is not detected at all.
+    confusion_rate: chance that a joint hidden behind another person is detected on that person's
+    same joint instead (when it lies within 15 % of the body height of it in the image).
     conf_sd: confidence noise; conf_error_slope: confidence lost per unit of (error / expected error).
     clock_offset_sd_ns, jitter_sd_ns: PTP clock offset per camera and per-frame jitter (|.| < 100 us).
     """
@@ -101,6 +103,7 @@ class NoisePreset:
     swap_rate: float
     swap_frames: float
     miss_rate: float
+    confusion_rate: float
     conf_sd: float
     conf_error_slope: float
     clock_offset_sd_ns: float
@@ -108,6 +111,7 @@ class NoisePreset:
 
     def __post_init__(self) -> None:
         for f in ("sigma_frac", "sigma_min_px", "sigma_spread", "bias_frac", "outlier_rate", "swap_rate", "miss_rate",
+                  "confusion_rate",
                   "conf_sd", "conf_error_slope", "clock_offset_sd_ns", "jitter_sd_ns"):
             if getattr(self, f) < 0:
                 raise ValueError(f"NoisePreset {self.name}: {f} must be >= 0")
@@ -125,20 +129,20 @@ PRESETS: dict[str, NoisePreset] = {
         NoisePreset(
             name="clean", sigma_frac=0.0, sigma_min_px=0.15, sigma_spread=0.0, temporal_corr=0.0, bias_frac=0.0,
             occlusion=False, occluded_sigma_scale=1.0, occluded_conf_scale=1.0, outlier_rate=0.0,
-            outlier_frac=(0.05, 0.4), swap_rate=0.0, swap_frames=1.0, miss_rate=0.0, conf_sd=0.02,
+            outlier_frac=(0.05, 0.4), swap_rate=0.0, swap_frames=1.0, miss_rate=0.0, confusion_rate=0.0, conf_sd=0.02,
             conf_error_slope=0.0, clock_offset_sd_ns=2_000.0, jitter_sd_ns=1_000.0,
         ),
         NoisePreset(
             name="paper", sigma_frac=0.0066, sigma_min_px=0.8, sigma_spread=0.8, temporal_corr=0.5,
             bias_frac=0.0025, occlusion=True, occluded_sigma_scale=2.5, occluded_conf_scale=0.55,
             outlier_rate=0.09, outlier_frac=(0.05, 0.4), swap_rate=0.008, swap_frames=4.0, miss_rate=0.005,
-            conf_sd=0.06, conf_error_slope=0.08, clock_offset_sd_ns=15_000.0, jitter_sd_ns=8_000.0,
+            confusion_rate=0.3, conf_sd=0.06, conf_error_slope=0.08, clock_offset_sd_ns=15_000.0, jitter_sd_ns=8_000.0,
         ),
         NoisePreset(
             name="hard", sigma_frac=0.011, sigma_min_px=1.2, sigma_spread=0.9, temporal_corr=0.6,
             bias_frac=0.005, occlusion=True, occluded_sigma_scale=3.5, occluded_conf_scale=0.5,
             outlier_rate=0.15, outlier_frac=(0.05, 0.5), swap_rate=0.02, swap_frames=6.0, miss_rate=0.02,
-            conf_sd=0.1, conf_error_slope=0.06, clock_offset_sd_ns=25_000.0, jitter_sd_ns=15_000.0,
+            confusion_rate=0.5, conf_sd=0.1, conf_error_slope=0.06, clock_offset_sd_ns=25_000.0, jitter_sd_ns=15_000.0,
         ),
     )
 }
@@ -209,8 +213,12 @@ def detect(
     time_offsets_s: np.ndarray,
     rng: np.random.Generator,
     occluded: np.ndarray | None = None,
+    others_mm: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(C, T, J, 3) detections of one person. ``time_offsets_s`` (C, T): capture time minus frame time."""
+    """(C, T, J, 3) detections of one person. ``time_offsets_s`` (C, T): capture time minus frame time.
+
+    ``others_mm`` (Q, T, J, 3): the other people, whose joints an occluded joint may be confused with.
+    """
     t_len, j_len, _ = points_mm.shape
     c_len = len(rig)
     out = np.full((c_len, t_len, j_len, 3), np.nan)
@@ -247,6 +255,19 @@ def detect(
             shift = np.stack([np.cos(ang), np.sin(ang)], -1) * mag[..., None]
             det = np.where(is_out[..., None], det + shift, det)
             conf = np.where(is_out, rng.uniform(0.2, 0.95, (t_len, j_len)), conf)
+        # identity confusion: a joint hidden behind someone else is detected on that person's joint
+        if others_mm is not None and len(others_mm) and preset.confusion_rate > 0 and occ.any():
+            best = np.full((t_len, j_len), np.inf)
+            best_px = np.zeros((t_len, j_len, 2))
+            for other in others_mm:
+                opx, ook = visible(cam, other)
+                dist = np.where(ook, np.linalg.norm(opx - px, axis=-1), np.inf)
+                closer = dist < best
+                best = np.where(closer, dist, best)
+                best_px = np.where(closer[..., None], opx, best_px)
+            confused = occ & (best < 0.15 * size_px[:, None]) & (rng.random((t_len, j_len)) < preset.confusion_rate)
+            det = np.where(confused[..., None], best_px + rng.normal(0, 1, (t_len, j_len, 2)) * sigma0[..., None], det)
+            conf = np.where(confused, rng.uniform(0.4, 0.9, (t_len, j_len)), conf)
         # left/right swaps (legs, sometimes the whole body) over runs of frames
         if preset.swap_rate > 0:
             starts = np.flatnonzero(rng.random(t_len) < preset.swap_rate)

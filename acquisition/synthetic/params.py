@@ -45,6 +45,10 @@ class WalkParams:
         turn_radius_mm: radius of the turn (passes run this far either side of the diagonal).
         walkway_margin_mm: distance from the room corners (along the diagonal) where the passes end.
         stand_start_s, stand_end_s: minimum standing time before the first and after the last step.
+    Variability (0 = every straight step exactly as requested; > 0: step-to-step random variation drawn
+    from the trial's seed, the ground truth then follows the realised footprints):
+        step_length_sd_mm, step_width_sd_mm: sd of each footprint's forward / lateral placement.
+        step_time_sd_s: sd of each step's duration.
     """
 
     step_length_mm: float = 650.0
@@ -75,6 +79,9 @@ class WalkParams:
     walkway_margin_mm: float = 1400.0
     stand_start_s: float = 1.0
     stand_end_s: float = 1.0
+    step_length_sd_mm: float = 0.0
+    step_width_sd_mm: float = 0.0
+    step_time_sd_s: float = 0.0
 
     def __post_init__(self) -> None:
         def need(cond: bool, msg: str) -> None:
@@ -106,6 +113,9 @@ class WalkParams:
         need(2 <= int(self.turn_steps) <= 12, f"turn_steps must be in [2, 12], got {self.turn_steps}")
         need(100.0 <= self.turn_radius_mm <= 1000.0, "turn_radius_mm must be in [100, 1000]")
         need(500.0 <= self.walkway_margin_mm <= 3000.0, "walkway_margin_mm must be in [500, 3000]")
+        need(0.0 <= self.step_length_sd_mm <= 60.0, "step_length_sd_mm must be in [0, 60]")
+        need(0.0 <= self.step_width_sd_mm <= 40.0, "step_width_sd_mm must be in [0, 40]")
+        need(0.0 <= self.step_time_sd_s <= 0.04, "step_time_sd_s must be in [0, 0.04]")
         need(0.0 <= self.stand_start_s <= 60.0 and 0.0 <= self.stand_end_s <= 60.0, "standing times must be in [0, 60] s")
 
     # -- derived quantities ------------------------------------------------------------------------

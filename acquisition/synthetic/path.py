@@ -140,8 +140,18 @@ def _heel_on_line(origin, heading, p, side, width):
     return origin + p * forward(heading) + side * (width / 2) * left_normal(heading)
 
 
-def _build_patient(params: WalkParams, room: Room, n_passes: int, pass_len: float, stand_start: float) -> _Builder:
+def _build_patient(
+    params: WalkParams, room: Room, n_passes: int, pass_len: float, stand_start: float, seed: int = 0
+) -> _Builder:
     b = _Builder(params)
+    rng = np.random.default_rng([int(seed), 59])
+    sd_l, sd_w = params.step_length_sd_mm, params.step_width_sd_mm
+
+    def jitter(heel, heading):
+        if sd_l == 0 and sd_w == 0:
+            return heel
+        return heel + rng.normal(0, sd_l) * forward(heading) + rng.normal(0, sd_w) * left_normal(heading)
+
     a, bb = room.corner_a, room.corner_b
     d = (bb - a) / np.linalg.norm(bb - a)
     heading0 = math.atan2(d[1], d[0])
@@ -164,7 +174,7 @@ def _build_patient(params: WalkParams, room: Room, n_passes: int, pass_len: floa
         side = -side
         while p + b.step_len[side] <= pass_len:
             p += b.step_len[side]
-            b.add(side, _heel_on_line(origin, heading, p, side, w), heading, "steady", j, heading)
+            b.add(side, jitter(_heel_on_line(origin, heading, p, side, w), heading), heading, "steady", j, heading)
             side = -side
         if j == n_passes - 1:
             # closing step: bring the other foot side by side and stop
@@ -186,11 +196,11 @@ def _build_patient(params: WalkParams, room: Room, n_passes: int, pass_len: floa
         last = b.contacts[-1]
         last.pass_index, last.line_heading = j + 1, heading
     b.lines = lines
-    _assign_times(b, stand_start)
+    _assign_times(b, stand_start, rng if params.step_time_sd_s > 0 else None)
     return b
 
 
-def _assign_times(b: _Builder, stand_start: float) -> None:
+def _assign_times(b: _Builder, stand_start: float, rng: np.random.Generator | None = None) -> None:
     """Heel-strike times and the FF/HR/TO events of every contact (contacts alternate feet)."""
     cs = b.contacts
     T = b.T
@@ -208,7 +218,10 @@ def _assign_times(b: _Builder, stand_start: float) -> None:
     for k in range(2, len(cs)):
         c = cs[k]
         if k > 2:
-            t += c.tempo * b.step_time[c.side]
+            dt = c.tempo * b.step_time[c.side]
+            if rng is not None:
+                dt += float(np.clip(rng.normal(0, b.p.step_time_sd_s), -0.1 * dt, 0.1 * dt))
+            t += dt
         c.t_hs = t
         c.t_ff = t + ff * c.tempo
     for k in range(1, len(cs)):
@@ -227,7 +240,7 @@ def _plan_end(b: _Builder) -> float:
     return last.t_ff if math.isfinite(last.t_ff) else 0.0
 
 
-def plan_walk(params: WalkParams, seconds: float, room: Room | None = None) -> FootPlan:
+def plan_walk(params: WalkParams, seconds: float, room: Room | None = None, seed: int = 0) -> FootPlan:
     """Plan the patient's walk: as many full passes of the diagonal as fit in ``seconds``.
 
     Extra time is split between the standing phases. Raises ValueError when not even a short pass fits.
@@ -242,7 +255,7 @@ def plan_walk(params: WalkParams, seconds: float, room: Room | None = None) -> F
     stand0, stand1 = params.stand_start_s, params.stand_end_s
     for attempt in range(2):
         try:
-            return _plan_walk(params, seconds, room, pass_len, stand0, stand1)
+            return _plan_walk(params, seconds, room, pass_len, stand0, stand1, seed)
         except ValueError:
             if attempt == 1 or (stand0 <= 0.3 and stand1 <= 0.3):
                 raise
@@ -251,11 +264,13 @@ def plan_walk(params: WalkParams, seconds: float, room: Room | None = None) -> F
     raise AssertionError("unreachable")
 
 
-def _plan_walk(params: WalkParams, seconds: float, room: Room, pass_len: float, stand0: float, stand1: float) -> FootPlan:
+def _plan_walk(
+    params: WalkParams, seconds: float, room: Room, pass_len: float, stand0: float, stand1: float, seed: int
+) -> FootPlan:
     budget = seconds - stand0 - stand1
 
     def walk_time(n, length):
-        bld = _build_patient(params, room, n, length, 0.0)
+        bld = _build_patient(params, room, n, length, 0.0, seed)
         return bld, _plan_end(bld)
 
     chosen = None
@@ -284,7 +299,7 @@ def _plan_walk(params: WalkParams, seconds: float, room: Room, pass_len: float, 
     n, length, dur = chosen
     extra = budget - dur
     stand_start = stand0 + extra / 2
-    bld = _build_patient(params, room, n, length, stand_start)
+    bld = _build_patient(params, room, n, length, stand_start, seed)
     return FootPlan(
         contacts=bld.contacts,
         walk_start_s=stand_start,

@@ -129,7 +129,7 @@ def make_trial(
     room = Room()
     n_frames = int(round(seconds * fps))
     times = np.arange(n_frames) / fps
-    plan = plan_walk(params, seconds, room)
+    plan = plan_walk(params, seconds, room, seed=seed)
     body = Body.from_params(params)
     points = simulate_body(plan, params, times, body)
     truth = gait_truth(plan, body, duration_s=float(times[-1]))
@@ -157,7 +157,8 @@ def make_trial(
     for p in range(len(everyone)):
         rng_det = np.random.default_rng([seed, 31, p])
         occ = occlusion_mask(rig, all_pts, heights, p) if noise.occlusion else None
-        kp = detect(rig, all_pts[p], _velocity(all_pts[p], times), heights[p], noise, dt, rng_det, occ)
+        others = np.delete(all_pts, p, axis=0) if len(everyone) > 1 else None
+        kp = detect(rig, all_pts[p], _velocity(all_pts[p], times), heights[p], noise, dt, rng_det, occ, others)
         per_person.append(kp)
     detections = Detections(per_person[0], tuple(rig.names), times, skel)
 

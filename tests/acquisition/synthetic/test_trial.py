@@ -148,6 +148,20 @@ def test_multi_person_identity_is_consistent(multi_trial):
     assert np.asarray(m).shape == m.keypoints.shape
 
 
+def test_occluded_joints_can_be_detected_on_another_person():
+    tr = make_trial("hard", seconds=12.0, cameras=10, people=2, seed=0)
+    m = tr.multi
+    kp = m.person(0)
+    own = np.stack([cam.project(m.points_mm[0]) for cam in tr.rig])
+    other = np.stack([cam.project(m.points_mm[1]) for cam in tr.rig])
+    e_own = np.linalg.norm(kp[..., :2] - own, axis=-1)
+    e_other = np.linalg.norm(kp[..., :2] - other, axis=-1)
+    on_other = (e_other < 0.5 * e_own) & (e_own > 15) & (kp[..., 2] > 0.4)
+    assert on_other.sum() > 20
+    single = make_trial("hard", seconds=12.0, cameras=10, people=1, seed=0)
+    assert np.array_equal(single.points_mm, tr.points_mm)
+
+
 def test_other_people_keep_their_distance(multi_trial):
     pel = multi_trial.multi.points_mm[:, :, 19, :2]
     d01 = np.linalg.norm(pel[0] - pel[1], axis=-1)

@@ -18,10 +18,13 @@ def _walk(params: WalkParams, seconds: float = 16.0):
     return plan, times, simulate_body(plan, params, times, body), body
 
 
-@pytest.fixture(scope="module", params=["normal", "hemiparetic"])
+VARIABLE = WalkParams(step_length_sd_mm=15.0, step_width_sd_mm=10.0, step_time_sd_s=0.015)
+
+
+@pytest.fixture(scope="module", params=["normal", "hemiparetic", "variable"])
 def walk(request):
-    params = WalkParams() if request.param == "normal" else WalkParams.hemiparetic("left")
-    return (params, *_walk(params, 30.0 if request.param == "normal" else 24.0))
+    params = {"normal": WalkParams(), "hemiparetic": WalkParams.hemiparetic("left"), "variable": VARIABLE}[request.param]
+    return (params, *_walk(params, 24.0 if request.param == "hemiparetic" else 30.0))
 
 
 def test_limb_lengths_are_constant(walk):
@@ -100,11 +103,16 @@ def test_measured_step_parameters_equal_the_requested_ones(walk):
         a, b = measured[k - 1], measured[k + 1]
         ab = (b - a) / np.linalg.norm(b - a)
         width = abs(ab[0] * (measured[k] - a)[1] - ab[1] * (measured[k] - a)[0])
-        assert step == pytest.approx(params.side_step_length_mm(SIDE_NAME[side]), abs=1.0)
-        assert stride == pytest.approx(2 * params.step_length_mm, abs=1.0)
-        assert width == pytest.approx(params.step_width_mm, abs=1.0)
+        # the ground truth is what the trajectories show ...
         assert st.step_length_mm[row] == pytest.approx(step, abs=1e-6)
+        assert st.stride_length_mm[row] == pytest.approx(stride, abs=1e-6)
         assert st.step_width_mm[row] == pytest.approx(width, abs=1e-6)
+        assert np.allclose(st.heel_mm[row, :2], measured[k], atol=1e-6)
+        if params.step_length_sd_mm == 0 and params.step_width_sd_mm == 0:
+            # ... and, without variability, exactly what was asked for
+            assert step == pytest.approx(params.side_step_length_mm(SIDE_NAME[side]), abs=1.0)
+            assert stride == pytest.approx(2 * params.step_length_mm, abs=1.0)
+            assert width == pytest.approx(params.step_width_mm, abs=1.0)
         n_checked += 1
     assert n_checked >= 8
 
@@ -112,8 +120,9 @@ def test_measured_step_parameters_equal_the_requested_ones(walk):
 def test_cadence_and_speed_on_straight_passes(walk):
     params, plan, times, pts, body = walk
     s = gait_truth(plan, body).summary()
-    assert s["cadence_spm"] == pytest.approx(params.cadence_spm, rel=0.02)
-    assert s["speed_m_s"] * 1000 == pytest.approx(params.speed_mm_s, rel=0.02)
+    tol = 0.02 if params.step_time_sd_s == 0 else 0.05
+    assert s["cadence_spm"] == pytest.approx(params.cadence_spm, rel=tol)
+    assert s["speed_m_s"] * 1000 == pytest.approx(params.speed_mm_s, rel=tol)
     pelvis = pts[:, SKELETON.index("pelvis")]
     # standing at both ends: the pelvis does not move
     assert np.ptp(pelvis[times < 0.5], axis=0).max() < 1e-6
@@ -153,3 +162,16 @@ def test_bad_params_are_named():
         plan_walk(WalkParams(), 3.0)
     assert WalkParams.from_json(WalkParams.hemiparetic().to_json()) == WalkParams.hemiparetic()
     assert math.isclose(WalkParams().speed_mm_s, 650 * 110 / 60)
+
+
+def test_variability_is_seeded_and_realised():
+    a = plan_walk(VARIABLE, 30.0, seed=1)
+    b = plan_walk(VARIABLE, 30.0, seed=1)
+    c = plan_walk(VARIABLE, 30.0, seed=2)
+    xy = lambda p: np.array([k.heel_xy for k in p.contacts])  # noqa: E731
+    assert np.array_equal(xy(a), xy(b)) and xy(a).shape == xy(c).shape and not np.allclose(xy(a), xy(c))
+    st = gait_truth(a, Body.from_params(VARIABLE)).steps
+    m = st.straight
+    assert 8 < np.std(st.step_length_mm[m]) < 40
+    assert 4 < np.std(st.step_width_mm[m]) < 30
+    assert np.mean(st.step_length_mm[m]) == pytest.approx(VARIABLE.step_length_mm, abs=15)
