@@ -19,6 +19,7 @@ key expression                         kind        payload
 ``<prefix>/recorder/status``           queryable   reply JSON ``{"recording": bool, "trial_id", "path"}``
 ``<prefix>/recorder/events``           put         JSON :data:`RECORDER_EVENT`
 ``<prefix>/alive/<node>``              liveliness  token held by every node while it runs
+``<prefix>/worker/progress/<trial>``   put         JSON worker progress of one trial (``services.bus_link``)
 =====================================  ==========  ========================================================
 
 Wildcards: ``<prefix>/camera/*/image`` (all frames), ``<prefix>/keypoints/*``, ``<prefix>/alive/**``.
@@ -138,6 +139,9 @@ class Keys:
     @property
     def recorder_events(self) -> str:
         return f"{self.prefix}/recorder/events"
+
+    def worker_progress(self, trial_id: str = "*") -> str:
+        return f"{self.prefix}/worker/progress/{trial_id}"
 
     def alive(self, node: str = "**") -> str:
         return f"{self.prefix}/alive/{node if node == '**' else check_name(node, what='node')}"
