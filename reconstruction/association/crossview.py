@@ -13,6 +13,8 @@ Method (closed-form array maths over the whole clip; the only loops are over a f
 4. Detections linked by a holding hypothesis whose root agrees with both detections' positions
    (within ``consensus_radius_mm``) are joined; connected components are the people of that frame (a
    camera with two detections in one component is left out of that person's first triangulation).
+   Components seen by disjoint cameras whose joints nearly coincide are one person split in two and
+   are merged; a component whose detections another component's reprojection explains is absorbed.
 5. Each person's association joints are triangulated from its rays, then every camera's detections are
    assigned to people by reprojection error (greedy, one detection per person and camera, gated
    relative to the detection's size), and the people are triangulated again from the final assignment.
@@ -48,6 +50,8 @@ class AssociationConfig:
         min_inlier_fraction: fraction of the shared joints that must agree for a hypothesis to hold.
         consensus_radius_mm: hypotheses (pairs of detections) whose 3D roots lie within this distance
             agree; a pair links two detections when its root is this near both their consensus positions.
+        merge_mm: groups seen by different cameras whose joints lie this close on average (mm) are
+            one person.
         reprojection_gate: a detection joins a person when its median reprojection error is below
             this fraction of the detection's box diagonal.
         min_views: people seen by fewer cameras are dropped.
@@ -59,11 +63,12 @@ class AssociationConfig:
     min_joints: int = 4
     min_inlier_fraction: float = 0.6
     consensus_radius_mm: float = 120.0
+    merge_mm: float = 300.0
     reprojection_gate: float = 0.1
     min_views: int = 2
 
     def __post_init__(self) -> None:
-        for name in ("ray_gap_mm", "consensus_radius_mm", "reprojection_gate"):
+        for name in ("ray_gap_mm", "consensus_radius_mm", "merge_mm", "reprojection_gate"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"AssociationConfig.{name} must be > 0, got {getattr(self, name)}")
         if self.min_joints < 1 or self.min_views < 2:
@@ -124,6 +129,8 @@ def associate_frames(multi: MultiPersonDetections, rig: Rig, config: Association
     points = _triangulate_groups(rays, comp)
     if points.shape[1] == 0:
         return _nobody(c_, t_, p_, len(jidx), jidx)
+    comp = _merge_disjoint_neighbours(points, comp, c_, p_, config)
+    points = _triangulate_groups(rays, comp, num_groups=points.shape[1])
     cost, flipped = _reprojection_cost(rig, rays, points, config)
     comp = _absorb_explained(comp, cost)
     points = _triangulate_groups(rays, comp, flipped=_of_group(flipped, comp), num_groups=points.shape[1])
@@ -189,8 +196,8 @@ def _hypotheses(rays: _Rays, config: AssociationConfig) -> tuple[np.ndarray, np.
     c_, t_, p_, ja, _ = rays.dirs.shape
     ia, ib = np.triu_indices(c_, 1)
     o = rays.origins_mm
-    w = o[ia] - o[ib]  # (R, 3)
-    d = np.nan_to_num(rays.dirs).transpose(0, 1, 3, 2, 4)  # (C, T, Ja, P, 3)
+    w = (o[ia] - o[ib]).astype(np.float32)  # (R, 3)
+    d = np.nan_to_num(rays.dirs).astype(np.float32).transpose(0, 1, 3, 2, 4)  # (C, T, Ja, P, 3)
     d1, d2 = d[ia], d[ib]  # (R, T, Ja, P, 3)
     dot12 = np.matmul(d1, d2.swapaxes(-1, -2))  # (R, T, Ja, P, Q)
     d1w = np.einsum("rtjpx,rx->rtjp", d1, w)[..., :, None]
@@ -203,7 +210,7 @@ def _hypotheses(rays: _Rays, config: AssociationConfig) -> tuple[np.ndarray, np.
     n_shared = shared.sum(2)
     n_in = inlier.sum(2)  # (R, T, P, Q)
     ok = (n_in >= config.min_joints) & (n_in >= config.min_inlier_fraction * n_shared)
-    wi = inlier.astype(np.float64)
+    wi = inlier.astype(np.float32)
     # sum over joints of s d1 + u d2 on inlier joints -> (R, T, P, Q, 3)
     sd1 = np.einsum("rtjpq,rtjpx->rtpqx", wi * s, d1, optimize=True)
     ud2 = np.einsum("rtjpq,rtjqx->rtpqx", wi * u, d2, optimize=True)
@@ -213,8 +220,8 @@ def _hypotheses(rays: _Rays, config: AssociationConfig) -> tuple[np.ndarray, np.
     with np.errstate(invalid="ignore", divide="ignore"):
         mean_gap = np.where(ok, (np.where(inlier, gap, 0.0)).sum(2) / n_in, np.nan)
     ok_full = np.zeros((c_, c_, t_, p_, p_), bool)
-    root_full = np.full((c_, c_, t_, p_, p_, 3), np.nan)
-    gap_full = np.full((c_, c_, t_, p_, p_), np.nan)
+    root_full = np.full((c_, c_, t_, p_, p_, 3), np.nan, np.float32)
+    gap_full = np.full((c_, c_, t_, p_, p_), np.nan, np.float32)
     ok_full[ia, ib], ok_full[ib, ia] = ok, ok.swapaxes(-1, -2)
     root_full[ia, ib], root_full[ib, ia] = root, root.swapaxes(2, 3)
     gap_full[ia, ib], gap_full[ib, ia] = mean_gap, mean_gap.swapaxes(-1, -2)
@@ -285,6 +292,27 @@ def _drop_same_camera_conflicts(comp: np.ndarray, c_: int, p_: int) -> np.ndarra
     return np.where(bad, -1, comp)
 
 
+def _merge_disjoint_neighbours(points_mm: np.ndarray, comp: np.ndarray, c_: int, p_: int,
+                               config: AssociationConfig) -> np.ndarray:
+    """Join groups seen by disjoint sets of cameras whose joints lie within ``merge_mm`` on average:
+    one person split in two (e.g. two poor two-view triangulations). Returns relabelled (T, N)."""
+    t_, k_ = points_mm.shape[:2]
+    if k_ < 2:
+        return comp
+    dist = np.linalg.norm(points_mm[:, :, None] - points_mm[:, None], axis=-1)  # (T, K, K, Ja)
+    common = np.isfinite(dist)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(common, dist, 0).sum(-1) / common.sum(-1)
+    cams = (comp.reshape(t_, c_, p_)[..., None] == np.arange(k_)).any(2).astype(np.float32)  # (T, C, K)
+    shared = np.matmul(cams.swapaxes(1, 2), cams)  # (T, K, K) cameras in both groups
+    same = (common.sum(-1) >= config.min_joints) & (mean < config.merge_mm) & (shared == 0)
+    reach = np.maximum(same.astype(np.float32), np.eye(k_, dtype=np.float32))
+    for _ in range(int(np.ceil(np.log2(k_)))):
+        reach = np.minimum(np.matmul(reach, reach), 1.0)
+    rep = np.argmax(reach > 0, axis=-1)  # lowest index of each merged set
+    return np.where(comp >= 0, np.take_along_axis(rep, np.maximum(comp, 0), axis=1), -1)
+
+
 def _of_group(flipped: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """(C, T, P, K) flags and (T, N) groups -> (C, T, P) flag of each detection for its own group."""
     c_, t_, p_, _ = flipped.shape
@@ -327,7 +355,8 @@ def _reprojection_cost(rig: Rig, rays: _Rays, points_mm: np.ndarray, config) -> 
 
 
 def _median_cost(rays: _Rays, proj: np.ndarray, config) -> np.ndarray:
-    err = np.linalg.norm(rays.pixels_px[:, :, :, None] - proj[:, :, None], axis=-1)  # (C, T, P, K, Ja)
+    diff = (rays.pixels_px[:, :, :, None] - proj[:, :, None]).astype(np.float32)
+    err = np.sqrt((diff * diff).sum(-1))  # (C, T, P, K, Ja)
     n = np.isfinite(err).sum(-1)
     srt = np.sort(err, axis=-1)  # NaN last
     lo = np.take_along_axis(srt, (np.maximum(n - 1, 0) // 2)[..., None], -1)[..., 0]

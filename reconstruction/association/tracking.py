@@ -32,6 +32,8 @@ class TrackingConfig:
         min_track_s: tracks shorter than this (first to last frame) are discarded.
         duplicate_mm: an unmatched person this close to a matched one in the same frame is taken for a
             second copy of that person and starts no track (its detections stay unassigned).
+        up_axis: vertical world axis, ignored when matching (a root's height shifts with the joints
+            seen); None compares in 3D.
     """
 
     gate_mm: float = 350.0
@@ -40,11 +42,14 @@ class TrackingConfig:
     velocity_smoothing: float = 0.3
     min_track_s: float = 0.2
     duplicate_mm: float = 300.0
+    up_axis: int | None = 2
 
     def __post_init__(self) -> None:
         for name in ("gate_mm", "max_speed_mm_s", "max_gap_s", "velocity_smoothing"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"TrackingConfig.{name} must be > 0, got {getattr(self, name)}")
+        if self.up_axis not in (None, 0, 1, 2):
+            raise ValueError(f"TrackingConfig.up_axis must be None, 0, 1 or 2, got {self.up_axis}")
         if self.velocity_smoothing > 1 or self.min_track_s < 0:
             raise ValueError("TrackingConfig: velocity_smoothing must be <= 1 and min_track_s >= 0")
 
@@ -96,41 +101,55 @@ def link_tracks(people: FramePeople, times_s: np.ndarray, camera_names, config: 
     times_s = np.asarray(times_s, dtype=np.float64)
     t_, k_ = people.views.shape
     track_of = np.full((t_, k_), -1)  # frame person -> track
-    last_root, last_time, velocity = [], [], []
+    pos = people.root_mm if config.up_axis is None else np.delete(people.root_mm, config.up_axis, -1)
+    state = _State()
     for t in range(t_):
         present = np.flatnonzero(people.views[t] > 0)
         if present.size == 0:
             continue
-        roots = people.root_mm[t, present]
-        live = [i for i in range(len(last_root)) if times_s[t] - last_time[i] <= config.max_gap_s]
-        matched = _match(roots, live, last_root, last_time, velocity, times_s[t], config)
-        taken = roots[list(matched)] if matched else np.empty((0, 3))
+        now, xy = times_s[t], pos[t, present]
+        matched = _match(xy, state, now, config)
+        taken = xy[list(matched)]
         for row, k in enumerate(present):
             i = matched.get(row)
-            if i is None and len(taken) and np.min(np.linalg.norm(taken - roots[row], axis=-1)) < config.duplicate_mm:
-                continue  # a second copy of a person already tracked in this frame: no new track
             if i is None:
-                i = len(last_root)
-                last_root.append(roots[row])
-                last_time.append(times_s[t])
-                velocity.append(np.zeros(3))
+                if len(taken) and np.min(np.linalg.norm(taken - xy[row], axis=-1)) < config.duplicate_mm:
+                    continue  # a second copy of a person already tracked in this frame: no new track
+                i = state.start(xy[row], now)
             else:
-                dt = times_s[t] - last_time[i]
-                v_new = (roots[row] - last_root[i]) / dt
-                a = config.velocity_smoothing
-                velocity[i] = (1 - a) * velocity[i] + a * v_new
-                last_root[i], last_time[i] = roots[row], times_s[t]
+                state.update(i, xy[row], now, config.velocity_smoothing)
             track_of[t, k] = i
-    return _build(people, track_of, len(last_root), times_s, tuple(camera_names), config)
+    return _build(people, track_of, len(state.last), times_s, tuple(camera_names), config)
 
 
-def _match(roots, live, last_root, last_time, velocity, now, config) -> dict[int, int]:
+class _State:
+    """Last position, time and smoothed velocity of every track (floor or 3D coordinates, mm)."""
+
+    def __init__(self) -> None:
+        self.last: list[np.ndarray] = []
+        self.time: list[float] = []
+        self.velocity: list[np.ndarray] = []
+
+    def start(self, position: np.ndarray, now: float) -> int:
+        self.last.append(position)
+        self.time.append(now)
+        self.velocity.append(np.zeros_like(position))
+        return len(self.last) - 1
+
+    def update(self, i: int, position: np.ndarray, now: float, smoothing: float) -> None:
+        v_new = (position - self.last[i]) / (now - self.time[i])
+        self.velocity[i] = (1 - smoothing) * self.velocity[i] + smoothing * v_new
+        self.last[i], self.time[i] = position, now
+
+
+def _match(xy: np.ndarray, state: _State, now: float, config: TrackingConfig) -> dict[int, int]:
     """Hungarian assignment of this frame's people (rows) to live tracks -> {row: track index}."""
+    live = [i for i in range(len(state.last)) if now - state.time[i] <= config.max_gap_s]
     if not live:
         return {}
-    dt = np.array([now - last_time[i] for i in live])
-    pred = np.stack([last_root[i] for i in live]) + np.stack([velocity[i] for i in live]) * dt[:, None]
-    dist = np.linalg.norm(roots[:, None, :] - pred[None], axis=-1)  # (rows, live)
+    dt = np.array([now - state.time[i] for i in live])
+    pred = np.stack([state.last[i] for i in live]) + np.stack([state.velocity[i] for i in live]) * dt[:, None]
+    dist = np.linalg.norm(xy[:, None, :] - pred[None], axis=-1)  # (rows, live)
     gate = config.gate_mm + config.max_speed_mm_s * dt
     cost = np.where(dist <= gate[None], dist, _FAR)
     rows, cols = linear_sum_assignment(cost)
