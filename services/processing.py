@@ -96,13 +96,29 @@ def preliminary(det: Detections, rig: Rig) -> Trajectory:
 
 def refined(det: Detections, rig: Rig) -> Trajectory:
     """The default implicit trajectory fit (continuous in time)."""
-    from reconstruction.methods import ImplicitConfig, reconstruct
+    from reconstruction.methods import Implicit, reconstruct
 
     t0 = time.perf_counter()
-    rec = reconstruct(det, rig, method=ImplicitConfig())
+    rec = reconstruct(det, rig, method=Implicit())
+    lo, hi = float(rec.times_s[0]), float(rec.times_s[-1])
+
+    def sample(times_s: np.ndarray) -> np.ndarray:  # event search may step a hair past the ends
+        return rec.sample(np.clip(times_s, lo, hi))
+
     return Trajectory("implicit trajectory fit", np.asarray(rec.points_mm), np.asarray(rec.times_s),
-                      tuple(rec.joint_names), num_views=None, sample=rec.sample,
-                      metrics=dict(getattr(rec, "metrics", {}) or {}), elapsed_s=time.perf_counter() - t0)
+                      tuple(rec.joint_names), num_views=None, sample=sample,
+                      metrics=_plain_metrics(rec.metrics), elapsed_s=time.perf_counter() - t0)
+
+
+def _plain_metrics(metrics: dict) -> dict:
+    """Scalar metrics only (GC_d, losses): JSON-ready numbers."""
+    out = {}
+    for key, value in (metrics or {}).items():
+        if isinstance(value, dict):
+            out.update({f"{key}.{k}": float(v) for k, v in value.items() if np.isscalar(v)})
+        elif np.isscalar(value):
+            out[key] = float(value) if not isinstance(value, str) else value
+    return out
 
 
 def warm_up(rig: Rig, skeleton, *, frames: tuple[int, ...] = (FRAME_BUCKET, 2 * FRAME_BUCKET)) -> float:

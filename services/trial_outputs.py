@@ -53,22 +53,6 @@ def write_npz(path, traj: Trajectory) -> None:
                  num_views=traj.num_views if traj.num_views is not None else np.zeros(0))
 
 
-def trc_text(traj: Trajectory, *, name: str) -> str:
-    """OpenSim TRC (mm, y up is not assumed: the lab's z-up axes are kept)."""
-    t, j, _ = traj.points_mm.shape
-    rate = (t - 1) / (traj.times_s[-1] - traj.times_s[0]) if t > 1 else 30.0
-    head = [f"PathFileType\t4\t(X/Y/Z)\t{name}",
-            "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
-            f"{rate:.3f}\t{rate:.3f}\t{t}\t{j}\tmm\t{rate:.3f}\t1\t{t}",
-            "Frame#\tTime\t" + "\t\t\t".join(traj.joint_names) + "\t\t",
-            "\t\t" + "\t".join(f"X{i + 1}\tY{i + 1}\tZ{i + 1}" for i in range(j)), ""]
-    rows = []
-    for k in range(t):
-        vals = "\t".join("" if not np.isfinite(v) else f"{v:.3f}" for v in traj.points_mm[k].reshape(-1))
-        rows.append(f"{k + 1}\t{traj.times_s[k]:.5f}\t{vals}")
-    return "\n".join(head + rows) + "\n"
-
-
 def write_rrd(path, traj: Trajectory, *, trial_id: str, bones) -> None:
     """A Rerun recording (joints and bones over time, z up); no viewer, no network."""
     import rerun as rr
@@ -91,7 +75,12 @@ def write_rrd(path, traj: Trajectory, *, trial_id: str, bones) -> None:
 
 
 def report_png(traj: Trajectory, report, *, title: str) -> bytes:
-    """Heel height and forward heel position over time for both feet, with the heel strikes used."""
+    """The gait module's heel-trace plot when there is a report; else heel height and position over
+    time for both feet (so a trial without steps still shows what was measured)."""
+    if report is not None:
+        from reconstruction.gait.plot import heel_traces_png
+
+        return heel_traces_png(report, traj.points_mm, traj.times_s, list(traj.joint_names))
     import matplotlib
 
     matplotlib.use("Agg")
@@ -129,8 +118,11 @@ def report_png(traj: Trajectory, report, *, title: str) -> bytes:
 def write_stage(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str, bones=(),
                 rrd: bool = True) -> dict[str, str]:
     """Write every file of one stage; returns artifact key -> path."""
+    from reconstruction.trc import to_trc
+
     write_npz(files.stage_file(stage, "trajectory_npz"), traj)
-    write_bytes_atomic(files.stage_file(stage, "trajectory_trc"), trc_text(traj, name=f"{trial_id}.trc").encode())
+    trc = to_trc(traj.points_mm, traj.times_s, traj.joint_names, filename=f"{trial_id}-{stage}.trc")
+    write_bytes_atomic(files.stage_file(stage, "trajectory_trc"), trc.encode())
     if report is not None:
         report.write_json(files.stage_file(stage, "gait_json"))
         report.write_csv(files.stage_file(stage, "steps_csv"))

@@ -203,6 +203,9 @@ class Worker:
 
 def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:
     """Compile the preliminary stage for ``cameras`` cameras and load the plotting code; seconds spent."""
+    import rerun  # noqa: F401  (first import is slow)
+
+    import reconstruction.gait  # noqa: F401
     from reconstruction.skeletons import get_skeleton
     from services.trial_outputs import report_png
 

@@ -22,6 +22,7 @@ def register(app: typer.Typer) -> None:
                                   help="API token (generated and printed when empty)."),
         bus: Path | None = typer.Option(None, "--bus", envvar="GAITCAP_BUS", help="Bus file (JSON5)."),
         no_bus: bool = typer.Option(False, "--no-bus", help="Serve the catalog only (no recorder, cameras)."),
+        node: str = typer.Option("api", "--node", help="Bus node name of the API."),
     ) -> None:
         """Serve the clinic page and the REST API (OpenAPI docs at /docs)."""
         from api.server import serve as run
@@ -38,6 +39,6 @@ def register(app: typer.Typer) -> None:
                 from services.bus.session import default_bus_config
                 from services.bus_link import BusLink
 
-                link = BusLink(default_bus_config(bus), node="api")
+                link = BusLink(default_bus_config(bus), node=node)
             typer.echo(f"gaitcap clinic page: http://{host}:{port}/#token={token}")
         run(settings, link)

@@ -27,7 +27,17 @@ def _recorded_trial(tmp_path, walk):
     return db, t.id
 
 
-def test_worker_stores_preliminary_results_close_to_truth(tmp_path, walk):
+def _step_length_errors(result, truth) -> list[float]:
+    """Each measured step against the true step of the same foot at that heel strike (mm)."""
+    errors = []
+    for step in result.steps:
+        same = np.flatnonzero((truth.foot == step["side"]) & (np.abs(truth.heel_strike_s - step["time_s"]) < 0.1))
+        assert same.size == 1, step
+        errors.append(step["step_length_mm"] - truth.step_length_mm[same[0]])
+    return errors
+
+
+def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path, walk):
     db, tid = _recorded_trial(tmp_path, walk)
     published = []
 
@@ -35,22 +45,21 @@ def test_worker_stores_preliminary_results_close_to_truth(tmp_path, walk):
         def publish(self, trial_id, payload):
             published.append(payload)
 
-    w = Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False, lease_s=5), db=db, progress=Sink())
+    w = Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=True, lease_s=5), db=db, progress=Sink())
     assert w.run_once() and not w.run_once()
     trial = cat.get_trial(db, tid)
     assert trial.state == "done" and trial.progress == 1.0
-    r = cat.get_result(db, tid, "preliminary")
-    assert r.steps and r.method == "robust triangulation"
-    truth = walk.truth.steps
-    errors = []
-    for step in r.steps:  # each measured step against the true step of the same foot at that heel strike
-        same = np.flatnonzero((truth.foot == step["side"]) & (np.abs(truth.heel_strike_s - step["time_s"]) < 0.1))
-        assert same.size == 1, step
-        errors.append(step["step_length_mm"] - truth.step_length_mm[same[0]])
-    assert len(errors) >= 8 and np.median(np.abs(errors)) < 15.0, errors
     files = trial_files(tmp_path, tid)
-    for key in ("trajectory_npz", "trajectory_trc", "gait_json", "steps_csv", "report_png", "rerun_rrd"):
-        assert files.stage_file("preliminary", key).stat().st_size > 100, key
+    for stage, method in (("preliminary", "robust triangulation"), ("refined", "implicit trajectory fit")):
+        r = cat.get_result(db, tid, stage)
+        assert r.method == method
+        errors = _step_length_errors(r, walk.truth.steps)
+        assert len(errors) >= 8 and np.median(np.abs(errors)) < 15.0, (stage, errors)
+        for key in ("trajectory_npz", "trajectory_trc", "gait_json", "steps_csv", "report_png"):
+            assert files.stage_file(stage, key).stat().st_size > 100, (stage, key)
+    assert files.stage_file("refined", "rerun_rrd").stat().st_size > 1000
+    assert cat.get_result(db, tid, "refined").quality["GC_10"] > 0.9
+    assert [p["result"] for p in published if p["result"]] == ["preliminary", "refined"]
     assert [p["stage"] for p in published][-1] == "done" and published[0]["state"] == "processing"
     assert cat.jobs_for_trial(db, tid)[0].state == "done"
 

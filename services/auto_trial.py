@@ -1,0 +1,67 @@
+"""One trial driven through the REST API like the page does: start, wait, stop, wait for the metrics.
+
+Used by ``gaitcap demo --auto`` and ``bench/turnaround.py``; times are measured from the moment Stop
+returned to the moment the API serves the preliminary and the refined results.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import httpx
+
+
+@dataclass(frozen=True)
+class TrialTimings:
+    """trial_id; record_s: how long it recorded; preliminary_s / refined_s: Stop -> results served (s)."""
+
+    trial_id: str
+    record_s: float
+    stop_call_s: float
+    preliminary_s: float | None
+    refined_s: float | None
+    state: str
+    error: str
+
+
+def run_trial(client: httpx.Client, *, subject_id: str, seconds: float, timeout_s: float = 120.0,
+              poll_s: float = 0.1, session: str | None = None) -> TrialTimings:
+    """Record ``seconds`` of walking and wait for the refined results (or failure / timeout)."""
+    body = {"subject_id": subject_id, **({"session": session} if session else {})}
+    r = client.post("/trials", json=body)
+    if r.status_code != 201:
+        raise RuntimeError(f"start failed ({r.status_code}): {r.text}")
+    trial_id = r.json()["id"]
+    t_start = time.monotonic()
+    time.sleep(seconds)
+    t_stop = time.monotonic()
+    r = client.post(f"/trials/{trial_id}/stop")
+    if r.status_code != 200:
+        raise RuntimeError(f"stop failed ({r.status_code}): {r.text}")
+    t_stopped = time.monotonic()
+    prelim = refined = None
+    trial = r.json()
+    deadline = t_stopped + timeout_s
+    while time.monotonic() < deadline:
+        trial = client.get(f"/trials/{trial_id}").json()
+        if prelim is None and "preliminary" in trial["results"]:
+            prelim = time.monotonic() - t_stopped
+        if "refined" in trial["results"]:
+            refined = time.monotonic() - t_stopped
+        if trial["state"] in ("done", "failed"):
+            break
+        time.sleep(poll_s)
+    return TrialTimings(trial_id, t_stop - t_start, t_stopped - t_stop, prelim, refined, trial["state"],
+                        trial.get("error", ""))
+
+
+def format_metrics(gait: dict) -> str:
+    """The gait summary as aligned text lines."""
+    lines = [f"{gait['stage']} results ({gait['method']}), {len(gait['steps'])} steps:"]
+    for name, m in gait["summary"].items():
+        if m.get("mean") is None:
+            continue
+        sd = f" +- {m['sd']:.1f}" if m.get("sd") is not None else ""
+        lines.append(f"  {name:30s} {m['mean']:9.2f}{sd} {m.get('unit', '')}")
+    return "\n".join(lines)

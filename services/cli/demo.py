@@ -1,0 +1,73 @@
+"""``gaitcap demo``: the whole stack on embedded defaults (simulated 10-camera rig, detector, recorder,
+worker, API; Zenoh peers on loopback) as real processes. Prints the page's URL and the token and runs
+until Ctrl-C; ``--auto`` records one trial without a browser, prints the metrics and shuts down."""
+
+from __future__ import annotations
+
+import signal
+import threading
+from pathlib import Path
+
+import typer
+
+from services.cli._common import user_errors
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def demo(
+        auto: bool = typer.Option(False, "--auto", help="Run one trial without a browser, print metrics, exit."),
+        seconds: float = typer.Option(20.0, "--seconds", help="--auto: how long the trial records (s)."),
+        data_dir: Path = typer.Option(Path("runs/demo"), "--data-dir", help="Catalog, recordings, results, logs."),
+        port: int = typer.Option(8000, "--port", help="Web page / API port on 127.0.0.1."),
+        bus_port: int = typer.Option(7447, "--bus-port", help="First bus port (one per node, on 127.0.0.1)."),
+        token: str = typer.Option("", "--token", envvar="GAITCAP_TOKEN", help="API token (generated if empty)."),
+        cameras: int = typer.Option(10, "--cameras", help="Simulated cameras."),
+        size: str = typer.Option("240x180", "--size", help="Simulated image size WIDTHxHEIGHT (px)."),
+        workers: int = typer.Option(1, "--workers", help="Reconstruction workers."),
+        refine: bool = typer.Option(True, "--refine/--no-refine", help="Run the refined (implicit) fit."),
+    ) -> None:
+        """Bring up the whole clinic stack (simulated rig) and print the web page's URL."""
+        import logging
+
+        import httpx
+
+        from api.settings import new_token
+        from services.auto_trial import format_metrics, run_trial
+        from services.stack import Stack, StackConfig
+
+        with user_errors():
+            cfg = StackConfig(data_dir=data_dir, token=token or new_token(), port=port, bus_base_port=bus_port,
+                              cameras=cameras, size=size, workers=workers, refine=refine)
+        logging.getLogger("httpx").setLevel(logging.WARNING)
+        stack = Stack(cfg)
+        stop = threading.Event()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: stop.set())
+        typer.echo(f"starting gaitcap ({cameras} simulated cameras, detector, recorder, {workers} worker(s), "
+                   f"API); logs in {stack.supervisor.log_dir}", err=True)
+        try:
+            stack.start()
+            typer.echo(f"gaitcap clinic page: {stack.page_url}")
+            typer.echo(f"API token: {cfg.token}")
+            typer.echo(f"API docs: {cfg.url}/docs")
+            if not auto:
+                typer.echo("Press Ctrl-C to stop.", err=True)
+                stack.supervise(stop)
+                return
+            with httpx.Client(base_url=cfg.url, headers={"Authorization": f"Bearer {cfg.token}"}, timeout=30) as c:
+                typer.echo(f"recording a {seconds:.0f} s walk ...", err=True)
+                t = run_trial(c, subject_id="DEMO001", seconds=seconds)
+                if t.state != "done":
+                    typer.echo(f"trial {t.trial_id} {t.state}: {t.error}", err=True)
+                    raise typer.Exit(code=1)
+                typer.echo(f"trial {t.trial_id}: results {_after(t.preliminary_s)} (preliminary) and "
+                           f"{_after(t.refined_s)} (refined) after Stop")
+                for stage in ("preliminary", "refined") if refine else ("preliminary",):
+                    typer.echo(format_metrics(c.get(f"/trials/{t.trial_id}/gait", params={"stage": stage}).json()))
+        finally:
+            stack.stop()
+
+
+def _after(seconds: float | None) -> str:
+    return "never" if seconds is None else f"{seconds:.1f} s"

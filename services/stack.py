@@ -1,0 +1,211 @@
+"""The whole gaitcap stack as real processes on one machine, on embedded defaults.
+
+Simulated camera rig (one camera node for all cameras), simulated detector, recorder, worker(s) and the
+API, all Zenoh peers on 127.0.0.1 with explicit endpoints (a bus file written into the data folder), the
+catalog in ``<data_dir>/catalog.sqlite``, each process's log in ``<data_dir>/logs/``. :class:`Stack`
+starts them, waits until cameras, keypoints, worker and API are ready, restarts a process that dies,
+and stops everything on exit.
+
+The simulated world is a ``sim_seconds`` long walk in the paper's room; the camera node plays it once
+and is restarted when it ends (the world starts over).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from services.supervisor import ProcessSpec, Supervisor
+
+log = logging.getLogger(__name__)
+CLI = (sys.executable, "-c", "from services.cli import main; main()")
+
+
+@dataclass(frozen=True)
+class StackConfig:
+    """Where and how the stack runs. Ports: API ``port``; bus nodes ``bus_base_port`` and up."""
+
+    data_dir: Path = Path("runs/demo")
+    token: str = ""
+    host: str = "127.0.0.1"
+    port: int = 8000
+    bus_base_port: int = 7447
+    cameras: int = 10
+    size: str = "240x180"
+    fps: float = 30.0
+    sim_preset: str = "paper"
+    sim_seconds: float = 300.0
+    seed: int = 0
+    workers: int = 1
+    lease_s: float = 10.0
+    refine: bool = True
+    catalog_url: str = ""
+    extra_env: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if len(self.token) < 8:
+            raise ValueError("token: the API token needs at least 8 characters")
+        if not 2 <= self.cameras <= 64:
+            raise ValueError(f"cameras: need 2..64 cameras, got {self.cameras}")
+        if not 1 <= self.workers <= 8:
+            raise ValueError(f"workers: need 1..8 workers, got {self.workers}")
+        if self.sim_seconds < 5:
+            raise ValueError(f"sim_seconds: the simulated walk must last >= 5 s, got {self.sim_seconds}")
+
+    @property
+    def catalog(self) -> str:
+        return self.catalog_url or str(Path(self.data_dir).resolve() / "catalog.sqlite")
+
+    @property
+    def url(self) -> str:
+        return f"http://{self.host}:{self.port}"
+
+    def worker_names(self) -> list[str]:
+        return [f"worker-{i}" for i in range(self.workers)]
+
+
+def bus_config(cfg: StackConfig):
+    from services.bus.session import BusConfig
+
+    nodes = ("recorder", "detector", "api", "camera-0", *cfg.worker_names())
+    return BusConfig.local(cfg.bus_base_port, nodes=nodes)
+
+
+def _sim_args(cfg: StackConfig) -> list[str]:
+    return ["--sim-preset", cfg.sim_preset, "--sim-seconds", str(cfg.sim_seconds), "--sim-cameras",
+            str(cfg.cameras), "--sim-seed", str(cfg.seed), "--fps", str(cfg.fps)]
+
+
+def process_specs(cfg: StackConfig) -> list[ProcessSpec]:
+    """The processes of the stack, in start order."""
+    data = str(Path(cfg.data_dir).resolve())
+    specs = [
+        ProcessSpec("recorder", (*CLI, "node", "recorder", "--node", "recorder"), ready_text="ready"),
+        ProcessSpec("detector", (*CLI, "node", "detector", "--node", "detector", "--detector", "simulated",
+                                 *_sim_args(cfg))),
+        ProcessSpec("camera-0", (*CLI, "node", "camera", "--node", "camera-0", "--source", "simulated",
+                                 "--size", cfg.size, *_sim_args(cfg)), max_restarts=10_000),
+    ]
+    for name in cfg.worker_names():
+        argv = [*CLI, "worker", "--node", name, "--id", name, "--data-dir", data, "--catalog", cfg.catalog,
+                "--lease", str(cfg.lease_s)]
+        specs.append(ProcessSpec(name, tuple(argv + ([] if cfg.refine else ["--no-refine"])), ready_text="ready"))
+    specs.append(ProcessSpec("api", (*CLI, "serve", "--node", "api", "--data-dir", data, "--catalog", cfg.catalog,
+                                     "--host", cfg.host, "--port", str(cfg.port)), ready_text="Uvicorn running"))
+    return specs
+
+
+def register_calibration(cfg: StackConfig) -> str:
+    """Store the simulated rig's calibration in the catalog (the API hands it to the recorder)."""
+    import tempfile
+
+    from acquisition.drivers.simulated import SimTrialSpec
+    from reconstruction.calibration_io import save_rig
+    from services import catalog as cat
+
+    rig = SimTrialSpec(preset=cfg.sim_preset, seconds=5.0, cameras=cfg.cameras, seed=cfg.seed, fps=cfg.fps).make().rig
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "rig.toml"
+        save_rig(rig, path)
+        toml = path.read_text()
+    db = cat.open_catalog(cfg.catalog)
+    try:
+        latest = cat.latest_calibration(db)
+        if latest is not None and latest[1] == toml:
+            return latest[0]
+        return cat.add_calibration(db, toml=toml, source=f"simulated rig ({cfg.cameras} cameras, seed {cfg.seed})")
+    finally:
+        db.close()
+
+
+class Stack:
+    """Start with :meth:`start` (or as a context manager); :meth:`supervise` until a stop event."""
+
+    def __init__(self, cfg: StackConfig) -> None:
+        self.cfg = cfg
+        self.data_dir = Path(cfg.data_dir).resolve()
+        self.bus = bus_config(cfg)
+        self.bus_file = self.data_dir / "bus.json"
+        self.supervisor = Supervisor(self.data_dir / "logs")
+
+    @property
+    def page_url(self) -> str:
+        return f"{self.cfg.url}/#token={self.cfg.token}"
+
+    def __enter__(self) -> Stack:
+        self.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+    def start(self, *, timeout_s: float = 180.0) -> None:
+        self.data_dir.mkdir(parents=True, exist_ok=True)
+        self.bus_file.write_text(json.dumps(self.bus.to_dict(), indent=2))
+        register_calibration(self.cfg)
+        env = {"GAITCAP_BUS": str(self.bus_file), "GAITCAP_TOKEN": self.cfg.token,
+               "GAITCAP_DATA_DIR": str(self.data_dir), "GAITCAP_CATALOG": self.cfg.catalog, **self.cfg.extra_env}
+        self.supervisor.base_env.update(env)
+        try:
+            for spec in process_specs(self.cfg):
+                self.supervisor.start(spec)
+            self.wait_ready(timeout_s=timeout_s)
+        except BaseException:
+            self.stop()
+            raise
+
+    def wait_ready(self, *, timeout_s: float) -> None:
+        """Until every process logged ready, the API answers, all cameras are seen and keypoints flow."""
+        deadline = time.monotonic() + timeout_s
+        for spec in process_specs(self.cfg):
+            if spec.ready_text:
+                self.supervisor.wait_ready(spec.name, max(1.0, deadline - time.monotonic()))
+        self._wait_cameras(deadline)
+        self._wait_keypoints(deadline)
+        log.info("stack ready at %s", self.cfg.url)
+
+    def _wait_cameras(self, deadline: float) -> None:
+        import httpx
+
+        headers = {"Authorization": f"Bearer {self.cfg.token}"}
+        seen = []
+        while time.monotonic() < deadline:
+            try:
+                seen = [c for c in httpx.get(f"{self.cfg.url}/cameras", headers=headers, timeout=5).json()
+                        if c["healthy"]]
+            except httpx.HTTPError:
+                seen = []
+            if len(seen) >= self.cfg.cameras:
+                return
+            self.supervisor.poll()
+            time.sleep(0.5)
+        raise RuntimeError(f"only {len(seen)} of {self.cfg.cameras} cameras healthy; logs in {self.supervisor.log_dir}")
+
+    def _wait_keypoints(self, deadline: float) -> None:
+        from services.bus.session import open_session
+
+        got = threading.Event()
+        session = open_session(self.bus, None)
+        try:
+            sub = session.declare_subscriber(self.bus.keys.keypoints(), lambda _s: got.set())
+            while not got.wait(0.5):
+                self.supervisor.poll()
+                if time.monotonic() > deadline:
+                    raise RuntimeError(f"no keypoints from the detector; see {self.supervisor.log_dir}/detector.log")
+            sub.undeclare()
+        finally:
+            session.close()
+
+    def supervise(self, stop: threading.Event, *, period_s: float = 1.0) -> None:
+        """Restart processes that die until ``stop`` is set."""
+        while not stop.wait(period_s):
+            for name in self.supervisor.poll():
+                log.warning("restarted %s", name)
+
+    def stop(self) -> None:
+        self.supervisor.stop()
