@@ -33,6 +33,13 @@ def min_jerk(tau):
     return tau**3 * (10 - 15 * tau + 6 * tau**2)
 
 
+def swing_profile(tau):
+    """0 -> 1 with zero speed at both ends: a quick start after toe-off (the foot leaves briskly) and a
+    minimum-jerk-like finish (speed ~ (1 - tau)^2) into heel strike. s' = 12 tau (1 - tau)^2."""
+    tau = np.clip(tau, 0.0, 1.0)
+    return 1.0 - (1.0 - tau) ** 3 * (1.0 + 3.0 * tau)
+
+
 def bump(tau):
     tau = np.clip(tau, 0.0, 1.0)
     return 64.0 * tau**3 * (1 - tau) ** 3
@@ -149,7 +156,7 @@ def foot_trajectory(plan: FootPlan, body: Body, params: WalkParams, side: int, t
         m = (t >= c.t_to) & (t < nxt.t_hs) & ~done
         if m.any():
             tau = (t[m] - c.t_to) / (nxt.t_hs - c.t_to)
-            s = min_jerk(tau)[:, None]
+            s = swing_profile(tau)[:, None]
             start = toe_fixed_heel(c, c.heading, -th_to)
             end = flat_heel(nxt)
             hh = start * (1 - s) + end * s
