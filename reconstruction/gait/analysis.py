@@ -118,5 +118,5 @@ def compare_with_walkway(
         t = FootTracks.from_points(points, times, names, sample=sample, config=config)
         speed = _walking_speed(find_bouts(t, config), config)
         tracks.append(t)
-        rest.append(rest_speed_mm_s(speed, config))
+        rest.append(rest_speed_mm_s(speed, config, t.rest_noise_mm_s()))
     return align_walkway(tracks, walkway, rest, alignment)

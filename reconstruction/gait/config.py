@@ -12,20 +12,26 @@ class GaitConfig:
     Attributes:
         min_trial_s: shortest trial analysed (s).
         max_fill_gap_s: NaN gaps up to this long are interpolated; longer gaps are excluded (s).
-        smoothing_window_s: Savitzky-Golay window applied to sampled frames before events are located
-            when no continuous trajectory is given (s; 0 disables). Cubic polynomial, so smooth motion
-            passes unchanged; it only suppresses frame-to-frame reconstruction noise.
+        smoothing_window_s: Savitzky-Golay window (cubic) applied to the frames before the spline when no
+            continuous trajectory is given (s; 0 disables; None: automatic, ``auto_smoothing_window_s``
+            when the feet's noise at rest exceeds ``auto_smoothing_noise_mm_s``, else none).
+        auto_smoothing_window_s, auto_smoothing_noise_mm_s: see smoothing_window_s.
         bout_smoothing_s: moving-average window on the body centre for speed and heading (s).
         min_walking_speed_mm_s: body-centre speed above which a person is walking (mm/s).
         max_turn_rate_deg_s: heading rate above which walking counts as turning (deg/s).
         max_heading_deviation_deg: largest heading deviation from a pass's median heading (deg).
         min_pass_s: shortest straight walking segment kept as a pass (s).
-        rest_speed_fraction: foot point at rest when slower than this fraction of the walking speed.
+        rest_speed_fraction: foot point at rest when slower than this fraction of the walking speed,
+            or than ``rest_noise_factor`` x the feet's noise at rest if that is higher.
+        rest_noise_factor: see rest_speed_fraction.
         min_rest_speed_mm_s: lower bound of that rest-speed threshold (mm/s).
         min_event_speed_mm_s: events are located where the foot's speed crosses this (mm/s), or
             ``event_noise_factor`` x the median speed at rest when the trajectory is noisier, at most the
             rest threshold: the lower, the smaller the early/late bias of the events.
         event_noise_factor: see min_event_speed_mm_s.
+        extrapolate_events: extrapolate each event from its speed crossings to zero speed (see events);
+            None: only when a continuous trajectory is given (a spline through 30 fps frames rings near
+            the abrupt stop of a heel, which defeats the extrapolation).
         max_contact_lift_mm: a foot is on the ground only if heel or toe is within this height of its
             stance height (mm).
         min_stance_s: shortest foot contact kept (s).
@@ -38,16 +44,20 @@ class GaitConfig:
 
     min_trial_s: float = 2.0
     max_fill_gap_s: float = 0.25
-    smoothing_window_s: float = 0.0
+    smoothing_window_s: float | None = None
+    auto_smoothing_window_s: float = 0.3
+    auto_smoothing_noise_mm_s: float = 40.0
     bout_smoothing_s: float = 1.0
     min_walking_speed_mm_s: float = 150.0
     max_turn_rate_deg_s: float = 35.0
     max_heading_deviation_deg: float = 25.0
     min_pass_s: float = 1.5
     rest_speed_fraction: float = 0.08
+    rest_noise_factor: float = 2.0
     min_rest_speed_mm_s: float = 40.0
     min_event_speed_mm_s: float = 10.0
     event_noise_factor: float = 3.0
+    extrapolate_events: bool | None = None
     max_contact_lift_mm: float = 80.0
     min_stance_s: float = 0.12
     min_swing_s: float = 0.12
@@ -56,14 +66,7 @@ class GaitConfig:
     reprojection_scale_px: float = 10.0
     stance_spread_scale_mm: float = 20.0
 
-    @classmethod
-    def reconstructed(cls, **changes) -> GaitConfig:
-        """Settings for noisy reconstructions (e.g. robust triangulation): 0.3 s Savitzky-Golay smoothing
-        and a rest threshold of 25 % of walking speed. On the synthetic "paper" preset, robust
-        triangulation gave 16 of 19 straight steps, heel strikes within 15 ms, step length SD 5 mm."""
-        return cls(**{"smoothing_window_s": 0.3, "rest_speed_fraction": 0.25, **changes})
-
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
-            if not value >= 0:
+            if value is not None and not value >= 0:
                 raise ValueError(f"GaitConfig.{name} must be >= 0, got {value}")

@@ -1,18 +1,25 @@
 """Heel strike and toe off of each foot from heel and toe kinematics alone (foot-velocity method).
 
 Method: a foot is on the ground while its heel or its toe is at rest, i.e. slower than a rest-speed
-threshold ``v_rest = max(min_rest_speed_mm_s, rest_speed_fraction x walking speed)``, and heel or toe is
+threshold ``v_rest = max(min_rest_speed_mm_s, rest_speed_fraction x walking speed, rest_noise_factor x the feet's
+speed noise at rest)``, and heel or toe is
 within ``max_contact_lift_mm`` of its stance height. Heel strike (initial contact) is the moment the
 first of heel and toe comes to rest; toe off is the moment the last one leaves rest. Contacts shorter
 than ``min_stance_s`` and swings shorter than ``min_swing_s`` are noise and removed. Both events are
 then located on the continuous trajectory (the caller's sampler, else a cubic spline through the frames)
 at ``event_resolution_s`` by finding the threshold crossing between the two frames that bracket it.
 
-Known biases: a foot decelerates smoothly into contact and accelerates smoothly out of it, so heel strike
-is detected slightly early and toe off slightly late, by the time the foot needs to pass from
-``v_rest`` to zero speed (a few ms on typical gait at the default threshold, more for slow shuffling
-gait). Reconstruction noise raises the apparent speed at rest; a higher threshold or smoothing
-(``smoothing_window_s``) compensates at the cost of a larger bias. Toe walkers' "heel strike" is their
+The crossing is then extrapolated to zero speed assuming the speed falls quadratically into contact
+(``extrapolate_events``, by default only on a caller's continuous trajectory; a smooth, e.g.
+minimum-jerk, landing): the event lies as far after the crossing
+of v as that is after the crossing of 4 v (corrections over one frame are not applied).
+
+Known biases: a foot decelerates smoothly into contact and accelerates smoothly out of it, so without
+extrapolation heel strike is detected slightly early and toe off slightly late, by the time the foot
+needs to pass from the event speed to rest (a few ms on typical gait, more for slow shuffling gait); an
+abrupt stop (a hard heel strike) is barely extrapolated, a landing slower than quadratic is still found
+early. Reconstruction noise raises the apparent speed at rest; the thresholds follow the measured noise
+floor and noisy frames are smoothed (``smoothing_window_s``), at the cost of a larger bias. Toe walkers' "heel strike" is their
 initial contact with the toe.
 
 Heel and toe positions at a contact are the median of each point over the frames of the contact when
@@ -52,9 +59,11 @@ class Contact:
     valid: bool
 
 
-def rest_speed_mm_s(walking_speed_mm_s: float, config: GaitConfig) -> float:
-    """The rest-speed threshold for a trial walked at ``walking_speed_mm_s`` (mm/s)."""
-    return max(config.min_rest_speed_mm_s, config.rest_speed_fraction * walking_speed_mm_s)
+def rest_speed_mm_s(walking_speed_mm_s: float, config: GaitConfig, noise_mm_s: float = 0.0) -> float:
+    """The rest-speed threshold (mm/s) for a trial walked at ``walking_speed_mm_s`` whose feet show a
+    speed noise floor ``noise_mm_s`` at rest (see ``FootTracks.rest_noise_mm_s``)."""
+    return max(config.min_rest_speed_mm_s, config.rest_speed_fraction * walking_speed_mm_s,
+               config.rest_noise_factor * noise_mm_s)
 
 
 def _clean(mask: np.ndarray, times_s: np.ndarray, min_false_s: float, min_true_s: float) -> np.ndarray:
@@ -100,6 +109,21 @@ def _crossings(tracks: FootTracks, side: str, brackets: np.ndarray, v_event: flo
     return out
 
 
+def _events(tracks: FootTracks, side: str, brackets: np.ndarray, v_event: float, *, falling: bool,
+            config: GaitConfig, dt: float) -> np.ndarray:
+    """Event times in each bracket: the crossing of v_event, extrapolated to zero speed when
+    ``extrapolate_events`` (speed ~ (t - t_event)^2 near the event, as for a smooth landing: the crossing
+    of v and of 4 v are then as far apart as the crossing of v is from the event)."""
+    t1 = _crossings(tracks, side, brackets, v_event, falling=falling, resolution_s=config.event_resolution_s)
+    extrapolate = tracks.continuous if config.extrapolate_events is None else config.extrapolate_events
+    if not extrapolate or len(brackets) == 0:
+        return t1
+    t4 = _crossings(tracks, side, brackets, 4 * v_event, falling=falling, resolution_s=config.event_resolution_s)
+    gap = (t1 - t4) if falling else (t4 - t1)
+    ok = (gap >= 0) & (gap <= dt)  # only a short, smooth approach is extrapolated
+    return np.where(ok, t1 + gap if falling else t1 - gap, t1)
+
+
 def _rest_point(points_mm: np.ndarray, speed: np.ndarray, v_rest: float) -> tuple[np.ndarray, float]:
     """Median of a point (F, 3) over its at-rest frames and the horizontal spread around it (mm)."""
     rest = speed < v_rest
@@ -123,7 +147,7 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
                     config: GaitConfig = GaitConfig()) -> tuple[Contact, ...]:
     """All foot contacts of the trial, both feet, ordered by heel strike (see the module docstring)."""
     times = tracks.times_s
-    v_rest = rest_speed_mm_s(walking_speed_mm_s, config)
+    v_rest = rest_speed_mm_s(walking_speed_mm_s, config, tracks.rest_noise_mm_s())
     speed = tracks.speed_mm_s(times)
     frames = tracks.frames_mm
     dt = float(np.median(np.diff(times)))
@@ -139,11 +163,11 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
         edges = np.flatnonzero(np.diff(np.r_[0, rest.astype(int), 0]))
         runs = list(zip(edges[::2], edges[1::2] - 1, strict=True))
         last = len(times) - 1
-        starts = np.array([[times[a - 1], times[min(a + 2, b)]] for a, b in runs if a > 0]).reshape(-1, 2)
-        ends = np.array([[times[max(b - 2, a)], times[b + 1]] for a, b in runs if b < last]).reshape(-1, 2)
+        starts = np.array([[times[max(a - 3, 0)], times[min(a + 2, b)]] for a, b in runs if a > 0]).reshape(-1, 2)
+        ends = np.array([[times[max(b - 2, a)], times[min(b + 3, last)]] for a, b in runs if b < last]).reshape(-1, 2)
         v_event = _event_speed(speed[:, h], speed[:, t], rest, v_rest, config)
-        hs = iter(_crossings(tracks, side, starts, v_event, falling=True, resolution_s=config.event_resolution_s))
-        to = iter(_crossings(tracks, side, ends, v_event, falling=False, resolution_s=config.event_resolution_s))
+        hs = iter(_events(tracks, side, starts, v_event, falling=True, config=config, dt=dt))
+        to = iter(_events(tracks, side, ends, v_event, falling=False, config=config, dt=dt))
         for a, b in runs:
             t_hs = next(hs) if a > 0 else np.nan
             t_to = next(to) if b < len(times) - 1 else np.nan

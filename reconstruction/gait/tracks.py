@@ -84,6 +84,7 @@ class FootTracks:
         valid: (T, 5) False inside long NaN gaps of a point (nothing is measured there).
         sampler: continuous ``sample(times_s (N,)) -> (N, 5, 3)`` mm of the same points.
         gaps_s: per point, (start s, end s) of its untrusted gaps.
+        continuous: True when the sampler is the caller's continuous trajectory (not a spline).
     """
 
     times_s: np.ndarray
@@ -91,6 +92,7 @@ class FootTracks:
     valid: np.ndarray
     sampler: Sampler
     gaps_s: tuple[tuple[tuple[float, float], ...], ...]
+    continuous: bool = False
 
     @classmethod
     def from_points(
@@ -127,21 +129,36 @@ class FootTracks:
         if sample is not None:
             index = np.asarray(feet + [center[0]])
 
-            def sampler(t: np.ndarray, _index=index, _center=center) -> np.ndarray:
-                full = np.asarray(sample(np.asarray(t, dtype=np.float64)), dtype=np.float64)
+            def sampler(t: np.ndarray, _index=index, _center=center, _lo=times[0], _hi=times[-1]) -> np.ndarray:
+                t = np.clip(np.asarray(t, dtype=np.float64), _lo, _hi)  # the caller's may refuse outside
+                full = np.asarray(sample(t), dtype=np.float64)
                 out = full[:, _index]
                 out[:, CENTER] = full[:, _center].mean(axis=1)
                 return out
 
-            frames_out = sampler(times)
+            sampled = sampler(times)
+            sampled = np.where(np.isfinite(sampled), sampled, filled)
+            return cls(times, sampled, valid, sampler, gaps, continuous=True)
         else:
-            frames_out = _smooth(filled, times, config.smoothing_window_s)
-            spline = CubicSpline(times, frames_out, axis=0, extrapolate=True)
-
-            def sampler(t: np.ndarray, _spline=spline) -> np.ndarray:
-                return _spline(np.asarray(t, dtype=np.float64))
-
+            window = config.smoothing_window_s
+            if window is None:
+                raw = cls(times, filled, valid, _spline_sampler(times, filled), gaps)
+                noisy = raw.rest_noise_mm_s() > config.auto_smoothing_noise_mm_s
+                window = config.auto_smoothing_window_s if noisy else 0.0
+            frames_out = _smooth(filled, times, window)
+            sampler = _spline_sampler(times, frames_out)
         return cls(times, frames_out, valid, sampler, gaps)
+
+    def rest_noise_mm_s(self) -> float:
+        """Noise floor of the feet's speed at rest (mm/s): the 25th percentile over trusted frames of the
+        slower of heel and toe, the median over both feet (feet rest over half of a walking trial)."""
+        speed = self.speed_mm_s(self.times_s)
+        out = []
+        for side in SIDES:
+            m = np.minimum(speed[:, HEEL[side]], speed[:, TOE[side]])
+            ok = self.valid[:, HEEL[side]] & self.valid[:, TOE[side]]
+            out.append(np.nanpercentile(m[ok], 25) if np.isfinite(m[ok]).any() else np.nan)
+        return float(np.nanmedian(out))
 
     def speed_mm_s(self, times_s: np.ndarray, h_s: float = 1e-3) -> np.ndarray:
         """(N, 5) speed of each tracked point (mm/s) by a central difference on the sampler."""
@@ -157,6 +174,15 @@ class FootTracks:
     def all_gaps_s(self) -> list[tuple[float, float]]:
         """Sorted untrusted gaps of any point (s)."""
         return sorted({g for gaps in self.gaps_s for g in gaps})
+
+
+def _spline_sampler(times_s: np.ndarray, frames: np.ndarray) -> Sampler:
+    spline = CubicSpline(times_s, frames, axis=0, extrapolate=True)
+
+    def sampler(t: np.ndarray) -> np.ndarray:
+        return spline(np.asarray(t, dtype=np.float64))
+
+    return sampler
 
 
 def _smooth(frames: np.ndarray, times_s: np.ndarray, window_s: float) -> np.ndarray:

@@ -30,6 +30,8 @@ def _load(path: Path):
         quality = None
         if "num_views" in data.files and "reprojection_px" in data.files:
             quality = TrajectoryQuality(data["num_views"], data["reprojection_px"])
+        elif "quality" in data.files:  # a reconstruction's effective number of agreeing views
+            quality = TrajectoryQuality(data["quality"], np.full(data["quality"].shape, np.nan))
     return points, times, names, quality
 
 
@@ -75,8 +77,6 @@ def register(app: typer.Typer) -> None:
         as_json: bool = typer.Option(False, "--json", help="Print the report as one JSON object."),
         csv_path: Path | None = typer.Option(None, "--csv", help="Write one CSV row per step to FILE."),
         plot_path: Path | None = typer.Option(None, "--plot", help="Write a PNG of the heel traces to FILE."),
-        clean: bool = typer.Option(False, "--clean", help="Noise-free input (ground truth): no smoothing, "
-                                   "lower thresholds, smaller event bias."),
     ) -> None:
         """Gait events, bouts and spatiotemporal parameters of a reconstructed trial."""
         from reconstruction.gait import GaitConfig, analyze_gait, compare_with_walkway, read_walkway_csv
@@ -84,7 +84,7 @@ def register(app: typer.Typer) -> None:
 
         with user_errors():
             points, times, names, quality = _load(result)
-            config = GaitConfig() if clean else GaitConfig.reconstructed()
+            config = GaitConfig()
             report = analyze_gait(points, times, names, quality=quality, config=config)
             if walkway is not None:
                 trial = _pick_trial(read_walkway_csv(walkway), result)

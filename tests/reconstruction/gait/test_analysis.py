@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from reconstruction.gait import GaitConfig, TrajectoryQuality, analyze_gait
+from reconstruction.gait import TrajectoryQuality, analyze_gait
 
 
 def _match(report, walk):
@@ -109,8 +109,7 @@ def test_noisy_reconstruction_keeps_events_within_a_frame(walker):
     walk = walker(segments=(("line", 8000),))
     rng = np.random.default_rng(0)
     noisy = walk.points_mm + rng.normal(0, 3.0, walk.points_mm.shape)
-    config = GaitConfig(smoothing_window_s=0.2, rest_speed_fraction=0.15)
-    report = analyze_gait(noisy, walk.times_s, walk.joint_names, config=config)
+    report = analyze_gait(noisy, walk.times_s, walk.joint_names)  # noise-adaptive defaults
     matched = _match_loose(report, walk)
     assert len(matched) >= len(walk.feet) - 1
     for c, k in matched:
