@@ -77,6 +77,8 @@ class Recording:
         self.error: str | None = None
         self.started_wall = time.time()
         self.started_cpu = time.process_time()
+        self.first_write: tuple[float, float] | None = None  # (wall s, process cpu s) at the first frame
+        self.last_write: tuple[float, float] | None = None
 
     def tally(self, camera: str) -> CameraTally:
         return self.tallies.setdefault(camera, CameraTally())
@@ -87,6 +89,10 @@ class Recording:
                              + [np.zeros(0)])
         elapsed = max(time.time() - self.started_wall, 1e-9)
         cpu = time.process_time() - self.started_cpu
+        active_s = active_cpu = 0.0
+        if self.first_write and self.last_write:
+            active_s = self.last_write[0] - self.first_write[0]
+            active_cpu = self.last_write[1] - self.first_write[1]
         cams = {c: t.summary(last) for c, t in sorted(self.tallies.items())}
         return {
             "trial_id": self.trial_id,
@@ -101,6 +107,8 @@ class Recording:
             "duration_s": elapsed,
             "cpu_s": cpu,
             "cpu_percent": 100.0 * cpu / elapsed,
+            "active_s": active_s,
+            "active_cpu_percent": 100.0 * active_cpu / active_s if active_s > 0 else None,
             "error": self.error,
         }
 
@@ -172,6 +180,8 @@ class RecorderNode:
             rec.writer.add_frame(camera, payload, timestamp_ns=ts, frame_id=fid, receive_ns=recv_ns)
             tally.frames += 1
             tally.frame_ids.append(fid)
+            rec.last_write = (time.time(), time.process_time())
+            rec.first_write = rec.first_write or rec.last_write
             tally.last_timestamp_ns = ts
             if "sent_ns" in meta:
                 tally.latencies_ns.append(recv_ns - int(meta["sent_ns"]))
