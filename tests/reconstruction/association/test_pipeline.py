@@ -1,0 +1,98 @@
+"""End to end on the synthetic world: several people in view -> the patient's reconstruction."""
+
+import numpy as np
+import pytest
+
+from acquisition.synthetic import make_trial
+from reconstruction.association import (
+    BoxConfig,
+    ManualTrack,
+    MultiPersonDetections,
+    associate_and_select,
+    person_boxes,
+    score_association,
+    select_track_at_pixel,
+)
+from reconstruction.gait.analysis import analyze_gait
+from reconstruction.triangulation import robust_triangulate
+
+SECONDS = 12.0
+
+
+def _multi(trial) -> MultiPersonDetections:
+    return MultiPersonDetections(trial.multi.keypoints, trial.rig.names, trial.times_s, trial.skeleton)
+
+
+def _mpjpe(points_mm, truth_mm) -> float:
+    return float(np.nanmean(np.linalg.norm(points_mm - truth_mm, axis=-1)))
+
+
+@pytest.fixture(scope="module")
+def three():
+    trial = make_trial(preset="paper", seconds=SECONDS, cameras=10, people=3, seed=0)
+    return trial, associate_and_select(_multi(trial), trial.rig)
+
+
+def test_everyone_is_tracked_without_identity_switches(three):
+    trial, chosen = three
+    score = score_association(chosen.tracks.detection_track, trial.multi.identity)
+    assert score.identity_switches == 0
+    assert len(set(score.main_track)) == 3 and -1 not in score.main_track
+    assert score.wrong_fraction < 0.002 and score.missed_fraction < 0.01
+    assert chosen.tracks.num_tracks == 3
+
+
+def test_the_patient_is_chosen_and_reconstructed_as_well_as_alone_with_no_step_lost(three):
+    trial, chosen = three
+    score = score_association(chosen.tracks.detection_track, trial.multi.identity)
+    assert chosen.track_id == score.main_track[0]
+    selected = robust_triangulate(chosen.detections, trial.rig).points_mm
+    alone = robust_triangulate(trial.detections, trial.rig).points_mm
+    assert _mpjpe(selected, trial.points_mm) <= 1.10 * _mpjpe(alone, trial.points_mm)
+    names = trial.skeleton.joint_names
+    steps_selected = analyze_gait(selected, trial.times_s, names).steps
+    steps_alone = analyze_gait(alone, trial.times_s, names).steps
+    assert len(steps_selected) == len(steps_alone) > 0
+    hs = np.array([s.heel_strike_s for s in steps_selected]) - [s.heel_strike_s for s in steps_alone]
+    assert np.abs(hs).max() < 0.05
+
+
+def test_a_click_on_a_preview_selects_the_person_under_it(three):
+    trial, chosen = three
+    multi = _multi(trial)
+    c, frame = 4, 100
+    for person in range(3):
+        slots = np.flatnonzero(trial.multi.identity[c, frame] == person)
+        if slots.size == 0:
+            continue
+        kp = trial.multi.keypoints[c, frame, slots[0]]
+        j = int(np.argmax(kp[:, 2]))
+        track = select_track_at_pixel(multi, chosen.tracks, camera=trial.rig.names[c], frame=frame,
+                                      x_px=kp[j, 0], y_px=kp[j, 1])
+        assert track == score_association(chosen.tracks.detection_track, trial.multi.identity).main_track[person]
+
+
+def test_boxes_from_the_chosen_reconstruction_hold_the_patient(three):
+    trial, chosen = three
+    points = robust_triangulate(chosen.detections, trial.rig).points_mm
+    boxes = person_boxes(trial.rig, points, BoxConfig(padding_fraction=0.15))
+    truth_px = trial.rig.project(trial.points_mm)  # (C, T, J, 2)
+    inside_img = np.stack([cam.in_image(truth_px[i]) for i, cam in enumerate(trial.rig.cameras)])
+    lo, hi = boxes[:, :, None, :2], boxes[:, :, None, 2:]
+    held = ((truth_px >= lo) & (truth_px <= hi)).all(-1)
+    has_box = np.isfinite(boxes).all(-1)[..., None] & inside_img
+    assert has_box.mean() > 0.5
+    assert held[has_box].mean() > 0.995
+
+
+def test_manual_choice_of_the_therapist_gives_the_therapists_detections():
+    trial = make_trial(preset="paper", seconds=6.0, cameras=10, people=2, seed=1)
+    multi = _multi(trial)
+    auto = associate_and_select(multi, trial.rig)
+    score = score_association(auto.tracks.detection_track, trial.multi.identity)
+    assert auto.track_id == score.main_track[0]
+    therapist = associate_and_select(multi, trial.rig, ManualTrack(score.main_track[1]))
+    mine = therapist.detections.keypoints[..., 0]
+    truth = trial.multi.person(1)[..., 0]
+    agree = np.isfinite(mine) & np.isfinite(truth)
+    assert np.array_equal(mine[agree], truth[agree]) and agree.sum() > 0.95 * np.isfinite(truth).sum()
