@@ -29,6 +29,7 @@ from reconstruction.camera import Rig
 from reconstruction.skeletons import get_skeleton
 
 SKELETON = get_skeleton("halpe26")
+EXPOSURE_S = 0.015  # the lab's fixed exposure
 
 # Joint groups and their noise multipliers / base confidences.
 _GROUPS = {
@@ -83,6 +84,8 @@ class NoisePreset:
     outlier_rate: probability that a keypoint is misplaced; outlier_frac: displacement range (fraction of
     body height). swap_rate: per camera and frame, chance a left/right swap starts; swap_frames: mean run.
     miss_rate: chance per camera and frame that the person is not detected at all.
+    blur_frac: extra noise sd per px of motion blur (image-plane motion during the 15 ms exposure): fast
+    feet in swing are detected worse.
     confusion_rate: chance that a joint hidden behind another person is detected on that person's
     same joint instead (when it lies within 15 % of the body height of it in the image).
     conf_sd: confidence noise; conf_error_slope: confidence lost per unit of (error / expected error).
@@ -104,6 +107,7 @@ class NoisePreset:
     swap_frames: float
     miss_rate: float
     confusion_rate: float
+    blur_frac: float
     conf_sd: float
     conf_error_slope: float
     clock_offset_sd_ns: float
@@ -111,7 +115,7 @@ class NoisePreset:
 
     def __post_init__(self) -> None:
         for f in ("sigma_frac", "sigma_min_px", "sigma_spread", "bias_frac", "outlier_rate", "swap_rate", "miss_rate",
-                  "confusion_rate",
+                  "confusion_rate", "blur_frac",
                   "conf_sd", "conf_error_slope", "clock_offset_sd_ns", "jitter_sd_ns"):
             if getattr(self, f) < 0:
                 raise ValueError(f"NoisePreset {self.name}: {f} must be >= 0")
@@ -129,20 +133,21 @@ PRESETS: dict[str, NoisePreset] = {
         NoisePreset(
             name="clean", sigma_frac=0.0, sigma_min_px=0.15, sigma_spread=0.0, temporal_corr=0.0, bias_frac=0.0,
             occlusion=False, occluded_sigma_scale=1.0, occluded_conf_scale=1.0, outlier_rate=0.0,
-            outlier_frac=(0.05, 0.4), swap_rate=0.0, swap_frames=1.0, miss_rate=0.0, confusion_rate=0.0, conf_sd=0.02,
+            outlier_frac=(0.05, 0.4), swap_rate=0.0, swap_frames=1.0, miss_rate=0.0, confusion_rate=0.0, blur_frac=0.0, conf_sd=0.02,
             conf_error_slope=0.0, clock_offset_sd_ns=2_000.0, jitter_sd_ns=1_000.0,
         ),
         NoisePreset(
-            name="paper", sigma_frac=0.0066, sigma_min_px=0.8, sigma_spread=0.8, temporal_corr=0.5,
+            name="paper", sigma_frac=0.0062, sigma_min_px=0.8, sigma_spread=0.8, temporal_corr=0.5,
             bias_frac=0.0025, occlusion=True, occluded_sigma_scale=2.5, occluded_conf_scale=0.55,
-            outlier_rate=0.09, outlier_frac=(0.05, 0.4), swap_rate=0.008, swap_frames=4.0, miss_rate=0.005,
-            confusion_rate=0.3, conf_sd=0.06, conf_error_slope=0.08, clock_offset_sd_ns=15_000.0, jitter_sd_ns=8_000.0,
+            outlier_rate=0.085, outlier_frac=(0.05, 0.4), swap_rate=0.008, swap_frames=4.0, miss_rate=0.005,
+            confusion_rate=0.3, blur_frac=0.3, conf_sd=0.06, conf_error_slope=0.08, clock_offset_sd_ns=15_000.0,
+            jitter_sd_ns=8_000.0,
         ),
         NoisePreset(
             name="hard", sigma_frac=0.011, sigma_min_px=1.2, sigma_spread=0.9, temporal_corr=0.6,
             bias_frac=0.005, occlusion=True, occluded_sigma_scale=3.5, occluded_conf_scale=0.5,
             outlier_rate=0.15, outlier_frac=(0.05, 0.5), swap_rate=0.02, swap_frames=6.0, miss_rate=0.02,
-            confusion_rate=0.5, conf_sd=0.1, conf_error_slope=0.06, clock_offset_sd_ns=25_000.0, jitter_sd_ns=15_000.0,
+            confusion_rate=0.5, blur_frac=0.45, conf_sd=0.1, conf_error_slope=0.06, clock_offset_sd_ns=25_000.0, jitter_sd_ns=15_000.0,
         ),
     )
 }
@@ -232,6 +237,11 @@ def detect(
         depth = np.maximum(cam.depth_mm(pts[:, SKELETON.index("pelvis")]), 300.0)
         size_px = cam.matrix_px[1, 1] * height_mm / depth  # (T,)
         sigma0 = np.maximum(preset.sigma_frac * size_px[:, None] * sig_j[None, :], preset.sigma_min_px)  # (T, J)
+        if preset.blur_frac > 0:
+            # image-plane motion during the exposure (px), from the 3D velocity
+            px_next, _ = visible(cam, pts + EXPOSURE_S * velocity_mm_s)
+            blur = np.nan_to_num(np.linalg.norm(px_next - px, axis=-1), nan=0.0, posinf=0.0)
+            sigma0 = np.hypot(sigma0, preset.blur_frac * np.minimum(blur, 0.2 * size_px[:, None]))
         spread = np.exp(rng.normal(0, preset.sigma_spread, (t_len, j_len))) if preset.sigma_spread > 0 else 1.0
         occ = occluded[ci] if (occluded is not None and preset.occlusion) else np.zeros((t_len, j_len), bool)
         sigma = sigma0 * spread * np.where(occ, preset.occluded_sigma_scale, 1.0)

@@ -110,6 +110,24 @@ def test_presets_differ_as_intended():
     assert 0 < stats["paper"][1] < stats["hard"][1]
 
 
+def test_fast_feet_are_detected_worse():
+    import dataclasses
+
+    base = dataclasses.replace(PRESETS["paper"], swap_rate=0.0)  # no left/right swaps mixing the heels
+    blur = make_trial(base, seconds=8.0, cameras=4, seed=2)
+    sharp = make_trial(dataclasses.replace(base, blur_frac=0.0), seconds=8.0, cameras=4, seed=2)
+    heels = [blur.skeleton.index("left_heel"), blur.skeleton.index("right_heel")]
+    speed = np.linalg.norm(np.gradient(blur.points_mm[:, heels], blur.times_s, axis=0), axis=-1)  # (T, 2)
+    e_blur = _error_stats(blur)[0][:, :, heels]
+    e_sharp = _error_stats(sharp)[0][:, :, heels]
+    ok = np.isfinite(e_blur) & np.isfinite(e_sharp)
+    fast = ok & (speed[None] > 2500)
+    still = ok & (speed[None] < 1)
+    assert fast.sum() > 20 and still.sum() > 20
+    assert np.median(e_blur[fast] / np.maximum(e_sharp[fast], 1e-9)) > 1.1
+    assert np.allclose(e_blur[still], e_sharp[still])
+
+
 def test_confidence_correlates_with_error(paper_trial):
     err, conf, inview = _error_stats(paper_trial)
     e, c = err[inview], conf[inview]
