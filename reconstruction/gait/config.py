@@ -36,6 +36,7 @@ class GaitConfig:
             stance height (mm).
         min_stance_s: shortest foot contact kept (s).
         min_swing_s: shorter swings are treated as a noise blip inside one contact (s).
+        min_foot_travel_mm: consecutive contacts of a foot closer than this are one contact (mm).
         event_resolution_s: resolution of sub-frame event location on the continuous trajectory (s).
         full_confidence_views: cameras needed at a contact for full confidence (with quality given).
         reprojection_scale_px: reprojection error that lowers confidence by a factor e (px).
@@ -61,6 +62,7 @@ class GaitConfig:
     max_contact_lift_mm: float = 80.0
     min_stance_s: float = 0.12
     min_swing_s: float = 0.12
+    min_foot_travel_mm: float = 100.0
     event_resolution_s: float = 0.001
     full_confidence_views: int = 3
     reprojection_scale_px: float = 10.0

@@ -5,7 +5,8 @@ threshold ``v_rest = max(min_rest_speed_mm_s, rest_speed_fraction x walking spee
 speed noise at rest)``, and heel or toe is
 within ``max_contact_lift_mm`` of its stance height. Heel strike (initial contact) is the moment the
 first of heel and toe comes to rest; toe off is the moment the last one leaves rest. Contacts shorter
-than ``min_stance_s`` and swings shorter than ``min_swing_s`` are noise and removed. Both events are
+than ``min_stance_s``, swings shorter than ``min_swing_s`` and "swings" after which the heel rests less
+than ``min_foot_travel_mm`` from where it was are noise and removed. Both events are
 then located on the continuous trajectory (the caller's sampler, else a cubic spline through the frames)
 at ``event_resolution_s`` by finding the threshold crossing between the two frames that bracket it.
 
@@ -143,6 +144,23 @@ def _event_speed(heel_speed, toe_speed, rest, v_rest: float, config: GaitConfig)
     return float(np.clip(config.event_noise_factor * noise, config.min_event_speed_mm_s, v_rest))
 
 
+def _merge_in_place(runs: list[tuple[int, int]], heel_mm: np.ndarray, heel_speed: np.ndarray,
+                    v_rest: float, min_travel_mm: float) -> list[tuple[int, int]]:
+    """Merge consecutive contacts whose heel rest points are closer than ``min_travel_mm`` horizontally:
+    the foot did not go anywhere, so the "swing" between them was noise (or a shuffle in place)."""
+    merged: list[tuple[int, int]] = []
+    for a, b in runs:
+        if merged:
+            pa, pb = merged[-1]
+            prev, _ = _rest_point(heel_mm[pa:pb + 1], heel_speed[pa:pb + 1], v_rest)
+            this, _ = _rest_point(heel_mm[a:b + 1], heel_speed[a:b + 1], v_rest)
+            if np.linalg.norm(prev[:2] - this[:2]) < min_travel_mm:
+                merged[-1] = (pa, b)
+                continue
+        merged.append((a, b))
+    return merged
+
+
 def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
                     config: GaitConfig = GaitConfig()) -> tuple[Contact, ...]:
     """All foot contacts of the trial, both feet, ordered by heel strike (see the module docstring)."""
@@ -161,7 +179,8 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
         rest = (np.minimum(speed[:, h], speed[:, t]) < v_rest) & low
         rest = _clean(rest, times, config.min_swing_s, config.min_stance_s)
         edges = np.flatnonzero(np.diff(np.r_[0, rest.astype(int), 0]))
-        runs = list(zip(edges[::2], edges[1::2] - 1, strict=True))
+        runs = _merge_in_place(list(zip(edges[::2], edges[1::2] - 1, strict=True)), frames[:, h],
+                               speed[:, h], v_rest, config.min_foot_travel_mm)
         last = len(times) - 1
         starts = np.array([[times[max(a - 3, 0)], times[min(a + 2, b)]] for a, b in runs if a > 0]).reshape(-1, 2)
         ends = np.array([[times[max(b - 2, a)], times[min(b + 3, last)]] for a, b in runs if b < last]).reshape(-1, 2)
