@@ -3,7 +3,8 @@
 Subscribes to ``<prefix>/camera/*/image``, decodes the JPEG, runs a
 :class:`~acquisition.detectors.base.Detector` and publishes JSON keypoints (schema
 :data:`services.bus.keys.KEYPOINTS`) on ``<prefix>/keypoints/<cam>``. The subscriber callback only
-enqueues; ``workers`` threads detect (OpenCV decoding releases the GIL). When detection falls behind
+enqueues; ``workers`` threads decode JPEGs in parallel (OpenCV releases the GIL) while ``detect`` calls
+are serialised (a model interpreter is not thread-safe). When detection falls behind
 by more than ``max_queue`` frames the oldest frames are skipped and counted (``skipped``), so live
 keypoints never lag without bound; the recorder still records every image.
 """
@@ -38,6 +39,7 @@ class DetectorNode:
         self.max_queue = max_queue
         self._pending: collections.deque = collections.deque()
         self._cond = threading.Condition()
+        self._detect_lock = threading.Lock()
         self._closed = False
         self.detected = 0
         self.skipped = 0
@@ -84,10 +86,12 @@ class DetectorNode:
         msg = parse_image_message(payload)
         meta = loads(att, what=f"frame attachment of camera {camera}")
         frame_id = int(meta.get("frame_id", -1))
-        t0 = time.perf_counter()
-        people = np.asarray(self.detector.detect(msg.image(), camera=camera, frame_id=frame_id,
-                                                 timestamp_ns=msg.timestamp_ns), dtype=np.float64)
-        ms = (time.perf_counter() - t0) * 1e3
+        image = msg.image()
+        with self._detect_lock:
+            t0 = time.perf_counter()
+            people = np.asarray(self.detector.detect(image, camera=camera, frame_id=frame_id,
+                                                     timestamp_ns=msg.timestamp_ns), dtype=np.float64)
+            ms = (time.perf_counter() - t0) * 1e3
         if people.size:  # JSON has no NaN: a joint with any non-finite value becomes [0, 0, conf 0]
             people = np.where(np.isfinite(people).all(axis=-1, keepdims=True), people, 0.0)
         out = {"camera": camera, "frame_id": frame_id, "timestamp_ns": msg.timestamp_ns,

@@ -92,6 +92,14 @@ class VideoCamera(_OpenCVCamera):
         fps = float(self._cap.get(cv2.CAP_PROP_FPS)) if self._cap is not None else 0.0
         return fps if fps > 0 else None
 
+    @property
+    def frame_count(self) -> int | None:
+        """Frames in the file as its header says (None when unknown)."""
+        import cv2
+
+        n = int(self._cap.get(cv2.CAP_PROP_FRAME_COUNT)) if self._cap is not None else 0
+        return n if n > 0 else None
+
     def frames(self) -> Iterator[Frame]:
         if self._start_ns is None:
             raise ValueError(f"camera {self.name}: frames() before start()")

@@ -153,6 +153,7 @@ def detector_cmd(
         session = open_session(cfg, node)
     stopper = _stop_event()
     det_node = DetectorNode(session, cfg, node, det, workers=workers)
+    typer.echo(f"detector node {node} ready on {cfg.prefix} ({detector}, {det.skeleton.name})")
     stopper.wait()
     det_node.close()
     session.close()

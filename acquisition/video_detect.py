@@ -1,0 +1,98 @@
+"""2D keypoints from existing multi-view videos (one file per camera), for offline reconstruction.
+
+Each video is one camera, named after the file stem; frame ``i`` of every file is frame set ``i``
+(times ``i / fps`` from the files' frame rate). Files of different lengths are padded with missing
+frames (NaN, confidence 0). The patient is the person with the highest mean confidence in each frame;
+all people are kept too, for cross-view association.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from acquisition.drivers.base import CaptureSettings
+from acquisition.drivers.video import VideoCamera
+from reconstruction.detections import Detections
+
+log = logging.getLogger(__name__)
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm")
+
+
+def find_videos(folder: str | Path) -> list[Path]:
+    """The video files of a folder (sorted); ValueError when there are fewer than one."""
+    d = Path(folder)
+    if not d.is_dir():
+        raise FileNotFoundError(f"video folder {d} does not exist")
+    files = sorted(p for p in d.iterdir() if p.suffix.lower() in VIDEO_SUFFIXES and p.is_file())
+    if not files:
+        raise ValueError(f"video folder {d}: no video files ({', '.join(VIDEO_SUFFIXES)})")
+    stems = [p.stem for p in files]
+    dup = sorted({s for s in stems if stems.count(s) > 1})
+    if dup:
+        raise ValueError(f"video folder {d}: several files per camera name {dup}")
+    return files
+
+
+@dataclass(frozen=True, eq=False)
+class VideoKeypoints:
+    """Attributes: people (C, T, P, J, 3); camera_names (C,); times_s (T,); skeleton name; fps."""
+
+    people: np.ndarray
+    camera_names: tuple[str, ...]
+    times_s: np.ndarray
+    skeleton: str
+    fps: float
+
+    def patient(self) -> Detections:
+        """Per frame and camera the most confident person (NaN / 0 where nobody was found)."""
+        c, t, p, j, _ = self.people.shape
+        if p == 0:
+            kp = np.full((c, t, j, 3), np.nan)
+            kp[..., 2] = 0
+        else:
+            score = np.nan_to_num(self.people[..., 2]).mean(-1)  # (C, T, P)
+            best = score.argmax(-1)
+            kp = np.take_along_axis(self.people, best[:, :, None, None, None], axis=2)[:, :, 0]
+        return Detections(kp, self.camera_names, self.times_s, self.skeleton)
+
+
+def detect_videos(files: list[Path], detector, *, fps: float | None = None,
+                  on_frame: Callable[[], None] | None = None) -> VideoKeypoints:
+    """Run ``detector`` on every frame of every file (camera = file stem)."""
+    per_cam: list[list[np.ndarray]] = []
+    rates = []
+    for path in files:
+        cam = VideoCamera(path, realtime=False)
+        cam.open()
+        cam.configure(CaptureSettings(fps=fps or 30.0, exposure_us=None))
+        rates.append(fps or cam.file_fps or 30.0)
+        cam.start(0)
+        found = []
+        for frame in cam.frames():
+            people = np.asarray(detector.detect(frame.image, camera=cam.name, frame_id=frame.frame_id,
+                                                timestamp_ns=frame.timestamp_ns), dtype=np.float64)
+            found.append(people.reshape(-1, detector.skeleton.num_joints, 3))
+            if on_frame is not None:
+                on_frame()
+        cam.close()
+        if not found:
+            raise ValueError(f"video {path}: no frames could be read")
+        per_cam.append(found)
+    if max(rates) - min(rates) > 0.01 * max(rates):
+        raise ValueError(f"videos have different frame rates {dict(zip([p.name for p in files], rates, strict=True))}; "
+                         "give --fps to force one")
+    t = max(len(f) for f in per_cam)
+    p = max((len(people) for f in per_cam for people in f), default=0)
+    j = detector.skeleton.num_joints
+    out = np.full((len(files), t, p, j, 3), np.nan)
+    out[..., 2] = 0.0
+    for c, frames in enumerate(per_cam):
+        for i, people in enumerate(frames):
+            out[c, i, : len(people)] = people
+    rate = float(rates[0])
+    return VideoKeypoints(out, tuple(f.stem for f in files), np.arange(t) / rate, detector.skeleton.name, rate)
