@@ -1,0 +1,186 @@
+"""A calibration board moving through the synthetic room: ground-truth poses, corner observations with
+pixel noise, and (for short clips) rendered camera images that the real detector must find.
+
+The clip starts with the board lying still on the floor (its corner 0 at ``floor_origin_mm``, face up,
+columns along world x): that is what defines the world frame, so a calibration recovered from these
+observations can be compared to the room's true rig directly. Then the board is carried through the
+capture volume, turning to face every camera, tilted, sometimes held upside down.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from acquisition.board import Board
+from reconstruction.calibration.geometry import BoardGeometry, BoardObservations
+from reconstruction.camera import Rig
+
+FLOOR_ROTATION = np.diag([1.0, -1.0, -1.0])  # board -> world for a board lying face up
+UPRIGHT = np.array([[0.0, 0, -1], [1, 0, 0], [0, -1, 0]])  # board -> world, face towards +x, rows down
+
+
+@dataclass(frozen=True)
+class BoardMotion:
+    """How the board moves.
+
+    Attributes:
+        n_frames: frames in the clip (including the floor frames).
+        fps: frame rate (frame times are n / fps s).
+        floor_frames: frames at the start with the board lying still on the floor.
+        floor_origin_mm: world position of the floor board's corner 0.
+        centre_mm / half_extent_mm: box (mm) that the board's centre wanders through.
+        turns: full turns of the board's facing direction over the clip (so every camera sees it).
+        max_tilt_deg: tilt of the board's normal away from horizontal and sideways, deg.
+        max_roll_deg: in-plane rotation, deg.
+        upside_down_fraction: share of frames with the board held upside down (180 deg roll).
+        seed: random seed.
+    """
+
+    n_frames: int = 300
+    fps: float = 10.0
+    floor_frames: int = 5
+    floor_origin_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    centre_mm: tuple[float, float, float] = (0.0, 0.0, 1100.0)
+    half_extent_mm: tuple[float, float, float] = (1500.0, 900.0, 500.0)
+    turns: float = 3.0
+    max_tilt_deg: float = 35.0
+    max_roll_deg: float = 30.0
+    upside_down_fraction: float = 0.2
+    seed: int = 0
+
+
+def _rot(axis: int, angle: np.ndarray) -> np.ndarray:
+    """Rotations (F, 3, 3) about a fixed axis by angles (F,) rad."""
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.tile(np.eye(3), (len(angle), 1, 1))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    out[:, i, i], out[:, j, j], out[:, i, j], out[:, j, i] = c, c, -s, s
+    return out
+
+
+def _smooth_noise(rng: np.random.Generator, n: int, knots: int) -> np.ndarray:
+    """Smooth random curve (n,) in [-1, 1] through ``knots`` random values."""
+    xk = np.linspace(0, n - 1, knots)
+    return np.interp(np.arange(n), xk, rng.uniform(-1, 1, knots))
+
+
+def board_trajectory(geometry: BoardGeometry, motion: BoardMotion) -> tuple[np.ndarray, np.ndarray]:
+    """Board -> world poses: rotations (F, 3, 3), translations (F, 3) mm."""
+    rng = np.random.default_rng(motion.seed)
+    n_move = motion.n_frames - motion.floor_frames
+    knots = max(4, n_move // 12)
+    centre = np.asarray(motion.centre_mm) + np.stack(
+        [h * _smooth_noise(rng, n_move, knots) for h in motion.half_extent_mm], axis=1
+    )
+    facing = 2 * np.pi * motion.turns * np.arange(n_move) / max(n_move, 1) + rng.uniform(0, 2 * np.pi)
+    tilt = np.radians(motion.max_tilt_deg)
+    roll = np.radians(motion.max_roll_deg) * _smooth_noise(rng, n_move, knots)
+    roll += np.pi * (_smooth_noise(rng, n_move, knots) > 1 - 2 * motion.upside_down_fraction)
+    rot = (_rot(2, facing) @ _rot(1, tilt * _smooth_noise(rng, n_move, knots))
+           @ _rot(2, tilt * _smooth_noise(rng, n_move, knots)) @ UPRIGHT @ _rot(2, roll))
+    mid = geometry.object_points_mm.mean(0)
+    tvec = centre - rot @ mid
+    floor_r = np.tile(FLOOR_ROTATION, (motion.floor_frames, 1, 1))
+    floor_t = np.tile(np.asarray(motion.floor_origin_mm, dtype=np.float64), (motion.floor_frames, 1))
+    return np.concatenate([floor_r, rot]), np.concatenate([floor_t, tvec])
+
+
+def _visible_views(rig: Rig, geometry: BoardGeometry, rot: np.ndarray, tvec: np.ndarray, max_angle_deg: float):
+    """(C, F) bool: the camera faces the printed side at less than ``max_angle_deg`` from its normal."""
+    centre = rot @ geometry.object_points_mm.mean(0) + tvec  # (F, 3)
+    front = -rot[:, :, 2]  # printed face normal in the world
+    out = []
+    for cam in rig:
+        ray = cam.center_mm - centre
+        cos = np.einsum("fi,fi->f", ray, front) / np.linalg.norm(ray, axis=1)
+        out.append(cos > np.cos(np.radians(max_angle_deg)))
+    return np.array(out)
+
+
+def observe_board(
+    rig: Rig, geometry: BoardGeometry, rot: np.ndarray, tvec: np.ndarray, *, noise_px: float = 0.5,
+    max_angle_deg: float = 70.0, margin_px: float = 5.0, scramble: bool = False, fps: float = 10.0, seed: int = 0,
+) -> BoardObservations:
+    """Project the board's corners into every camera with Gaussian pixel noise (per axis, px).
+
+    Views that show the board's back or too obliquely are dropped; a board that needs all its corners
+    (plain checkerboard) is dropped when any corner leaves the image. ``scramble`` reports each view's
+    corners in a random order among the board's symmetries (as an orientation-blind detector would),
+    except in the floor frames at the start.
+    """
+    rng = np.random.default_rng(seed)
+    world = np.einsum("fij,nj->fni", rot, geometry.object_points_mm) + tvec[:, None]  # (F, N, 3)
+    visible = _visible_views(rig, geometry, rot, tvec, max_angle_deg)
+    corners = np.full((len(rig), len(rot), geometry.num_corners, 2), np.nan)
+    syms = np.asarray(geometry.symmetries)
+    floor = np.all(np.isclose(rot, FLOOR_ROTATION), axis=(1, 2))
+    for c, cam in enumerate(rig):
+        px = cam.project(world) + rng.normal(0, noise_px, world.shape[:2] + (2,))
+        ok = cam.in_image(px, margin_px=-margin_px) & (cam.depth_mm(world) > 0) & visible[c][:, None]
+        if geometry.min_corners >= geometry.num_corners:
+            ok &= ok.all(axis=1, keepdims=True)
+        ok &= ok.sum(axis=1, keepdims=True) >= geometry.min_corners
+        corners[c][ok] = px[ok]
+        if scramble:
+            for f in np.flatnonzero(ok.any(1) & ~floor):
+                corners[c, f] = corners[c, f][syms[rng.integers(len(syms))]]
+    times = np.arange(len(rot)) / fps
+    return BoardObservations(tuple(rig.names), tuple(c.size_px for c in rig), corners, geometry, times)
+
+
+def _pixel_rays(cam, scale: float) -> tuple[np.ndarray, tuple[int, int]]:
+    """Undistorted normalised rays (H*W, 3) of the pixel centres of the camera scaled by ``scale``."""
+    w, h = (int(round(v * scale)) for v in cam.size_px)
+    k = cam.matrix_px.copy()
+    k[:2] *= scale
+    k[:2, 2] = (cam.matrix_px[:2, 2] + 0.5) * scale - 0.5
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    pts = np.stack([xx.ravel(), yy.ravel()], 1).reshape(-1, 1, 2)
+    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-9)
+    xy = cv2.undistortPointsIter(pts, k, cam.dist, None, None, crit).reshape(-1, 2)
+    return np.column_stack([xy, np.ones(len(xy))]), (w, h)
+
+
+def render_board_images(
+    rig: Rig, board: Board, rot: np.ndarray, tvec: np.ndarray, *, scale: float = 0.25, supersample: int = 2,
+    noise_gray: float = 2.0, background: int = 110, seed: int = 0,
+) -> dict[str, np.ndarray]:
+    """Grey images {camera: (F, H, W) uint8} of the board at poses (rot, tvec), at ``scale`` x the
+    cameras' resolution (so intrinsics scale by the same factor), with Gaussian grey-level noise."""
+    rng = np.random.default_rng(seed)
+    px_per_mm = 4.0
+    texture, corner0_px = board.texture(px_per_mm)
+    back = np.full_like(texture, 200)  # an opaque board shows a blank back
+    out = {}
+    for cam in rig:
+        rays, (w, h) = _pixel_rays(cam, scale * supersample)
+        dirs = rays @ cam.rotation  # world directions (P, 3): R^T d
+        frames = []
+        for r_b, t_b in zip(rot, tvec, strict=True):
+            o = r_b.T @ (cam.center_mm - t_b)  # camera centre in the board frame
+            d = dirs @ r_b  # ray directions in the board frame
+            lam = -o[2] / np.where(np.abs(d[:, 2]) < 1e-12, 1e-12, d[:, 2])
+            p = o[:2] + lam[:, None] * d[:, :2]
+            uv = p * px_per_mm + corner0_px
+            uv[lam <= 0] = -1e6
+            img = cv2.remap(texture if o[2] < 0 else back, uv[:, 0].reshape(h, w).astype(np.float32), uv[:, 1].reshape(h, w).astype(np.float32),
+                            cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=background)
+            img = cv2.resize(img, (w // supersample, h // supersample), interpolation=cv2.INTER_AREA)
+            frames.append(np.clip(img + rng.normal(0, noise_gray, img.shape), 0, 255).astype(np.uint8))
+        out[cam.name] = np.stack(frames)
+    return out
+
+
+def scaled_rig(rig: Rig, scale: float) -> Rig:
+    """The same rig imaged at ``scale`` x the resolution (matches :func:`render_board_images`)."""
+    cams = []
+    for cam in rig:
+        k = cam.matrix_px.copy()
+        k[:2] *= scale
+        k[:2, 2] = (cam.matrix_px[:2, 2] + 0.5) * scale - 0.5
+        size = tuple(int(round(v * scale)) for v in cam.size_px)
+        cams.append(cam.replace(matrix_px=k, size_px=size))
+    return Rig(tuple(cams))

@@ -1,0 +1,165 @@
+"""Calibration from board observations: intrinsics -> single-view poses -> camera graph -> bundle
+adjustment -> world frame from the floor board -> Rig + quality report."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from reconstruction.calibration.bundle import (
+    BundleConfig,
+    BundleProblem,
+    BundleResult,
+    BundleState,
+    bundle_adjust,
+)
+from reconstruction.calibration.geometry import BoardObservations
+from reconstruction.calibration.graph import InitialPoses, initial_poses
+from reconstruction.calibration.intrinsics import Intrinsics, IntrinsicsConfig, estimate_intrinsics
+from reconstruction.calibration.report import (
+    CameraQuality,
+    QualityReport,
+    QualityThresholds,
+    coverage,
+    error_stats,
+    measured_square_mm,
+)
+from reconstruction.calibration.views import view_poses
+from reconstruction.calibration.world import WorldFrameConfig, floor_pose, to_world, world_from_floor
+from reconstruction.camera import Camera, Rig, matrix_to_rodrigues
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class CalibrationConfig:
+    """Everything that steers a calibration (all parts have sensible defaults)."""
+
+    intrinsics: IntrinsicsConfig = field(default_factory=IntrinsicsConfig)
+    bundle: BundleConfig = field(default_factory=BundleConfig)
+    world: WorldFrameConfig = field(default_factory=WorldFrameConfig)
+    thresholds: QualityThresholds = field(default_factory=QualityThresholds)
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationResult:
+    """The calibrated rig (world frame: floor board, mm) and its quality report.
+
+    board_rotation (F, 3, 3) / board_tvec_mm (F, 3): recovered board -> world poses (NaN if unused).
+    """
+
+    rig: Rig
+    report: QualityReport
+    board_rotation: np.ndarray
+    board_tvec_mm: np.ndarray
+
+
+def _check_cameras(obs: BoardObservations, config: IntrinsicsConfig) -> None:
+    counts = obs.views().sum(1)
+    few = [f"{n!r} ({k} views)" for n, k in zip(obs.camera_names, counts, strict=True) if k < config.min_views]
+    if few:
+        raise ValueError(
+            f"cameras {', '.join(few)} saw the board too rarely (need at least {config.min_views} views "
+            f"with {obs.board.min_corners}+ corners of {obs.board.name}); check the board size given, then "
+            "record again moving the board through every camera's view"
+        )
+
+
+def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, ...]):
+    """Flatten the usable views into a BundleProblem (frames compacted); returns it and the frame map."""
+    syms = np.asarray(obs.board.symmetries)
+    c_idx, f_idx = np.nonzero(init.symmetry >= 0)
+    frames = np.unique(f_idx)
+    compact = np.full(obs.shape[1], -1)
+    compact[frames] = np.arange(len(frames))
+    cams, frs, corners, uv = [], [], [], []
+    for c, f in zip(c_idx, f_idx, strict=True):
+        seen = np.all(np.isfinite(obs.corners_px[c, f]), -1)
+        ids = syms[init.symmetry[c, f]][seen]
+        cams.append(np.full(len(ids), c))
+        frs.append(np.full(len(ids), compact[f]))
+        corners.append(ids)
+        uv.append(obs.corners_px[c, f][seen])
+    prob = BundleProblem(
+        np.concatenate(cams), np.concatenate(frs), np.concatenate(corners), np.concatenate(uv),
+        obs.board.object_points_mm, obs.shape[0], len(frames), init.root, free_dist,
+    )
+    return prob, frames
+
+
+def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThresholds) -> CameraQuality:
+    mine = prob.cam == c
+    err = np.linalg.norm(res.residual_px[mine & res.inlier], axis=-1)
+    mean, p95, rms = error_stats(err)
+    cov = coverage(prob.uv_px[mine & res.inlier], obs.image_sizes_px[c], thresholds.grid)
+    problems = []
+    if not p95 <= thresholds.max_p95_px:
+        problems.append(f"reprojection p95 {p95:.2f} px > {thresholds.max_p95_px} px")
+    if cov < thresholds.min_coverage:
+        problems.append(f"board covered {100 * cov:.0f} % of the image (< {100 * thresholds.min_coverage:.0f} %)")
+    n_views = len(np.unique(prob.frame[mine]))
+    return CameraQuality(
+        obs.camera_names[c], n_views, int((mine & res.inlier).sum()), int((mine & ~res.inlier).sum()),
+        mean, p95, rms, cov, not problems, tuple(problems),
+    )
+
+
+def _report(obs, config, prob, frames, res, world, cams_r, cams_t) -> QualityReport:
+    per_cam = tuple(_camera_quality(obs, prob, res, c, config.thresholds) for c in range(obs.shape[0]))
+    mean, p95, rms = error_stats(np.linalg.norm(res.residual_px[res.inlier], axis=-1))
+    ordered = np.full((obs.shape[0], len(frames), obs.board.num_corners, 2), np.nan)
+    inl = res.inlier
+    ordered[prob.cam[inl], prob.frame[inl], prob.corner[inl]] = prob.uv_px[inl]
+    extr = np.concatenate([cams_r, cams_t[:, :, None]], axis=2)
+    square = measured_square_mm(ordered, res.state.matrix_px, res.state.dist, extr, obs.board.neighbours)
+    return QualityReport(
+        board=obs.board.name, distortion=config.intrinsics.distortion.value, cameras=per_cam,
+        failed_cameras=tuple(q.name for q in per_cam if not q.ok), n_frames=len(frames),
+        n_corners=int(inl.sum()), n_outliers=int((~inl).sum()), reprojection_mean_px=mean,
+        reprojection_p95_px=p95, reprojection_rms_px=rms, square_mm=obs.board.square_mm,
+        square_measured_mm=square, square_residual_pct=100 * (square / obs.board.square_mm - 1),
+        floor_frames=world.floor_frames, world_flipped=world.flipped, bundle_rounds=res.rounds,
+        solve_time_s=res.solve_time_s,
+    )
+
+
+def _initial_state(intr: list[Intrinsics], init: InitialPoses, frames: np.ndarray) -> BundleState:
+    return BundleState(
+        np.stack([i.matrix_px for i in intr]), np.stack([i.dist for i in intr]), init.cam_rotation,
+        init.cam_tvec_mm, init.frame_rotation[frames], init.frame_tvec_mm[frames],
+    )
+
+
+def calibrate_from_observations(
+    obs: BoardObservations, *, config: CalibrationConfig | None = None, serials: dict[str, str] | None = None
+) -> CalibrationResult:
+    """Calibrate every camera in ``obs``; ValueError naming the camera when its data cannot do it."""
+    config = config or CalibrationConfig()
+    _check_cameras(obs, config.intrinsics)
+    intr = [estimate_intrinsics(obs, c, config.intrinsics) for c in range(obs.shape[0])]
+    poses = view_poses(obs, intr)
+    no_pose = [n for c, n in enumerate(obs.camera_names) if not poses.valid[c].any()]
+    if no_pose:
+        raise ValueError(f"cameras {no_pose}: no board view gave a consistent pose; check the board definition")
+    init = initial_poses(poses, obs.camera_names)
+    prob, frames = _problem(obs, init, config.intrinsics.distortion.free)
+    res = bundle_adjust(prob, _initial_state(intr, init, frames), config.bundle)
+    used = np.zeros(obs.shape[1], dtype=bool)
+    used[frames] = True
+    full_r, full_t = np.full((obs.shape[1], 3, 3), np.nan), np.full((obs.shape[1], 3), np.nan)
+    full_r[frames], full_t[frames] = res.state.frame_rotation, res.state.frame_tvec_mm
+    r_floor, t_floor, n_floor = floor_pose(full_r, full_t, used, config.world)
+    world = world_from_floor(r_floor, t_floor, res.state.cam_rotation, res.state.cam_tvec_mm, floor_frames=n_floor)
+    cams_r, cams_t = to_world(world, res.state.cam_rotation, res.state.cam_tvec_mm)
+    serials = serials or {}
+    rig = Rig(tuple(
+        Camera(name, obs.image_sizes_px[c], res.state.matrix_px[c], res.state.dist[c],
+               matrix_to_rodrigues(cams_r[c]), cams_t[c], serials.get(name, ""))
+        for c, name in enumerate(obs.camera_names)
+    ))
+    report = _report(obs, config, prob, frames, res, world, cams_r, cams_t)
+    board_r = np.einsum("ji,fjk->fik", world.rotation, full_r)  # board -> world
+    board_t = np.einsum("ji,fj->fi", world.rotation, full_t - world.tvec_mm)
+    return CalibrationResult(rig, report, board_r, board_t)

@@ -1,0 +1,135 @@
+"""The calibration's quality report: per camera reprojection error, detections, image coverage, and the
+board's square size measured back by triangulation (the scale check)."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+
+@dataclass(frozen=True)
+class QualityThresholds:
+    """A camera is named as failed when it misses one of these.
+
+    Attributes:
+        max_p95_px: 95th percentile of its reprojection error, px.
+        min_coverage: fraction of image cells (``grid`` columns x rows) with at least one corner.
+        grid: (columns, rows) of the coverage grid.
+    """
+
+    max_p95_px: float = 3.0
+    min_coverage: float = 0.3
+    grid: tuple[int, int] = (8, 5)
+
+
+@dataclass(frozen=True)
+class CameraQuality:
+    """One camera: board views used, corners (inliers / outliers), reprojection error (px) and coverage."""
+
+    name: str
+    n_detections: int
+    n_corners: int
+    n_outliers: int
+    reprojection_mean_px: float
+    reprojection_p95_px: float
+    reprojection_rms_px: float
+    coverage: float
+    ok: bool
+    problems: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class QualityReport:
+    """The whole calibration. Reprojection RMS is sqrt(mean |e|^2) over inlier corners (|e| is the 2D
+    error), i.e. sqrt(2) x the per-axis pixel noise for a perfect fit."""
+
+    board: str
+    distortion: str
+    cameras: tuple[CameraQuality, ...]
+    failed_cameras: tuple[str, ...]
+    n_frames: int
+    n_corners: int
+    n_outliers: int
+    reprojection_mean_px: float
+    reprojection_p95_px: float
+    reprojection_rms_px: float
+    square_mm: float
+    square_measured_mm: float
+    square_residual_pct: float
+    floor_frames: int
+    world_flipped: bool
+    bundle_rounds: int
+    solve_time_s: float
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def save_json(self, path: str | os.PathLike) -> Path:
+        """Write the report as JSON atomically (temp file + rename)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+        try:
+            with os.fdopen(fd, "w") as f:
+                json.dump(self.to_dict(), f, indent=2)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return path
+
+
+def error_stats(err_px: np.ndarray) -> tuple[float, float, float]:
+    """(mean, p95, rms) of 2D error norms (P,) px; NaN when empty."""
+    if err_px.size == 0:
+        return float("nan"), float("nan"), float("nan")
+    return float(err_px.mean()), float(np.percentile(err_px, 95)), float(np.sqrt(np.mean(err_px**2)))
+
+
+def coverage(uv_px: np.ndarray, size_px: tuple[int, int], grid: tuple[int, int]) -> float:
+    """Fraction of the image's grid cells that hold at least one corner (uv_px: (P, 2))."""
+    w, h = size_px
+    gx = np.clip((uv_px[:, 0] / w * grid[0]).astype(int), 0, grid[0] - 1)
+    gy = np.clip((uv_px[:, 1] / h * grid[1]).astype(int), 0, grid[1] - 1)
+    return len(set(zip(gx.tolist(), gy.tolist(), strict=True))) / (grid[0] * grid[1])
+
+
+def triangulate_normalized(xy: np.ndarray, extrinsics: np.ndarray) -> np.ndarray:
+    """DLT: undistorted normalised points (C, P, 2) (NaN = unseen) and [R|t] (C, 3, 4) -> (P, 3) mm.
+    Points seen by fewer than two cameras come back NaN."""
+    seen = np.all(np.isfinite(xy), -1)
+    x = np.where(seen[..., None], xy, 0.0)
+    rows_x = x[..., 0:1] * extrinsics[:, None, 2] - extrinsics[:, None, 0]  # (C, P, 4)
+    rows_y = x[..., 1:2] * extrinsics[:, None, 2] - extrinsics[:, None, 1]
+    a = np.concatenate([rows_x, rows_y], 0) * np.concatenate([seen, seen], 0)[..., None]
+    _, _, vt = np.linalg.svd(np.transpose(a, (1, 0, 2)))
+    hom = vt[:, -1]
+    pts = hom[:, :3] / hom[:, 3:4]
+    pts[seen.sum(0) < 2] = np.nan
+    return pts
+
+
+def measured_square_mm(
+    corners_px: np.ndarray, matrix_px: np.ndarray, dist: np.ndarray, extrinsics: np.ndarray, neighbours: np.ndarray
+) -> float:
+    """Median distance (mm) between triangulated neighbouring corners.
+
+    corners_px: (C, F, N, 2) in the board's true corner order, NaN where unseen or rejected.
+    """
+    c_count, f_count, n, _ = corners_px.shape
+    xy = np.full((c_count, f_count * n, 2), np.nan)
+    for c in range(c_count):
+        flat = corners_px[c].reshape(-1, 2)
+        ok = np.all(np.isfinite(flat), -1)
+        if ok.any():
+            xy[c, ok] = cv2.undistortPoints(flat[ok].reshape(-1, 1, 2), matrix_px[c], dist[c]).reshape(-1, 2)
+    pts = triangulate_normalized(xy, extrinsics).reshape(f_count, n, 3)
+    d = np.linalg.norm(pts[:, neighbours[:, 0]] - pts[:, neighbours[:, 1]], axis=-1)
+    d = d[np.isfinite(d)]
+    return float(np.median(d)) if d.size else float("nan")

@@ -1,0 +1,90 @@
+"""The world frame: a board laid flat on the floor defines the origin and the axes (z up).
+
+World axes from the floor board: x along the board's columns, y = -(board rows), z = -(board normal),
+so z points up out of the printed face; the origin is the board's corner 0. The board's pose is averaged
+over the static frames at the start (the board lies still while the recording starts). A final guard
+turns the world over when the cameras would end up below the floor (the mirrored/flipped-board trap).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from reconstruction.calibration.geometry import mean_rotation, rotation_angle_deg
+
+log = logging.getLogger(__name__)
+
+BOARD_TO_WORLD_AXES = np.diag([1.0, -1.0, -1.0])  # X_board = F X_world (self-inverse)
+
+
+@dataclass(frozen=True)
+class WorldFrameConfig:
+    """Which frames show the board on the floor.
+
+    Attributes:
+        floor_frame: index of a frame where the board lies on the floor; None = the first frame in
+            which the board was seen.
+        static_mm / static_deg: following frames whose board pose stays this close count as the same
+            floor pose and are averaged.
+    """
+
+    floor_frame: int | None = None
+    static_mm: float = 2.0
+    static_deg: float = 0.2
+
+
+@dataclass(frozen=True, eq=False)
+class WorldTransform:
+    """World -> old frame: X_old = rotation @ X_world + tvec_mm, plus how it was found."""
+
+    rotation: np.ndarray
+    tvec_mm: np.ndarray
+    floor_frames: int
+    flipped: bool
+
+
+def floor_pose(
+    frame_rotation: np.ndarray, frame_tvec_mm: np.ndarray, used: np.ndarray, config: WorldFrameConfig
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """Average board -> frame pose over the static floor frames; returns (R, t, frames averaged)."""
+    used_idx = np.flatnonzero(used)
+    if len(used_idx) == 0:
+        raise ValueError("world frame: no board pose was recovered")
+    first = int(used_idx[0]) if config.floor_frame is None else int(config.floor_frame)
+    if not (0 <= first < len(used) and used[first]):
+        raise ValueError(
+            f"world frame: frame {first} (floor_frame) has no board pose; pick a frame where the board "
+            "lies on the floor and at least one camera sees it"
+        )
+    frames = [first]
+    for f in range(first + 1, len(used)):
+        near = np.linalg.norm(frame_tvec_mm[f] - frame_tvec_mm[first]) < config.static_mm
+        if not (used[f] and near and rotation_angle_deg(frame_rotation[f], frame_rotation[first]) < config.static_deg):
+            break
+        frames.append(f)
+    return mean_rotation(frame_rotation[frames]), frame_tvec_mm[frames].mean(0), len(frames)
+
+
+def world_from_floor(
+    board_rotation: np.ndarray, board_tvec_mm: np.ndarray, cam_rotation: np.ndarray, cam_tvec_mm: np.ndarray,
+    *, floor_frames: int = 1,
+) -> WorldTransform:
+    """World -> old-frame transform from the floor board's pose (board -> old frame)."""
+    rot = board_rotation @ BOARD_TO_WORLD_AXES
+    centres_old = -np.einsum("cji,cj->ci", cam_rotation, cam_tvec_mm)  # camera centres in the old frame
+    heights = (centres_old - board_tvec_mm) @ rot[:, 2]
+    flipped = bool(np.median(heights) < 0)
+    if flipped:
+        log.warning("world frame: the cameras were below the floor board; turning the world over (z up)")
+        rot = rot @ BOARD_TO_WORLD_AXES
+    return WorldTransform(rot, np.asarray(board_tvec_mm, dtype=np.float64), floor_frames, flipped)
+
+
+def to_world(world: WorldTransform, cam_rotation: np.ndarray, cam_tvec_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Camera extrinsics (C, 3, 3), (C, 3) from the old frame to the world frame."""
+    rot = cam_rotation @ world.rotation
+    tvec = np.einsum("cij,j->ci", cam_rotation, world.tvec_mm) + cam_tvec_mm
+    return rot, tvec
