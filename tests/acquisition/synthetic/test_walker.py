@@ -139,6 +139,14 @@ def test_hemiparetic_steps_are_asymmetric():
     assert np.allclose(st.step_length_mm[m & (st.foot == sound)], params.side_step_length_mm(sound), atol=1e-6)
     assert np.allclose(st.step_length_mm[m & (st.foot == other)], params.side_step_length_mm(other), atol=1e-6)
     assert params.side_step_length_mm(sound) < params.side_step_length_mm(other)
+    # the sound side stands longer: stance fraction of the stride per side
+    stance = st.toe_off_s - st.heel_strike_s
+    stride = 120.0 / params.cadence_spm
+    m = m & np.isfinite(stance)  # the last step of the walk never leaves the floor
+    f_sound = np.median(stance[m & (st.foot == sound)]) / stride
+    f_other = np.median(stance[m & (st.foot == other)]) / stride
+    assert f_sound == pytest.approx(params.side_stance_fraction(sound), abs=0.01)
+    assert f_other == pytest.approx(params.side_stance_fraction(other), abs=0.01)
 
 
 def test_turns_are_marked_and_walk_stays_in_the_room():
