@@ -139,9 +139,16 @@ def iter_messages(path: str | os.PathLike, wanted: TopicFilter) -> Iterator[tupl
             topics = sorted({c.topic for c in summary.channels.values() if wanted(c.topic)})
             if not topics:
                 return
-            for _, channel, message in reader.iter_messages(topics=topics, log_time_order=True):
+            messages = reader.iter_messages(topics=topics, log_time_order=True)
+            while True:
+                try:
+                    _, channel, message = next(messages)
+                except StopIteration:
+                    return
+                except Exception as exc:  # lz4/zstd errors, bad records inside a chunk
+                    raise ValueError(f"{p}: corrupt data ({type(exc).__name__}: {exc}); "
+                                     "acquisition.recording.reader.recover() keeps every intact chunk") from None
                 yield channel.topic, message
-        return
     state = ScanState(p)
     yield from scan(p, state, wanted)
     if state.error:
@@ -324,18 +331,25 @@ class RecoveryReport:
 def recover(path: str | os.PathLike, out: str | os.PathLike | None = None) -> RecoveryReport:
     """Read every complete chunk of a recording cut short and write them as a valid MCAP.
 
-    ``out`` defaults to the recording's final name (``x.mcap`` for ``x.mcap.part``); a complete file is
-    only checked (no output written). ValueError when nothing readable is in the file.
+    ``out`` defaults to the recording's final name (``x.mcap`` for ``x.mcap.part``; ``x.recovered.mcap``
+    for a complete file with a corrupt chunk); a complete, intact file is only checked (no output
+    written). ValueError when nothing readable is in the file.
     """
     from acquisition.recording.rewrite import rewrite_scanned
 
     src = resolve_recording(path)
     if is_complete(src):
         counts: dict[str, int] = {}
-        for topic, _ in iter_messages(src, lambda t: True):
-            counts[topic] = counts.get(topic, 0) + 1
-        return RecoveryReport(src, None, True, 0, 0, counts, None)
-    target = Path(out) if out is not None else src.with_name(src.name.removesuffix(layout.PART_SUFFIX))
+        try:
+            for topic, _ in iter_messages(src, lambda t: True):
+                counts[topic] = counts.get(topic, 0) + 1
+            return RecoveryReport(src, None, True, 0, 0, counts, None)
+        except ValueError as exc:  # complete but with a corrupt chunk: rewrite the intact ones
+            log.warning("%s", exc)
+    default = src.with_name(src.name.removesuffix(layout.PART_SUFFIX))
+    if default == src:
+        default = src.with_name(src.stem + ".recovered.mcap")
+    target = Path(out) if out is not None else default
     if target == src or target.exists():
         raise ValueError(f"recover: output {target} exists (or is the input); give another path")
     state = ScanState(src)

@@ -115,3 +115,18 @@ def test_recover_refuses_to_overwrite(tmp_path):
 def test_keypoints_json_schema_is_documented(trial_mcap):
     schema = json.loads(layout.json_schema("gaitcap.Keypoints2D"))
     assert set(schema["required"]) == {"camera", "frame_id", "timestamp_ns", "skeleton", "people"}
+
+
+def test_corrupt_chunk_in_a_complete_file_is_a_clear_error_and_recoverable(tmp_path):
+    full = write_trial(tmp_path / "full.mcap", compression="lz4", flush_every=5)
+    data = bytearray(full.read_bytes())
+    mid = data.index(b"\xff\xd8\xff", len(data) // 3)  # inside an image chunk's lz4 frame
+    data[mid - 200 : mid + 200] = bytes(range(256)) + bytes(144)
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    with pytest.raises(ValueError, match="bad.mcap: corrupt data"):
+        list(iter_frames(bad))
+    report = recover(bad)  # keeps the chunks before the damage, names where it stopped
+    assert report.output == tmp_path / "bad.recovered.mcap" and not report.was_complete
+    assert report.error and 0 < report.messages[layout.image_topic("cam0")] < FRAMES
+    assert read_metadata(report.output)["patient"] == "p01"
