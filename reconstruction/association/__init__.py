@@ -16,6 +16,7 @@ from reconstruction.association.pipeline import (
     PipelineConfig,
     associate,
     associate_and_select,
+    associate_keypoints,
     default_selector,
 )
 from reconstruction.association.selection import (
@@ -26,12 +27,13 @@ from reconstruction.association.selection import (
     patient_detections,
     select_track_at_pixel,
 )
-from reconstruction.association.tracking import TrackingConfig, Tracks, link_tracks
+from reconstruction.association.tracking import TrackingConfig, Tracks, TrackSummary, link_tracks
 
 __all__ = [
     "AssociationConfig", "AssociationScore", "BoxConfig", "FramePeople", "ManualTrack",
     "MultiPersonDetections", "NearestStartTrack", "PatientSelection", "PipelineConfig", "TrackSelector",
-    "TrackingConfig", "Tracks", "WalkwayTrack", "associate", "associate_and_select", "associate_frames",
+    "TrackSummary", "TrackingConfig", "Tracks", "WalkwayTrack", "associate", "associate_and_select",
+    "associate_frames", "associate_keypoints",
     "default_selector", "link_tracks", "patient_detections", "person_boxes", "score_association",
     "select_track_at_pixel",
 ]

@@ -61,3 +61,20 @@ def associate_and_select(
     chosen = (selector or default_selector(rig)).choose(tracks)
     return PatientSelection(tracks=tracks, track_id=chosen,
                             detections=patient_detections(multi, tracks, chosen))
+
+
+def associate_keypoints(
+    keypoints: np.ndarray,
+    *,
+    rig: Rig,
+    camera_names,
+    times_s: np.ndarray,
+    skeleton: str = "halpe26",
+    selector: TrackSelector | None = None,
+    config: PipelineConfig = PipelineConfig(),
+) -> PatientSelection:
+    """:func:`associate_and_select` on raw arrays: ``keypoints`` (C, T, P, J, 3) x px, y px, confidence
+    in any per-frame order, ``camera_names`` (C,), ``times_s`` (T,). ValueError on bad input."""
+    multi = MultiPersonDetections(keypoints=keypoints, camera_names=tuple(camera_names), times_s=times_s,
+                                  skeleton=skeleton)
+    return associate_and_select(multi, rig, selector, config)

@@ -60,6 +60,8 @@ class WalkwayTrack:
         corridor_half_width_mm: walking this far from the centre line counts e^-2 (13 %) as much as on
             the line (Gaussian weight with sigma = half the corridor width).
         up_axis: index of the vertical world axis (the floor is the other two).
+        smoothing_s: progress is measured over windows this long, so the jitter of a track's root
+            (which shifts with the joints seen) does not count as walking.
     """
 
     start_mm: tuple[float, float, float] | None = None
@@ -67,8 +69,11 @@ class WalkwayTrack:
     through_mm: tuple[float, float, float] | None = None
     corridor_half_width_mm: float = 500.0
     up_axis: int = 2
+    smoothing_s: float = 1.0
 
     def __post_init__(self) -> None:
+        if not self.smoothing_s > 0:
+            raise ValueError("WalkwayTrack.smoothing_s must be > 0")
         if (self.start_mm is None) != (self.end_mm is None):
             raise ValueError("WalkwayTrack: give both start_mm and end_mm, or neither")
         if not self.corridor_half_width_mm > 0:
@@ -84,7 +89,8 @@ class WalkwayTrack:
                 raise ValueError("WalkwayTrack: start_mm and end_mm must differ")
             return a, (b - a) / np.linalg.norm(b - a)
         floor = _floor(tracks.root_mm, self.up_axis)  # (M, T, 2)
-        steps = np.diff(floor, axis=1).reshape(-1, 2)
+        lag = self._lag(tracks)
+        steps = (floor[:, lag:] - floor[:, :-lag]).reshape(-1, 2) if floor.shape[1] > lag else np.empty((0, 2))
         steps = steps[np.isfinite(steps).all(-1)]
         if len(steps) == 0:
             direction = np.array([1.0, 0.0])
@@ -106,12 +112,23 @@ class WalkwayTrack:
         lateral = np.abs(rel[..., 0] * direction[1] - rel[..., 1] * direction[0])
         out = np.zeros(tracks.num_tracks)
         sigma = self.corridor_half_width_mm / 2
+        lag = self._lag(tracks)
         for m in range(tracks.num_tracks):
-            seen = np.isfinite(along[m])
-            a, lat = along[m][seen], lateral[m][seen]
-            weight = np.exp(-0.5 * (np.maximum(lat[1:], lat[:-1]) / sigma) ** 2)
-            out[m] = np.sum(np.abs(np.diff(a)) * weight)
+            a, lat = along[m], lateral[m]
+            if a.size <= lag:
+                continue
+            # progress over windows of `lag` frames (jitter of the root averages out), per frame
+            moved = np.abs(a[lag:] - a[:-lag]) / lag
+            weight = np.exp(-0.5 * (np.maximum(lat[lag:], lat[:-lag]) / sigma) ** 2)
+            out[m] = np.nansum(moved * weight)
         return out
+
+    def _lag(self, tracks: Tracks) -> int:
+        """Frames per ``smoothing_s`` (at least 1)."""
+        if tracks.times_s.size < 2:
+            return 1
+        dt = float(np.median(np.diff(tracks.times_s)))
+        return max(1, int(round(self.smoothing_s / dt)))
 
     def choose(self, tracks: Tracks) -> int:
         return int(np.argmax(self.scores(tracks)))

@@ -95,6 +95,34 @@ class Tracks:
         """(M, T) bool: frames in which each track is seen."""
         return self.views > 0
 
+    def summaries(self) -> tuple[TrackSummary, ...]:
+        """One line per track, e.g. for a page listing the people to choose from."""
+        out = []
+        for m in self.ids:
+            seen = np.flatnonzero(self.views[m] > 0)
+            steps = np.diff(self.root_mm[m, seen], axis=0)
+            out.append(TrackSummary(
+                track_id=m, first_s=float(self.times_s[seen[0]]), last_s=float(self.times_s[seen[-1]]),
+                frames=int(seen.size), mean_views=float(self.views[m, seen].mean()),
+                path_mm=float(np.nansum(np.linalg.norm(steps, axis=-1))),
+                mean_position_mm=tuple(float(v) for v in np.nanmean(self.root_mm[m, seen], axis=0)),
+            ))
+        return tuple(out)
+
+
+@dataclass(frozen=True)
+class TrackSummary:
+    """A track in brief: id, first and last time seen (s), frames seen, mean number of cameras, path
+    length of its root (mm) and mean root position (x, y, z mm)."""
+
+    track_id: int
+    first_s: float
+    last_s: float
+    frames: int
+    mean_views: float
+    path_mm: float
+    mean_position_mm: tuple[float, float, float]
+
 
 def link_tracks(people: FramePeople, times_s: np.ndarray, camera_names, config: TrackingConfig) -> Tracks:
     """Link per-frame people into tracks (see the module docstring)."""

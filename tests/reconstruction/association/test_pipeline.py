@@ -52,9 +52,10 @@ def test_the_patient_is_chosen_and_reconstructed_as_well_as_alone_with_no_step_l
     names = trial.skeleton.joint_names
     steps_selected = analyze_gait(selected, trial.times_s, names).steps
     steps_alone = analyze_gait(alone, trial.times_s, names).steps
-    assert len(steps_selected) == len(steps_alone) > 0
-    hs = np.array([s.heel_strike_s for s in steps_selected]) - [s.heel_strike_s for s in steps_alone]
-    assert np.abs(hs).max() < 0.05
+    assert len(steps_alone) > 0
+    for step in steps_alone:  # no step lost: each one is found again, same foot, same time
+        assert any(s.foot == step.foot and abs(s.heel_strike_s - step.heel_strike_s) < 0.05
+                   for s in steps_selected), f"step lost: {step.foot} heel strike {step.heel_strike_s:.2f} s"
 
 
 def test_a_click_on_a_preview_selects_the_person_under_it(three):
@@ -96,3 +97,15 @@ def test_manual_choice_of_the_therapist_gives_the_therapists_detections():
     truth = trial.multi.person(1)[..., 0]
     agree = np.isfinite(mine) & np.isfinite(truth)
     assert np.array_equal(mine[agree], truth[agree]) and agree.sum() > 0.95 * np.isfinite(truth).sum()
+
+
+def test_raw_arrays_entry_point_and_its_errors(scene3):
+    from reconstruction.association import associate_keypoints
+
+    got = associate_keypoints(scene3.multi.keypoints, rig=scene3.rig, camera_names=scene3.rig.names,
+                              times_s=scene3.multi.times_s)
+    patient = int(np.bincount(got.tracks.detection_track[scene3.identity == 0]).argmax())
+    assert got.track_id == patient and got.detections.shape == (8, 60, 26)
+    with pytest.raises(ValueError, match="camera_names"):
+        associate_keypoints(scene3.multi.keypoints, rig=scene3.rig, camera_names=["a"],
+                            times_s=scene3.multi.times_s)

@@ -66,3 +66,15 @@ def test_check_id_and_config_errors():
         tracks.check_id(5)
     with pytest.raises(ValueError, match="gate_mm"):
         TrackingConfig(gate_mm=-1)
+
+
+def test_summaries_describe_each_track():
+    times = np.arange(60) / 30
+    walker, stander = _walk(60, -1000, 1200), _walk(60, 2000, 0, y=-1500)
+    stander[:30] = np.nan
+    tracks = link_tracks(_people(np.stack([walker, stander], 1)), times, ("cam",), TrackingConfig())
+    a, b = tracks.summaries()
+    assert (a.track_id, a.frames, b.frames) == (0, 60, 30)
+    assert a.first_s == 0 and b.first_s == pytest.approx(1.0) and a.last_s == pytest.approx(59 / 30)
+    assert a.path_mm == pytest.approx(1200 * 59 / 30) and b.path_mm == pytest.approx(0)
+    assert a.mean_views == 2 and b.mean_position_mm == pytest.approx((2000, -1500, 900))
