@@ -2,7 +2,8 @@
 
 Pure orchestration of ``acquisition.recording`` (reader) and ``reconstruction`` (maths); files are
 written by :mod:`services.trial_outputs`. Robust triangulation is run on detections padded to a
-frame-count bucket so a warm worker does not recompile JAX for every new trial length.
+fixed-size chunks of frames (the last one padded) so a warm worker never recompiles JAX for a new
+trial length.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from reconstruction.camera import Rig
 from reconstruction.detections import Detections
 
 log = logging.getLogger(__name__)
-FRAME_BUCKET = 512
+FRAME_CHUNK = 256  # robust triangulation runs on chunks of this many frames: one compiled shape
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,10 +66,6 @@ def load_recording(mcap_path: Path, *, fallback_calibration: Path | None = None)
     return detections, rig
 
 
-def bucket_frames(num_frames: int, bucket: int = FRAME_BUCKET) -> int:
-    return max(bucket, -(-num_frames // bucket) * bucket)
-
-
 def pad_detections(det: Detections, num_frames: int) -> Detections:
     """Append frames with no observations (confidence 0, NaN pixels) up to ``num_frames``."""
     c, t, j = det.shape
@@ -81,15 +78,27 @@ def pad_detections(det: Detections, num_frames: int) -> Detections:
     return replace(det, keypoints=np.concatenate([det.keypoints, pad], axis=1), times_s=times)
 
 
+def frame_chunks(det: Detections, chunk: int = FRAME_CHUNK):
+    """Yield (start, Detections of ``chunk`` frames); the last chunk is padded with empty frames."""
+    _, t, _ = det.shape
+    for start in range(0, t, chunk):
+        stop = min(start + chunk, t)
+        part = replace(det, keypoints=det.keypoints[:, start:stop], times_s=det.times_s[start:stop])
+        yield start, pad_detections(part, chunk)
+
+
 def preliminary(det: Detections, rig: Rig) -> Trajectory:
-    """Robust triangulation (the paper's), on a frame-count bucket to reuse compiled code."""
+    """Robust triangulation (the paper's), chunk by chunk to reuse one compiled shape."""
     from reconstruction.triangulation import robust_triangulate
 
     t0 = time.perf_counter()
-    _, t, _ = det.shape
-    result = robust_triangulate(pad_detections(det, bucket_frames(t)), rig)
-    points = np.asarray(result.points_mm)[:t]
-    views = np.asarray(result.quality)[:t]
+    c, t, j = det.shape
+    points, views = np.full((t, j, 3), np.nan), np.zeros((t, j))
+    for start, part in frame_chunks(det):
+        result = robust_triangulate(part, rig)
+        n = min(FRAME_CHUNK, t - start)
+        points[start:start + n] = np.asarray(result.points_mm)[:n]
+        views[start:start + n] = np.asarray(result.quality)[:n]
     return Trajectory("robust triangulation", points, det.times_s, det.skeleton.joint_names,
                       num_views=views, metrics={}, elapsed_s=time.perf_counter() - t0)
 
@@ -121,8 +130,8 @@ def _plain_metrics(metrics: dict) -> dict:
     return out
 
 
-def warm_up(rig: Rig, skeleton, *, frames: tuple[int, ...] = (FRAME_BUCKET, 2 * FRAME_BUCKET)) -> float:
-    """Compile robust triangulation for the usual frame buckets; returns the time spent (s)."""
+def warm_up(rig: Rig, skeleton, *, frames: tuple[int, ...] = (FRAME_CHUNK,)) -> float:
+    """Compile robust triangulation for the chunk shape; returns the time spent (s)."""
     t0 = time.perf_counter()
     c, j = len(rig.cameras), skeleton.num_joints
     rng = np.random.default_rng(0)
