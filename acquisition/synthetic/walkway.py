@@ -48,10 +48,14 @@ class WalkwayExport:
     step_rows: np.ndarray
 
 
-def make_walkway_export(steps, *, name: str = "0", params: WalkwayExportParams = WalkwayExportParams()
-                        ) -> WalkwayExport:
+def make_walkway_export(steps, *, name: str = "0", params: WalkwayExportParams = WalkwayExportParams(),
+                        transform: Similarity2D | None = None) -> WalkwayExport:
     """Walkway export of the straight-pass footfalls of a ground-truth step table (``GaitTruth.steps``:
-    foot, heel_strike_s, toe_off_s, heel_mm, toe_mm, pass_index, direction)."""
+    foot, heel_strike_s, toe_off_s, heel_mm, toe_mm, pass_index, direction).
+
+    ``transform`` (world xy -> walkway xy) fixes the walkway's placement, e.g. to share it between the
+    trials of one session; by default it is drawn from ``params``.
+    """
     rows = np.flatnonzero((np.asarray(steps.pass_index) >= 0) & np.isfinite(steps.toe_off_s)
                           & np.isfinite(steps.heel_strike_s))
     if len(rows) < 2:
@@ -60,8 +64,9 @@ def make_walkway_export(steps, *, name: str = "0", params: WalkwayExportParams =
     direction = np.asarray(steps.direction)[rows, :2]
     heading = math.atan2(direction[0, 1], direction[0, 0])
     rotation = -heading + math.radians(rng.uniform(-1, 1) * params.rotation_error_deg)
-    transform = Similarity2D(float(rng.uniform(*params.scale_range)), rotation,
-                             tuple(float(v) for v in rng.uniform(-1, 1, 2) * params.translation_mm))
+    drawn = Similarity2D(float(rng.uniform(*params.scale_range)), rotation,
+                         tuple(float(v) for v in rng.uniform(-1, 1, 2) * params.translation_mm))
+    transform = transform or drawn
     offset = float(rng.uniform(*params.time_offset_range_s))
     back = params.pressure_offset_mm * direction
 

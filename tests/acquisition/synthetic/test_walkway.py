@@ -74,3 +74,23 @@ def test_alignment_recovers_the_walkway_and_leaves_noise_level_residuals(trial):
         assert res[name].sigma_iqr < 5.0, name  # noise is 2 mm per point
     for name in ("heel_lateral_mm", "step_length_mm", "stride_length_mm", "step_width_mm"):
         assert abs(res[name].mean) < 2.0, name
+
+
+def test_session_of_two_trials_shares_one_transform(trial):
+    times, points, truth, _ = trial
+    params = WalkParams(step_length_mm=560.0, step_width_mm=140.0)
+    plan = plan_walk(params, 16.0)
+    times2 = np.arange(0.0, plan.duration_s, 1 / 30)
+    points2 = simulate_body(plan, params, times2)
+    truth2 = synthetic.gait_truth(plan, Body.from_params(params), times2[-1])
+    first = make_walkway_export(truth.steps, name="a", params=WalkwayExportParams(seed=5))
+    second = make_walkway_export(truth2.steps, name="b", params=WalkwayExportParams(seed=6),
+                                 transform=first.transform)
+    names = get_skeleton("halpe26").joint_names
+    result = compare_with_walkway([(points, times, names), (points2, times2, names)],
+                                  [first.trial, second.trial])
+    assert result.offsets_s["a"] == pytest.approx(first.time_offset_s, abs=0.03)
+    assert result.offsets_s["b"] == pytest.approx(second.time_offset_s, abs=0.03)
+    assert result.transform.scale == pytest.approx(first.transform.scale, abs=1e-3)
+    assert {r.trial for r in result.contacts} == {"a", "b"}
+    assert result.residuals["step_width_mm"].sigma_iqr < 5.0
