@@ -15,11 +15,11 @@ import cv2
 import numpy as np
 
 from acquisition.board import Board
+from acquisition.synthetic.room import visible as lens_visible
 from reconstruction.calibration.geometry import BoardGeometry, BoardObservations
 from reconstruction.camera import Rig
 
 FLOOR_ROTATION = np.diag([1.0, -1.0, -1.0])  # board -> world for a board lying face up
-UPRIGHT = np.array([[0.0, 0, -1], [1, 0, 0], [0, -1, 0]])  # board -> world, face towards +x, rows down
 
 
 @dataclass(frozen=True)
@@ -31,20 +31,24 @@ class BoardMotion:
         fps: frame rate (frame times are n / fps s).
         floor_frames: frames at the start with the board lying still on the floor.
         floor_origin_mm: world position of the floor board's corner 0.
-        centre_mm / half_extent_mm: box (mm) that the board's centre wanders through.
-        turns: full turns of the board's facing direction over the clip (so every camera sees it).
-        max_tilt_deg: tilt of the board's normal away from horizontal and sideways, deg.
+        tour_fraction: share of the moving frames spent showing the board to each camera in turn, near
+            enough to fill 25-60 % of its image width (good intrinsics); the rest wanders through the
+            middle of the room where several cameras see it at once (good extrinsics).
+        centre_mm / half_extent_mm: box (mm) that the wandering board's centre stays in.
+        turns: full turns of the wandering board's facing direction (so every camera sees it).
+        max_tilt_deg: tilt of the board's normal away from facing, deg.
         max_roll_deg: in-plane rotation, deg.
         upside_down_fraction: share of frames with the board held upside down (180 deg roll).
         seed: random seed.
     """
 
-    n_frames: int = 300
+    n_frames: int = 600
     fps: float = 10.0
-    floor_frames: int = 5
+    floor_frames: int = 20
     floor_origin_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tour_fraction: float = 0.5
     centre_mm: tuple[float, float, float] = (0.0, 0.0, 1100.0)
-    half_extent_mm: tuple[float, float, float] = (1500.0, 900.0, 500.0)
+    half_extent_mm: tuple[float, float, float] = (2000.0, 2000.0, 500.0)
     turns: float = 3.0
     max_tilt_deg: float = 35.0
     max_roll_deg: float = 30.0
@@ -63,26 +67,71 @@ def _rot(axis: int, angle: np.ndarray) -> np.ndarray:
 
 def _smooth_noise(rng: np.random.Generator, n: int, knots: int) -> np.ndarray:
     """Smooth random curve (n,) in [-1, 1] through ``knots`` random values."""
-    xk = np.linspace(0, n - 1, knots)
-    return np.interp(np.arange(n), xk, rng.uniform(-1, 1, knots))
+    xk = np.linspace(0, n - 1, max(knots, 2))
+    return np.interp(np.arange(n), xk, rng.uniform(-1, 1, max(knots, 2)))
 
 
-def board_trajectory(geometry: BoardGeometry, motion: BoardMotion) -> tuple[np.ndarray, np.ndarray]:
-    """Board -> world poses: rotations (F, 3, 3), translations (F, 3) mm."""
+def _facing(normal: np.ndarray) -> np.ndarray:
+    """Board -> world rotations (F, 3, 3) with the printed face towards ``normal`` (F, 3), rows downwards."""
+    z = -normal / np.linalg.norm(normal, axis=1, keepdims=True)
+    down = np.array([0.0, 0.0, -1.0])
+    y = down - (z @ down)[:, None] * z
+    y /= np.linalg.norm(y, axis=1, keepdims=True)
+    x = np.cross(y, z)
+    return np.stack([x, y, z], axis=2)
+
+
+def _hand_motion(rng, motion: BoardMotion, n: int) -> np.ndarray:
+    """Tilt and roll (F, 3, 3), applied in the board frame; sometimes upside down."""
+    knots = max(4, n // 10)
+    tilt = np.radians(motion.max_tilt_deg)
+    roll = np.radians(motion.max_roll_deg) * _smooth_noise(rng, n, knots)
+    roll += np.pi * (_smooth_noise(rng, n, knots) > 1 - 2 * motion.upside_down_fraction)
+    return (_rot(0, tilt * _smooth_noise(rng, n, knots)) @ _rot(1, tilt * _smooth_noise(rng, n, knots))
+            @ _rot(2, roll))
+
+
+def _tour(rng, rig: Rig, geometry: BoardGeometry, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Board centres (n, 3) and face normals (n, 3): each camera in turn sees the board up close."""
+    width = np.ptp(geometry.object_points_mm[:, 0]) + 2 * geometry.square_mm
+    centres, normals = [], []
+    for cam, idx in zip(rig, np.array_split(np.arange(n), len(rig)), strict=True):
+        m = len(idx)
+        fx, (w, h) = cam.matrix_px[0, 0], cam.size_px
+        frac = 0.425 + 0.175 * _smooth_noise(rng, m, 3)  # board spans 25-60 % of the image width
+        dist = np.maximum(fx * width / (frac * w), 1000.0)
+        a = 0.45 * (w / 2) / fx * _smooth_noise(rng, m, 5)
+        b = 0.45 * (h / 2) / fx * _smooth_noise(rng, m, 5)
+        rows = cam.rotation
+        ray = rows[2] + a[:, None] * rows[0] + b[:, None] * rows[1]
+        ray /= np.linalg.norm(ray, axis=1, keepdims=True)
+        centres.append(cam.center_mm + dist[:, None] * ray)
+        normals.append(-ray)
+    return np.concatenate(centres), np.concatenate(normals)
+
+
+def _wander(rng, motion: BoardMotion, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Board centres (n, 3) and face normals (n, 3) wandering through the middle of the room."""
+    knots = max(4, n // 12)
+    centre = np.asarray(motion.centre_mm) + np.stack(
+        [h * _smooth_noise(rng, n, knots) for h in motion.half_extent_mm], axis=1
+    )
+    facing = 2 * np.pi * motion.turns * np.arange(n) / max(n, 1) + rng.uniform(0, 2 * np.pi)
+    return centre, np.stack([np.cos(facing), np.sin(facing), np.zeros(n)], axis=1)
+
+
+def board_trajectory(geometry: BoardGeometry, motion: BoardMotion, rig: Rig | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Board -> world poses: rotations (F, 3, 3), translations (F, 3) mm. Without a rig, no tour."""
     rng = np.random.default_rng(motion.seed)
     n_move = motion.n_frames - motion.floor_frames
-    knots = max(4, n_move // 12)
-    centre = np.asarray(motion.centre_mm) + np.stack(
-        [h * _smooth_noise(rng, n_move, knots) for h in motion.half_extent_mm], axis=1
-    )
-    facing = 2 * np.pi * motion.turns * np.arange(n_move) / max(n_move, 1) + rng.uniform(0, 2 * np.pi)
-    tilt = np.radians(motion.max_tilt_deg)
-    roll = np.radians(motion.max_roll_deg) * _smooth_noise(rng, n_move, knots)
-    roll += np.pi * (_smooth_noise(rng, n_move, knots) > 1 - 2 * motion.upside_down_fraction)
-    rot = (_rot(2, facing) @ _rot(1, tilt * _smooth_noise(rng, n_move, knots))
-           @ _rot(2, tilt * _smooth_noise(rng, n_move, knots)) @ UPRIGHT @ _rot(2, roll))
-    mid = geometry.object_points_mm.mean(0)
-    tvec = centre - rot @ mid
+    if n_move < 1 or motion.floor_frames < 0:
+        raise ValueError(f"board motion: n_frames ({motion.n_frames}) must exceed floor_frames ({motion.floor_frames})")
+    n_tour = int(round(motion.tour_fraction * n_move)) if rig is not None else 0
+    parts = [_tour(rng, rig, geometry, n_tour)] if n_tour else []
+    parts.append(_wander(rng, motion, n_move - n_tour))
+    centre = np.concatenate([p[0] for p in parts])
+    rot = _facing(np.concatenate([p[1] for p in parts])) @ _hand_motion(rng, motion, n_move)
+    tvec = centre - rot @ geometry.object_points_mm.mean(0)
     floor_r = np.tile(FLOOR_ROTATION, (motion.floor_frames, 1, 1))
     floor_t = np.tile(np.asarray(motion.floor_origin_mm, dtype=np.float64), (motion.floor_frames, 1))
     return np.concatenate([floor_r, rot]), np.concatenate([floor_t, tvec])
@@ -118,8 +167,9 @@ def observe_board(
     syms = np.asarray(geometry.symmetries)
     floor = np.all(np.isclose(rot, FLOOR_ROTATION), axis=(1, 2))
     for c, cam in enumerate(rig):
-        px = cam.project(world) + rng.normal(0, noise_px, world.shape[:2] + (2,))
-        ok = cam.in_image(px, margin_px=-margin_px) & (cam.depth_mm(world) > 0) & visible[c][:, None]
+        px, ok = lens_visible(cam, world, margin_px=-margin_px)
+        px = px + rng.normal(0, noise_px, px.shape)
+        ok &= cam.in_image(px, margin_px=-margin_px) & visible[c][:, None]
         if geometry.min_corners >= geometry.num_corners:
             ok &= ok.all(axis=1, keepdims=True)
         ok &= ok.sum(axis=1, keepdims=True) >= geometry.min_corners

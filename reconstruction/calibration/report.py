@@ -110,7 +110,8 @@ def triangulate_normalized(xy: np.ndarray, extrinsics: np.ndarray) -> np.ndarray
     a = np.concatenate([rows_x, rows_y], 0) * np.concatenate([seen, seen], 0)[..., None]
     _, _, vt = np.linalg.svd(np.transpose(a, (1, 0, 2)))
     hom = vt[:, -1]
-    pts = hom[:, :3] / hom[:, 3:4]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pts = hom[:, :3] / hom[:, 3:4]
     pts[seen.sum(0) < 2] = np.nan
     return pts
 
