@@ -80,6 +80,8 @@ class GigESettings:
         packet_delay: inter-packet delay (GevSCPD, timestamp ticks) so 10 cameras share one link.
         action_device_key, action_group_key, action_group_mask: action command addressing.
         start_delay_s: how far ahead the scheduled action command is set (the lab: ~250 ms).
+        trigger_source: "Action0" (scheduled action command) or a hardware line (e.g. "Line0": an
+            external pulse starts every camera; no action command is sent).
         frame_timeout_ms: GetNextImage timeout; ``stall_timeouts`` in a row = the camera is gone.
     """
 
@@ -89,6 +91,7 @@ class GigESettings:
     action_group_key: int = 0x1
     action_group_mask: int = 0x1
     start_delay_s: float = 0.25
+    trigger_source: str = "Action0"
     frame_timeout_ms: int = 1000
     stall_timeouts: int = 5
 
@@ -132,7 +135,7 @@ class FlirCamera:
         cam.GevIEEE1588.SetValue(True)
         cam.TriggerMode.SetValue(self._enum("TriggerMode", "Off"))
         cam.TriggerSelector.SetValue(self._enum("TriggerSelector", "AcquisitionStart"))
-        cam.TriggerSource.SetValue(self._enum("TriggerSource", "Action0"))
+        cam.TriggerSource.SetValue(self._enum("TriggerSource", g.trigger_source))
         cam.ActionSelector.SetValue(0)
         cam.ActionDeviceKey.SetValue(int(g.action_device_key))
         cam.ActionGroupKey.SetValue(int(g.action_group_key))
@@ -269,6 +272,9 @@ class FlirSystem:
 
     def _armed(self, cam: FlirCamera, at_ns: int | None) -> None:
         self._pending[cam.name] = at_ns
+        if cam.gige.trigger_source != "Action0":
+            log.info("camera %s armed, waiting for the hardware trigger on %s", cam.name, cam.gige.trigger_source)
+            return
         if len(self._pending) == len(self._cameras):
             wanted = [v for v in self._pending.values() if v is not None]
             self.fire_action(at_wall_ns=min(wanted) if wanted else None)

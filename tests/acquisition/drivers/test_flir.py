@@ -127,3 +127,17 @@ def test_gaps_incomplete_jumps_and_a_stalled_camera():
 def test_to_bgr_formats(fmt, raw_shape):
     raw = np.full(raw_shape, 7, np.uint8)
     assert to_bgr(raw, fmt).shape == (4, 6, 3)
+
+
+def test_hardware_trigger_sends_no_action_command():
+    fake.reset({"1001": fake.Behaviour(frames=2)})
+    system = FlirSystem(pyspin=fake)
+    cam = system.cameras(["1001"], gige=GigESettings(trigger_source="Line0", frame_timeout_ms=5, stall_timeouts=2))[0]
+    cam.open()
+    cam.configure(CaptureSettings())
+    cam.start()
+    assert _set("1001", "TriggerSource") == ["TriggerSource_Line0"]
+    assert not [c for c in fake.calls if c[1] == "ActionCommand"] and system.action_time_ns is None
+    with pytest.raises(ValueError, match="Line9"):
+        bad = system.cameras(["1001"], gige=GigESettings(trigger_source="Line9"))[0]
+        bad.configure(CaptureSettings())
