@@ -27,7 +27,7 @@ def _f(x) -> float | None:
 
 def steps_of(report) -> list[dict]:
     """Catalog step rows: side, time_s, then the main parameters (units in the names)."""
-    return [{"side": s.foot, "time_s": round(float(s.heel_strike_s), 3), "pass": s.pass_index,
+    return [{"side": s.foot, "time_s": round(float(s.heel_strike_s), 3), "pass_no": s.pass_index + 1,
              **{k: _f(getattr(s, k)) for k in STEP_COLUMNS}} for s in report.steps]
 
 

@@ -198,6 +198,9 @@ function updateFollowed(t) {
     $("#results-stage").textContent = t.state === "recording" ? "Recording…" : `${t.state_text}… (${Math.round(100 * t.progress)} %)`;
   }
   if (best && state.shownResult !== best) { state.shownResult = best; loadResult(t.id, best, t.state); }
+  if (!state.recording && !state.busy && (t.state === "done" || t.state === "failed")) {
+    setStatus(t.state === "done" ? "Ready for the next walk. Enter the patient ID and press Start." : "Not recording. Processing of the last walk failed (see below).");
+  }
   else if (best === "preliminary" && t.state === "processing") {
     $("#results-stage").textContent = `Preliminary results. Refining the 3D reconstruction… (${Math.round(100 * t.progress)} %)`;
   }
@@ -248,7 +251,7 @@ function nice(name, unit) {
   text = text.replace(/_/g, " ");
   return [text.charAt(0).toUpperCase() + text.slice(1), u];
 }
-function fmtNum(x) { return Math.abs(x) >= 100 ? x.toFixed(0) : Math.abs(x) >= 10 ? x.toFixed(1) : x.toFixed(2); }
+function fmtNum(x) { if (Number.isInteger(x)) return String(x); return Math.abs(x) >= 100 ? x.toFixed(0) : Math.abs(x) >= 10 ? x.toFixed(1) : x.toFixed(2); }
 function fmtDuration(s) { const m = Math.floor(s / 60); return `${m}:${String(Math.floor(s % 60)).padStart(2, "0")}`; }
 function fmtTime(t) { return t ? new Date(t * 1000).toLocaleString() : ""; }
 function esc(s) { return String(s).replace(/[&<>"']/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;" }[c])); }
