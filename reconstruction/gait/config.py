@@ -59,6 +59,8 @@ class GaitConfig:
     min_event_speed_mm_s: float = 10.0
     event_noise_factor: float = 3.0
     extrapolate_events: bool | None = None
+    toe_off_peak_fraction: float = 0.1
+    event_window_s: float = 0.4
     max_contact_lift_mm: float = 80.0
     min_stance_s: float = 0.12
     min_swing_s: float = 0.12

@@ -136,6 +136,31 @@ def _rest_point(points_mm: np.ndarray, speed: np.ndarray, v_rest: float) -> tupl
     return centre, spread
 
 
+def _departures(tracks: FootTracks, side: str, anchors_s: np.ndarray, limits_s: np.ndarray, v_rest: float,
+                config: GaitConfig) -> np.ndarray:
+    """Toe-off times: the first time after each anchor (end of rest) that the foot's speed exceeds
+    ``toe_off_peak_fraction`` x its peak swing speed (at least v_rest), searched up to the next contact
+    (``limits_s``). NaN where the swing has no clear peak. A departing foot accelerates briskly, so a
+    level well above the wobble of a fitted trajectory during heel rise costs only a few ms."""
+    out = np.full(len(anchors_s), np.nan)
+    if len(anchors_s) == 0:
+        return out
+    offsets = np.arange(0.0, config.event_window_s, config.event_resolution_s)
+    grid = anchors_s[:, None] + offsets[None, :]
+    speed = tracks.speed_mm_s(grid.ravel())
+    s = np.minimum(speed[:, HEEL[side]], speed[:, TOE[side]]).reshape(grid.shape)
+    s = np.where(grid <= limits_s[:, None], s, 0.0)
+    for e in range(len(anchors_s)):
+        level = max(v_rest, config.toe_off_peak_fraction * float(np.max(s[e])))
+        above = np.flatnonzero(s[e] >= level)
+        if len(above) == 0 or above[0] == 0 or level <= v_rest:
+            continue
+        j = above[0]
+        f0, f1 = s[e, j - 1] - level, s[e, j] - level
+        out[e] = grid[e, j - 1] + (f0 / (f0 - f1) if f0 != f1 else 1.0) * (grid[e, j] - grid[e, j - 1])
+    return out
+
+
 def _event_speed(heel_speed, toe_speed, rest, v_rest: float, config: GaitConfig) -> float:
     """Speed whose crossing marks an event: ``event_noise_factor`` x the median foot speed while at rest
     (the trajectory's noise floor), at least ``min_event_speed_mm_s`` and at most ``v_rest``."""
@@ -186,7 +211,14 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
         ends = np.array([[times[max(b - 2, a)], times[min(b + 3, last)]] for a, b in runs if b < last]).reshape(-1, 2)
         v_event = _event_speed(speed[:, h], speed[:, t], rest, v_rest, config)
         hs = iter(_events(tracks, side, starts, v_event, falling=True, config=config, dt=dt))
-        to = iter(_events(tracks, side, ends, v_event, falling=False, config=config, dt=dt))
+        to_t = _events(tracks, side, ends, v_event, falling=False, config=config, dt=dt)
+        if config.toe_off_peak_fraction > 0:
+            next_start = [times[runs[k + 1][0]] if k + 1 < len(runs) else times[-1]
+                          for k, (_, b) in enumerate(runs) if b < last]
+            brisk = _departures(tracks, side, np.array([times[b] for _, b in runs if b < last]),
+                                np.array(next_start), v_rest, config)
+            to_t = np.where(np.isfinite(brisk), brisk, to_t)
+        to = iter(to_t)
         for a, b in runs:
             t_hs = next(hs) if a > 0 else np.nan
             t_to = next(to) if b < len(times) - 1 else np.nan

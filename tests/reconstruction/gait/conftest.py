@@ -1,4 +1,5 @@
-"""An analytic walker for the gait tests: feet flat in stance, minimum-jerk swings along a path."""
+"""An analytic walker for the gait tests: feet flat in stance, swings with a brisk push-off and a smooth
+landing along a path."""
 
 from __future__ import annotations
 
@@ -46,9 +47,10 @@ def _path(segments, heading_deg):
     return np.array(pts), np.array(tangents)
 
 
-def _min_jerk(tau):
+def _swing(tau):
+    """Swing progress 0 -> 1: speed ~ tau (1 - tau)^2, a brisk push-off and a smooth landing."""
     tau = np.clip(tau, 0.0, 1.0)
-    return 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+    return 6 * tau**2 - 8 * tau**3 + 3 * tau**4
 
 
 def make_walk(*, segments=(("line", 6000),), heading_deg=30.0, step_mm=650.0, width_mm=140.0,
@@ -78,7 +80,7 @@ def make_walk(*, segments=(("line", 6000),), heading_deg=30.0, step_mm=650.0, wi
             for a, b in zip(ks[:-1], ks[1:], strict=True):
                 swing = (t >= to[a]) & (t < hs[b])
                 tau = (t[swing] - to[a]) / (hs[b] - to[a])
-                s = _min_jerk(tau)[:, None]
+                s = _swing(tau)[:, None]
                 heel[swing, :2] = heels[a] + s * (heels[b] - heels[a])
                 heel[swing, 2] = lift_mm * np.sin(np.pi * np.clip(tau, 0, 1)) ** 2
                 hv = heading[a] + s * (heading[b] - heading[a])
