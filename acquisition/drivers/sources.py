@@ -65,6 +65,7 @@ class FlirSource:
     pixel_format: str = "BayerRG8"
     packet_size: int = 9000
     packet_delay: int = 4000
+    trigger_source: str = "Action0"
 
     def build(self) -> list[CameraDriver]:
         from acquisition.drivers.flir import FlirSystem, GigESettings
@@ -75,7 +76,8 @@ class FlirSource:
             raise ValueError(f"flir source: {len(self.names)} names for {len(self.serials)} serials")
         system = FlirSystem()
         cams = system.cameras(list(self.serials), names=list(self.names) or None,
-                              gige=GigESettings(packet_size=self.packet_size, packet_delay=self.packet_delay))
+                              gige=GigESettings(packet_size=self.packet_size, packet_delay=self.packet_delay,
+                                                trigger_source=self.trigger_source))
         settings = CaptureSettings(fps=self.fps, exposure_us=self.exposure_us, pixel_format=self.pixel_format)
         for cam in cams:
             cam.open()

@@ -76,6 +76,7 @@ def camera_cmd(
     pixel_format: str = typer.Option("BayerRG8", "--pixel-format"),
     packet_size: int = typer.Option(9000, "--packet-size", help="FLIR GigE packet size (jumbo 9000)."),
     packet_delay: int = typer.Option(4000, "--packet-delay", help="FLIR GigE inter-packet delay (ticks)."),
+    trigger: str = typer.Option("Action0", "--trigger", help="FLIR start: Action0 (scheduled action) or Line0.."),
 ) -> None:
     """Publish the frames and status of one host's cameras."""
     from acquisition.drivers.sources import FlirSource, SimulatedSource, VideoSource
@@ -93,7 +94,7 @@ def camera_cmd(
             "flir": lambda: FlirSource(serials=tuple(s for s in (serials or "").split(",") if s),
                                        names=tuple(names or ()), fps=fps, exposure_us=exposure_us,
                                        pixel_format=pixel_format, packet_size=packet_size,
-                                       packet_delay=packet_delay),
+                                       packet_delay=packet_delay, trigger_source=trigger),
         }
         if source not in builders:
             raise ValueError(f"--source: {source!r} is not one of {sorted(builders)}")
