@@ -142,11 +142,28 @@ def pass_steps(pass_: Pass, contacts: Sequence[Contact], all_contacts: Sequence[
         values["stride_length_mm"] = (float((heel - np.asarray(p.heel_mm[:2])) @ direction)
                                       if p is not None else float("nan"))
         values["step_width_mm"] = _width(heel, heel_c, np.asarray(n.heel_mm[:2])) if n else float("nan")
+        implausible = _implausible(values)
+        if implausible:
+            warnings.append(f"pass {pass_.index}: {k.foot} step at {k.heel_strike_s:.2f} s dropped ({implausible})")
+            continue
         conf = min(confidence.get(id(k), 1.0), confidence.get(id(c), 1.0))
         steps.append(Step(first_index + len(steps), pass_.index, k.foot, k.heel_strike_s, k.toe_off_s,
                           k.heel_mm, k.toe_mm, confidence=conf,
                           **{name: values[name] for name in STEP_PARAMETERS}))
     return steps, warnings
+
+
+# Plausible ranges of a walking step (mm): outside them a step is a detection error, not gait.
+PLAUSIBLE_MM = {"step_length_mm": (0.0, 1500.0), "stride_length_mm": (0.0, 2500.0), "step_width_mm": (0.0, 700.0)}
+
+
+def _implausible(values: dict[str, float]) -> str:
+    """Why a step's lengths are implausible ("" when they are fine; NaN is fine)."""
+    for name, (lo, hi) in PLAUSIBLE_MM.items():
+        v = values[name]
+        if np.isfinite(v) and not lo < v < hi:
+            return f"{name} {v:.0f} outside {lo:.0f}-{hi:.0f}"
+    return ""
 
 
 @dataclass(frozen=True)

@@ -137,3 +137,18 @@ def test_quality_lowers_confidence(walker):
     c_good = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names, quality=good).steps[0].confidence
     c_bad = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names, quality=bad).steps[0].confidence
     assert 0.7 < c_good <= 1.0 and c_bad < 0.1
+
+
+def test_a_foot_placed_backwards_gives_no_bogus_step(walker):
+    walk = walker(segments=(("line", 8000),))
+    points = walk.points_mm.copy()
+    # Move one right contact 900 mm back along the path (a mislabelled / swapped foot).
+    k = 5
+    back = -900.0 * np.array([np.cos(np.radians(30)), np.sin(np.radians(30))])
+    stance = (walk.times_s >= walk.hs_s[k] - 0.2) & (walk.times_s <= walk.to_s[k] + 0.2)
+    points[stance, 5, :2] += back
+    points[stance, 7, :2] += back
+    report = analyze_gait(points, walk.times_s, walk.joint_names)
+    assert any("dropped" in w for w in report.warnings)
+    for s in report.steps:
+        assert 0 < s.step_length_mm < 1500
