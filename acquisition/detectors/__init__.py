@@ -1,0 +1,10 @@
+"""2D keypoint detectors: simulated (synthetic world), MediaPipe Pose (offline TFLite), ONNX top-down.
+
+Importing this package registers every detector config in ``DETECTOR_CONFIGS`` (kind -> config class);
+the models themselves load only in ``config.build()``.
+"""
+
+from acquisition.detectors import mediapipe, onnx, simulated  # noqa: F401  (register the configs)
+from acquisition.detectors.base import DETECTOR_CONFIGS, Detector, DetectorConfig, config_class
+
+__all__ = ["DETECTOR_CONFIGS", "Detector", "DetectorConfig", "config_class"]

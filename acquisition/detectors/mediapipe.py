@@ -1,0 +1,272 @@
+"""MediaPipe Pose (BlazePose, 33 landmarks incl. heels and toes), running offline on TFLite models.
+
+The models come from the npm package ``@mediapipe/pose`` (Apache-2.0), installed by
+``deploy/bootstrap.sh`` into ``<venv>/share/gaitcap/mediapipe-pose/``: ``pose_detection.tflite`` (the
+person detector, shipped as ``pose_solution_packed_assets.data``) and
+``pose_landmark_{lite,full,heavy}.tflite``. They run in the LiteRT interpreter (``ai-edge-litert``); the
+pre- and post-processing below follows MediaPipe's pose graphs:
+
+1. person detector (224x224 letterbox, RGB in [-1, 1], SSD anchors, weighted NMS) -> hip centre and a
+   scale point -> a rotated square region of interest (2 x their distance x 1.25);
+2. landmark model on that region (256x256, RGB in [0, 1]) -> 39 points (33 landmarks + 2 alignment
+   points + ...), visibility = sigmoid, refined on the 64x64 heatmaps, mapped back to image px;
+3. tracking: the next frame of the same camera reuses the region from the alignment landmarks 33/34,
+   and runs the detector again only when the pose is lost.
+Confidence = min(visibility, presence), both sigmoid outputs of the landmark model.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from acquisition.detectors.base import DetectorConfig, check_image, empty_keypoints, register_detector
+from acquisition.detectors.crops import Crop, square_crop
+from reconstruction.skeletons import get_skeleton
+
+log = logging.getLogger(__name__)
+
+MODELS_ENV = "GAITCAP_MEDIAPIPE_DIR"
+LANDMARK_MODELS = ("lite", "full", "heavy")
+DETECTOR_FILE = "pose_detection.tflite"
+DETECTOR_INPUT_PX = 224
+LANDMARK_INPUT_PX = 256
+NUM_OUTPUT_LANDMARKS = 39  # 33 body landmarks + alignment points 33 (hip centre), 34 (scale) + 4 more
+ROI_SCALE = 1.25
+
+
+def default_model_dir() -> Path:
+    """``$GAITCAP_MEDIAPIPE_DIR`` or ``<venv>/share/gaitcap/mediapipe-pose`` (where bootstrap puts them)."""
+    env = os.environ.get(MODELS_ENV)
+    return Path(env) if env else Path(sys.prefix) / "share" / "gaitcap" / "mediapipe-pose"
+
+
+@register_detector
+@dataclass(frozen=True)
+class MediaPipeConfig(DetectorConfig):
+    """MediaPipe Pose.
+
+    Attributes:
+        model: landmark model size, one of "lite", "full", "heavy".
+        model_dir: folder with the .tflite files; None = :func:`default_model_dir`.
+        min_detection_confidence: person detector score threshold.
+        min_tracking_confidence: pose presence below this drops tracking and re-runs the detector.
+        tracking: reuse the previous frame's region for consecutive frames of the same camera.
+        num_poses: at most this many people per image (> 1 disables tracking).
+        num_threads: TFLite interpreter threads.
+    """
+
+    kind = "mediapipe"
+    model: str = "full"
+    model_dir: Path | None = None
+    min_detection_confidence: float = 0.5
+    min_tracking_confidence: float = 0.5
+    tracking: bool = True
+    num_poses: int = 1
+    num_threads: int = 2
+
+    def __post_init__(self) -> None:
+        if self.model not in LANDMARK_MODELS:
+            raise ValueError(f"mediapipe model must be one of {LANDMARK_MODELS}, got {self.model!r}")
+        if self.num_poses < 1:
+            raise ValueError(f"mediapipe num_poses must be >= 1, got {self.num_poses}")
+
+    def build(self) -> MediaPipeDetector:
+        return MediaPipeDetector(self)
+
+
+@dataclass(frozen=True)
+class Roi:
+    """A rotated square region of interest in image px."""
+
+    center_px: tuple[float, float]
+    side_px: float
+    rotation_rad: float
+    score: float = 1.0
+
+
+def _sigmoid(x: np.ndarray) -> np.ndarray:
+    return 1.0 / (1.0 + np.exp(-np.clip(x, -80.0, 80.0)))
+
+
+def _roi_from_points(start_px: np.ndarray, end_px: np.ndarray, score: float = 1.0) -> Roi:
+    """MediaPipe's AlignmentPointsRects + RectTransformation(scale 1.25, square): centre on ``start``,
+    side 2 x |end - start| x 1.25, rotated so that ``end`` is straight up."""
+    d = end_px - start_px
+    rotation = np.pi / 2 - np.arctan2(-d[1], d[0])
+    rotation = (rotation + np.pi) % (2 * np.pi) - np.pi
+    side = 2.0 * float(np.hypot(*d)) * ROI_SCALE
+    return Roi((float(start_px[0]), float(start_px[1])), side, float(rotation), score)
+
+
+def ssd_anchors() -> np.ndarray:
+    """(2254, 2) anchor centres in [0, 1] of the pose detector (MediaPipe SsdAnchorsCalculator with
+    5 layers, strides 8, 16, 32, 32, 32, aspect ratio 1 + interpolated scale, fixed anchor size)."""
+    centres = []
+    for stride, per_cell in ((8, 2), (16, 2), (32, 6)):  # consecutive stride-32 layers are merged
+        n = int(np.ceil(DETECTOR_INPUT_PX / stride))
+        ys, xs = np.meshgrid((np.arange(n) + 0.5) / n, (np.arange(n) + 0.5) / n, indexing="ij")
+        cell = np.stack([xs.ravel(), ys.ravel()], axis=-1)
+        centres.append(np.repeat(cell, per_cell, axis=0))
+    return np.concatenate(centres)
+
+
+def weighted_nms(boxes: np.ndarray, scores: np.ndarray, points: np.ndarray, iou_threshold: float = 0.3):
+    """MediaPipe's weighted non-max suppression.
+
+    boxes: (N, 4) x0, y0, x1, y1; scores: (N,); points: (N, K, 2). Returns a list of
+    (score, box (4,), points (K, 2)), clusters merged by score-weighted averaging, best first.
+    """
+    order = np.argsort(-scores)
+    remaining = list(order)
+    out = []
+    while remaining:
+        best = remaining[0]
+        rest = np.array(remaining)
+        iou = _iou(boxes[best], boxes[rest])
+        cluster = rest[iou > iou_threshold]
+        w = scores[cluster][:, None]
+        box = (boxes[cluster] * w).sum(0) / w.sum()
+        pts = (points[cluster] * w[:, :, None]).sum(0) / w.sum()
+        out.append((float(scores[best]), box, pts))
+        remaining = [int(i) for i in rest[iou <= iou_threshold]]
+    return out
+
+
+def _iou(box: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    x0 = np.maximum(box[0], boxes[:, 0])
+    y0 = np.maximum(box[1], boxes[:, 1])
+    x1 = np.minimum(box[2], boxes[:, 2])
+    y1 = np.minimum(box[3], boxes[:, 3])
+    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    area = lambda b: (b[..., 2] - b[..., 0]) * (b[..., 3] - b[..., 1])  # noqa: E731
+    return inter / np.maximum(area(box) + area(boxes) - inter, 1e-12)
+
+
+def refine_from_heatmaps(xy_norm: np.ndarray, heatmaps: np.ndarray, *, kernel: int = 7, min_conf: float = 0.5):
+    """MediaPipe's RefineLandmarksFromHeatmap: the sigmoid-weighted mean position in a kernel x kernel
+    window of each landmark's heatmap. xy_norm: (L, 2) in [0, 1] of the crop; heatmaps: (h, w, L)."""
+    h, w, n = heatmaps.shape
+    out = xy_norm.copy()
+    half = (kernel - 1) // 2
+    for i in range(min(n, xy_norm.shape[0])):
+        col, row = int(xy_norm[i, 0] * w), int(xy_norm[i, 1] * h)
+        if not (0 <= col < w and 0 <= row < h):
+            continue
+        r0, r1 = max(0, row - half), min(h, row + half + 1)
+        c0, c1 = max(0, col - half), min(w, col + half + 1)
+        conf = _sigmoid(heatmaps[r0:r1, c0:c1, i].astype(np.float64))
+        total = conf.sum()
+        if conf.max() < min_conf or total <= 0:
+            continue
+        rr, cc = np.mgrid[r0:r1, c0:c1]
+        out[i] = ((cc * conf).sum() / total / w, (rr * conf).sum() / total / h)
+    return out
+
+
+class MediaPipeDetector:
+    """MediaPipe Pose on TFLite; ``detect`` returns (P, 33, 3) in the ``mediapipe33`` skeleton."""
+
+    def __init__(self, config: MediaPipeConfig):
+        self.config = config
+        self.skeleton = get_skeleton("mediapipe33")
+        folder = Path(config.model_dir) if config.model_dir is not None else default_model_dir()
+        det_path = folder / DETECTOR_FILE
+        lm_path = folder / f"pose_landmark_{config.model}.tflite"
+        for p in (det_path, lm_path):
+            if not p.is_file():
+                raise FileNotFoundError(
+                    f"MediaPipe model file missing: {p} (run deploy/bootstrap.sh, which installs the npm "
+                    f"package @mediapipe/pose there, or set {MODELS_ENV})"
+                )
+        self._det = _Tflite(det_path, config.num_threads)
+        self._lm = _Tflite(lm_path, config.num_threads)
+        self._anchors_px = ssd_anchors() * DETECTOR_INPUT_PX
+        self._tracks: dict[str, tuple[int, Roi]] = {}
+
+    def detect(self, image_bgr: np.ndarray, *, camera: str, frame_id: int, timestamp_ns: int) -> np.ndarray:
+        """(H, W, 3) BGR -> (P, 33, 3) x px, y px, confidence; P <= ``num_poses``."""
+        img = check_image(image_bgr, camera=camera)
+        rgb = cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+        tracked = self._tracked_roi(camera, frame_id)
+        if tracked is not None:
+            kp, presence, next_roi = self._landmarks(rgb, tracked)
+            if presence >= self.config.min_tracking_confidence:
+                self._tracks[camera] = (frame_id, next_roi)
+                return kp[None]
+        self._tracks.pop(camera, None)
+        people = []
+        for roi in self.find_people(rgb)[: self.config.num_poses]:
+            kp, presence, next_roi = self._landmarks(rgb, roi)
+            if presence < self.config.min_tracking_confidence:
+                continue
+            people.append(kp)
+            if self.config.tracking and self.config.num_poses == 1:
+                self._tracks[camera] = (frame_id, next_roi)
+        return np.stack(people) if people else empty_keypoints(self.skeleton.num_joints)
+
+    def _tracked_roi(self, camera: str, frame_id: int) -> Roi | None:
+        if not self.config.tracking or self.config.num_poses != 1 or camera not in self._tracks:
+            return None
+        last_id, roi = self._tracks[camera]
+        return roi if frame_id == last_id + 1 else None
+
+    def find_people(self, rgb: np.ndarray) -> list[Roi]:
+        """Person detector on the letterboxed image -> regions of interest, best first."""
+        h, w = rgb.shape[:2]
+        crop = square_crop((w / 2, h / 2), max(w, h), 0.0, DETECTOR_INPUT_PX)
+        x = crop.warp(rgb).astype(np.float32) / 127.5 - 1.0
+        outs = self._det.run(x[None])
+        raw = next(o for o in outs if o.shape[-1] == 12)[0]
+        scores = _sigmoid(next(o for o in outs if o.shape[-1] == 1)[0, :, 0])
+        keep = scores >= self.config.min_detection_confidence
+        if not keep.any():
+            return []
+        raw, anchors = raw[keep].astype(np.float64), self._anchors_px[keep]
+        centre, size = raw[:, :2] + anchors, raw[:, 2:4]
+        boxes = np.concatenate([centre - size / 2, centre + size / 2], axis=1)
+        points = raw[:, 4:12].reshape(-1, 4, 2) + anchors[:, None]
+        rois = []
+        for score, _box, pts in weighted_nms(boxes, scores[keep], points):
+            img_pts = crop.to_image(pts)
+            rois.append(_roi_from_points(img_pts[0], img_pts[1], score))
+        return rois
+
+    def _landmarks(self, rgb: np.ndarray, roi: Roi) -> tuple[np.ndarray, float, Roi]:
+        """Landmark model on a region -> ((33, 3) keypoints, pose presence, next frame's region)."""
+        crop: Crop = square_crop(roi.center_px, roi.side_px, roi.rotation_rad, LANDMARK_INPUT_PX)
+        x = crop.warp(rgb).astype(np.float32) / 255.0
+        outs = self._lm.run(x[None])
+        raw = next(o for o in outs if o.size == NUM_OUTPUT_LANDMARKS * 5).reshape(NUM_OUTPUT_LANDMARKS, 5)
+        flag = float(next(o for o in outs if o.size == 1).ravel()[0])
+        heat = next(o for o in outs if o.ndim == 4 and o.shape[-1] == NUM_OUTPUT_LANDMARKS)[0]
+        xy_norm = refine_from_heatmaps(raw[:, :2].astype(np.float64) / LANDMARK_INPUT_PX, heat)
+        xy = crop.to_image(xy_norm * LANDMARK_INPUT_PX)
+        conf = np.minimum(_sigmoid(raw[:, 3]), _sigmoid(raw[:, 4]))
+        kp = np.concatenate([xy[:33], conf[:33, None]], axis=1)
+        return kp, flag, _roi_from_points(xy[33], xy[34])
+
+
+class _Tflite:
+    """A LiteRT interpreter with one float input; ``run`` returns all outputs."""
+
+    def __init__(self, path: Path, num_threads: int):
+        try:
+            from ai_edge_litert.interpreter import Interpreter
+        except ImportError as exc:
+            raise ImportError("MediaPipe detector needs the ai-edge-litert package (pip install ai-edge-litert)") from exc
+        self._it = Interpreter(model_path=str(path), num_threads=max(1, num_threads))
+        self._it.allocate_tensors()
+        self._input = self._it.get_input_details()[0]["index"]
+        self._outputs = [d["index"] for d in self._it.get_output_details()]
+
+    def run(self, x: np.ndarray) -> list[np.ndarray]:
+        self._it.set_tensor(self._input, np.ascontiguousarray(x, dtype=np.float32))
+        self._it.invoke()
+        return [self._it.get_tensor(i) for i in self._outputs]

@@ -1,0 +1,223 @@
+"""Top-down ONNX pose models (RTMPose / HRNet style exports) through onnxruntime.
+
+The model takes (N, 3, H, W) float32 normalised RGB crops and returns either
+- SimCC vectors: two outputs (N, J, W * r) and (N, J, H * r) (RTMPose; ``r`` = split ratio, usually 2),
+- or heatmaps: one output (N, J, h, w) (HRNet, SimpleBaseline), with ``h, w`` = input size / stride.
+The decoder is picked from the output shapes. J = 17 is COCO-17, J = 26 is Halpe-26 (or give the
+skeleton). Person boxes come from the caller (``detect(..., boxes_xyxy_px=...)``); without boxes the
+whole image is one box. Keypoints are mapped back through the crop's affine transform.
+"""
+
+from __future__ import annotations
+
+import logging
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from acquisition.detectors.base import DetectorConfig, check_image, empty_keypoints, register_detector
+from acquisition.detectors.crops import Crop, box_crop
+from reconstruction.skeletons import Skeleton, get_skeleton
+
+log = logging.getLogger(__name__)
+
+SKELETON_BY_JOINT_COUNT = {17: "coco17", 26: "halpe26", 133: None, 136: "halpe136"}
+IMAGENET_MEAN_RGB = (123.675, 116.28, 103.53)
+IMAGENET_STD_RGB = (58.395, 57.12, 57.375)
+
+
+class KeypointDecoder(ABC):
+    """Turns raw network outputs into (N, J, 3) keypoints in crop input px (x, y, confidence)."""
+
+    @abstractmethod
+    def decode(self, outputs: list[np.ndarray]) -> np.ndarray: ...
+
+    @property
+    @abstractmethod
+    def num_joints(self) -> int: ...
+
+
+@dataclass(frozen=True)
+class SimccDecoder(KeypointDecoder):
+    """SimCC: x = argmax(simcc_x) / ratio, y = argmax(simcc_y) / ratio, confidence = min of both maxima."""
+
+    joints: int
+    split_ratio: float
+
+    @property
+    def num_joints(self) -> int:
+        return self.joints
+
+    def decode(self, outputs: list[np.ndarray]) -> np.ndarray:
+        simcc_x, simcc_y = outputs
+        x = np.argmax(simcc_x, axis=-1) / self.split_ratio
+        y = np.argmax(simcc_y, axis=-1) / self.split_ratio
+        conf = np.minimum(simcc_x.max(axis=-1), simcc_y.max(axis=-1))
+        return np.stack([x, y, np.clip(conf, 0.0, 1.0)], axis=-1)
+
+
+@dataclass(frozen=True)
+class HeatmapDecoder(KeypointDecoder):
+    """Heatmaps: argmax, a quarter-pixel shift towards the larger neighbour, times the stride."""
+
+    joints: int
+    stride_xy: tuple[float, float]
+
+    @property
+    def num_joints(self) -> int:
+        return self.joints
+
+    def decode(self, outputs: list[np.ndarray]) -> np.ndarray:
+        (heat,) = outputs
+        n, j, h, w = heat.shape
+        flat = heat.reshape(n, j, h * w)
+        idx = np.argmax(flat, axis=-1)
+        conf = flat.max(axis=-1)
+        ys, xs = np.divmod(idx, w)
+        xf, yf = xs.astype(np.float64), ys.astype(np.float64)
+        ni, ji = np.indices((n, j))
+        inner_x = (xs > 0) & (xs < w - 1)
+        inner_y = (ys > 0) & (ys < h - 1)
+        dx = heat[ni, ji, ys, np.clip(xs + 1, 0, w - 1)] - heat[ni, ji, ys, np.clip(xs - 1, 0, w - 1)]
+        dy = heat[ni, ji, np.clip(ys + 1, 0, h - 1), xs] - heat[ni, ji, np.clip(ys - 1, 0, h - 1), xs]
+        xf += np.where(inner_x, 0.25 * np.sign(dx), 0.0)
+        yf += np.where(inner_y, 0.25 * np.sign(dy), 0.0)
+        return np.stack([xf * self.stride_xy[0], yf * self.stride_xy[1], np.clip(conf, 0.0, 1.0)], axis=-1)
+
+
+def decoder_for(output_shapes: list[tuple], input_size_px: tuple[int, int]) -> KeypointDecoder:
+    """Pick the decoder from the model's output shapes; ValueError explaining what was expected."""
+    w, h = input_size_px
+    if len(output_shapes) >= 2 and len(output_shapes[0]) == 3 and len(output_shapes[1]) == 3:
+        jx, lx = output_shapes[0][1:]
+        jy, ly = output_shapes[1][1:]
+        if jx != jy or not isinstance(lx, int) or not isinstance(ly, int):
+            raise ValueError(f"ONNX model: SimCC outputs disagree or are dynamic: {output_shapes[:2]}")
+        ratio = lx / w
+        if abs(ly / h - ratio) > 1e-6:
+            raise ValueError(f"ONNX model: SimCC lengths {lx}, {ly} do not match input {w}x{h} by one ratio")
+        return SimccDecoder(joints=int(jx), split_ratio=float(ratio))
+    if len(output_shapes[0]) == 4:
+        _, j, hh, hw = output_shapes[0]
+        if not isinstance(hh, int) or not isinstance(hw, int):
+            raise ValueError(f"ONNX model: heatmap output has dynamic size {output_shapes[0]}")
+        return HeatmapDecoder(joints=int(j), stride_xy=(w / hw, h / hh))
+    raise ValueError(
+        "ONNX model: expected SimCC outputs (N, J, Wx), (N, J, Hy) or heatmaps (N, J, h, w), "
+        f"got output shapes {output_shapes}"
+    )
+
+
+@register_detector
+@dataclass(frozen=True)
+class OnnxConfig(DetectorConfig):
+    """A top-down ONNX pose model at ``model_path``.
+
+    Attributes:
+        model_path: the .onnx file.
+        skeleton: skeleton name; None infers it from the joint count (17 -> coco17, 26 -> halpe26).
+        box_padding: person boxes are enlarged by this factor before cropping.
+        mean_rgb, std_rgb: input normalisation (ImageNet by default, as RTMPose and HRNet).
+        num_threads: onnxruntime intra-op threads (0 = its default).
+    """
+
+    kind = "onnx"
+    model_path: Path
+    skeleton: str | None = None
+    box_padding: float = 1.25
+    mean_rgb: tuple[float, float, float] = IMAGENET_MEAN_RGB
+    std_rgb: tuple[float, float, float] = IMAGENET_STD_RGB
+    num_threads: int = 0
+
+    def build(self) -> OnnxDetector:
+        return OnnxDetector(self)
+
+
+class OnnxDetector:
+    """Runs a top-down ONNX pose model on person boxes (or the whole image)."""
+
+    def __init__(self, config: OnnxConfig):
+        import onnxruntime as ort
+
+        path = Path(config.model_path)
+        if not path.is_file():
+            raise FileNotFoundError(f"ONNX model not found: {path}")
+        opts = ort.SessionOptions()
+        if config.num_threads:
+            opts.intra_op_num_threads = config.num_threads
+        try:
+            self._session = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+        except Exception as exc:  # onnxruntime raises its own exception types
+            raise ValueError(f"ONNX model {path}: cannot be loaded: {exc}") from exc
+        self.config = config
+        inp = self._session.get_inputs()[0]
+        if len(inp.shape) != 4 or inp.shape[1] != 3 or not all(isinstance(v, int) for v in inp.shape[2:]):
+            raise ValueError(f"ONNX model {path}: expected an input (N, 3, H, W) with fixed H, W, got {inp.shape}")
+        self._input_name = inp.name
+        self._fixed_batch = inp.shape[0] if isinstance(inp.shape[0], int) else None
+        self.input_size_px = (int(inp.shape[3]), int(inp.shape[2]))
+        shapes = [tuple(o.shape) for o in self._session.get_outputs()]
+        self._decoder = decoder_for(shapes, self.input_size_px)
+        self.skeleton = _skeleton_for(config.skeleton, self._decoder.num_joints, path)
+        self._mean = np.asarray(config.mean_rgb, dtype=np.float32)
+        self._std = np.asarray(config.std_rgb, dtype=np.float32)
+
+    def detect(
+        self,
+        image_bgr: np.ndarray,
+        *,
+        camera: str,
+        frame_id: int,
+        timestamp_ns: int,
+        boxes_xyxy_px: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(H, W, 3) BGR -> (P, J, 3) keypoints for P boxes (P = 1, the whole image, without boxes)."""
+        img = check_image(image_bgr, camera=camera)
+        boxes = _boxes_or_whole_image(boxes_xyxy_px, img.shape, camera=camera)
+        if boxes.shape[0] == 0:
+            return empty_keypoints(self.skeleton.num_joints)
+        crops = [box_crop(b, out_size_px=self.input_size_px, padding=self.config.box_padding) for b in boxes]
+        batch = np.stack([self._preprocess(img, c) for c in crops])
+        raw = self._run(batch)
+        kp = self._decoder.decode(raw)
+        out = np.empty(kp.shape, dtype=np.float64)
+        for i, crop in enumerate(crops):
+            out[i, :, :2] = crop.to_image(kp[i, :, :2])
+            out[i, :, 2] = kp[i, :, 2]
+        return out
+
+    def _preprocess(self, img: np.ndarray, crop: Crop) -> np.ndarray:
+        patch = crop.warp(img)
+        rgb = cv2.cvtColor(patch, cv2.COLOR_BGR2RGB).astype(np.float32)
+        return ((rgb - self._mean) / self._std).transpose(2, 0, 1)
+
+    def _run(self, batch: np.ndarray) -> list[np.ndarray]:
+        if self._fixed_batch is None or self._fixed_batch == batch.shape[0]:
+            return self._session.run(None, {self._input_name: batch})
+        parts = [self._session.run(None, {self._input_name: batch[i : i + 1]}) for i in range(batch.shape[0])]
+        return [np.concatenate([p[k] for p in parts]) for k in range(len(parts[0]))]
+
+
+def _skeleton_for(name: str | None, joints: int, path: Path) -> Skeleton:
+    if name is not None:
+        skel = get_skeleton(name)
+        if skel.num_joints != joints:
+            raise ValueError(f"ONNX model {path}: outputs {joints} joints but skeleton {name} has {skel.num_joints}")
+        return skel
+    inferred = SKELETON_BY_JOINT_COUNT.get(joints)
+    if inferred is None:
+        raise ValueError(f"ONNX model {path}: {joints} joints; give the skeleton name (known: 17, 26, 136)")
+    return get_skeleton(inferred)
+
+
+def _boxes_or_whole_image(boxes: np.ndarray | None, shape: tuple, *, camera: str) -> np.ndarray:
+    h, w = shape[:2]
+    if boxes is None:
+        return np.array([[0.0, 0.0, float(w), float(h)]])
+    arr = np.asarray(boxes, dtype=np.float64).reshape(-1, 4) if np.size(boxes) else np.zeros((0, 4))
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"camera {camera}: person boxes must be finite x0, y0, x1, y1 px")
+    return arr
