@@ -53,7 +53,8 @@ class MediaPipeConfig(DetectorConfig):
     """MediaPipe Pose.
 
     Attributes:
-        model: landmark model size, one of "lite", "full", "heavy".
+        model: landmark model size, one of "lite", "full", "heavy", or the path of a landmark
+            ``.tflite`` file (the person detector is then looked up next to it, else in ``model_dir``).
         model_dir: folder with the .tflite files; None = :func:`default_model_dir`.
         min_detection_confidence: person detector score threshold.
         min_tracking_confidence: pose presence below this drops tracking and re-runs the detector.
@@ -72,13 +73,24 @@ class MediaPipeConfig(DetectorConfig):
     num_threads: int = 2
 
     def __post_init__(self) -> None:
-        if self.model not in LANDMARK_MODELS:
-            raise ValueError(f"mediapipe model must be one of {LANDMARK_MODELS}, got {self.model!r}")
+        if str(self.model) not in LANDMARK_MODELS and not str(self.model).endswith(".tflite"):
+            raise ValueError(f"mediapipe model must be one of {LANDMARK_MODELS} or a .tflite path, got {self.model!r}")
         if self.num_poses < 1:
             raise ValueError(f"mediapipe num_poses must be >= 1, got {self.num_poses}")
 
     def build(self) -> MediaPipeDetector:
         return MediaPipeDetector(self)
+
+
+def model_files(config: MediaPipeConfig) -> tuple[Path, Path]:
+    """(person detector, landmark model) paths of a config."""
+    folder = Path(config.model_dir) if config.model_dir is not None else default_model_dir()
+    model = str(config.model)
+    if model in LANDMARK_MODELS:
+        return folder / DETECTOR_FILE, folder / f"pose_landmark_{model}.tflite"
+    lm_path = Path(model)
+    beside = lm_path.parent / DETECTOR_FILE
+    return (beside if beside.is_file() else folder / DETECTOR_FILE), lm_path
 
 
 @dataclass(frozen=True)
@@ -115,6 +127,13 @@ def ssd_anchors() -> np.ndarray:
         cell = np.stack([xs.ravel(), ys.ravel()], axis=-1)
         centres.append(np.repeat(cell, per_cell, axis=0))
     return np.concatenate(centres)
+
+
+def same_person(a: np.ndarray, b: np.ndarray, *, fraction: float = 0.1) -> bool:
+    """Whether two (J, 3) landmark sets are one person: median joint distance below ``fraction`` of
+    ``b``'s bounding-box diagonal (two detector regions on one person give two near-identical poses)."""
+    diag = float(np.hypot(*(np.nanmax(b[:, :2], 0) - np.nanmin(b[:, :2], 0))))
+    return bool(np.nanmedian(np.hypot(*(a[:, :2] - b[:, :2]).T)) < fraction * diag)
 
 
 def weighted_nms(boxes: np.ndarray, scores: np.ndarray, points: np.ndarray, iou_threshold: float = 0.3):
@@ -176,9 +195,7 @@ class MediaPipeDetector:
     def __init__(self, config: MediaPipeConfig):
         self.config = config
         self.skeleton = get_skeleton("mediapipe33")
-        folder = Path(config.model_dir) if config.model_dir is not None else default_model_dir()
-        det_path = folder / DETECTOR_FILE
-        lm_path = folder / f"pose_landmark_{config.model}.tflite"
+        det_path, lm_path = model_files(config)
         for p in (det_path, lm_path):
             if not p.is_file():
                 raise FileNotFoundError(
@@ -201,10 +218,12 @@ class MediaPipeDetector:
                 self._tracks[camera] = (frame_id, next_roi)
                 return kp[None]
         self._tracks.pop(camera, None)
-        people = []
-        for roi in self.find_people(rgb)[: self.config.num_poses]:
+        people: list[np.ndarray] = []
+        for roi in self.find_people(rgb):
+            if len(people) == self.config.num_poses:
+                break
             kp, presence, next_roi = self._landmarks(rgb, roi)
-            if presence < self.config.min_tracking_confidence:
+            if presence < self.config.min_tracking_confidence or any(same_person(kp, p) for p in people):
                 continue
             people.append(kp)
             if self.config.tracking and self.config.num_poses == 1:

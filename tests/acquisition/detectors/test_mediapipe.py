@@ -1,0 +1,163 @@
+"""MediaPipe Pose offline on a real video of a person walking (the sports2d demo: side view, right to left).
+
+The model files and the video are installed by deploy/bootstrap.sh under <venv>/share/gaitcap/.
+"""
+
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from acquisition.detectors.base import DETECTOR_CONFIGS, Detector
+from acquisition.detectors.mediapipe import (
+    MediaPipeConfig,
+    default_model_dir,
+    refine_from_heatmaps,
+    same_person,
+    ssd_anchors,
+    weighted_nms,
+)
+
+VIDEO = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "sports2d-demo.mp4"
+FIRST, COUNT = 80, 90  # the walker crosses the frame in these frames (30 fps)
+
+needs_models = pytest.mark.skipif(
+    not (default_model_dir() / "pose_landmark_full.tflite").is_file() or not VIDEO.is_file(),
+    reason="MediaPipe models / test video not installed (run deploy/bootstrap.sh)",
+)
+
+
+def _frames(first, count):
+    cap = cv2.VideoCapture(str(VIDEO))
+    cap.set(cv2.CAP_PROP_POS_FRAMES, first)
+    frames = []
+    for _ in range(count):
+        ok, frame = cap.read()
+        assert ok, "demo video shorter than expected"
+        frames.append(frame)
+    cap.release()
+    return frames
+
+
+@pytest.fixture(scope="module")
+def walk():
+    """(T, 33, 3) keypoints of the walker, and the detector."""
+    det = MediaPipeConfig().build()
+    out = []
+    for i, frame in enumerate(_frames(FIRST, COUNT)):
+        kp = det.detect(frame, camera="side", frame_id=FIRST + i, timestamp_ns=0)
+        assert kp.ndim == 3 and kp.shape[1:] == (33, 3) and kp.shape[0] <= 1
+        out.append(kp[0] if len(kp) else np.full((33, 3), np.nan))
+    return np.array(out), det
+
+
+def test_anchor_layout():
+    a = ssd_anchors()
+    assert a.shape == (2254, 2)
+    np.testing.assert_allclose(a[0], [0.5 / 28, 0.5 / 28])
+    np.testing.assert_allclose(a[1], a[0])  # two anchors per cell at stride 8
+    np.testing.assert_allclose(a[2], [1.5 / 28, 0.5 / 28])
+    np.testing.assert_allclose(a[-1], [6.5 / 7, 6.5 / 7])
+
+
+def test_weighted_nms_merges_overlapping_boxes():
+    boxes = np.array([[0, 0, 10, 10], [1, 0, 11, 10], [50, 50, 60, 60]], float)
+    scores = np.array([0.9, 0.3, 0.6])
+    pts = boxes[:, None, :2].repeat(4, axis=1)
+    out = weighted_nms(boxes, scores, pts)
+    assert [round(s, 2) for s, _, _ in out] == [0.9, 0.6]
+    np.testing.assert_allclose(out[0][1], [0.25, 0, 10.25, 10])  # score-weighted mean
+
+
+def test_heatmap_refinement_moves_to_the_peak():
+    heat = np.full((64, 64, 2), -10.0)
+    heat[30:33, 40:43, 0] = 5.0  # peak centred on col 41, row 31
+    xy = refine_from_heatmaps(np.array([[40 / 64, 30 / 64], [0.5, 0.5]]), heat)
+    np.testing.assert_allclose(xy[0], [41 / 64, 31 / 64], atol=1e-3)
+    np.testing.assert_allclose(xy[1], [0.5, 0.5])  # nothing confident there: unchanged
+
+
+def test_same_person():
+    a = np.zeros((33, 3))
+    a[:, 0], a[:, 1] = np.linspace(0, 100, 33), np.linspace(0, 200, 33)
+    assert same_person(a + [3, 3, 0], a)
+    assert not same_person(a + [60, 0, 0], a)
+
+
+def test_config_checks_and_missing_models(tmp_path):
+    assert DETECTOR_CONFIGS["mediapipe"] is MediaPipeConfig
+    with pytest.raises(ValueError, match="mediapipe model"):
+        MediaPipeConfig(model="huge")
+    with pytest.raises(FileNotFoundError, match="bootstrap"):
+        MediaPipeConfig(model_dir=tmp_path).build()
+
+
+@needs_models
+def test_walker_anatomy_and_direction(walk):
+    kp, det = walk
+    assert isinstance(det, Detector) and det.skeleton.name == "mediapipe33"
+    j = det.skeleton.index
+    found = np.isfinite(kp[:, 0, 0])
+    assert found.mean() >= 0.95
+    kp = kp[found]
+    assert np.all((kp[..., 2] >= 0) & (kp[..., 2] <= 1))
+    y = lambda n: kp[:, j(n), 1]  # noqa: E731  (image y points down)
+    for side in ("left", "right"):
+        order = (y(f"{side}_shoulder") < y(f"{side}_hip")) & (y(f"{side}_hip") < y(f"{side}_knee"))
+        order &= (y(f"{side}_knee") < y(f"{side}_ankle")) & (y(f"{side}_knee") < y(f"{side}_heel"))
+        assert order.mean() >= 0.9, side
+    assert np.median(y("nose")) < np.median(y("left_shoulder"))
+    # The walker is in the lower half of the 1768 x 994 frame and walks right to left at ~10 px/frame.
+    hip_x = (kp[:, j("left_hip"), 0] + kp[:, j("right_hip"), 0]) / 2
+    assert np.all(np.median(y("left_heel")) > 994 / 2)
+    slope = np.polyfit(np.flatnonzero(found), hip_x, 1)[0]
+    assert -14 < slope < -6
+
+
+@needs_models
+def test_walker_feet_alternate_stance_and_swing(walk):
+    kp, det = walk
+    j = det.skeleton.index
+    hip_x = (kp[:, j("left_hip"), 0] + kp[:, j("right_hip"), 0]) / 2
+    speed = np.nanmedian(np.abs(np.diff(hip_x)))
+    vl = np.abs(np.diff(kp[:, j("left_heel"), 0]))
+    vr = np.abs(np.diff(kp[:, j("right_heel"), 0]))
+    still = lambda v: v < 0.5 * speed  # noqa: E731  (stance: the heel stays put)
+    swing = lambda v: v > 1.5 * speed  # noqa: E731  (swing: it moves faster than the body)
+    assert np.mean(still(np.minimum(vl, vr))) >= 0.65  # mostly a foot on the ground
+    assert np.mean(swing(vl) & swing(vr)) <= 0.2  # rarely both feet in the air
+    for v in (vl, vr):
+        assert 0.2 <= np.mean(still(v)) <= 0.7 and np.mean(swing(v)) >= 0.2
+    one_swings = swing(vl) | swing(vr)
+    other_still = np.where(swing(vl), still(vr), still(vl))
+    assert np.mean(other_still[one_swings]) >= 0.55
+
+
+@needs_models
+def test_tracking_reuses_the_region_and_blank_image_finds_nobody(monkeypatch):
+    det = MediaPipeConfig().build()
+    calls = []
+    real = det.find_people
+    monkeypatch.setattr(det, "find_people", lambda rgb: calls.append(1) or real(rgb))
+    frames = _frames(120, 6)
+    for i, frame in enumerate(frames):
+        assert det.detect(frame, camera="a", frame_id=i, timestamp_ns=0).shape == (1, 33, 3)
+    assert len(calls) == 1  # detector once, then the landmarks' own region
+    det.detect(frames[0], camera="b", frame_id=0, timestamp_ns=0)  # another camera: its own track
+    det.detect(frames[0], camera="a", frame_id=10, timestamp_ns=0)  # a gap: detect again
+    assert len(calls) == 3
+    blank = np.full((480, 640, 3), 127, np.uint8)
+    assert det.detect(blank, camera="c", frame_id=0, timestamp_ns=0).shape == (0, 33, 3)
+
+
+@needs_models
+def test_lite_model_by_path_agrees_with_full(walk):
+    kp_full, _ = walk
+    lite = MediaPipeConfig(model=str(default_model_dir() / "pose_landmark_lite.tflite")).build()
+    frame = _frames(FIRST + 40, 1)[0]
+    kp = lite.detect(frame, camera="side", frame_id=0, timestamp_ns=0)
+    assert kp.shape == (1, 33, 3)
+    hips = [23, 24, 25, 26]  # hips and knees: the lite and full models agree within a few percent of the body
+    assert np.nanmedian(np.abs(kp[0, hips, :2] - kp_full[40, hips, :2])) < 25
