@@ -91,6 +91,10 @@ def analyze_gait(
     if tracks.all_gaps_s:
         warnings.append("data gaps (no contacts measured there): " + ", ".join(
             f"{a:.2f}-{b:.2f} s" for a, b in tracks.all_gaps_s))
+    turns = [s for s in bouts.segments if s.kind == "turn" and s.end_s - s.start_s >= 0.5]
+    if turns:
+        warnings.append("turns (steps there are not analysed): " + ", ".join(
+            f"{s.start_s:.2f}-{s.end_s:.2f} s" for s in turns))
     outside = [c for c in contacts if c.valid and bouts.pass_at(c.heel_strike_s) is None]
     if outside:
         warnings.append(f"{len(outside)} contact(s) in turns, standing or at pass edges were not used "

@@ -47,6 +47,14 @@ def heel_traces_png(report: GaitReport, points_mm: np.ndarray, times_s: np.ndarr
             p = np.array([c.heel_mm[:2] for c in contacts]) - origin
             ax_f.plot(t, p @ fwd, "o", color=COLOURS[side], ms=4)
             ax_l.plot(t, p @ lat, "o", color=COLOURS[side], ms=4)
+    if report.walkway is not None:  # the walkway's footfalls, brought into the kinematic frame and clock
+        for side in SIDES:
+            rows = [r for r in report.walkway.contacts if r.foot == side]
+            if rows:
+                t = np.array([r.kinematic_time_s for r in rows])
+                p = np.array([r.walkway_heel_in_kinematic_mm for r in rows]) - origin
+                ax_f.plot(t, p @ fwd, "x", color=COLOURS[side], ms=7, label=f"walkway {side}")
+                ax_l.plot(t, p @ lat, "x", color=COLOURS[side], ms=7)
     for p in report.passes:
         for ax in (ax_f, ax_l):
             ax.axvspan(p.start_s, p.end_s, color="0.9", zorder=0)

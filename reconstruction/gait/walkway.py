@@ -256,11 +256,14 @@ class ResidualStats:
 
 @dataclass(frozen=True)
 class ContactResidual:
-    """Kinematic minus walkway errors at one walkway footfall (mm; NaN where not computable)."""
+    """Kinematic minus walkway errors at one walkway footfall (mm; NaN where not computable), with the
+    footfall's heel in the kinematic frame and its first contact on the kinematic clock (for plots)."""
 
     trial: str
     foot: str
     first_contact_s: float
+    kinematic_time_s: float
+    walkway_heel_in_kinematic_mm: tuple[float, float]
     descending: bool
     heel_forward_mm: float
     heel_lateral_mm: float
@@ -366,7 +369,7 @@ def align_walkway(
                       for o, s in zip(trial_offsets, speed, strict=True)]
             offsets[i] = float(trial_offsets[int(np.argmin(scores))])
         tf, bias, fit_median = _robust_fit(*_stack(probes, offsets, points), config)
-    rows = [r for p, o in zip(probes, offsets, strict=True) for r in _residuals(tf, p, points(p, o))]
+    rows = [r for p, o in zip(probes, offsets, strict=True) for r in _residuals(tf, p, points(p, o), o)]
     residuals = {name: ResidualStats.of([getattr(r, name) for r in rows]) for name in RESIDUAL_PARAMETERS}
     return WalkwayComparison(tf, {p.walkway.name: float(o) for p, o in zip(probes, offsets, strict=True)},
                              residuals, tuple(rows), fit_median, bias)
@@ -428,8 +431,9 @@ def _step_geometry(feet, heels, direction):
     return out
 
 
-def _residuals(tf: Similarity2D, probe: _TrialProbe, pts) -> list[ContactResidual]:
+def _residuals(tf: Similarity2D, probe: _TrialProbe, pts, offset_s: float) -> list[ContactResidual]:
     heel_k, toe_k, inside = pts
+    heel_back = tf.inverse(probe.walkway.heel_xy_mm)
     w = probe.walkway
     heel_k = np.where(inside[:, None], tf.apply(heel_k), np.nan)
     toe_k = np.where(inside[:, None], tf.apply(toe_k), np.nan)
@@ -442,6 +446,7 @@ def _residuals(tf: Similarity2D, probe: _TrialProbe, pts) -> list[ContactResidua
         for j, i in enumerate(idx):
             dh, dt = heel_k[i] - w.heel_xy_mm[i], toe_k[i] - w.toe_xy_mm[i]
             rows.append(ContactResidual(
-                w.name, w.feet[i], float(w.first_contact_s[i]), sign < 0, float(sign * dh[0]), float(dh[1]),
+                w.name, w.feet[i], float(w.first_contact_s[i]), float(w.first_contact_s[i] + offset_s),
+                (float(heel_back[i, 0]), float(heel_back[i, 1])), sign < 0, float(sign * dh[0]), float(dh[1]),
                 float(sign * dt[0]), float(dt[1]), *(float(geo_k[m, j] - geo_w[m, j]) for m in range(3))))
     return rows

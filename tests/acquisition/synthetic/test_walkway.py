@@ -74,6 +74,12 @@ def test_alignment_recovers_the_walkway_and_leaves_noise_level_residuals(trial):
         assert res[name].sigma_iqr < 5.0, name  # noise is 2 mm per point
     for name in ("heel_lateral_mm", "step_length_mm", "stride_length_mm", "step_width_mm"):
         assert abs(res[name].mean) < 2.0, name
+    # Footfalls brought back to the kinematic frame and clock land on the true heel strikes.
+    rows = {r.first_contact_s: r for r in result.contacts}
+    for k, first in zip(export.step_rows, export.trial.first_contact_s, strict=True):
+        r = rows[float(first)]
+        assert abs(r.kinematic_time_s - truth.steps.heel_strike_s[k]) < 0.05
+        assert np.linalg.norm(np.asarray(r.walkway_heel_in_kinematic_mm) - truth.steps.heel_mm[k, :2]) < 25.0
 
 
 def test_session_of_two_trials_shares_one_transform(trial):

@@ -56,6 +56,7 @@ def test_u_turn_splits_passes_and_excludes_turn_steps(walker):
     assert len(report.passes) == 2
     assert np.dot(report.passes[0].direction, report.passes[1].direction) < -0.99
     assert any(s.kind == "turn" for s in report.segments)
+    assert any(w.startswith("turns") for w in report.warnings)
     for s in report.steps:
         assert s.step_length_mm == pytest.approx(650.0, abs=1.0)
         assert np.isnan(s.step_width_mm) or s.step_width_mm == pytest.approx(140.0, abs=1.0)
