@@ -21,7 +21,7 @@ import numpy as np
 
 from reconstruction.camera import Rig
 from reconstruction.detections import Detections
-from reconstruction.fits.common import fill_gaps, fit_problem
+from reconstruction.fits.common import fill_gaps, fit_problem, reject_spikes
 from reconstruction.fits.explicit import ExplicitFit
 from reconstruction.fits.implicit import ImplicitFit
 from reconstruction.fits.optim import Progress
@@ -81,7 +81,7 @@ def _run_fit(name, fit, robust: Robust, use_confidence: bool, det: Detections, r
     conf = np.nan_to_num(det.keypoints[..., 2])
     weights = conf if use_confidence else tri.camera_weights
     problem = fit_problem(det, rig, weights, gamma=robust.gamma)
-    init = fill_gaps(tri.points_mm, det.times_s, det.skeleton.joint_names)
+    init = fill_gaps(reject_spikes(tri.points_mm), det.times_s, det.skeleton.joint_names)
     out = fit.fit(problem, init, det.times_s, progress)
     err = np.nan_to_num(reprojection_errors_px(out.points_mm, det, rig), nan=np.inf)
     view_w = np.exp(-err / FIT_WEIGHT_SCALE_PX) * conf
@@ -97,18 +97,18 @@ def _run_fit(name, fit, robust: Robust, use_confidence: bool, det: Detections, r
 class Explicit:
     """Explicit trajectory fit (default: L-BFGS; :meth:`paper`: Adam lr 0.1, 50k steps).
 
-    ``use_confidence``: weight the reprojection term by keypoint confidences instead of the robust
-    triangulation's camera weights.
+    ``use_confidence``: weight the reprojection term by keypoint confidences (default) instead of the
+    robust triangulation's camera weights (the paper's main configuration, used by :meth:`paper`).
     """
 
     fit: ExplicitFit = field(default_factory=ExplicitFit)
     robust: Robust = field(default_factory=Robust)
-    use_confidence: bool = False
+    use_confidence: bool = True
     name = "explicit"
 
     @classmethod
     def paper(cls, steps: int = 50_000) -> Explicit:
-        return cls(fit=ExplicitFit.paper(steps))
+        return cls(fit=ExplicitFit.paper(steps), use_confidence=False)
 
     def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
         return _run_fit(self.name, self.fit, self.robust, self.use_confidence, detections, rig, progress)
@@ -120,12 +120,12 @@ class Implicit:
 
     fit: ImplicitFit = field(default_factory=ImplicitFit)
     robust: Robust = field(default_factory=Robust)
-    use_confidence: bool = False
+    use_confidence: bool = True
     name = "implicit"
 
     @classmethod
     def paper(cls, steps: int = 50_000) -> Implicit:
-        return cls(fit=ImplicitFit.paper(steps))
+        return cls(fit=ImplicitFit.paper(steps), use_confidence=False)
 
     def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
         return _run_fit(self.name, self.fit, self.robust, self.use_confidence, detections, rig, progress)

@@ -11,6 +11,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from reconstruction.camera import Rig
@@ -65,7 +67,8 @@ def skeleton_loss_np(points_mm: np.ndarray, limbs) -> float:
         return 0.0
     a, b = np.array(limbs).T
     lengths = np.linalg.norm(points_mm[:, a] - points_mm[:, b], axis=-1)  # (T, L)
-    with np.errstate(all="ignore"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # limbs never reconstructed
         var = np.nanvar(lengths, axis=0)
     return float(np.sqrt(np.nanmean(var))) if np.isfinite(var).any() else float("nan")
 

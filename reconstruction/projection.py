@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -110,17 +111,18 @@ def normalize_pixels(u: jnp.ndarray, v: jnp.ndarray, cams: CameraArrays) -> tupl
 def undistort_normalized(
     xd: jnp.ndarray, yd: jnp.ndarray, dist: jnp.ndarray, iters: int = UNDISTORT_ITERS
 ) -> tuple[jnp.ndarray, jnp.ndarray]:
-    """Invert :func:`distort` by OpenCV's fixed-point iteration (unrolled; ``iters`` steps)."""
+    """Invert :func:`distort` by OpenCV's fixed-point iteration (``iters`` steps)."""
     k1, k2, p1, p2, k3 = (dist[:, i : i + 1] for i in range(5))
-    x, y = xd, yd
-    for _ in range(iters):
+
+    def step(_, xy):
+        x, y = xy
         r2 = x * x + y * y
         icdist = 1.0 / (1 + r2 * (k1 + r2 * (k2 + r2 * k3)))
         dx = 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
         dy = p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
-        x = (xd - dx) * icdist
-        y = (yd - dy) * icdist
-    return x, y
+        return (xd - dx) * icdist, (yd - dy) * icdist
+
+    return jax.lax.fori_loop(0, iters, step, (xd, yd))
 
 
 def undistort_pixels(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import jax.numpy as jnp
@@ -39,6 +40,30 @@ def fit_problem(
         limb_a=jnp.asarray(limbs[:, 0]),
         limb_b=jnp.asarray(limbs[:, 1]),
     )
+
+
+def reject_spikes(points_mm: np.ndarray, *, window: int = 9, min_mm: float = 80.0, mads: float = 5.0) -> np.ndarray:
+    """Copy of points (T, J, 3) with temporal outliers set to NaN.
+
+    A point is an outlier when it lies farther than max(``min_mm``, ``mads`` x 1.4826 x MAD) from the
+    running median of its joint over ``window`` frames (MAD over that joint's distances). Used to clean
+    the start of a fit: with two or three views a misdetection cannot be voted out per frame.
+    """
+    pts = np.array(points_mm, dtype=np.float64)
+    t = pts.shape[0]
+    if t < window:
+        return pts
+    half = window // 2
+    padded = np.pad(pts, ((half, half), (0, 0), (0, 0)), mode="edge")
+    win = np.lib.stride_tricks.sliding_window_view(padded, window, axis=0)  # (T, J, 3, W)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN windows
+        med = np.nanmedian(win, axis=-1)
+        dist = np.linalg.norm(pts - med, axis=-1)  # (T, J)
+        mad = np.nanmedian(dist, axis=0, keepdims=True)
+    limit = np.maximum(min_mm, mads * 1.4826 * np.nan_to_num(mad))
+    pts[dist > limit] = np.nan
+    return pts
 
 
 def fill_gaps(points_mm: np.ndarray, times_s: np.ndarray, joint_names) -> np.ndarray:

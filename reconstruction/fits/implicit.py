@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from reconstruction.fits.common import FitOutput, from_fit_layout
-from reconstruction.fits.optim import Adam, Progress, Solver, WarmupHoldDecay
+from reconstruction.fits.optim import LBFGS, Adam, Progress, Solver, WarmupHoldDecay
 from reconstruction.losses import LossConfig, Problem, total_loss
 
 MM_PER_M = 1000.0
@@ -51,7 +51,7 @@ def _check_span(times_s, t0: float, duration: float) -> np.ndarray:
 class FourierBasis:
     """Band-limited linear time model. ``ridge`` is relative to the mean diagonal of Phi^T Phi."""
 
-    max_freq_hz: float = 4.5
+    max_freq_hz: float = 6.0
     ridge: float = 1e-3
 
     def features(self, times_s: np.ndarray, t0: float, duration: float) -> np.ndarray:
@@ -184,17 +184,21 @@ class _ModelObjective:
         return total_loss(self.model.points(params, features), problem, self.loss, reg_scale)
 
 
-def _default_solver() -> Adam:
-    return Adam(learning_rate=1e-3, steps=300)
+def _fast_loss() -> LossConfig:
+    return LossConfig(cut_px=10.0)
 
 
 @dataclass(frozen=True)
 class ImplicitFit:
-    """Fit a time function to the detections (default: Fourier basis + 300 Adam steps)."""
+    """Fit a time function to the detections.
+
+    Default: Fourier features up to 6 Hz, ridge start, 60 L-BFGS iterations on the paper's loss with the
+    Huber slope cut beyond 10 px. :meth:`paper`: the paper's MLP, schedule and 50k Adam steps.
+    """
 
     model: Model = field(default_factory=FourierBasis)
-    solver: Solver = field(default_factory=_default_solver)
-    loss: LossConfig = field(default_factory=LossConfig)
+    solver: Solver = field(default_factory=LBFGS)
+    loss: LossConfig = field(default_factory=_fast_loss)
 
     @classmethod
     def paper(cls, steps: int = 50_000) -> ImplicitFit:
@@ -204,7 +208,7 @@ class ImplicitFit:
             learning_rate=schedule, steps=steps, reg_start=min(5000, steps), clip_norm=1.0,
             early_stop_after=min(40_000, steps), chunk=100,
         )
-        return cls(model=PaperMLP(), solver=solver)
+        return cls(model=PaperMLP(), solver=solver, loss=LossConfig())
 
     def fit(self, problem: Problem, init_mm: np.ndarray, times_s: np.ndarray, progress: Progress | None = None):
         """init_mm: (T, J, 3) NaN-free (the robust triangulation). Returns :class:`FitOutput`."""

@@ -25,12 +25,18 @@ def _ring_rig(n: int = 6, radius_mm: float = 4000.0, dist=(-0.12, 0.02, 0.0005, 
     return Rig(tuple(cams))
 
 
-def _walk(t_frames: int, fps: float = 30.0, seed: int = 0) -> np.ndarray:
-    """(T, 26, 3) mm: a rigid-limbed halpe26-like body swaying smoothly (ground truth)."""
+def _walk(t_frames: int, fps: float = 30.0, seed: int = 0, rigid: bool = False) -> np.ndarray:
+    """(T, 26, 3) mm: a halpe26-like point cloud moving smoothly (ground truth). ``rigid``: one rigid
+    body turning about the vertical (constant limb lengths); else every joint also wobbles at 1 Hz."""
     rng = np.random.default_rng(seed)
     t = np.arange(t_frames) / fps
-    base = rng.normal(0, 250, (26, 3)) + [0, 0, 900]
-    path = np.stack([300 * np.sin(0.6 * t), 200 * np.cos(0.4 * t), 30 * np.sin(2 * t)], -1)
+    base = rng.normal(0, 250, (26, 3))
+    path = np.stack([300 * np.sin(0.6 * t), 200 * np.cos(0.4 * t), 900 + 30 * np.sin(2 * t)], -1)
+    if rigid:
+        a = 0.8 * np.sin(1.3 * t)
+        rot = np.zeros((t_frames, 3, 3))
+        rot[:, 0, 0], rot[:, 0, 1], rot[:, 1, 0], rot[:, 1, 1], rot[:, 2, 2] = np.cos(a), -np.sin(a), np.sin(a), np.cos(a), 1
+        return np.einsum("tij,kj->tki", rot, base) + path[:, None]
     wobble = 40 * np.sin(2 * np.pi * 1.0 * t[:, None, None] + rng.uniform(0, 6, (1, 26, 3)))
     return base[None] + path[:, None] + wobble
 
@@ -53,9 +59,9 @@ def ring_rig():
 def scene():
     """Factory: (rig, detections, ground truth (T, 26, 3) mm)."""
 
-    def make(*, cameras=6, frames=30, noise_px=1.0, outliers=0.0, seed=0, fps=30.0):
+    def make(*, cameras=6, frames=30, noise_px=1.0, outliers=0.0, seed=0, fps=30.0, rigid=False):
         rig = _ring_rig(cameras)
-        gt = _walk(frames, fps, seed)
+        gt = _walk(frames, fps, seed, rigid)
         kp = _detect(rig, gt, noise_px=noise_px, outliers=outliers, seed=seed)
         det = Detections(kp, rig.names, np.arange(frames) / fps, get_skeleton("halpe26"))
         return rig, det, gt

@@ -1,0 +1,69 @@
+import json
+
+import numpy as np
+import pytest
+
+from acquisition.keypoint_files import infer_skeleton, most_confident_person, read_keypoints_input
+from reconstruction.camera import Camera, Rig
+
+
+def _rig(names):
+    return Rig(tuple(Camera(n, (640, 480), np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]])) for n in names))
+
+
+def _write_openpose(root, folders, frames, people_per_frame):
+    for c, folder in enumerate(folders):
+        d = root / folder
+        d.mkdir(parents=True)
+        for f in frames:
+            people = []
+            for p in range(people_per_frame):
+                kp = np.zeros((25, 3))
+                kp[:, 0], kp[:, 1] = 100 + 10 * c + p, 200 + f
+                kp[:, 2] = 0.9 if p == 1 else 0.4
+                kp[3] = 0  # a joint OpenPose did not find
+                people.append({"person_id": [-1], "pose_keypoints_2d": kp.reshape(-1).tolist()})
+            (d / f"trial_{f:012d}_keypoints.json").write_text(json.dumps({"version": 1.3, "people": people}))
+
+
+def test_openpose_folder_by_name_and_by_order(tmp_path):
+    _write_openpose(tmp_path / "a", ["cam1_json", "cam0_json"], [0, 1, 2, 4], 2)
+    det = read_keypoints_input(tmp_path / "a", rig=_rig(["cam0", "cam1"]), fps=25)
+    assert det.camera_names == ("cam0", "cam1")
+    assert det.keypoints.shape == (2, 5, 25, 3) and det.skeleton.name == "body25"
+    c0 = det.camera_names.index("cam0")
+    assert det.keypoints[c0, 0, 0, 0] == pytest.approx(111)  # folder cam0_json was written second (c = 1), p = 1
+    assert (det.keypoints[c0, 3, :, 2] == 0).all()  # frame 3 is in no folder
+    assert np.isnan(det.keypoints[c0, 0, 3, 0]) and det.keypoints[c0, 0, 3, 2] == 0
+    assert det.times_s[-1] == pytest.approx(4 / 25)
+    _write_openpose(tmp_path / "b", ["x", "y"], [0, 1], 1)
+    det2 = read_keypoints_input(tmp_path / "b", rig=_rig(["c0", "c1"]))
+    assert det2.camera_names == ("c0", "c1")
+    with pytest.raises(ValueError, match="match neither"):
+        read_keypoints_input(tmp_path / "b", rig=_rig(["c0", "c1", "c2"]))
+
+
+def test_npz_input(tmp_path):
+    kp = np.random.default_rng(0).uniform(0, 1, (3, 4, 26, 3))
+    np.savez(tmp_path / "k.npz", keypoints=kp, cameras=np.array(["a", "b", "c"]))
+    det = read_keypoints_input(tmp_path / "k.npz")
+    assert det.skeleton.name == "halpe26" and det.times_s[1] == pytest.approx(1 / 30)
+    np.savez(tmp_path / "bad.npz", keypoints=kp, cameras=np.array(["a", "b"]))
+    with pytest.raises(ValueError, match="2 camera names for 3 cameras"):
+        read_keypoints_input(tmp_path / "bad.npz")
+    np.savez(tmp_path / "nocam.npz", keypoints=kp)
+    with pytest.raises(ValueError, match="cameras"):
+        read_keypoints_input(tmp_path / "nocam.npz")
+    with pytest.raises(ValueError, match="infer"):
+        infer_skeleton(7)
+    with pytest.raises(FileNotFoundError):
+        read_keypoints_input(tmp_path / "missing.npz")
+
+
+def test_most_confident_person():
+    people = np.zeros((1, 2, 3, 4, 3))
+    people[0, 0, 2, :, 2] = 0.9
+    people[0, 1, 0, :, 2] = 0.5
+    people[..., 0] = np.arange(3)[None, None, :, None]
+    best = most_confident_person(people)
+    assert best.shape == (1, 2, 4, 3) and best[0, 0, 0, 0] == 2 and best[0, 1, 0, 0] == 0

@@ -1,0 +1,56 @@
+import numpy as np
+import pytest
+
+from reconstruction.fits.implicit import FourierBasis, ImplicitFit
+from reconstruction.fits.optim import LBFGS
+from reconstruction.methods import DLT, METHODS, Explicit, Implicit, Robust, reconstruct
+from reconstruction.result import load_npz
+
+
+def test_registry_and_paper_configs():
+    assert set(METHODS) == {"dlt", "robust", "explicit", "implicit"}
+    assert Implicit.paper(steps=10).fit.solver.steps == 10 and not Implicit.paper().use_confidence
+    assert Explicit.paper().fit.solver.learning_rate == 0.1
+    with pytest.raises(ValueError, match="method"):
+        reconstruct(None, None, method="robust")
+
+
+def test_all_methods_end_to_end(scene, tmp_path):
+    rig, det, gt = scene(cameras=4, frames=30, noise_px=2.0, outliers=0.02, rigid=True)
+    fast_imp = Implicit(fit=ImplicitFit(model=FourierBasis(max_freq_hz=3.0), solver=LBFGS(iterations=20)))
+    seen = []
+    results = {}
+    for m in (DLT(), Robust(), fast_imp):
+        rec = reconstruct(det, rig, method=m, truth_mm=gt, progress=lambda d, t: seen.append((d, t)))
+        results[rec.method] = rec
+        assert rec.points_mm.shape == gt.shape and rec.camera_weights.shape == det.shape
+        assert 0 < rec.metrics["GC_20"] <= 1 and rec.metrics["nan_fraction"] < 0.01
+    assert seen and seen[-1][0] == seen[-1][1]
+    imp = results["implicit"]
+    assert results["robust"].metrics["MPJPE"] < 0.5 * results["dlt"].metrics["MPJPE"]
+    assert imp.metrics["MPJPE"] < results["robust"].metrics["MPJPE"] < 10
+    assert imp.losses["steps"] > 0 and set(imp.losses) >= {"reproj", "smooth", "skeleton"}
+    # sampling: implicit evaluates its function, discrete methods interpolate
+    t = np.array([0.5 * (det.times_s[3] + det.times_s[4])])
+    assert imp.sample(t).shape == (1, 26, 3)
+    rob = results["robust"]
+    assert np.allclose(rob.sample(t)[0], 0.5 * (rob.points_mm[3] + rob.points_mm[4]))
+    with pytest.raises(ValueError, match="outside"):
+        rob.sample([det.times_s[-1] + 1])
+    imp.save_npz(tmp_path / "r.npz")
+    back = load_npz(tmp_path / "r.npz")
+    assert np.allclose(back.points_mm, imp.points_mm) and back.joint_names == imp.joint_names
+    assert back.camera_weights.shape == det.shape and back.method == "implicit"
+
+
+def test_fit_refuses_a_joint_never_seen(scene):
+    rig, det, _ = scene(cameras=4, frames=30, noise_px=1.0)
+    kp = det.keypoints.copy()
+    kp[:, :, det.skeleton.index("left_heel"), 2] = 0.2
+    from reconstruction.detections import Detections
+
+    bad = Detections(kp, det.camera_names, det.times_s, det.skeleton)
+    with pytest.raises(ValueError, match="left_heel"):
+        reconstruct(bad, rig, method=Implicit())
+    rec = reconstruct(bad, rig, method=Robust())  # triangulation: NaN for that joint, no error
+    assert np.isnan(rec.points_mm[:, det.skeleton.index("left_heel")]).all()
