@@ -81,3 +81,90 @@ def test_bad_folders_and_rates(tmp_path):
     with pytest.raises(ValueError, match="different frame rates"):
         detect_videos(find_videos(tmp_path), BlobDetector())
     assert detect_videos(find_videos(tmp_path), BlobDetector(), fps=30).fps == 30
+
+
+def _demo_clips(folder, first=100, count=12, size=(640, 360)):
+    """Two 'cameras' from the real walking video: the clip and its mirror image."""
+    import sys
+    from pathlib import Path
+
+    video = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "sports2d-demo.mp4"
+    if not video.is_file():
+        pytest.skip("test video not installed (run deploy/bootstrap.sh)")
+    cap = cv2.VideoCapture(str(video))
+    cap.set(cv2.CAP_PROP_POS_FRAMES, first)
+    writers = {name: cv2.VideoWriter(str(folder / f"{name}.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 30, size)
+               for name in ("side", "mirror")}
+    for _ in range(count):
+        ok, frame = cap.read()
+        assert ok
+        small = cv2.resize(frame, size, interpolation=cv2.INTER_AREA)
+        writers["side"].write(small)
+        writers["mirror"].write(np.ascontiguousarray(small[:, ::-1]))
+    for w in writers.values():
+        w.release()
+
+
+def test_detect_mediapipe_on_real_video(tmp_path):
+    from acquisition.detectors.mediapipe import default_model_dir
+
+    if not (default_model_dir() / "pose_landmark_lite.tflite").is_file():
+        pytest.skip("MediaPipe models not installed (run deploy/bootstrap.sh)")
+    vids = tmp_path / "vids"
+    vids.mkdir()
+    _demo_clips(vids)
+    out = tmp_path / "kp.npz"
+    lite = default_model_dir() / "pose_landmark_lite.tflite"
+    res = CliRunner().invoke(app, ["detect", "--videos", str(vids), "--detector", "mediapipe", "--model", str(lite),
+                                   "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    det = load_detections_npz(out)
+    assert det.camera_names == ("mirror", "side") and det.shape == (2, 12, 33)
+    assert det.skeleton.name == "mediapipe33"
+    np.testing.assert_allclose(det.times_s, np.arange(12) / 30)
+    j = det.skeleton.index
+    hips = (det.keypoints[:, :, j("left_hip"), :2] + det.keypoints[:, :, j("right_hip"), :2]) / 2  # (C, T, 2)
+    assert np.isfinite(hips).all()
+    # The mirror view sees the walker at x' = W - x (pixel centres: 639 - x), same height.
+    np.testing.assert_allclose(hips[0, :, 0], 639 - hips[1, :, 0], atol=8)
+    np.testing.assert_allclose(hips[0, :, 1], hips[1, :, 1], atol=8)
+
+
+def test_detect_onnx_model_by_path(tmp_path):
+    import onnx
+    from onnx import TensorProto, helper
+
+    # A 17-joint SimCC model that puts every joint at the crop's brightest column / row.
+    h, w = 64, 48
+    nodes = [
+        helper.make_node("ReduceSum", ["input", "a1"], ["g"], keepdims=1),
+        helper.make_node("ReduceMax", ["g", "a2"], ["cm"], keepdims=0),  # (N,1,W)
+        helper.make_node("ReduceMax", ["g", "a3"], ["rm"], keepdims=0),  # (N,1,H)
+        helper.make_node("Expand", ["cm", "ex"], ["simcc_x"]),
+        helper.make_node("Expand", ["rm", "ey"], ["simcc_y"]),
+    ]
+    i64 = lambda n, v: helper.make_tensor(n, TensorProto.INT64, [len(v)], v)  # noqa: E731
+    inits = [i64("a1", [1]), i64("a2", [2]), i64("a3", [3]), i64("ex", [1, 17, w]), i64("ey", [1, 17, h])]
+    graph = helper.make_graph(
+        nodes, "g", [helper.make_tensor_value_info("input", TensorProto.FLOAT, ["N", 3, h, w])],
+        [helper.make_tensor_value_info("simcc_x", TensorProto.FLOAT, ["N", 17, w]),
+         helper.make_tensor_value_info("simcc_y", TensorProto.FLOAT, ["N", 17, h])], initializer=inits)
+    model = tmp_path / "blob.onnx"
+    onnx.save(helper.make_model(graph, opset_imports=[helper.make_opsetid("", 18)], ir_version=9), str(model))
+    vids = tmp_path / "vids"
+    vids.mkdir()
+    _video(vids / "cam0.avi", 6, 30, 0)
+    out = tmp_path / "kp.npz"
+    res = CliRunner().invoke(app, ["detect", "--videos", str(vids), "--detector", "onnx", "--model", str(model),
+                                   "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    det = load_detections_npz(out)
+    assert det.skeleton.name == "coco17" and det.shape == (1, 6, 17)
+    # Whole 64x48 image as the box, padded 1.25: one crop px is 80 / 48 image px. The flat square's first
+    # brightest crop column / row lies inside the square (give or take one crop px).
+    crop_px = 80 / 48
+    left = 4 + 2 * np.arange(6)
+    x, y = det.keypoints[0, :, :, 0], det.keypoints[0, :, :, 1]
+    assert np.all((x >= left[:, None] - crop_px) & (x <= left[:, None] + SQ - 1 + crop_px))
+    assert np.all((y >= 20 - crop_px) & (y <= 20 + SQ - 1 + crop_px))
+    assert 6 <= x[-1, 0] - x[0, 0] <= 14  # it follows the square 10 px to the right
