@@ -138,7 +138,7 @@ class AlignmentConfig:
     refine_step_s: float = 0.03
     scale_min: float = 0.9
     scale_max: float = 1.1
-    candidates: int = 6
+    candidates: int = 10
     rounds: int = 3
     outlier_factor: float = 3.0
     min_outlier_mm: float = 30.0

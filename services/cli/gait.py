@@ -28,10 +28,11 @@ def _load(path: Path):
         points, times = data["points_mm"], data["times_s"]
         names = [str(n) for n in data["joint_names"]]
         quality = None
-        if "num_views" in data.files and "reprojection_px" in data.files:
-            quality = TrajectoryQuality(data["num_views"], data["reprojection_px"])
-        elif "quality" in data.files:  # a reconstruction's effective number of agreeing views
-            quality = TrajectoryQuality(data["quality"], np.full(data["quality"].shape, np.nan))
+        views = next((data[k] for k in ("num_views", "quality")  # "quality": effective agreeing views
+                      if k in data.files and data[k].shape == points.shape[:2]), None)
+        if views is not None:
+            reproj = data["reprojection_px"] if "reprojection_px" in data.files else np.full(views.shape, np.nan)
+            quality = TrajectoryQuality(views, reproj)
     return points, times, names, quality
 
 

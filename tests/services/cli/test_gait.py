@@ -33,3 +33,27 @@ def test_gait_command_bad_input(tmp_path):
     np.savez(npz, points_mm=np.zeros((10, 3, 3)))
     res = CliRunner().invoke(app, ["gait", str(npz)])
     assert res.exit_code == 2 and "times_s" in res.output
+
+
+def test_gait_command_with_walkway(tmp_path):
+    from reconstruction.gait.walkway import Similarity2D, WalkwayTrial, write_walkway_csv
+
+    walk = make_walk(segments=(("line", 5000), ("arc", 500, 180), ("line", 3200)))
+    npz = tmp_path / "t1.npz"
+    views = np.full(walk.points_mm.shape[:2], 4.0)
+    np.savez(npz, points_mm=walk.points_mm, times_s=walk.times_s, joint_names=np.array(walk.joint_names),
+             num_views=views)
+    first_leg = walk.arc_mm < 4500
+    keep = np.isfinite(walk.hs_s) & np.isfinite(walk.to_s) & (first_leg | (walk.arc_mm > 7100))
+    heading = np.where(first_leg[:, None], 1.0, -1.0) * [np.cos(np.radians(30)), np.sin(np.radians(30))]
+    tf = Similarity2D(1.0, 0.5, (100.0, 200.0))
+    toes = walk.heels_mm + 230.0 * heading
+    trial = WalkwayTrial("t1", tuple(np.array(walk.feet)[keep]), walk.hs_s[keep] - 0.7, walk.to_s[keep] - 0.7,
+                         tf.apply(walk.heels_mm[keep]), tf.apply(toes[keep]))
+    csv_path = tmp_path / "walkway.csv"
+    write_walkway_csv([trial], csv_path)
+    res = CliRunner().invoke(app, ["gait", str(npz), "--walkway", str(csv_path), "--json"])
+    assert res.exit_code == 0, res.output
+    report = json.loads(res.stdout.strip().splitlines()[-1])
+    assert abs(report["walkway"]["offsets_s"]["t1"] - 0.7) < 0.05
+    assert report["walkway"]["residuals"]["heel_lateral_mm"]["n"] == int(keep.sum())
