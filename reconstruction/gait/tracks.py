@@ -149,6 +149,13 @@ class FootTracks:
             sampler = _spline_sampler(times, frames_out)
         return cls(times, frames_out, valid, sampler, gaps)
 
+    def frame_spline(self) -> FootTracks:
+        """The same tracks with a cubic spline through ``frames_mm`` as sampler (self if already one)."""
+        if not self.continuous:
+            return self
+        return FootTracks(self.times_s, self.frames_mm, self.valid, _spline_sampler(self.times_s, self.frames_mm),
+                          self.gaps_s)
+
     def rest_noise_mm_s(self) -> float:
         """Noise floor of the feet's speed at rest (mm/s): the 25th percentile over trusted frames of the
         slower of heel and toe, the median over both feet (feet rest over half of a walking trial)."""

@@ -336,7 +336,10 @@ def align_walkway(
     """Align one session's trials (``tracks[i]`` with ``walkway[i]``) and compute the residuals."""
     if not (len(tracks) == len(walkway) == len(rest_speed_mm_s)) or not tracks:
         raise ValueError("align_walkway: need as many walkway trials as kinematic trials (at least one)")
-    probes = [_TrialProbe(t, w, v) for t, w, v in zip(tracks, walkway, rest_speed_mm_s, strict=True)]
+    # The search runs on splines through the frames (cheap even when a trial's sampler is a neural
+    # network); the final footfall positions come from each trial's own sampler.
+    probes = [_TrialProbe(t.frame_spline(), w, v) for t, w, v in zip(tracks, walkway, rest_speed_mm_s, strict=True)]
+    finals = [_TrialProbe(t, w, v) for t, w, v in zip(tracks, walkway, rest_speed_mm_s, strict=True)]
     cache: dict[tuple[int, float], tuple] = {}
 
     def points(probe, off):
@@ -369,7 +372,9 @@ def align_walkway(
                       for o, s in zip(trial_offsets, speed, strict=True)]
             offsets[i] = float(trial_offsets[int(np.argmin(scores))])
         tf, bias, fit_median = _robust_fit(*_stack(probes, offsets, points), config)
-    rows = [r for p, o in zip(probes, offsets, strict=True) for r in _residuals(tf, p, points(p, o), o)]
+    if any(t.continuous for t in tracks):
+        tf, bias, fit_median = _robust_fit(*_stack(finals, offsets, points), config)
+    rows = [r for p, o in zip(finals, offsets, strict=True) for r in _residuals(tf, p, points(p, o), o)]
     residuals = {name: ResidualStats.of([getattr(r, name) for r in rows]) for name in RESIDUAL_PARAMETERS}
     return WalkwayComparison(tf, {p.walkway.name: float(o) for p, o in zip(probes, offsets, strict=True)},
                              residuals, tuple(rows), fit_median, bias)
