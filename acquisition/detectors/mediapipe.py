@@ -136,6 +136,13 @@ def same_person(a: np.ndarray, b: np.ndarray, *, fraction: float = 0.1) -> bool:
     return bool(np.nanmedian(np.hypot(*(a[:, :2] - b[:, :2]).T)) < fraction * diag)
 
 
+def landmark_box(keypoints: np.ndarray, *, min_conf: float = 0.3) -> np.ndarray:
+    """(4,) x0, y0, x1, y1 px around the (J, 3) keypoints with confidence >= ``min_conf`` (all if none)."""
+    ok = keypoints[:, 2] >= min_conf
+    xy = keypoints[ok if ok.sum() >= 2 else slice(None), :2]
+    return np.concatenate([xy.min(0), xy.max(0)])
+
+
 def weighted_nms(boxes: np.ndarray, scores: np.ndarray, points: np.ndarray, iou_threshold: float = 0.3):
     """MediaPipe's weighted non-max suppression.
 
@@ -189,6 +196,39 @@ def refine_from_heatmaps(xy_norm: np.ndarray, heatmaps: np.ndarray, *, kernel: i
     return out
 
 
+class PersonDetector:
+    """MediaPipe's BlazePose person detector alone: people as regions of interest (rough: the landmark
+    model refines them)."""
+
+    def __init__(self, path: Path, *, min_score: float = 0.5, num_threads: int = 2):
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"MediaPipe person detector missing: {path} (run deploy/bootstrap.sh)")
+        self.min_score = min_score
+        self._model = _Tflite(Path(path), num_threads)
+        self._anchors_px = ssd_anchors() * DETECTOR_INPUT_PX
+
+    def find(self, rgb: np.ndarray) -> list[Roi]:
+        """Person detector on the letterboxed image -> regions of interest, best first."""
+        h, w = rgb.shape[:2]
+        crop = square_crop((w / 2, h / 2), max(w, h), 0.0, DETECTOR_INPUT_PX)
+        x = crop.warp(rgb).astype(np.float32) / 127.5 - 1.0
+        outs = self._model.run(x[None])
+        raw = next(o for o in outs if o.shape[-1] == 12)[0]
+        scores = _sigmoid(next(o for o in outs if o.shape[-1] == 1)[0, :, 0])
+        keep = scores >= self.min_score
+        if not keep.any():
+            return []
+        raw, anchors = raw[keep].astype(np.float64), self._anchors_px[keep]
+        centre, size = raw[:, :2] + anchors, raw[:, 2:4]
+        boxes = np.concatenate([centre - size / 2, centre + size / 2], axis=1)
+        points = raw[:, 4:12].reshape(-1, 4, 2) + anchors[:, None]
+        rois = []
+        for score, _box, pts in weighted_nms(boxes, scores[keep], points):
+            img_pts = crop.to_image(pts)
+            rois.append(_roi_from_points(img_pts[0], img_pts[1], score))
+        return rois
+
+
 class MediaPipeDetector:
     """MediaPipe Pose on TFLite; ``detect`` returns (P, 33, 3) in the ``mediapipe33`` skeleton."""
 
@@ -202,9 +242,9 @@ class MediaPipeDetector:
                     f"MediaPipe model file missing: {p} (run deploy/bootstrap.sh, which installs the npm "
                     f"package @mediapipe/pose there, or set {MODELS_ENV})"
                 )
-        self._det = _Tflite(det_path, config.num_threads)
+        self._people = PersonDetector(det_path, min_score=config.min_detection_confidence,
+                                      num_threads=config.num_threads)
         self._lm = _Tflite(lm_path, config.num_threads)
-        self._anchors_px = ssd_anchors() * DETECTOR_INPUT_PX
         self._tracks: dict[str, tuple[int, Roi]] = {}
 
     def detect(self, image_bgr: np.ndarray, *, camera: str, frame_id: int, timestamp_ns: int) -> np.ndarray:
@@ -237,25 +277,14 @@ class MediaPipeDetector:
         return roi if frame_id == last_id + 1 else None
 
     def find_people(self, rgb: np.ndarray) -> list[Roi]:
-        """Person detector on the letterboxed image -> regions of interest, best first."""
-        h, w = rgb.shape[:2]
-        crop = square_crop((w / 2, h / 2), max(w, h), 0.0, DETECTOR_INPUT_PX)
-        x = crop.warp(rgb).astype(np.float32) / 127.5 - 1.0
-        outs = self._det.run(x[None])
-        raw = next(o for o in outs if o.shape[-1] == 12)[0]
-        scores = _sigmoid(next(o for o in outs if o.shape[-1] == 1)[0, :, 0])
-        keep = scores >= self.config.min_detection_confidence
-        if not keep.any():
-            return []
-        raw, anchors = raw[keep].astype(np.float64), self._anchors_px[keep]
-        centre, size = raw[:, :2] + anchors, raw[:, 2:4]
-        boxes = np.concatenate([centre - size / 2, centre + size / 2], axis=1)
-        points = raw[:, 4:12].reshape(-1, 4, 2) + anchors[:, None]
-        rois = []
-        for score, _box, pts in weighted_nms(boxes, scores[keep], points):
-            img_pts = crop.to_image(pts)
-            rois.append(_roi_from_points(img_pts[0], img_pts[1], score))
-        return rois
+        """Person detector on an RGB image -> regions of interest, best first."""
+        return self._people.find(rgb)
+
+    def boxes(self, image_bgr: np.ndarray, *, camera: str, frame_id: int, timestamp_ns: int) -> np.ndarray:
+        """(P, 4) x0, y0, x1, y1 px: the bounding boxes of each person's confident landmarks (for a
+        top-down model, which adds its own margin)."""
+        people = self.detect(image_bgr, camera=camera, frame_id=frame_id, timestamp_ns=timestamp_ns)
+        return np.array([landmark_box(p) for p in people]).reshape(-1, 4)
 
     def _landmarks(self, rgb: np.ndarray, roi: Roi) -> tuple[np.ndarray, float, Roi]:
         """Landmark model on a region -> ((33, 3) keypoints, pose presence, next frame's region)."""

@@ -4,8 +4,9 @@ The model takes (N, 3, H, W) float32 normalised RGB crops and returns either
 - SimCC vectors: two outputs (N, J, W * r) and (N, J, H * r) (RTMPose; ``r`` = split ratio, usually 2),
 - or heatmaps: one output (N, J, h, w) (HRNet, SimpleBaseline), with ``h, w`` = input size / stride.
 The decoder is picked from the output shapes. J = 17 is COCO-17, J = 26 is Halpe-26 (or give the
-skeleton). Person boxes come from the caller (``detect(..., boxes_xyxy_px=...)``); without boxes the
-whole image is one box. Keypoints are mapped back through the crop's affine transform.
+skeleton). Person boxes come from the caller (``detect(..., boxes_xyxy_px=...)``), else from MediaPipe's
+pose tracker (``person_detector=True``: the boxes of MediaPipe Pose lite's landmarks), else the whole image is one
+box. Keypoints are mapped back through the crop's affine transform.
 """
 
 from __future__ import annotations
@@ -122,6 +123,10 @@ class OnnxConfig(DetectorConfig):
         box_padding: person boxes are enlarged by this factor before cropping.
         mean_rgb, std_rgb: input normalisation (ImageNet by default, as RTMPose and HRNet).
         num_threads: onnxruntime intra-op threads (0 = its default).
+        person_detector: when no boxes are given, find people with MediaPipe Pose (lite model, tracked
+            per camera) and crop around their landmarks.
+        max_people: at most this many people from MediaPipe.
+        person_min_score: MediaPipe's person detector score threshold.
     """
 
     kind = "onnx"
@@ -131,6 +136,9 @@ class OnnxConfig(DetectorConfig):
     mean_rgb: tuple[float, float, float] = IMAGENET_MEAN_RGB
     std_rgb: tuple[float, float, float] = IMAGENET_STD_RGB
     num_threads: int = 0
+    person_detector: bool = False
+    max_people: int = 1
+    person_min_score: float = 0.5
 
     def build(self) -> OnnxDetector:
         return OnnxDetector(self)
@@ -164,6 +172,14 @@ class OnnxDetector:
         self.skeleton = _skeleton_for(config.skeleton, self._decoder.num_joints, path)
         self._mean = np.asarray(config.mean_rgb, dtype=np.float32)
         self._std = np.asarray(config.std_rgb, dtype=np.float32)
+        self._people = None
+        if config.person_detector:
+            from acquisition.detectors.mediapipe import MediaPipeConfig
+
+            self._people = MediaPipeConfig(
+                model="lite", num_poses=config.max_people, min_detection_confidence=config.person_min_score,
+                num_threads=max(1, config.num_threads),
+            ).build()
 
     def detect(
         self,
@@ -174,8 +190,10 @@ class OnnxDetector:
         timestamp_ns: int,
         boxes_xyxy_px: np.ndarray | None = None,
     ) -> np.ndarray:
-        """(H, W, 3) BGR -> (P, J, 3) keypoints for P boxes (P = 1, the whole image, without boxes)."""
+        """(H, W, 3) BGR -> (P, J, 3) keypoints for P person boxes (see the module docstring)."""
         img = check_image(image_bgr, camera=camera)
+        if boxes_xyxy_px is None and self._people is not None:
+            boxes_xyxy_px = self._people.boxes(img, camera=camera, frame_id=frame_id, timestamp_ns=timestamp_ns)
         boxes = _boxes_or_whole_image(boxes_xyxy_px, img.shape, camera=camera)
         if boxes.shape[0] == 0:
             return empty_keypoints(self.skeleton.num_joints)

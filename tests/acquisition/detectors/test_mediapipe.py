@@ -161,3 +161,15 @@ def test_lite_model_by_path_agrees_with_full(walk):
     assert kp.shape == (1, 33, 3)
     hips = [23, 24, 25, 26]  # hips and knees: the lite and full models agree within a few percent of the body
     assert np.nanmedian(np.abs(kp[0, hips, :2] - kp_full[40, hips, :2])) < 25
+
+
+@needs_models
+def test_landmark_boxes_hold_the_walker(walk):
+    kp, det = walk
+    frames = _frames(FIRST, COUNT)
+    fresh = MediaPipeConfig().build()
+    for i in range(0, COUNT, 30):
+        (x0, y0, x1, y1), = fresh.boxes(frames[i], camera="side", frame_id=i, timestamp_ns=0)
+        body = kp[i, [0, 11, 12, 23, 24, 27, 28, 29, 30], :2]  # nose, shoulders, hips, ankles, heels
+        assert np.all((body[:, 0] >= x0 - 5) & (body[:, 0] <= x1 + 5) & (body[:, 1] >= y0 - 5) & (body[:, 1] <= y1 + 5))
+        assert 250 < y1 - y0 < 500 and 50 < x1 - x0 < 400  # the walker is ~370 px tall in 1768 x 994

@@ -208,3 +208,29 @@ def test_rgb_order_and_normalisation(tmp_path):
     b_y, b_x = np.unravel_index(np.argmax(rgb[2]), rgb[2].shape)
     assert r_x > b_x and r_y < b_y
     assert rgb[0].min() == pytest.approx(-123.675 / 58.395, rel=1e-5)
+
+
+def test_person_detector_places_the_crop_on_the_person(tmp_path):
+    import sys
+    from pathlib import Path
+
+    from acquisition.detectors.mediapipe import DETECTOR_FILE, MediaPipeConfig, default_model_dir
+
+    video = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "sports2d-demo.mp4"
+    if not (default_model_dir() / DETECTOR_FILE).is_file() or not video.is_file():
+        pytest.skip("MediaPipe models / test video not installed (run deploy/bootstrap.sh)")
+    cap = cv2.VideoCapture(str(video))
+    cap.set(cv2.CAP_PROP_POS_FRAMES, 120)
+    ok, frame = cap.read()
+    assert ok
+    # Every joint at the crop's centre -> the keypoints land on the centre of the person box.
+    model = constant_simcc_model(tmp_path, np.full(17, W), np.full(17, H))
+    det = OnnxConfig(model_path=model, person_detector=True).build()
+    kp = _detect(det, frame)
+    box = MediaPipeConfig(model="lite").build().boxes(frame, camera="x", frame_id=0, timestamp_ns=0)[0]
+    assert kp.shape == (1, 17, 3)
+    np.testing.assert_allclose(kp[0, :, 0], (box[0] + box[2]) / 2, atol=1e-3)
+    np.testing.assert_allclose(kp[0, :, 1], (box[1] + box[3]) / 2, atol=1e-3)
+    # The walker's hips are at about x 820, y 720 in this frame (1768 x 994), not at the image centre.
+    assert abs(kp[0, 0, 0] - 820) < 100 and abs(kp[0, 0, 1] - 720) < 150
+    assert _detect(det, np.full((480, 640, 3), 127, np.uint8)).shape == (0, 17, 3)  # nobody, no box
