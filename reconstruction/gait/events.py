@@ -23,8 +23,8 @@ needs to slow from the event speed to rest (ground truth frames: -6 +- 6 ms; a f
 slow to land, up to -34 ms; robust triangulation of clean detections -17 +- 8 ms, noisy ones -16 +- 17
 ms); toe off comes late by the push-off's rise to 10 % of peak (+5 +- 4 ms). Noise raises the event
 speed and thus the bias; noisy frames are smoothed (``smoothing_window_s``), which blurs the events
-further. A trajectory fit that blurs the push-off moves toe off earlier (-27 ms with the default
-implicit fit). Toe walkers' "heel strike" is their initial contact with the toe.
+further; so does a trajectory fit that blurs the foot's stop and push-off. Toe walkers' "heel strike"
+is their initial contact with the toe.
 
 Heel and toe positions at a contact are the median of each point over the frames of the contact when
 that point is at rest (the stationary heel point during stance).
