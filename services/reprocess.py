@@ -1,0 +1,330 @@
+"""Batch reprocessing: re-run reconstruction + gait analysis of recorded trials under given methods.
+
+A plan (:func:`plan_reprocess`) pairs every selected trial with every :class:`MethodSpec`, leaving out
+pairs already stored in the catalog (``services.reprocess_store``); :func:`run_plan` hands the tasks to an
+executor (``services.executors``: inline, local process pool, Ray) and counts what came back. Each task
+(:func:`run_task`, run in a worker process) checks the store again, computes, writes its files (temp +
+rename) and inserts its row idempotently. Nothing is held in memory between tasks, so a run that
+crashed or was killed simply resumes when started again: done pairs are skipped.
+
+What a task computes for trial T and method M:
+- the 3D trajectory (``reconstruction.methods.reconstruct``) and the paper's metrics (GC_5/10/20,
+  L_reproj, L_skeleton, L_smooth; MPJPE and heel/toe errors when the trial has ground truth);
+- gait analysis (``reconstruction.gait.analyze_gait``): the catalog's summary and the step count;
+- residuals against a reference, per footfall (heel/toe forward and lateral, step and stride length,
+  step width, mm) with the walkway alignment of ``reconstruction.gait``: the reference is the trial's
+  ``walkway.csv`` when there is one, else the footfalls of ``ground_truth.npz`` (synthetic trials:
+  the world's exact heel and toe points and contact times).
+
+Files of a trial (the folder of its recording): ``recording.mcap``, optional ``walkway.csv`` and
+``ground_truth.npz``; outputs under ``reprocess/<method>-<params_key>/`` (``trajectory.npz``,
+``result.json``).
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+import logging
+import os
+import socket
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from services import catalog as cat
+from services.artifacts import atomic_path, trial_files, write_bytes_atomic
+from services.method_specs import MethodSpec, canonical
+from services.reprocess_store import MethodResult, delete_failed, done_keys, get_result, put_result
+
+log = logging.getLogger(__name__)
+
+REPROCESS_DIR = "reprocess"
+WALKWAY_FILE = "walkway.csv"
+GROUND_TRUTH_FILE = "ground_truth.npz"
+SELECTABLE_STATES = ("recorded", "processing", "done", "failed")
+_CATALOGS: dict[str, cat.Catalog] = {}
+
+
+# ---------------------------------------------------------------------------------------------- selection
+@dataclass(frozen=True)
+class TrialSelection:
+    """Which trials: ``patterns`` (shell patterns matched against the trial id, the subject id and
+    ``subject/session``; empty = all) among trials in ``states``."""
+
+    patterns: tuple[str, ...] = ()
+    states: tuple[str, ...] = SELECTABLE_STATES
+
+    @classmethod
+    def parse(cls, text: str | None) -> TrialSelection:
+        """``"P001/*,2026*"`` -> patterns; empty, None or ``all`` -> every trial."""
+        items = tuple(p.strip() for p in (text or "").split(",") if p.strip())
+        return cls(() if items in ((), ("all",)) else items)
+
+    def matches(self, trial: cat.TrialInfo) -> bool:
+        if trial.state not in self.states:
+            return False
+        names = (trial.id, trial.subject_id, f"{trial.subject_id}/{trial.session}")
+        return not self.patterns or any(fnmatch.fnmatchcase(n, p) for p in self.patterns for n in names)
+
+
+@dataclass(frozen=True)
+class TrialRef:
+    """A trial to reprocess: its recording (MCAP) and its folder (reference files, outputs)."""
+
+    trial_id: str
+    recording: Path
+
+    @property
+    def folder(self) -> Path:
+        return self.recording.parent
+
+
+def select_trials(db: cat.Catalog, data_dir: Path, selection: TrialSelection) -> tuple[list[TrialRef], list[str]]:
+    """(trials with a recording, ids of matching trials whose recording file is missing), by id."""
+    found, missing = [], []
+    for trial in sorted(cat.list_trials(db, limit=10_000_000), key=lambda t: t.id):
+        if not selection.matches(trial):
+            continue
+        path = Path(trial.recording_path) if trial.recording_path else trial_files(data_dir, trial.id).recording
+        if not path.is_file():
+            path = trial_files(data_dir, trial.id).recording
+        (found.append(TrialRef(trial.id, path.resolve())) if path.is_file() else missing.append(trial.id))
+    return found, missing
+
+
+# ---------------------------------------------------------------------------------------------- plan
+@dataclass(frozen=True)
+class ReprocessTask:
+    """One (trial, method) pair; picklable, self-contained (a worker process needs nothing else)."""
+
+    catalog_url: str
+    trial: TrialRef
+    spec: MethodSpec
+    write_files: bool = True
+
+
+@dataclass(frozen=True)
+class ReprocessPlan:
+    tasks: tuple[ReprocessTask, ...]
+    trials: tuple[TrialRef, ...]
+    specs: tuple[MethodSpec, ...]
+    already_done: int
+    missing: tuple[str, ...]
+
+    @property
+    def total(self) -> int:
+        return len(self.trials) * len(self.specs)
+
+
+def plan_reprocess(db: cat.Catalog, data_dir: Path, selection: TrialSelection, specs: Iterable[MethodSpec], *,
+                   retry_failed: bool = False, write_files: bool = True) -> ReprocessPlan:
+    """Every selected trial x every method, minus pairs already stored (failed ones too, unless
+    ``retry_failed``: then those are forgotten and computed again)."""
+    specs = tuple({(s.method, s.key): s for s in reversed(list(specs))}.values())[::-1]  # first of duplicates
+    if not specs:
+        raise ValueError("method: give at least one method")
+    trials, missing = select_trials(db, Path(data_dir), selection)
+    if retry_failed:
+        delete_failed(db, [t.trial_id for t in trials])
+    done = done_keys(db)
+    tasks = [ReprocessTask(db.url, t, s, write_files) for t in trials for s in specs
+             if (t.trial_id, s.method, s.key) not in done]
+    return ReprocessPlan(tuple(tasks), tuple(trials), specs, len(trials) * len(specs) - len(tasks), tuple(missing))
+
+
+# ---------------------------------------------------------------------------------------------- running
+@dataclass(frozen=True)
+class TaskOutcome:
+    """What one task did: ``status`` computed | skipped (already stored) | failed (stored as failed)."""
+
+    trial_id: str
+    method: str
+    params_key: str
+    status: str
+    error: str = ""
+    elapsed_s: float = 0.0
+    worker: str = ""
+
+
+@dataclass(frozen=True)
+class ReprocessSummary:
+    computed: int
+    skipped: int
+    failed: int
+    outcomes: tuple[TaskOutcome, ...] = field(default_factory=tuple)
+
+
+def task_resources(gpus_per_fit: float) -> Callable[[ReprocessTask], object]:
+    """Resource request of a task: 1 CPU; ``gpus_per_fit`` GPUs for trajectory fits."""
+    from reconstruction.methods import Explicit, Implicit
+    from services.executors import TaskResources
+
+    fits = {Explicit.name, Implicit.name}
+
+    def resources(task: ReprocessTask) -> TaskResources:
+        return TaskResources(1.0, gpus_per_fit if task.spec.method in fits else 0.0)
+
+    return resources
+
+
+def run_plan(plan: ReprocessPlan, executor, *, on_outcome: Callable[[TaskOutcome], None] | None = None,
+             resources=None) -> ReprocessSummary:
+    """Run the plan's tasks on ``executor`` (``services.executors``), calling ``on_outcome`` as each ends."""
+    outcomes = []
+    for outcome in executor.map_unordered(run_task, plan.tasks, resources):
+        outcomes.append(outcome)
+        if on_outcome is not None:
+            on_outcome(outcome)
+    count = {s: sum(o.status == s for o in outcomes) for s in ("computed", "skipped", "failed")}
+    return ReprocessSummary(count["computed"], count["skipped"] + plan.already_done, count["failed"], tuple(outcomes))
+
+
+def _catalog(url: str) -> cat.Catalog:
+    if url not in _CATALOGS:
+        _CATALOGS[url] = cat.open_catalog(url)
+    return _CATALOGS[url]
+
+
+def run_task(task: ReprocessTask) -> TaskOutcome:
+    """Compute one (trial, method) result and store it (idempotent; in a worker process)."""
+    db = _catalog(task.catalog_url)
+    spec, key, worker = task.spec, task.spec.key, f"{socket.gethostname()}-{os.getpid()}"
+    if get_result(db, task.trial.trial_id, spec.method, key) is not None:
+        return TaskOutcome(task.trial.trial_id, spec.method, key, "skipped", worker=worker)
+    t0 = time.perf_counter()
+    try:
+        result = compute_result(task)
+    except Exception as exc:  # the trial's own problem: stored as a failed result with the reason
+        log.exception("trial %s, %s failed", task.trial.trial_id, spec.name)
+        message = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
+        result = MethodResult(task.trial.trial_id, spec.method, key, spec.to_dict(), "failed", message)
+    elapsed = time.perf_counter() - t0
+    result = MethodResult(**{**result.__dict__, "elapsed_s": elapsed, "worker": worker, "created_at": time.time()})
+    put_result(db, result, config=canonical(spec.config()))
+    status = "computed" if result.ok else "failed"
+    return TaskOutcome(task.trial.trial_id, spec.method, key, status, result.error, elapsed, worker)
+
+
+# ---------------------------------------------------------------------------------------------- one result
+def compute_result(task: ReprocessTask) -> MethodResult:
+    """Reconstruction, metrics, gait and residuals of one trial under one method (raises ValueError)."""
+    from reconstruction.methods import reconstruct
+    from services.processing import load_recording
+
+    det, rig = load_recording(task.trial.recording)
+    det, rig = det.aligned_to(rig)
+    truth = _truth_points(task.trial.folder, det)
+    rec = reconstruct(det, rig, method=task.spec.config(), truth_mm=truth)
+    points, times, names = np.asarray(rec.points_mm), np.asarray(rec.times_s), list(rec.joint_names)
+    sample = _clipped_sample(rec, times) if rec.trajectory is not None else None
+    gait = _gait(points, times, names, sample)
+    residuals = _residuals(task.trial, points, times, names, sample)
+    metrics = {k: v for k, v in rec.metrics.items()}
+    metrics.update({f"fit.{k}": float(v) for k, v in rec.losses.items() if np.isscalar(v)})
+    result = MethodResult(task.trial.trial_id, task.spec.method, task.spec.key, task.spec.to_dict(), "ok",
+                          skeleton=det.skeleton.name, metrics=_jsonable(metrics), gait=gait, residuals=residuals)
+    if task.write_files:
+        result = MethodResult(**{**result.__dict__, "artifacts": _write_files(task, result, points, times, names)})
+    return result
+
+
+def _clipped_sample(rec, times):
+    lo, hi = float(times[0]), float(times[-1])
+    return lambda t: np.asarray(rec.sample(np.clip(t, lo, hi)))
+
+
+def _truth_points(folder: Path, det) -> np.ndarray | None:
+    """Ground-truth points (T, J, 3) mm from ``ground_truth.npz`` when it matches the detections."""
+    path = folder / GROUND_TRUTH_FILE
+    if not path.is_file():
+        return None
+    with np.load(path, allow_pickle=False) as z:
+        points, names = z["points_mm"], tuple(str(n) for n in z["joint_names"])
+    if points.shape != (det.shape[1], det.shape[2], 3) or names != tuple(det.skeleton.joint_names):
+        log.warning("%s: shape %s / joints do not match the recording; not used", path, points.shape)
+        return None
+    return points
+
+
+def _gait(points, times, names, sample) -> dict:
+    from reconstruction.gait import analyze_gait
+    from services.trial_outputs import summary_of
+
+    try:
+        report = analyze_gait(points, times, names, sample=sample)
+    except ValueError as exc:
+        return {"problem": str(exc), "steps": 0, "summary": {}}
+    return {"problem": "", "steps": len(report.steps), "summary": summary_of(report)}
+
+
+def _reference(trial: TrialRef):
+    """The walkway footfalls to compare with: ``walkway.csv`` (the trial's rows), else ground truth."""
+    from reconstruction.gait import read_walkway_csv
+
+    walkway = trial.folder / WALKWAY_FILE
+    if walkway.is_file():
+        trials = read_walkway_csv(walkway)
+        named = [t for t in trials if t.name == trial.trial_id]
+        return "walkway", (named or list(trials))[0]
+    truth = trial.folder / GROUND_TRUTH_FILE
+    if truth.is_file():
+        return "ground truth", _truth_footfalls(truth, trial.trial_id)
+    return None, None
+
+
+def _truth_footfalls(path: Path, name: str):
+    """The straight-pass footfalls of a ground-truth file as an exact walkway (same frame and clock)."""
+    from reconstruction.gait.walkway import WalkwayTrial
+
+    with np.load(path, allow_pickle=False) as z:
+        rows = np.flatnonzero((z["step_pass"] >= 0) & np.isfinite(z["step_toe_off_s"]))
+        if len(rows) < 2:
+            raise ValueError(f"{path}: fewer than 2 straight-pass footfalls in the ground truth")
+        return WalkwayTrial(name, tuple(str(f) for f in z["step_foot"][rows]), z["step_heel_strike_s"][rows],
+                            z["step_toe_off_s"][rows], z["step_heel_mm"][rows, :2], z["step_toe_mm"][rows, :2])
+
+
+def _residuals(trial: TrialRef, points, times, names, sample) -> dict:
+    """Per-footfall kinematic - reference errors (mm) of the walkway comparison, or the reason none."""
+    from reconstruction.gait import compare_with_walkway
+    from reconstruction.gait.walkway import RESIDUAL_PARAMETERS
+
+    kind, reference = _reference(trial)
+    if reference is None:
+        return {}
+    try:
+        cmp = compare_with_walkway([(points, times, names)], [reference], samples=[sample])
+    except ValueError as exc:
+        return {"reference": kind, "problem": str(exc)}
+    out = {p: [_num(getattr(c, p)) for c in cmp.contacts] for p in RESIDUAL_PARAMETERS}
+    return {"reference": kind, "problem": "", "footfalls": len(cmp.contacts), "parameters": out,
+            "forward_bias_mm": _num(cmp.forward_bias_mm), "offset_s": _num(next(iter(cmp.offsets_s.values()), None))}
+
+
+def _num(x) -> float | None:
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+def _jsonable(value):
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic | float | int) and not isinstance(value, bool):
+        return _num(float(value))
+    return value
+
+
+def _write_files(task: ReprocessTask, result: MethodResult, points, times, names) -> dict[str, str]:
+    folder = task.trial.folder / REPROCESS_DIR / f"{task.spec.method}-{task.spec.key}"
+    npz = folder / "trajectory.npz"
+    with atomic_path(npz) as tmp, open(tmp, "wb") as f:
+        np.savez(f, points_mm=points, times_s=times, joint_names=np.array(names))
+    summary = folder / "result.json"
+    write_bytes_atomic(summary, json.dumps({**result.comparable(), "spec": result.spec}, indent=1,
+                                           default=float).encode())
+    return {"trajectory_npz": str(npz), "result_json": str(summary)}
