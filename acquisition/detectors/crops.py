@@ -51,14 +51,15 @@ class Crop:
         m = self.crop_to_image
         return points_crop_px @ m[:, :2].T + m[:, 2]
 
-    def warp(self, image: np.ndarray, *, border_value: float = 0.0) -> np.ndarray:
-        """Resample the crop from ``image`` (H, W, ch) -> (out_h, out_w, ch), outside filled with ``border_value``."""
+    def warp(self, image: np.ndarray, *, border_value: float = 0.0, replicate: bool = False) -> np.ndarray:
+        """Resample the crop from ``image`` (H, W, ch) -> (out_h, out_w, ch); outside the image filled with
+        ``border_value``, or with the nearest edge pixel when ``replicate``."""
         return cv2.warpAffine(
             image,
             self.crop_to_image,
             tuple(int(v) for v in self.out_size_px),
             flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-            borderMode=cv2.BORDER_CONSTANT,
+            borderMode=cv2.BORDER_REPLICATE if replicate else cv2.BORDER_CONSTANT,
             borderValue=(border_value,) * 3,
         )
 

@@ -289,7 +289,7 @@ class MediaPipeDetector:
     def _landmarks(self, rgb: np.ndarray, roi: Roi) -> tuple[np.ndarray, float, Roi]:
         """Landmark model on a region -> ((33, 3) keypoints, pose presence, next frame's region)."""
         crop: Crop = square_crop(roi.center_px, roi.side_px, roi.rotation_rad, LANDMARK_INPUT_PX)
-        x = crop.warp(rgb).astype(np.float32) / 255.0
+        x = crop.warp(rgb, replicate=True).astype(np.float32) / 255.0  # as MediaPipe's landmark graph
         outs = self._lm.run(x[None])
         raw = next(o for o in outs if o.size == NUM_OUTPUT_LANDMARKS * 5).reshape(NUM_OUTPUT_LANDMARKS, 5)
         flag = float(next(o for o in outs if o.size == 1).ravel()[0])
