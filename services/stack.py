@@ -3,8 +3,8 @@
 Simulated camera rig (one camera node for all cameras), simulated detector, recorder, worker(s) and the
 API, all Zenoh peers on 127.0.0.1 with explicit endpoints (a bus file written into the data folder), the
 catalog in ``<data_dir>/catalog.sqlite``, each process's log in ``<data_dir>/logs/``. :class:`Stack`
-starts them, waits until cameras, keypoints, worker and API are ready, restarts a process that dies,
-and stops everything on exit.
+starts them, waits until cameras, keypoints, worker and API are ready, restarts a process that dies
+(a supervising thread), and stops everything on exit.
 
 The simulated world is a ``sim_seconds`` long walk in the paper's room; the camera node plays it once
 and is restarted when it ends (the world starts over).
@@ -132,6 +132,8 @@ class Stack:
         self.bus = bus_config(cfg)
         self.bus_file = self.data_dir / "bus.json"
         self.supervisor = Supervisor(self.data_dir / "logs")
+        self._stop_supervising = threading.Event()
+        self._supervising: threading.Thread | None = None
 
     @property
     def page_url(self) -> str:
@@ -158,6 +160,8 @@ class Stack:
         except BaseException:
             self.stop()
             raise
+        self._supervising = threading.Thread(target=self._supervise, name="stack-supervisor", daemon=True)
+        self._supervising.start()
 
     def wait_ready(self, *, timeout_s: float) -> None:
         """Until every process logged ready, the API answers, all cameras are seen and keypoints flow."""
@@ -201,11 +205,18 @@ class Stack:
         finally:
             session.close()
 
-    def supervise(self, stop: threading.Event, *, period_s: float = 1.0) -> None:
-        """Restart processes that die until ``stop`` is set."""
-        while not stop.wait(period_s):
-            for name in self.supervisor.poll():
-                log.warning("restarted %s", name)
+    def _supervise(self, period_s: float = 0.5) -> None:
+        """Restart processes that exit (the supervising thread)."""
+        while not self._stop_supervising.wait(period_s):
+            try:
+                for name in self.supervisor.poll():
+                    log.warning("restarted %s", name)
+            except RuntimeError:
+                log.exception("giving up supervision")
+                return
 
     def stop(self) -> None:
+        self._stop_supervising.set()
+        if self._supervising is not None:
+            self._supervising.join(10)
         self.supervisor.stop()

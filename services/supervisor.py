@@ -11,6 +11,7 @@ import logging
 import os
 import signal
 import subprocess
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +45,7 @@ class Supervisor:
         self.log_dir.mkdir(parents=True, exist_ok=True)
         self.base_env = dict(os.environ if base_env is None else base_env)
         self.children: dict[str, _Child] = {}
+        self._lock = threading.RLock()  # poll() may run in a supervising thread
 
     def _spawn(self, spec: ProcessSpec) -> tuple[subprocess.Popen, Path, int]:
         path = self.log_dir / f"{spec.name}.log"
@@ -57,13 +59,18 @@ class Supervisor:
         return proc, path, offset
 
     def start(self, spec: ProcessSpec) -> None:
-        if spec.name in self.children:
-            raise ValueError(f"process {spec.name} is already running")
-        proc, path, offset = self._spawn(spec)
-        self.children[spec.name] = _Child(spec, proc, path, offset)
+        with self._lock:
+            if spec.name in self.children:
+                raise ValueError(f"process {spec.name} is already running")
+            proc, path, offset = self._spawn(spec)
+            self.children[spec.name] = _Child(spec, proc, path, offset)
 
     def pid(self, name: str) -> int:
         return self.children[name].proc.pid
+
+    def restarts(self, name: str) -> int:
+        """How often ``name`` was restarted after exiting."""
+        return self.children[name].restarts
 
     def log_text(self, name: str) -> str:
         child = self.children[name]
@@ -85,16 +92,17 @@ class Supervisor:
     def poll(self) -> list[str]:
         """Restart children that exited; returns the names restarted. Raises if one exhausted its restarts."""
         restarted = []
-        for name, child in self.children.items():
-            code = child.proc.poll()
-            if code is None:
-                continue
-            if child.restarts >= child.spec.max_restarts:
-                raise RuntimeError(f"{name} keeps exiting (code {code}); see {child.log_path}")
-            log.warning("%s exited with code %s; restarting", name, code)
-            child.proc, child.log_path, child.log_offset = self._spawn(child.spec)
-            child.restarts += 1
-            restarted.append(name)
+        with self._lock:
+            for name, child in self.children.items():
+                code = child.proc.poll()
+                if code is None:
+                    continue
+                if child.restarts >= child.spec.max_restarts:
+                    raise RuntimeError(f"{name} keeps exiting (code {code}); see {child.log_path}")
+                log.warning("%s exited with code %s; restarting", name, code)
+                child.proc, child.log_path, child.log_offset = self._spawn(child.spec)
+                child.restarts += 1
+                restarted.append(name)
         return restarted
 
     def kill(self, name: str, sig: int = signal.SIGKILL) -> None:
@@ -103,15 +111,17 @@ class Supervisor:
 
     def restart(self, name: str) -> None:
         """Stop one child (SIGTERM, then SIGKILL) and start it again."""
-        child = self.children.pop(name)
-        _terminate([child.proc], grace_s=10)
-        self.start(child.spec)
+        with self._lock:
+            child = self.children.pop(name)
+            _terminate([child.proc], grace_s=10)
+            self.start(child.spec)
 
     def stop(self, *, grace_s: float = 10.0) -> None:
         """SIGTERM every child (reverse start order), SIGKILL what is left after ``grace_s``."""
-        procs = [c.proc for c in reversed(list(self.children.values()))]
-        _terminate(procs, grace_s=grace_s)
-        self.children.clear()
+        with self._lock:
+            procs = [c.proc for c in reversed(list(self.children.values()))]
+            _terminate(procs, grace_s=grace_s)
+            self.children.clear()
 
 
 def _terminate(procs: list[subprocess.Popen], *, grace_s: float) -> None:

@@ -31,7 +31,7 @@ def free_ports(n: int) -> int:
 def running_stack(tmp_path, **overrides):
     base = free_ports(12)
     values = dict(data_dir=tmp_path / "clinic", token=TOKEN, port=base, bus_base_port=base + 1, cameras=6,
-                  size="160x120", sim_seconds=60.0, lease_s=4.0)
+                  size="160x120", sim_seconds=240.0, lease_s=4.0)
     values.update(overrides)
     stack = Stack(StackConfig(**values))
     stack.start(timeout_s=240)

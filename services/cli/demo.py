@@ -53,7 +53,7 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"API docs: {cfg.url}/docs")
             if not auto:
                 typer.echo("Press Ctrl-C to stop.", err=True)
-                stack.supervise(stop)
+                stop.wait()
                 return
             with httpx.Client(base_url=cfg.url, headers={"Authorization": f"Bearer {cfg.token}"}, timeout=30) as c:
                 typer.echo(f"recording a {seconds:.0f} s walk ...", err=True)
