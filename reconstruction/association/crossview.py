@@ -355,7 +355,7 @@ def _reprojection_cost(rig: Rig, rays: _Rays, points_mm: np.ndarray, config) -> 
 
 
 def _median_cost(rays: _Rays, proj: np.ndarray, config) -> np.ndarray:
-    diff = (rays.pixels_px[:, :, :, None] - proj[:, :, None]).astype(np.float32)
+    diff = np.clip(rays.pixels_px[:, :, :, None] - proj[:, :, None], -1e6, 1e6).astype(np.float32)
     err = np.sqrt((diff * diff).sum(-1))  # (C, T, P, K, Ja)
     n = np.isfinite(err).sum(-1)
     srt = np.sort(err, axis=-1)  # NaN last
@@ -368,10 +368,11 @@ def _median_cost(rays: _Rays, proj: np.ndarray, config) -> np.ndarray:
 
 
 def _absorb_explained(comp: np.ndarray, cost: np.ndarray) -> np.ndarray:
-    """Relabel a group into a larger one whose reprojection explains most of its detections.
+    """Relabel a group into a larger one when each explains most of the other's detections.
 
-    A person whose detections split into two groups (e.g. different joints visible, or a poor
-    two-view triangulation) yields a small group that the large group's 3D points reproject onto.
+    A person whose detections split into two groups (e.g. different joints visible) yields two
+    triangulations of one person, each reprojecting onto the other's detections. Asking both ways
+    keeps apart two people who merely overlap in some views.
     Args: comp (T, N) group of each detection; cost (C, T, P, K) from :func:`_reprojection_cost`.
     """
     c_, t_, p_, k_ = cost.shape
@@ -383,7 +384,8 @@ def _absorb_explained(comp: np.ndarray, cost: np.ndarray) -> np.ndarray:
     size = onehot.sum(1)  # (T, K)
     bigger = (size[:, None, :] > size[:, :, None]) | (
         (size[:, None, :] == size[:, :, None]) & (np.arange(k_)[None, :] < np.arange(k_)[:, None]))
-    absorb = bigger & (explained > 0.5 * size[:, :, None]) & (size[:, :, None] > 0)
+    majority = explained > 0.5 * size[:, :, None]  # [t, l, k]: most of l's detections fit k
+    absorb = bigger & majority & majority.swapaxes(1, 2) & (size[:, :, None] > 0)
     score = np.where(absorb, size[:, None, :], -1.0)
     target = np.where(absorb.any(-1), np.argmax(score, -1), np.arange(k_))  # (T, K)
     for _ in range(2):  # follow chains a -> b -> c

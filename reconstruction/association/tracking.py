@@ -4,7 +4,8 @@ Each frame's people are matched to the live tracks by an optimal assignment (Hun
 distance between a person's root and the track's predicted root (last root + velocity x elapsed time).
 The gate grows with the elapsed time, so a track survives missed frames and short occlusions for up to
 ``max_gap_s``; people who appear start new tracks (unless they sit on a person already matched in that
-frame: a second copy of that person), tracks not seen for longer end. Very short tracks
+frame: a second copy of that person), tracks not seen for longer end. Tracks (almost) never seen together
+and close where they alternate or meet are stitched into one. Very short tracks
 (flicker) are dropped at the end. The loop is over frames only, on arrays of a few people.
 """
 
@@ -32,6 +33,10 @@ class TrackingConfig:
         min_track_s: tracks shorter than this (first to last frame) are discarded.
         duplicate_mm: an unmatched person this close to a matched one in the same frame is taken for a
             second copy of that person and starts no track (its detections stay unassigned).
+        stitch_mm, stitch_window_s, stitch_overlap: two tracks seen in the same frame at most in a
+            fraction ``stitch_overlap`` of the shorter one's frames, whose sightings lie within
+            ``stitch_mm`` of each other (median, sightings at most ``stitch_window_s`` apart), are one
+            person and are merged (a noisy, rarely seen person whose position once jumped its gate).
         up_axis: vertical world axis, ignored when matching (a root's height shifts with the joints
             seen); None compares in 3D.
     """
@@ -42,6 +47,9 @@ class TrackingConfig:
     velocity_smoothing: float = 0.3
     min_track_s: float = 0.2
     duplicate_mm: float = 300.0
+    stitch_mm: float = 500.0
+    stitch_window_s: float = 0.3
+    stitch_overlap: float = 0.05
     up_axis: int | None = 2
 
     def __post_init__(self) -> None:
@@ -147,7 +155,50 @@ def link_tracks(people: FramePeople, times_s: np.ndarray, camera_names, config: 
             else:
                 state.update(i, xy[row], now, config.velocity_smoothing)
             track_of[t, k] = i
+    track_of = _stitch(track_of, pos, times_s, config)
     return _build(people, track_of, len(state.last), times_s, tuple(camera_names), config)
+
+
+def _stitch(track_of: np.ndarray, pos: np.ndarray, times_s: np.ndarray, config: TrackingConfig) -> np.ndarray:
+    """Merge tracks that are one person: (almost) never seen in the same frame, and close where they
+    alternate or meet (a noisy, rarely seen person whose position jumped out of its gate once).
+
+    Args: track_of (T, K) track of each frame person (-1 none); pos (T, K, D) their positions mm.
+    """
+    m_ = int(track_of.max()) + 1
+    if m_ < 2:
+        return track_of
+    series = np.full((m_, *pos.shape[::2]), np.nan)  # (M, T, D)
+    tt, kk = np.nonzero(track_of >= 0)
+    series[track_of[tt, kk], tt] = pos[tt, kk]
+    alias = np.arange(m_)
+    for j in range(1, m_):
+        for i in range(j):
+            if alias[i] == i and _one_person(series[i], series[j], times_s, config):
+                series[i] = np.where(np.isfinite(series[i]), series[i], series[j])
+                alias[alias == j] = i
+                break
+    return np.where(track_of >= 0, alias[np.maximum(track_of, 0)], -1)
+
+
+def _one_person(a: np.ndarray, b: np.ndarray, times_s: np.ndarray, config: TrackingConfig) -> bool:
+    """Tracks a, b (T, D) are one person: rarely seen in the same frame (at most ``stitch_overlap``
+    of the shorter one's frames) and, on median, b's sightings lie within ``stitch_mm`` of a's nearest
+    sighting (at most ``stitch_window_s`` away; same-frame sightings compare directly)."""
+    seen_a, seen_b = np.isfinite(a[:, 0]), np.isfinite(b[:, 0])
+    both = seen_a & seen_b
+    if not seen_a.any() or not seen_b.any() or both.sum() > config.stitch_overlap * min(
+            seen_a.sum(), seen_b.sum()):
+        return False
+    fa, fb = np.flatnonzero(seen_a), np.flatnonzero(seen_b)
+    at = np.searchsorted(fa, fb)
+    before, after = fa[np.clip(at - 1, 0, len(fa) - 1)], fa[np.clip(at, 0, len(fa) - 1)]
+    near = np.where(np.abs(before - fb) <= np.abs(after - fb), before, after)
+    close = np.abs(times_s[near] - times_s[fb]) <= config.stitch_window_s
+    if not close.any():
+        return False
+    dist = np.linalg.norm(a[near[close]] - b[fb[close]], axis=-1)
+    return bool(np.median(dist) < config.stitch_mm)
 
 
 class _State:
