@@ -75,7 +75,13 @@ def _centre_motion(tracks: FootTracks, config: GaitConfig):
     vel = np.gradient(xy, times, axis=0)
     speed = np.linalg.norm(vel, axis=1)
     heading = np.unwrap(np.arctan2(vel[:, 1], vel[:, 0]))
-    rate = np.degrees(np.abs(np.gradient(heading, times)))
+    # Heading rate over one smoothing window (a frame-to-frame gradient would amplify noise).
+    half = max(1, window // 2)
+    ahead = heading[np.minimum(np.arange(len(times)) + half, len(times) - 1)]
+    behind = heading[np.maximum(np.arange(len(times)) - half, 0)]
+    span = times[np.minimum(np.arange(len(times)) + half, len(times) - 1)] - times[
+        np.maximum(np.arange(len(times)) - half, 0)]
+    rate = np.degrees(np.abs(ahead - behind) / span)
     return vel, speed, heading, rate
 
 

@@ -153,3 +153,12 @@ def test_a_foot_placed_backwards_gives_no_bogus_step(walker):
     assert any("dropped" in w for w in report.warnings)
     for s in report.steps:
         assert 0 < s.step_length_mm < 1500
+
+
+def test_noisy_body_centre_still_gives_the_passes(walker):
+    walk = walker(segments=(("line", 5000), ("arc", 500, 180), ("line", 5000)))
+    points = walk.points_mm.copy()
+    points[:, :2] += np.random.default_rng(1).normal(0, 25.0, points[:, :2].shape)  # hips only
+    report = analyze_gait(points, walk.times_s, walk.joint_names)
+    assert len(report.passes) == 2
+    assert len(report.steps) >= 8
