@@ -117,6 +117,20 @@ def test_walker_anatomy_and_direction(walk):
 
 
 @needs_models
+def test_agrees_with_the_official_mediapipe(walk):
+    """Reference: Google's own mediapipe 0.10.21 (legacy ``mp.solutions.pose``, full model, video mode,
+    no smoothing) on the same frames, stored in data/ (generated once in a separate numpy<2 venv)."""
+    kp, _ = walk
+    ref = np.load(Path(__file__).parent / "data" / "mediapipe_0.10.21_sports2d_demo.npz")
+    mine = kp[ref["frames"] - FIRST]
+    dist = np.linalg.norm(mine[:, :, :2] - ref["keypoints_px"][:, :, :2], axis=-1)
+    assert np.median(dist) < 4.0  # px, in a 1768 x 994 frame (measured 1.9)
+    assert np.percentile(dist, 90) < 12.0  # (measured 5.5)
+    vis_diff = np.abs(mine[:, :, 2] - ref["keypoints_px"][:, :, 2])
+    assert np.median(vis_diff) < 0.01 and vis_diff.max() < 0.3  # (measured 0.0004, max 0.19)
+
+
+@needs_models
 def test_walker_feet_alternate_stance_and_swing(walk):
     kp, det = walk
     j = det.skeleton.index
