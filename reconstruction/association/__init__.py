@@ -18,6 +18,7 @@ from reconstruction.association.pipeline import (
     associate_and_select,
     associate_keypoints,
     default_selector,
+    walkway_from_rig,
 )
 from reconstruction.association.selection import (
     ManualTrack,
@@ -35,5 +36,5 @@ __all__ = [
     "TrackSummary", "TrackingConfig", "Tracks", "WalkwayTrack", "associate", "associate_and_select",
     "associate_frames", "associate_keypoints",
     "default_selector", "link_tracks", "patient_detections", "person_boxes", "score_association",
-    "select_track_at_pixel",
+    "select_track_at_pixel", "walkway_from_rig",
 ]

@@ -43,10 +43,47 @@ def associate(multi: MultiPersonDetections, rig: Rig, config: PipelineConfig = P
     return link_tracks(people, multi.times_s, multi.camera_names, config.tracking)
 
 
-def default_selector(rig: Rig, *, up_axis: int = 2) -> WalkwayTrack:
-    """Automatic choice: the walkway runs through the centre of the rig along the main motion."""
+def default_selector(rig: Rig, *, up_axis: int = 2, aim_height_mm: float = 900.0) -> WalkwayTrack:
+    """Automatic choice of the patient: the person who walks the walkway.
+
+    The walkway is where the cameras look: the line through the points where their optical axes reach
+    ``aim_height_mm`` above the floor (when those points spread along a line). Otherwise (e.g. every
+    camera aimed at one spot) it runs through the centre of the rig along the people's main motion.
+    """
+    line = walkway_from_rig(rig, up_axis=up_axis, aim_height_mm=aim_height_mm)
+    if line is not None:
+        return WalkwayTrack(start_mm=line[0], end_mm=line[1], up_axis=up_axis)
     centre = np.mean([cam.center_mm for cam in rig.cameras], axis=0)
     return WalkwayTrack(through_mm=tuple(float(v) for v in centre), up_axis=up_axis)
+
+
+def walkway_from_rig(
+    rig: Rig, *, up_axis: int = 2, aim_height_mm: float = 900.0, min_length_mm: float = 2000.0
+) -> tuple[tuple[float, float, float], tuple[float, float, float]] | None:
+    """The line the cameras aim along, as two points (mm), or None when their aim points do not spread
+    along a line at least ``min_length_mm`` long (twice the standard deviation along it)."""
+    aims = []
+    for cam in rig.cameras:
+        axis = cam.rotation[2]  # optical axis in world coordinates
+        if axis[up_axis] >= -1e-3:
+            continue  # level or upward: never reaches the aim height in front of the camera
+        s = (aim_height_mm - cam.center_mm[up_axis]) / axis[up_axis]
+        if 0 < s < 30_000:
+            aims.append(cam.center_mm + s * axis)
+    if len(aims) < 3:
+        return None
+    aims = np.array(aims)
+    floor = np.delete(aims, up_axis, axis=1)
+    centre = floor.mean(0)
+    _, sv, vt = np.linalg.svd(floor - centre, full_matrices=False)
+    spread = sv / np.sqrt(len(floor))  # standard deviations along the principal axes
+    if 2 * spread[0] < min_length_mm or spread[0] < 3 * spread[1]:
+        return None
+    ends = []
+    for sign in (-1, 1):
+        xy = centre + sign * 2 * spread[0] * vt[0]
+        ends.append(tuple(float(v) for v in np.insert(xy, up_axis, 0.0)))
+    return ends[0], ends[1]
 
 
 def associate_and_select(

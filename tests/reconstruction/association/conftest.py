@@ -115,3 +115,9 @@ def make_scene(*, frames=60, people=3, num_cameras=8, noise_px=1.5, seed=0, fps=
 @pytest.fixture(scope="session")
 def scene3() -> Scene:
     return make_scene(frames=60, people=3, seed=1, drop=0.05)
+
+
+@pytest.fixture(scope="session")
+def crossing_scene() -> Scene:
+    """A therapist close beside the patient (450 mm) and a third person crossing the walkway."""
+    return make_scene(frames=180, people=3, seed=5, crossing=True, beside_mm=450, noise_px=4, drop=0.15)

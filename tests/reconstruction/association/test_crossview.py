@@ -56,3 +56,4 @@ def test_unknown_camera_and_bad_config_are_named(scene3):
         AssociationConfig(ray_gap_mm=0)
     with pytest.raises(ValueError, match="no \\['left_foot_index'\\]"):
         associate_frames(scene3.multi, scene3.rig, AssociationConfig(joints=("left_foot_index",)))
+

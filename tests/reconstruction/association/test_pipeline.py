@@ -109,3 +109,12 @@ def test_raw_arrays_entry_point_and_its_errors(scene3):
     with pytest.raises(ValueError, match="camera_names"):
         associate_keypoints(scene3.multi.keypoints, rig=scene3.rig, camera_names=["a"],
                             times_s=scene3.multi.times_s)
+
+
+def test_close_companion_and_a_person_crossing_between_cameras(crossing_scene):
+    from reconstruction.association import associate
+
+    tracks = associate(crossing_scene.multi, crossing_scene.rig)
+    score = score_association(tracks.detection_track, crossing_scene.identity)
+    assert tracks.num_tracks == 3 and score.identity_switches == 0
+    assert score.wrong_fraction < 0.005 and score.missed_fraction < 0.005

@@ -71,3 +71,24 @@ def test_click_on_a_camera_preview_selects_that_person(tracked):
         select_track_at_pixel(scene.multi, tracks, camera="nope", frame=0, x_px=0, y_px=0)
     with pytest.raises(ValueError, match="frame 999"):
         select_track_at_pixel(scene.multi, tracks, camera=cam, frame=999, x_px=0, y_px=0)
+
+
+def test_walkway_is_where_the_cameras_aim(scene3):
+    from reconstruction.association.pipeline import walkway_from_rig
+    from reconstruction.camera import Camera, Rig, matrix_to_rodrigues
+
+    assert walkway_from_rig(scene3.rig) is None  # all cameras aim at one spot
+    cams = []
+    for i, x in enumerate(np.linspace(-3000, 3000, 6)):
+        side = 1 if i % 2 else -1  # cameras on both sides of a walkway along x at y = 500
+        centre = np.array([x, 500 + side * 3000, 2200])
+        z = np.array([x, 500, 900]) - centre
+        z /= np.linalg.norm(z)
+        xa = np.cross(z, [0, 0, 1.0])
+        xa /= np.linalg.norm(xa)
+        rot = np.stack([xa, np.cross(z, xa), z])
+        cams.append(Camera(f"c{i}", (640, 480), np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]]),
+                           rvec=matrix_to_rodrigues(rot), tvec_mm=-rot @ centre))
+    a, b = walkway_from_rig(Rig(tuple(cams)))
+    assert a[1] == pytest.approx(500, abs=1) and b[1] == pytest.approx(500, abs=1)
+    assert abs(b[0] - a[0]) > 4000
