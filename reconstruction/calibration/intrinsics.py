@@ -41,13 +41,18 @@ class IntrinsicsConfig:
         max_views: at most this many views per camera go into calibrateCamera (spread over the clip).
         min_views: fewer usable views than this is an error naming the camera.
         max_focal_rel_std: relative standard deviation of the focal length above which the views are
-            called degenerate (e.g. all fronto-parallel).
+            called degenerate.
+        min_tilt / min_tilted_views: a view counts as tilted when the board's depth changes by at least
+            ``min_tilt`` (relative) across it; fewer tilted views than this is degenerate (a planar board
+            held parallel to the image says nothing about the focal length).
     """
 
     distortion: DistortionModel = DistortionModel.K1
     max_views: int = 40
     min_views: int = 6
     max_focal_rel_std: float = 0.15
+    min_tilt: float = 0.03
+    min_tilted_views: int = 3
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,6 +72,22 @@ def _pick_views(frames: np.ndarray, counts: np.ndarray, max_views: int) -> np.nd
     return np.array([frames[ch[np.argmax(counts[ch])]] for ch in chunks])
 
 
+def view_tilt(object_points_mm: np.ndarray, image_px: np.ndarray) -> float:
+    """Relative depth change across a planar view, from the homography's projective row (0 = parallel)."""
+    hom, _ = cv2.findHomography(object_points_mm[:, :2], image_px, 0)
+    if hom is None or abs(hom[2, 2]) < 1e-12:
+        return 0.0
+    extent = float(np.ptp(object_points_mm[:, :2], axis=0).max())
+    return float(np.linalg.norm(hom[2, :2] / hom[2, 2]) * extent)
+
+
+def _degenerate(name: str, why: str) -> ValueError:
+    return ValueError(
+        f"camera {name!r}: board views are degenerate for intrinsics ({why}); tilt the board (about "
+        "+-30 deg) and move it across the whole image"
+    )
+
+
 def estimate_intrinsics(obs: BoardObservations, cam: int, config: IntrinsicsConfig) -> Intrinsics:
     """Calibrate camera ``cam``'s intrinsics from its own board views (each view on its own)."""
     name = obs.camera_names[cam]
@@ -80,6 +101,9 @@ def estimate_intrinsics(obs: BoardObservations, cam: int, config: IntrinsicsConf
     chosen = _pick_views(views, seen[views].sum(-1), config.max_views)
     obj = [obs.board.object_points_mm[seen[f]].astype(np.float32) for f in chosen]
     img = [obs.corners_px[cam, f][seen[f]].astype(np.float32) for f in chosen]
+    tilted = sum(view_tilt(o, i) > config.min_tilt for o, i in zip(obj, img, strict=True))
+    if tilted < config.min_tilted_views:
+        raise _degenerate(name, f"only {tilted} of {len(chosen)} views are tilted against the image plane")
     w, h = obs.image_sizes_px[cam]
     k0 = np.array([[max(w, h), 0, w / 2], [0, max(w, h), h / 2], [0, 0, 1]], dtype=np.float64)
     flags = config.distortion.cv2_flags | cv2.CALIB_USE_INTRINSIC_GUESS
@@ -91,11 +115,10 @@ def estimate_intrinsics(obs: BoardObservations, cam: int, config: IntrinsicsConf
         raise ValueError(f"camera {name!r}: intrinsic calibration failed ({exc.msg.strip()})") from None
     k = np.asarray(k, dtype=np.float64)
     focal_rel_std = float(np.max(std_intr.ravel()[:2]) / max(k[0, 0], 1e-9))
-    if not np.isfinite(focal_rel_std) or focal_rel_std > config.max_focal_rel_std or k[0, 0] <= 0:
-        raise ValueError(
-            f"camera {name!r}: board views are degenerate for intrinsics (focal length uncertain by "
-            f"{100 * focal_rel_std:.1f} %); tilt the board (about +-30 deg) and move it across the image"
-        )
+    if not np.isfinite(focal_rel_std) or focal_rel_std > config.max_focal_rel_std:
+        raise _degenerate(name, f"focal length uncertain by {100 * focal_rel_std:.1f} %")
+    if not 0.1 * w < k[0, 0] < 20 * w:
+        raise _degenerate(name, f"implausible focal length {k[0, 0]:.0f} px for a {w} px wide image")
     dist = np.asarray(dist, dtype=np.float64).ravel()[:5]
     log.debug("camera %s: intrinsics rms %.3f px from %d views", name, rms, len(chosen))
     return Intrinsics(k, np.pad(dist, (0, 5 - dist.size)), float(rms))

@@ -1,0 +1,97 @@
+"""End to end on observations of the synthetic room (reduced: 6 cameras, 300 frames)."""
+
+import numpy as np
+import pytest
+
+from acquisition.board import BoardConfig, make_board
+from acquisition.synthetic.board import BoardMotion, board_trajectory, observe_board
+from acquisition.synthetic.room import build_rig
+from reconstruction.calibration import BoardObservations, calibrate_from_observations
+from reconstruction.calibration.geometry import rotation_angle_deg
+from reconstruction.calibration_io import load_rig, save_rig
+from reconstruction.camera import Camera
+
+NOISE_PX = 0.3
+
+
+@pytest.fixture(scope="module")
+def room():
+    rig = build_rig(10, seed=0)
+    board = make_board(BoardConfig.checkerboard())
+    rot, tvec = board_trajectory(board.geometry, BoardMotion(n_frames=300, floor_frames=20, seed=1), rig)
+    obs = observe_board(rig, board.geometry, rot, tvec, noise_px=NOISE_PX, scramble=True, seed=2)
+    return rig, obs, calibrate_from_observations(obs)
+
+
+def test_recovers_the_room_rig(room):
+    rig, _, res = room
+    for true, got in zip(rig, res.rig, strict=True):
+        assert np.linalg.norm(true.center_mm - got.center_mm) < 5.0, true.name
+        assert rotation_angle_deg(true.rotation, got.rotation) < 0.2, true.name
+        assert abs(got.matrix_px[0, 0] / true.matrix_px[0, 0] - 1) < 0.005, true.name
+        assert abs(got.dist[0] - true.dist[0]) < 0.005, true.name
+        assert np.all(got.dist[1:] == 0)  # the paper's k1-only model by default
+
+
+def test_world_is_z_up_although_views_came_in_scrambled_order(room):
+    rig, obs, res = room
+    assert all(c.center_mm[2] > 1500 for c in res.rig)
+    assert not res.report.world_flipped
+    # the scrambled detector orders included mirrored ones; all views still entered the bundle
+    assert res.report.n_corners + res.report.n_outliers >= 0.98 * obs.views().sum() * obs.board.num_corners
+
+
+def test_quality_report(room, tmp_path):
+    _, obs, res = room
+    rep = res.report
+    assert NOISE_PX * np.sqrt(2) * 0.9 < rep.reprojection_rms_px < NOISE_PX * np.sqrt(2) * 1.1
+    assert abs(rep.square_residual_pct) < 0.2
+    assert rep.floor_frames == 20
+    assert [q.name for q in rep.cameras] == list(obs.camera_names)
+    assert all(q.n_detections == n for q, n in zip(rep.cameras, obs.views().sum(1), strict=True))
+    assert all(0.2 < q.coverage <= 1 and q.reprojection_p95_px > q.reprojection_mean_px for q in rep.cameras)
+    path = rep.save_json(tmp_path / "r.json")
+    assert '"reprojection_rms_px"' in path.read_text()
+    save_rig(res.rig, tmp_path / "c.toml")
+    back = load_rig(tmp_path / "c.toml")
+    assert np.allclose(back["cam01"].center_mm, res.rig["cam01"].center_mm)
+
+
+def _drop_camera_views(obs: BoardObservations, cam: int, keep: int) -> BoardObservations:
+    corners = obs.corners_px.copy()
+    views = np.flatnonzero(obs.views()[cam])
+    corners[cam, views[keep:]] = np.nan
+    return BoardObservations(obs.camera_names, obs.image_sizes_px, corners, obs.board, obs.times_s)
+
+
+def test_camera_that_never_sees_the_board_is_named(room):
+    _, obs, _ = room
+    with pytest.raises(ValueError, match=r"'cam03' \(0 views\).*record again"):
+        calibrate_from_observations(_drop_camera_views(obs, 2, 0))
+    with pytest.raises(ValueError, match=r"'cam05' \(3 views\)"):
+        calibrate_from_observations(_drop_camera_views(obs, 4, 3))
+
+
+def test_cameras_without_shared_views_are_named(room):
+    _, obs, _ = room
+    corners = obs.corners_px[:4].copy()
+    views = obs.views()[:4]
+    shared = views[3] & views[:3].any(0)
+    corners[3, shared] = np.nan  # cam04 only sees the board when none of the others does
+    assert (views[3] & ~shared).sum() >= 6, "the clip needs solo views of cam04 for this test"
+    sub = BoardObservations(obs.camera_names[:4], obs.image_sizes_px[:4], corners, obs.board)
+    with pytest.raises(ValueError, match=r"\['cam04'\] share no board views"):
+        calibrate_from_observations(sub)
+
+
+def test_fronto_parallel_views_are_degenerate():
+    board = make_board(BoardConfig.checkerboard()).geometry
+    cam = Camera("flat", (1280, 800), np.array([[900.0, 0, 640], [0, 900, 400], [0, 0, 1]]))
+    rng = np.random.default_rng(0)
+    corners = []
+    for _ in range(10):  # board parallel to the image plane at one depth, only shifted
+        pts = board.object_points_mm + [rng.uniform(-600, 0), rng.uniform(-400, 0), 2500.0]
+        corners.append(cam.project(pts) + rng.normal(0, 0.3, (board.num_corners, 2)))
+    obs = BoardObservations(("flat",), ((1280, 800),), np.array(corners)[None], board)
+    with pytest.raises(ValueError, match="camera 'flat': board views are degenerate.*0 of 10 views are tilted"):
+        calibrate_from_observations(obs)
