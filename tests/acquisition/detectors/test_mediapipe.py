@@ -3,6 +3,7 @@
 The model files and the video are installed by deploy/bootstrap.sh under <venv>/share/gaitcap/.
 """
 
+import functools
 import sys
 from pathlib import Path
 
@@ -29,6 +30,7 @@ needs_models = pytest.mark.skipif(
 )
 
 
+@functools.lru_cache(maxsize=4)
 def _frames(first, count):
     cap = cv2.VideoCapture(str(VIDEO))
     cap.set(cv2.CAP_PROP_POS_FRAMES, first)
@@ -38,7 +40,7 @@ def _frames(first, count):
         assert ok, "demo video shorter than expected"
         frames.append(frame)
     cap.release()
-    return frames
+    return tuple(frames)
 
 
 @pytest.fixture(scope="module")
@@ -128,6 +130,25 @@ def test_agrees_with_the_official_mediapipe(walk):
     assert np.percentile(dist, 90) < 12.0  # (measured 5.5)
     vis_diff = np.abs(mine[:, :, 2] - ref["keypoints_px"][:, :, 2])
     assert np.median(vis_diff) < 0.01 and vis_diff.max() < 0.3  # (measured 0.0004, max 0.19)
+
+
+@needs_models
+def test_image_mode_agrees_with_the_official_mediapipe():
+    """The person detector path (every frame detected, no tracking) against mediapipe's image mode."""
+    ref = np.load(Path(__file__).parent / "data" / "mediapipe_0.10.21_sports2d_demo.npz")
+    det = MediaPipeConfig(tracking=False).build()
+    frames = _frames(FIRST, COUNT)
+    mine = np.full((len(ref["frames"]), 33, 3), np.nan)
+    for k, f in enumerate(ref["frames"]):
+        kp = det.detect(frames[f - FIRST], camera="side", frame_id=int(f), timestamp_ns=0)
+        if len(kp):
+            mine[k] = kp[0]
+    theirs = ref["keypoints_image_mode_px"]
+    found_mine, found_theirs = np.isfinite(mine[:, 0, 0]), np.isfinite(theirs[:, 0, 0])
+    assert np.mean(found_mine == found_theirs) >= 0.9 and found_theirs.mean() > 0.7
+    both = found_mine & found_theirs
+    dist = np.linalg.norm(mine[both, :, :2] - theirs[both, :, :2], axis=-1)
+    assert np.median(dist) < 5.0  # px (measured 2.4)
 
 
 @needs_models
