@@ -43,17 +43,19 @@ class KeypointDecoder(ABC):
 
 @dataclass(frozen=True)
 class SimccDecoder(KeypointDecoder):
-    """SimCC: x = argmax(simcc_x) / ratio, y = argmax(simcc_y) / ratio, confidence = min of both maxima."""
+    """SimCC: x = argmax(simcc_x) / ratio, y = argmax(simcc_y) / ratio, confidence = min of both maxima.
+    ``y_first``: the model lists simcc_y before simcc_x."""
 
     joints: int
     split_ratio: float
+    y_first: bool = False
 
     @property
     def num_joints(self) -> int:
         return self.joints
 
     def decode(self, outputs: list[np.ndarray]) -> np.ndarray:
-        simcc_x, simcc_y = outputs
+        simcc_x, simcc_y = outputs[:2][::-1] if self.y_first else outputs[:2]
         x = np.argmax(simcc_x, axis=-1) / self.split_ratio
         y = np.argmax(simcc_y, axis=-1) / self.split_ratio
         conf = np.minimum(simcc_x.max(axis=-1), simcc_y.max(axis=-1))
@@ -97,10 +99,11 @@ def decoder_for(output_shapes: list[tuple], input_size_px: tuple[int, int]) -> K
         jy, ly = output_shapes[1][1:]
         if jx != jy or not isinstance(lx, int) or not isinstance(ly, int):
             raise ValueError(f"ONNX model: SimCC outputs disagree or are dynamic: {output_shapes[:2]}")
-        ratio = lx / w
-        if abs(ly / h - ratio) > 1e-6:
-            raise ValueError(f"ONNX model: SimCC lengths {lx}, {ly} do not match input {w}x{h} by one ratio")
-        return SimccDecoder(joints=int(jx), split_ratio=float(ratio))
+        if abs(lx / w - ly / h) < 1e-6:
+            return SimccDecoder(joints=int(jx), split_ratio=lx / w)
+        if abs(ly / w - lx / h) < 1e-6:  # simcc_y listed first
+            return SimccDecoder(joints=int(jx), split_ratio=ly / w, y_first=True)
+        raise ValueError(f"ONNX model: SimCC lengths {lx}, {ly} do not match input {w}x{h} by one ratio")
     if len(output_shapes[0]) == 4:
         _, j, hh, hw = output_shapes[0]
         if not isinstance(hh, int) or not isinstance(hw, int):

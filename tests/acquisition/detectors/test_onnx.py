@@ -18,8 +18,8 @@ from acquisition.detectors.onnx import OnnxConfig, SimccDecoder
 H, W = 128, 96  # network input (RTMPose's 256x192 halved)
 
 
-def _save(tmp_path, nodes, outputs, inits=(), name="m.onnx"):
-    inp = helper.make_tensor_value_info("input", TensorProto.FLOAT, ["N", 3, H, W])
+def _save(tmp_path, nodes, outputs, inits=(), name="m.onnx", batch="N"):
+    inp = helper.make_tensor_value_info("input", TensorProto.FLOAT, [batch, 3, H, W])
     graph = helper.make_graph(nodes, "g", [inp], outputs, initializer=list(inits))
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 18)], ir_version=9)
     onnx.checker.check_model(model)
@@ -32,7 +32,7 @@ def _i64(name, values):
     return helper.make_tensor(name, TensorProto.INT64, [len(values)], list(values))
 
 
-def simcc_blob_model(tmp_path, joints=26, ratio=2):
+def simcc_blob_model(tmp_path, joints=26, ratio=2, batch="N", swapped=False):
     """simcc_x[n, j, r*col + k] = max over rows of the channel sum at column col (same for y)."""
     nodes = [
         helper.make_node("ReduceSum", ["input", "ax1"], ["gray"], keepdims=1),  # (N,1,H,W)
@@ -52,10 +52,12 @@ def simcc_blob_model(tmp_path, joints=26, ratio=2):
         _i64("out_c", [0, joints, W * ratio]), _i64("out_r", [0, joints, H * ratio]),
     ]
     outs = [
-        helper.make_tensor_value_info("simcc_x", TensorProto.FLOAT, ["N", joints, W * ratio]),
-        helper.make_tensor_value_info("simcc_y", TensorProto.FLOAT, ["N", joints, H * ratio]),
+        helper.make_tensor_value_info("simcc_x", TensorProto.FLOAT, [batch, joints, W * ratio]),
+        helper.make_tensor_value_info("simcc_y", TensorProto.FLOAT, [batch, joints, H * ratio]),
     ]
-    return _save(tmp_path, nodes, outs, inits, name=f"simcc{joints}.onnx")
+    if swapped:
+        outs = outs[::-1]
+    return _save(tmp_path, nodes, outs, inits, name=f"simcc{joints}_{batch}_{swapped}.onnx", batch=batch)
 
 
 def heatmap_blob_model(tmp_path, joints=17, stride=4):
@@ -128,6 +130,17 @@ def test_simcc_blob_found_in_image_px_through_boxes(tmp_path):
         np.testing.assert_allclose(kp[p, :, 0], bx, atol=1.0 * scale)
         np.testing.assert_allclose(kp[p, :, 1], by, atol=1.0 * scale)
     assert np.all(kp[..., 2] == 1.0)  # bright blob -> confidence clipped to 1
+
+
+@pytest.mark.parametrize(("batch", "swapped"), [(1, False), ("N", True)])
+def test_fixed_batch_and_output_order(tmp_path, batch, swapped):
+    # A batch-1 export runs box by box; y-before-x outputs are told apart by their lengths (H != W).
+    det = OnnxConfig(model_path=simcc_blob_model(tmp_path, joints=17, batch=batch, swapped=swapped)).build()
+    blobs = [(200.0, 150.0), (470.0, 330.0)]
+    img = np.maximum(_image_with_blob(blobs[0]), _image_with_blob(blobs[1]))
+    kp = _detect(det, img, np.array([[140, 60, 250, 260], [400, 250, 520, 450]], float))
+    scale = 200 * 1.25 / H
+    np.testing.assert_allclose(kp[:, 0, :2], blobs, atol=scale)
 
 
 def test_heatmap_blob_found_in_image_px(tmp_path):
