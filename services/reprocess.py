@@ -224,7 +224,7 @@ def compute_result(task: ReprocessTask) -> MethodResult:
     gait = _gait(points, times, names, sample)
     residuals = _residuals(task.trial, points, times, names, sample)
     metrics = {k: v for k, v in rec.metrics.items()}
-    metrics.update({f"fit.{k}": float(v) for k, v in rec.losses.items() if np.isscalar(v)})
+    metrics.update({f"fit.{k}": float(v) for k, v in rec.losses.items() if np.isscalar(v) and k != "seconds"})
     result = MethodResult(task.trial.trial_id, task.spec.method, task.spec.key, task.spec.to_dict(), "ok",
                           skeleton=det.skeleton.name, metrics=_jsonable(metrics), gait=gait, residuals=residuals)
     if task.write_files:

@@ -1,0 +1,162 @@
+"""Two hosts on one machine: network namespaces joined by a veth pair. The ACQUISITION host runs the
+camera node; the PROCESSING host runs recorder, detector and worker (and the driver that starts and
+stops the trial as the clinic service does). Every Zenoh endpoint is on a veth address, so all frames
+and keypoints cross the link. Checks that the trial is recorded (all cameras, keypoints for every
+frame) and processed (state done, robust-triangulation gait results in the catalog).
+
+Needs root and ``ip netns`` (skipped with the reason otherwise); the namespaces are deleted even when
+the test fails.
+"""
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from services import catalog as cat
+
+ROOT = Path(__file__).resolve().parents[2]
+PY = [sys.executable, "-c", "from services.cli import main; main()"]
+SIM = {"preset": "paper", "seconds": 9.0, "cameras": 6, "seed": 5}
+SIM_ARGS = ["--sim-preset", SIM["preset"], "--sim-seconds", str(SIM["seconds"]), "--sim-cameras",
+            str(SIM["cameras"]), "--sim-seed", str(SIM["seed"]), "--fps", "30"]
+FRAMES = 240
+
+
+def _ip(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=20)
+
+
+def _netns_unavailable() -> str:
+    if os.geteuid() != 0:
+        return "needs root to create network namespaces"
+    if shutil.which("ip") is None:
+        return "the 'ip' command (iproute2) is not installed"
+    probe = f"gcprobe{os.getpid()}"
+    r = _ip("netns", "add", probe)
+    if r.returncode != 0:
+        return f"'ip netns add' failed: {r.stderr.strip()}"
+    _ip("netns", "del", probe)
+    return ""
+
+
+@pytest.fixture
+def two_hosts():
+    """(acq namespace, proc namespace, acq address, proc address); removed afterwards."""
+    reason = _netns_unavailable()
+    if reason:
+        pytest.skip(reason)
+    tag = f"{os.getpid() % 100000}"
+    acq, proc, veth_a, veth_p = f"gcacq{tag}", f"gcproc{tag}", f"gca{tag}", f"gcp{tag}"
+    subnet = 10 + os.getpid() % 200
+    addr_a, addr_p = f"10.231.{subnet}.1", f"10.231.{subnet}.2"
+    try:
+        for cmd in (["netns", "add", acq], ["netns", "add", proc],
+                    ["link", "add", veth_a, "type", "veth", "peer", "name", veth_p],
+                    ["link", "set", veth_a, "netns", acq], ["link", "set", veth_p, "netns", proc],
+                    ["-n", acq, "addr", "add", f"{addr_a}/24", "dev", veth_a],
+                    ["-n", proc, "addr", "add", f"{addr_p}/24", "dev", veth_p],
+                    ["-n", acq, "link", "set", veth_a, "up"], ["-n", proc, "link", "set", veth_p, "up"],
+                    ["-n", acq, "link", "set", "lo", "up"], ["-n", proc, "link", "set", "lo", "up"]):
+            r = _ip(*cmd)
+            assert r.returncode == 0, f"ip {' '.join(cmd)}: {r.stderr}"
+        yield acq, proc, addr_a, addr_p
+    finally:
+        for ns in (acq, proc):
+            _ip("netns", "del", ns)
+        _ip("link", "del", veth_a)  # only if it never left the root namespace
+
+
+class Processes:
+    def __init__(self, log_dir: Path, env: dict) -> None:
+        self.log_dir, self.env, self.procs = log_dir, env, {}
+
+    def start(self, name: str, ns: str, argv: list[str], **kwargs) -> subprocess.Popen:
+        out = open(self.log_dir / f"{name}.log", "wb")  # noqa: SIM115  (closed with the process)
+        p = subprocess.Popen(["ip", "netns", "exec", ns, *argv], env=self.env, cwd=str(ROOT),
+                             stdout=kwargs.pop("stdout", out), stderr=out, start_new_session=True, **kwargs)
+        self.procs[name] = p
+        return p
+
+    def log(self, name: str) -> str:
+        return (self.log_dir / f"{name}.log").read_text(errors="replace")[-3000:]
+
+    def stop_all(self) -> None:
+        for p in self.procs.values():
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGTERM)
+        for p in self.procs.values():
+            try:
+                p.wait(15)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait(5)
+
+
+def _read_event(proc: subprocess.Popen, expected: str, timeout_s: float) -> dict:
+    import selectors
+
+    sel = selectors.DefaultSelector()
+    sel.register(proc.stdout, selectors.EVENT_READ)
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if sel.select(timeout=1.0):
+            line = proc.stdout.readline()
+            if not line:
+                break
+            msg = json.loads(line)
+            if msg.get("event") == expected:
+                return msg
+    raise AssertionError(f"driver: no {expected!r} event within {timeout_s} s (exit code {proc.poll()})")
+
+
+def test_trial_recorded_and_processed_across_two_hosts(tmp_path, two_hosts):
+    acq, proc_ns, addr_a, addr_p = two_hosts
+    bus_file = tmp_path / "bus.json5"
+    bus_file.write_text(json.dumps({"prefix": "gaitcap/netns", "lease_ms": 3000, "nodes": {
+        "camera-0": f"tcp/{addr_a}:7447",
+        "recorder": f"tcp/{addr_p}:7447", "detector": f"tcp/{addr_p}:7448", "worker": f"tcp/{addr_p}:7449"}}))
+    data = tmp_path / "data"
+    data.mkdir()
+    env = dict(os.environ, GAITCAP_BUS=str(bus_file), PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1")
+    procs = Processes(tmp_path, env)
+    try:
+        procs.start("recorder", proc_ns, [*PY, "node", "recorder", "--node", "recorder", "--flush-s", "0.5"])
+        procs.start("detector", proc_ns, [*PY, "node", "detector", "--node", "detector", *SIM_ARGS])
+        procs.start("worker", proc_ns, [*PY, "worker", "--node", "worker", "--data-dir", str(data), "--no-refine",
+                                        "--no-warm-up", "--lease", "30"])
+        driver = procs.start("driver", proc_ns, [sys.executable, str(ROOT / "tests/deploy/two_host_driver.py"),
+                                                 str(bus_file), str(data), json.dumps(SIM)],
+                             stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+        trial_id = _read_event(driver, "recording", 150)["trial_id"]
+        start_ns = time.time_ns() + 8_000_000_000  # a synchronised start once the node is up
+        camera = procs.start("camera-0", acq, [*PY, "node", "camera", "--node", "camera-0", *SIM_ARGS,
+                                               "--size", "160x120", "--frames", str(FRAMES),
+                                               "--start-at-ns", str(start_ns)])
+        assert camera.wait(timeout=150) == 0, procs.log("camera-0")
+        driver.stdin.write(b"stop\n")
+        driver.stdin.flush()
+        summary = _read_event(driver, "queued", 60)["summary"]
+        assert summary["frames"] == SIM["cameras"] * FRAMES, summary
+        assert summary["keypoints"] == summary["frames"], summary
+        db = cat.open_catalog(data / "catalog.sqlite")
+        deadline = time.monotonic() + 180
+        while cat.get_trial(db, trial_id).state not in ("done", "failed") and time.monotonic() < deadline:
+            time.sleep(0.5)
+        trial = cat.get_trial(db, trial_id)
+        assert trial.state == "done", f"{trial.state} {trial.error}\n{procs.log('worker')}"
+        result = cat.get_result(db, trial_id, "preliminary")
+        assert result.method == "robust triangulation" and result.quality is not None
+        assert len(result.steps) >= 3, (result.steps, result.report)
+        from acquisition.recording.reader import read_detections
+
+        det = read_detections(Path(trial.recording_path))
+        assert det.shape == (SIM["cameras"], FRAMES, 26)
+    finally:
+        procs.stop_all()
