@@ -4,7 +4,9 @@ Method: the horizontal body centre (mid-hip, else the feet) is smoothed with a m
 one stride (``bout_smoothing_s``) so the step-to-step sway cancels. Frames faster than
 ``min_walking_speed_mm_s`` are walking, the rest standing. Walking frames whose heading turns faster
 than ``max_turn_rate_deg_s``, or that deviate from their pass's median heading by more than
-``max_heading_deviation_deg``, are turns. Straight walking runs of at least ``min_pass_s`` are passes.
+``max_heading_deviation_deg``, are turns. Straight walking runs of at least ``min_pass_s``, trimmed to
+where the speed is at least ``steady_speed_fraction`` of their median (no starting or stopping), are
+passes.
 Bias: the smoothing widens turns and standing by up to half a window, so a step right next to a turn
 may be dropped; steps are never invented.
 """
@@ -22,8 +24,8 @@ from reconstruction.gait.tracks import CENTER, FootTracks
 
 @dataclass(frozen=True)
 class Segment:
-    """A stretch of the trial: kind is "pass" (straight walking), "turn", "standing" or "gap" (no data);
-    times in s."""
+    """A stretch of the trial: kind is "pass" (straight steady walking), "turn", "transition" (straight but
+    speeding up or slowing down), "standing" or "gap" (no data); times in s."""
 
     kind: str
     start_s: float
@@ -97,6 +99,17 @@ def find_bouts(tracks: FootTracks, config: GaitConfig = GaitConfig()) -> Bouts:
         med = np.median(heading[a:b + 1])
         dev = np.degrees(np.abs(heading[a:b + 1] - med))
         straight[a:b + 1] &= dev <= config.max_heading_deviation_deg
+    # Steady walking only: the ends of a pass where the body is still speeding up or slowing down
+    # (starting from standing, stopping, leaving a turn) are not part of it.
+    unsteady = np.zeros_like(straight)
+    for a, b in _runs(straight):
+        steady = speed[a:b + 1] >= config.steady_speed_fraction * np.median(speed[a:b + 1])
+        inside = np.flatnonzero(steady)
+        straight[a:b + 1] = False
+        unsteady[a:b + 1] = True
+        if len(inside):
+            straight[a + inside[0]:a + inside[-1] + 1] = True
+    unsteady &= ~straight
     passes = []
     for a, b in _runs(straight):
         if times[b] - times[a] < config.min_pass_s:
@@ -106,10 +119,10 @@ def find_bouts(tracks: FootTracks, config: GaitConfig = GaitConfig()) -> Bouts:
         direction = v / np.linalg.norm(v)
         passes.append(Pass(len(passes), float(times[a]), float(times[b]),
                            (float(direction[0]), float(direction[1])), float(np.median(speed[a:b + 1]))))
-    kinds = np.where(straight, 0, np.where(walking, 1, np.where(valid, 2, 3)))
+    kinds = np.where(straight, 0, np.where(unsteady, 4, np.where(walking, 1, np.where(valid, 2, 3))))
     segments = []
     edges = np.flatnonzero(np.diff(kinds)) + 1
     for a, b in zip(np.r_[0, edges], np.r_[edges, len(times)], strict=True):
-        kind = ("pass", "turn", "standing", "gap")[kinds[a]]
+        kind = ("pass", "turn", "standing", "gap", "transition")[kinds[a]]
         segments.append(Segment(kind, float(times[a]), float(times[b - 1])))
     return Bouts(tuple(segments), tuple(passes))

@@ -21,6 +21,8 @@ class GaitConfig:
         max_turn_rate_deg_s: heading rate above which walking counts as turning (deg/s).
         max_heading_deviation_deg: largest heading deviation from a pass's median heading (deg).
         min_pass_s: shortest straight walking segment kept as a pass (s).
+        steady_speed_fraction: a pass's ends slower than this fraction of its median speed (starting,
+            stopping) are not part of it.
         rest_speed_fraction: foot point at rest when slower than this fraction of the walking speed,
             or than ``rest_noise_factor`` x the feet's noise at rest if that is higher.
         rest_noise_factor: see rest_speed_fraction.
@@ -53,6 +55,7 @@ class GaitConfig:
     max_turn_rate_deg_s: float = 35.0
     max_heading_deviation_deg: float = 25.0
     min_pass_s: float = 1.5
+    steady_speed_fraction: float = 0.8
     rest_speed_fraction: float = 0.08
     rest_noise_factor: float = 2.0
     min_rest_speed_mm_s: float = 40.0
