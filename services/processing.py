@@ -109,14 +109,27 @@ def refined(det: Detections, rig: Rig) -> Trajectory:
 
     t0 = time.perf_counter()
     rec = reconstruct(det, rig, method=Implicit())
-    lo, hi = float(rec.times_s[0]), float(rec.times_s[-1])
-
-    def sample(times_s: np.ndarray) -> np.ndarray:  # event search may step a hair past the ends
-        return rec.sample(np.clip(times_s, lo, hi))
-
     return Trajectory("implicit trajectory fit", np.asarray(rec.points_mm), np.asarray(rec.times_s),
-                      tuple(rec.joint_names), num_views=None, sample=sample,
+                      tuple(rec.joint_names), num_views=None, sample=dense_sampler(rec.sample, rec.times_s),
                       metrics=_plain_metrics(rec.metrics), elapsed_s=time.perf_counter() - t0)
+
+
+def dense_sampler(sample: Callable[[np.ndarray], np.ndarray], times_s: np.ndarray, *, oversample: int = 4):
+    """Evaluate a continuous trajectory once on a grid ``oversample`` times finer than the frames and
+    return a cubic-spline sampler over it (times clipped to the trial): one call to the fitted function
+    instead of one per event search, same values to well under a millimetre for a band-limited fit."""
+    from scipy.interpolate import CubicSpline
+
+    lo, hi = float(times_s[0]), float(times_s[-1])
+    grid = np.linspace(lo, hi, oversample * (len(times_s) - 1) + 1)
+    dense = np.asarray(sample(grid))
+    spline = CubicSpline(grid, dense.reshape(len(grid), -1), axis=0)
+
+    def sampled(t: np.ndarray) -> np.ndarray:
+        t = np.clip(np.asarray(t, dtype=np.float64), lo, hi)
+        return spline(t).reshape(*t.shape, *dense.shape[1:])
+
+    return sampled
 
 
 def _plain_metrics(metrics: dict) -> dict:

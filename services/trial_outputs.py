@@ -115,9 +115,9 @@ def report_png(traj: Trajectory, report, *, title: str) -> bytes:
     return buf.getvalue()
 
 
-def write_stage(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str, bones=(),
-                rrd: bool = True) -> dict[str, str]:
-    """Write every file of one stage; returns artifact key -> path."""
+def write_stage(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str) -> dict[str, str]:
+    """Write the stage's trajectory (npz, TRC), gait report (JSON, CSV) and plot; returns key -> path.
+    The Rerun file is written separately (:func:`write_rrd`)."""
     from reconstruction.trc import to_trc
 
     write_npz(files.stage_file(stage, "trajectory_npz"), traj)
@@ -128,6 +128,4 @@ def write_stage(files: TrialFiles, stage: str, traj: Trajectory, report, *, tria
         report.write_csv(files.stage_file(stage, "steps_csv"))
     title = f"Trial {trial_id}: {stage} ({traj.method})"
     write_bytes_atomic(files.stage_file(stage, "report_png"), report_png(traj, report, title=title))
-    if rrd:
-        write_rrd(files.stage_file(stage, "rerun_rrd"), traj, trial_id=trial_id, bones=bones)
     return files.existing(stage)

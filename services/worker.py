@@ -32,7 +32,7 @@ from services.processing import (
     ring_rig,
     warm_up,
 )
-from services.trial_outputs import steps_of, summary_of, write_stage
+from services.trial_outputs import steps_of, summary_of, write_rrd, write_stage
 
 log = logging.getLogger(__name__)
 
@@ -160,8 +160,10 @@ class Worker:
             return
         files = trial_files(self.config.data_dir, trial_id)
         self._report(trial_id, "processing", "reading the recording", 0.05, None)
+        t0 = time.perf_counter()
         det, rig = load_recording(files.recording, fallback_calibration=self.config.fallback_calibration)
         det, rig = det.aligned_to(rig)
+        self.load_s = time.perf_counter() - t0
         self._report(trial_id, "processing", "first 3D reconstruction", 0.1, None)
         traj = preliminary(det, rig)
         lease.check()
@@ -189,16 +191,21 @@ class Worker:
         except ValueError as exc:
             problem = str(exc)
             log.warning("trial %s %s: no gait parameters: %s", trial_id, stage, exc)
+        gait_s = time.perf_counter() - t0
         files = trial_files(self.config.data_dir, trial_id)
-        artifacts = write_stage(files, stage, traj, report, trial_id=trial_id, bones=det.skeleton.bone_indices,
-                                rrd=rrd)
+        artifacts = write_stage(files, stage, traj, report, trial_id=trial_id)
+        if rrd:  # written after the result is stored: a download, not needed by the page
+            artifacts["rerun_rrd"] = str(files.stage_file(stage, "rerun_rrd"))
         extra = {"warnings": list(report.warnings) if report else [], "problem": problem,
-                 "compute_s": round(traj.elapsed_s, 3), "gait_and_files_s": round(time.perf_counter() - t0, 3)}
+                 "load_s": round(getattr(self, "load_s", 0.0), 3), "compute_s": round(traj.elapsed_s, 3),
+                 "gait_s": round(gait_s, 3), "gait_and_files_s": round(time.perf_counter() - t0, 3)}
         cat.store_result(self.db, trial_id=trial_id, stage=stage, method=traj.method,
                          steps=steps_of(report) if report else [], summary=summary_of(report) if report else {},
                          report=extra, quality=traj.metrics or {}, artifacts=artifacts,
                          elapsed_s=traj.elapsed_s + time.perf_counter() - t0)
-        log.info("trial %s: %s results stored (%.2f s compute)", trial_id, stage, traj.elapsed_s)
+        log.info("trial %s: %s results stored (%s)", trial_id, stage, extra)
+        if rrd:
+            write_rrd(files.stage_file(stage, "rerun_rrd"), traj, trial_id=trial_id, bones=det.skeleton.bone_indices)
 
 
 def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:
