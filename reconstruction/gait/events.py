@@ -19,9 +19,10 @@ the following swing's peak speed (falls back to the event-speed crossing). Feet 
 this level costs a few ms, and it is far above the wobble a fitted toe shows during heel rise.
 
 Known biases (measured on the synthetic world, 30 fps): heel strike comes early by the time the foot
-needs to slow from the event speed to rest (ground truth frames: -6 +- 6 ms; a first step from standing,
-slow to land, up to -34 ms; robust triangulation of clean detections -17 +- 8 ms, noisy ones -16 +- 17
-ms); toe off comes late by the push-off's rise to 10 % of peak (+5 +- 4 ms). Noise raises the event
+needs to slow from the event speed to rest (steady steps: ground truth frames -4 +- 3 ms; robust
+triangulation of clean detections -15 +- 5 ms, of noisy ones -16 +- 17 ms; slow landings such as a
+first step from standing up to -35 ms on ground truth); toe off comes late by the push-off's rise to
+10 % of peak (+5 +- 2 ms). Noise raises the event
 speed and thus the bias; noisy frames are smoothed (``smoothing_window_s``), which blurs the events
 further; so does a trajectory fit that blurs the foot's stop and push-off. Toe walkers' "heel strike"
 is their initial contact with the toe.
