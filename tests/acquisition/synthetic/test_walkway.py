@@ -100,3 +100,17 @@ def test_session_of_two_trials_shares_one_transform(trial):
     assert result.transform.scale == pytest.approx(first.transform.scale, abs=1e-3)
     assert {r.trial for r in result.contacts} == {"a", "b"}
     assert result.residuals["step_width_mm"].sigma_iqr < 5.0
+
+
+def test_ground_truth_frames_alone_give_events_within_a_frame(trial):
+    times, points, truth, _ = trial
+    report = analyze_gait(points, times, get_skeleton("halpe26").joint_names)  # 30 fps frames, no function
+    in_pass = [c for c in report.contacts if any(p.contains(c.heel_strike_s) for p in report.passes)]
+    assert len(in_pass) >= 10
+    for c in in_pass:
+        assert np.min(np.abs(truth.heel_strike_s[c.foot] - c.heel_strike_s)) < 1 / 30
+        if np.isfinite(c.toe_off_s):
+            assert np.min(np.abs(truth.toe_off_s[c.foot] - c.toe_off_s)) < 1 / 30
+    for s in report.steps:
+        k = int(np.argmin(np.abs(truth.steps.heel_strike_s - s.heel_strike_s)))
+        assert s.step_length_mm == pytest.approx(truth.steps.step_length_mm[k], abs=1.0)
