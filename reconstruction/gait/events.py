@@ -206,10 +206,12 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
         low = ((frames[:, h, 2] - z_heel) < config.max_contact_lift_mm) | (
             (frames[:, t, 2] - z_toe) < config.max_contact_lift_mm)
         rest = (np.minimum(speed[:, h], speed[:, t]) < v_rest) & low
-        rest = _clean(rest, times, config.min_swing_s, config.min_stance_s)
+        rest = _clean(rest, times, config.min_swing_s, 0.0)
         edges = np.flatnonzero(np.diff(np.r_[0, rest.astype(int), 0]))
         runs = _merge_in_place(list(zip(edges[::2], edges[1::2] - 1, strict=True)), frames[:, h],
                                speed[:, h], v_rest, config.min_foot_travel_mm)
+        # Short contacts go only now, so that a blip inside a stance cannot cut off the stance's end.
+        runs = [(a, b) for a, b in runs if times[b] - times[a] + dt >= config.min_stance_s]
         last = len(times) - 1
         starts = np.array([[times[max(a - 3, 0)], times[min(a + 2, b)]] for a, b in runs if a > 0]).reshape(-1, 2)
         ends = np.array([[times[max(b - 2, a)], times[min(b + 3, last)]] for a, b in runs if b < last]).reshape(-1, 2)
