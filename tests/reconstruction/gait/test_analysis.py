@@ -162,3 +162,16 @@ def test_noisy_body_centre_still_gives_the_passes(walker):
     report = analyze_gait(points, walk.times_s, walk.joint_names)
     assert len(report.passes) == 2
     assert len(report.steps) >= 8
+
+
+def test_any_skeleton_with_heels_and_toes(walker):
+    from reconstruction.skeletons import get_skeleton
+
+    walk = walker()
+    mediapipe = tuple(n.replace("big_toe", "foot_index") for n in walk.joint_names)
+    assert all(n in get_skeleton("mediapipe33").joint_names for n in mediapipe)
+    steps = analyze_gait(walk.points_mm, walk.times_s, mediapipe).steps
+    assert len(steps) >= 6 and all(abs(s.step_length_mm - 650.0) < 1.0 for s in steps)
+    coco = get_skeleton("coco17").joint_names
+    with pytest.raises(ValueError, match="heel"):
+        analyze_gait(np.zeros((100, len(coco), 3)), np.arange(100) / 30.0, coco)
