@@ -190,44 +190,59 @@ def _merge_in_place(runs: list[tuple[int, int]], heel_mm: np.ndarray, heel_speed
     return merged
 
 
+def _contact_runs(tracks: FootTracks, side: str, speed: np.ndarray, v_rest: float, config: GaitConfig):
+    """Frame runs (first, last) of one foot's contacts, and the cleaned (T,) at-rest mask."""
+    times, frames = tracks.times_s, tracks.frames_mm
+    h, t = HEEL[side], TOE[side]
+    dt = float(np.median(np.diff(times)))
+    z_heel = np.percentile(frames[tracks.valid[:, h], h, 2], 10)
+    z_toe = np.percentile(frames[tracks.valid[:, t], t, 2], 10)
+    low = ((frames[:, h, 2] - z_heel) < config.max_contact_lift_mm) | (
+        (frames[:, t, 2] - z_toe) < config.max_contact_lift_mm)
+    rest = _clean((np.minimum(speed[:, h], speed[:, t]) < v_rest) & low, times, config.min_swing_s, 0.0)
+    edges = np.flatnonzero(np.diff(np.r_[0, rest.astype(int), 0]))
+    runs = _merge_in_place(list(zip(edges[::2], edges[1::2] - 1, strict=True)), frames[:, h],
+                           speed[:, h], v_rest, config.min_foot_travel_mm)
+    # Short contacts go only now, so that a blip inside a stance cannot cut off the stance's end.
+    return [(a, b) for a, b in runs if times[b] - times[a] + dt >= config.min_stance_s], rest
+
+
+def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: np.ndarray, v_rest: float,
+                 config: GaitConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(R,) heel strike and toe off times (s) of the runs; NaN where a run touches the trial's ends."""
+    times = tracks.times_s
+    last, dt = len(times) - 1, float(np.median(np.diff(times)))
+    h, t = HEEL[side], TOE[side]
+    v_event = _event_speed(speed[:, h], speed[:, t], rest, v_rest, config)
+    starts = np.array([[times[max(a - 3, 0)], times[min(a + 2, b)]] for a, b in runs if a > 0]).reshape(-1, 2)
+    ends = np.array([[times[max(b - 2, a)], times[min(b + 3, last)]] for a, b in runs if b < last]).reshape(-1, 2)
+    hs = _events(tracks, side, starts, v_event, falling=True, config=config, dt=dt)
+    to = _events(tracks, side, ends, v_event, falling=False, config=config, dt=dt)
+    if config.toe_off_peak_fraction > 0:
+        next_start = [times[runs[k + 1][0]] if k + 1 < len(runs) else times[-1]
+                      for k, (_, b) in enumerate(runs) if b < last]
+        brisk = _departures(tracks, side, np.array([times[b] for _, b in runs if b < last]),
+                            np.array(next_start), v_rest, config)
+        to = np.where(np.isfinite(brisk), brisk, to)
+    hs_all, to_all = np.full(len(runs), np.nan), np.full(len(runs), np.nan)
+    hs_all[[i for i, (a, _) in enumerate(runs) if a > 0]] = hs
+    to_all[[i for i, (_, b) in enumerate(runs) if b < last]] = to
+    return hs_all, to_all
+
+
 def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
                     config: GaitConfig = GaitConfig()) -> tuple[Contact, ...]:
     """All foot contacts of the trial, both feet, ordered by heel strike (see the module docstring)."""
-    times = tracks.times_s
+    times, frames = tracks.times_s, tracks.frames_mm
     v_rest = rest_speed_mm_s(walking_speed_mm_s, config, tracks.rest_noise_mm_s())
     speed = tracks.speed_mm_s(times)
-    frames = tracks.frames_mm
     dt = float(np.median(np.diff(times)))
     contacts: list[Contact] = []
     for side in SIDES:
         h, t = HEEL[side], TOE[side]
-        z_heel = np.percentile(frames[tracks.valid[:, h], h, 2], 10)
-        z_toe = np.percentile(frames[tracks.valid[:, t], t, 2], 10)
-        low = ((frames[:, h, 2] - z_heel) < config.max_contact_lift_mm) | (
-            (frames[:, t, 2] - z_toe) < config.max_contact_lift_mm)
-        rest = (np.minimum(speed[:, h], speed[:, t]) < v_rest) & low
-        rest = _clean(rest, times, config.min_swing_s, 0.0)
-        edges = np.flatnonzero(np.diff(np.r_[0, rest.astype(int), 0]))
-        runs = _merge_in_place(list(zip(edges[::2], edges[1::2] - 1, strict=True)), frames[:, h],
-                               speed[:, h], v_rest, config.min_foot_travel_mm)
-        # Short contacts go only now, so that a blip inside a stance cannot cut off the stance's end.
-        runs = [(a, b) for a, b in runs if times[b] - times[a] + dt >= config.min_stance_s]
-        last = len(times) - 1
-        starts = np.array([[times[max(a - 3, 0)], times[min(a + 2, b)]] for a, b in runs if a > 0]).reshape(-1, 2)
-        ends = np.array([[times[max(b - 2, a)], times[min(b + 3, last)]] for a, b in runs if b < last]).reshape(-1, 2)
-        v_event = _event_speed(speed[:, h], speed[:, t], rest, v_rest, config)
-        hs = iter(_events(tracks, side, starts, v_event, falling=True, config=config, dt=dt))
-        to_t = _events(tracks, side, ends, v_event, falling=False, config=config, dt=dt)
-        if config.toe_off_peak_fraction > 0:
-            next_start = [times[runs[k + 1][0]] if k + 1 < len(runs) else times[-1]
-                          for k, (_, b) in enumerate(runs) if b < last]
-            brisk = _departures(tracks, side, np.array([times[b] for _, b in runs if b < last]),
-                                np.array(next_start), v_rest, config)
-            to_t = np.where(np.isfinite(brisk), brisk, to_t)
-        to = iter(to_t)
-        for a, b in runs:
-            t_hs = next(hs) if a > 0 else np.nan
-            t_to = next(to) if b < len(times) - 1 else np.nan
+        runs, rest = _contact_runs(tracks, side, speed, v_rest, config)
+        hs, to = _event_times(tracks, side, runs, speed, rest, v_rest, config)
+        for (a, b), t_hs, t_to in zip(runs, hs, to, strict=True):
             heel, spread = _rest_point(frames[a:b + 1, h], speed[a:b + 1, h], v_rest)
             toe, _ = _rest_point(frames[a:b + 1, t], speed[a:b + 1, t], v_rest)
             ok = bool(np.isfinite(t_hs) and tracks.is_valid(times[a] - 4 * dt, times[b] + 4 * dt, (h, t)))
