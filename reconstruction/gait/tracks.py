@@ -105,19 +105,7 @@ class FootTracks:
         config: GaitConfig = GaitConfig(),
     ) -> FootTracks:
         """Validate a (T, J, 3) trajectory and build the tracks (see the module docstring)."""
-        points = np.asarray(points_mm, dtype=np.float64)
-        times = np.asarray(times_s, dtype=np.float64)
-        if points.ndim != 3 or points.shape[-1] != 3:
-            raise ValueError(f"points_mm: expected shape (T, J, 3), got {points.shape}")
-        if times.shape != (points.shape[0],):
-            raise ValueError(f"times_s: expected shape ({points.shape[0]},), got {times.shape}")
-        if len(joint_names) != points.shape[1]:
-            raise ValueError(f"joint_names: {len(joint_names)} names for {points.shape[1]} joints")
-        if not np.isfinite(times).all() or (np.diff(times) <= 0).any():
-            raise ValueError("times_s: must be finite and strictly increasing")
-        if len(times) < 4 or times[-1] - times[0] < config.min_trial_s:
-            duration = times[-1] - times[0] if len(times) else 0.0
-            raise ValueError(f"trial too short: {duration:.2f} s (need at least {config.min_trial_s} s)")
+        points, times = _validated(points_mm, times_s, joint_names, config)
         feet, center = foot_joint_indices(joint_names)
         frames = np.concatenate([points[:, feet], points[:, center].mean(axis=1, keepdims=True)], axis=1)
         finite = np.isfinite(frames).all(axis=(1, 2))
@@ -127,27 +115,16 @@ class FootTracks:
         filled, valid = _fill_gaps(frames, times, config.max_fill_gap_s)
         gaps = tuple(_runs(~valid[:, k], times) for k in range(valid.shape[1]))
         if sample is not None:
-            index = np.asarray(feet + [center[0]])
-
-            def sampler(t: np.ndarray, _index=index, _center=center, _lo=times[0], _hi=times[-1]) -> np.ndarray:
-                t = np.clip(np.asarray(t, dtype=np.float64), _lo, _hi)  # the caller's may refuse outside
-                full = np.asarray(sample(t), dtype=np.float64)
-                out = full[:, _index]
-                out[:, CENTER] = full[:, _center].mean(axis=1)
-                return out
-
+            sampler = _caller_sampler(sample, feet, center, times)
             sampled = sampler(times)
-            sampled = np.where(np.isfinite(sampled), sampled, filled)
-            return cls(times, sampled, valid, sampler, gaps, continuous=True)
-        else:
-            window = config.smoothing_window_s
-            if window is None:
-                raw = cls(times, filled, valid, _spline_sampler(times, filled), gaps)
-                noisy = raw.rest_noise_mm_s() > config.auto_smoothing_noise_mm_s
-                window = config.auto_smoothing_window_s if noisy else 0.0
-            frames_out = _smooth(filled, times, window)
-            sampler = _spline_sampler(times, frames_out)
-        return cls(times, frames_out, valid, sampler, gaps)
+            return cls(times, np.where(np.isfinite(sampled), sampled, filled), valid, sampler, gaps, continuous=True)
+        window = config.smoothing_window_s
+        if window is None:
+            raw = cls(times, filled, valid, _spline_sampler(times, filled), gaps)
+            noisy = raw.rest_noise_mm_s() > config.auto_smoothing_noise_mm_s
+            window = config.auto_smoothing_window_s if noisy else 0.0
+        frames_out = _smooth(filled, times, window)
+        return cls(times, frames_out, valid, _spline_sampler(times, frames_out), gaps)
 
     def frame_spline(self) -> FootTracks:
         """The same tracks with a cubic spline through ``frames_mm`` as sampler (self if already one)."""
@@ -181,6 +158,40 @@ class FootTracks:
     def all_gaps_s(self) -> list[tuple[float, float]]:
         """Sorted untrusted gaps of any point (s)."""
         return sorted({g for gaps in self.gaps_s for g in gaps})
+
+
+def _validated(points_mm, times_s, joint_names, config: GaitConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(T, J, 3) points and (T,) times as float arrays; ValueError naming what is wrong."""
+    points = np.asarray(points_mm, dtype=np.float64)
+    times = np.asarray(times_s, dtype=np.float64)
+    if points.ndim != 3 or points.shape[-1] != 3:
+        raise ValueError(f"points_mm: expected shape (T, J, 3), got {points.shape}")
+    if times.shape != (points.shape[0],):
+        raise ValueError(f"times_s: expected shape ({points.shape[0]},), got {times.shape}")
+    if len(joint_names) != points.shape[1]:
+        raise ValueError(f"joint_names: {len(joint_names)} names for {points.shape[1]} joints")
+    if not np.isfinite(times).all() or (np.diff(times) <= 0).any():
+        raise ValueError("times_s: must be finite and strictly increasing")
+    if len(times) < 4 or times[-1] - times[0] < config.min_trial_s:
+        duration = times[-1] - times[0] if len(times) else 0.0
+        raise ValueError(f"trial too short: {duration:.2f} s (need at least {config.min_trial_s} s)")
+    return points, times
+
+
+def _caller_sampler(sample: Callable[[np.ndarray], np.ndarray], feet: list[int], center: list[int],
+                    times_s: np.ndarray) -> Sampler:
+    """The caller's (N,) -> (N, J, 3) function reduced to the 5 tracked points, clipped to the trial."""
+    index = np.asarray(feet + [center[0]])
+    lo, hi = float(times_s[0]), float(times_s[-1])
+
+    def sampler(t: np.ndarray) -> np.ndarray:
+        t = np.clip(np.asarray(t, dtype=np.float64), lo, hi)  # the caller's may refuse outside
+        full = np.asarray(sample(t), dtype=np.float64)
+        out = full[:, index]
+        out[:, CENTER] = full[:, center].mean(axis=1)
+        return out
+
+    return sampler
 
 
 def _spline_sampler(times_s: np.ndarray, frames: np.ndarray) -> Sampler:
