@@ -1,14 +1,18 @@
+import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 from typer.testing import CliRunner
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "reconstruction" / "gait"))
-from conftest import make_walk  # noqa: E402
+from services.cli import app
 
-from services.cli import app  # noqa: E402
+# The gait tests' analytic walker (loaded under its own name: every test folder has a conftest).
+_WALKER = Path(__file__).resolve().parents[2] / "reconstruction" / "gait" / "conftest.py"
+_spec = importlib.util.spec_from_file_location("gait_test_walker", _WALKER)
+_module = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_module)
+make_walk = _module.make_walk
 
 
 def test_gait_command_json_csv_plot(tmp_path):
