@@ -19,12 +19,19 @@ def checked_trial_id(trial_id: str) -> str:
         raise HTTPException(status_code=422, detail=str(exc)) from None
 
 
-def trial_out(db: cat.Catalog, t: cat.TrialInfo) -> TrialOut:
+def trial_out(db: cat.Catalog, t: cat.TrialInfo, stages: list[str] | None = None) -> TrialOut:
     text = STATE_WORDS.get(t.state, t.state)
     if t.state == "processing" and t.stage:
         text = f"Processing: {t.stage}"
     return TrialOut(
         id=t.id, subject_id=t.subject_id, session=t.session, state=t.state, state_text=text,
         created_at=t.created_at, started_at=t.started_at, stopped_at=t.stopped_at, duration_s=t.duration_s,
-        stage=t.stage, progress=t.progress, error=t.error, results=sorted(cat.stages_available(db, t.id)),
+        stage=t.stage, progress=t.progress, error=t.error,
+        results=sorted(cat.stages_available(db, t.id) if stages is None else stages),
     )
+
+
+def trials_out(db: cat.Catalog, trials: list[cat.TrialInfo]) -> list[TrialOut]:
+    """Several trials with their result stages (one query for the stages)."""
+    stages = cat.stages_of(db, [t.id for t in trials])
+    return [trial_out(db, t, stages.get(t.id, [])) for t in trials]

@@ -12,7 +12,7 @@ from fastapi.responses import Response, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
 from api.auth import require_user, websocket_user
-from api.deps import trial_out
+from api.deps import trials_out
 from api.schemas import CameraOut
 from services import catalog as cat
 
@@ -29,7 +29,7 @@ def _camera_dicts(link) -> list[dict]:
 def status_snapshot(app) -> dict:
     """What the page shows live: the recording trial, recent trials with states, camera health."""
     db = app.state.catalog
-    trials = [trial_out(db, t).model_dump() for t in cat.list_trials(db, limit=20)]
+    trials = [t.model_dump() for t in trials_out(db, cat.list_trials(db, limit=20))]
     recording = next((t for t in trials if t["state"] == "recording"), None)
     return {"time": time.time(), "recording": recording, "trials": trials, "cameras": _camera_dicts(app.state.link)}
 

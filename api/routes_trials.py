@@ -8,7 +8,7 @@ import time
 from fastapi import APIRouter, Depends, HTTPException, Request
 
 from api.auth import require_user
-from api.deps import catalog_of, checked_trial_id, trial_out
+from api.deps import catalog_of, checked_trial_id, trial_out, trials_out
 from api.schemas import StartTrial, TrialOut
 from services import catalog as cat
 from services.artifacts import trial_files
@@ -74,7 +74,7 @@ def list_trials(request: Request, subject_id: str | None = None, limit: int = 50
     if not 1 <= limit <= 1000:
         raise HTTPException(status_code=422, detail="limit: must be between 1 and 1000")
     db = catalog_of(request)
-    return [trial_out(db, t) for t in cat.list_trials(db, subject_id=subject_id, limit=limit)]
+    return trials_out(db, cat.list_trials(db, subject_id=subject_id, limit=limit))
 
 
 @router.get("/trials/{trial_id}", response_model=TrialOut, summary="One trial")

@@ -58,8 +58,15 @@ def compute_times(catalog_url: str, trial_id: str) -> dict:
         r = cat.get_result(db, trial_id, stage)
         if r is not None:
             out[f"{stage}_compute_s"] = r.report.get("compute_s")
+            out[f"{stage}_load_s"] = r.report.get("load_s")
             out[f"{stage}_gait_files_s"] = r.report.get("gait_and_files_s")
             out[f"{stage}_steps"] = len(r.steps)
+    trial, job = cat.get_trial(db, trial_id), cat.jobs_for_trial(db, trial_id)[0]
+    with db.session() as s:
+        from services.catalog.models import Job
+
+        started = s.get(Job, job.id).started_at
+    out["queue_s"] = None if started is None or trial.stopped_at is None else started - trial.stopped_at
     db.close()
     return out
 

@@ -21,7 +21,7 @@ from services.catalog.jobs import (
     lease_job,
     renew_lease,
 )
-from services.catalog.results import ResultInfo, get_result, stages_available, store_result
+from services.catalog.results import ResultInfo, get_result, stages_available, stages_of, store_result
 from services.catalog.states import IllegalTransition, TrialState
 from services.catalog.trials import (
     RecordingBusy,
@@ -40,7 +40,7 @@ __all__ = [
     "TrialState", "IllegalTransition", "RecordingBusy", "TrialInfo", "TrialNotFound",
     "start_trial", "get_trial", "list_trials", "set_state", "set_progress", "current_recording",
     "JobInfo", "enqueue_job", "lease_job", "renew_lease", "complete_job", "fail_job", "jobs_for_trial",
-    "ResultInfo", "store_result", "get_result", "stages_available",
+    "ResultInfo", "store_result", "get_result", "stages_available", "stages_of",
     "add_calibration", "get_calibration", "latest_calibration",
     "audit", "audit_entries", "new_trial_id", "validate_id",
 ]

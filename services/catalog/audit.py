@@ -28,7 +28,7 @@ def record(catalog: Catalog, *, actor: str, action: str, trial_id: str | None = 
 
 def entries(catalog: Catalog, *, trial_id: str | None = None, limit: int = 200) -> list[AuditInfo]:
     """Newest first."""
-    with catalog.session() as s:
+    with catalog.reading() as s:
         q = select(AuditEntry).order_by(AuditEntry.id.desc()).limit(limit)
         if trial_id is not None:
             q = q.where(AuditEntry.trial_id == trial_id)

@@ -51,7 +51,8 @@ def _sqlite_engine(url: str) -> Engine:
 
     @event.listens_for(engine, "begin")
     def _on_begin(conn) -> None:
-        conn.exec_driver_sql("BEGIN IMMEDIATE")
+        readonly = conn.get_execution_options().get("gaitcap_readonly", False)
+        conn.exec_driver_sql("BEGIN" if readonly else "BEGIN IMMEDIATE")
 
     return engine
 
@@ -63,11 +64,18 @@ class Catalog:
     url: str
     engine: Engine
     sessions: sessionmaker
+    read_sessions: sessionmaker
 
     @contextlib.contextmanager
     def session(self) -> Iterator[Session]:
         """One transaction: committed on success, rolled back on error."""
         with self.sessions.begin() as s:
+            yield s
+
+    @contextlib.contextmanager
+    def reading(self) -> Iterator[Session]:
+        """A read-only transaction (SQLite: a plain BEGIN, so readers never queue behind writers)."""
+        with self.read_sessions.begin() as s:
             yield s
 
     def close(self) -> None:
@@ -83,7 +91,9 @@ def open_catalog(path_or_url: str | Path, *, create: bool = True) -> Catalog:
     engine = _sqlite_engine(url) if url.startswith("sqlite") else create_engine(url, pool_pre_ping=True)
     if create:
         Base.metadata.create_all(engine)
-    catalog = Catalog(url=url, engine=engine, sessions=sessionmaker(engine, expire_on_commit=False))
+    reader = engine.execution_options(gaitcap_readonly=True)
+    catalog = Catalog(url=url, engine=engine, sessions=sessionmaker(engine, expire_on_commit=False),
+                      read_sessions=sessionmaker(reader, expire_on_commit=False))
     _check_version(catalog)
     return catalog
 

@@ -81,7 +81,7 @@ def store_result(
 def get_result(catalog: Catalog, trial_id: str, stage: str | None = None) -> ResultInfo | None:
     """The given stage, or the best available (refined, else preliminary). None if none yet."""
     stages = [stage] if stage else ["refined", "preliminary"]
-    with catalog.session() as s:
+    with catalog.reading() as s:
         for st in stages:
             res = s.scalars(select(Result).where(Result.trial_id == trial_id, Result.stage == st)).first()
             if res is None:
@@ -97,5 +97,13 @@ def get_result(catalog: Catalog, trial_id: str, stage: str | None = None) -> Res
 
 
 def stages_available(catalog: Catalog, trial_id: str) -> list[str]:
-    with catalog.session() as s:
-        return list(s.scalars(select(Result.stage).where(Result.trial_id == trial_id)))
+    return stages_of(catalog, [trial_id]).get(trial_id, [])
+
+
+def stages_of(catalog: Catalog, trial_ids: list[str]) -> dict[str, list[str]]:
+    """trial id -> result stages stored (one query for many trials)."""
+    out: dict[str, list[str]] = {}
+    with catalog.reading() as s:
+        for tid, stage in s.execute(select(Result.trial_id, Result.stage).where(Result.trial_id.in_(trial_ids))):
+            out.setdefault(tid, []).append(stage)
+    return out

@@ -82,7 +82,7 @@ def session_label(session_id: str) -> str:
 
 def current_recording(catalog: Catalog) -> TrialInfo | None:
     """The trial that is recording now, if any."""
-    with catalog.session() as s:
+    with catalog.reading() as s:
         trial = s.scalars(select(Trial).where(Trial.recording_slot == 1)).first()
         return None if trial is None else _info(trial, session_label(trial.session_id))
 
@@ -123,7 +123,7 @@ def start_trial(
 
 def get_trial(catalog: Catalog, trial_id: str) -> TrialInfo:
     validate_id(trial_id, field="trial_id")
-    with catalog.session() as s:
+    with catalog.reading() as s:
         trial = s.get(Trial, trial_id)
         if trial is None:
             raise TrialNotFound(f"trial {trial_id} not found")
@@ -132,7 +132,7 @@ def get_trial(catalog: Catalog, trial_id: str) -> TrialInfo:
 
 def list_trials(catalog: Catalog, *, subject_id: str | None = None, limit: int = 100) -> list[TrialInfo]:
     """Newest first."""
-    with catalog.session() as s:
+    with catalog.reading() as s:
         q = select(Trial).order_by(Trial.created_at.desc()).limit(limit)
         if subject_id:
             q = q.where(Trial.subject_id == subject_id)
