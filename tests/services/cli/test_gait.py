@@ -1,5 +1,6 @@
 import importlib.util
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ from services.cli import app
 # The gait tests' analytic walker (loaded under its own name: every test folder has a conftest).
 _WALKER = Path(__file__).resolve().parents[2] / "reconstruction" / "gait" / "conftest.py"
 _spec = importlib.util.spec_from_file_location("gait_test_walker", _WALKER)
-_module = importlib.util.module_from_spec(_spec)
+_module = sys.modules.setdefault("gait_test_walker", importlib.util.module_from_spec(_spec))
 _spec.loader.exec_module(_module)
 make_walk = _module.make_walk
 
