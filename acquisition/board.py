@@ -139,12 +139,14 @@ class CharucoBoard:
 
     def texture(self, px_per_mm: float, margin_squares: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
         """Printable image (uint8) and the px position (2,) of corner 0 in it (pixel centres at integers)."""
-        margin = int(round(margin_squares * self.config.square_mm * px_per_mm))
-        w = int(round(self.config.squares_x * self.config.square_mm * px_per_mm)) + 2 * margin
-        h = int(round(self.config.squares_y * self.config.square_mm * px_per_mm)) + 2 * margin
+        square_px = self.config.square_mm * px_per_mm
+        if abs(square_px - round(square_px)) > 1e-6:
+            raise ValueError(f"charuco texture: px_per_mm {px_per_mm} must give whole pixels per square")
+        margin = int(round(margin_squares * square_px))
+        w = int(round(self.config.squares_x * square_px)) + 2 * margin
+        h = int(round(self.config.squares_y * square_px)) + 2 * margin
         img = self.board.generateImage((w, h), marginSize=margin, borderBits=1)
-        scale = (w - 2 * margin) / (self.config.squares_x * self.config.square_mm)
-        return img, margin + self.offset_mm * scale - 0.5  # OpenCV convention: pixel centres at integers
+        return img, margin + self.offset_mm * px_per_mm - 0.5  # OpenCV convention: pixel centres at integers
 
 
 Board = Checkerboard | CharucoBoard

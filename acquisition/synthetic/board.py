@@ -9,7 +9,9 @@ capture volume, turning to face every camera, tilted, sometimes held upside down
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -257,3 +259,31 @@ def render_board_images(
 def scaled_rig(rig: Rig, scale: float) -> Rig:
     """The same rig imaged at ``scale`` x the resolution (matches :func:`render_board_images`)."""
     return Rig(tuple(_camera_at(cam, scale) for cam in rig))
+
+
+def write_board_folder(folder: str | os.PathLike, images: dict[str, np.ndarray]) -> Path:
+    """Write rendered images as ``FOLDER/<camera>/000000.png`` (the folder input of ``gaitcap calibrate``)."""
+    folder = Path(folder)
+    for cam, frames in images.items():
+        (folder / cam).mkdir(parents=True, exist_ok=True)
+        for i, img in enumerate(frames):
+            if not cv2.imwrite(str(folder / cam / f"{i:06d}.png"), img):
+                raise ValueError(f"could not write {folder / cam / f'{i:06d}.png'}")
+    return folder
+
+
+def write_board_mcap(path: str | os.PathLike, images: dict[str, np.ndarray], *, fps: float = 10.0,
+                     start_ns: int = 1_700_000_000_000_000_000) -> Path:
+    """Write rendered images as a trial MCAP (JPEG frames, synchronised frame ids), like the recorder."""
+    from acquisition.encoding import encode_jpeg, image_message
+    from acquisition.recording.writer import TrialWriter
+
+    writer = TrialWriter(path)
+    writer.start(metadata={"kind": "calibration", "synthetic": True}, time_ns=start_ns)
+    n = min(len(v) for v in images.values())
+    for i in range(n):
+        stamp = start_ns + int(round(i * 1e9 / fps))
+        for cam, frames in images.items():
+            msg = image_message(encode_jpeg(frames[i], quality=95), camera=cam, timestamp_ns=stamp)
+            writer.add_frame(cam, msg, timestamp_ns=stamp, frame_id=i, receive_ns=stamp)
+    return writer.finish({"frames": n, "cameras": sorted(images)})

@@ -151,7 +151,9 @@ def calibrate_from_observations(
     full_r, full_t = np.full((obs.shape[1], 3, 3), np.nan), np.full((obs.shape[1], 3), np.nan)
     full_r[frames], full_t[frames] = res.state.frame_rotation, res.state.frame_tvec_mm
     r_floor, t_floor, n_floor = floor_pose(full_r, full_t, used, config.world)
-    world = world_from_floor(r_floor, t_floor, res.state.cam_rotation, res.state.cam_tvec_mm, floor_frames=n_floor)
+    symmetric = np.ptp(obs.board.object_points_mm[:, :2], axis=0) if len(obs.board.symmetries) > 1 else None
+    world = world_from_floor(r_floor, t_floor, res.state.cam_rotation, res.state.cam_tvec_mm, floor_frames=n_floor,
+                             symmetric_extent_mm=symmetric)
     cams_r, cams_t = to_world(world, res.state.cam_rotation, res.state.cam_tvec_mm)
     serials = serials or {}
     rig = Rig(tuple(

@@ -1,7 +1,9 @@
 """The world frame: a board laid flat on the floor defines the origin and the axes (z up).
 
 World axes from the floor board: x along the board's columns, y = -(board rows), z = -(board normal),
-so z points up out of the printed face; the origin is the board's corner 0. The board's pose is averaged
+so z points up out of the printed face; the origin is the board's corner 0. A plain checkerboard looks
+the same turned by 180 degrees, so its x axis is taken to point away from the first camera (ChArUco
+boards fix the axes themselves). The board's pose is averaged
 over the static frames at the start (the board lies still while the recording starts). A final guard
 turns the world over when the cameras would end up below the floor (the mirrored/flipped-board trap).
 """
@@ -70,11 +72,22 @@ def floor_pose(
 
 def world_from_floor(
     board_rotation: np.ndarray, board_tvec_mm: np.ndarray, cam_rotation: np.ndarray, cam_tvec_mm: np.ndarray,
-    *, floor_frames: int = 1,
+    *, floor_frames: int = 1, symmetric_extent_mm: np.ndarray | None = None,
 ) -> WorldTransform:
-    """World -> old-frame transform from the floor board's pose (board -> old frame)."""
+    """World -> old-frame transform from the floor board's pose (board -> old frame).
+
+    ``symmetric_extent_mm`` (2,): the board looks the same turned by 180 degrees (plain checkerboard), and
+    this is the x, y span of its corners. Its x axis can then point either way along the board; the one
+    pointing away from the first camera is chosen (the origin moves to the opposite corner).
+    """
     rot = board_rotation @ BOARD_TO_WORLD_AXES
     centres_old = -np.einsum("cji,cj->ci", cam_rotation, cam_tvec_mm)  # camera centres in the old frame
+    if symmetric_extent_mm is not None:
+        extent = np.array([symmetric_extent_mm[0], symmetric_extent_mm[1], 0.0])
+        middle = board_tvec_mm + board_rotation @ (extent / 2)
+        if (middle - centres_old[0]) @ rot[:, 0] < 0:
+            board_tvec_mm = board_tvec_mm + board_rotation @ extent
+            rot = rot @ np.diag([-1.0, -1.0, 1.0])
     heights = (centres_old - board_tvec_mm) @ rot[:, 2]
     flipped = bool(np.median(heights) < 0)
     if flipped:
