@@ -294,15 +294,14 @@ def _drop_same_camera_conflicts(comp: np.ndarray, c_: int, p_: int) -> np.ndarra
 
 def _merge_disjoint_neighbours(points_mm: np.ndarray, comp: np.ndarray, c_: int, p_: int,
                                config: AssociationConfig) -> np.ndarray:
-    """Join groups seen by disjoint sets of cameras whose joints lie within ``merge_mm`` on average:
+    """Join groups seen by disjoint sets of cameras whose joints lie within ``merge_mm`` (median):
     one person split in two (e.g. two poor two-view triangulations). Returns relabelled (T, N)."""
     t_, k_ = points_mm.shape[:2]
     if k_ < 2:
         return comp
     dist = np.linalg.norm(points_mm[:, :, None] - points_mm[:, None], axis=-1)  # (T, K, K, Ja)
     common = np.isfinite(dist)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.where(common, dist, 0).sum(-1) / common.sum(-1)
+    mean = _nan_median_last(dist)  # median: a few badly triangulated joints do not split a person
     cams = (comp.reshape(t_, c_, p_)[..., None] == np.arange(k_)).any(2).astype(np.float32)  # (T, C, K)
     shared = np.matmul(cams.swapaxes(1, 2), cams)  # (T, K, K) cameras in both groups
     same = (common.sum(-1) >= config.min_joints) & (mean < config.merge_mm) & (shared == 0)
@@ -354,15 +353,21 @@ def _reprojection_cost(rig: Rig, rays: _Rays, points_mm: np.ndarray, config) -> 
     return np.minimum(straight, mirrored), mirrored < straight
 
 
+def _nan_median_last(values: np.ndarray) -> np.ndarray:
+    """Median over the last axis ignoring NaN (NaN where all are NaN), by one sort."""
+    n = np.isfinite(values).sum(-1)
+    srt = np.sort(values, axis=-1)  # NaN last
+    lo = np.take_along_axis(srt, (np.maximum(n - 1, 0) // 2)[..., None], -1)[..., 0]
+    hi = np.take_along_axis(srt, np.minimum(n // 2, values.shape[-1] - 1)[..., None], -1)[..., 0]
+    return np.where(n > 0, (lo + hi) / 2, np.nan)
+
+
 def _median_cost(rays: _Rays, proj: np.ndarray, config) -> np.ndarray:
     diff = np.clip(rays.pixels_px[:, :, :, None] - proj[:, :, None], -1e6, 1e6).astype(np.float32)
     err = np.sqrt((diff * diff).sum(-1))  # (C, T, P, K, Ja)
     n = np.isfinite(err).sum(-1)
-    srt = np.sort(err, axis=-1)  # NaN last
-    lo = np.take_along_axis(srt, (np.maximum(n - 1, 0) // 2)[..., None], -1)[..., 0]
-    hi = np.take_along_axis(srt, np.minimum(n // 2, err.shape[-1] - 1)[..., None], -1)[..., 0]
     with np.errstate(invalid="ignore"):
-        cost = (lo + hi) / 2 / np.maximum(rays.scale_px, 1.0)[..., None]
+        cost = _nan_median_last(err) / np.maximum(rays.scale_px, 1.0)[..., None]
         ok = (n >= config.min_joints) & (cost < config.reprojection_gate)
     return np.where(ok, cost, np.inf)
 

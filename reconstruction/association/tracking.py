@@ -1,7 +1,8 @@
 """Temporal linking: per-frame people -> tracks with stable ids.
 
-Each frame's people are matched to the live tracks by an optimal assignment (Hungarian) on the 3D
-distance between a person's root and the track's predicted root (last root + velocity x elapsed time).
+Each frame's people are matched to the live tracks by an optimal assignment (Hungarian) on the floor
+distance between a person's root and the track's predicted root (last root + velocity x elapsed time);
+leaving a person unmatched costs ``gate_mm``, so nobody is pushed onto a far track to fill the matching.
 The gate grows with the elapsed time, so a track survives missed frames and short occlusions for up to
 ``max_gap_s``; people who appear start new tracks (unless they sit on a person already matched in that
 frame: a second copy of that person), tracks not seen for longer end. Tracks (almost) never seen together
@@ -145,16 +146,17 @@ def link_tracks(people: FramePeople, times_s: np.ndarray, camera_names, config: 
             continue
         now, xy = times_s[t], pos[t, present]
         matched = _match(xy, state, now, config)
-        taken = xy[list(matched)]
-        for row, k in enumerate(present):
+        taken = [xy[row] for row in matched]
+        for row in np.argsort(-people.views[t, present], kind="stable"):  # best-seen first
             i = matched.get(row)
             if i is None:
-                if len(taken) and np.min(np.linalg.norm(taken - xy[row], axis=-1)) < config.duplicate_mm:
+                if taken and np.min(np.linalg.norm(np.array(taken) - xy[row], axis=-1)) < config.duplicate_mm:
                     continue  # a second copy of a person already tracked in this frame: no new track
                 i = state.start(xy[row], now)
+                taken.append(xy[row])
             else:
                 state.update(i, xy[row], now, config.velocity_smoothing)
-            track_of[t, k] = i
+            track_of[t, present[row]] = i
     track_of = _stitch(track_of, pos, times_s, config)
     return _build(people, track_of, len(state.last), times_s, tuple(camera_names), config)
 
@@ -231,8 +233,12 @@ def _match(xy: np.ndarray, state: _State, now: float, config: TrackingConfig) ->
     dist = np.linalg.norm(xy[:, None, :] - pred[None], axis=-1)  # (rows, live)
     gate = config.gate_mm + config.max_speed_mm_s * dt
     cost = np.where(dist <= gate[None], dist, _FAR)
-    rows, cols = linear_sum_assignment(cost)
-    return {int(r): live[c] for r, c in zip(rows, cols, strict=True) if cost[r, c] < _FAR}
+    # one "stays unmatched" column per row costing gate_mm, so no one is forced onto a far track
+    n_rows = len(xy)
+    leave = np.full((n_rows, n_rows), _FAR)
+    np.fill_diagonal(leave, config.gate_mm)
+    rows, cols = linear_sum_assignment(np.hstack([cost, leave]))
+    return {int(r): live[c] for r, c in zip(rows, cols, strict=True) if c < len(live) and cost[r, c] < _FAR}
 
 
 def _build(people: FramePeople, track_of, m_, times_s, camera_names, config) -> Tracks:
