@@ -44,6 +44,7 @@ class StackConfig:
     workers: int = 1
     lease_s: float = 10.0
     refine: bool = True
+    camera_nice: int = 5
     catalog_url: str = ""
     extra_env: dict[str, str] = field(default_factory=dict)
 
@@ -88,8 +89,9 @@ def process_specs(cfg: StackConfig) -> list[ProcessSpec]:
         ProcessSpec("recorder", (*CLI, "node", "recorder", "--node", "recorder"), ready_text="ready"),
         ProcessSpec("detector", (*CLI, "node", "detector", "--node", "detector", "--detector", "simulated",
                                  *_sim_args(cfg))),
+        # The simulated cameras stand in for camera hardware: rendering them must not slow processing.
         ProcessSpec("camera-0", (*CLI, "node", "camera", "--node", "camera-0", "--source", "simulated",
-                                 "--size", cfg.size, *_sim_args(cfg)), max_restarts=10_000),
+                                 "--size", cfg.size, *_sim_args(cfg)), max_restarts=10_000, nice=cfg.camera_nice),
     ]
     for name in cfg.worker_names():
         argv = [*CLI, "worker", "--node", name, "--id", name, "--data-dir", data, "--catalog", cfg.catalog,

@@ -21,13 +21,15 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class ProcessSpec:
-    """name: unique; argv: the command; ready_text: a line fragment the process logs once it is ready."""
+    """name: unique; argv: the command; ready_text: a line fragment the process logs once it is ready;
+    nice: added to the process's nice value (lower CPU priority)."""
 
     name: str
     argv: tuple[str, ...]
     env: dict[str, str] = field(default_factory=dict)
     ready_text: str = ""
     max_restarts: int = 3
+    nice: int = 0  # > 0: lower CPU priority than the other processes
 
 
 @dataclass
@@ -52,8 +54,10 @@ class Supervisor:
         offset = path.stat().st_size if path.exists() else 0
         out = open(path, "ab")  # noqa: SIM115  (kept open by the child)
         env = {**self.base_env, **spec.env, "PYTHONUNBUFFERED": "1"}
+        nice = spec.nice
         proc = subprocess.Popen(spec.argv, stdout=out, stderr=subprocess.STDOUT, env=env,
-                                stdin=subprocess.DEVNULL, start_new_session=True)
+                                stdin=subprocess.DEVNULL, start_new_session=True,
+                                preexec_fn=(lambda: os.nice(nice)) if nice else None)
         out.close()
         log.info("started %s (pid %s)", spec.name, proc.pid)
         return proc, path, offset

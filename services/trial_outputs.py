@@ -115,17 +115,20 @@ def report_png(traj: Trajectory, report, *, title: str) -> bytes:
     return buf.getvalue()
 
 
-def write_stage(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str) -> dict[str, str]:
-    """Write the stage's trajectory (npz, TRC), gait report (JSON, CSV) and plot; returns key -> path.
-    The Rerun file is written separately (:func:`write_rrd`)."""
-    from reconstruction.trc import to_trc
-
+def write_data(files: TrialFiles, stage: str, traj: Trajectory, report) -> None:
+    """The stage's trajectory (npz) and gait report (JSON, CSV): quick, written before the result is
+    stored in the catalog."""
     write_npz(files.stage_file(stage, "trajectory_npz"), traj)
-    trc = to_trc(traj.points_mm, traj.times_s, traj.joint_names, filename=f"{trial_id}-{stage}.trc")
-    write_bytes_atomic(files.stage_file(stage, "trajectory_trc"), trc.encode())
     if report is not None:
         report.write_json(files.stage_file(stage, "gait_json"))
         report.write_csv(files.stage_file(stage, "steps_csv"))
+
+
+def write_views(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str) -> None:
+    """The TRC export and the report plot (slower; written right after the result is stored)."""
+    from reconstruction.trc import to_trc
+
+    trc = to_trc(traj.points_mm, traj.times_s, traj.joint_names, filename=f"{trial_id}-{stage}.trc")
+    write_bytes_atomic(files.stage_file(stage, "trajectory_trc"), trc.encode())
     title = f"Trial {trial_id}: {stage} ({traj.method})"
     write_bytes_atomic(files.stage_file(stage, "report_png"), report_png(traj, report, title=title))
-    return files.existing(stage)

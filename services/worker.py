@@ -32,7 +32,7 @@ from services.processing import (
     ring_rig,
     warm_up,
 )
-from services.trial_outputs import steps_of, summary_of, write_rrd, write_stage
+from services.trial_outputs import steps_of, summary_of, write_data, write_rrd, write_views
 
 log = logging.getLogger(__name__)
 
@@ -193,9 +193,10 @@ class Worker:
             log.warning("trial %s %s: no gait parameters: %s", trial_id, stage, exc)
         gait_s = time.perf_counter() - t0
         files = trial_files(self.config.data_dir, trial_id)
-        artifacts = write_stage(files, stage, traj, report, trial_id=trial_id)
-        if rrd:  # written after the result is stored: a download, not needed by the page
-            artifacts["rerun_rrd"] = str(files.stage_file(stage, "rerun_rrd"))
+        write_data(files, stage, traj, report)
+        # The plot, TRC and Rerun files follow right after the result is stored (the page retries the plot).
+        later = ["trajectory_trc", "report_png"] + (["rerun_rrd"] if rrd else [])
+        artifacts = {**files.existing(stage), **{k: str(files.stage_file(stage, k)) for k in later}}
         extra = {"warnings": list(report.warnings) if report else [], "problem": problem,
                  "load_s": round(getattr(self, "load_s", 0.0), 3), "compute_s": round(traj.elapsed_s, 3),
                  "gait_s": round(gait_s, 3), "gait_and_files_s": round(time.perf_counter() - t0, 3)}
@@ -204,6 +205,7 @@ class Worker:
                          report=extra, quality=traj.metrics or {}, artifacts=artifacts,
                          elapsed_s=traj.elapsed_s + time.perf_counter() - t0)
         log.info("trial %s: %s results stored (%s)", trial_id, stage, extra)
+        write_views(files, stage, traj, report, trial_id=trial_id)
         if rrd:
             write_rrd(files.stage_file(stage, "rerun_rrd"), traj, trial_id=trial_id, bones=det.skeleton.bone_indices)
 

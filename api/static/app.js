@@ -223,11 +223,18 @@ async function loadResult(trialId, stage, trialState) {
   if (!summary.children.length) summary.innerHTML = '<p class="muted">No complete steps were found in this walk.</p>';
   summary.dataset.stage = stage;
   renderSteps(g.steps);
-  $("#report-plot").src = withToken(`/trials/${encodeURIComponent(trialId)}/report.png?stage=${stage}&t=${Date.now()}`);
+  showPlot(withToken(`/trials/${encodeURIComponent(trialId)}/report.png?stage=${stage}`), 30);
   const names = { steps_csv: "Steps (CSV)", trajectory_csv: "3D trajectory (CSV)", trajectory_trc: "3D trajectory (TRC)",
     report_png: "Report plot (PNG)", rerun_rrd: "3D view for Rerun (.rrd)", recording_mcap: "Raw recording (MCAP)" };
   $("#downloads").innerHTML = "Downloads: " + Object.entries(names).filter(([k]) => g.downloads[k])
     .map(([k, text]) => `<a href="${withToken(g.downloads[k])}" download>${text}</a>`).join("");
+}
+
+function showPlot(url, tries) {
+  // the plot is drawn just after the numbers are stored: retry for a little while
+  const img = $("#report-plot");
+  img.onerror = () => { if (tries > 0) setTimeout(() => showPlot(url, tries - 1), 1000); };
+  img.src = url + "&t=" + Date.now();
 }
 
 function renderSteps(steps) {
