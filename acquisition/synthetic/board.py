@@ -40,6 +40,8 @@ class BoardMotion:
         centre_mm / half_extent_mm: box (mm) that the wandering board's centre stays in.
         turns: full turns of the wandering board's facing direction (so every camera sees it).
         max_tilt_deg: tilt of the board's normal away from facing, deg.
+        tour_tilt_deg: the same while it is shown to one camera up close (strong perspective pins down
+            the focal length of long lenses).
         max_roll_deg: in-plane rotation, deg.
         upside_down_fraction: share of frames with the board held upside down (180 deg roll).
         seed: random seed.
@@ -54,6 +56,7 @@ class BoardMotion:
     half_extent_mm: tuple[float, float, float] = (2000.0, 2000.0, 500.0)
     turns: float = 3.0
     max_tilt_deg: float = 35.0
+    tour_tilt_deg: float = 50.0
     max_roll_deg: float = 30.0
     upside_down_fraction: float = 0.2
     seed: int = 0
@@ -84,10 +87,10 @@ def _facing(normal: np.ndarray) -> np.ndarray:
     return np.stack([x, y, z], axis=2)
 
 
-def _hand_motion(rng, motion: BoardMotion, n: int) -> np.ndarray:
-    """Tilt and roll (F, 3, 3), applied in the board frame; sometimes upside down."""
+def _hand_motion(rng, motion: BoardMotion, n: int, tilt_deg: np.ndarray) -> np.ndarray:
+    """Tilt (up to ``tilt_deg`` (n,)) and roll (F, 3, 3), applied in the board frame; sometimes upside down."""
     knots = max(4, n // 10)
-    tilt = np.radians(motion.max_tilt_deg)
+    tilt = np.radians(tilt_deg)
     roll = np.radians(motion.max_roll_deg) * _smooth_noise(rng, n, knots)
     roll += np.pi * (_smooth_noise(rng, n, knots) > 1 - 2 * motion.upside_down_fraction)
     return (_rot(0, tilt * _smooth_noise(rng, n, knots)) @ _rot(1, tilt * _smooth_noise(rng, n, knots))
@@ -133,7 +136,8 @@ def board_trajectory(geometry: BoardGeometry, motion: BoardMotion, rig: Rig | No
     parts = [_tour(rng, rig, geometry, n_tour)] if n_tour else []
     parts.append(_wander(rng, motion, n_move - n_tour))
     centre = np.concatenate([p[0] for p in parts])
-    rot = _facing(np.concatenate([p[1] for p in parts])) @ _hand_motion(rng, motion, n_move)
+    tilt = np.where(np.arange(n_move) < n_tour, motion.tour_tilt_deg, motion.max_tilt_deg)
+    rot = _facing(np.concatenate([p[1] for p in parts])) @ _hand_motion(rng, motion, n_move, tilt)
     tvec = centre - rot @ geometry.object_points_mm.mean(0)
     floor_r = np.tile(FLOOR_ROTATION, (motion.floor_frames, 1, 1))
     floor_t = np.tile(np.asarray(motion.floor_origin_mm, dtype=np.float64), (motion.floor_frames, 1))
