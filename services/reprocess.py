@@ -128,6 +128,9 @@ def plan_reprocess(db: cat.Catalog, data_dir: Path, selection: TrialSelection, s
     if not specs:
         raise ValueError("method: give at least one method")
     trials, missing = select_trials(db, Path(data_dir), selection)
+    if not trials and not missing:
+        which = ", ".join(selection.patterns) or "all"
+        raise ValueError(f"trials: no trial in states {'/'.join(selection.states)} matches {which!r} in {db.url}")
     if retry_failed:
         delete_failed(db, [t.trial_id for t in trials])
     done = done_keys(db)

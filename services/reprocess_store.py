@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import time
+import weakref
 from dataclasses import dataclass, field
 
 from sqlalchemy import Float, Integer, String, Text, UniqueConstraint, select
@@ -79,8 +80,14 @@ class MethodResult:
                 "gait": self.gait, "residuals": self.residuals}
 
 
+_READY: weakref.WeakSet = weakref.WeakSet()  # engines whose table exists
+
+
 def ensure_table(catalog: Catalog) -> None:
-    _Base.metadata.create_all(catalog.engine)
+    """Create the table on first use (once per engine)."""
+    if catalog.engine not in _READY:
+        _Base.metadata.create_all(catalog.engine)
+        _READY.add(catalog.engine)
 
 
 def _dumps(value) -> str:

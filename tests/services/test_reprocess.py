@@ -129,7 +129,8 @@ def test_bad_methods_and_trial_filters(tmp_path, walks):
     only = plan_reprocess(db, tmp_path, TrialSelection.parse("trial-01"), [parse_method("dlt")])
     assert [t.trial.trial_id for t in only.tasks] == ["trial-01"]
     assert len(plan_reprocess(db, tmp_path, TrialSelection.parse("P1/s1"), [parse_method("dlt")]).tasks) == 2
-    assert plan_reprocess(db, tmp_path, TrialSelection.parse("P2*"), [parse_method("dlt")]).tasks == ()
+    with pytest.raises(ValueError, match="no trial in states .* matches 'P2\\*'"):
+        plan_reprocess(db, tmp_path, TrialSelection.parse("P2*"), [parse_method("dlt")])
     os.unlink(tmp_path / "trials" / "trial-00" / "recording.mcap")
     plan = plan_reprocess(db, tmp_path, TrialSelection(), [parse_method("dlt")])
     assert plan.missing == ("trial-00",) and len(plan.tasks) == 1
