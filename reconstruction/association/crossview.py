@@ -26,11 +26,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from reconstruction.association.geometry import pixel_rays, triangulate_rays, two_ray_closest
+from reconstruction.association.geometry import (
+    pixel_rays,
+    ray_distance,
+    triangulate_rays,
+    two_ray_closest,
+)
 from reconstruction.association.multi import MultiPersonDetections
 from reconstruction.camera import Rig
 from reconstruction.skeletons import Skeleton
 
+ROBUST_ITERS = 2
+ROBUST_SCALE_MM = 60.0
 DEFAULT_ASSOCIATION_JOINTS: tuple[str, ...] = (
     "nose", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
     "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
@@ -133,11 +140,13 @@ def associate_frames(multi: MultiPersonDetections, rig: Rig, config: Association
     points = _triangulate_groups(rays, comp, num_groups=points.shape[1])
     cost, flipped = _reprojection_cost(rig, rays, points, config)
     comp = _absorb_explained(comp, cost)
-    points = _triangulate_groups(rays, comp, flipped=_of_group(flipped, comp), num_groups=points.shape[1])
+    points = _triangulate_groups(rays, comp, flipped=_of_group(flipped, comp), num_groups=points.shape[1],
+                                 robust_iters=1)
     cost, flipped = _reprojection_cost(rig, rays, points, config)
     labels = _assign_greedy(_prefer_linked(cost, comp))
     final = labels.transpose(1, 0, 2).reshape(t_, c_ * p_)
-    points = _triangulate_groups(rays, final, flipped=_of_group(flipped, final), num_groups=points.shape[1])
+    points = _triangulate_groups(rays, final, flipped=_of_group(flipped, final), num_groups=points.shape[1],
+                                 robust_iters=ROBUST_ITERS)
     views = np.stack([(labels == k).any(-1).sum(0) for k in range(points.shape[1])], -1)  # (T, K)
     absent = views < config.min_views
     points[absent] = np.nan
@@ -320,10 +329,11 @@ def _of_group(flipped: np.ndarray, groups: np.ndarray) -> np.ndarray:
 
 
 def _triangulate_groups(rays: _Rays, groups: np.ndarray, *, flipped: np.ndarray | None = None,
-                        num_groups: int | None = None) -> np.ndarray:
+                        num_groups: int | None = None, robust_iters: int = 0) -> np.ndarray:
     """Triangulate the association joints of each group of detections -> (T, K, Ja, 3) mm.
 
-    ``flipped`` (C, T, P) marks detections mirrored left/right; their joints are un-mirrored first.
+    Least squares over the rays, then ``robust_iters`` reweightings (Cauchy, scale
+    ``ROBUST_SCALE_MM``) so a misplaced joint in one view does not drag the point. ``flipped`` (C, T, P) marks detections mirrored left/right; their joints are un-mirrored first.
     """
     c_, t_, p_, ja, _ = rays.dirs.shape
     k_ = num_groups if num_groups is not None else max(int(groups.max()) + 1, 1)
@@ -337,6 +347,11 @@ def _triangulate_groups(rays: _Rays, groups: np.ndarray, *, flipped: np.ndarray 
     dirs = dirs.transpose(1, 0, 2, 3, 4).reshape(t_, c_ * p_, ja, 3)
     origins = np.repeat(rays.origins_mm, p_, axis=0)
     points, _ = triangulate_rays(origins, dirs, weights)
+    own = np.maximum(groups, 0)[..., None, None]  # (T, N, 1, 1): each detection's own group
+    for _ in range(robust_iters):  # down-weight rays far from their point (misplaced joints)
+        mine = np.take_along_axis(points, np.broadcast_to(own, (t_, c_ * p_, ja, 3)), axis=1)
+        off = np.nan_to_num(ray_distance(origins, dirs, mine), nan=0.0)  # (T, N, Ja)
+        points, _ = triangulate_rays(origins, dirs, weights / (1.0 + (off / ROBUST_SCALE_MM) ** 2)[:, None])
     return points
 
 

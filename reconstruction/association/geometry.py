@@ -110,6 +110,19 @@ def triangulate_rays(
     return points.transpose(0, 2, 1, 3), wsum.transpose(0, 2, 1)
 
 
+def ray_distance(origins_mm: np.ndarray, directions: np.ndarray, points_mm: np.ndarray) -> np.ndarray:
+    """Distance (mm) of points from rays, one point per ray.
+
+    Args:
+        origins_mm: (N, 3); directions: (B, N, J, 3) unit; points_mm: (B, N, J, 3) (NaN allowed).
+    Returns:
+        (B, N, J) distances (NaN where the ray or the point is NaN).
+    """
+    rel = points_mm - origins_mm[None, :, None, :]
+    along = (rel * directions).sum(-1, keepdims=True)
+    return np.linalg.norm(rel - along * directions, axis=-1)
+
+
 def _solve3(a: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Solve symmetric 3x3 systems a x = rhs by cofactors: a (..., 3, 3), rhs (..., 3)."""
     c00 = a[..., 1, 1] * a[..., 2, 2] - a[..., 1, 2] * a[..., 2, 1]
