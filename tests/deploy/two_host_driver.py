@@ -39,13 +39,17 @@ def main() -> None:
     recorder = RecorderClient(session, bus.keys, timeout_s=20)
     recorder.start(trial_id=trial.id, path=trial.recording_path, metadata={"trial_id": trial.id},
                    calibration_toml=rig_to_toml_text(rig), cameras=list(rig.names))
+    last = [time.monotonic()]
+    sub = session.declare_subscriber(bus.keys.keypoints(), lambda _s: last.__setitem__(0, time.monotonic()))
     print(json.dumps({"event": "recording", "trial_id": trial.id}), flush=True)
     if sys.stdin.readline().strip() != "stop":
         raise SystemExit("expected 'stop' on stdin")
     deadline = time.monotonic() + 30
+    while time.monotonic() - last[0] < 1.5 and time.monotonic() < deadline:  # the detector's last keypoints
+        time.sleep(0.1)
     while recorder.status().get("queued", 0) and time.monotonic() < deadline:
         time.sleep(0.1)
-    time.sleep(1.0)  # the detector's last keypoints
+    sub.undeclare()
     reply = recorder.stop(trial.id)
     cat.set_state(db, trial.id, "recorded", stopped_at=time.time(), stage="queued")
     cat.enqueue_job(db, trial.id)
