@@ -34,8 +34,8 @@ class WorldFrameConfig:
     """
 
     floor_frame: int | None = None
-    static_mm: float = 2.0
-    static_deg: float = 0.2
+    static_mm: float = 5.0
+    static_deg: float = 0.5
 
 
 @dataclass(frozen=True, eq=False)
