@@ -34,6 +34,7 @@ class TrackingConfig:
         min_track_s: tracks shorter than this (first to last frame) are discarded.
         duplicate_mm: an unmatched person this close to a matched one in the same frame is taken for a
             second copy of that person and starts no track (its detections stay unassigned).
+        min_views_to_start: a person seen by fewer cameras may continue a track but not start one.
         stitch_mm, stitch_window_s, stitch_overlap: two tracks seen in the same frame at most in a
             fraction ``stitch_overlap`` of the shorter one's frames, whose sightings lie within
             ``stitch_mm`` of each other (median, sightings at most ``stitch_window_s`` apart), are one
@@ -48,6 +49,7 @@ class TrackingConfig:
     velocity_smoothing: float = 0.3
     min_track_s: float = 0.2
     duplicate_mm: float = 300.0
+    min_views_to_start: int = 3
     stitch_mm: float = 500.0
     stitch_window_s: float = 0.3
     stitch_overlap: float = 0.05
@@ -150,6 +152,8 @@ def link_tracks(people: FramePeople, times_s: np.ndarray, camera_names, config: 
         for row in np.argsort(-people.views[t, present], kind="stable"):  # best-seen first
             i = matched.get(row)
             if i is None:
+                if people.views[t, present[row]] < config.min_views_to_start:
+                    continue  # too few cameras to tell a person from a chance match: no new track
                 if taken and np.min(np.linalg.norm(np.array(taken) - xy[row], axis=-1)) < config.duplicate_mm:
                     continue  # a second copy of a person already tracked in this frame: no new track
                 i = state.start(xy[row], now)

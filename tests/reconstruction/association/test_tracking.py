@@ -12,7 +12,7 @@ def _people(roots):
     seen = np.isfinite(roots[..., 0])
     labels = np.where(seen, np.arange(k_), -1)[None]  # (1, T, K): slot k holds person k
     return FramePeople(labels=labels, points_mm=roots[:, :, None, :], root_mm=roots,
-                       views=seen.astype(int) * 2, joint_indices=(0,))
+                       views=seen.astype(int) * 4, joint_indices=(0,))
 
 
 def _walk(t_, x0, vx, y=0.0, fps=30.0):
@@ -77,4 +77,17 @@ def test_summaries_describe_each_track():
     assert (a.track_id, a.frames, b.frames) == (0, 60, 30)
     assert a.first_s == 0 and b.first_s == pytest.approx(1.0) and a.last_s == pytest.approx(59 / 30)
     assert a.path_mm == pytest.approx(1200 * 59 / 30) and b.path_mm == pytest.approx(0)
-    assert a.mean_views == 2 and b.mean_position_mm == pytest.approx((2000, -1500, 900))
+    assert a.mean_views == 4 and b.mean_position_mm == pytest.approx((2000, -1500, 900))
+
+
+def test_a_person_seen_by_two_cameras_continues_a_track_but_starts_none():
+    roots = np.stack([_walk(40, 0, 1000), _walk(40, 2000, 0, y=-1500)], 1)
+    people = _people(roots)
+    views = people.views.copy()
+    views[:, 0] = 2  # the walker: two cameras only, always
+    views[20:, 1] = 2  # the stander: well seen at first, then by two cameras only
+    people = FramePeople(labels=people.labels, points_mm=people.points_mm, root_mm=people.root_mm,
+                         views=views, joint_indices=(0,))
+    tracks = link_tracks(people, np.arange(40) / 30, ("cam",), TrackingConfig(min_views_to_start=3))
+    assert tracks.num_tracks == 1 and tracks.seen()[0].all()
+    assert np.all(tracks.detection_track[0, :, 0] == -1)
