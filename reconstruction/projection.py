@@ -12,6 +12,7 @@ The NumPy reference model is :class:`reconstruction.camera.Camera`; tests check 
 
 from __future__ import annotations
 
+from functools import partial
 from typing import NamedTuple
 
 import jax
@@ -108,6 +109,7 @@ def normalize_pixels(u: jnp.ndarray, v: jnp.ndarray, cams: CameraArrays) -> tupl
     return xd, yd
 
 
+@partial(jax.jit, static_argnames=("iters",))
 def undistort_normalized(
     xd: jnp.ndarray, yd: jnp.ndarray, dist: jnp.ndarray, iters: int = UNDISTORT_ITERS
 ) -> tuple[jnp.ndarray, jnp.ndarray]:

@@ -130,15 +130,15 @@ class LBFGS:
     """L-BFGS with Optax's zoom line search; stops early when the relative loss change per iteration
     stays below ``rel_tol`` for a whole chunk."""
 
-    iterations: int = 60
+    iterations: int = 150
     memory: int = 10
-    rel_tol: float = 1e-6
+    rel_tol: float = 1e-7
     chunk: int = 10
 
     def minimize(self, objective, params, data, progress: Progress | None = None):
         opt = optax.lbfgs(memory_size=self.memory)
         state = opt.init(params)
-        run = _lbfgs_chunk(objective, self, self.chunk)
+        run = _lbfgs_chunk(objective, self.memory, self.chunk)
         history: list[np.ndarray] = []
         done = 0
         while done < self.iterations:
@@ -155,8 +155,8 @@ class LBFGS:
 
 
 @lru_cache(maxsize=32)
-def _lbfgs_chunk(objective, solver: LBFGS, n_steps: int):
-    opt = optax.lbfgs(memory_size=solver.memory)
+def _lbfgs_chunk(objective, memory: int, n_steps: int):
+    opt = optax.lbfgs(memory_size=memory)
 
     @jax.jit
     def run(params, state, data):

@@ -26,7 +26,7 @@ def test_explicit_and_implicit_beat_robust_triangulation(scene):
     base = _mpjpe(rob.points_mm, gt)
     limbs = det.skeleton.limb_indices
     exp = ExplicitFit(solver=LBFGS(iterations=30)).fit(problem, init, det.times_s)
-    imp = ImplicitFit(model=FourierBasis(max_freq_hz=3.0), solver=LBFGS(iterations=30)).fit(problem, init, det.times_s)
+    imp = ImplicitFit(model=FourierBasis(max_freq_hz=3.0), solver=LBFGS(iterations=20)).fit(problem, init, det.times_s)
     for out in (exp, imp):
         assert out.points_mm.shape == gt.shape and np.isfinite(out.points_mm).all()
         assert _mpjpe(out.points_mm, gt) < 0.8 * base
