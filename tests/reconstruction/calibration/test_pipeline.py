@@ -20,6 +20,11 @@ def room():
     board = make_board(BoardConfig.checkerboard())
     rot, tvec = board_trajectory(board.geometry, BoardMotion(n_frames=300, floor_frames=20, seed=1), rig)
     obs = observe_board(rig, board.geometry, rot, tvec, noise_px=NOISE_PX, scramble=True, seed=2)
+    # the trap: the floor board reported in mirror order by every camera reprojects just as well, with
+    # the world upside down
+    corners = obs.corners_px.copy()
+    corners[:, :20] = corners[:, :20][:, :, list(board.geometry.symmetries[2])]
+    obs = BoardObservations(obs.camera_names, obs.image_sizes_px, corners, obs.board, obs.times_s)
     return rig, obs, calibrate_from_observations(obs)
 
 
@@ -33,7 +38,7 @@ def test_recovers_the_room_rig(room):
         assert np.all(got.dist[1:] == 0)  # the paper's k1-only model by default
 
 
-def test_world_is_z_up_although_views_came_in_scrambled_order(room):
+def test_world_is_z_up_although_views_came_in_scrambled_and_mirrored_order(room):
     rig, obs, res = room
     assert all(c.center_mm[2] > 1500 for c in res.rig)
     assert not res.report.world_flipped
