@@ -69,7 +69,8 @@ def run_one(name: str, executor, data_dir: Path, specs) -> dict:
     from services.reprocess_store import list_results
 
     db = cat.open_catalog(data_dir / "catalog.sqlite")
-    plan = plan_reprocess(db, data_dir, TrialSelection(), specs, write_files=False)
+    cache = None if name == "inline" else data_dir / ".jax-cache"
+    plan = plan_reprocess(db, data_dir, TrialSelection(), specs, write_files=False, compile_cache=cache)
     t0 = time.perf_counter()
     with executor.open() as ex:
         summary = run_plan(plan, ex)

@@ -47,6 +47,7 @@ WALKWAY_FILE = "walkway.csv"
 GROUND_TRUTH_FILE = "ground_truth.npz"
 SELECTABLE_STATES = ("recorded", "processing", "done", "failed")
 _CATALOGS: dict[str, cat.Catalog] = {}
+_CACHES: set[str] = set()
 
 
 # ---------------------------------------------------------------------------------------------- selection
@@ -105,6 +106,7 @@ class ReprocessTask:
     trial: TrialRef
     spec: MethodSpec
     write_files: bool = True
+    compile_cache: str = ""  # JAX persistent compilation cache folder shared by the workers ("" = none)
 
 
 @dataclass(frozen=True)
@@ -121,9 +123,12 @@ class ReprocessPlan:
 
 
 def plan_reprocess(db: cat.Catalog, data_dir: Path, selection: TrialSelection, specs: Iterable[MethodSpec], *,
-                   retry_failed: bool = False, write_files: bool = True) -> ReprocessPlan:
+                   retry_failed: bool = False, write_files: bool = True,
+                   compile_cache: Path | None = None) -> ReprocessPlan:
     """Every selected trial x every method, minus pairs already stored (failed ones too, unless
-    ``retry_failed``: then those are forgotten and computed again)."""
+    ``retry_failed``: then those are forgotten and computed again). ``compile_cache``: a folder for JAX's
+    persistent compilation cache in the worker processes (e.g. ``<data_dir>/.jax-cache``), so a fresh
+    worker loads compiled code instead of compiling again; None for in-process runs."""
     specs = tuple({(s.method, s.key): s for s in reversed(list(specs))}.values())[::-1]  # first of duplicates
     if not specs:
         raise ValueError("method: give at least one method")
@@ -134,7 +139,8 @@ def plan_reprocess(db: cat.Catalog, data_dir: Path, selection: TrialSelection, s
     if retry_failed:
         delete_failed(db, [t.trial_id for t in trials])
     done = done_keys(db)
-    tasks = [ReprocessTask(db.url, t, s, write_files) for t in trials for s in specs
+    cache = str(Path(compile_cache).resolve()) if compile_cache else ""
+    tasks = [ReprocessTask(db.url, t, s, write_files, cache) for t in trials for s in specs
              if (t.trial_id, s.method, s.key) not in done]
     return ReprocessPlan(tuple(tasks), tuple(trials), specs, len(trials) * len(specs) - len(tasks), tuple(missing))
 
@@ -192,8 +198,21 @@ def _catalog(url: str) -> cat.Catalog:
     return _CATALOGS[url]
 
 
+def _use_compile_cache(path: str) -> None:
+    """Turn on JAX's persistent compilation cache once per process (best effort)."""
+    from services.processing import enable_compile_cache
+
+    if path and path not in _CACHES:
+        _CACHES.add(path)
+        try:
+            enable_compile_cache(Path(path))
+        except OSError as exc:
+            log.warning("compilation cache %s unusable: %s", path, exc)
+
+
 def run_task(task: ReprocessTask) -> TaskOutcome:
     """Compute one (trial, method) result and store it (idempotent; in a worker process)."""
+    _use_compile_cache(task.compile_cache)
     db = _catalog(task.catalog_url)
     spec, key, worker = task.spec, task.spec.key, f"{socket.gethostname()}-{os.getpid()}"
     if get_result(db, task.trial.trial_id, spec.method, key) is not None:

@@ -27,8 +27,9 @@ def _run(db, data_dir: Path, trials: str, specs, *, ray: str, workers: int, ray_
     """Plan, run with a progress bar, return (plan, summary)."""
     from services.reprocess import TrialSelection, plan_reprocess, run_plan, task_resources
 
+    in_process = not ray and workers == 0
     plan = plan_reprocess(db, data_dir, TrialSelection.parse(trials), specs, retry_failed=retry_failed,
-                          write_files=write_files)
+                          write_files=write_files, compile_cache=None if in_process else data_dir / ".jax-cache")
     for tid in plan.missing:
         typer.echo(f"warning: trial {tid}: recording file missing; left out", err=True)
     typer.echo(f"{len(plan.trials)} trial(s) x {len(plan.specs)} method(s): {plan.already_done} already done, "

@@ -28,7 +28,8 @@ def walks():
 
 def test_local_pool_survives_a_killed_worker_results_match_truth_and_done_pairs_are_skipped(tmp_path, walks):
     db, ids = recorded_catalog(tmp_path, walks)
-    plan = plan_reprocess(db, tmp_path, TrialSelection(), [parse_method("robust")])
+    plan = plan_reprocess(db, tmp_path, TrialSelection(), [parse_method("robust")],
+                          compile_cache=tmp_path / "jax-cache")
     assert len(plan.tasks) == 2 and plan.already_done == 0
     box = {}
 
@@ -41,6 +42,7 @@ def test_local_pool_survives_a_killed_worker_results_match_truth_and_done_pairs_
     killed = _kill_a_pool_worker_in_its_first_task(db)
     thread.join(240)
     assert killed and not thread.is_alive()
+    assert any((tmp_path / "jax-cache").iterdir()), "the workers share a compilation cache"
     summary = box["summary"]
     assert (summary.computed, summary.skipped, summary.failed) == (2, 0, 0)
     results = {r.trial_id: r for r in list_results(db)}
