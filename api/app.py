@@ -64,7 +64,7 @@ def create_app(settings: Settings, link=None) -> FastAPI:
 
     @app.get("/health", tags=["health"], summary="Liveness check (no token needed)")
     def health(request: Request) -> dict:
-        return {"status": "ok", "recorder": type(request.app.state.link).__name__ != "NoLink"}
+        return {"status": "ok", "recorder": bool(getattr(request.app.state.link, "connected", True))}
 
     @app.get("/", include_in_schema=False)
     def page() -> FileResponse:

@@ -21,6 +21,9 @@ router = APIRouter(tags=["trials"])
 @router.post("/trials", status_code=201, response_model=TrialOut, summary="Start recording a trial")
 def start(body: StartTrial, request: Request, user: str = Depends(require_user)) -> TrialOut:
     db, settings, link = catalog_of(request), request.app.state.settings, request.app.state.link
+    if not getattr(link, "connected", True):
+        raise HTTPException(status_code=503, detail="recorder: this server runs without the cameras and "
+                                                    "recorder (started with --no-bus)")
     calibration = cat.latest_calibration(db)
     try:
         trial = cat.start_trial(

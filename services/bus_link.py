@@ -35,6 +35,8 @@ def camera_health(name: str, status: dict | None, frame_age_s: float | None, now
 
 
 class BusLink:
+    connected = True
+
     def __init__(self, bus, *, node: str | None = "api", timeout_s: float = 10.0) -> None:
         from services.bus.control import CameraStatusBoard, PreviewFrames, RecorderClient
         from services.bus.session import declare_alive, open_session

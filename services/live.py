@@ -44,11 +44,15 @@ class LiveView(Protocol):
 
 
 class Link(TrialRecorder, LiveView, Protocol):
+    connected: bool  # False: no recorder can ever answer (Start is refused before a trial is created)
+
     def close(self) -> None: ...
 
 
 class NoLink:
     """No live system attached (the API serves the catalog only; Start answers 503)."""
+
+    connected = False
 
     def start(self, *, trial_id: str, path: str, metadata: dict) -> None:
         raise RecorderUnavailable("no recorder is connected to this server (started without the bus)")

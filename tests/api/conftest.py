@@ -23,6 +23,8 @@ def free_port() -> int:
 class RecordingLink:
     """Stands in for the recorder and cameras: remembers calls, serves two preview frames."""
 
+    connected = True
+
     def __init__(self):
         self.calls, self.fail = [], False
         self.jpeg = bytes.fromhex("ffd8ffe000104a464946") + b"\x00" * 20 + bytes.fromhex("ffd9")

@@ -89,3 +89,22 @@ def test_recorder_down_fails_the_trial_with_503(server):
     assert trial["state"] == "failed" and "did not answer" in trial["error"]
     link.fail = False
     assert client.post("/trials", json={"subject_id": "P1"}).status_code == 201  # the slot was freed
+
+
+def test_without_the_bus_start_is_refused_before_a_trial_exists(tmp_path):
+    from api.server import serve_in_thread
+    from api.settings import Settings
+
+    from .conftest import free_port
+
+    settings = Settings(tokens={TOKEN: "bob"}, catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path,
+                        port=free_port())
+    srv = serve_in_thread(settings)  # no link: catalog only
+    try:
+        h = {"Authorization": f"Bearer {TOKEN}"}
+        assert httpx.get(f"{srv.url}/health").json()["recorder"] is False
+        r = httpx.post(f"{srv.url}/trials", json={"subject_id": "P1"}, headers=h)
+        assert r.status_code == 503 and "--no-bus" in r.json()["detail"]
+        assert httpx.get(f"{srv.url}/trials", headers=h).json() == []
+    finally:
+        srv.stop()
