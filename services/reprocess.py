@@ -129,7 +129,10 @@ def plan_reprocess(db: cat.Catalog, data_dir: Path, selection: TrialSelection, s
     ``retry_failed``: then those are forgotten and computed again). ``compile_cache``: a folder for JAX's
     persistent compilation cache in the worker processes (e.g. ``<data_dir>/.jax-cache``), so a fresh
     worker loads compiled code instead of compiling again; None for in-process runs."""
-    specs = tuple({(s.method, s.key): s for s in reversed(list(specs))}.values())[::-1]  # first of duplicates
+    unique: dict[tuple[str, str], MethodSpec] = {}
+    for spec in specs:  # the same config twice (other spelling or label): the first one
+        unique.setdefault((spec.method, spec.key), spec)
+    specs = tuple(unique.values())
     if not specs:
         raise ValueError("method: give at least one method")
     trials, missing = select_trials(db, Path(data_dir), selection)

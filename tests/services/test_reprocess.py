@@ -128,6 +128,8 @@ def test_bad_methods_and_trial_filters(tmp_path, walks):
                         (["-m", "robust:gamma"], "is not key=value")):
         result = runner.invoke(app, ["reprocess", "--data-dir", str(tmp_path), *args])
         assert result.exit_code == 2 and words in result.output, result.output
+    same = plan_reprocess(db, tmp_path, TrialSelection(), [parse_method(m) for m in ("robust", "robust:gamma=0.5", "dlt")])
+    assert [s.name for s in same.specs] == ["robust", "dlt"] and len(same.tasks) == 4
     only = plan_reprocess(db, tmp_path, TrialSelection.parse("trial-01"), [parse_method("dlt")])
     assert [t.trial.trial_id for t in only.tasks] == ["trial-01"]
     assert len(plan_reprocess(db, tmp_path, TrialSelection.parse("P1/s1"), [parse_method("dlt")]).tasks) == 2
