@@ -20,6 +20,7 @@ PAIR_ROT_TOL_DEG = 3.0
 PAIR_TRANS_TOL_REL = 0.05
 FRAME_ROT_TOL_DEG = 10.0
 FRAME_TRANS_TOL_MM = 250.0
+ASSIGN_ROT_TOL_DEG = 30.0  # a view whose pose is this far off the frame's is left out (orders differ by 180)
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,10 +129,11 @@ def _frame_init(poses: ViewPoses, f: int, cam_r: np.ndarray, cam_t: np.ndarray, 
     cam_of = np.array([x[0] for x in cands])
     support = [len(set(cam_of[close[i]])) for i in range(len(cands))]
     best = int(np.argmax(support))
-    for c in cams:
-        mine = [i for i in np.flatnonzero(close[best]) if cam_of[i] == c]
-        if mine:
-            i = min(mine, key=lambda i: rotation_angle_deg(rots[i], rots[best]))
+    angle = rotation_angle_deg(rots, rots[best])
+    for c in cams:  # each view's corner order: its candidate turned most like the best-supported pose
+        mine = np.flatnonzero(cam_of == c)
+        i = int(mine[np.argmin(angle[mine])])
+        if angle[i] < ASSIGN_ROT_TOL_DEG:
             sym[c, f] = cands[i][1]
     return cands[best][2], cands[best][3]
 

@@ -16,7 +16,8 @@ import numpy as np
 from reconstruction.calibration.geometry import BoardObservations
 from reconstruction.calibration.intrinsics import Intrinsics
 
-MAX_PNP_RMS_PX = 5.0
+MAX_PNP_MEDIAN_PX = 3.0  # a few misplaced corners must not throw away the view
+PNP_OUTLIER_PX = 3.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,13 +40,30 @@ def _front_facing(rmat: np.ndarray, tvec: np.ndarray) -> bool:
     return float((-rmat.T @ tvec)[2]) < 0
 
 
-def _solve_view(obj: np.ndarray, img: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray, np.ndarray, float]:
+def _pnp(obj: np.ndarray, img: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """IPPE pose (rvec, tvec) and each corner's reprojection error (px), or None."""
+    if len(obj) < 4:
+        return None
     ok, rvec, tvec = cv2.solvePnP(obj, img, intr.matrix_px, intr.dist, flags=cv2.SOLVEPNP_IPPE)
     if not ok:
-        return np.eye(3), np.zeros(3), np.inf
+        return None
     proj, _ = cv2.projectPoints(obj, rvec, tvec, intr.matrix_px, intr.dist)
-    rms = float(np.sqrt(np.mean(np.sum((proj[:, 0] - img) ** 2, -1))))
-    return cv2.Rodrigues(rvec)[0], tvec.ravel(), rms
+    return rvec, tvec, np.linalg.norm(proj[:, 0] - img, axis=-1)
+
+
+def _solve_view(obj: np.ndarray, img: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray, np.ndarray, float]:
+    """Board -> camera (R, t) and the median reprojection error (px). Corners far off the first fit
+    (misplaced by the detector) are left out of a second fit, so they cannot tip the planar pose over."""
+    first = _pnp(obj, img, intr)
+    if first is None:
+        return np.eye(3), np.zeros(3), np.inf
+    rvec, tvec, err = first
+    keep = err < max(PNP_OUTLIER_PX, 3 * float(np.median(err)))
+    if not keep.all():
+        second = _pnp(obj[keep], img[keep], intr)
+        if second is not None:
+            rvec, tvec, err = second
+    return cv2.Rodrigues(rvec)[0], tvec.ravel(), float(np.median(err))
 
 
 def view_poses(obs: BoardObservations, intrinsics: list[Intrinsics]) -> ViewPoses:
@@ -61,7 +79,7 @@ def view_poses(obs: BoardObservations, intrinsics: list[Intrinsics]) -> ViewPose
             img = obs.corners_px[c, f][seen[c, f]]
             for s, perm in enumerate(syms):
                 obj = obs.board.object_points_mm[perm[seen[c, f]]]
-                r, t, rms = _solve_view(obj, img, intrinsics[c])
+                r, t, median = _solve_view(obj, img, intrinsics[c])
                 rot[c, f, s], tvec[c, f, s] = r, t
-                valid[c, f, s] = rms < MAX_PNP_RMS_PX and t[2] > 0 and _front_facing(r, t)
+                valid[c, f, s] = median < MAX_PNP_MEDIAN_PX and t[2] > 0 and _front_facing(r, t)
     return ViewPoses(rot, tvec, valid)

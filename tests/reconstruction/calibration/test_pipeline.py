@@ -12,6 +12,7 @@ from reconstruction.calibration_io import load_rig, save_rig
 from reconstruction.camera import Camera
 
 NOISE_PX = 0.3
+N_BAD = 40
 
 
 @pytest.fixture(scope="module")
@@ -24,6 +25,11 @@ def room():
     # the world upside down
     corners = obs.corners_px.copy()
     corners[:, :20] = corners[:, :20][:, :, list(board.geometry.symmetries[2])]
+    # and some corners misplaced by the detector
+    rng = np.random.default_rng(5)
+    c_idx, f_idx, n_idx = np.nonzero(np.isfinite(corners[:, 20:, :, 0]))
+    bad = rng.choice(len(c_idx), N_BAD, replace=False)
+    corners[c_idx[bad], f_idx[bad] + 20, n_idx[bad]] += rng.choice([-1, 1], (N_BAD, 2)) * rng.uniform(6, 20, (N_BAD, 2))
     obs = BoardObservations(obs.camera_names, obs.image_sizes_px, corners, obs.board, obs.times_s)
     return rig, obs, calibrate_from_observations(obs)
 
@@ -51,6 +57,7 @@ def test_quality_report(room, tmp_path):
     rep = res.report
     assert NOISE_PX * np.sqrt(2) * 0.9 < rep.reprojection_rms_px < NOISE_PX * np.sqrt(2) * 1.1
     assert abs(rep.square_residual_pct) < 0.2
+    assert N_BAD <= rep.n_outliers < 2 * N_BAD
     assert rep.floor_frames == 20
     assert [q.name for q in rep.cameras] == list(obs.camera_names)
     assert all(q.n_detections == n for q, n in zip(rep.cameras, obs.views().sum(1), strict=True))
