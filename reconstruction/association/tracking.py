@@ -36,7 +36,7 @@ class TrackingConfig:
             second copy of that person and starts no track (its detections stay unassigned).
         min_views_to_start: a person seen by fewer cameras may continue a track but not start one.
         stitch_mm, stitch_window_s, stitch_overlap: two tracks seen in the same frame more than
-            ``stitch_mm`` apart at most in a fraction ``stitch_overlap`` of the shorter one's frames,
+            ``duplicate_mm`` apart at most in a fraction ``stitch_overlap`` of the shorter one's frames,
             whose sightings lie within
             ``stitch_mm`` of each other (median, sightings at most ``stitch_window_s`` apart), are one
             person and are merged (a noisy, rarely seen person whose position once jumped its gate).
@@ -189,11 +189,12 @@ def _stitch(track_of: np.ndarray, pos: np.ndarray, times_s: np.ndarray, config: 
 
 
 def _one_person(a: np.ndarray, b: np.ndarray, times_s: np.ndarray, config: TrackingConfig) -> bool:
-    """Tracks a, b (T, D) are one person: rarely seen apart in the same frame (at most
-    ``stitch_overlap`` of the shorter one's frames; together and close is a duplicate) and, on median, b's sightings lie within ``stitch_mm`` of a's nearest
+    """Tracks a, b (T, D) are one person: rarely seen apart in the same frame (more than
+    ``duplicate_mm``, in at most ``stitch_overlap`` of the shorter one's frames; nearer is a duplicate)
+    and, on median, b's sightings lie within ``stitch_mm`` of a's nearest
     sighting (at most ``stitch_window_s`` away; same-frame sightings compare directly)."""
     seen_a, seen_b = np.isfinite(a[:, 0]), np.isfinite(b[:, 0])
-    apart = np.linalg.norm(a - b, axis=-1) > config.stitch_mm  # NaN -> False: seen together, apart
+    apart = np.linalg.norm(a - b, axis=-1) > config.duplicate_mm  # NaN -> False: together, apart
     if not seen_a.any() or not seen_b.any() or apart.sum() > config.stitch_overlap * min(
             seen_a.sum(), seen_b.sum()):
         return False
