@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,6 +29,7 @@ log = logging.getLogger(__name__)
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
 
+MAX_WORKERS = 8
 Progress = Callable[[int, int | None], None]  # (images done, total images or None)
 
 
@@ -113,11 +115,25 @@ def _iter_mcap(path: Path, sel: FrameSelection) -> Iterator[tuple[str, int, int 
         yield frame.camera, frame.frame_id, frame.timestamp_ns, _gray(frame.jpeg, f"camera {frame.camera} frame {frame.frame_id}")
 
 
+def _batches(items: Iterator, size: int) -> Iterator[list]:
+    batch = []
+    for item in items:
+        batch.append(item)
+        if len(batch) == size:
+            yield batch
+            batch = []
+    if batch:
+        yield batch
+
+
 def detect_recording(
     path: str | os.PathLike, *, board: BoardConfig = BoardConfig(), selection: FrameSelection = FrameSelection(),
-    progress: Progress | None = None,
+    progress: Progress | None = None, workers: int | None = None,
 ) -> BoardObservations:
-    """Find the board in the selected frames of every camera of a recording (MCAP file or folder)."""
+    """Find the board in the selected frames of every camera of a recording (MCAP file or folder).
+
+    ``workers`` threads run the detector (OpenCV releases the GIL); default: the CPU count, at most 8.
+    """
     path = Path(path)
     if not path.exists():
         raise ValueError(f"recording {path} does not exist")
@@ -127,16 +143,19 @@ def detect_recording(
     sizes: dict[str, tuple[int, int]] = {}
     stamps: dict[int, int] = {}
     done = 0
-    for cam, frame_id, stamp_ns, img in frames:
-        sizes.setdefault(cam, (img.shape[1], img.shape[0]))
-        if stamp_ns is not None:
-            stamps.setdefault(frame_id, stamp_ns)
-        corners = detector.detect(img)
-        if corners is not None:
-            found[(cam, frame_id)] = corners
-        done += 1
-        if progress is not None:
-            progress(done, None)
+    workers = workers or min(os.cpu_count() or 1, MAX_WORKERS)
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for batch in _batches(frames, 4 * workers):
+            for (cam, frame_id, stamp_ns, img), corners in zip(batch, pool.map(lambda b: detector.detect(b[3]), batch),
+                                                               strict=True):
+                sizes.setdefault(cam, (img.shape[1], img.shape[0]))
+                if stamp_ns is not None:
+                    stamps.setdefault(frame_id, stamp_ns)
+                if corners is not None:
+                    found[(cam, frame_id)] = corners
+                done += 1
+                if progress is not None:
+                    progress(done, None)
     if not sizes:
         raise ValueError(f"recording {path}: no camera frames in it")
     cams = sorted(sizes)

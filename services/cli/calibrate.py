@@ -46,7 +46,7 @@ def register(app: typer.Typer) -> None:
         distortion: str = typer.Option("k1", "--distortion", help="Distortion terms: k1 (the paper's) | k1k2p1p2k3."),
         every: int = typer.Option(1, "--every", help="Use every N-th frame."),
         max_frames: int | None = typer.Option(None, "--max-frames", help="Use at most this many frames."),
-        floor_frame: int | None = typer.Option(None, "--floor-frame", help="Frame index with the board on the floor (default: the first with the board)."),
+        floor_frame: int | None = typer.Option(None, "--floor-frame", help="Index, among the frames where the board was found, of one with the board on the floor (default 0)."),
         report_path: Path | None = typer.Option(None, "--report", help="Quality report JSON (default: OUT with .report.json)."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
