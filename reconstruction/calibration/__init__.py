@@ -1,6 +1,10 @@
 """Camera calibration from board recordings: pure maths on board observations (no I/O).
 
 Entry point: :func:`calibrate_from_observations` (``BoardObservations`` -> ``CalibrationResult``).
+Modules: ``geometry`` (board, observations, rotations), ``intrinsics`` (OpenCV per camera), ``views``
+(single-view poses, detector order ambiguities), ``graph`` (camera graph, initial poses), ``bundle``
+(robust bundle adjustment), ``world`` (floor-board frame), ``walk_frame`` (frame from a walk),
+``report`` (quality report), ``pipeline`` (all of it).
 """
 
 from reconstruction.calibration.bundle import BundleConfig
@@ -12,6 +16,7 @@ from reconstruction.calibration.pipeline import (
     calibrate_from_observations,
 )
 from reconstruction.calibration.report import CameraQuality, QualityReport, QualityThresholds
+from reconstruction.calibration.walk_frame import reframe_rig, world_from_walk
 from reconstruction.calibration.world import WorldFrameConfig
 
 __all__ = [
@@ -28,4 +33,6 @@ __all__ = [
     "WorldFrameConfig",
     "calibrate_from_observations",
     "grid_board",
+    "reframe_rig",
+    "world_from_walk",
 ]
