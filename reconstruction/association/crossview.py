@@ -249,17 +249,20 @@ def _node_roots(ok: np.ndarray, root: np.ndarray, gap: np.ndarray, config: Assoc
     r = root.transpose(2, 0, 3, 1, 4, 5).reshape(t_, n_, n_, 3)  # (T, N, partners, 3)
     g = gap.transpose(2, 0, 3, 1, 4).reshape(t_, n_, n_)
     valid = np.isfinite(r[..., 0])
-    rz = np.where(valid[..., None], r, 0.0)
+    # invalid roots go to distinct far-away spots, so "near" needs no validity masks
+    far = np.zeros((n_, 3), np.float32)
+    far[:, 0] = 1e6 * np.arange(1, n_ + 1)
+    rz = np.where(valid[..., None], r, far).astype(np.float32)
     sq = (rz * rz).sum(-1)
     d2 = sq[..., :, None] + sq[..., None, :] - 2 * np.matmul(rz, rz.swapaxes(-1, -2))
-    near = (d2 < config.consensus_radius_mm**2) & valid[..., :, None] & valid[..., None, :]
-    count = near.sum(-1)  # (T, N, partners)
+    near = d2 < config.consensus_radius_mm**2
+    count = np.count_nonzero(near, axis=-1)  # (T, N, partners)
     score = np.where(valid, count - np.clip(np.nan_to_num(g, nan=1e9) / config.ray_gap_mm, 0, 0.99), -1.0)
     best = np.argmax(score, axis=-1)  # (T, N)
-    members = np.take_along_axis(near, best[..., None, None], axis=2)[:, :, 0]  # (T, N, partners)
-    n = members.sum(-1)
+    members = np.take_along_axis(near, best[..., None, None], axis=2) & valid[:, :, None, :]  # (T, N, 1, P)
+    n = np.count_nonzero(members, axis=(-2, -1))
     with np.errstate(invalid="ignore", divide="ignore"):
-        out = (members[..., None] * rz).sum(2) / n[..., None]
+        out = np.matmul(members.astype(np.float32), np.where(valid[..., None], rz, 0))[:, :, 0] / n[..., None]
     out[n == 0] = np.nan
     return out
 
