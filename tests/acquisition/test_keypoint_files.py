@@ -67,3 +67,25 @@ def test_most_confident_person():
     people[..., 0] = np.arange(3)[None, None, :, None]
     best = most_confident_person(people)
     assert best.shape == (1, 2, 4, 3) and best[0, 0, 0, 0] == 2 and best[0, 1, 0, 0] == 0
+
+
+def test_trial_mcap_input(tmp_path):
+    from acquisition.recording.writer import TrialWriter, WriterSettings
+    from reconstruction.calibration_io import rig_to_toml_text
+
+    rig = _rig(["cam0", "cam1"])
+    w = TrialWriter(tmp_path / "t.mcap", WriterSettings(flush_interval_s=3600))
+    t0 = 1_700_000_000_000_000_000
+    w.start(metadata={}, calibration_toml=rig_to_toml_text(rig), time_ns=t0)
+    for f in range(3):
+        for c, cam in enumerate(rig.names):
+            people = np.zeros((2, 26, 3))
+            people[:, :, 0] = [[10 * c + f], [500]]
+            people[:, :, 2] = [[0.9], [0.3]]
+            ts = t0 + f * 33_333_333
+            msg = {"camera": cam, "frame_id": f, "timestamp_ns": ts, "skeleton": "halpe26", "people": people.tolist()}
+            w.add_keypoints(cam, json.dumps(msg).encode(), timestamp_ns=ts, frame_id=f)
+    w.finish({})
+    det = read_keypoints_input(tmp_path / "t.mcap", rig=rig)
+    assert det.keypoints.shape == (2, 3, 26, 3) and det.skeleton.name == "halpe26"
+    assert det.keypoints[1, 2, 0, 0] == 12 and det.times_s[1] == pytest.approx(1 / 30, abs=1e-6)
