@@ -7,7 +7,9 @@ import threading
 import time
 
 import pytest
+from typer.testing import CliRunner
 
+from services.cli import app
 from services.executors import LocalPool, RayCluster
 from services.reprocess import TrialSelection, plan_reprocess, run_plan
 from services.reprocess_store import list_results
@@ -80,3 +82,10 @@ def test_ray_sweep_survives_a_killed_worker_and_matches_the_local_pool(tmp_path,
     assert [row["trials"] for row in table.rows] == [3, 3]
     robust, dlt = table.rows
     assert robust["GC_10"] > dlt["GC_10"] and robust["MPJPE"] < dlt["MPJPE"]
+
+    # the command line on the same (already running) Ray: only the new method's pairs are computed
+    result = CliRunner().invoke(app, ["reprocess", "--data-dir", str(tmp_path / "ray"), "--ray", "auto",
+                                      "-m", "robust", "-m", "robust:sigma_mm=100", "--json"])
+    assert result.exit_code == 0, result.output
+    assert '"computed": 3, "skipped": 3, "failed": 0' in result.output
+    assert len(list_results(db)) == 9
