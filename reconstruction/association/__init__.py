@@ -7,7 +7,7 @@ the :class:`~reconstruction.detections.Detections` that reconstruction uses; :fu
 reprojects a 3D reconstruction into per-camera boxes for top-down detectors.
 """
 
-from reconstruction.association.boxes import BoxConfig, person_boxes
+from reconstruction.association.boxes import BoxConfig, person_boxes, track_boxes
 from reconstruction.association.crossview import AssociationConfig, FramePeople, associate_frames
 from reconstruction.association.evaluation import AssociationScore, score_association
 from reconstruction.association.multi import MultiPersonDetections
@@ -36,5 +36,5 @@ __all__ = [
     "TrackSummary", "TrackingConfig", "Tracks", "WalkwayTrack", "associate", "associate_and_select",
     "associate_frames", "associate_keypoints",
     "default_selector", "link_tracks", "patient_detections", "person_boxes", "score_association",
-    "select_track_at_pixel", "walkway_from_rig",
+    "select_track_at_pixel", "track_boxes", "walkway_from_rig",
 ]

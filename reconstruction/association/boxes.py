@@ -66,3 +66,10 @@ def _box(px: np.ndarray, size: np.ndarray, config: BoxConfig) -> np.ndarray:
     out = np.concatenate([lo, hi], -1)
     out[~ok] = np.nan
     return out
+
+
+def track_boxes(rig: Rig, points_mm: np.ndarray, camera_names, config: BoxConfig = BoxConfig()) -> np.ndarray:
+    """Boxes from a track's own association joints (``Tracks.points_mm[track_id]``, (T, Ja, 3)), in the
+    order of ``camera_names`` (e.g. ``Tracks.camera_names``): boxes before any full reconstruction.
+    Association joints stop at the ankles, so give a larger ``padding_fraction`` to include the feet."""
+    return person_boxes(rig.subset(camera_names), points_mm, config)

@@ -37,3 +37,14 @@ def test_bad_points_shape_and_config():
         person_boxes(None, np.zeros((4, 3)))
     with pytest.raises(ValueError, match="BoxConfig"):
         BoxConfig(padding_fraction=-1)
+
+
+def test_track_boxes_use_the_tracks_camera_order(scene3):
+    from reconstruction.association import associate, track_boxes
+
+    tracks = associate(scene3.multi, scene3.rig)
+    names = list(reversed(tracks.camera_names))
+    boxes = track_boxes(scene3.rig, tracks.points_mm[0], names, BoxConfig(padding_fraction=0.3))
+    direct = person_boxes(scene3.rig, tracks.points_mm[0], BoxConfig(padding_fraction=0.3))
+    np.testing.assert_allclose(boxes, direct[::-1])
+    assert np.isfinite(boxes).all()
