@@ -10,8 +10,8 @@ import typer
 
 from services.cli._common import progress, user_errors
 
-METHOD_HELP = ("Method, repeatable: NAME[@PRESET][:key=value,...], e.g. robust, robust:sigma_mm=100, "
-               "implicit:gamma=0.3,huber_cut_px=10, explicit@paper:steps=2000.")
+METHOD_HELP = ("Method (repeatable): NAME or NAME@PRESET, optionally followed by :key=value,key=value; e.g. "
+               "robust, robust:sigma_mm=100, implicit:gamma=0.3,huber_cut_px=10, explicit@paper:steps=2000.")
 
 
 def _executor(ray: str, workers: int, ray_retries: int):
