@@ -37,6 +37,7 @@ from reconstruction.camera import Rig
 from reconstruction.skeletons import Skeleton
 
 ROBUST_ITERS = 2
+CHUNK_ELEMENTS = 5e6  # frames x detections^3 per chunk (memory of the consensus step)
 ROBUST_SCALE_MM = 60.0
 DEFAULT_ASSOCIATION_JOINTS: tuple[str, ...] = (
     "nose", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
@@ -124,7 +125,42 @@ class _Rays:
 
 
 def associate_frames(multi: MultiPersonDetections, rig: Rig, config: AssociationConfig) -> FramePeople:
-    """Group each frame's detections into people (see the module docstring for the method)."""
+    """Group each frame's detections into people (see the module docstring for the method).
+
+    Frames are independent here; long clips with many detections per frame are done in chunks of
+    frames so the (frames x detections^3) consensus arrays stay within ``CHUNK_ELEMENTS``.
+    """
+    c_, t_, p_, _ = multi.shape
+    chunk = max(1, int(CHUNK_ELEMENTS // max((c_ * p_) ** 3, 1)))
+    if t_ <= chunk:
+        return _associate_chunk(multi, rig, config)
+    parts = []
+    for start in range(0, t_, chunk):
+        sl = slice(start, min(start + chunk, t_))
+        part = MultiPersonDetections(multi.keypoints[:, sl], multi.camera_names, multi.times_s[sl],
+                                     multi.skeleton)
+        parts.append(_associate_chunk(part, rig, config))
+    return _concatenate(parts)
+
+
+def _concatenate(parts: list[FramePeople]) -> FramePeople:
+    k_ = max(p.views.shape[1] for p in parts)
+
+    def pad(a: np.ndarray, fill) -> np.ndarray:
+        width = [(0, 0)] * a.ndim
+        width[1] = (0, k_ - a.shape[1])
+        return np.pad(a, width, constant_values=fill)
+
+    return FramePeople(
+        labels=np.concatenate([p.labels for p in parts], axis=1),
+        points_mm=np.concatenate([pad(p.points_mm, np.nan) for p in parts]),
+        root_mm=np.concatenate([pad(p.root_mm, np.nan) for p in parts]),
+        views=np.concatenate([pad(p.views, 0) for p in parts]),
+        joint_indices=parts[0].joint_indices,
+    )
+
+
+def _associate_chunk(multi: MultiPersonDetections, rig: Rig, config: AssociationConfig) -> FramePeople:
     rig = rig.subset(multi.camera_names)
     jidx = config.joint_indices(multi.skeleton)
     rays = _rays(multi, rig, jidx, config)

@@ -57,3 +57,15 @@ def test_unknown_camera_and_bad_config_are_named(scene3):
     with pytest.raises(ValueError, match="no \\['left_foot_index'\\]"):
         associate_frames(scene3.multi, scene3.rig, AssociationConfig(joints=("left_foot_index",)))
 
+
+
+def test_long_clips_are_done_in_chunks_with_the_same_result(scene3, monkeypatch):
+    import reconstruction.association.crossview as crossview
+
+    whole = associate_frames(scene3.multi, scene3.rig, AssociationConfig())
+    monkeypatch.setattr(crossview, "CHUNK_ELEMENTS", 7 * 24**3)  # 7 frames a chunk (8 cameras x 3 slots)
+    chunked = associate_frames(scene3.multi, scene3.rig, AssociationConfig())
+    np.testing.assert_array_equal(chunked.labels, whole.labels)
+    k = whole.views.shape[1]
+    np.testing.assert_array_equal(chunked.views[:, :k], whole.views)
+    np.testing.assert_allclose(chunked.root_mm[:, :k], whole.root_mm)
