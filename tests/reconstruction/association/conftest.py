@@ -121,3 +121,28 @@ def scene3() -> Scene:
 def crossing_scene() -> Scene:
     """A therapist close beside the patient (450 mm) and a third person crossing the walkway."""
     return make_scene(frames=180, people=3, seed=5, crossing=True, beside_mm=450, noise_px=4, drop=0.15)
+
+
+@pytest.fixture(scope="session")
+def six_scene() -> Scene:
+    """Six people walking circles around the room (the paper's lab had up to six in view)."""
+    rng = np.random.default_rng(6)
+    t = np.arange(60) / 30
+    people = []
+    for i in range(6):
+        a = 2 * np.pi * i / 6
+        xy = 2200 * np.array([np.cos(a), np.sin(a)]) + np.stack(
+            [600 * np.cos(0.5 * t + i), 600 * np.sin(0.5 * t + i)], -1)
+        people.append(person_points(xy, 0.5 * t + i + np.pi / 2, 2 * np.pi * t))
+    pts = np.stack(people)
+    rig = make_rig(10)
+    proj = rig.project(pts)
+    kp = np.concatenate([proj + rng.normal(0, 2, proj.shape), np.full((*proj.shape[:-1], 1), 0.9)],
+                        -1).transpose(0, 2, 1, 3, 4)
+    c_, t_, n_ = kp.shape[:3]
+    ident = np.broadcast_to(np.arange(n_), (c_, t_, n_)).copy()
+    order = np.argsort(rng.random((c_, t_, n_)), axis=-1)
+    kp = np.take_along_axis(kp, order[..., None, None], 2)
+    ident = np.take_along_axis(ident, order, 2)
+    return Scene(rig=rig, multi=MultiPersonDetections(kp, rig.names, t, "halpe26"), identity=ident,
+                 points_mm=pts)

@@ -118,3 +118,12 @@ def test_close_companion_and_a_person_crossing_between_cameras(crossing_scene):
     score = score_association(tracks.detection_track, crossing_scene.identity)
     assert tracks.num_tracks == 3 and score.identity_switches == 0
     assert score.wrong_fraction < 0.005 and score.missed_fraction < 0.005
+
+
+def test_six_people_in_view(six_scene):
+    from reconstruction.association import associate
+
+    tracks = associate(six_scene.multi, six_scene.rig)
+    score = score_association(tracks.detection_track, six_scene.identity)
+    assert tracks.num_tracks == 6 and len(set(score.main_track)) == 6
+    assert score.identity_switches == 0 and score.wrong == 0 and score.missed == 0
