@@ -1,5 +1,5 @@
-"""Two hosts on one machine: network namespaces joined by a veth pair. The ACQUISITION host runs the
-camera node; the PROCESSING host runs recorder, detector and worker (and the driver that starts and
+"""Two hosts on one machine: network namespaces joined by a veth pair. The ACQUISITION host runs two
+camera nodes (three cameras each); the PROCESSING host runs recorder, detector and worker (and the driver that starts and
 stops the trial as the clinic service does). Every Zenoh endpoint is on a veth address, so all frames
 and keypoints cross the link. Checks that the trial is recorded (all cameras, keypoints for every
 frame) and processed (state done, robust-triangulation gait results in the catalog).
@@ -42,8 +42,11 @@ def _netns_unavailable() -> str:
     r = _ip("netns", "add", probe)
     if r.returncode != 0:
         return f"'ip netns add' failed: {r.stderr.strip()}"
-    _ip("netns", "del", probe)
-    return ""
+    try:
+        r = _ip("netns", "exec", probe, "true")
+        return "" if r.returncode == 0 else f"'ip netns exec' failed: {r.stderr.strip()}"
+    finally:
+        _ip("netns", "del", probe)
 
 
 @pytest.fixture
@@ -120,7 +123,7 @@ def test_trial_recorded_and_processed_across_two_hosts(tmp_path, two_hosts):
     acq, proc_ns, addr_a, addr_p = two_hosts
     bus_file = tmp_path / "bus.json5"
     bus_file.write_text(json.dumps({"prefix": "gaitcap/netns", "lease_ms": 3000, "nodes": {
-        "camera-0": f"tcp/{addr_a}:7447",
+        "camera-0": f"tcp/{addr_a}:7447", "camera-1": f"tcp/{addr_a}:7448",
         "recorder": f"tcp/{addr_p}:7447", "detector": f"tcp/{addr_p}:7448", "worker": f"tcp/{addr_p}:7449"}}))
     data = tmp_path / "data"
     data.mkdir()
@@ -135,11 +138,15 @@ def test_trial_recorded_and_processed_across_two_hosts(tmp_path, two_hosts):
                                                  str(bus_file), str(data), json.dumps(SIM)],
                              stdin=subprocess.PIPE, stdout=subprocess.PIPE)
         trial_id = _read_event(driver, "recording", 150)["trial_id"]
-        start_ns = time.time_ns() + 8_000_000_000  # a synchronised start once the node is up
-        camera = procs.start("camera-0", acq, [*PY, "node", "camera", "--node", "camera-0", *SIM_ARGS,
-                                               "--size", "160x120", "--frames", str(FRAMES),
-                                               "--start-at-ns", str(start_ns)])
-        assert camera.wait(timeout=150) == 0, procs.log("camera-0")
+        start_ns = time.time_ns() + 8_000_000_000  # a synchronised start once the nodes are up
+        names = [f"cam{i:02d}" for i in range(1, SIM["cameras"] + 1)]
+        half = len(names) // 2
+        cameras = [procs.start(f"camera-{k}", acq, [*PY, "node", "camera", "--node", f"camera-{k}", *SIM_ARGS,
+                                                    "--cameras", ",".join(part), "--size", "160x120",
+                                                    "--frames", str(FRAMES), "--start-at-ns", str(start_ns)])
+                   for k, part in enumerate((names[:half], names[half:]))]
+        for k, camera in enumerate(cameras):
+            assert camera.wait(timeout=150) == 0, procs.log(f"camera-{k}")
         driver.stdin.write(b"stop\n")
         driver.stdin.flush()
         summary = _read_event(driver, "queued", 60)["summary"]
