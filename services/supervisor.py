@@ -54,10 +54,13 @@ class Supervisor:
         offset = path.stat().st_size if path.exists() else 0
         out = open(path, "ab")  # noqa: SIM115  (kept open by the child)
         env = {**self.base_env, **spec.env, "PYTHONUNBUFFERED": "1"}
-        nice = spec.nice
         proc = subprocess.Popen(spec.argv, stdout=out, stderr=subprocess.STDOUT, env=env,
-                                stdin=subprocess.DEVNULL, start_new_session=True,
-                                preexec_fn=(lambda: os.nice(nice)) if nice else None)
+                                stdin=subprocess.DEVNULL, start_new_session=True)
+        if spec.nice:  # before the child starts its threads (they inherit it)
+            try:
+                os.setpriority(os.PRIO_PROCESS, proc.pid, os.getpriority(os.PRIO_PROCESS, 0) + spec.nice)
+            except OSError:
+                log.warning("could not lower the priority of %s", spec.name)
         out.close()
         log.info("started %s (pid %s)", spec.name, proc.pid)
         return proc, path, offset
@@ -117,30 +120,30 @@ class Supervisor:
         """Stop one child (SIGTERM, then SIGKILL) and start it again."""
         with self._lock:
             child = self.children.pop(name)
-            _terminate([child.proc], grace_s=10)
+            _terminate([(name, child.proc)], grace_s=10)
             self.start(child.spec)
 
     def stop(self, *, grace_s: float = 10.0) -> None:
         """SIGTERM every child (reverse start order), SIGKILL what is left after ``grace_s``."""
         with self._lock:
-            procs = [c.proc for c in reversed(list(self.children.values()))]
+            procs = [(n, c.proc) for n, c in reversed(list(self.children.items()))]
             _terminate(procs, grace_s=grace_s)
             self.children.clear()
 
 
-def _terminate(procs: list[subprocess.Popen], *, grace_s: float) -> None:
-    for p in procs:
+def _terminate(procs: list[tuple[str, subprocess.Popen]], *, grace_s: float) -> None:
+    for _, p in procs:
         if p.poll() is None:
             try:
                 os.killpg(p.pid, signal.SIGTERM)
             except ProcessLookupError:
                 pass
     deadline = time.monotonic() + grace_s
-    for p in procs:
+    for name, p in procs:
         try:
             p.wait(max(0.0, deadline - time.monotonic()))
         except subprocess.TimeoutExpired:
-            log.warning("pid %s did not stop in %.0f s; killing", p.pid, grace_s)
+            log.warning("%s (pid %s) did not stop in %.0f s; killing it", name, p.pid, grace_s)
             try:
                 os.killpg(p.pid, signal.SIGKILL)
             except ProcessLookupError:

@@ -106,6 +106,7 @@ class Worker:
         self.config = config
         self.db = db or cat.open_catalog(config.catalog_url)
         self.progress = progress or NoProgress()
+        self.busy = False  # a job is being processed
 
     # ------------------------------------------------------------------ loop
     def run(self, stop: threading.Event) -> None:
@@ -121,6 +122,13 @@ class Worker:
         if job is None:
             return False
         log.info("job %s: trial %s (attempt %s)", job.id, job.trial_id, job.attempts)
+        self.busy = True
+        try:
+            return self._run_job(job)
+        finally:
+            self.busy = False
+
+    def _run_job(self, job: cat.JobInfo) -> bool:
         with LeaseKeeper(self.db, job, self.config.worker_id, self.config.lease_s) as lease:
             try:
                 self.process(job.trial_id, lease)
@@ -205,6 +213,8 @@ class Worker:
                          report=extra, quality=traj.metrics or {}, artifacts=artifacts,
                          elapsed_s=traj.elapsed_s + time.perf_counter() - t0)
         log.info("trial %s: %s results stored (%s)", trial_id, stage, extra)
+        self._report(trial_id, "processing", f"saving the {stage} files", 0.35 if stage == "preliminary" else 0.95,
+                     stage)
         write_views(files, stage, traj, report, trial_id=trial_id)
         if rrd:
             write_rrd(files.stage_file(stage, "rerun_rrd"), traj, trial_id=trial_id, bones=det.skeleton.bone_indices)

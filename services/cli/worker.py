@@ -43,8 +43,14 @@ def register(app: typer.Typer) -> None:
                 progress = BusProgress(session, bus_cfg)
             w = Worker(cfg, progress=progress)
         stop = threading.Event()
+
+        def _stop(signum, _frame):
+            stop.set()
+            if w.busy:  # do not finish a long fit: the job's lease expires and another worker redoes it
+                raise SystemExit(128 + signum)
+
         for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, lambda *_: stop.set())
+            signal.signal(sig, _stop)
         if warm_up:
             typer.echo(f"worker {cfg.worker_id}: warming up (compiling) ...", err=True)
             typer.echo(f"worker {cfg.worker_id}: warm in {warm_worker(cache_dir=data_dir / '.jax-cache'):.1f} s", err=True)
