@@ -146,3 +146,15 @@ def test_bad_methods_and_trial_filters(tmp_path, walks):
     assert r.status == "failed" and r.error
     assert plan_reprocess(db, tmp_path, TrialSelection(), [parse_method("dlt")]).tasks == ()
     assert len(plan_reprocess(db, tmp_path, TrialSelection(), [parse_method("dlt")], retry_failed=True).tasks) == 1
+
+
+def test_fits_ask_the_cluster_for_gpus_triangulations_do_not(tmp_path):
+    from services.reprocess import ReprocessTask, TrialRef, task_resources
+
+    trial = TrialRef("t1", tmp_path / "recording.mcap")
+    resources = task_resources(1.0)
+    asks = {m: resources(ReprocessTask("sqlite:///x", trial, parse_method(m))) for m in ("robust", "dlt", "implicit",
+                                                                                         "explicit@paper")}
+    assert {m: (r.num_cpus, r.num_gpus) for m, r in asks.items()} == {
+        "robust": (1.0, 0.0), "dlt": (1.0, 0.0), "implicit": (1.0, 1.0), "explicit@paper": (1.0, 1.0)}
+    assert task_resources(0.0)(ReprocessTask("sqlite:///x", trial, parse_method("implicit"))).num_gpus == 0.0
