@@ -63,5 +63,6 @@ def format_metrics(gait: dict) -> str:
         if m.get("mean") is None:
             continue
         sd = f" +- {m['sd']:.1f}" if m.get("sd") is not None else ""
-        lines.append(f"  {name:30s} {m['mean']:9.2f}{sd} {m.get('unit', '')}")
+        value = f"{m['mean']:9.0f}" if float(m["mean"]).is_integer() and not m.get("unit") else f"{m['mean']:9.2f}"
+        lines.append(f"  {name:30s} {value}{sd} {m.get('unit', '')}".rstrip())
     return "\n".join(lines)
