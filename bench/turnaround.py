@@ -84,10 +84,9 @@ def main() -> None:
 
     import httpx
 
-    from services.stack import Stack, StackConfig
-    from tests.stack_helpers import free_ports
+    from services.stack import Stack, StackConfig, free_port_range
 
-    base = free_ports(16)
+    base = free_port_range(16)
     with tempfile.TemporaryDirectory(prefix="gaitcap-turnaround-") as tmp:
         cfg = StackConfig(data_dir=Path(tmp), token="turnaround-bench-token", port=base, bus_base_port=base + 1,
                           cameras=args.cameras, size=args.size, sim_seconds=max(300.0, 3 * args.seconds))

@@ -10,13 +10,31 @@ One stack serves every test of this module (starting it is the slow part).
 """
 
 import concurrent.futures
+import contextlib
 import time
 
 import httpx
 import pytest
 
 from services import catalog as cat
-from tests.stack_helpers import TOKEN, running_stack
+from services.stack import Stack, StackConfig, free_port_range
+
+TOKEN = "stack-test-token-42"
+
+
+@contextlib.contextmanager
+def running_stack(tmp_path, **overrides):
+    """A small stack: 6 simulated cameras at 160x120, a 240 s walk, 4 s job leases."""
+    base = free_port_range(12)
+    values = dict(data_dir=tmp_path / "clinic", token=TOKEN, port=base, bus_base_port=base + 1, cameras=6,
+                  size="160x120", sim_seconds=240.0, lease_s=4.0)
+    values.update(overrides)
+    stack = Stack(StackConfig(**values))
+    stack.start(timeout_s=240)
+    try:
+        yield stack
+    finally:
+        stack.stop()
 
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
         "--disable-component-update", "--disable-sync", "--no-first-run"]
