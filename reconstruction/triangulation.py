@@ -209,7 +209,10 @@ def _masked_median(values, mask):
     return jnp.where(k > 0, 0.5 * (lo + hi), jnp.nan)
 
 
-@partial(jax.jit, static_argnames=("max_iters",))
+BLOCK_POINTS = 4096  # points per block: a block's arrays stay in cache and it stops iterating on its own
+
+
+@partial(jax.jit, static_argnames=("max_iters", "block"))
 def robust_arrays(
     keypoints: jnp.ndarray,
     cams: CameraArrays,
@@ -218,8 +221,9 @@ def robust_arrays(
     sigma_mm: float = 150.0,
     max_iters: int = 100,
     tol_mm: float = 0.01,
+    block: int = BLOCK_POINTS,
 ):
-    """Robust triangulation on arrays.
+    """Robust triangulation on arrays, in blocks of ``block`` points (a sequential map over blocks).
 
     Args:
         keypoints: (C, N, 3) x px, y px, confidence (NaN = missing view).
@@ -230,6 +234,21 @@ def robust_arrays(
     Returns:
         points (N, 3) mm (NaN if not triangulable), camera weights (C, N) in [0, 1].
     """
+    c, n, _ = keypoints.shape
+    b = min(block, n)
+    nb = -(-n // b)
+    kp = jnp.pad(keypoints, ((0, 0), (0, nb * b - n), (0, 0)), constant_values=jnp.nan)
+    blocks = kp.reshape(c, nb, b, 3).transpose(1, 0, 2, 3)  # (nb, C, b, 3)
+
+    def one(kp_block):
+        return _robust_block(kp_block, cams, gamma, sigma_mm, max_iters, tol_mm)
+
+    pts, cam_w = jax.lax.map(one, blocks)  # (nb, b, 3), (nb, b, C)
+    return pts.reshape(nb * b, 3)[:n], cam_w.reshape(nb * b, c)[:n].T
+
+
+def _robust_block(keypoints, cams: CameraArrays, gamma, sigma_mm, max_iters: int, tol_mm):
+    """Robust triangulation of keypoints (C, B, 3): points (B, 3) mm and camera weights (B, C)."""
     c = cams.num_cameras
     xn, yn, conf = _prepare(keypoints, cams)
     valid = conf > gamma
@@ -238,14 +257,14 @@ def robust_arrays(
     mx, my, mz = _geometric_median(px, py, pz, ok, max_iters, tol_mm / MM_PER_M)
     d_mm = MM_PER_M * jnp.sqrt((px - mx[:, None]) ** 2 + (py - my[:, None]) ** 2 + (pz - mz[:, None]) ** 2)
     pair_w = jnp.exp(-((d_mm / sigma_mm) ** 2))
-    table = _pair_table(c)  # camera c's pairs: gather (N, C, C-1)
-    cam_w = _masked_median(pair_w[:, table], ok[:, table])  # (N, C)
+    table = _pair_table(c)  # camera c's pairs: gather (B, C, C-1)
+    cam_w = _masked_median(pair_w[:, table], ok[:, table])  # (B, C)
     cam_w = jnp.where(jnp.isfinite(cam_w), cam_w, 0.0)
     pts, good = _weighted_dlt(m, rhs, cam_w * cam_w)
     good = good & (jnp.sum(cam_w > MIN_VIEW_WEIGHT, axis=-1) >= 2)
     pts = jnp.where(good[:, None], pts * MM_PER_M, jnp.nan)
     cam_w = jnp.where(good[:, None], cam_w, 0.0)
-    return pts, cam_w.T
+    return pts, cam_w
 
 
 def _pair_table(c: int) -> np.ndarray:

@@ -32,7 +32,7 @@ class ExplicitFit:
 
     @classmethod
     def paper(cls, steps: int = 50_000) -> ExplicitFit:
-        solver = Adam(learning_rate=0.1, steps=steps, reg_start=min(5000, steps), chunk=500)
+        solver = Adam(learning_rate=0.1, steps=steps, reg_start=steps // 10, chunk=500)
         return cls(solver=solver, loss=LossConfig())
 
     def fit(self, problem: Problem, init_mm: np.ndarray, times_s: np.ndarray, progress: Progress | None = None):

@@ -204,11 +204,13 @@ class ImplicitFit:
 
     @classmethod
     def paper(cls, steps: int = 50_000) -> ImplicitFit:
-        """The paper's MLP, schedule and step count (regularisers on after step 5000)."""
-        schedule = WarmupHoldDecay(total_steps=steps)
+        """The paper's MLP, schedule and step count. For ``steps`` other than 50k the schedule keeps the
+        paper's proportions: warm-up 2 %, regularisers on and decay from 10 %, early stop allowed from 80 %.
+        """
+        schedule = WarmupHoldDecay(warmup_steps=max(steps // 50, 1), decay_start=max(steps // 10, 1), total_steps=steps)
         solver = Adam(
-            learning_rate=schedule, steps=steps, reg_start=min(5000, steps), clip_norm=1.0,
-            early_stop_after=min(40_000, steps), chunk=100,
+            learning_rate=schedule, steps=steps, reg_start=steps // 10, clip_norm=1.0,
+            early_stop_after=(steps * 4) // 5, chunk=100,
         )
         return cls(model=PaperMLP(), solver=solver, loss=LossConfig())
 
