@@ -35,7 +35,7 @@ class SessionRow(Base):
     """A visit of one subject (several trials)."""
 
     __tablename__ = "sessions"
-    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    id: Mapped[str] = mapped_column(String(140), primary_key=True)  # "<subject_id>/<label>"
     subject_id: Mapped[str] = mapped_column(ForeignKey("subjects.id"), index=True)
     created_at: Mapped[float] = mapped_column(Float)
 
