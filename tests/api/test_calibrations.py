@@ -1,0 +1,24 @@
+"""Uploading a calibration: validated, stored, handed to the recorder with the next trial."""
+
+from reconstruction.calibration_io import save_rig
+from services.processing import ring_rig
+
+
+def test_uploaded_calibration_goes_to_the_next_trial(server, tmp_path):
+    _, client, link, _ = server
+    save_rig(ring_rig(3), tmp_path / "rig.toml")
+    toml = (tmp_path / "rig.toml").read_text()
+    r = client.post("/calibrations", json={"toml": toml, "source": "board session 1"})
+    assert r.status_code == 201 and r.json()["cameras"] == ["cam0", "cam1", "cam2"]
+    assert client.get("/calibrations/latest").json()["id"] == r.json()["id"]
+    client.post("/trials", json={"subject_id": "P9"})
+    meta = link.calls[-1][3]
+    assert meta["calibration_id"] == r.json()["id"] and meta["calibration_toml"] == toml
+
+
+def test_a_bad_calibration_is_refused_naming_the_field(server):
+    _, client, _, _ = server
+    assert client.get("/calibrations/latest").status_code == 404
+    r = client.post("/calibrations", json={"toml": "[cam_0]\nname = 'a'\n"})
+    assert r.status_code == 422 and r.json()["detail"].startswith("toml:")
+    assert client.post("/calibrations", json={"toml": ""}).json()["detail"].startswith("toml:")
