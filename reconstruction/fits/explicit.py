@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import jax
 import numpy as np
 
 from reconstruction.fits.common import FitOutput, from_fit_layout, to_fit_layout
@@ -39,5 +40,5 @@ class ExplicitFit:
         """init_mm: (T, J, 3) NaN-free start. Returns :class:`FitOutput`."""
         objective = _PointsObjective(self.loss)
         params, history = self.solver.minimize(objective, to_fit_layout(init_mm), problem, progress)
-        _, parts = objective(params, problem, 1.0)
+        _, parts = jax.jit(objective)(params, problem, 1.0)
         return FitOutput(from_fit_layout(params), history, {k: float(v) for k, v in parts.items()})

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import jax
 import jax.numpy as jnp
@@ -184,6 +185,18 @@ class _ModelObjective:
         return total_loss(self.model.points(params, features), problem, self.loss, reg_scale)
 
 
+@lru_cache(maxsize=16)
+def evaluate(objective: _ModelObjective, model: Model):
+    """Jitted (params, data) -> (points (3, T, J), loss terms): one compile instead of eager op-by-op."""
+
+    @jax.jit
+    def run(params, data):
+        _, parts = objective(params, data, 1.0)
+        return model.points(params, data[1]), parts
+
+    return run
+
+
 def _fast_loss() -> LossConfig:
     return LossConfig(cut_px=10.0, smooth_weight=0.3, skeleton_weight=0.3)
 
@@ -219,7 +232,7 @@ class ImplicitFit:
         params, features, span = self.model.init(times_s, init_mm, None)
         objective = _ModelObjective(self.model, self.loss)
         params, history = self.solver.minimize(objective, params, (problem, features), progress)
-        _, parts = objective(params, (problem, features), 1.0)
-        points = from_fit_layout(self.model.points(params, features))
+        points, parts = evaluate(objective, self.model)(params, (problem, features))
+        points = from_fit_layout(points)
         traj = self.model.trajectory(params, span, init_mm.shape[1])
         return FitOutput(points, history, {k: float(v) for k, v in parts.items()}, traj)

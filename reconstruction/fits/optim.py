@@ -24,6 +24,12 @@ log = logging.getLogger(__name__)
 Progress = Callable[[int, int], None]  # (steps done, steps total)
 
 
+def _strong(tree):
+    """Optimiser state with weak types made strong, so the jitted step's second call does not retrace
+    (its outputs are strongly typed) and compile everything a second time."""
+    return jax.tree.map(lambda x: jnp.array(x, dtype=x.dtype), tree)
+
+
 @dataclass(frozen=True)
 class WarmupHoldDecay:
     """The paper's implicit schedule: linear warm-up init -> peak, hold, exponential decay to end."""
@@ -77,7 +83,7 @@ class Adam:
     def minimize(self, objective, params, data, progress: Progress | None = None):
         opt = self.transform()
         run = _adam_chunk(objective, self, min(self.chunk, self.steps))
-        state = opt.init(params)
+        state = _strong(opt.init(params))
         history: list[np.ndarray] = []
         done = 0
         t0 = time.perf_counter()
@@ -137,7 +143,7 @@ class LBFGS:
 
     def minimize(self, objective, params, data, progress: Progress | None = None):
         opt = optax.lbfgs(memory_size=self.memory)
-        state = opt.init(params)
+        state = _strong(opt.init(params))
         run = _lbfgs_chunk(objective, self.memory, self.chunk)
         history: list[np.ndarray] = []
         done = 0
