@@ -39,6 +39,21 @@ class TrialFiles:
         """The trial's MCAP (frames, keypoints, calibration, metadata)."""
         return self.root / "recording.mcap"
 
+    @property
+    def people_json(self) -> Path:
+        """Everyone tracked in the trial and which track is the patient (written by the worker)."""
+        return self.root / "people.json"
+
+    @property
+    def tracks_npz(self) -> Path:
+        """The tracks themselves (which detection is whose), to resolve a click on a camera image."""
+        return self.root / "tracks.npz"
+
+    @property
+    def patient_choice_json(self) -> Path:
+        """The clinician's choice of the patient's track (written by the API; wins over automatic)."""
+        return self.root / "patient_choice.json"
+
     def stage_file(self, stage: str, key: str) -> Path:
         if stage not in STAGES:
             raise ValueError(f"stage: must be one of {STAGES}, got {stage!r}")

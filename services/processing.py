@@ -54,16 +54,29 @@ def load_recording(mcap_path: Path, *, fallback_calibration: Path | None = None)
 
     The calibration recorded in the MCAP is used; ``fallback_calibration`` (TOML/JSON) when it has none.
     """
-    from acquisition.recording.reader import read_calibration, read_detections
+    from acquisition.recording.reader import read_detections
 
-    detections = read_detections(mcap_path)
+    return read_detections(mcap_path), recorded_rig(mcap_path, fallback_calibration=fallback_calibration)
+
+
+def load_keypoints(mcap_path: Path, *, fallback_calibration: Path | None = None):
+    """Everyone's 2D keypoints (a ``KeypointRecording``, (C, T, P, J, 3)) and the rig from a trial MCAP;
+    ``.patient()`` of it is what :func:`load_recording` returns."""
+    from acquisition.recording.reader import read_keypoints
+
+    return read_keypoints(mcap_path), recorded_rig(mcap_path, fallback_calibration=fallback_calibration)
+
+
+def recorded_rig(mcap_path: Path, *, fallback_calibration: Path | None = None) -> Rig:
+    """The calibration recorded in the MCAP, else ``fallback_calibration`` (TOML/JSON)."""
+    from acquisition.recording.reader import read_calibration
+
     try:
-        rig = read_calibration(mcap_path)
+        return read_calibration(mcap_path)
     except (ValueError, KeyError) as exc:
         if fallback_calibration is None:
             raise ValueError(f"recording {mcap_path.name}: no calibration in it ({exc})") from None
-        rig = load_rig(fallback_calibration)
-    return detections, rig
+        return load_rig(fallback_calibration)
 
 
 def pad_detections(det: Detections, num_frames: int) -> Detections:

@@ -1,6 +1,7 @@
 """The reconstruction worker: takes recorded trials from the catalog's job table (under a lease), reads
-the MCAP, stores PRELIMINARY gait metrics (robust triangulation) first, then the REFINED ones (implicit
-fit), writes the files and reports progress on the bus.
+the MCAP (with several people in view it finds the patient first: :mod:`services.people`), stores
+PRELIMINARY gait metrics (robust triangulation) first, then the REFINED ones (implicit fit), writes the
+files and reports progress on the bus.
 
 Several workers may run; each renews its lease while it works. A worker that dies stops renewing and
 its job is taken over by another once the lease has expired (the trial stays ``processing``). The
@@ -23,10 +24,11 @@ from typing import Protocol
 
 from services import catalog as cat
 from services.artifacts import trial_files
+from services.people import most_people_in_view, patient_detections_of
 from services.processing import (
     Trajectory,
     enable_compile_cache,
-    load_recording,
+    load_keypoints,
     preliminary,
     refined,
     ring_rig,
@@ -169,7 +171,10 @@ class Worker:
         files = trial_files(self.config.data_dir, trial_id)
         self._report(trial_id, "processing", "reading the recording", 0.05, None)
         t0 = time.perf_counter()
-        det, rig = load_recording(files.recording, fallback_calibration=self.config.fallback_calibration)
+        recording, rig = load_keypoints(files.recording, fallback_calibration=self.config.fallback_calibration)
+        if most_people_in_view(recording.people) > 1:
+            self._report(trial_id, "processing", "finding the patient among the people in view", 0.07, None)
+        det, _ = patient_detections_of(recording, rig, files)
         det, rig = det.aligned_to(rig)
         self.load_s = time.perf_counter() - t0
         self._report(trial_id, "processing", "first 3D reconstruction", 0.1, None)

@@ -1,7 +1,8 @@
 """The trial state machine: recording -> recorded -> processing -> done | failed.
 
 A trial may also fail from ``recording`` (the recorder died) or ``recorded`` (the job could not be
-queued), and a failed trial may be re-queued for processing (``failed -> recorded``) by an operator.
+queued), and a failed trial may be re-queued for processing (``failed -> recorded``) by an operator, and so may a done trial whose patient was
+chosen anew (``done -> recorded``).
 Illegal transitions raise :class:`IllegalTransition` (a ValueError) naming both states.
 """
 
@@ -26,7 +27,7 @@ ALLOWED: dict[TrialState, frozenset[TrialState]] = {
     TrialState.RECORDING: frozenset({TrialState.RECORDED, TrialState.FAILED}),
     TrialState.RECORDED: frozenset({TrialState.PROCESSING, TrialState.FAILED}),
     TrialState.PROCESSING: frozenset({TrialState.DONE, TrialState.FAILED}),
-    TrialState.DONE: frozenset(),
+    TrialState.DONE: frozenset({TrialState.RECORDED}),
     TrialState.FAILED: frozenset({TrialState.RECORDED}),
 }
 

@@ -1,0 +1,159 @@
+"""Several people in view: who is the patient of a trial.
+
+When a recording has more than one person in any camera frame, the worker associates everyone across
+cameras and time (:mod:`reconstruction.association`) and picks the patient: the clinician's stored choice
+(``patient_choice.json``) when there is one, else automatically (the person who walks the walkway). A
+single-person recording takes none of this (the detector's only person is the patient).
+
+Files in the trial folder (:class:`~services.artifacts.TrialFiles`):
+
+- ``people.json`` (worker): ``{"cameras": [...], "frames": T, "patient_track_id": int, "chosen_by":
+  "automatic" | "clinician", "people": [{"track_id", "first_s", "last_s", "seen_s", "frames",
+  "mean_views", "path_mm", "mean_position_mm"}]}``.
+- ``tracks.npz`` (worker): the tracks (which detection is whose), to resolve a click on a camera image.
+- ``patient_choice.json`` (API): ``{"track_id": int, "chosen_by": user, "how": words}``.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from reconstruction.association import ManualTrack, MultiPersonDetections, PatientSelection, Tracks
+from reconstruction.camera import Rig
+from reconstruction.detections import Detections
+from services.artifacts import TrialFiles, atomic_path, write_bytes_atomic
+
+log = logging.getLogger(__name__)
+IN_VIEW_CONFIDENCE = 0.3  # a slot with a joint above this confidence is a person in view
+
+
+@dataclass(frozen=True)
+class PatientChoice:
+    """The clinician's choice of the patient: a track id, who chose it, and how (words)."""
+
+    track_id: int
+    chosen_by: str = ""
+    how: str = ""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.track_id, bool) or not isinstance(self.track_id, int) or self.track_id < 0:
+            raise ValueError(f"track_id: must be an integer >= 0, got {self.track_id!r}")
+
+
+def most_people_in_view(people: np.ndarray, *, threshold: float = IN_VIEW_CONFIDENCE) -> int:
+    """Most people seen by one camera in one frame; ``people`` (C, T, P, J, 3) x px, y px, confidence."""
+    if people.shape[2] == 0:
+        return 0
+    seen = (np.nan_to_num(people[..., 2]) > threshold) & np.isfinite(people[..., :2]).all(-1)
+    return int(seen.any(-1).sum(-1).max())
+
+
+def multi_of(recording) -> MultiPersonDetections:
+    """A :class:`~acquisition.recording.reader.KeypointRecording` as association input."""
+    return MultiPersonDetections(keypoints=recording.people, camera_names=recording.camera_names,
+                                 times_s=recording.times_s, skeleton=recording.skeleton)
+
+
+def select_patient(recording, rig: Rig, choice: PatientChoice | None) -> PatientSelection:
+    """Associate everyone in ``recording`` and choose the patient (``choice`` wins; else automatic).
+
+    ValueError when the chosen track does not exist (e.g. a choice made before the recording changed).
+    """
+    from reconstruction.association import associate_and_select
+
+    multi = multi_of(recording)
+    selector = ManualTrack(choice.track_id) if choice is not None else None
+    try:
+        return associate_and_select(multi, rig.subset(multi.camera_names), selector)
+    except ValueError as exc:
+        if choice is None:
+            raise
+        raise ValueError(f"the patient chosen by {choice.chosen_by or 'the clinician'} (track "
+                         f"{choice.track_id}): {exc}") from None
+
+
+def patient_detections_of(recording, rig: Rig, files: TrialFiles) -> tuple[Detections, PatientSelection | None]:
+    """The patient's detections: the only person of a single-person recording (nothing else is done), or
+    the chosen track of several people in view (then ``people.json`` and ``tracks.npz`` are written)."""
+    if most_people_in_view(recording.people) <= 1:
+        return recording.patient(), None
+    choice = read_choice(files)
+    selection = select_patient(recording, rig, choice)
+    write_people(files, selection, chosen_by="clinician" if choice is not None else "automatic")
+    log.info("%s: %d people tracked; patient is track %d (%s)", files.root.name, selection.tracks.num_tracks,
+             selection.track_id, "clinician's choice" if choice else "automatic")
+    return selection.detections, selection
+
+
+# ------------------------------------------------------------------ files
+def people_summary(selection: PatientSelection, *, chosen_by: str) -> dict:
+    """The JSON of ``people.json`` (see the module docstring)."""
+    tracks = selection.tracks
+    people = [{"track_id": s.track_id, "first_s": round(s.first_s, 3), "last_s": round(s.last_s, 3),
+               "seen_s": round(s.last_s - s.first_s, 3), "frames": s.frames, "mean_views": round(s.mean_views, 2),
+               "path_mm": round(s.path_mm, 1), "mean_position_mm": [round(v, 1) for v in s.mean_position_mm]}
+              for s in tracks.summaries()]
+    return {"cameras": list(tracks.camera_names), "frames": int(tracks.times_s.size),
+            "patient_track_id": int(selection.track_id), "chosen_by": chosen_by, "people": people}
+
+
+def write_people(files: TrialFiles, selection: PatientSelection, *, chosen_by: str) -> None:
+    save_tracks(selection.tracks, files.tracks_npz)
+    body = json.dumps(people_summary(selection, chosen_by=chosen_by), indent=1)
+    write_bytes_atomic(files.people_json, body.encode())
+
+
+def read_people(files: TrialFiles) -> dict | None:
+    """``people.json`` or None when the trial had one person in view (or is not processed yet)."""
+    path = files.people_json
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def read_choice(files: TrialFiles) -> PatientChoice | None:
+    path = files.patient_choice_json
+    if not path.is_file():
+        return None
+    data = json.loads(path.read_text())
+    return PatientChoice(track_id=int(data["track_id"]), chosen_by=str(data.get("chosen_by", "")),
+                         how=str(data.get("how", "")))
+
+
+def write_choice(files: TrialFiles, choice: PatientChoice) -> None:
+    body = json.dumps({"track_id": choice.track_id, "chosen_by": choice.chosen_by, "how": choice.how})
+    write_bytes_atomic(files.patient_choice_json, body.encode())
+
+
+_TRACK_ARRAYS = ("detection_track", "root_mm", "points_mm", "views", "joint_indices", "camera_names", "times_s")
+
+
+def save_tracks(tracks: Tracks, path: Path) -> None:
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, **{k: np.asarray(getattr(tracks, k)) for k in _TRACK_ARRAYS})
+
+
+def load_tracks(path: Path) -> Tracks:
+    with np.load(path, allow_pickle=False) as data:
+        return Tracks(detection_track=data["detection_track"], root_mm=data["root_mm"], points_mm=data["points_mm"],
+                      views=data["views"], joint_indices=tuple(int(i) for i in data["joint_indices"]),
+                      camera_names=tuple(str(n) for n in data["camera_names"]), times_s=data["times_s"])
+
+
+def track_at_click(files: TrialFiles, *, camera: str, frame: int, x_px: float, y_px: float) -> int:
+    """The track of the person under a click on ``camera``'s image of ``frame`` (0 = the first frame of
+    the recording). LookupError when the trial has no tracks; ValueError naming the camera, frame or
+    pixel when nobody is there."""
+    from acquisition.recording.reader import read_keypoints
+    from reconstruction.association import select_track_at_pixel
+
+    if not files.tracks_npz.is_file():
+        raise LookupError("this trial has no tracked people (one person in view, or not processed yet)")
+    tracks = load_tracks(files.tracks_npz)
+    if camera not in tracks.camera_names:
+        raise KeyError(f"camera {camera!r} is not in this trial (cameras: {list(tracks.camera_names)})")
+    multi = multi_of(read_keypoints(files.recording, list(tracks.camera_names)))
+    return select_track_at_pixel(multi, tracks, camera=camera, frame=frame, x_px=x_px, y_px=y_px)
