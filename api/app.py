@@ -15,7 +15,14 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 
-from api import routes_calibrations, routes_live, routes_results, routes_trials
+from api import (
+    routes_calibration_runs,
+    routes_calibrations,
+    routes_live,
+    routes_people,
+    routes_results,
+    routes_trials,
+)
 from api.settings import Settings
 from services import catalog as cat
 from services.live import NoLink
@@ -61,6 +68,8 @@ def create_app(settings: Settings, link=None) -> FastAPI:
     app.include_router(routes_results.router)
     app.include_router(routes_live.router)
     app.include_router(routes_calibrations.router)
+    app.include_router(routes_people.router)
+    app.include_router(routes_calibration_runs.router)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
 
     @app.get("/health", tags=["health"], summary="Liveness check (no token needed)")

@@ -12,6 +12,7 @@ from api.deps import catalog_of, checked_trial_id, trial_out, trials_out
 from api.schemas import StartTrial, TrialOut
 from services import catalog as cat
 from services.artifacts import trial_files
+from services.catalog.calibration_runs import current_board_recording
 from services.live import RecorderUnavailable
 
 log = logging.getLogger(__name__)
@@ -24,6 +25,9 @@ def start(body: StartTrial, request: Request, user: str = Depends(require_user))
     if not getattr(link, "connected", True):
         raise HTTPException(status_code=503, detail="recorder: this server runs without the cameras and "
                                                     "recorder (started with --no-bus)")
+    board = current_board_recording(db)
+    if board is not None:
+        raise HTTPException(status_code=409, detail=f"board recording {board.id} is under way; stop it first")
     calibration = cat.latest_calibration(db)
     try:
         trial = cat.start_trial(

@@ -66,6 +66,12 @@ class BusLink:
         except RecorderError as exc:
             raise RecorderUnavailable(str(exc)) from None
 
+    def show_scene(self, scene: str, *, start_ns: int) -> None:
+        """Simulated cameras show ``scene`` (walker | board) from ``start_ns`` (``keys.CAMERA_SCENE``)."""
+        from services.bus.keys import dumps
+
+        self.session.put(self.bus.keys.camera_scene, dumps({"scene": scene, "start_ns": int(start_ns)}))
+
     def cameras(self) -> list[CameraHealth]:
         now = time.time()
         statuses = self.status_board.snapshot()

@@ -103,3 +103,28 @@ class CameraNode:
 
     def close(self) -> None:
         self._token.undeclare()
+
+
+def attach_board_scene(session, bus: BusConfig, drivers: Sequence[CameraDriver]):
+    """Let simulated cameras show a calibration board on request (``<prefix>/camera/scene``, JSON
+    :data:`services.bus.keys.CAMERA_SCENE`). Other drivers are left alone. Returns the subscriber
+    (None when no driver is simulated)."""
+    from acquisition.drivers.simulated import SimulatedCamera
+    from acquisition.synthetic.board_scene import BoardScene, SceneSwitch
+    from services.bus.keys import loads
+
+    sims = [d for d in drivers if isinstance(d, SimulatedCamera)]
+    if not sims:
+        return None
+    switch, board = SceneSwitch(), BoardScene(sims[0].trial.rig)
+    for d in sims:
+        d.scene = (switch, board)
+
+    def on_scene(sample) -> None:
+        try:
+            msg = loads(sample.payload.to_bytes(), what=bus.keys.camera_scene)
+            switch.set(str(msg.get("scene")), int(msg.get("start_ns") or time.time_ns()))
+        except (ValueError, TypeError) as exc:
+            log.warning("ignoring a scene message: %s", exc)
+
+    return session.declare_subscriber(bus.keys.camera_scene, on_scene)

@@ -90,6 +90,8 @@ class SimulatedCamera:
         self._status = DriverStatus(camera=self.name)
         self._start_ns: int | None = None
         self._stopped = False
+        # (SceneSwitch, BoardScene) of acquisition.synthetic.board_scene: show a calibration board instead
+        self.scene: tuple[Any, Any] | None = None
 
     def open(self) -> None:
         self._status.state = "open"
@@ -151,7 +153,7 @@ class SimulatedCamera:
             if self.realtime:
                 wait_until_ns(ts)
             idx = self._trial_index(frame_id)
-            image = self._render(self.trial, self.camera_index, idx, self.size_px)
+            image = self._image(frame_id, idx)
             jump = last_ts is not None and is_ptp_jump(ts - last_ts, period * (frame_id - last_id))
             frame = Frame(
                 camera=self.name,
@@ -171,6 +173,15 @@ class SimulatedCamera:
                 return
         if self._status.state == "running":
             self._status.state = "stopped"
+
+    def _image(self, frame_id: int, idx: int) -> np.ndarray:
+        """The walker's frame ``idx``, or the board when :attr:`scene` says so for ``frame_id``."""
+        if self.scene is not None:
+            switch, board = self.scene
+            k = switch.board_index(frame_id, camera_start_ns=self._start_ns, period_ns=self._settings.period_ns)
+            if k is not None:
+                return board.render(self.name, k, self.size_px)
+        return self._render(self.trial, self.camera_index, idx, self.size_px)
 
     def stop(self) -> None:
         self._stopped = True

@@ -20,6 +20,7 @@ key expression                         kind        payload
 ``<prefix>/recorder/events``           put         JSON :data:`RECORDER_EVENT`
 ``<prefix>/alive/<node>``              liveliness  token held by every node while it runs
 ``<prefix>/worker/progress/<trial>``   put         JSON worker progress of one trial (``services.bus_link``)
+``<prefix>/camera/scene``              put         JSON :data:`CAMERA_SCENE`: what simulated cameras show
 =====================================  ==========  ========================================================
 
 Wildcards: ``<prefix>/camera/*/image`` (all frames), ``<prefix>/keypoints/*``, ``<prefix>/alive/**``.
@@ -97,6 +98,14 @@ RECORDER_EVENT = {
     "time_ns": "int",
 }
 
+#: What the simulated cameras show (real cameras ignore it). Sent by the API when a board recording
+#: starts and stops; every camera of a node switches at the same frame id (the first one at or after
+#: ``start_ns``), so the board poses stay synchronised across cameras.
+CAMERA_SCENE = {
+    "scene": "walker | board",
+    "start_ns": "int, wall clock (ns) from which frames show the scene",
+}
+
 
 def check_name(name: str, *, what: str) -> str:
     """A camera or node name must be one key chunk: letters, digits, ``_ . -``."""
@@ -139,6 +148,10 @@ class Keys:
     @property
     def recorder_events(self) -> str:
         return f"{self.prefix}/recorder/events"
+
+    @property
+    def camera_scene(self) -> str:
+        return f"{self.prefix}/camera/scene"
 
     def worker_progress(self, trial_id: str = "*") -> str:
         return f"{self.prefix}/worker/progress/{trial_id}"

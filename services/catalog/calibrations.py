@@ -12,11 +12,16 @@ from services.catalog.db import Catalog
 from services.catalog.models import Calibration
 
 
-def add_calibration(catalog: Catalog, *, toml: str, source: str = "", report: dict | None = None) -> str:
-    """Store a calibration; returns its id (``C<date>-<hex>``)."""
+def new_calibration_id() -> str:
+    return f"C{time.strftime('%Y%m%d-%H%M%S', time.gmtime())}-{secrets.token_hex(3)}"
+
+
+def add_calibration(catalog: Catalog, *, toml: str, source: str = "", report: dict | None = None,
+                    cal_id: str | None = None) -> str:
+    """Store a calibration; returns its id (``C<date>-<hex>``, or ``cal_id``)."""
     if not toml.strip():
         raise ValueError("toml: calibration text is empty")
-    cal_id = f"C{time.strftime('%Y%m%d-%H%M%S', time.gmtime())}-{secrets.token_hex(3)}"
+    cal_id = cal_id or new_calibration_id()
     with catalog.session() as s:
         s.add(Calibration(id=cal_id, created_at=time.time(), source=source, toml=toml,
                           report_json=json.dumps(report or {}, default=float)))

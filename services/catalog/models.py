@@ -51,6 +51,28 @@ class Calibration(Base):
     report_json: Mapped[str] = mapped_column(Text, default="{}")
 
 
+
+class CalibrationRun(Base):
+    """A board recording and the calibration computed from it (``recording`` -> ``calibrating`` ->
+    ``done`` | ``failed``). ``recording_slot`` is 1 while recording (one board recording at a time);
+    a passing run's calibration is stored in ``calibrations`` under the same id and becomes active."""
+
+    __tablename__ = "calibration_runs"
+    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    state: Mapped[str] = mapped_column(String(16), index=True)
+    recording_slot: Mapped[int | None] = mapped_column(Integer, unique=True, nullable=True)
+    created_at: Mapped[float] = mapped_column(Float)
+    started_at: Mapped[float | None] = mapped_column(Float, nullable=True)
+    stopped_at: Mapped[float | None] = mapped_column(Float, nullable=True)
+    started_by: Mapped[str] = mapped_column(String(128), default="")
+    recording_path: Mapped[str] = mapped_column(String(1024), default="")
+    stage: Mapped[str] = mapped_column(String(64), default="")
+    progress: Mapped[float] = mapped_column(Float, default=0.0)
+    error: Mapped[str] = mapped_column(Text, default="")
+    toml: Mapped[str] = mapped_column(Text, default="")
+    report_json: Mapped[str] = mapped_column(Text, default="{}")
+    calibration_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
+
 class Trial(Base):
     """One walking trial. ``recording_slot`` is 1 while recording and NULL otherwise: the unique
     constraint makes "only one trial records at a time" atomic across API processes."""

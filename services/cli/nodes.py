@@ -81,7 +81,7 @@ def camera_cmd(
     """Publish the frames and status of one host's cameras."""
     from acquisition.drivers.sources import FlirSource, SimulatedSource, VideoSource
     from services.bus.session import default_bus_config, open_session
-    from services.camera_node import CameraNode
+    from services.camera_node import CameraNode, attach_board_scene
 
     with user_errors():
         names = [c for c in (cameras or "").split(",") if c] or None
@@ -103,12 +103,15 @@ def camera_cmd(
         session = open_session(cfg, node)
     stopper = _stop_event()
     cam_node = CameraNode(session, cfg, node, drivers, jpeg_quality=jpeg_quality)
+    scene_sub = attach_board_scene(session, cfg, drivers)
     threading.Thread(target=lambda: (stopper.wait(), cam_node.stop()), daemon=True).start()
     try:
         published = cam_node.run(start_at_ns)
         typer.echo(f"camera node {node}: published {published}")
     finally:
         cam_node.close()
+        if scene_sub is not None:
+            scene_sub.undeclare()
         session.close()
 
 

@@ -1,0 +1,91 @@
+"""A calibration board shown by the live simulated cameras instead of the walker.
+
+:class:`SceneSwitch` holds what the cameras show (``walker`` or ``board``) and from when; every camera
+asks it per frame id, so all cameras that share a start time switch at the same frame id and show the
+same board pose at the same frame id. :class:`BoardScene` renders the board clip of
+:mod:`acquisition.synthetic.board` (it starts with the board lying on the floor: the world frame) for
+each camera at the camera's image size; a camera's clip is rendered once, on first use, and then loops.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from acquisition.board import BoardConfig, make_board
+from acquisition.synthetic.board import BoardMotion, board_trajectory, render_board_images
+from reconstruction.camera import Rig
+
+log = logging.getLogger(__name__)
+SCENES = ("walker", "board")
+
+
+@dataclass(frozen=True)
+class BoardSceneConfig:
+    """The board clip: ``frames`` frames (``floor_frames`` of them on the floor first), looped."""
+
+    board: BoardConfig = BoardConfig()
+    frames: int = 40
+    floor_frames: int = 3
+    seed: int = 3
+
+
+class SceneSwitch:
+    """Thread-safe: which scene the cameras show from which wall time (ns)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._scene, self._start_ns = "walker", 0
+
+    def set(self, scene: str, start_ns: int) -> None:
+        if scene not in SCENES:
+            raise ValueError(f"scene: {scene!r} is not one of {list(SCENES)}")
+        with self._lock:
+            self._scene, self._start_ns = scene, int(start_ns)
+        log.info("cameras show the %s from %d ns", scene, start_ns)
+
+    def board_index(self, frame_id: int, *, camera_start_ns: int, period_ns: int) -> int | None:
+        """Index into the board clip of ``frame_id`` (frames since the switch), or None: the walker."""
+        with self._lock:
+            scene, start_ns = self._scene, self._start_ns
+        if scene != "board":
+            return None
+        first = max(0, math.ceil((start_ns - camera_start_ns) / period_ns))
+        return None if frame_id < first else frame_id - first
+
+
+class BoardScene:
+    """Renders the board clip seen by each camera of ``rig`` (cameras at their calibrated size)."""
+
+    def __init__(self, rig: Rig, config: BoardSceneConfig = BoardSceneConfig()) -> None:
+        self.rig, self.config = rig, config
+        self.board = make_board(config.board)
+        motion = BoardMotion(n_frames=config.frames, floor_frames=config.floor_frames, seed=config.seed)
+        self.rot, self.tvec = board_trajectory(self.board.geometry, motion, rig)
+        self._clips: dict[tuple[str, tuple[int, int]], np.ndarray] = {}
+        self._lock = threading.Lock()
+
+    def clip(self, camera: str, size_px: tuple[int, int]) -> np.ndarray:
+        """Grey frames (F, H, W) uint8 of ``camera`` at ``size_px`` (the camera's aspect ratio)."""
+        key = (camera, tuple(size_px))
+        with self._lock:
+            if key not in self._clips:
+                cam = self.rig[camera]
+                scale = size_px[0] / cam.size_px[0]
+                if abs(cam.size_px[1] * scale - size_px[1]) > 1:
+                    raise ValueError(f"camera {camera}: image size {size_px} has not the aspect ratio of "
+                                     f"its calibration {cam.size_px}")
+                images = render_board_images(self.rig.subset([camera]), self.board, self.rot, self.tvec,
+                                             scale=scale, seed=self.rig.index_of([camera])[0])
+                self._clips[key] = images[camera]
+            return self._clips[key]
+
+    def render(self, camera: str, index: int, size_px: tuple[int, int]) -> np.ndarray:
+        """BGR image (H, W, 3) uint8 of clip frame ``index`` (looped)."""
+        frames = self.clip(camera, size_px)
+        return cv2.cvtColor(frames[index % len(frames)], cv2.COLOR_GRAY2BGR)
