@@ -104,6 +104,43 @@ def _detector(board_kind: str, frames: int, scale: float, seed: int) -> dict:
     }
 
 
+def _end_to_end(board_kind: str, frames: int, scale: float, seed: int) -> dict:
+    """Rendered images of all 10 cameras -> MCAP -> detection -> calibration, against the scaled true rig."""
+    import tempfile
+    from pathlib import Path
+
+    from acquisition.board import BoardConfig, make_board
+    from acquisition.board_recording import calibrate_from_recording
+    from acquisition.synthetic.board import (
+        BoardMotion,
+        board_trajectory,
+        render_board_images,
+        scaled_rig,
+        write_board_mcap,
+    )
+    from acquisition.synthetic.room import build_rig
+    from reconstruction.calibration.geometry import rotation_angle_deg
+
+    rig = build_rig(10, seed=seed)
+    config = BoardConfig.checkerboard() if board_kind == "checkerboard" else BoardConfig.charuco()
+    board = make_board(config)
+    rot, tvec = board_trajectory(board.geometry, BoardMotion(n_frames=frames, floor_frames=20, seed=seed), rig)
+    images = render_board_images(rig, board, rot, tvec, scale=scale, seed=seed)
+    truth = scaled_rig(rig, scale)
+    with tempfile.TemporaryDirectory() as tmp:
+        mcap = write_board_mcap(Path(tmp) / "board.mcap", images)
+        t0 = time.perf_counter()
+        res = calibrate_from_recording(mcap, board=config)
+        seconds = time.perf_counter() - t0
+    centre = [np.linalg.norm(a.center_mm - b.center_mm) for a, b in zip(truth, res.rig, strict=True)]
+    angle = [rotation_angle_deg(a.rotation, b.rotation) for a, b in zip(truth, res.rig, strict=True)]
+    return {
+        "frames": frames, "image_px": list(truth[0].size_px), "seconds_detect_and_calibrate": seconds,
+        "centre_err_mm_max": float(np.max(centre)), "rotation_err_deg_max": float(np.max(angle)),
+        "reprojection_rms_px": res.report.reprojection_rms_px, "outliers": res.report.n_outliers,
+    }
+
+
 def _table(r: dict) -> str:
     c, d = r["calibration"], r["detector"] or {"images": 0, "image_px": [0, 0], "found_views": 0, "expected_views": 0,
                                                "view_max_err_px_median": float("nan"),
@@ -126,6 +163,13 @@ def _table(r: dict) -> str:
         ("detector: per-view max error median / p95", f"{d['view_max_err_px_median']:.3f} / {d['view_max_err_px_p95']:.3f} px", ""),
         ("detector: time", f"{d['ms_per_image']:.0f} ms/image", "2 shared cores, noisy"),
     ]
+    if r.get("end_to_end"):
+        e = r["end_to_end"]
+        rows += [
+            ("images end to end: frames, size", f"{e['frames']} x 10 cameras, {e['image_px'][0]}x{e['image_px'][1]}", ""),
+            ("images end to end: centre / rotation max", f"{e['centre_err_mm_max']:.2f} mm / {e['rotation_err_deg_max']:.3f} deg", ""),
+            ("images end to end: RMS, time", f"{e['reprojection_rms_px']:.3f} px, {e['seconds_detect_and_calibrate']:.0f} s", ""),
+        ]
     width = max(len(k) for k, _, _ in rows)
     return "\n".join(f"{k:<{width}}  {v:<28} {t}" for k, v, t in rows)
 
@@ -138,6 +182,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--noise-px", type=float, default=0.5, help="corner noise per axis, px")
     ap.add_argument("--detector-frames", type=int, default=20, help="rendered frames per camera (2 cameras; 0 = skip)")
     ap.add_argument("--scale", type=float, default=0.5, help="rendered image scale (1 = 1920x1200)")
+    ap.add_argument("--images", type=int, default=0,
+                    help="also calibrate end to end from N rendered frames of all 10 cameras (slow; 0 = skip)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
@@ -145,6 +191,7 @@ def main(argv: list[str] | None = None) -> None:
     result = {
         "calibration": _calibration(args.board, args.frames, args.floor_frames, args.noise_px, args.seed),
         "detector": _detector(args.board, args.detector_frames, args.scale, args.seed) if args.detector_frames > 1 else None,
+        "end_to_end": _end_to_end(args.board, args.images, args.scale, args.seed) if args.images else None,
     }
     print(json.dumps(result) if args.json else _table(result))
 
