@@ -2,7 +2,7 @@
 "use strict";
 
 const $ = (sel) => document.querySelector(sel);
-const state = { token: null, recording: null, followed: null, shownResult: null, cameras: {}, statusWs: null, busy: false };
+const state = { token: null, recording: null, followed: null, shownResult: null, cameras: {}, statusWs: null, busy: false, rerun: null };
 
 // ---------- access token ----------
 function readToken() {
@@ -186,10 +186,12 @@ function follow(trialId) {
   $("#results-summary").innerHTML = ""; $("#results-summary").dataset.stage = "";
   $("#steps-table thead").innerHTML = ""; $("#steps-table tbody").innerHTML = "";
   $("#report-plot").removeAttribute("src"); $("#downloads").innerHTML = "";
+  peopleBox().hidden = true; state.rerun = null; $("#people-status").textContent = "";
   api("/trials/" + encodeURIComponent(trialId)).then(updateFollowed).catch((e) => showError(e.message));
 }
 
 function updateFollowed(t) {
+  if (state.rerun === t.id && !rerunFinished(t)) return;
   const best = t.results.includes("refined") ? "refined" : t.results.includes("preliminary") ? "preliminary" : null;
   if (t.state === "failed") {
     $("#results-stage").textContent = "Processing failed: " + (t.error || "unknown error") + (best ? " (showing the last results)" : "");
@@ -223,6 +225,7 @@ async function loadResult(trialId, stage, trialState) {
   if (!summary.children.length) summary.innerHTML = '<p class="muted">No complete steps were found in this walk.</p>';
   summary.dataset.stage = stage;
   renderSteps(g.steps);
+  loadPeople(trialId);
   showPlot(withToken(`/trials/${encodeURIComponent(trialId)}/report.png?stage=${stage}`), 30);
   const names = { steps_csv: "Steps (CSV)", trajectory_csv: "3D trajectory (CSV)", trajectory_trc: "3D trajectory (TRC)",
     report_png: "Report plot (PNG)", rerun_rrd: "3D view for Rerun (.rrd)", recording_mcap: "Raw recording (MCAP)" };
@@ -247,6 +250,70 @@ function renderSteps(steps) {
   steps.forEach((s, i) => {
     body.insertAdjacentHTML("beforeend", "<tr><td>" + (i + 1) + "</td>" + cols.map((c) => `<td>${typeof s[c] === "number" ? fmtNum(s[c]) : esc(String(s[c] ?? ""))}</td>`).join("") + "</tr>");
   });
+}
+
+// ---------- people in view (several people seen: which one is the patient) ----------
+function peopleBox() {
+  let box = $("#people");
+  if (!box) {
+    box = document.createElement("div");
+    box.id = "people"; box.hidden = true;
+    box.innerHTML = `<h3>People in view</h3>
+      <p class="muted">Several people were seen in this walk. The results are for the person marked <b>Patient</b>.
+        If that is the wrong person, press <b>This is the patient</b> next to the right one: the walk is then computed again.</p>
+      <p id="people-status" class="stage" aria-live="polite"></p>
+      <table id="people-table"><thead><tr><th>Person</th><th>Seen from – to</th><th>Seen for</th><th>Walked</th><th></th></tr></thead>
+        <tbody></tbody></table>`;
+    $("#results-stage").insertAdjacentElement("afterend", box);
+  }
+  return box;
+}
+
+async function loadPeople(trialId) {
+  const box = peopleBox();
+  let p;
+  try { p = await api(`/trials/${encodeURIComponent(trialId)}/people`); } catch (e) { box.hidden = true; return; }
+  if (state.followed !== trialId) return;
+  box.hidden = p.people.length < 2;
+  const body = box.querySelector("tbody");
+  body.innerHTML = "";
+  for (const person of p.people) {
+    const tr = document.createElement("tr");
+    tr.dataset.track = person.track_id;
+    if (person.is_patient) tr.className = "patient";
+    const mark = person.is_patient ? `<span class="state state-done">Patient${p.chosen_by === "clinician" ? " (your choice)" : " (chosen automatically)"}</span>`
+      : '<button class="btn choose">This is the patient</button>';
+    tr.innerHTML = `<td>Person ${person.track_id + 1}</td><td>${fmtNum(person.first_s)} s – ${fmtNum(person.last_s)} s</td>
+      <td>${fmtNum(person.seen_s)} s</td><td>${fmtNum(person.path_mm / 1000)} m</td><td>${mark}</td>`;
+    const btn = tr.querySelector(".choose");
+    if (btn) btn.onclick = () => choosePatient(trialId, person.track_id);
+    body.appendChild(tr);
+  }
+}
+
+async function choosePatient(trialId, trackId) {
+  showError("");
+  for (const b of document.querySelectorAll("#people .choose")) b.disabled = true;
+  try {
+    await api(`/trials/${encodeURIComponent(trialId)}/patient`, { method: "POST", body: { track_id: trackId } });
+    state.rerun = trialId;
+    $("#people-status").textContent = `Computing the walk again for person ${trackId + 1}…`;
+  } catch (e) {
+    showError("Could not choose the patient: " + e.message);
+    for (const b of document.querySelectorAll("#people .choose")) b.disabled = false;
+  }
+}
+
+function rerunFinished(t) {
+  // the results of a walk computed again for a newly chosen patient: show them once it is done
+  if (state.rerun !== t.id) return false;
+  if (t.state === "recorded" || t.state === "processing") {
+    $("#people-status").textContent = `Computing the walk again for the chosen person… (${Math.round(100 * t.progress)} %)`;
+    return false;
+  }
+  state.rerun = null; state.shownResult = null;
+  $("#people-status").textContent = t.state === "done" ? "Done: the results below are for the chosen person." : "";
+  return true;
 }
 
 // ---------- formatting ----------

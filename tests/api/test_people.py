@@ -11,6 +11,8 @@ import pytest
 from services.artifacts import trial_files
 from services.worker import Worker, WorkerConfig
 
+from .conftest import TOKEN
+
 _spec = importlib.util.spec_from_file_location("services_test_helpers",
                                                Path(__file__).parents[1] / "services" / "conftest.py")
 _helpers = importlib.util.module_from_spec(_spec)
@@ -121,3 +123,31 @@ def test_unknown_trial_no_token_and_single_person_trials(server):
     import httpx
 
     assert httpx.get(f"{srv.url}/trials/{tid}/people").status_code == 401
+
+
+def test_the_page_lists_the_people_and_switches_the_patient(server, processed, tmp_path):
+    from playwright.sync_api import expect, sync_playwright
+
+    srv, _, _, _ = server
+    client, settings, tid = processed
+    auto = client.get(f"/trials/{tid}/people").json()["patient_track_id"]
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=["--headless", "--no-sandbox",
+                                                                                "--disable-gpu"])
+        page = browser.new_page(viewport={"width": 1280, "height": 1100})
+        page.set_default_timeout(20_000)
+        try:
+            page.goto(f"{srv.url}/#token={TOKEN}")
+            page.locator(f'tr[data-trial="{tid}"] .view').click()
+            rows = page.locator("#people-table tbody tr")
+            expect(rows).to_have_count(2)
+            expect(page.locator(f'#people tr[data-track="{auto}"]')).to_contain_text("Patient (chosen automatically)")
+            page.locator("#people .choose").click()
+            expect(page.locator("#people-status")).to_contain_text("Computing the walk again")
+            _process(settings)
+            other = page.locator(f'#people tr[data-track="{1 - auto}"]')
+            expect(other).to_contain_text("Patient (your choice)")
+            expect(page.locator(f'#people tr[data-track="{auto}"] .choose')).to_be_visible()
+        finally:
+            page.screenshot(path=str(tmp_path / "people.png"), full_page=True)
+            browser.close()
