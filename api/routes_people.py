@@ -5,14 +5,21 @@ from __future__ import annotations
 
 import logging
 
-from fastapi import APIRouter, Depends, HTTPException, Request
+from fastapi import APIRouter, Depends, HTTPException, Request, Response
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from api.auth import require_user
 from api.deps import catalog_of, checked_trial_id
 from services import catalog as cat
 from services.artifacts import TrialFiles, trial_files
-from services.people import PatientChoice, read_choice, read_people, track_at_click, write_choice
+from services.people import (
+    PatientChoice,
+    read_choice,
+    read_people,
+    recorded_still,
+    track_at_click,
+    write_choice,
+)
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["people"])
@@ -61,6 +68,7 @@ def _people_out(trial: cat.TrialInfo, files: TrialFiles) -> dict:
         "patient_track_id": patient, "chosen_by": people.get("chosen_by"),
         "pending_choice": choice.track_id if choice is not None and choice.track_id != patient else None,
         "cameras": people.get("cameras", []), "frames": people.get("frames", 0),
+        "busiest_frame": people.get("busiest_frame"), "image_sizes_px": people.get("image_sizes_px", {}),
         "people": [{**p, "is_patient": p["track_id"] == patient} for p in people.get("people", [])],
     }
 
@@ -115,3 +123,21 @@ def choose_patient(trial_id: str, body: PatientIn, request: Request, user: str =
     cat.audit(db, actor=user, action="choose patient", trial_id=trial.id, detail=f"track {track} ({how})")
     log.info("trial %s: %s chose track %d as the patient (%s); processing queued", trial.id, user, track, how)
     return _people_out(trial, files)
+
+
+@router.get("/trials/{trial_id}/still/{camera}.jpg", summary="A camera's recorded image of one frame (to click on)")
+def still(trial_id: str, camera: str, frame: int, request: Request, user: str = Depends(require_user)) -> Response:
+    """``frame``: 0 = the recording's first frame, as in ``POST /trials/{id}/patient``."""
+    trial, files = _files(request, trial_id)
+    people = read_people(files)
+    if not people:
+        raise HTTPException(status_code=404, detail=f"trial {trial.id}: no people tracked (one person in view)")
+    if camera not in people["cameras"]:
+        raise HTTPException(status_code=404, detail=f"camera: {camera!r} is not in this trial")
+    if not 0 <= frame < people["frames"]:
+        raise HTTPException(status_code=422, detail=f"frame: {frame} is outside 0..{people['frames'] - 1}")
+    jpeg = recorded_still(files, camera=camera, frame_id=people.get("first_frame_id", 0) + frame)
+    if jpeg is None:
+        raise HTTPException(status_code=404, detail=f"camera {camera}: no image recorded for frame {frame}")
+    cat.audit(catalog_of(request), actor=user, action="view", trial_id=trial.id, detail=f"still {camera} {frame}")
+    return Response(jpeg, media_type="image/jpeg")

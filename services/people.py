@@ -7,9 +7,10 @@ single-person recording takes none of this (the detector's only person is the pa
 
 Files in the trial folder (:class:`~services.artifacts.TrialFiles`):
 
-- ``people.json`` (worker): ``{"cameras": [...], "frames": T, "patient_track_id": int, "chosen_by":
-  "automatic" | "clinician", "people": [{"track_id", "first_s", "last_s", "seen_s", "frames",
-  "mean_views", "path_mm", "mean_position_mm"}]}``.
+- ``people.json`` (worker): ``{"cameras": [...], "frames": T, "first_frame_id": recorder frame id of
+  frame 0, "busiest_frame": a frame with the most people in view, "image_sizes_px": {camera: [w, h]},
+  "patient_track_id": int, "chosen_by": "automatic" | "clinician", "people": [{"track_id", "first_s",
+  "last_s", "seen_s", "frames", "mean_views", "path_mm", "mean_position_mm"}]}``.
 - ``tracks.npz`` (worker): the tracks (which detection is whose), to resolve a click on a camera image.
 - ``patient_choice.json`` (API): ``{"track_id": int, "chosen_by": user, "how": words}``.
 """
@@ -84,27 +85,33 @@ def patient_detections_of(recording, rig: Rig, files: TrialFiles) -> tuple[Detec
         return recording.patient(), None
     choice = read_choice(files)
     selection = select_patient(recording, rig, choice)
-    write_people(files, selection, chosen_by="clinician" if choice is not None else "automatic")
+    sizes = {cam.name: [int(v) for v in cam.size_px] for cam in rig.cameras if cam.name in recording.camera_names}
+    write_people(files, selection, chosen_by="clinician" if choice is not None else "automatic",
+                 first_frame_id=int(recording.frame_ids[0]), image_sizes_px=sizes)
     log.info("%s: %d people tracked; patient is track %d (%s)", files.root.name, selection.tracks.num_tracks,
              selection.track_id, "clinician's choice" if choice else "automatic")
     return selection.detections, selection
 
 
 # ------------------------------------------------------------------ files
-def people_summary(selection: PatientSelection, *, chosen_by: str) -> dict:
+def people_summary(selection: PatientSelection, *, chosen_by: str, first_frame_id: int = 0,
+                   image_sizes_px: dict | None = None) -> dict:
     """The JSON of ``people.json`` (see the module docstring)."""
     tracks = selection.tracks
     people = [{"track_id": s.track_id, "first_s": round(s.first_s, 3), "last_s": round(s.last_s, 3),
                "seen_s": round(s.last_s - s.first_s, 3), "frames": s.frames, "mean_views": round(s.mean_views, 2),
                "path_mm": round(s.path_mm, 1), "mean_position_mm": [round(v, 1) for v in s.mean_position_mm]}
               for s in tracks.summaries()]
-    return {"cameras": list(tracks.camera_names), "frames": int(tracks.times_s.size),
+    busiest = int(np.argmax(tracks.seen().sum(0) * 1000 + tracks.views.sum(0)))  # most people, most views
+    return {"cameras": list(tracks.camera_names), "frames": int(tracks.times_s.size), "first_frame_id": first_frame_id,
+            "busiest_frame": busiest, "image_sizes_px": image_sizes_px or {},
             "patient_track_id": int(selection.track_id), "chosen_by": chosen_by, "people": people}
 
 
-def write_people(files: TrialFiles, selection: PatientSelection, *, chosen_by: str) -> None:
+def write_people(files: TrialFiles, selection: PatientSelection, **summary) -> None:
+    """``people.json`` and ``tracks.npz``; ``summary``: the keyword arguments of :func:`people_summary`."""
     save_tracks(selection.tracks, files.tracks_npz)
-    body = json.dumps(people_summary(selection, chosen_by=chosen_by), indent=1)
+    body = json.dumps(people_summary(selection, **summary), indent=1)
     write_bytes_atomic(files.people_json, body.encode())
 
 
@@ -157,3 +164,13 @@ def track_at_click(files: TrialFiles, *, camera: str, frame: int, x_px: float, y
         raise KeyError(f"camera {camera!r} is not in this trial (cameras: {list(tracks.camera_names)})")
     multi = multi_of(read_keypoints(files.recording, list(tracks.camera_names)))
     return select_track_at_pixel(multi, tracks, camera=camera, frame=frame, x_px=x_px, y_px=y_px)
+
+
+def recorded_still(files: TrialFiles, *, camera: str, frame_id: int) -> bytes | None:
+    """The JPEG ``camera`` recorded for ``frame_id`` (the recorder's frame id), None when not recorded."""
+    from acquisition.recording.reader import iter_frames
+
+    for recorded in iter_frames(files.recording, camera):
+        if recorded.frame_id == frame_id:
+            return recorded.jpeg
+    return None

@@ -263,7 +263,9 @@ function peopleBox() {
         If that is the wrong person, press <b>This is the patient</b> next to the right one: the walk is then computed again.</p>
       <p id="people-status" class="stage" aria-live="polite"></p>
       <table id="people-table"><thead><tr><th>Person</th><th>Seen from – to</th><th>Seen for</th><th>Walked</th><th></th></tr></thead>
-        <tbody></tbody></table>`;
+        <tbody></tbody></table>
+      <div id="people-stills" hidden><p class="muted">Or click on the patient in a camera image:</p>
+        <div class="camera-grid"></div></div>`;
     $("#results-stage").insertAdjacentElement("afterend", box);
   }
   return box;
@@ -289,17 +291,47 @@ async function loadPeople(trialId) {
     if (btn) btn.onclick = () => choosePatient(trialId, person.track_id);
     body.appendChild(tr);
   }
+  renderStills(trialId, p);
 }
 
-async function choosePatient(trialId, trackId) {
+function renderStills(trialId, p) {
+  // one recorded image per camera at a frame with everyone in view; a click there chooses the person under it
+  const wrap = $("#people-stills"), grid = wrap.querySelector(".camera-grid");
+  grid.innerHTML = "";
+  wrap.hidden = p.people.length < 2 || p.busiest_frame == null;
+  if (wrap.hidden) return;
+  for (const cam of p.cameras) {
+    const size = p.image_sizes_px[cam];
+    if (!size) continue;
+    const tile = document.createElement("div");
+    tile.className = "camera ok"; tile.dataset.camera = cam; tile.hidden = true;
+    tile.innerHTML = `<img alt="Camera ${esc(cam)} image to click on" style="cursor: crosshair"><div class="cap"><span class="name">${esc(cam)}</span></div>`;
+    const img = tile.querySelector("img");
+    img.onload = () => { tile.hidden = false; };
+    img.onerror = () => { tile.remove(); };
+    img.onclick = (ev) => {
+      const r = img.getBoundingClientRect();
+      const x = (ev.clientX - r.left) / r.width * size[0], y = (ev.clientY - r.top) / r.height * size[1];
+      choosePatient(trialId, { camera: cam, frame: p.busiest_frame, x_px: x, y_px: y });
+    };
+    img.src = withToken(`/trials/${encodeURIComponent(trialId)}/still/${encodeURIComponent(cam)}.jpg?frame=${p.busiest_frame}`);
+    grid.appendChild(tile);
+  }
+}
+
+async function choosePatient(trialId, choice) {
+  // choice: a track id (from the list) or a click {camera, frame, x_px, y_px} on a camera image
   showError("");
   for (const b of document.querySelectorAll("#people .choose")) b.disabled = true;
   try {
-    await api(`/trials/${encodeURIComponent(trialId)}/patient`, { method: "POST", body: { track_id: trackId } });
+    const body = typeof choice === "number" ? { track_id: choice } : choice;
+    const p = await api(`/trials/${encodeURIComponent(trialId)}/patient`, { method: "POST", body });
+    const chosen = typeof choice === "number" ? choice : p.pending_choice;
     state.rerun = trialId;
-    $("#people-status").textContent = `Computing the walk again for person ${trackId + 1}…`;
+    $("#people-status").textContent = chosen == null ? "Computing the walk again…" : `Computing the walk again for person ${chosen + 1}…`;
   } catch (e) {
-    showError("Could not choose the patient: " + e.message);
+    showError(e.status === 404 && typeof choice !== "number" ? "Nobody was found where you clicked. Please click on the person, or use the buttons in the list."
+      : "Could not choose the patient: " + e.message);
     for (const b of document.querySelectorAll("#people .choose")) b.disabled = false;
   }
 }

@@ -58,7 +58,7 @@ def processed(server, pair):
     _, client, _, settings = server
     tid = client.post("/trials", json={"subject_id": "P9"}).json()["id"]
     assert client.post(f"/trials/{tid}/stop").status_code == 200
-    _helpers.write_multi_trial_mcap(pair, trial_files(settings.data_dir, tid).recording)
+    _helpers.write_multi_trial_mcap(pair, trial_files(settings.data_dir, tid).recording, stills=True)
     _process(settings)
     return client, settings, tid
 
@@ -125,12 +125,36 @@ def test_unknown_trial_no_token_and_single_person_trials(server):
     assert httpx.get(f"{srv.url}/trials/{tid}/people").status_code == 401
 
 
-def test_the_page_lists_the_people_and_switches_the_patient(server, processed, tmp_path):
+def _still_click(pair, people: dict, person: int) -> tuple[str, float, float]:
+    """A camera that sees ``person`` in the frame the page shows, and where (fractions of the image)."""
+    t = people["busiest_frame"]
+    for c, cam in enumerate(pair.rig.names):
+        slots = np.flatnonzero(pair.multi.identity[c, t] == person)
+        if slots.size:
+            kp = pair.multi.keypoints[c, t, slots[0]]
+            j = int(np.argmax(kp[:, 2]))
+            w, h = people["image_sizes_px"][cam]
+            return cam, kp[j, 0] / w, kp[j, 1] / h
+    raise AssertionError(f"person {person} is not seen in frame {t}")
+
+
+def test_recorded_stills(processed):
+    client, _, tid = processed
+    people = client.get(f"/trials/{tid}/people").json()
+    frame, cam = people["busiest_frame"], people["cameras"][0]
+    r = client.get(f"/trials/{tid}/still/{cam}.jpg", params={"frame": frame})
+    assert r.status_code == 200 and r.content.startswith(b"\xff\xd8")
+    assert "camera" in client.get(f"/trials/{tid}/still/nope.jpg", params={"frame": 0}).json()["detail"]
+    assert client.get(f"/trials/{tid}/still/{cam}.jpg", params={"frame": 10**6}).status_code == 422
+
+
+def test_the_page_lists_the_people_and_switches_the_patient(server, processed, pair, tmp_path):
     from playwright.sync_api import expect, sync_playwright
 
     srv, _, _, _ = server
     client, settings, tid = processed
-    auto = client.get(f"/trials/{tid}/people").json()["patient_track_id"]
+    people = client.get(f"/trials/{tid}/people").json()
+    auto = people["patient_track_id"]
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=["--headless", "--no-sandbox",
                                                                                 "--disable-gpu"])
@@ -139,15 +163,24 @@ def test_the_page_lists_the_people_and_switches_the_patient(server, processed, t
         try:
             page.goto(f"{srv.url}/#token={TOKEN}")
             page.locator(f'tr[data-trial="{tid}"] .view').click()
-            rows = page.locator("#people-table tbody tr")
-            expect(rows).to_have_count(2)
+            expect(page.locator("#people-table tbody tr")).to_have_count(2)
             expect(page.locator(f'#people tr[data-track="{auto}"]')).to_contain_text("Patient (chosen automatically)")
-            page.locator("#people .choose").click()
+            # a click on the therapist in a camera image
+            cam, fx, fy = _still_click(pair, people, person=1)
+            img = page.locator(f'#people-stills [data-camera="{cam}"] img')
+            expect(img).to_be_visible()
+            box = img.bounding_box()
+            img.click(position={"x": fx * box["width"], "y": fy * box["height"]})
+            expect(page.locator("#people-status")).to_contain_text("Computing the walk again for person")
+            _process(settings)
+            expect(page.locator(f'#people tr[data-track="{1 - auto}"]')).to_contain_text("Patient (your choice)")
+            # back to the automatic choice from the list
+            page.locator(f'#people tr[data-track="{auto}"] .choose').click()
             expect(page.locator("#people-status")).to_contain_text("Computing the walk again")
             _process(settings)
-            other = page.locator(f'#people tr[data-track="{1 - auto}"]')
-            expect(other).to_contain_text("Patient (your choice)")
-            expect(page.locator(f'#people tr[data-track="{auto}"] .choose')).to_be_visible()
+            expect(page.locator(f'#people tr[data-track="{auto}"]')).to_contain_text("Patient (your choice)")
+            expect(page.locator("#people-status")).to_contain_text("results below are for the chosen person")
         finally:
             page.screenshot(path=str(tmp_path / "people.png"), full_page=True)
             browser.close()
+    assert _closest(client, tid, pair) == 0

@@ -35,10 +35,16 @@ def write_trial_mcap(trial, path: Path, *, metadata: dict | None = None) -> Path
     return writer.finish({"frames": int(kp.shape[1])})
 
 
-def write_multi_trial_mcap(trial, path: Path) -> Path:
+def write_multi_trial_mcap(trial, path: Path, *, stills: bool = False) -> Path:
     """Everyone's detections of a multi-person synthetic trial (``trial.multi``) as a trial MCAP: each
-    camera frame lists the people detected in it, in the slots' (arbitrary) order."""
+    camera frame lists the people detected in it, in the slots' (arbitrary) order. ``stills``: also a
+    small grey image per camera and frame (so the recording has images to click on)."""
+    import cv2
+
+    from acquisition.encoding import image_message
     from acquisition.recording.writer import TrialWriter
+
+    jpeg = cv2.imencode(".jpg", np.full((36, 64, 3), 128, np.uint8))[1].tobytes() if stills else b""
 
     path.parent.mkdir(parents=True, exist_ok=True)
     writer = TrialWriter(path)
@@ -53,4 +59,7 @@ def write_multi_trial_mcap(trial, path: Path) -> Path:
             msg = {"camera": cam, "frame_id": i, "timestamp_ns": ts, "skeleton": trial.skeleton.name,
                    "people": people, "detector_ms": 0.0}
             writer.add_keypoints(cam, json.dumps(msg).encode(), timestamp_ns=ts, frame_id=i)
+            if stills:
+                writer.add_frame(cam, image_message(jpeg, camera=cam, timestamp_ns=ts), timestamp_ns=ts, frame_id=i,
+                                 receive_ns=ts)
     return writer.finish({"frames": int(kp.shape[1])})
