@@ -44,6 +44,8 @@ class BoardMotion:
             the focal length of long lenses).
         max_roll_deg: in-plane rotation, deg.
         upside_down_fraction: share of frames with the board held upside down (180 deg roll).
+        floor_spots_mm: after the first floor frames, the board lies still (turned at random) at these
+            (x, y) floor positions for floor_frames // 2 frames each (a better floor plane).
         seed: random seed.
     """
 
@@ -59,6 +61,7 @@ class BoardMotion:
     tour_tilt_deg: float = 50.0
     max_roll_deg: float = 30.0
     upside_down_fraction: float = 0.2
+    floor_spots_mm: tuple[tuple[float, float], ...] = ()
     seed: int = 0
 
 
@@ -139,9 +142,15 @@ def board_trajectory(geometry: BoardGeometry, motion: BoardMotion, rig: Rig | No
     tilt = np.where(np.arange(n_move) < n_tour, motion.tour_tilt_deg, motion.max_tilt_deg)
     rot = _facing(np.concatenate([p[1] for p in parts])) @ _hand_motion(rng, motion, n_move, tilt)
     tvec = centre - rot @ geometry.object_points_mm.mean(0)
-    floor_r = np.tile(FLOOR_ROTATION, (motion.floor_frames, 1, 1))
-    floor_t = np.tile(np.asarray(motion.floor_origin_mm, dtype=np.float64), (motion.floor_frames, 1))
-    return np.concatenate([floor_r, rot]), np.concatenate([floor_t, tvec])
+    floor_r = [np.tile(FLOOR_ROTATION, (motion.floor_frames, 1, 1))]
+    floor_t = [np.tile(np.asarray(motion.floor_origin_mm, dtype=np.float64), (motion.floor_frames, 1))]
+    for spot in motion.floor_spots_mm:  # laid down again elsewhere, turned, for half as long
+        n = max(motion.floor_frames // 2, 1)
+        floor_r.append(np.tile(_rot(2, rng.uniform(-np.pi, np.pi, 1))[0] @ FLOOR_ROTATION, (n, 1, 1)))
+        floor_t.append(np.tile([spot[0], spot[1], 0.0], (n, 1)))
+    n_floor = sum(len(r) for r in floor_r)
+    rot, tvec = rot[: len(rot) - n_floor + motion.floor_frames], tvec[: len(tvec) - n_floor + motion.floor_frames]
+    return np.concatenate([floor_r[0], *floor_r[1:], rot]), np.concatenate([floor_t[0], *floor_t[1:], tvec])
 
 
 def _visible_views(rig: Rig, geometry: BoardGeometry, rot: np.ndarray, tvec: np.ndarray, max_angle_deg: float):
@@ -159,23 +168,29 @@ def _visible_views(rig: Rig, geometry: BoardGeometry, rot: np.ndarray, tvec: np.
 def observe_board(
     rig: Rig, geometry: BoardGeometry, rot: np.ndarray, tvec: np.ndarray, *, noise_px: float = 0.5,
     max_angle_deg: float = 70.0, margin_px: float = 5.0, scramble: bool = False, fps: float = 10.0, seed: int = 0,
+    still_floor: bool = False,
 ) -> BoardObservations:
     """Project the board's corners into every camera with Gaussian pixel noise (per axis, px).
 
     Views that show the board's back or too obliquely are dropped; a board that needs all its corners
     (plain checkerboard) is dropped when any corner leaves the image. ``scramble`` reports each view's
     corners in a random order among the board's symmetries (as an orientation-blind detector would),
-    except in the floor frames at the start.
+    except in the floor frames at the start. ``still_floor``: the floor frames are one still scene, so
+    every camera's corner errors repeat in all of them (as a detector's do on a static image).
     """
     rng = np.random.default_rng(seed)
     world = np.einsum("fij,nj->fni", rot, geometry.object_points_mm) + tvec[:, None]  # (F, N, 3)
     visible = _visible_views(rig, geometry, rot, tvec, max_angle_deg)
     corners = np.full((len(rig), len(rot), geometry.num_corners, 2), np.nan)
     syms = np.asarray(geometry.symmetries)
-    floor = np.all(np.isclose(rot, FLOOR_ROTATION), axis=(1, 2))
+    floor = np.isclose(rot[:, 2, 2], -1.0) & np.isclose(tvec[:, 2], 0.0)  # lying face up on the floor
     for c, cam in enumerate(rig):
         px, ok = lens_visible(cam, world, margin_px=-margin_px)
-        px = px + rng.normal(0, noise_px, px.shape)
+        noise = rng.normal(0, noise_px, px.shape)
+        for f in np.flatnonzero(floor) if still_floor else ():  # one still scene per floor spot
+            same = np.flatnonzero(floor & np.all(np.isclose(tvec, tvec[f]), axis=1))
+            noise[f] = noise[same[0]]
+        px = px + noise
         ok &= cam.in_image(px, margin_px=-margin_px) & visible[c][:, None]
         if geometry.min_corners >= geometry.num_corners:
             ok &= ok.all(axis=1, keepdims=True)

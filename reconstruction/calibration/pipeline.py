@@ -15,7 +15,7 @@ from reconstruction.calibration.bundle import (
     BundleState,
     bundle_adjust,
 )
-from reconstruction.calibration.geometry import BoardObservations
+from reconstruction.calibration.geometry import BoardObservations, merge_still_frames
 from reconstruction.calibration.graph import InitialPoses, initial_poses
 from reconstruction.calibration.intrinsics import Intrinsics, IntrinsicsConfig, estimate_intrinsics
 from reconstruction.calibration.report import (
@@ -27,7 +27,13 @@ from reconstruction.calibration.report import (
     measured_square_mm,
 )
 from reconstruction.calibration.views import view_poses
-from reconstruction.calibration.world import WorldFrameConfig, floor_pose, to_world, world_from_floor
+from reconstruction.calibration.world import (
+    WorldFrameConfig,
+    floor_plane,
+    floor_pose,
+    to_world,
+    world_from_floor,
+)
 from reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 
 log = logging.getLogger(__name__)
@@ -137,6 +143,9 @@ def calibrate_from_observations(
 ) -> CalibrationResult:
     """Calibrate every camera in ``obs``; ValueError naming the camera when its data cannot do it."""
     config = config or CalibrationConfig()
+    n_given = obs.shape[1]
+    obs, kept = merge_still_frames(obs)
+    runs = np.searchsorted(kept, np.arange(n_given), side="right") - 1  # merged frame of each given frame
     _check_cameras(obs, config.intrinsics)
     intr = [estimate_intrinsics(obs, c, config.intrinsics) for c in range(obs.shape[0])]
     poses = view_poses(obs, intr)
@@ -150,7 +159,9 @@ def calibrate_from_observations(
     used[frames] = True
     full_r, full_t = np.full((obs.shape[1], 3, 3), np.nan), np.full((obs.shape[1], 3), np.nan)
     full_r[frames], full_t[frames] = res.state.frame_rotation, res.state.frame_tvec_mm
-    r_floor, t_floor, n_floor = floor_pose(full_r, full_t, used, config.world)
+    r_floor, t_floor, _ = floor_pose(full_r, full_t, used, config.world)
+    r_floor, t_floor, n_floor = floor_plane(r_floor, t_floor, full_r, full_t, used, obs.board.object_points_mm,
+                                            config.world)
     symmetric = np.ptp(obs.board.object_points_mm[:, :2], axis=0) if len(obs.board.symmetries) > 1 else None
     world = world_from_floor(r_floor, t_floor, res.state.cam_rotation, res.state.cam_tvec_mm, floor_frames=n_floor,
                              symmetric_extent_mm=symmetric)
@@ -162,6 +173,8 @@ def calibrate_from_observations(
         for c, name in enumerate(obs.camera_names)
     ))
     report = _report(obs, config, prob, frames, res, world, cams_r, cams_t)
-    board_r = np.einsum("ji,fjk->fik", world.rotation, full_r)  # board -> world
-    board_t = np.einsum("ji,fj->fi", world.rotation, full_t - world.tvec_mm)
+    board_r = np.full((len(runs), 3, 3), np.nan)  # board -> world, for every frame given (still runs share)
+    board_t = np.full((len(runs), 3), np.nan)
+    board_r[:] = np.einsum("ji,fjk->fik", world.rotation, full_r)[runs]
+    board_t[:] = np.einsum("ji,fj->fi", world.rotation, full_t - world.tvec_mm)[runs]
     return CalibrationResult(rig, report, board_r, board_t)

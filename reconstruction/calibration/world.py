@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from reconstruction.calibration.geometry import mean_rotation, rotation_angle_deg
+from reconstruction.calibration.geometry import mean_rotation, rodrigues_batch, rotation_angle_deg
 
 log = logging.getLogger(__name__)
 
@@ -31,11 +31,15 @@ class WorldFrameConfig:
             which the board was seen.
         static_mm / static_deg: following frames whose board pose stays this close count as the same
             floor pose and are averaged.
+        plane_deg / plane_mm: every board pose this close to the floor board's plane (the board laid
+            down again elsewhere) joins a plane fit that sets the floor's tilt.
     """
 
     floor_frame: int | None = None
     static_mm: float = 5.0
     static_deg: float = 0.5
+    plane_deg: float = 3.0
+    plane_mm: float = 30.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,6 +72,30 @@ def floor_pose(
             break
         frames.append(f)
     return mean_rotation(frame_rotation[frames]), frame_tvec_mm[frames].mean(0), len(frames)
+
+
+def floor_plane(
+    board_rotation: np.ndarray, board_tvec_mm: np.ndarray, frame_rotation: np.ndarray, frame_tvec_mm: np.ndarray,
+    used: np.ndarray, object_points_mm: np.ndarray, config: WorldFrameConfig,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """Tilt the floor board's pose onto the plane fitted to the corners of every board pose lying in
+    its plane (frames (F, 3, 3), (F, 3)); returns the new pose and the number of frames in the fit."""
+    normal = board_rotation[:, 2]
+    with np.errstate(invalid="ignore"):
+        cos = np.clip(frame_rotation[:, :, 2] @ normal, -1.0, 1.0)
+        flat = used & (np.degrees(np.arccos(np.nan_to_num(cos))) < config.plane_deg)
+        flat &= np.abs((np.nan_to_num(frame_tvec_mm) - board_tvec_mm) @ normal) < config.plane_mm
+    pts = (np.einsum("fij,nj->fni", frame_rotation[flat], object_points_mm) + frame_tvec_mm[flat, None]).reshape(-1, 3)
+    if len(pts) < 3:
+        return board_rotation, board_tvec_mm, int(flat.sum())
+    centre = pts.mean(0)
+    fitted = np.linalg.svd(pts - centre)[2][-1]
+    fitted = fitted if fitted @ normal > 0 else -fitted
+    axis = np.cross(normal, fitted)
+    angle = np.arctan2(np.linalg.norm(axis), normal @ fitted)
+    turn = rodrigues_batch(axis / max(np.linalg.norm(axis), 1e-12) * angle) if angle > 0 else np.eye(3)
+    origin = board_tvec_mm - ((board_tvec_mm - centre) @ fitted) * fitted
+    return turn @ board_rotation, origin, int(flat.sum())
 
 
 def world_from_floor(

@@ -37,3 +37,18 @@ def test_static_floor_frames_are_averaged():
     used = np.ones(n, dtype=bool)
     _, t, frames = floor_pose(rot, tvec, used, WorldFrameConfig())
     assert frames == 5 and np.allclose(t, tvec[:5].mean(0))
+
+
+def test_board_laid_down_elsewhere_sets_the_floor_tilt():
+    from reconstruction.calibration.world import floor_plane
+
+    obj = np.column_stack([np.mgrid[0:6, 0:4].reshape(2, -1).T * 110.0, np.zeros(24)])
+    face_up = np.diag([1.0, -1.0, -1.0])
+    tilted = rodrigues_batch(np.array([np.radians(0.3), 0.0, 0.0])) @ face_up  # first pose, slightly off
+    spots = np.array([[0.0, 0, 0], [2000, 1500, 0], [-1800, 1200, 0], [1500, -2000, 0]])
+    rot = np.stack([tilted, face_up, face_up, face_up])
+    used = np.ones(4, dtype=bool)
+    r, t, n = floor_plane(tilted, spots[0], rot, spots, used, obj, WorldFrameConfig())
+    assert n == 4
+    assert np.degrees(np.arccos(np.clip(r[:, 2] @ [0, 0, -1.0], -1, 1))) < 0.05
+    assert abs(t[2]) < 1.0
