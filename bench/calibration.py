@@ -127,7 +127,8 @@ def _end_to_end(board_kind: str, frames: int, scale: float, seed: int) -> dict:
     rig = build_rig(10, seed=seed)
     config = BoardConfig.checkerboard() if board_kind == "checkerboard" else BoardConfig.charuco()
     board = make_board(config)
-    rot, tvec = board_trajectory(board.geometry, BoardMotion(n_frames=frames, floor_frames=20, seed=seed), rig)
+    motion = BoardMotion(n_frames=frames, floor_frames=20, seed=seed, floor_spots_mm=FLOOR_SPOTS_MM)
+    rot, tvec = board_trajectory(board.geometry, motion, rig)
     images = render_board_images(rig, board, rot, tvec, scale=scale, seed=seed)
     truth = scaled_rig(rig, scale)
     with tempfile.TemporaryDirectory() as tmp:
