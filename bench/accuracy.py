@@ -133,6 +133,15 @@ def print_table(result: dict) -> None:
         print(f"  {'met ' if t['met'] else 'MISS'}  {name}: {t['value']:.3f}")
 
 
+def _jsonable(value):
+    """NaN/inf -> null, so the output is strict JSON."""
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--preset", default="paper")
@@ -148,7 +157,7 @@ def main(argv=None) -> None:
     result = run(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed,
                  anipose=not args.no_anipose, paper_steps=args.paper_steps, clip_seconds=args.clip_seconds)
     if args.json:
-        print(json.dumps(result))
+        print(json.dumps(_jsonable(result)))
     else:
         print_table(result)
 

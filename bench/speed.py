@@ -127,6 +127,15 @@ def print_table(result: dict) -> None:
             print(f"{method:18s} {metric:30s} {value:10.3f}")
 
 
+def _jsonable(value):
+    """NaN/inf -> null, so the output is strict JSON."""
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seconds", type=float, default=30.0)
@@ -141,7 +150,7 @@ def main(argv=None) -> None:
     result = run(seconds=args.seconds, cameras=args.cameras, repeats=args.repeats, anipose=not args.no_anipose,
                  paper_steps=args.paper_steps, clip_seconds=args.clip_seconds)
     if args.json:
-        print(json.dumps(result))
+        print(json.dumps(_jsonable(result)))
     else:
         print_table(result)
 

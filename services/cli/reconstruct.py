@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import enum
 import json
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -30,6 +31,15 @@ def _write_text_atomic(path: Path, text: str) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _jsonable(value):
+    """Metrics with NaN/inf as null (strict JSON)."""
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def _method(name: MethodName, paper: bool, steps: int | None):
@@ -81,7 +91,7 @@ def reconstruct_command(
         if trc is not None:
             _write_text_atomic(trc, to_trc(rec.points_mm, rec.times_s, rec.joint_names, filename=trc.name))
         if as_json:
-            typer.echo(json.dumps({"method": rec.method, **rec.metrics, "losses": rec.losses}))
+            typer.echo(json.dumps(_jsonable({"method": rec.method, **rec.metrics, "losses": rec.losses})))
         else:
             m = rec.metrics
             typer.echo(

@@ -40,6 +40,7 @@ def test_reconstruct_command(tmp_path):
     assert res.exit_code == 0, res.output
     metrics = json.loads(res.stdout.strip().splitlines()[-1])
     assert metrics["method"] == "robust" and metrics["GC_20"] > 0.9
+    assert "NaN" not in res.stdout
     with np.load(tmp_path / "out.npz") as out:
         assert out["points_mm"].shape == gt.shape and list(out["joint_names"])[0] == "nose"
         assert out["camera_weights"].shape == det.keypoints.shape[:3]
