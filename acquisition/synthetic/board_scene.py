@@ -27,12 +27,13 @@ SCENES = ("walker", "board")
 
 @dataclass(frozen=True)
 class BoardSceneConfig:
-    """The board clip: ``frames`` frames (``floor_frames`` of them on the floor first), looped."""
+    """The board clip (``motion.n_frames`` frames, ``motion.floor_frames`` of them on the floor first),
+    looped. The default is short (6 s at 10 frames/s): a slow single turn through the middle of the
+    room, so that neighbouring cameras of a small rig share views."""
 
     board: BoardConfig = BoardConfig()
-    frames: int = 40
-    floor_frames: int = 3
-    seed: int = 3
+    motion: BoardMotion = BoardMotion(n_frames=60, floor_frames=3, tour_fraction=0.3, turns=1.0,
+                                      max_tilt_deg=20.0, upside_down_fraction=0.0, seed=3)
 
 
 class SceneSwitch:
@@ -65,8 +66,7 @@ class BoardScene:
     def __init__(self, rig: Rig, config: BoardSceneConfig = BoardSceneConfig()) -> None:
         self.rig, self.config = rig, config
         self.board = make_board(config.board)
-        motion = BoardMotion(n_frames=config.frames, floor_frames=config.floor_frames, seed=config.seed)
-        self.rot, self.tvec = board_trajectory(self.board.geometry, motion, rig)
+        self.rot, self.tvec = board_trajectory(self.board.geometry, config.motion, rig)
         self._clips: dict[tuple[str, tuple[int, int]], np.ndarray] = {}
         self._lock = threading.Lock()
 

@@ -1,0 +1,76 @@
+// gaitcap clinic page: the "Calibrate" card (record a board sequence, show the calibration report).
+// Uses api(), esc(), withToken() and state from app.js.
+"use strict";
+
+const cal = { id: null, timer: null };
+const calNum = (x) => (x === null || x === undefined ? "–" : fmtNum(x));
+
+function calError(text) { const e = document.querySelector("#calibration-error"); e.textContent = text || ""; e.hidden = !text; }
+function calStatus(text) { document.querySelector("#calibration-status").textContent = text; }
+function calButtons(recording) {
+  document.querySelector("#calibrate").disabled = recording;
+  document.querySelector("#calibrate-stop").disabled = !recording;
+}
+
+async function calibrateStart() {
+  calError("");
+  try {
+    const run = await api("/calibrations/record/start", { method: "POST" });
+    cal.id = run.id; calButtons(true);
+    calStatus("Recording the board… lay it on the floor, walk it through the room, then press Stop.");
+    document.querySelector("#calibration-report").hidden = true;
+  } catch (e) { calError(e.message); }
+}
+
+async function calibrateStop() {
+  calError("");
+  try {
+    const run = await api("/calibrations/record/stop", { method: "POST" });
+    cal.id = run.id; calButtons(false); calStatus("Calibrating…"); followCalibration();
+  } catch (e) { calError(e.message); }
+}
+
+function followCalibration() {
+  clearTimeout(cal.timer);
+  api("/calibrations/" + encodeURIComponent(cal.id)).then((run) => {
+    if (run.state === "recording") { calButtons(true); calStatus("Recording the board…"); }
+    else if (run.state === "calibrating") {
+      calButtons(false);
+      calStatus(`Calibrating: ${run.stage || "waiting"} (${Math.round(100 * (run.progress || 0))} %)`);
+    } else { calButtons(false); showCalibration(run); return; }
+    cal.timer = setTimeout(followCalibration, 1000);
+  }).catch((e) => { calError(e.message); cal.timer = setTimeout(followCalibration, 3000); });
+}
+
+function showCalibration(run) {
+  const ok = run.state === "done";
+  calStatus(ok ? (run.active ? "Calibration passed: the next trials use it." : "Calibration passed.")
+               : "Calibration failed: it is not used.");
+  calError(ok ? "" : run.error);
+  const rep = run.report || {};
+  const rows = (rep.cameras || []).map((c) => `<tr><td>${esc(c.name)}</td>
+    <td class="${c.ok ? "cal-pass" : "cal-fail"}">${c.ok ? "pass" : "FAIL"}</td><td>${c.n_detections}</td>
+    <td>${calNum(c.reprojection_mean_px)}</td><td>${calNum(c.reprojection_p95_px)}</td>
+    <td>${Math.round(100 * c.coverage)} %</td><td>${esc((c.problems || []).join("; "))}</td></tr>`);
+  document.querySelector("#calibration-table tbody").innerHTML = rows.join("");
+  const link = run.has_toml ? ` <a href="${withToken("/calibrations/" + encodeURIComponent(run.id) + "/toml")}">Download calibration (TOML)</a>` : "";
+  const square = rep.square_mm ? `Board square ${calNum(rep.square_measured_mm)} mm measured vs ${fmtNum(rep.square_mm)} mm `
+    + `(${rep.square_residual_pct >= 0 ? "+" : ""}${calNum(rep.square_residual_pct)} %); ` : "";
+  document.querySelector("#calibration-summary").innerHTML = esc(`${run.id}: ${square}`
+    + (rep.reprojection_rms_px !== undefined && rep.reprojection_rms_px !== null ? `reprojection RMS ${calNum(rep.reprojection_rms_px)} px.` : "")) + link;
+  document.querySelector("#calibration-report").hidden = !rows.length && !run.has_toml;
+}
+
+async function loadCalibrations() {
+  try {
+    const list = await api("/calibrations?limit=20");
+    const active = list.find((c) => c.active);
+    document.querySelector("#calibration-active").textContent = active ? `(in use: ${active.id})` : "(none in use)";
+    const rec = list.find((c) => c.state === "recording" || c.state === "calibrating");
+    if (rec && !cal.id) { cal.id = rec.id; followCalibration(); }
+  } catch (e) { /* not signed in yet */ }
+}
+
+document.querySelector("#calibrate").onclick = calibrateStart;
+document.querySelector("#calibrate-stop").onclick = calibrateStop;
+setInterval(() => { if (state.token && !document.querySelector("#app").hidden) loadCalibrations(); }, 3000);
