@@ -124,6 +124,9 @@ def attach_board_scene(session, bus: BusConfig, drivers: Sequence[CameraDriver])
         try:
             msg = loads(sample.payload.to_bytes(), what=bus.keys.camera_scene)
             switch.set(str(msg.get("scene")), int(msg.get("start_ns") or time.time_ns()))
+            if msg.get("scene") == "board":  # render the clips now, not in the cameras' frame loops
+                threading.Thread(target=lambda: [board.clip(d.name, d.size_px) for d in sims],
+                                 name="board-clips", daemon=True).start()
         except (ValueError, TypeError) as exc:
             log.warning("ignoring a scene message: %s", exc)
 

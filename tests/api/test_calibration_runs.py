@@ -1,6 +1,7 @@
 """Calibrate from the API against the real stack (simulated cameras, recorder, API as processes; Zenoh on
-loopback; SQLite): record a board sequence, stop, the calibration job computes it, it becomes active
-and is close to the simulated rig; one recording (trial or board) at a time.
+loopback; SQLite; the clinic page in headless Chromium): press Calibrate, let the simulated cameras show
+the board, press Stop; the calibration job computes it, the page shows pass per camera, it becomes
+active and is close to the simulated rig; one recording (trial or board) at a time.
 
 Bound: camera centres within 100 mm and rotations within 1 deg of the truth, the same bound as the
 calibration CLI's test for a short (6 s, 60 frame) low-resolution (576x360) clip; the full-size
@@ -20,6 +21,8 @@ from reconstruction.calibration_io import load_rig
 from services.stack import Stack, StackConfig, free_port_range
 
 TOKEN = "calibration-test-token"
+BROWSER_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--no-first-run"]
 CAMERAS, FPS, SIZE = 6, 10.0, (576, 360)
 
 
@@ -42,27 +45,36 @@ def client(stack):
         yield c
 
 
-def _wait_result(client, cal_id, timeout_s=300.0) -> dict:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        run = client.get(f"/calibrations/{cal_id}").json()
-        if run["state"] in ("done", "failed"):
-            return run
-        time.sleep(0.5)
-    raise AssertionError(f"calibration {cal_id} still {run['state']} ({run['stage']}) after {timeout_s} s")
+def test_calibrate_from_the_page_gives_the_active_calibration(stack, client, tmp_path):
+    from playwright.sync_api import sync_playwright
 
-
-def test_board_recording_gives_the_active_calibration(stack, client, tmp_path):
-    r = client.post("/calibrations/record/start")
-    assert r.status_code == 201, r.text
-    cal_id = r.json()["id"]
-    assert client.post("/trials", json={"subject_id": "P1"}).status_code == 409  # the board records
-    assert client.post("/calibrations/record/start").status_code == 409
-    time.sleep(6.5)  # the board clip: 60 frames at 10 frames/s (the floor frames first)
-    r = client.post("/calibrations/record/stop")
-    assert r.status_code == 200 and r.json()["state"] == "calibrating", r.text
-    assert client.post("/calibrations/record/stop").status_code == 409  # nothing records now
-    run = _wait_result(client, cal_id)
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=BROWSER_ARGS)
+        page = browser.new_page(viewport={"width": 1280, "height": 1400})
+        page.set_default_timeout(30_000)
+        try:
+            page.goto(stack.page_url)
+            page.wait_for_selector("#app:not([hidden])")
+            page.click("#calibrate")
+            page.wait_for_function("document.querySelector('#calibration-status').textContent"
+                                   ".includes('Recording the board')")
+            cal_id = client.get("/calibrations").json()[0]["id"]
+            assert client.post("/trials", json={"subject_id": "P1"}).status_code == 409  # the board records
+            assert client.post("/calibrations/record/start").status_code == 409
+            time.sleep(6.5)  # the board clip: 60 frames at 10 frames/s (the floor frames first)
+            page.click("#calibrate-stop")
+            page.wait_for_function("document.querySelector('#calibration-status').textContent"
+                                   ".startsWith('Calibrating')")
+            assert client.post("/calibrations/record/stop").status_code == 409  # nothing records now
+            page.wait_for_function("document.querySelector('#calibration-status').textContent"
+                                   ".startsWith('Calibration ')", timeout=300_000)  # passed / failed
+            cells = page.locator("#calibration-table tbody tr td:nth-child(2)").all_inner_texts()
+            assert cells == ["pass"] * CAMERAS, page.inner_text("#calibration-card")
+            assert "next trials use it" in page.inner_text("#calibration-status")
+        finally:
+            page.screenshot(path=str(tmp_path / "calibration.png"), full_page=True)
+            browser.close()
+    run = client.get(f"/calibrations/{cal_id}").json()
     assert run["state"] == "done", run["error"]
     assert run["active"] and client.get("/calibrations/latest").json()["id"] == cal_id
     report = run["report"]
