@@ -42,6 +42,7 @@ class StackConfig:
     fps: float = 30.0
     sim_preset: str = "paper"
     sim_seconds: float = 300.0
+    sim_people: int = 1
     seed: int = 0
     workers: int = 1
     lease_s: float = 10.0
@@ -57,6 +58,8 @@ class StackConfig:
             raise ValueError(f"cameras: need 2..64 cameras, got {self.cameras}")
         if not 1 <= self.workers <= 8:
             raise ValueError(f"workers: need 1..8 workers, got {self.workers}")
+        if self.sim_people not in (1, 2, 3):
+            raise ValueError(f"sim_people: the simulated world has 1, 2 or 3 people, got {self.sim_people}")
         if self.sim_seconds < 5:
             raise ValueError(f"sim_seconds: the simulated walk must last >= 5 s, got {self.sim_seconds}")
 
@@ -99,7 +102,7 @@ def bus_config(cfg: StackConfig):
 
 def _sim_args(cfg: StackConfig) -> list[str]:
     return ["--sim-preset", cfg.sim_preset, "--sim-seconds", str(cfg.sim_seconds), "--sim-cameras",
-            str(cfg.cameras), "--sim-seed", str(cfg.seed), "--fps", str(cfg.fps)]
+            str(cfg.cameras), "--sim-seed", str(cfg.seed), "--fps", str(cfg.fps), "--sim-people", str(cfg.sim_people)]
 
 
 def process_specs(cfg: StackConfig) -> list[ProcessSpec]:

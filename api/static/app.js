@@ -307,7 +307,7 @@ function renderStills(trialId, p) {
     tile.className = "camera ok"; tile.dataset.camera = cam; tile.hidden = true;
     tile.innerHTML = `<img alt="Camera ${esc(cam)} image to click on" style="cursor: crosshair"><div class="cap"><span class="name">${esc(cam)}</span></div>`;
     const img = tile.querySelector("img");
-    img.onload = () => { tile.hidden = false; };
+    img.onload = () => { img.style.aspectRatio = `${img.naturalWidth} / ${img.naturalHeight}`; tile.hidden = false; };
     img.onerror = () => { tile.remove(); };
     img.onclick = (ev) => {
       const r = img.getBoundingClientRect();

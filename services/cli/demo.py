@@ -26,6 +26,8 @@ def register(app: typer.Typer) -> None:
         size: str = typer.Option("240x180", "--size", help="Simulated image size WIDTHxHEIGHT (px)."),
         workers: int = typer.Option(1, "--workers", help="Reconstruction workers."),
         refine: bool = typer.Option(True, "--refine/--no-refine", help="Run the refined (implicit) fit."),
+        people: int = typer.Option(1, "--people", help="People in the simulated room: 1 patient, 2 with a "
+                                                       "therapist beside, 3 also someone standing."),
     ) -> None:
         """Bring up the whole clinic stack (simulated rig) and print the web page's URL."""
         import logging
@@ -38,7 +40,7 @@ def register(app: typer.Typer) -> None:
 
         with user_errors():
             cfg = StackConfig(data_dir=data_dir, token=token or new_token(), port=port, bus_base_port=bus_port,
-                              cameras=cameras, size=size, workers=workers, refine=refine)
+                              cameras=cameras, size=size, workers=workers, refine=refine, sim_people=people)
         logging.getLogger("httpx").setLevel(logging.WARNING)
         stack = Stack(cfg)
         stop = threading.Event()
