@@ -69,6 +69,7 @@ def _people_out(trial: cat.TrialInfo, files: TrialFiles) -> dict:
         "pending_choice": choice.track_id if choice is not None and choice.track_id != patient else None,
         "cameras": people.get("cameras", []), "frames": people.get("frames", 0),
         "busiest_frame": people.get("busiest_frame"), "image_sizes_px": people.get("image_sizes_px", {}),
+        "boxes_px": people.get("boxes_px", {}),
         "people": [{**p, "is_patient": p["track_id"] == patient} for p in people.get("people", [])],
     }
 

@@ -9,6 +9,7 @@ Files in the trial folder (:class:`~services.artifacts.TrialFiles`):
 
 - ``people.json`` (worker): ``{"cameras": [...], "frames": T, "first_frame_id": recorder frame id of
   frame 0, "busiest_frame": a frame with the most people in view, "image_sizes_px": {camera: [w, h]},
+  "boxes_px": {camera: [{"track_id", "box_px": [x0, y0, x1, y1]}]} (everyone in the busiest frame),
   "patient_track_id": int, "chosen_by": "automatic" | "clinician", "people": [{"track_id", "first_s",
   "last_s", "seen_s", "frames", "mean_views", "path_mm", "mean_position_mm"}]}``.
 - ``tracks.npz`` (worker): the tracks (which detection is whose), to resolve a click on a camera image.
@@ -86,25 +87,47 @@ def patient_detections_of(recording, rig: Rig, files: TrialFiles) -> tuple[Detec
     choice = read_choice(files)
     selection = select_patient(recording, rig, choice)
     sizes = {cam.name: [int(v) for v in cam.size_px] for cam in rig.cameras if cam.name in recording.camera_names}
+    busiest = busiest_frame(selection.tracks)
     write_people(files, selection, chosen_by="clinician" if choice is not None else "automatic",
-                 first_frame_id=int(recording.frame_ids[0]), image_sizes_px=sizes)
+                 first_frame_id=int(recording.frame_ids[0]), image_sizes_px=sizes, busiest=busiest,
+                 boxes=boxes_in_frame(multi_of(recording), selection.tracks, busiest))
     log.info("%s: %d people tracked; patient is track %d (%s)", files.root.name, selection.tracks.num_tracks,
              selection.track_id, "clinician's choice" if choice else "automatic")
     return selection.detections, selection
 
 
 # ------------------------------------------------------------------ files
+def busiest_frame(tracks: Tracks) -> int:
+    """A frame with the most people in view (and, among those, the most camera views)."""
+    return int(np.argmax(tracks.seen().sum(0) * 1000 + tracks.views.sum(0)))
+
+
+def boxes_in_frame(multi: MultiPersonDetections, tracks: Tracks, frame: int) -> dict[str, list[dict]]:
+    """Per camera, each tracked person's keypoint box in ``frame``: ``[{"track_id", "box_px": [x0, y0,
+    x1, y1]}]`` (for marking the people on that frame's images)."""
+    ok = multi.confident(IN_VIEW_CONFIDENCE)[:, frame]  # (C, P, J)
+    out: dict[str, list[dict]] = {}
+    for c, cam in enumerate(multi.camera_names):
+        for p, track in enumerate(tracks.detection_track[c, frame]):
+            if track < 0 or not ok[c, p].any():
+                continue
+            xy = multi.keypoints[c, frame, p, ok[c, p], :2]
+            box = [*np.min(xy, 0), *np.max(xy, 0)]
+            out.setdefault(cam, []).append({"track_id": int(track), "box_px": [round(float(v), 1) for v in box]})
+    return out
+
+
 def people_summary(selection: PatientSelection, *, chosen_by: str, first_frame_id: int = 0,
-                   image_sizes_px: dict | None = None) -> dict:
+                   image_sizes_px: dict | None = None, busiest: int | None = None, boxes: dict | None = None) -> dict:
     """The JSON of ``people.json`` (see the module docstring)."""
     tracks = selection.tracks
     people = [{"track_id": s.track_id, "first_s": round(s.first_s, 3), "last_s": round(s.last_s, 3),
                "seen_s": round(s.last_s - s.first_s, 3), "frames": s.frames, "mean_views": round(s.mean_views, 2),
                "path_mm": round(s.path_mm, 1), "mean_position_mm": [round(v, 1) for v in s.mean_position_mm]}
               for s in tracks.summaries()]
-    busiest = int(np.argmax(tracks.seen().sum(0) * 1000 + tracks.views.sum(0)))  # most people, most views
+    busiest = busiest_frame(tracks) if busiest is None else busiest
     return {"cameras": list(tracks.camera_names), "frames": int(tracks.times_s.size), "first_frame_id": first_frame_id,
-            "busiest_frame": busiest, "image_sizes_px": image_sizes_px or {},
+            "busiest_frame": busiest, "image_sizes_px": image_sizes_px or {}, "boxes_px": boxes or {},
             "patient_track_id": int(selection.track_id), "chosen_by": chosen_by, "people": people}
 
 

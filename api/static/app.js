@@ -305,7 +305,8 @@ function renderStills(trialId, p) {
     if (!size) continue;
     const tile = document.createElement("div");
     tile.className = "camera ok"; tile.dataset.camera = cam; tile.hidden = true;
-    tile.innerHTML = `<img alt="Camera ${esc(cam)} image to click on" style="cursor: crosshair"><div class="cap"><span class="name">${esc(cam)}</span></div>`;
+    tile.innerHTML = `<div style="position: relative"><img alt="Camera ${esc(cam)} image to click on" style="cursor: crosshair">${personMarks(p, cam, size)}</div>
+      <div class="cap"><span class="name">${esc(cam)}</span></div>`;
     const img = tile.querySelector("img");
     img.onload = () => { img.style.aspectRatio = `${img.naturalWidth} / ${img.naturalHeight}`; tile.hidden = false; };
     img.onerror = () => { tile.remove(); };
@@ -317,6 +318,18 @@ function renderStills(trialId, p) {
     img.src = withToken(`/trials/${encodeURIComponent(trialId)}/still/${encodeURIComponent(cam)}.jpg?frame=${p.busiest_frame}`);
     grid.appendChild(tile);
   }
+}
+
+function personMarks(p, cam, size) {
+  // a labelled frame around each person in the image (the patient green), clicks pass through to the image
+  const patient = p.patient_track_id;
+  return ((p.boxes_px || {})[cam] || []).map(({ track_id, box_px: [x0, y0, x1, y1] }) => {
+    const color = track_id === patient ? "#2e9d4f" : "#e08a00";
+    const pct = (v, n) => (100 * v / n).toFixed(2) + "%";
+    return `<div class="person-mark" data-track="${track_id}" style="position: absolute; pointer-events: none; border: 2px solid ${color};
+      left: ${pct(x0, size[0])}; top: ${pct(y0, size[1])}; width: ${pct(x1 - x0, size[0])}; height: ${pct(y1 - y0, size[1])}">
+      <span style="position: absolute; top: 0; left: 0; background: ${color}; color: #fff; font-size: 12px; padding: 0 4px; white-space: nowrap">Person ${track_id + 1}${track_id === patient ? " (patient)" : ""}</span></div>`;
+  }).join("");
 }
 
 async function choosePatient(trialId, choice) {

@@ -169,6 +169,7 @@ def test_the_page_lists_the_people_and_switches_the_patient(server, processed, p
             cam, fx, fy = _still_click(pair, people, person=1)
             img = page.locator(f'#people-stills [data-camera="{cam}"] img')
             expect(img).to_be_visible()
+            expect(page.locator(f'#people-stills .person-mark[data-track="{auto}"]').first).to_contain_text("(patient)")
             box = img.bounding_box()
             img.click(position={"x": fx * box["width"], "y": fy * box["height"]})
             expect(page.locator("#people-status")).to_contain_text("Computing the walk again for person")

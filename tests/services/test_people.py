@@ -60,6 +60,8 @@ def test_the_patient_is_found_and_reconstructed_not_the_therapist(tmp_path, pair
     assert people["chosen_by"] == "automatic" and len(people["people"]) == 2
     assert people["patient_track_id"] in [p["track_id"] for p in people["people"]]
     assert all(p["seen_s"] > 5.0 for p in people["people"])
+    marked = {m["track_id"] for boxes in people["boxes_px"].values() for m in boxes}
+    assert marked == {0, 1} and set(people["image_sizes_px"]) == set(people["cameras"])
     alone = _alone(pair, 0)
     patient, therapist = pair.all_points_mm[0], pair.all_points_mm[1]
     assert _mpjpe(points, patient) <= 1.10 * _mpjpe(alone, patient) + 1.0
