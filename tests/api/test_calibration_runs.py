@@ -108,3 +108,23 @@ def test_unknown_calibration_and_auth(client, stack):
     assert client.get("/calibrations/C20000101-000000-abcdef").status_code == 404
     assert client.get("/calibrations/bad id!").status_code == 422
     assert httpx.get(f"{stack.cfg.url}/calibrations").status_code == 401
+
+
+def test_a_failed_calibration_is_kept_with_its_reason_and_not_used(server):
+    """Real uvicorn + catalog + calibration job process; the recorder is the in-test link (it writes no
+    file), so the job fails naming the missing recording, and the previous calibration stays in use."""
+    _, c, link, _ = server
+    assert c.get("/calibrations/record/stop").status_code == 405
+    assert c.post("/calibrations/record/stop").status_code == 409  # nothing records
+    run = c.post("/calibrations/record/start").json()
+    assert link.calls[-1][0] == "start" and link.calls[-1][3]["kind"] == "calibration"
+    assert c.post("/trials", json={"subject_id": "P3"}).status_code == 409
+    assert c.post("/calibrations/record/stop").json()["state"] == "calibrating"
+    deadline = time.monotonic() + 60
+    while (got := c.get(f"/calibrations/{run['id']}").json())["state"] == "calibrating":
+        assert time.monotonic() < deadline, got
+        time.sleep(0.3)
+    assert got["state"] == "failed" and "does not exist" in got["error"] and not got["active"]
+    assert c.get("/calibrations/latest").status_code == 404
+    assert c.get(f"/calibrations/{run['id']}/toml").status_code == 404
+    assert c.post("/trials", json={"subject_id": "P3"}).status_code == 201  # the slot is free again
