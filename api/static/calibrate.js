@@ -37,7 +37,7 @@ function followCalibration() {
     else if (run.state === "calibrating") {
       calButtons(false);
       calStatus(`Calibrating: ${run.stage || "waiting"} (${Math.round(100 * (run.progress || 0))} %)`);
-    } else { calButtons(false); showCalibration(run); return; }
+    } else { calButtons(false); showCalibration(run); loadCalibrations(); return; }
     cal.timer = setTimeout(followCalibration, 1000);
   }).catch((e) => { calError(e.message); cal.timer = setTimeout(followCalibration, 3000); });
 }
