@@ -96,6 +96,13 @@ def patient_detections_of(recording, rig: Rig, files: TrialFiles) -> tuple[Detec
     return selection.detections, selection
 
 
+def patient_of(recording, rig: Rig, choice: PatientChoice | None = None) -> Detections:
+    """The patient's detections as :func:`patient_detections_of` finds them, writing nothing."""
+    if most_people_in_view(recording.people) <= 1:
+        return recording.patient()
+    return select_patient(recording, rig, choice).detections
+
+
 # ------------------------------------------------------------------ files
 def busiest_frame(tracks: Tracks) -> int:
     """A frame with the most people in view (and, among those, the most camera views)."""

@@ -238,10 +238,12 @@ def run_task(task: ReprocessTask) -> TaskOutcome:
 def compute_result(task: ReprocessTask) -> MethodResult:
     """Reconstruction, metrics, gait and residuals of one trial under one method (raises ValueError)."""
     from reconstruction.methods import reconstruct
-    from services.processing import load_recording
+    from services.artifacts import TrialFiles
+    from services.people import patient_of, read_choice
+    from services.processing import load_keypoints
 
-    det, rig = load_recording(task.trial.recording)
-    det, rig = det.aligned_to(rig)
+    recording, rig = load_keypoints(task.trial.recording)  # several people in view: the patient (stored choice)
+    det, rig = patient_of(recording, rig, read_choice(TrialFiles(task.trial.folder))).aligned_to(rig)
     truth = _truth_points(task.trial.folder, det)
     rec = reconstruct(det, rig, method=task.spec.config(), truth_mm=truth)
     points, times, names = np.asarray(rec.points_mm), np.asarray(rec.times_s), list(rec.joint_names)

@@ -96,3 +96,22 @@ def test_people_in_view_and_choice_validation(pair):
     assert most_people_in_view(pair.detections.keypoints[:, :, None]) == 1
     with pytest.raises(ValueError, match="track_id"):
         PatientChoice(track_id=-1)
+
+
+def _agreement(keypoints, person_kp) -> float:
+    """Fraction of the person's detected joints found at the same pixel (the MCAP keeps 0.01 px)."""
+    seen = np.isfinite(person_kp[..., 0]) & (person_kp[..., 2] > 0)
+    same = np.abs(np.nan_to_num(keypoints[..., 0], nan=-1e9) - person_kp[..., 0]) < 0.02
+    return float((same & seen).sum() / seen.sum())
+
+
+def test_patient_of_honours_a_choice_and_writes_nothing(tmp_path, pair):
+    from acquisition.recording.reader import read_keypoints
+    from services.people import patient_of, select_patient
+
+    path = write_multi_trial_mcap(pair, tmp_path / "t" / "recording.mcap")
+    rec = read_keypoints(path)
+    assert _agreement(patient_of(rec, pair.rig).keypoints, pair.multi.person(0)) > 0.95
+    other = 1 - select_patient(rec, pair.rig, None).track_id
+    assert _agreement(patient_of(rec, pair.rig, PatientChoice(other)).keypoints, pair.multi.person(1)) > 0.95
+    assert sorted(p.name for p in path.parent.iterdir() if p.suffix != ".toml") == ["recording.mcap"]
