@@ -341,7 +341,8 @@ async function choosePatient(trialId, choice) {
     const p = await api(`/trials/${encodeURIComponent(trialId)}/patient`, { method: "POST", body });
     const chosen = typeof choice === "number" ? choice : p.pending_choice;
     state.rerun = trialId;
-    $("#people-status").textContent = chosen == null ? "Computing the walk again…" : `Computing the walk again for person ${chosen + 1}…`;
+    state.rerunWho = chosen == null ? "the chosen person" : `person ${chosen + 1}`;
+    $("#people-status").textContent = `Computing the walk again for ${state.rerunWho}…`;
   } catch (e) {
     showError(e.status === 404 && typeof choice !== "number" ? "Nobody was found where you clicked. Please click on the person, or use the buttons in the list."
       : "Could not choose the patient: " + e.message);
@@ -353,7 +354,7 @@ function rerunFinished(t) {
   // the results of a walk computed again for a newly chosen patient: show them once it is done
   if (state.rerun !== t.id) return false;
   if (t.state === "recorded" || t.state === "processing") {
-    $("#people-status").textContent = `Computing the walk again for the chosen person… (${Math.round(100 * t.progress)} %)`;
+    $("#people-status").textContent = `Computing the walk again for ${state.rerunWho || "the chosen person"}… (${Math.round(100 * t.progress)} %)`;
     return false;
   }
   state.rerun = null; state.shownResult = null;

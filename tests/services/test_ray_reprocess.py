@@ -7,6 +7,7 @@ import threading
 import time
 
 import pytest
+import ray  # a dev dependency: without it this test fails rather than skips
 from typer.testing import CliRunner
 
 from services.cli import app
@@ -16,8 +17,6 @@ from services.reprocess_store import list_results
 from services.sweep import summarize
 
 from .reprocess_trials import make_walks, recorded_catalog
-
-ray = pytest.importorskip("ray")
 
 
 def _ray_task_pids() -> list[int]:

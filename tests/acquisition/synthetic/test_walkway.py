@@ -1,13 +1,13 @@
 import numpy as np
 import pytest
 
-synthetic = pytest.importorskip("acquisition.synthetic.truth")
-from acquisition.synthetic.params import WalkParams  # noqa: E402
-from acquisition.synthetic.path import plan_walk  # noqa: E402
-from acquisition.synthetic.walker import Body, simulate_body  # noqa: E402
-from acquisition.synthetic.walkway import WalkwayExportParams, make_walkway_export  # noqa: E402
-from reconstruction.gait import analyze_gait, compare_with_walkway  # noqa: E402
-from reconstruction.skeletons import get_skeleton  # noqa: E402
+from acquisition.synthetic import truth as synthetic
+from acquisition.synthetic.params import WalkParams
+from acquisition.synthetic.path import plan_walk
+from acquisition.synthetic.walker import Body, simulate_body
+from acquisition.synthetic.walkway import WalkwayExportParams, make_walkway_export
+from reconstruction.gait import analyze_gait, compare_with_walkway
+from reconstruction.skeletons import get_skeleton
 
 
 @pytest.fixture(scope="module")
