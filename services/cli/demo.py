@@ -28,14 +28,14 @@ def register(app: typer.Typer) -> None:
         refine: bool = typer.Option(True, "--refine/--no-refine", help="Run the refined (implicit) fit."),
         people: int = typer.Option(1, "--people", help="People in the simulated room: 1 patient, 2 with a "
                                                        "therapist beside, 3 also someone standing."),
+        first_trial: bool = typer.Option(True, "--first-trial/--no-first-trial",
+                                         help="Record one walk automatically once the stack is up, so the page "
+                                              "already shows a finished trial (ignored with --auto)."),
     ) -> None:
         """Bring up the whole clinic stack (simulated rig) and print the web page's URL."""
         import logging
 
-        import httpx
-
         from api.settings import new_token
-        from services.auto_trial import format_metrics, run_trial
         from services.stack import Stack, StackConfig
 
         with user_errors():
@@ -53,22 +53,35 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"gaitcap clinic page: {stack.page_url}")
             typer.echo(f"API token: {cfg.token}")
             typer.echo(f"API docs: {cfg.url}/docs")
-            if not auto:
-                typer.echo("Press Ctrl-C to stop.", err=True)
-                stop.wait()
-                return
-            with httpx.Client(base_url=cfg.url, headers={"Authorization": f"Bearer {cfg.token}"}, timeout=30) as c:
-                typer.echo(f"recording a {seconds:.0f} s walk ...", err=True)
-                t = run_trial(c, subject_id="DEMO001", seconds=seconds)
-                if t.state != "done":
-                    typer.echo(f"trial {t.trial_id} {t.state}: {t.error}", err=True)
-                    raise typer.Exit(code=1)
-                typer.echo(f"trial {t.trial_id}: results {_after(t.preliminary_s)} (preliminary) and "
-                           f"{_after(t.refined_s)} (refined) after Stop")
-                for stage in ("preliminary", "refined") if refine else ("preliminary",):
-                    typer.echo(format_metrics(c.get(f"/trials/{t.trial_id}/gait", params={"stage": stage}).json()))
+            if auto or first_trial:
+                ok = _one_trial(cfg, seconds=seconds, refine=refine)
+                if auto:
+                    if not ok:
+                        raise typer.Exit(code=1)
+                    return
+            typer.echo("Press Ctrl-C to stop.", err=True)
+            stop.wait()
         finally:
             stack.stop()
+
+
+def _one_trial(cfg, *, seconds: float, refine: bool) -> bool:
+    """Record one simulated walk through the API, wait for its results and print them; True if done."""
+    import httpx
+
+    from services.auto_trial import format_metrics, run_trial
+
+    with httpx.Client(base_url=cfg.url, headers={"Authorization": f"Bearer {cfg.token}"}, timeout=30) as c:
+        typer.echo(f"recording a {seconds:.0f} s walk ...", err=True)
+        t = run_trial(c, subject_id="DEMO001", seconds=seconds)
+        if t.state != "done":
+            typer.echo(f"trial {t.trial_id} {t.state}: {t.error}", err=True)
+            return False
+        typer.echo(f"trial {t.trial_id}: results {_after(t.preliminary_s)} (preliminary) and "
+                   f"{_after(t.refined_s)} (refined) after Stop")
+        for stage in ("preliminary", "refined") if refine else ("preliminary",):
+            typer.echo(format_metrics(c.get(f"/trials/{t.trial_id}/gait", params={"stage": stage}).json()))
+    return True
 
 
 def _after(seconds: float | None) -> str:

@@ -28,13 +28,16 @@ def _recorded_trial(tmp_path, walk):
 
 
 def _step_length_errors(result, truth) -> list[float]:
-    """Each measured step against the true step of the same foot at that heel strike (mm)."""
+    """Each measured step against the true step of the same foot at that heel strike (mm).
+
+    Every measured step must be a real one: a step with no true heel strike of that foot within 0.1 s is
+    a bogus step and fails the test."""
     errors = []
     for step in result.steps:
         same = np.flatnonzero((truth.foot == step["side"]) & (np.abs(truth.heel_strike_s - step["time_s"]) < 0.1))
-        errors.append(step["step_length_mm"] - truth.step_length_mm[same[0]] if same.size == 1 else np.nan)
-    assert np.isfinite(errors).mean() >= 0.8, f"measured steps without a true heel strike: {result.steps}"
-    return [e for e in errors if np.isfinite(e)]
+        assert same.size == 1, f"measured step without a true heel strike: {step}"
+        errors.append(step["step_length_mm"] - truth.step_length_mm[same[0]])
+    return errors
 
 
 def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path, walk):
@@ -54,7 +57,8 @@ def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path,
         r = cat.get_result(db, tid, stage)
         assert r.method == method
         errors = _step_length_errors(r, walk.truth.steps)
-        assert len(errors) >= 6 and np.median(np.abs(errors)) < 15.0, (stage, errors)
+        # clean detections: both stages recover every step length to a few mm (measured: <= 1.2 mm)
+        assert len(errors) >= 6 and np.abs(errors).max() < 3.0, (stage, errors)
         for key in ("trajectory_npz", "trajectory_trc", "gait_json", "steps_csv", "report_png"):
             assert files.stage_file(stage, key).stat().st_size > 100, (stage, key)
     assert files.stage_file("refined", "rerun_rrd").stat().st_size > 1000
