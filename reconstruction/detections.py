@@ -10,6 +10,34 @@ from reconstruction.camera import Rig
 from reconstruction.skeletons import Skeleton, get_skeleton
 
 
+def validate_keypoints(keypoints, camera_names, times_s, skeleton: Skeleton | str, *, layout: str
+                       ) -> tuple[np.ndarray, tuple[str, ...], np.ndarray, Skeleton]:
+    """Check keypoints laid out as ``layout`` ("(C, T, J, 3)" or "(C, T, P, J, 3)") against their
+    camera names (C,), frame times (T,) s and skeleton; ValueError naming the field that is wrong."""
+    kp = np.asarray(keypoints, dtype=np.float64)
+    names = tuple(str(n) for n in camera_names)
+    skel = get_skeleton(skeleton) if isinstance(skeleton, str) else skeleton
+    ndim = layout.count(",") + 1
+    if kp.ndim != ndim or kp.shape[-1] != 3:
+        raise ValueError(f"keypoints: expected shape {layout}, got {kp.shape}")
+    c, t, j = kp.shape[0], kp.shape[1], kp.shape[-2]
+    if len(names) != c:
+        raise ValueError(f"camera_names: {len(names)} names for {c} cameras in keypoints")
+    if len(set(names)) != c:
+        raise ValueError(f"camera_names: duplicates in {list(names)}")
+    if j != skel.num_joints:
+        raise ValueError(f"keypoints: {j} joints but skeleton {skel.name} has {skel.num_joints}")
+    times = np.asarray(times_s, dtype=np.float64).reshape(-1)
+    if times.shape != (t,):
+        raise ValueError(f"times_s: expected {t} times (one per frame), got {times.shape[0]}")
+    if t > 1 and not np.all(np.diff(times) > 0):
+        raise ValueError("times_s: must be strictly increasing")
+    conf = kp[..., 2]
+    if np.any(np.isfinite(conf) & ((conf < 0) | (conf > 1))):
+        raise ValueError("keypoints: confidence (last channel) must lie in [0, 1]")
+    return kp, names, times, skel
+
+
 @dataclass(frozen=True, eq=False)
 class Detections:
     """One person's 2D keypoints seen by C cameras over T frames.
@@ -28,26 +56,8 @@ class Detections:
     skeleton: Skeleton
 
     def __post_init__(self) -> None:
-        kp = np.asarray(self.keypoints, dtype=np.float64)
-        names = tuple(str(n) for n in self.camera_names)
-        skel = get_skeleton(self.skeleton) if isinstance(self.skeleton, str) else self.skeleton
-        if kp.ndim != 4 or kp.shape[-1] != 3:
-            raise ValueError(f"keypoints: expected shape (C, T, J, 3), got {kp.shape}")
-        c, t, j, _ = kp.shape
-        if len(names) != c:
-            raise ValueError(f"camera_names: {len(names)} names for {c} cameras in keypoints")
-        if len(set(names)) != c:
-            raise ValueError(f"camera_names: duplicates in {list(names)}")
-        if j != skel.num_joints:
-            raise ValueError(f"keypoints: {j} joints but skeleton {skel.name} has {skel.num_joints}")
-        times = np.asarray(self.times_s, dtype=np.float64).reshape(-1)
-        if times.shape != (t,):
-            raise ValueError(f"times_s: expected {t} times (one per frame), got {times.shape[0]}")
-        if t > 1 and not np.all(np.diff(times) > 0):
-            raise ValueError("times_s: must be strictly increasing")
-        conf = kp[..., 2]
-        if np.any(np.isfinite(conf) & ((conf < 0) | (conf > 1))):
-            raise ValueError("keypoints: confidence (last channel) must lie in [0, 1]")
+        kp, names, times, skel = validate_keypoints(
+            self.keypoints, self.camera_names, self.times_s, self.skeleton, layout="(C, T, J, 3)")
         object.__setattr__(self, "keypoints", kp)
         object.__setattr__(self, "camera_names", names)
         object.__setattr__(self, "times_s", times)

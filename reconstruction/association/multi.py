@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from reconstruction.skeletons import Skeleton, get_skeleton
+from reconstruction.detections import validate_keypoints
+from reconstruction.skeletons import Skeleton
 
 
 @dataclass(frozen=True, eq=False)
@@ -28,26 +29,8 @@ class MultiPersonDetections:
     skeleton: Skeleton
 
     def __post_init__(self) -> None:
-        kp = np.asarray(self.keypoints, dtype=np.float64)
-        names = tuple(str(n) for n in self.camera_names)
-        skel = get_skeleton(self.skeleton) if isinstance(self.skeleton, str) else self.skeleton
-        if kp.ndim != 5 or kp.shape[-1] != 3:
-            raise ValueError(f"keypoints: expected shape (C, T, P, J, 3), got {kp.shape}")
-        c, t, _, j, _ = kp.shape
-        if len(names) != c:
-            raise ValueError(f"camera_names: {len(names)} names for {c} cameras in keypoints")
-        if len(set(names)) != c:
-            raise ValueError(f"camera_names: duplicates in {list(names)}")
-        if j != skel.num_joints:
-            raise ValueError(f"keypoints: {j} joints but skeleton {skel.name} has {skel.num_joints}")
-        times = np.asarray(self.times_s, dtype=np.float64).reshape(-1)
-        if times.shape != (t,):
-            raise ValueError(f"times_s: expected {t} times (one per frame), got {times.shape[0]}")
-        if t > 1 and not np.all(np.diff(times) > 0):
-            raise ValueError("times_s: must be strictly increasing")
-        conf = kp[..., 2]
-        if np.any(np.isfinite(conf) & ((conf < 0) | (conf > 1))):
-            raise ValueError("keypoints: confidence (last channel) must lie in [0, 1]")
+        kp, names, times, skel = validate_keypoints(
+            self.keypoints, self.camera_names, self.times_s, self.skeleton, layout="(C, T, P, J, 3)")
         object.__setattr__(self, "keypoints", kp)
         object.__setattr__(self, "camera_names", names)
         object.__setattr__(self, "times_s", times)

@@ -1,5 +1,4 @@
 import json
-import socket
 import threading
 import time
 
@@ -14,14 +13,8 @@ from services.bus.session import BusConfig, alive_nodes, open_session
 from services.camera_node import CameraNode
 
 
-def free_bus(names):
-    socks = [socket.socket() for _ in names]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return BusConfig({n: f"tcp/127.0.0.1:{p}" for n, p in zip(names, ports, strict=True)}, prefix="gaitcap/cn")
+def free_bus(names, prefix="gaitcap/cn"):
+    return BusConfig.free_local(names, prefix=prefix)
 
 
 class Broken:

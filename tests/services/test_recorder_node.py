@@ -1,7 +1,6 @@
 import os
 import resource
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -22,14 +21,8 @@ from services.recorder_node import RecorderNode
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def free_bus(names):
-    socks = [socket.socket() for _ in names]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return BusConfig({n: f"tcp/127.0.0.1:{p}" for n, p in zip(names, ports, strict=True)}, prefix="gaitcap/rt")
+def free_bus(names, prefix="gaitcap/rt"):
+    return BusConfig.free_local(names, prefix=prefix)
 
 
 def noise_render(trial, camera_index, frame_index, size_px):

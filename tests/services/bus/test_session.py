@@ -1,7 +1,6 @@
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -25,13 +24,7 @@ ROOT = Path(__file__).resolve().parents[3]
 
 
 def free_bus(names, prefix="gaitcap/test"):
-    socks = [socket.socket() for _ in names]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return BusConfig({n: f"tcp/127.0.0.1:{p}" for n, p in zip(names, ports, strict=True)}, prefix=prefix)
+    return BusConfig.free_local(names, prefix=prefix)
 
 
 def test_bus_file_json5(tmp_path):

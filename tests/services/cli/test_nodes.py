@@ -4,7 +4,6 @@ separate processes (`gaitcap node ...`), into an MCAP that opens with the mcap r
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -29,14 +28,8 @@ SIM = ["--sim-seconds", "5", "--sim-seed", "7"]
 FRAMES = 30
 
 
-def free_bus(names):
-    socks = [socket.socket() for _ in names]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return BusConfig({n: f"tcp/127.0.0.1:{p}" for n, p in zip(names, ports, strict=True)}, prefix="gaitcap/e2e")
+def free_bus(names, prefix="gaitcap/e2e"):
+    return BusConfig.free_local(names, prefix=prefix)
 
 
 def wait_for(cond, timeout_s, what):

@@ -1,5 +1,4 @@
 import json
-import socket
 import sys
 import threading
 import time
@@ -15,14 +14,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "acquisition" / "re
 from recording_helpers import CAMS, FRAMES, write_trial  # noqa: E402
 
 
-def free_bus(names):
-    socks = [socket.socket() for _ in names]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return BusConfig({n: f"tcp/127.0.0.1:{p}" for n, p in zip(names, ports, strict=True)}, prefix="gaitcap/rp")
+def free_bus(names, prefix="gaitcap/rp"):
+    return BusConfig.free_local(names, prefix=prefix)
 
 
 def _replay(path, rate, keypoints=True):
