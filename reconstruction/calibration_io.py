@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -36,6 +35,7 @@ import numpy as np
 import tomli_w
 
 from reconstruction.camera import Camera, Rig, check_rotation, matrix_to_rodrigues
+from reconstruction.fileio import atomic_write_text
 
 JSON_FORMAT = "gaitcap-calibration"
 JSON_VERSION = 1
@@ -175,18 +175,6 @@ def rig_from_json_dict(data: dict[str, Any], *, source: str = "<json>") -> Rig:
     return Rig(tuple(cams))
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    """Write via a temp file + rename so a crash never leaves a half-written calibration."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
 
 def load_rig(path: str | os.PathLike) -> Rig:
     """Read a calibration: ``.toml`` (aniposelib/Pose2Sim) or ``.json`` (gaitcap)."""
@@ -209,9 +197,9 @@ def save_rig(rig: Rig, path: str | os.PathLike, *, metadata: dict[str, Any] | No
     """Write a calibration atomically; the format follows the suffix (.toml or .json)."""
     path = Path(path)
     if path.suffix.lower() == ".json":
-        _atomic_write(path, json.dumps(rig_to_json_dict(rig), indent=2))
+        atomic_write_text(path, json.dumps(rig_to_json_dict(rig), indent=2))
     elif path.suffix.lower() == ".toml":
-        _atomic_write(path, rig_to_toml_text(rig, metadata=metadata))
+        atomic_write_text(path, rig_to_toml_text(rig, metadata=metadata))
     else:
         raise ValueError(f"{path}: unknown calibration format {path.suffix!r} (expected .toml or .json)")
     return path

@@ -7,12 +7,11 @@ import dataclasses
 import io
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from reconstruction.fileio import atomic_write_text
 from reconstruction.gait.bouts import Pass, Segment
 from reconstruction.gait.events import Contact
 from reconstruction.gait.parameters import STEP_PARAMETERS, GaitSummary, Step
@@ -38,17 +37,6 @@ def _plain(value: Any) -> Any:
         return value if math.isfinite(value) else None
     return value
 
-
-def _atomic_write(path: str | Path, text: str) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", newline="") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 @dataclass(frozen=True)
@@ -97,7 +85,7 @@ class GaitReport:
         return buf.getvalue()
 
     def write_json(self, path: str | Path) -> None:
-        _atomic_write(path, self.to_json(indent=2) + "\n")
+        atomic_write_text(path, self.to_json(indent=2) + "\n")
 
     def write_csv(self, path: str | Path) -> None:
-        _atomic_write(path, self.to_csv())
+        atomic_write_text(path, self.to_csv())

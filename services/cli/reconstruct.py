@@ -5,12 +5,11 @@ from __future__ import annotations
 import enum
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import typer
 
+from reconstruction.fileio import atomic_write_text
 from services.cli._common import progress, user_errors
 
 
@@ -20,17 +19,6 @@ class MethodName(enum.StrEnum):
     explicit = "explicit"
     implicit = "implicit"
 
-
-def _write_text_atomic(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _jsonable(value):
@@ -89,7 +77,7 @@ def reconstruct_command(
             rec = reconstruct(det, rig, method=config, progress=report)
         rec.save_npz(out)
         if trc is not None:
-            _write_text_atomic(trc, to_trc(rec.points_mm, rec.times_s, rec.joint_names, filename=trc.name))
+            atomic_write_text(trc, to_trc(rec.points_mm, rec.times_s, rec.joint_names, filename=trc.name))
         if as_json:
             typer.echo(json.dumps(_jsonable({"method": rec.method, **rec.metrics, "losses": rec.losses})))
         else:
