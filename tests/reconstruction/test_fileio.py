@@ -2,6 +2,7 @@ import pytest
 
 from reconstruction.fileio import atomic_write_text
 
+
 def test_writes_and_replaces(tmp_path):
     path = atomic_write_text(tmp_path / "sub" / "a.txt", "one")
     assert path.read_text() == "one"
