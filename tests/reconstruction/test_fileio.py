@@ -9,6 +9,7 @@ def test_writes_and_replaces(tmp_path):
     atomic_write_text(path, "two")
     assert path.read_text() == "two" and sorted(p.name for p in path.parent.iterdir()) == ["a.txt"]
 
+
 def test_failure_keeps_the_old_file_and_leaves_no_temp(tmp_path):
     path = atomic_write_text(tmp_path / "a.txt", "old")
 
