@@ -25,6 +25,7 @@ import sys
 import time
 
 import numpy as np
+from _common import jsonable
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -127,14 +128,6 @@ def print_table(result: dict) -> None:
             print(f"{method:18s} {metric:30s} {value:10.3f}")
 
 
-def _jsonable(value):
-    """NaN/inf -> null, so the output is strict JSON."""
-    if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value
-
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -150,7 +143,7 @@ def main(argv=None) -> None:
     result = run(seconds=args.seconds, cameras=args.cameras, repeats=args.repeats, anipose=not args.no_anipose,
                  paper_steps=args.paper_steps, clip_seconds=args.clip_seconds)
     if args.json:
-        print(json.dumps(_jsonable(result)))
+        print(json.dumps(jsonable(result)))
     else:
         print_table(result)
 

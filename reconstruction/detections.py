@@ -38,6 +38,14 @@ def validate_keypoints(keypoints, camera_names, times_s, skeleton: Skeleton | st
     return kp, names, times, skel
 
 
+def set_validated_fields(obj, *, layout: str) -> None:
+    """Validate a frozen dataclass's keypoints, camera_names, times_s and skeleton and store the
+    normalised values (arrays as float64, names as a tuple, the skeleton as a :class:`Skeleton`)."""
+    values = validate_keypoints(obj.keypoints, obj.camera_names, obj.times_s, obj.skeleton, layout=layout)
+    for name, value in zip(("keypoints", "camera_names", "times_s", "skeleton"), values, strict=True):
+        object.__setattr__(obj, name, value)
+
+
 @dataclass(frozen=True, eq=False)
 class Detections:
     """One person's 2D keypoints seen by C cameras over T frames.
@@ -56,12 +64,7 @@ class Detections:
     skeleton: Skeleton
 
     def __post_init__(self) -> None:
-        kp, names, times, skel = validate_keypoints(
-            self.keypoints, self.camera_names, self.times_s, self.skeleton, layout="(C, T, J, 3)")
-        object.__setattr__(self, "keypoints", kp)
-        object.__setattr__(self, "camera_names", names)
-        object.__setattr__(self, "times_s", times)
-        object.__setattr__(self, "skeleton", skel)
+        set_validated_fields(self, layout="(C, T, J, 3)")
 
     @property
     def shape(self) -> tuple[int, int, int]:

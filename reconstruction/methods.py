@@ -93,8 +93,15 @@ def _run_fit(name, fit, robust: Robust, use_confidence: bool, det: Detections, r
     )
 
 
+class _FitMethod:
+    """Shared by the trajectory fits: robust triangulation, then ``self.fit`` on the paper's loss."""
+
+    def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
+        return _run_fit(self.name, self.fit, self.robust, self.use_confidence, detections, rig, progress)
+
+
 @dataclass(frozen=True)
-class Explicit:
+class Explicit(_FitMethod):
     """Explicit trajectory fit (default: L-BFGS; :meth:`paper`: Adam lr 0.1, 50k steps).
 
     ``use_confidence``: weight the reprojection term by keypoint confidences (default) instead of the
@@ -110,12 +117,9 @@ class Explicit:
     def paper(cls, steps: int = 50_000) -> Explicit:
         return cls(fit=ExplicitFit.paper(steps), use_confidence=False)
 
-    def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
-        return _run_fit(self.name, self.fit, self.robust, self.use_confidence, detections, rig, progress)
-
 
 @dataclass(frozen=True)
-class Implicit:
+class Implicit(_FitMethod):
     """Implicit trajectory fit (default: Fourier time features; :meth:`paper`: the paper's MLP)."""
 
     fit: ImplicitFit = field(default_factory=ImplicitFit)
@@ -126,9 +130,6 @@ class Implicit:
     @classmethod
     def paper(cls, steps: int = 50_000) -> Implicit:
         return cls(fit=ImplicitFit.paper(steps), use_confidence=False)
-
-    def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
-        return _run_fit(self.name, self.fit, self.robust, self.use_confidence, detections, rig, progress)
 
 
 Method = DLT | Robust | Explicit | Implicit

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from reconstruction.detections import validate_keypoints
+from reconstruction.detections import set_validated_fields
 from reconstruction.skeletons import Skeleton
 
 
@@ -29,12 +29,7 @@ class MultiPersonDetections:
     skeleton: Skeleton
 
     def __post_init__(self) -> None:
-        kp, names, times, skel = validate_keypoints(
-            self.keypoints, self.camera_names, self.times_s, self.skeleton, layout="(C, T, P, J, 3)")
-        object.__setattr__(self, "keypoints", kp)
-        object.__setattr__(self, "camera_names", names)
-        object.__setattr__(self, "times_s", times)
-        object.__setattr__(self, "skeleton", skel)
+        set_validated_fields(self, layout="(C, T, P, J, 3)")
 
     @property
     def shape(self) -> tuple[int, int, int, int]:

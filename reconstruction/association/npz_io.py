@@ -19,8 +19,8 @@ from reconstruction.detections import Detections
 _KEYS = ("keypoints", "camera_names", "times_s", "skeleton")
 
 
-def load_multi_npz(path: str | Path) -> MultiPersonDetections:
-    """Read a multi-person keypoint file (ValueError naming a missing key or bad array)."""
+def _read(path: str | Path) -> tuple[np.ndarray, tuple[str, ...], np.ndarray, str]:
+    """keypoints, camera names, times (s) and skeleton name of a keypoint file; errors name the file."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"keypoint file {path} does not exist")
@@ -28,11 +28,16 @@ def load_multi_npz(path: str | Path) -> MultiPersonDetections:
         missing = [k for k in _KEYS if k not in data.files]
         if missing:
             raise ValueError(f"{path}: missing arrays {missing} (has {sorted(data.files)})")
-        kp = data["keypoints"]
-        if kp.ndim == 4:
-            kp = kp[:, :, None]  # one person per camera and frame
-        return MultiPersonDetections(keypoints=kp, camera_names=tuple(str(n) for n in data["camera_names"]),
-                                     times_s=data["times_s"], skeleton=str(data["skeleton"]))
+        return (data["keypoints"], tuple(str(n) for n in data["camera_names"]), data["times_s"],
+                str(data["skeleton"]))
+
+
+def load_multi_npz(path: str | Path) -> MultiPersonDetections:
+    """Read a multi-person keypoint file (ValueError naming a missing key or bad array)."""
+    kp, names, times, skeleton = _read(path)
+    if kp.ndim == 4:
+        kp = kp[:, :, None]  # one person per camera and frame
+    return MultiPersonDetections(keypoints=kp, camera_names=names, times_s=times, skeleton=skeleton)
 
 
 def save_multi_npz(multi: MultiPersonDetections, path: str | Path) -> None:
@@ -52,15 +57,8 @@ def save_detections_npz(detections: Detections, path: str | Path, **extra: np.nd
 
 def load_detections_npz(path: str | Path) -> Detections:
     """Read a single-person keypoint file written by :func:`save_detections_npz`."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"keypoint file {path} does not exist")
-    with np.load(path, allow_pickle=False) as data:
-        missing = [k for k in _KEYS if k not in data.files]
-        if missing:
-            raise ValueError(f"{path}: missing arrays {missing} (has {sorted(data.files)})")
-        return Detections(keypoints=data["keypoints"], camera_names=tuple(str(n) for n in data["camera_names"]),
-                          times_s=data["times_s"], skeleton=str(data["skeleton"]))
+    kp, names, times, skeleton = _read(path)
+    return Detections(keypoints=kp, camera_names=names, times_s=times, skeleton=skeleton)
 
 
 def _write(path: str | Path, **arrays: np.ndarray) -> None:
