@@ -90,13 +90,19 @@ def _facing(normal: np.ndarray) -> np.ndarray:
     return np.stack([x, y, z], axis=2)
 
 
-def _hand_motion(rng, motion: BoardMotion, n: int, tilt_deg: np.ndarray) -> np.ndarray:
+def _tilt_noise(rng, n: int, up_close: np.ndarray) -> np.ndarray:
+    """Tilt curve (n,) in [-1, 1]: turning every second or so, and every few frames while the board is
+    shown to one camera up close (varied tilts there are what pin down that camera's intrinsics)."""
+    return np.where(up_close, _smooth_noise(rng, n, max(4, n // 3)), _smooth_noise(rng, n, max(4, n // 10)))
+
+
+def _hand_motion(rng, motion: BoardMotion, n: int, tilt_deg: np.ndarray, up_close: np.ndarray) -> np.ndarray:
     """Tilt (up to ``tilt_deg`` (n,)) and roll (F, 3, 3), applied in the board frame; sometimes upside down."""
     knots = max(4, n // 10)
     tilt = np.radians(tilt_deg)
     roll = np.radians(motion.max_roll_deg) * _smooth_noise(rng, n, knots)
     roll += np.pi * (_smooth_noise(rng, n, knots) > 1 - 2 * motion.upside_down_fraction)
-    return (_rot(0, tilt * _smooth_noise(rng, n, knots)) @ _rot(1, tilt * _smooth_noise(rng, n, knots))
+    return (_rot(0, tilt * _tilt_noise(rng, n, up_close)) @ _rot(1, tilt * _tilt_noise(rng, n, up_close))
             @ _rot(2, roll))
 
 
@@ -139,8 +145,9 @@ def board_trajectory(geometry: BoardGeometry, motion: BoardMotion, rig: Rig | No
     parts = [_tour(rng, rig, geometry, n_tour)] if n_tour else []
     parts.append(_wander(rng, motion, n_move - n_tour))
     centre = np.concatenate([p[0] for p in parts])
-    tilt = np.where(np.arange(n_move) < n_tour, motion.tour_tilt_deg, motion.max_tilt_deg)
-    rot = _facing(np.concatenate([p[1] for p in parts])) @ _hand_motion(rng, motion, n_move, tilt)
+    up_close = np.arange(n_move) < n_tour
+    tilt = np.where(up_close, motion.tour_tilt_deg, motion.max_tilt_deg)
+    rot = _facing(np.concatenate([p[1] for p in parts])) @ _hand_motion(rng, motion, n_move, tilt, up_close)
     tvec = centre - rot @ geometry.object_points_mm.mean(0)
     floor_r = [np.tile(FLOOR_ROTATION, (motion.floor_frames, 1, 1))]
     floor_t = [np.tile(np.asarray(motion.floor_origin_mm, dtype=np.float64), (motion.floor_frames, 1))]

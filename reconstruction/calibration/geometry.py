@@ -8,7 +8,6 @@ the board in frame f.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 
 import cv2
@@ -136,26 +135,6 @@ class BoardObservations:
     def views(self) -> np.ndarray:
         """(C, F) bool: a usable view (at least ``board.min_corners`` corners)."""
         return self.seen().sum(-1) >= self.board.min_corners
-
-
-def merge_still_frames(obs: BoardObservations, *, tol_px: float = 0.5) -> tuple[BoardObservations, np.ndarray]:
-    """Merge runs of consecutive frames in which no camera's corners move more than ``tol_px`` (the board
-    lying still): each run becomes one frame with the corners averaged, so a still scene, whose detection
-    errors repeat in every frame, counts once. Returns the observations and (F',) the first frame of each run."""
-    corners, seen = obs.corners_px, obs.seen()
-    f_count = obs.shape[1]
-    starts = [0]
-    for f in range(1, f_count):
-        same_seen = np.array_equal(seen[:, f], seen[:, starts[-1]]) and seen[:, f].any()
-        moved = np.abs(corners[:, f] - corners[:, starts[-1]])[seen[:, f]]
-        if not (same_seen and (moved.size == 0 or moved.max() < tol_px)):
-            starts.append(f)
-    bounds = list(zip(starts, starts[1:] + [f_count], strict=True))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN corners stay NaN
-        merged = np.stack([np.nanmean(corners[:, a:b], axis=1) if b - a > 1 else corners[:, a] for a, b in bounds], 1)
-    times = obs.times_s[np.array(starts)]
-    return BoardObservations(obs.camera_names, obs.image_sizes_px, merged, obs.board, times), np.array(starts)
 
 
 # --- rigid transforms -------------------------------------------------------------------------------

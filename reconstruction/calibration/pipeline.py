@@ -15,7 +15,7 @@ from reconstruction.calibration.bundle import (
     BundleState,
     bundle_adjust,
 )
-from reconstruction.calibration.geometry import BoardObservations, merge_still_frames
+from reconstruction.calibration.geometry import BoardObservations
 from reconstruction.calibration.graph import InitialPoses, initial_poses
 from reconstruction.calibration.intrinsics import Intrinsics, IntrinsicsConfig, estimate_intrinsics
 from reconstruction.calibration.report import (
@@ -26,6 +26,7 @@ from reconstruction.calibration.report import (
     error_stats,
     measured_square_mm,
 )
+from reconstruction.calibration.still import merge_still_frames
 from reconstruction.calibration.views import view_poses
 from reconstruction.calibration.world import (
     WorldFrameConfig,

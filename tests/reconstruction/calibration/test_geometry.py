@@ -42,20 +42,3 @@ def test_rotation_helpers_match_opencv():
     assert np.allclose(rotation_angle_deg(mats[0], mats[0]), 0, atol=1e-5)
     small = rodrigues_batch(np.array([[0.0, 0.0, np.radians(1.0)], [0.0, 0.0, -np.radians(1.0)]]))
     assert np.allclose(mean_rotation(small), np.eye(3), atol=1e-12)
-
-
-def test_still_frames_are_merged():
-    from reconstruction.calibration.geometry import merge_still_frames
-
-    b = grid_board("b", corners_x=3, corners_y=2, square_mm=50.0, mirror_ambiguous=False, min_corners=6)
-    rng = np.random.default_rng(0)
-    base = rng.uniform(0, 600, (2, 1, 6, 2))
-    still = base + rng.normal(0, 0.05, (2, 4, 6, 2))  # four frames of a still board
-    moving = base + np.arange(1, 4)[None, :, None, None] * 20.0  # then it moves
-    corners = np.concatenate([still, moving], axis=1)
-    corners[1, 5] = np.nan  # camera 1 loses it in one frame
-    obs = BoardObservations(("a", "c"), ((640, 480),) * 2, corners, b)
-    merged, starts = merge_still_frames(obs)
-    assert starts.tolist() == [0, 4, 5, 6]
-    assert np.allclose(merged.corners_px[:, 0], still.mean(1))
-    assert np.isnan(merged.corners_px[1, 2]).all() and np.allclose(merged.corners_px[0, 2], corners[0, 5])
