@@ -7,11 +7,16 @@ noise and reported in a scrambled order (as an orientation-blind detector would)
 camera centres and rotations are compared with the room's true rig (same world frame: the floor
 board), the reprojection RMS with the noise level, and a walking trial triangulated with the recovered
 calibration with the one triangulated with the true calibration (robust triangulation, MPJPE).
-The board is also laid down at three more floor spots (a better floor plane). A short rendered clip measures the real detector on images (accuracy vs the projected corners, time).
+The board is also laid down at three more floor spots (a better floor plane). A short rendered clip
+measures the real detector on images (accuracy vs the projected corners, time). With ``--images N`` the
+whole chain runs end to end: N frames of all 10 cameras rendered at full resolution, written as a trial
+MCAP, the board detected, the cameras calibrated and compared with the truth (as ``gaitcap
+simulate-board`` and ``gaitcap calibrate --compare`` do).
 
     python bench/calibration.py                      # a table
     python bench/calibration.py --json               # one JSON object on stdout
     python bench/calibration.py --board charuco --frames 900 --noise-px 1.0
+    python bench/calibration.py --images 600         # + end to end from images (about 30 min on 2 cores)
 """
 
 from __future__ import annotations
@@ -108,41 +113,51 @@ def _detector(board_kind: str, frames: int, scale: float, seed: int) -> dict:
 
 
 def _end_to_end(board_kind: str, frames: int, scale: float, seed: int) -> dict:
-    """Rendered images of all 10 cameras -> MCAP -> detection -> calibration, against the scaled true rig."""
+    """Rendered images of all 10 cameras -> MCAP -> detection -> calibration, against the true rig."""
     import tempfile
     from pathlib import Path
 
-    from acquisition.board import BoardConfig, make_board
+    from acquisition.board import BoardConfig
     from acquisition.board_recording import calibrate_from_recording
-    from acquisition.synthetic.board import (
-        BoardMotion,
-        board_trajectory,
-        render_board_images,
-        scaled_rig,
-        write_board_mcap,
-    )
-    from acquisition.synthetic.room import build_rig
-    from reconstruction.calibration.geometry import rotation_angle_deg
+    from acquisition.synthetic.board_clip import BoardClipConfig, write_board_clip
+    from acquisition.synthetic.board_render import camera_at
+    from reconstruction.calibration.compare import compare_rigs
+    from reconstruction.camera import Rig
 
-    rig = build_rig(10, seed=seed)
     config = BoardConfig.checkerboard() if board_kind == "checkerboard" else BoardConfig.charuco()
-    board = make_board(config)
-    motion = BoardMotion(n_frames=frames, floor_frames=20, seed=seed, floor_spots_mm=FLOOR_SPOTS_MM)
-    rot, tvec = board_trajectory(board.geometry, motion, rig)
-    images = render_board_images(rig, board, rot, tvec, scale=scale, seed=seed)
-    truth = scaled_rig(rig, scale)
+    clip = BoardClipConfig(board=config, frames=frames, scale=scale, seed=seed, floor_spots_mm=FLOOR_SPOTS_MM)
     with tempfile.TemporaryDirectory() as tmp:
-        mcap = write_board_mcap(Path(tmp) / "board.mcap", images)
         t0 = time.perf_counter()
+        mcap, truth = write_board_clip(Path(tmp) / "board.mcap", clip)
+        t1 = time.perf_counter()
         res = calibrate_from_recording(mcap, board=config)
-        seconds = time.perf_counter() - t0
-    centre = [np.linalg.norm(a.center_mm - b.center_mm) for a, b in zip(truth, res.rig, strict=True)]
-    angle = [rotation_angle_deg(a.rotation, b.rotation) for a, b in zip(truth, res.rig, strict=True)]
+        t2 = time.perf_counter()
+    cmp = compare_rigs(truth, res.rig)
+    mpjpe = _walk_mpjpe(Rig(tuple(camera_at(cam, 1 / scale) for cam in res.rig)), seed)
     return {
-        "frames": frames, "image_px": list(truth[0].size_px), "seconds_detect_and_calibrate": seconds,
-        "centre_err_mm_max": float(np.max(centre)), "rotation_err_deg_max": float(np.max(angle)),
+        "frames": frames, "image_px": list(truth[0].size_px), "seconds_render": t1 - t0,
+        "seconds_detect_and_calibrate": t2 - t1, "views": sum(q.n_detections for q in res.report.cameras),
+        "centre_err_mm_max": cmp.centre_mm_max, "rotation_err_deg_max": cmp.rotation_deg_max,
+        "centre_err_mm_mean": float(np.mean([c.centre_mm for c in cmp.cameras])),
+        "rig_shape_err_mm_max": cmp.aligned_centre_mm_max, "world_tilt_deg": cmp.world_tilt_deg,
+        "world_heading_deg": cmp.world_heading_deg, "world_shift_mm": cmp.world_shift_mm,
+        "focal_err_pct_max": max(abs(c.focal_pct) for c in cmp.cameras),
         "reprojection_rms_px": res.report.reprojection_rms_px, "outliers": res.report.n_outliers,
+        "walk_mpjpe_vs_true_calibration_mm": mpjpe,
+        "meets_targets": bool(cmp.centre_mm_max < TARGET_CENTRE_MM and cmp.rotation_deg_max < TARGET_ROTATION_DEG
+                              and mpjpe < TARGET_MPJPE_MM),
     }
+
+
+def _walk_mpjpe(rig, seed: int) -> float:
+    """MPJPE (mm) of a walk triangulated with ``rig`` (full resolution) against the true calibration's."""
+    from acquisition.synthetic import make_trial
+    from reconstruction.triangulation import robust_triangulate
+
+    trial = make_trial(preset="paper", seconds=10.0, cameras=10, seed=seed)
+    walk_true = robust_triangulate(trial.detections, trial.rig).points_mm
+    walk_cal = robust_triangulate(trial.detections, rig.subset(trial.rig.names)).points_mm
+    return float(np.nanmean(np.linalg.norm(walk_cal - walk_true, axis=-1)))
 
 
 def _table(r: dict) -> str:
@@ -174,9 +189,19 @@ def _table(r: dict) -> str:
     if r.get("end_to_end"):
         e = r["end_to_end"]
         rows += [
-            ("images end to end: frames, size", f"{e['frames']} x 10 cameras, {e['image_px'][0]}x{e['image_px'][1]}", ""),
-            ("images end to end: centre / rotation max", f"{e['centre_err_mm_max']:.2f} mm / {e['rotation_err_deg_max']:.3f} deg", ""),
-            ("images end to end: RMS, time", f"{e['reprojection_rms_px']:.3f} px, {e['seconds_detect_and_calibrate']:.0f} s", ""),
+            ("images: frames, size, views", f"{e['frames']} x 10 cameras, {e['image_px'][0]}x{e['image_px'][1]}, "
+             f"{e['views']} views", ""),
+            ("images: centre error mean / max", f"{e['centre_err_mm_mean']:.2f} / {e['centre_err_mm_max']:.2f} mm",
+             f"< {TARGET_CENTRE_MM} mm"),
+            ("images: rotation error max", f"{e['rotation_err_deg_max']:.3f} deg", f"< {TARGET_ROTATION_DEG} deg"),
+            ("images: rig shape error max", f"{e['rig_shape_err_mm_max']:.2f} mm", "world change taken out"),
+            ("images: world tilt / heading / shift", f"{e['world_tilt_deg']:.3f} / {e['world_heading_deg']:.3f} deg / "
+             f"{e['world_shift_mm']:.2f} mm", "from the floor board"),
+            ("images: focal error max, RMS", f"{e['focal_err_pct_max']:.3f} %, {e['reprojection_rms_px']:.3f} px", ""),
+            ("images: time render / detect+calibrate", f"{e['seconds_render']:.0f} / {e['seconds_detect_and_calibrate']:.0f} s", ""),
+            ("images: walk MPJPE vs true calibration", f"{e['walk_mpjpe_vs_true_calibration_mm']:.2f} mm",
+             f"< {TARGET_MPJPE_MM} mm"),
+            ("images: meets targets", str(e["meets_targets"]), ""),
         ]
     width = max(len(k) for k, _, _ in rows)
     return "\n".join(f"{k:<{width}}  {v:<28} {t}" for k, v, t in rows)
@@ -189,9 +214,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--floor-frames", type=int, default=20, help="frames with the board still on the floor")
     ap.add_argument("--noise-px", type=float, default=0.5, help="corner noise per axis, px")
     ap.add_argument("--detector-frames", type=int, default=20, help="rendered frames per camera (2 cameras; 0 = skip)")
-    ap.add_argument("--scale", type=float, default=0.5, help="rendered image scale (1 = 1920x1200)")
+    ap.add_argument("--scale", type=float, default=0.5, help="detector check: rendered image scale (1 = 1920x1200)")
     ap.add_argument("--images", type=int, default=0,
                     help="also calibrate end to end from N rendered frames of all 10 cameras (slow; 0 = skip)")
+    ap.add_argument("--image-scale", type=float, default=1.0, help="end-to-end image scale (1 = 1920x1200)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
@@ -201,7 +227,7 @@ def main(argv: list[str] | None = None) -> None:
         "still_floor": _calibration(args.board, args.frames, args.floor_frames, args.noise_px, args.seed,
                                     still_floor=True),
         "detector": _detector(args.board, args.detector_frames, args.scale, args.seed) if args.detector_frames > 1 else None,
-        "end_to_end": _end_to_end(args.board, args.images, args.scale, args.seed) if args.images else None,
+        "end_to_end": _end_to_end(args.board, args.images, args.image_scale, args.seed) if args.images else None,
     }
     print(json.dumps(result) if args.json else _table(result))
 

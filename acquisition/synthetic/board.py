@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from acquisition.board import Board
-from acquisition.synthetic.room import safe_project
+from acquisition.synthetic.board_render import BoardRenderer, camera_at
 from acquisition.synthetic.room import visible as lens_visible
 from reconstruction.calibration.geometry import BoardGeometry, BoardObservations
 from reconstruction.camera import Rig
@@ -210,81 +210,9 @@ def observe_board(
     return BoardObservations(tuple(rig.names), tuple(c.size_px for c in rig), corners, geometry, times)
 
 
-def _camera_at(cam, scale: float):
-    """The camera imaged at ``scale`` x its resolution (pixel centres stay at integers)."""
-    k = cam.matrix_px.copy()
-    k[:2] *= scale
-    k[:2, 2] = (cam.matrix_px[:2, 2] + 0.5) * scale - 0.5
-    return cam.replace(matrix_px=k, size_px=tuple(int(round(v * scale)) for v in cam.size_px))
-
-
-def _pixel_rays(cam) -> np.ndarray:
-    """Undistorted normalised coordinates (H, W, 2) float32 of every pixel centre of the camera."""
-    w, h = cam.size_px
-    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
-    pts = np.stack([xx.ravel(), yy.ravel()], 1).reshape(-1, 1, 2)
-    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-10)
-    xy = cv2.undistortPoints(pts, cam.matrix_px, cam.dist, None, None, None, crit)
-    return xy.reshape(h, w, 2).astype(np.float32)
-
-
-def _board_box(cam, outline_mm: np.ndarray, r_b: np.ndarray, t_b: np.ndarray) -> tuple[int, int, int, int] | None:
-    """Pixel box (x0, y0, x1, y1) that holds the board's image, or None when it is out of view."""
-    edges = np.concatenate([np.linspace(outline_mm[i], outline_mm[(i + 1) % 4], 16) for i in range(4)])
-    px = safe_project(cam, edges @ r_b.T + t_b)
-    if np.isnan(px).any():
-        return (0, 0, *cam.size_px)  # partly behind the camera: render the whole image
-    w, h = cam.size_px
-    pad = 0.05 * np.ptp(px, axis=0) + 3
-    x0, y0 = np.maximum(np.floor(px.min(0) - pad), 0).astype(int)
-    x1, y1 = np.minimum(np.ceil(px.max(0) + pad), [w, h]).astype(int)
-    return None if x0 >= x1 or y0 >= y1 else (x0, y0, x1, y1)
-
-
-def render_board_images(
-    rig: Rig, board: Board, rot: np.ndarray, tvec: np.ndarray, *, scale: float = 0.25, supersample: int = 2,
-    noise_gray: float = 2.0, background: int = 110, seed: int = 0,
-) -> dict[str, np.ndarray]:
-    """Grey images {camera: (F, H, W) uint8} of the board at poses (rot, tvec), at ``scale`` x the
-    cameras' resolution (use :func:`scaled_rig` for the matching intrinsics), with Gaussian grey-level
-    noise. An opaque board shows a blank back."""
-    rng = np.random.default_rng(seed)
-    px_per_mm = 2.0
-    texture, corner0_px = board.texture(px_per_mm)
-    back = np.full_like(texture, 200)
-    th, tw = texture.shape
-    outline = np.array([[0, 0], [tw, 0], [tw, th], [0, th]]) - 0.5 - corner0_px
-    outline = np.column_stack([outline / px_per_mm, np.zeros(4)])
-    out = {}
-    for cam0 in rig:
-        cam = _camera_at(cam0, scale * supersample)
-        w, h = cam.size_px
-        rays = _pixel_rays(cam)
-        frames = []
-        for r_b, t_b in zip(rot, tvec, strict=True):
-            big = np.full((h, w), background, dtype=np.uint8)
-            box = _board_box(cam, outline, r_b, t_b)
-            if box is not None:
-                xy = rays[box[1]:box[3], box[0]:box[2]]
-                o = r_b.T @ (cam.center_mm - t_b)  # camera centre in the board frame
-                m = (r_b.T @ cam.rotation.T).astype(np.float32)  # camera ray -> board-frame direction
-                d = xy @ m[:, :2].T + m[:, 2]  # (bh, bw, 3)
-                lam = -o[2] / np.where(np.abs(d[..., 2:]) < 1e-9, 1e-9, d[..., 2:])
-                maps = ((o[:2] + lam * d[..., :2]) * px_per_mm + corner0_px).astype(np.float32)
-                maps[lam[..., 0] <= 0] = -1e6
-                big[box[1]:box[3], box[0]:box[2]] = cv2.remap(
-                    texture if o[2] < 0 else back, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR,
-                    borderMode=cv2.BORDER_CONSTANT, borderValue=background,
-                )
-            img = cv2.resize(big, (w // supersample, h // supersample), interpolation=cv2.INTER_AREA)
-            frames.append(np.clip(img + rng.normal(0, noise_gray, img.shape), 0, 255).astype(np.uint8))
-        out[cam0.name] = np.stack(frames)
-    return out
-
-
 def scaled_rig(rig: Rig, scale: float) -> Rig:
     """The same rig imaged at ``scale`` x the resolution (matches :func:`render_board_images`)."""
-    return Rig(tuple(_camera_at(cam, scale) for cam in rig))
+    return Rig(tuple(camera_at(cam, scale) for cam in rig))
 
 
 def write_board_folder(folder: str | os.PathLike, images: dict[str, np.ndarray]) -> Path:
@@ -313,3 +241,23 @@ def write_board_mcap(path: str | os.PathLike, images: dict[str, np.ndarray], *, 
             msg = image_message(encode_jpeg(frames[i], quality=95), camera=cam, timestamp_ns=stamp)
             writer.add_frame(cam, msg, timestamp_ns=stamp, frame_id=i, receive_ns=stamp)
     return writer.finish({"frames": n, "cameras": sorted(images)})
+
+
+def render_board_images(
+    rig: Rig, board: Board, rot: np.ndarray, tvec: np.ndarray, *, scale: float = 0.25, supersample: int = 2,
+    noise_gray: float = 2.0, background: int = 110, seed: int = 0,
+) -> dict[str, np.ndarray]:
+    """Grey images {camera: (F, H, W) uint8} of the board at poses (rot, tvec) (F, 3, 3), (F, 3) mm, at
+    ``scale`` x the cameras' resolution (use :func:`scaled_rig` for the matching intrinsics), with
+    Gaussian grey-level noise. An opaque board shows a blank back."""
+    rng = np.random.default_rng(seed)
+    out = {}
+    for cam in rig:
+        renderer = BoardRenderer(cam, board, scale=scale, supersample=supersample, noise_gray=noise_gray,
+                                 background=background)
+        w, h = renderer.size_px
+        frames = np.empty((len(rot), h, w), dtype=np.uint8)
+        for i, (r_b, t_b) in enumerate(zip(rot, tvec, strict=True)):
+            frames[i] = renderer.render(r_b, t_b, rng)
+        out[cam.name] = frames
+    return out

@@ -33,6 +33,17 @@ def _summary(report) -> str:
     return "\n".join(lines)
 
 
+def _comparison(cmp) -> str:
+    lines = [f"{'camera':<10} {'centre mm':>10} {'rotation deg':>13} {'focal %':>8} {'rig shape mm':>13}"]
+    for c in cmp.cameras:
+        lines.append(f"{c.name:<10} {c.centre_mm:>10.2f} {c.rotation_deg:>13.3f} {c.focal_pct:>+8.3f} "
+                     f"{c.aligned_centre_mm:>13.2f}")
+    lines.append(f"max: centre {cmp.centre_mm_max:.2f} mm, rotation {cmp.rotation_deg_max:.3f} deg, rig shape "
+                 f"{cmp.aligned_centre_mm_max:.2f} mm; world frame: tilt {cmp.world_tilt_deg:.3f} deg, heading "
+                 f"{cmp.world_heading_deg:.3f} deg, shift {cmp.world_shift_mm:.2f} mm")
+    return "\n".join(lines)
+
+
 def register(app: typer.Typer) -> None:
     @app.command("calibrate")
     def calibrate_cmd(
@@ -48,6 +59,7 @@ def register(app: typer.Typer) -> None:
         max_frames: int | None = typer.Option(None, "--max-frames", help="Use at most this many frames."),
         floor_frame: int | None = typer.Option(None, "--floor-frame", help="Index, among the frames where the board was found, of one with the board on the floor (default 0)."),
         report_path: Path | None = typer.Option(None, "--report", help="Quality report JSON (default: OUT with .report.json)."),
+        compare: Path | None = typer.Option(None, "--compare", help="A reference calibration (the last one, or a simulation's truth) to compare the new one with."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
         from acquisition.board import BoardConfig
@@ -59,9 +71,11 @@ def register(app: typer.Typer) -> None:
             WorldFrameConfig,
             calibrate_from_observations,
         )
-        from reconstruction.calibration_io import save_rig
+        from reconstruction.calibration.compare import compare_rigs
+        from reconstruction.calibration_io import load_rig, save_rig
 
         with user_errors():
+            reference = load_rig(compare) if compare is not None else None
             if out.suffix.lower() not in (".toml", ".json"):
                 raise ValueError(f"--out {out}: use a .toml or .json file name")
             models = {m.value: m for m in DistortionModel}
@@ -85,7 +99,11 @@ def register(app: typer.Typer) -> None:
             save_rig(result.rig, out, metadata={"error": result.report.reprojection_rms_px})
             report_file = report_path or out.with_suffix(".report.json")
             result.report.save_json(report_file)
+            comparison = compare_rigs(reference, result.rig) if reference is not None else None
         typer.echo(_summary(result.report))
+        if comparison is not None:
+            typer.echo(f"compared with {compare}:")
+            typer.echo(_comparison(comparison))
         typer.echo(f"wrote {out} and {report_file}")
         if result.report.failed_cameras:
             typer.echo(f"warning: cameras {list(result.report.failed_cameras)} failed the quality checks", err=True)

@@ -1,0 +1,91 @@
+"""Images of a calibration board seen by one synthetic camera: every pixel's ray meets the board's
+plane, where the printed texture (or the blank back of an opaque board) is sampled; the board's box is
+rendered at ``supersample`` x and averaged down, and Gaussian grey-level noise is added."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from acquisition.board import Board
+from acquisition.synthetic.room import safe_project
+from reconstruction.camera import Camera
+
+PX_PER_MM = 2.0  # texture resolution
+
+
+def camera_at(cam: Camera, scale: float) -> Camera:
+    """The camera imaged at ``scale`` x its resolution (pixel centres stay at integers)."""
+    k = cam.matrix_px.copy()
+    k[:2] *= scale
+    k[:2, 2] = (cam.matrix_px[:2, 2] + 0.5) * scale - 0.5
+    return cam.replace(matrix_px=k, size_px=tuple(int(round(v * scale)) for v in cam.size_px))
+
+
+def _pixel_rays(cam: Camera) -> np.ndarray:
+    """Undistorted normalised coordinates (H, W, 2) float32 of every pixel centre of the camera."""
+    w, h = cam.size_px
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    pts = np.stack([xx.ravel(), yy.ravel()], 1).reshape(-1, 1, 2)
+    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-10)
+    xy = cv2.undistortPoints(pts, cam.matrix_px, cam.dist, None, None, None, crit)
+    return xy.reshape(h, w, 2).astype(np.float32)
+
+
+def _board_box(cam: Camera, outline_mm: np.ndarray, r_b: np.ndarray, t_b: np.ndarray) -> tuple[int, int, int, int] | None:
+    """Pixel box (x0, y0, x1, y1) that holds the board's image, or None when it is out of view."""
+    edges = np.concatenate([np.linspace(outline_mm[i], outline_mm[(i + 1) % 4], 16) for i in range(4)])
+    px = safe_project(cam, edges @ r_b.T + t_b)
+    if np.isnan(px).any():
+        return (0, 0, *cam.size_px)  # partly behind the camera: render the whole image
+    w, h = cam.size_px
+    pad = 0.05 * np.ptp(px, axis=0) + 3
+    x0, y0 = np.maximum(np.floor(px.min(0) - pad), 0).astype(int)
+    x1, y1 = np.minimum(np.ceil(px.max(0) + pad), [w, h]).astype(int)
+    return None if x0 >= x1 or y0 >= y1 else (x0, y0, x1, y1)
+
+
+class BoardRenderer:
+    """Renders one camera's view of the board at ``scale`` x the camera's resolution.
+
+    The pixel rays are computed once (the costly part); each :meth:`render` then costs about the board's
+    area in pixels.
+    """
+
+    def __init__(self, cam: Camera, board: Board, *, scale: float = 0.25, supersample: int = 2,
+                 noise_gray: float = 2.0, background: int = 110) -> None:
+        self.ss, self.noise_gray, self.background = supersample, noise_gray, background
+        self.cam = camera_at(cam, scale * supersample)
+        self.size_px = (self.cam.size_px[0] // supersample, self.cam.size_px[1] // supersample)
+        self.rays = _pixel_rays(self.cam)
+        self.texture, self.corner0_px = board.texture(PX_PER_MM)
+        self.back = np.full_like(self.texture, 200)
+        th, tw = self.texture.shape
+        outline = np.array([[0, 0], [tw, 0], [tw, th], [0, th]]) - 0.5 - self.corner0_px
+        self.outline_mm = np.column_stack([outline / PX_PER_MM, np.zeros(4)])
+
+    def render(self, r_b: np.ndarray, t_b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Grey image (H, W) uint8 of the board at pose board -> world (r_b (3, 3), t_b (3,) mm)."""
+        w, h = self.size_px
+        img = np.full((h, w), float(self.background), dtype=np.float32)
+        box = _board_box(self.cam, self.outline_mm, r_b, t_b)
+        if box is not None:  # render the board's box at supersample x, then average it down
+            x0, y0 = (v // self.ss for v in box[:2])
+            x1, y1 = min(-(-box[2] // self.ss), w), min(-(-box[3] // self.ss), h)
+            patch = self._patch((x0, y0, x1, y1), r_b, t_b)
+            img[y0:y1, x0:x1] = cv2.resize(patch, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA)
+        img += self.noise_gray * rng.standard_normal((h, w), dtype=np.float32)
+        return np.clip(img, 0, 255).astype(np.uint8)
+
+    def _patch(self, box: tuple[int, int, int, int], r_b: np.ndarray, t_b: np.ndarray) -> np.ndarray:
+        """The supersampled pixels (uint8) of the output box (x0, y0, x1, y1)."""
+        ss = self.ss
+        xy = self.rays[box[1] * ss:box[3] * ss, box[0] * ss:box[2] * ss]
+        o = r_b.T @ (self.cam.center_mm - t_b)  # camera centre in the board frame
+        m = (r_b.T @ self.cam.rotation.T).astype(np.float32)  # camera ray -> board-frame direction
+        d = xy @ m[:, :2].T + m[:, 2]  # (bh, bw, 3)
+        lam = -o[2] / np.where(np.abs(d[..., 2:]) < 1e-9, 1e-9, d[..., 2:])
+        maps = ((o[:2] + lam * d[..., :2]) * PX_PER_MM + self.corner0_px).astype(np.float32)
+        maps[lam[..., 0] <= 0] = -1e6
+        return cv2.remap(self.texture if o[2] < 0 else self.back, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_CONSTANT, borderValue=self.background)

@@ -1,0 +1,81 @@
+"""Compare two calibrations of the same cameras: a new one against a reference (the previous session's,
+or the synthetic room's truth).
+
+Two views of the difference: in the world frame as given (what a gait measurement sees: the floor and
+walking axes included), and after the best rigid alignment of the camera centres (the rig's own shape,
+independent of how the world frame was laid down). The change between the two world frames, found from
+all cameras' orientations and centres, is reported as a floor tilt and a heading (yaw) turn plus a shift.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from reconstruction.calibration.geometry import mean_rotation, rotation_angle_deg
+from reconstruction.camera import Rig
+
+
+@dataclass(frozen=True)
+class CameraDifference:
+    """One camera: centre distance (mm), rotation angle (deg), focal length change (%), both in the world
+    frame as given; ``aligned_centre_mm``: centre distance once the common world change (turn and shift,
+    from all cameras' orientations and centres) is taken out: the rig's own shape."""
+
+    name: str
+    centre_mm: float
+    rotation_deg: float
+    focal_pct: float
+    aligned_centre_mm: float
+
+
+@dataclass(frozen=True)
+class RigComparison:
+    """Per-camera differences and the world-frame difference (tilt of z, turn about z, shift of the origin)."""
+
+    cameras: tuple[CameraDifference, ...]
+    world_tilt_deg: float
+    world_heading_deg: float
+    world_shift_mm: float
+
+    @property
+    def centre_mm_max(self) -> float:
+        return max(c.centre_mm for c in self.cameras)
+
+    @property
+    def rotation_deg_max(self) -> float:
+        return max(c.rotation_deg for c in self.cameras)
+
+    @property
+    def aligned_centre_mm_max(self) -> float:
+        return max(c.aligned_centre_mm for c in self.cameras)
+
+
+def world_change(reference: list, other: list) -> tuple[np.ndarray, np.ndarray]:
+    """The world change (W (3, 3), s (3,) mm) with X_other = W X_ref + s that best explains both rigs'
+    camera orientations (W = mean of R_other^T R_ref) and centres (s = mean of c_other - W c_ref)."""
+    turn = mean_rotation(np.stack([b.rotation.T @ a.rotation for a, b in zip(reference, other, strict=True)]))
+    shift = np.mean([b.center_mm - turn @ a.center_mm for a, b in zip(reference, other, strict=True)], axis=0)
+    return turn, shift
+
+
+def compare_rigs(reference: Rig, other: Rig) -> RigComparison:
+    """Differences of ``other`` from ``reference``; both must hold the same camera names (ValueError)."""
+    if sorted(reference.names) != sorted(other.names):
+        raise ValueError(f"compare: the calibrations hold different cameras: {sorted(reference.names)} vs "
+                         f"{sorted(other.names)}")
+    ref = [reference[n] for n in reference.names]
+    got = [other[n] for n in reference.names]
+    turn, shift = world_change(ref, got)
+    aligned = [turn.T @ (b.center_mm - shift) for b in got]  # other's centres in the reference's world
+    cams = tuple(
+        CameraDifference(
+            a.name, float(np.linalg.norm(a.center_mm - b.center_mm)), rotation_angle_deg(a.rotation, b.rotation),
+            float(100 * (b.matrix_px[0, 0] / a.matrix_px[0, 0] - 1)), float(np.linalg.norm(al - a.center_mm)),
+        )
+        for a, b, al in zip(ref, got, aligned, strict=True)
+    )
+    tilt = float(np.degrees(np.arccos(np.clip(turn[2, 2], -1.0, 1.0))))
+    heading = float(np.degrees(np.arctan2(turn[1, 0] - turn[0, 1], turn[0, 0] + turn[1, 1])))
+    return RigComparison(cams, tilt, abs(heading), float(np.linalg.norm(shift)))
