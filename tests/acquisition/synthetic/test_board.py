@@ -77,3 +77,26 @@ def test_rendered_images_give_the_projected_corners(clip):
                               for p in board.geometry.symmetries))
     assert found >= 0.6 * truth.views().sum()
     assert np.median(errors) < 0.3
+
+
+def test_full_resolution_views_are_found_coarse_to_fine_with_full_resolution_accuracy(clip):
+    """At 1920 x 1200 px the detector finds the board at half size and its corners again in a crop:
+    every view the full-size search finds, with corners as accurate."""
+    rig, board, rot, tvec = clip
+    frames = np.arange(3, 40, 6)
+    cam = rig.subset(["cam02"])
+    images = render_board_images(cam, board, rot[frames], tvec[frames], scale=1.0)["cam02"]
+    truth = observe_board(cam, board.geometry, rot[frames], tvec[frames], noise_px=0.0)
+    assert images.shape[1:] == (1200, 1920)
+    errors, full_errors = [], []
+    for i in np.flatnonzero(truth.views()[0]):
+        full = board._find(images[i])  # the plain full-size search
+        if full is None:
+            continue
+        corners = board.detect(images[i])
+        assert corners is not None, f"frame {frames[i]}: found at full size but not coarse to fine"
+        expected = truth.corners_px[0, i]
+        errors.append(min(np.linalg.norm(corners - expected[list(p)], axis=-1).max() for p in board.geometry.symmetries))
+        full_errors.append(min(np.linalg.norm(full - expected[list(p)], axis=-1).max() for p in board.geometry.symmetries))
+    assert len(errors) >= 3
+    assert np.median(errors) < 0.3 and np.median(errors) <= 1.2 * np.median(full_errors)
