@@ -105,18 +105,21 @@ class CameraNode:
         self._token.undeclare()
 
 
-def attach_board_scene(session, bus: BusConfig, drivers: Sequence[CameraDriver]):
+def attach_board_scene(session, bus: BusConfig, drivers: Sequence[CameraDriver], clip: str = "short"):
     """Let simulated cameras show a calibration board on request (``<prefix>/camera/scene``, JSON
-    :data:`services.bus.keys.CAMERA_SCENE`). Other drivers are left alone. Returns the subscriber
-    (None when no driver is simulated)."""
+    :data:`services.bus.keys.CAMERA_SCENE`), the board clip named ``clip`` in
+    :data:`acquisition.synthetic.board_scene.BOARD_SCENES`. Other drivers are left alone. Returns the
+    subscriber (None when no driver is simulated)."""
     from acquisition.drivers.simulated import SimulatedCamera
-    from acquisition.synthetic.board_scene import BoardScene, SceneSwitch
+    from acquisition.synthetic.board_scene import BOARD_SCENES, BoardScene, SceneSwitch
     from services.bus.keys import loads
 
+    if clip not in BOARD_SCENES:
+        raise ValueError(f"board clip {clip!r} is unknown; choose one of {sorted(BOARD_SCENES)}")
     sims = [d for d in drivers if isinstance(d, SimulatedCamera)]
     if not sims:
         return None
-    switch, board = SceneSwitch(), BoardScene(sims[0].trial.rig)
+    switch, board = SceneSwitch(), BoardScene(sims[0].trial.rig, BOARD_SCENES[clip])
     for d in sims:
         d.scene = (switch, board)
 
@@ -124,9 +127,9 @@ def attach_board_scene(session, bus: BusConfig, drivers: Sequence[CameraDriver])
         try:
             msg = loads(sample.payload.to_bytes(), what=bus.keys.camera_scene)
             switch.set(str(msg.get("scene")), int(msg.get("start_ns") or time.time_ns()))
-            if msg.get("scene") == "board":  # render the clips now, not in the cameras' frame loops
-                threading.Thread(target=lambda: [board.clip(d.name, d.size_px) for d in sims],
-                                 name="board-clips", daemon=True).start()
+            if msg.get("scene") == "board":  # set the renderers up now, not in the cameras' frame loops
+                threading.Thread(target=lambda: [board.prepare(d.name, d.size_px) for d in sims],
+                                 name="board-renderers", daemon=True).start()
         except (ValueError, TypeError) as exc:
             log.warning("ignoring a scene message: %s", exc)
 

@@ -48,6 +48,7 @@ class StackConfig:
     lease_s: float = 10.0
     refine: bool = True
     camera_nice: int = 5
+    board_clip: str = "short"
     catalog_url: str = ""
     extra_env: dict[str, str] = field(default_factory=dict)
 
@@ -114,7 +115,7 @@ def process_specs(cfg: StackConfig) -> list[ProcessSpec]:
                                  *_sim_args(cfg))),
         # The simulated cameras stand in for camera hardware: rendering them must not slow processing.
         ProcessSpec("camera-0", (*CLI, "node", "camera", "--node", "camera-0", "--source", "simulated",
-                                 "--size", cfg.size, *_sim_args(cfg)), max_restarts=10_000, nice=cfg.camera_nice),
+                                 "--size", cfg.size, "--board-clip", cfg.board_clip, *_sim_args(cfg)), max_restarts=10_000, nice=cfg.camera_nice),
     ]
     for name in cfg.worker_names():
         argv = [*CLI, "worker", "--node", name, "--id", name, "--data-dir", data, "--catalog", cfg.catalog,

@@ -23,6 +23,7 @@ from reconstruction.calibration.geometry import BoardGeometry, BoardObservations
 from reconstruction.camera import Rig
 
 FLOOR_ROTATION = np.diag([1.0, -1.0, -1.0])  # board -> world for a board lying face up
+FLOOR_SPOTS_MM = ((1500.0, 1500.0), (-1500.0, 1200.0), (1000.0, -1500.0))  # where to lay it down again
 
 
 @dataclass(frozen=True)
@@ -253,8 +254,8 @@ def render_board_images(
     rng = np.random.default_rng(seed)
     out = {}
     for cam in rig:
-        renderer = BoardRenderer(cam, board, scale=scale, supersample=supersample, noise_gray=noise_gray,
-                                 background=background)
+        renderer = BoardRenderer(cam, board, size_px=camera_at(cam, scale).size_px, supersample=supersample,
+                                 noise_gray=noise_gray, background=background)
         w, h = renderer.size_px
         frames = np.empty((len(rot), h, w), dtype=np.uint8)
         for i, (r_b, t_b) in enumerate(zip(rot, tvec, strict=True)):

@@ -21,14 +21,13 @@ import numpy as np
 
 from acquisition.board import BoardConfig, make_board
 from acquisition.encoding import encode_jpeg, image_message
-from acquisition.synthetic.board import BoardMotion, board_trajectory, scaled_rig
-from acquisition.synthetic.board_render import BoardRenderer
+from acquisition.synthetic.board import FLOOR_SPOTS_MM, BoardMotion, board_trajectory, scaled_rig
+from acquisition.synthetic.board_render import BoardRenderer, camera_at
 from acquisition.synthetic.room import build_rig
 from reconstruction.camera import Rig
 
 log = logging.getLogger(__name__)
 
-FLOOR_SPOTS_MM = ((1500.0, 1500.0), (-1500.0, 1200.0), (1000.0, -1500.0))
 START_NS = 1_700_000_000_000_000_000
 
 
@@ -86,7 +85,7 @@ def write_board_clip(
     rig = rig.subset(list(rig.names[: config.cameras]))
     board = make_board(config.board)
     rot, tvec = board_trajectory(board.geometry, config.motion(), rig)
-    renderers = [BoardRenderer(cam, board, scale=config.scale) for cam in rig]
+    renderers = [BoardRenderer(cam, board, size_px=camera_at(cam, config.scale).size_px) for cam in rig]
     rngs = [np.random.default_rng([config.seed, c]) for c in range(len(rig))]
     writer = TrialWriter(path)
     try:

@@ -16,10 +16,19 @@ PX_PER_MM = 2.0  # texture resolution
 
 def camera_at(cam: Camera, scale: float) -> Camera:
     """The camera imaged at ``scale`` x its resolution (pixel centres stay at integers)."""
+    return camera_resized(cam, tuple(int(round(v * scale)) for v in cam.size_px), scale_xy=(scale, scale))
+
+
+def camera_resized(cam: Camera, size_px: tuple[int, int], scale_xy: tuple[float, float] | None = None) -> Camera:
+    """The camera imaged at ``size_px`` (width, height): its sensor image resized, per axis by
+    ``scale_xy`` (default: size / sensor size), pixel centres kept at integers."""
+    sx, sy = scale_xy or (size_px[0] / cam.size_px[0], size_px[1] / cam.size_px[1])
     k = cam.matrix_px.copy()
-    k[:2] *= scale
-    k[:2, 2] = (cam.matrix_px[:2, 2] + 0.5) * scale - 0.5
-    return cam.replace(matrix_px=k, size_px=tuple(int(round(v * scale)) for v in cam.size_px))
+    k[0] *= sx
+    k[1] *= sy
+    k[0, 2] = (cam.matrix_px[0, 2] + 0.5) * sx - 0.5
+    k[1, 2] = (cam.matrix_px[1, 2] + 0.5) * sy - 0.5
+    return cam.replace(matrix_px=k, size_px=(int(size_px[0]), int(size_px[1])))
 
 
 def _pixel_rays(cam: Camera) -> np.ndarray:
@@ -46,17 +55,18 @@ def _board_box(cam: Camera, outline_mm: np.ndarray, r_b: np.ndarray, t_b: np.nda
 
 
 class BoardRenderer:
-    """Renders one camera's view of the board at ``scale`` x the camera's resolution.
+    """Renders one camera's view of the board at ``size_px`` (width, height; the camera's sensor image
+    resized, see :func:`camera_resized` for the matching intrinsics).
 
     The pixel rays are computed once (the costly part); each :meth:`render` then costs about the board's
     area in pixels.
     """
 
-    def __init__(self, cam: Camera, board: Board, *, scale: float = 0.25, supersample: int = 2,
+    def __init__(self, cam: Camera, board: Board, *, size_px: tuple[int, int], supersample: int = 2,
                  noise_gray: float = 2.0, background: int = 110) -> None:
         self.ss, self.noise_gray, self.background = supersample, noise_gray, background
-        self.cam = camera_at(cam, scale * supersample)
-        self.size_px = (self.cam.size_px[0] // supersample, self.cam.size_px[1] // supersample)
+        self.size_px = (int(size_px[0]), int(size_px[1]))
+        self.cam = camera_resized(cam, (self.size_px[0] * supersample, self.size_px[1] * supersample))
         self.rays = _pixel_rays(self.cam)
         self.texture, self.corner0_px = board.texture(PX_PER_MM)
         self.back = np.full_like(self.texture, 200)

@@ -3,8 +3,11 @@
 :class:`SceneSwitch` holds what the cameras show (``walker`` or ``board``) and from when; every camera
 asks it per frame id, so all cameras that share a start time switch at the same frame id and show the
 same board pose at the same frame id. :class:`BoardScene` renders the board clip of
-:mod:`acquisition.synthetic.board` (it starts with the board lying on the floor: the world frame) for
-each camera at the camera's image size; a camera's clip is rendered once, on first use, and then loops.
+:mod:`acquisition.synthetic.board` (it starts with the board lying on the floor: the world frame) frame
+by frame for each camera at the camera's image size (a camera's pixel rays are set up once, on first
+use or :meth:`BoardScene.prepare`); the clip loops. Two clips are named in :data:`BOARD_SCENES`:
+``short`` (6 s, the default: a quick look in a demo) and ``full`` (60 s, with the floor spots and the
+close-ups that a calibration meeting its accuracy targets needs).
 """
 
 from __future__ import annotations
@@ -18,7 +21,8 @@ import cv2
 import numpy as np
 
 from acquisition.board import BoardConfig, make_board
-from acquisition.synthetic.board import BoardMotion, board_trajectory, render_board_images
+from acquisition.synthetic.board import FLOOR_SPOTS_MM, BoardMotion, board_trajectory
+from acquisition.synthetic.board_render import BoardRenderer
 from reconstruction.camera import Rig
 
 log = logging.getLogger(__name__)
@@ -34,6 +38,12 @@ class BoardSceneConfig:
     board: BoardConfig = BoardConfig()
     motion: BoardMotion = BoardMotion(n_frames=60, floor_frames=3, tour_fraction=0.3, turns=1.0,
                                       max_tilt_deg=20.0, upside_down_fraction=0.0, seed=3)
+
+
+BOARD_SCENES: dict[str, BoardSceneConfig] = {
+    "short": BoardSceneConfig(),
+    "full": BoardSceneConfig(motion=BoardMotion(n_frames=600, floor_frames=20, floor_spots_mm=FLOOR_SPOTS_MM)),
+}
 
 
 class SceneSwitch:
@@ -61,31 +71,35 @@ class SceneSwitch:
 
 
 class BoardScene:
-    """Renders the board clip seen by each camera of ``rig`` (cameras at their calibrated size)."""
+    """Renders the board clip seen by each camera of ``rig`` (at any image size: the camera's sensor
+    image resized)."""
 
     def __init__(self, rig: Rig, config: BoardSceneConfig = BoardSceneConfig()) -> None:
         self.rig, self.config = rig, config
         self.board = make_board(config.board)
         self.rot, self.tvec = board_trajectory(self.board.geometry, config.motion, rig)
-        self._clips: dict[tuple[str, tuple[int, int]], np.ndarray] = {}
+        self._renderers: dict[tuple[str, tuple[int, int]], tuple[BoardRenderer, np.random.Generator]] = {}
         self._lock = threading.Lock()
 
-    def clip(self, camera: str, size_px: tuple[int, int]) -> np.ndarray:
-        """Grey frames (F, H, W) uint8 of ``camera`` at ``size_px`` (the camera's aspect ratio)."""
-        key = (camera, tuple(size_px))
+    def __len__(self) -> int:
+        return len(self.rot)
+
+    def prepare(self, camera: str, size_px: tuple[int, int]) -> tuple[BoardRenderer, np.random.Generator]:
+        """The renderer of ``camera`` at ``size_px`` (set up on first use: about a second)."""
+        key = (camera, (int(size_px[0]), int(size_px[1])))
         with self._lock:
-            if key not in self._clips:
-                cam = self.rig[camera]
-                scale = size_px[0] / cam.size_px[0]
-                if abs(cam.size_px[1] * scale - size_px[1]) > 1:
-                    raise ValueError(f"camera {camera}: image size {size_px} has not the aspect ratio of "
-                                     f"its calibration {cam.size_px}")
-                images = render_board_images(self.rig.subset([camera]), self.board, self.rot, self.tvec,
-                                             scale=scale, seed=self.rig.index_of([camera])[0])
-                self._clips[key] = images[camera]
-            return self._clips[key]
+            if key not in self._renderers:
+                index = self.rig.index_of([camera])[0]
+                renderer = BoardRenderer(self.rig[camera], self.board, size_px=key[1])
+                self._renderers[key] = renderer, np.random.default_rng([self.config.motion.seed, index])
+            return self._renderers[key]
+
+    def render_gray(self, camera: str, index: int, size_px: tuple[int, int]) -> np.ndarray:
+        """Grey image (H, W) uint8 of clip frame ``index`` (looped) seen by ``camera``."""
+        renderer, rng = self.prepare(camera, size_px)
+        k = index % len(self.rot)
+        return renderer.render(self.rot[k], self.tvec[k], rng)
 
     def render(self, camera: str, index: int, size_px: tuple[int, int]) -> np.ndarray:
         """BGR image (H, W, 3) uint8 of clip frame ``index`` (looped)."""
-        frames = self.clip(camera, size_px)
-        return cv2.cvtColor(frames[index % len(frames)], cv2.COLOR_GRAY2BGR)
+        return cv2.cvtColor(self.render_gray(camera, index, size_px), cv2.COLOR_GRAY2BGR)

@@ -69,6 +69,7 @@ def camera_cmd(
     drop: list[str] = typer.Option([], "--drop", help="Simulated fault CAM:ID,ID (dropped frame ids)."),
     stop: list[str] = typer.Option([], "--stop", help="Simulated fault CAM:ID (camera dies after ID)."),
     frames: int | None = typer.Option(None, "--frames", help="Play at most this many frames (simulated)."),
+    board_clip: str = typer.Option("short", "--board-clip", help="Board shown on Calibrate (simulated): short (6 s) | full (60 s)."),
     videos: list[Path] = typer.Option([], "--video", help="Video file(s) (source video); camera = file stem."),
     webcam: list[int] = typer.Option([], "--webcam", help="Webcam index (source video)."),
     serials: str | None = typer.Option(None, "--serials", help="FLIR serial numbers, comma-separated."),
@@ -98,12 +99,16 @@ def camera_cmd(
         }
         if source not in builders:
             raise ValueError(f"--source: {source!r} is not one of {sorted(builders)}")
+        from acquisition.synthetic.board_scene import BOARD_SCENES
+
+        if board_clip not in BOARD_SCENES:
+            raise ValueError(f"--board-clip: {board_clip!r} is not one of {sorted(BOARD_SCENES)}")
         drivers = builders[source]().build()
         cfg = default_bus_config(bus)
         session = open_session(cfg, node)
     stopper = _stop_event()
     cam_node = CameraNode(session, cfg, node, drivers, jpeg_quality=jpeg_quality)
-    scene_sub = attach_board_scene(session, cfg, drivers)
+    scene_sub = attach_board_scene(session, cfg, drivers, board_clip)
     threading.Thread(target=lambda: (stopper.wait(), cam_node.stop()), daemon=True).start()
     try:
         published = cam_node.run(start_at_ns)
