@@ -59,6 +59,10 @@ class StackConfig:
             raise ValueError(f"cameras: need 2..64 cameras, got {self.cameras}")
         if not 1 <= self.workers <= 8:
             raise ValueError(f"workers: need 1..8 workers, got {self.workers}")
+        from acquisition.synthetic.board_scene import BOARD_SCENES
+
+        if self.board_clip not in BOARD_SCENES:
+            raise ValueError(f"board_clip: {self.board_clip!r} is not one of {sorted(BOARD_SCENES)}")
         if self.sim_people not in (1, 2, 3):
             raise ValueError(f"sim_people: the simulated world has 1, 2 or 3 people, got {self.sim_people}")
         if self.sim_seconds < 5:

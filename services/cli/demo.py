@@ -25,6 +25,8 @@ def register(app: typer.Typer) -> None:
         cameras: int = typer.Option(10, "--cameras", help="Simulated cameras."),
         size: str = typer.Option("240x180", "--size", help="Simulated image size WIDTHxHEIGHT (px)."),
         workers: int = typer.Option(1, "--workers", help="Reconstruction workers."),
+        board_clip: str = typer.Option("short", "--board-clip", help="Board shown on Calibrate: short (6 s) | full (60 s; "
+                                       "with --size 960x600 or larger it meets the calibration targets)."),
         refine: bool = typer.Option(True, "--refine/--no-refine", help="Run the refined (implicit) fit."),
         people: int = typer.Option(1, "--people", help="People in the simulated room: 1 patient, 2 with a "
                                                        "therapist beside, 3 also someone standing."),
@@ -40,7 +42,8 @@ def register(app: typer.Typer) -> None:
 
         with user_errors():
             cfg = StackConfig(data_dir=data_dir, token=token or new_token(), port=port, bus_base_port=bus_port,
-                              cameras=cameras, size=size, workers=workers, refine=refine, sim_people=people)
+                              cameras=cameras, size=size, workers=workers, refine=refine, sim_people=people,
+                              board_clip=board_clip)
         logging.getLogger("httpx").setLevel(logging.WARNING)
         stack = Stack(cfg)
         stop = threading.Event()
