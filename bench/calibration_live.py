@@ -61,8 +61,9 @@ def run(cameras: int, size: tuple[int, int], record_s: float, timeout_s: float) 
     fps = 10.0
     with tempfile.TemporaryDirectory() as tmp:
         base = free_port_range(16)
+        # sim_seconds: the simulated walk must not end during the recording (its camera node restarts)
         cfg = StackConfig(data_dir=Path(tmp), token=TOKEN, port=base, bus_base_port=base + 1, cameras=cameras,
-                          size=f"{size[0]}x{size[1]}", fps=fps, sim_seconds=120.0, refine=False, board_clip="full")
+                          size=f"{size[0]}x{size[1]}", fps=fps, sim_seconds=600.0, refine=False, board_clip="full")
         with Stack(cfg) as stack, httpx.Client(base_url=stack.cfg.url, timeout=60,
                                                headers={"Authorization": f"Bearer {TOKEN}"}) as client:
             cal_id, final, job_s = _calibrate_over_rest(client, record_s, timeout_s)
