@@ -70,15 +70,34 @@ def run_calibration(catalog, run_id: str, *, expected_images: int | None = None,
 
 
 def launch(catalog_url: str, run_id: str, *, expected_images: int | None = None) -> subprocess.Popen:
-    """Start the job as a child process (reaped by a daemon thread)."""
+    """Start the job as a child process, reaped by a daemon thread that fails the run when the process
+    dies without finishing it (killed, out of memory)."""
     import threading
 
     argv = [sys.executable, "-m", "services.calibration_job", "--catalog", catalog_url, "--id", run_id]
     if expected_images:
         argv += ["--frames", str(int(expected_images))]
     proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL)
-    threading.Thread(target=proc.wait, name=f"calibration-{run_id}", daemon=True).start()
+    threading.Thread(target=reap, args=(proc, catalog_url, run_id), name=f"calibration-{run_id}",
+                     daemon=True).start()
     return proc
+
+
+def reap(proc: subprocess.Popen, catalog_url: str, run_id: str) -> None:
+    """Wait for the job; a run it left ``calibrating`` becomes ``failed``, naming how the job ended."""
+    code = proc.wait()
+    catalog = open_catalog(catalog_url)
+    try:
+        if get_calibration_run(catalog, run_id).state != CALIBRATING:
+            return
+        how = f"was killed by signal {-code}" if code < 0 else f"exited with code {code}"
+        log.warning("calibration job %s %s", run_id, how)
+        update_calibration_run(catalog, run_id, expect=CALIBRATING, state=FAILED, stage="", progress=1.0,
+                               error=f"the calibration job {how} before finishing; press Calibrate to record again")
+    except ValueError:  # it finished in the meantime
+        pass
+    finally:
+        catalog.close()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -104,4 +123,4 @@ def main(argv: list[str] | None = None) -> int:
 if __name__ == "__main__":
     sys.exit(main())
 
-__all__ = ["CALIBRATING", "launch", "main", "run_calibration"]
+__all__ = ["CALIBRATING", "launch", "main", "reap", "run_calibration"]

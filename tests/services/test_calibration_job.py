@@ -71,3 +71,31 @@ def test_one_recording_at_a_time(tmp_path):
     trial = cat.start_trial(db, subject_id="P1", session="s1")
     with pytest.raises(runs.CalibrationBusy, match=trial.id):
         runs.start_calibration_run(db, recording_path_for=lambda i: tmp_path / f"{i}.mcap")
+
+
+def test_a_killed_job_fails_its_run(images, tmp_path):
+    """SIGKILL (what the OOM killer sends) mid-detection: the run must not stay 'calibrating'."""
+    import os
+    import signal
+    import time
+
+    from services.calibration_job import launch
+
+    frames, _ = images
+    long = {cam: np.concatenate([f] * 20) for cam, f in frames.items()}  # about a minute of detection
+    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+    mcap = write_board_mcap(tmp_path / "board.mcap", long)
+    run = runs.start_calibration_run(db, recording_path_for=lambda _id: mcap)
+    runs.update_calibration_run(db, run.id, state=runs.CALIBRATING)
+    proc = launch(str(tmp_path / "catalog.sqlite"), run.id, expected_images=2 * len(long["cam01"]))
+    deadline = time.monotonic() + 60
+    while runs.get_calibration_run(db, run.id).stage.startswith("finding") is False:
+        assert time.monotonic() < deadline, "the job never started finding the board"
+        time.sleep(0.2)
+    os.kill(proc.pid, signal.SIGKILL)
+    while runs.get_calibration_run(db, run.id).state == runs.CALIBRATING:
+        assert time.monotonic() < deadline, "the run stayed calibrating after its job was killed"
+        time.sleep(0.2)
+    failed = runs.get_calibration_run(db, run.id)
+    assert failed.state == "failed" and "killed by signal 9" in failed.error
+    assert cat.latest_calibration(db) is None
