@@ -113,13 +113,16 @@ class Checkerboard:
         """findChessboardCornersSB as is, then with the histogram equalised when a quick check says a
         board is there (equalising finds boards in dim images but moves the corners: median error
         0.07 px against 0.04 px on rendered 1920 x 1200 views)."""
-        for flags in (cv2.CALIB_CB_ACCURACY, cv2.CALIB_CB_ACCURACY | cv2.CALIB_CB_NORMALIZE_IMAGE):
-            found, corners = cv2.findChessboardCornersSB(gray, self.pattern, flags=flags)
-            if found and corners is not None and len(corners) == self.geometry.num_corners:
-                return corners.reshape(-1, 2).astype(np.float64)
-            if not cv2.checkChessboard(gray, self.pattern):
-                return None
-        return None
+        corners = self._search(gray, cv2.CALIB_CB_ACCURACY)
+        if corners is None and cv2.checkChessboard(gray, self.pattern):
+            corners = self._search(gray, cv2.CALIB_CB_ACCURACY | cv2.CALIB_CB_NORMALIZE_IMAGE)
+        return corners
+
+    def _search(self, gray: np.ndarray, flags: int) -> np.ndarray | None:
+        found, corners = cv2.findChessboardCornersSB(gray, self.pattern, flags=flags)
+        if not found or corners is None or len(corners) != self.geometry.num_corners:
+            return None
+        return corners.reshape(-1, 2).astype(np.float64)
 
     def texture(self, px_per_mm: float, margin_squares: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
         """Printable image (uint8) and the px position (2,) of corner 0 in it (pixel centres at integers)."""

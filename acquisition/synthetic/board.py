@@ -230,7 +230,7 @@ def write_board_folder(folder: str | os.PathLike, images: dict[str, np.ndarray])
 def write_board_mcap(path: str | os.PathLike, images: dict[str, np.ndarray], *, fps: float = 10.0,
                      start_ns: int = 1_700_000_000_000_000_000) -> Path:
     """Write rendered images as a trial MCAP (JPEG frames, synchronised frame ids), like the recorder."""
-    from acquisition.encoding import encode_jpeg, image_message
+    from acquisition.encoding import encode_jpeg
     from acquisition.recording.writer import TrialWriter
 
     writer = TrialWriter(path)
@@ -239,9 +239,16 @@ def write_board_mcap(path: str | os.PathLike, images: dict[str, np.ndarray], *, 
     for i in range(n):
         stamp = start_ns + int(round(i * 1e9 / fps))
         for cam, frames in images.items():
-            msg = image_message(encode_jpeg(frames[i], quality=95), camera=cam, timestamp_ns=stamp)
-            writer.add_frame(cam, msg, timestamp_ns=stamp, frame_id=i, receive_ns=stamp)
+            add_jpeg_frame(writer, cam, encode_jpeg(frames[i], quality=95), frame_id=i, stamp_ns=stamp)
     return writer.finish({"frames": n, "cameras": sorted(images)})
+
+
+def add_jpeg_frame(writer, camera: str, jpeg: bytes, *, frame_id: int, stamp_ns: int) -> None:
+    """One camera's JPEG frame into a trial writer, stamped as a synchronised rig would (ns)."""
+    from acquisition.encoding import image_message
+
+    msg = image_message(jpeg, camera=camera, timestamp_ns=stamp_ns)
+    writer.add_frame(camera, msg, timestamp_ns=stamp_ns, frame_id=frame_id, receive_ns=stamp_ns)
 
 
 def render_board_images(

@@ -20,8 +20,14 @@ from pathlib import Path
 import numpy as np
 
 from acquisition.board import BoardConfig, make_board
-from acquisition.encoding import encode_jpeg, image_message
-from acquisition.synthetic.board import FLOOR_SPOTS_MM, BoardMotion, board_trajectory, scaled_rig
+from acquisition.encoding import encode_jpeg
+from acquisition.synthetic.board import (
+    FLOOR_SPOTS_MM,
+    BoardMotion,
+    add_jpeg_frame,
+    board_trajectory,
+    scaled_rig,
+)
 from acquisition.synthetic.board_render import BoardRenderer, camera_at
 from acquisition.synthetic.room import build_rig
 from reconstruction.camera import Rig
@@ -100,8 +106,7 @@ def write_board_clip(
                     return encode_jpeg(img, quality=config.jpeg_quality)
 
                 for cam, jpeg in zip(rig.names, pool.map(frame, range(len(rig))), strict=True):
-                    msg = image_message(jpeg, camera=cam, timestamp_ns=stamp)
-                    writer.add_frame(cam, msg, timestamp_ns=stamp, frame_id=i, receive_ns=stamp)
+                    add_jpeg_frame(writer, cam, jpeg, frame_id=i, stamp_ns=stamp)
                 if progress is not None:
                     progress(i + 1, config.frames)
         out = writer.finish({"frames": config.frames, "cameras": list(rig.names)})
