@@ -111,15 +111,14 @@ def attach_board_scene(session, bus: BusConfig, drivers: Sequence[CameraDriver],
     :data:`acquisition.synthetic.board_scene.BOARD_SCENES`. Other drivers are left alone. Returns the
     subscriber (None when no driver is simulated)."""
     from acquisition.drivers.simulated import SimulatedCamera
-    from acquisition.synthetic.board_scene import BOARD_SCENES, BoardScene, SceneSwitch
+    from acquisition.synthetic.board_scene import BoardScene, SceneSwitch, board_scene_config
     from services.bus.keys import loads
 
-    if clip not in BOARD_SCENES:
-        raise ValueError(f"board clip {clip!r} is unknown; choose one of {sorted(BOARD_SCENES)}")
+    config = board_scene_config(clip)
     sims = [d for d in drivers if isinstance(d, SimulatedCamera)]
     if not sims:
         return None
-    switch, board = SceneSwitch(), BoardScene(sims[0].trial.rig, BOARD_SCENES[clip])
+    switch, board = SceneSwitch(), BoardScene(sims[0].trial.rig, config)
     for d in sims:
         d.scene = (switch, board)
 

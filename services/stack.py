@@ -59,10 +59,9 @@ class StackConfig:
             raise ValueError(f"cameras: need 2..64 cameras, got {self.cameras}")
         if not 1 <= self.workers <= 8:
             raise ValueError(f"workers: need 1..8 workers, got {self.workers}")
-        from acquisition.synthetic.board_scene import BOARD_SCENES
+        from acquisition.synthetic.board_scene import board_scene_config
 
-        if self.board_clip not in BOARD_SCENES:
-            raise ValueError(f"board_clip: {self.board_clip!r} is not one of {sorted(BOARD_SCENES)}")
+        board_scene_config(self.board_clip)
         if self.sim_people not in (1, 2, 3):
             raise ValueError(f"sim_people: the simulated world has 1, 2 or 3 people, got {self.sim_people}")
         if self.sim_seconds < 5:

@@ -46,6 +46,13 @@ BOARD_SCENES: dict[str, BoardSceneConfig] = {
 }
 
 
+def board_scene_config(name: str) -> BoardSceneConfig:
+    """The board clip called ``name`` in :data:`BOARD_SCENES` (ValueError naming the choices)."""
+    if name not in BOARD_SCENES:
+        raise ValueError(f"board clip {name!r} is unknown; choose one of {sorted(BOARD_SCENES)}")
+    return BOARD_SCENES[name]
+
+
 class SceneSwitch:
     """Thread-safe: which scene the cameras show from which wall time (ns)."""
 

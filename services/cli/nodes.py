@@ -99,10 +99,9 @@ def camera_cmd(
         }
         if source not in builders:
             raise ValueError(f"--source: {source!r} is not one of {sorted(builders)}")
-        from acquisition.synthetic.board_scene import BOARD_SCENES
+        from acquisition.synthetic.board_scene import board_scene_config
 
-        if board_clip not in BOARD_SCENES:
-            raise ValueError(f"--board-clip: {board_clip!r} is not one of {sorted(BOARD_SCENES)}")
+        board_scene_config(board_clip)  # a wrong name fails here, cleanly
         drivers = builders[source]().build()
         cfg = default_bus_config(bus)
         session = open_session(cfg, node)

@@ -67,3 +67,11 @@ def test_clip_loops():
 
     assert spread(1, 6) < 3.2  # noise only: 2 * sqrt(2)
     assert spread(3, 4) > 5.0  # the board moved
+
+
+def test_board_clips_are_named():
+    from acquisition.synthetic.board_scene import board_scene_config
+
+    assert board_scene_config("full").motion.n_frames == 600 and len(board_scene_config("full").motion.floor_spots_mm) == 3
+    with pytest.raises(ValueError, match=r"'nope' is unknown; choose one of \['full', 'short'\]"):
+        board_scene_config("nope")
