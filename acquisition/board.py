@@ -19,8 +19,7 @@ from typing import Literal
 
 import cv2
 import numpy as np
-
-from reconstruction.calibration.geometry import BoardGeometry, grid_board
+from gaitcap.reconstruction.calibration.geometry import BoardGeometry, grid_board
 
 log = logging.getLogger(__name__)
 

@@ -15,9 +15,8 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-
-from acquisition.board import BoardConfig, make_board
-from reconstruction.calibration import (
+from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.reconstruction.calibration import (
     BoardObservations,
     CalibrationConfig,
     CalibrationResult,
@@ -104,7 +103,7 @@ def _iter_folder(folder: Path, sel: FrameSelection) -> Iterator[tuple[str, int, 
 
 def _iter_mcap(path: Path, sel: FrameSelection) -> Iterator[tuple[str, int, int | None, np.ndarray]]:
     """(camera, frame id, timestamp ns, grey image) for the selected frames."""
-    from acquisition.recording.reader import iter_frames
+    from gaitcap.acquisition.recording.reader import iter_frames
 
     first: int | None = None
     for frame in iter_frames(path):

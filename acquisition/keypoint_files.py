@@ -1,4 +1,4 @@
-"""Keypoints from other tools' files -> :class:`~reconstruction.detections.Detections`.
+"""Keypoints from other tools' files -> :class:`~gaitcap.reconstruction.detections.Detections`.
 
 Supported inputs (:func:`read_keypoints_input` picks by path):
 
@@ -23,10 +23,9 @@ import re
 from pathlib import Path
 
 import numpy as np
-
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
-from reconstruction.skeletons import SKELETONS
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.skeletons import SKELETONS
 
 log = logging.getLogger(__name__)
 
@@ -176,8 +175,8 @@ def _select(kp, names, times, skel, *, rig: Rig | None, consistent: bool) -> Det
     if kp.shape[2] > 1 and consistent:
         if rig is None:
             raise ValueError("choosing the person consistent across views needs the calibration")
-        from reconstruction.association.multi import MultiPersonDetections
-        from reconstruction.association.pipeline import associate_and_select
+        from gaitcap.reconstruction.association.multi import MultiPersonDetections
+        from gaitcap.reconstruction.association.pipeline import associate_and_select
 
         multi = MultiPersonDetections(keypoints=kp, camera_names=names, times_s=times, skeleton=skel)
         return associate_and_select(multi, rig.subset(names)).detections
@@ -201,7 +200,7 @@ def read_keypoints_input(
     elif path.suffix.lower() == ".npz":
         data = read_npz(path, fps=fps, skeleton=skeleton)
     elif path.suffix.lower() == ".mcap":
-        from acquisition.recording.reader import read_keypoints
+        from gaitcap.acquisition.recording.reader import read_keypoints
 
         rec = read_keypoints(path)
         data = (rec.people, rec.camera_names, rec.times_s, skeleton or rec.skeleton)

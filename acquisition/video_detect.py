@@ -14,10 +14,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-from acquisition.drivers.base import CaptureSettings
-from acquisition.drivers.video import VideoCamera
-from reconstruction.detections import Detections
+from gaitcap.acquisition.drivers.base import CaptureSettings
+from gaitcap.acquisition.drivers.video import VideoCamera
+from gaitcap.reconstruction.detections import Detections
 
 log = logging.getLogger(__name__)
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm")

@@ -1,7 +1,7 @@
 """The FastAPI application factory: ``create_app(settings, link)``.
 
 ``link`` connects the API to the live system (recorder, camera health, previews); without one the API
-serves the catalog only. Binds 127.0.0.1 by default (see :mod:`api.server`).
+serves the catalog only. Binds 127.0.0.1 by default (see :mod:`gaitcap.api.server`).
 """
 
 from __future__ import annotations
@@ -14,8 +14,7 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
-
-from api import (
+from gaitcap.api import (
     routes_calibration_runs,
     routes_calibrations,
     routes_live,
@@ -23,9 +22,9 @@ from api import (
     routes_results,
     routes_trials,
 )
-from api.settings import Settings
-from services import catalog as cat
-from services.live import NoLink
+from gaitcap.api.settings import Settings
+from gaitcap.services import catalog as cat
+from gaitcap.services.live.protocols import NoLink
 
 log = logging.getLogger(__name__)
 STATIC = Path(__file__).parent / "static"

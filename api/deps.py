@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 from fastapi import HTTPException, Request
-
-from api.schemas import STATE_WORDS, TrialOut
-from services import catalog as cat
+from gaitcap.api.schemas import STATE_WORDS, TrialOut
+from gaitcap.services import catalog as cat
 
 
 def catalog_of(request: Request) -> cat.Catalog:

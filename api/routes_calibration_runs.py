@@ -9,12 +9,11 @@ from pathlib import Path
 
 from fastapi import APIRouter, Depends, HTTPException, Request
 from fastapi.responses import PlainTextResponse
-
-from api.auth import require_user
-from api.deps import catalog_of
-from services import catalog as cat
-from services.catalog import calibration_runs as runs
-from services.live import RecorderUnavailable
+from gaitcap.api.auth import require_user
+from gaitcap.api.deps import catalog_of
+from gaitcap.services import catalog as cat
+from gaitcap.services.catalog import calibration_runs as runs
+from gaitcap.services.live.protocols import RecorderUnavailable
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["calibrations"])
@@ -77,7 +76,7 @@ def record_start(request: Request, user: str = Depends(require_user)) -> dict:
 
 @router.post("/calibrations/record/stop", summary="Stop the board recording; the calibration is computed")
 def record_stop(request: Request, user: str = Depends(require_user)) -> dict:
-    from services.calibration_job import launch
+    from gaitcap.services.processing.calibration_job import launch
 
     db, settings, link = catalog_of(request), request.app.state.settings, request.app.state.link
     run = _current(db)

@@ -6,12 +6,11 @@ import tempfile
 from pathlib import Path
 
 from fastapi import APIRouter, Depends, HTTPException, Request
+from gaitcap.api.auth import require_user
+from gaitcap.api.deps import catalog_of
+from gaitcap.reconstruction.calibration_io import load_rig
+from gaitcap.services import catalog as cat
 from pydantic import BaseModel, ConfigDict, Field
-
-from api.auth import require_user
-from api.deps import catalog_of
-from reconstruction.calibration_io import load_rig
-from services import catalog as cat
 
 router = APIRouter(tags=["calibrations"])
 

@@ -9,12 +9,11 @@ import time
 
 from fastapi import APIRouter, Depends, HTTPException, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import Response, StreamingResponse
+from gaitcap.api.auth import require_user, websocket_user
+from gaitcap.api.deps import trials_out
+from gaitcap.api.schemas import CameraOut
+from gaitcap.services import catalog as cat
 from starlette.concurrency import run_in_threadpool
-
-from api.auth import require_user, websocket_user
-from api.deps import trials_out
-from api.schemas import CameraOut
-from services import catalog as cat
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["live"])

@@ -6,13 +6,11 @@ from __future__ import annotations
 import logging
 
 from fastapi import APIRouter, Depends, HTTPException, Request, Response
-from pydantic import BaseModel, ConfigDict, Field, model_validator
-
-from api.auth import require_user
-from api.deps import catalog_of, checked_trial_id
-from services import catalog as cat
-from services.artifacts import TrialFiles, trial_files
-from services.people import (
+from gaitcap.api.auth import require_user
+from gaitcap.api.deps import catalog_of, checked_trial_id
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import TrialFiles, trial_files
+from gaitcap.services.processing.people import (
     PatientChoice,
     read_choice,
     read_people,
@@ -20,6 +18,7 @@ from services.people import (
     track_at_click,
     write_choice,
 )
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["people"])

@@ -7,13 +7,12 @@ from pathlib import Path
 
 from fastapi import APIRouter, Depends, HTTPException, Request
 from fastapi.responses import FileResponse, PlainTextResponse
-
-from api.auth import require_user
-from api.deps import catalog_of, checked_trial_id
-from api.exports import steps_csv, trajectory_csv, trajectory_json
-from api.schemas import GaitOut
-from services import catalog as cat
-from services.artifacts import trial_files
+from gaitcap.api.auth import require_user
+from gaitcap.api.deps import catalog_of, checked_trial_id
+from gaitcap.api.exports import steps_csv, trajectory_csv, trajectory_json
+from gaitcap.api.schemas import GaitOut
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import trial_files
 
 router = APIRouter(tags=["results"])
 

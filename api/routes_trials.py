@@ -6,14 +6,13 @@ import logging
 import time
 
 from fastapi import APIRouter, Depends, HTTPException, Request
-
-from api.auth import require_user
-from api.deps import catalog_of, checked_trial_id, trial_out, trials_out
-from api.schemas import StartTrial, TrialOut
-from services import catalog as cat
-from services.artifacts import trial_files
-from services.catalog.calibration_runs import current_board_recording
-from services.live import RecorderUnavailable
+from gaitcap.api.auth import require_user
+from gaitcap.api.deps import catalog_of, checked_trial_id, trial_out, trials_out
+from gaitcap.api.schemas import StartTrial, TrialOut
+from gaitcap.services import catalog as cat
+from gaitcap.services.catalog.calibration_runs import current_board_recording
+from gaitcap.services.live.protocols import RecorderUnavailable
+from gaitcap.services.processing.artifacts import trial_files
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["trials"])

@@ -7,9 +7,8 @@ import time
 from dataclasses import dataclass
 
 import uvicorn
-
-from api.app import create_app
-from api.settings import Settings
+from gaitcap.api.app import create_app
+from gaitcap.api.settings import Settings
 
 
 def uvicorn_config(settings: Settings, link=None, *, log_level: str = "warning") -> uvicorn.Config:

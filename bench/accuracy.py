@@ -64,7 +64,7 @@ def run_anipose(det, rig, *, optim: bool):
 
 
 def _clip(trial, seconds: float):
-    from reconstruction.detections import Detections
+    from gaitcap.reconstruction.detections import Detections
 
     n = max(2, int(round(seconds * trial.fps)))
     d = trial.detections
@@ -73,9 +73,9 @@ def _clip(trial, seconds: float):
 
 def run(*, preset: str, seconds: float, cameras: int, seed: int, anipose: bool, paper_steps: int,
         clip_seconds: float) -> dict:
-    from acquisition.synthetic.trial import make_trial
-    from reconstruction.methods import DLT, Explicit, Implicit, Robust, reconstruct
-    from reconstruction.metrics import compute_metrics
+    from gaitcap.acquisition.synthetic.trial import make_trial
+    from gaitcap.reconstruction.methods import DLT, Explicit, Implicit, Robust, reconstruct
+    from gaitcap.reconstruction.metrics import compute_metrics
 
     trial = make_trial(preset, seconds=seconds, cameras=cameras, seed=seed)
     det, rig, truth = trial.detections, trial.rig, trial.points_mm

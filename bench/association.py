@@ -29,8 +29,8 @@ def _mpjpe(points_mm: np.ndarray, truth_mm: np.ndarray) -> float:
 
 
 def run(*, frames: int, cameras: int, people: int, seed: int, repeats: int, mpjpe: bool) -> dict:
-    from acquisition.synthetic import make_trial
-    from reconstruction.association import (
+    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.reconstruction.association import (
         MultiPersonDetections,
         associate,
         default_selector,
@@ -67,7 +67,7 @@ def run(*, frames: int, cameras: int, people: int, seed: int, repeats: int, mpjp
         "patient_frames_covered": float(np.mean(np.isfinite(patient.keypoints[..., 0]).any((0, 2)))),
     }
     if mpjpe:
-        from reconstruction.triangulation import robust_triangulate
+        from gaitcap.reconstruction.triangulation import robust_triangulate
 
         selected = robust_triangulate(patient, trial.rig).points_mm
         single = robust_triangulate(trial.detections, trial.rig).points_mm

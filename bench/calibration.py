@@ -36,12 +36,12 @@ FLOOR_SPOTS_MM = ((1500.0, 1500.0), (-1500.0, 1200.0), (1000.0, -1500.0))  # boa
 
 def _calibration(board_kind: str, frames: int, floor_frames: int, noise_px: float, seed: int,
                  still_floor: bool = False) -> dict:
-    from acquisition.board import BoardConfig, make_board
-    from acquisition.synthetic import make_trial
-    from acquisition.synthetic.board import BoardMotion, board_trajectory, observe_board
-    from reconstruction.calibration import calibrate_from_observations
-    from reconstruction.calibration.geometry import rotation_angle_deg
-    from reconstruction.triangulation import robust_triangulate
+    from gaitcap.acquisition.board import BoardConfig, make_board
+    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.acquisition.synthetic.board import BoardMotion, board_trajectory, observe_board
+    from gaitcap.reconstruction.calibration import calibrate_from_observations
+    from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
+    from gaitcap.reconstruction.triangulation import robust_triangulate
 
     trial = make_trial(preset="paper", seconds=10.0, cameras=10, seed=seed)
     rig = trial.rig
@@ -76,15 +76,15 @@ def _calibration(board_kind: str, frames: int, floor_frames: int, noise_px: floa
 
 
 def _detector(board_kind: str, frames: int, scale: float, seed: int) -> dict:
-    from acquisition.board import BoardConfig, make_board
-    from acquisition.synthetic.board import (
+    from gaitcap.acquisition.board import BoardConfig, make_board
+    from gaitcap.acquisition.synthetic.board import (
         BoardMotion,
         board_trajectory,
         observe_board,
         render_board_images,
         scaled_rig,
     )
-    from acquisition.synthetic.room import build_rig
+    from gaitcap.acquisition.synthetic.room import build_rig
 
     rig = build_rig(10, seed=seed).subset(["cam01", "cam02"])
     board = make_board(BoardConfig.checkerboard() if board_kind == "checkerboard" else BoardConfig.charuco())
@@ -117,12 +117,12 @@ def _end_to_end(board_kind: str, frames: int, scale: float, seed: int) -> dict:
     import tempfile
     from pathlib import Path
 
-    from acquisition.board import BoardConfig
-    from acquisition.board_recording import calibrate_from_recording
-    from acquisition.synthetic.board_clip import BoardClipConfig, write_board_clip
-    from acquisition.synthetic.board_render import camera_at
-    from reconstruction.calibration.compare import compare_rigs
-    from reconstruction.camera import Rig
+    from gaitcap.acquisition.board import BoardConfig
+    from gaitcap.acquisition.board_recording import calibrate_from_recording
+    from gaitcap.acquisition.synthetic.board_clip import BoardClipConfig, write_board_clip
+    from gaitcap.acquisition.synthetic.board_render import camera_at
+    from gaitcap.reconstruction.calibration.compare import compare_rigs
+    from gaitcap.reconstruction.camera import Rig
 
     config = BoardConfig.checkerboard() if board_kind == "checkerboard" else BoardConfig.charuco()
     clip = BoardClipConfig(board=config, frames=frames, scale=scale, seed=seed, floor_spots_mm=FLOOR_SPOTS_MM)
@@ -151,8 +151,8 @@ def _end_to_end(board_kind: str, frames: int, scale: float, seed: int) -> dict:
 
 def _walk_mpjpe(rig, seed: int) -> float:
     """MPJPE (mm) of a walk triangulated with ``rig`` (full resolution) against the true calibration's."""
-    from acquisition.synthetic import make_trial
-    from reconstruction.triangulation import robust_triangulate
+    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.reconstruction.triangulation import robust_triangulate
 
     trial = make_trial(preset="paper", seconds=10.0, cameras=10, seed=seed)
     walk_true = robust_triangulate(trial.detections, trial.rig).points_mm

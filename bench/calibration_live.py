@@ -50,13 +50,12 @@ def _calibrate_over_rest(client, record_s: float, timeout_s: float) -> tuple[str
 
 def run(cameras: int, size: tuple[int, int], record_s: float, timeout_s: float) -> dict:
     import httpx
-
-    from acquisition.drivers.simulated import SimTrialSpec
-    from acquisition.synthetic.board_render import camera_resized
-    from reconstruction.calibration.compare import compare_rigs
-    from reconstruction.calibration_io import load_rig
-    from reconstruction.camera import Rig
-    from services.stack import Stack, StackConfig, free_port_range
+    from gaitcap.acquisition.drivers.simulated import SimTrialSpec
+    from gaitcap.acquisition.synthetic.board_render import camera_resized
+    from gaitcap.reconstruction.calibration.compare import compare_rigs
+    from gaitcap.reconstruction.calibration_io import load_rig
+    from gaitcap.reconstruction.camera import Rig
+    from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
 
     fps = 10.0
     with tempfile.TemporaryDirectory() as tmp:

@@ -81,8 +81,8 @@ def trivial_onnx(path: Path) -> Path:
 
 
 def run(*, frames: int, threads: int) -> dict:
-    from acquisition.detectors.mediapipe import MediaPipeConfig
-    from acquisition.detectors.onnx import OnnxConfig
+    from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig
+    from gaitcap.acquisition.detectors.onnx import OnnxConfig
 
     imgs = load_frames(frames)
     rows = []

@@ -42,7 +42,7 @@ class NoiseJpegCamera:
     """A camera driver yielding pre-rendered, never-repeating JPEG frames at a fixed rate."""
 
     def __init__(self, name: str, pool: list[bytes], frames: int, fps: float, offset_ns: int) -> None:
-        from acquisition.drivers.base import DriverStatus
+        from gaitcap.acquisition.drivers.base import DriverStatus
 
         self.name, self.pool, self.n, self.period = name, pool, frames, int(round(1e9 / fps))
         self.offset_ns = offset_ns
@@ -54,7 +54,7 @@ class NoiseJpegCamera:
         self._status.state, self._status.started_wall_s = "running", self.start_ns / 1e9
 
     def frames(self):
-        from acquisition.drivers.base import Frame, wait_until_ns
+        from gaitcap.acquisition.drivers.base import Frame, wait_until_ns
 
         for i in range(self.n):
             if self._stop:
@@ -91,8 +91,8 @@ def _pool(seed: int, n: int = 64) -> list[bytes]:
 
 
 def run_cameras(args) -> None:
-    from services.bus.session import load_bus_config, open_session
-    from services.camera_node import CameraNode
+    from gaitcap.services.bus.session import load_bus_config, open_session
+    from gaitcap.services.nodes.camera import CameraNode
 
     bus = load_bus_config(args.bus)
     drivers = [NoiseJpegCamera(f"cam{i + 1:02d}", _pool(i), int(args.seconds * args.fps), args.fps, i * 20_000)
@@ -120,11 +120,10 @@ def _free_ports(n: int) -> list[int]:
 
 
 def run(*, seconds: float, cameras: int, fps: float, compression: str, out_dir: Path) -> dict:
+    from gaitcap.acquisition.recording import layout
+    from gaitcap.services.bus.control import RecorderClient
+    from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
     from mcap.reader import make_reader
-
-    from acquisition.recording import layout
-    from services.bus.control import RecorderClient
-    from services.bus.session import BusConfig, alive_nodes, open_session
 
     names = ["recorder", "camera-0", "bench"]
     bus = BusConfig({n: f"tcp/127.0.0.1:{p}" for n, p in zip(names, _free_ports(3), strict=True)},
@@ -132,7 +131,7 @@ def run(*, seconds: float, cameras: int, fps: float, compression: str, out_dir: 
     bus_file = out_dir / "bus.json"
     bus_file.write_text(json.dumps(bus.to_dict()))
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    rec = subprocess.Popen([sys.executable, "-c", "from services.cli import main; main()", "node", "recorder",
+    rec = subprocess.Popen([sys.executable, "-c", "from gaitcap.services.cli import main; main()", "node", "recorder",
                             "--node", "recorder", "--bus", str(bus_file), "--compression", compression],
                            env=env, cwd=str(ROOT), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     session = open_session(bus, "bench")

@@ -24,12 +24,11 @@ from pathlib import Path
 def write_trials(data_dir: Path, trials: list) -> None:
     """The synthetic trials as recorded trials (MCAP of keypoints + calibration, ground_truth.npz)."""
     import numpy as np
-
-    from acquisition.recording.writer import TrialWriter
-    from acquisition.synthetic import save_trial
-    from reconstruction.calibration_io import rig_to_toml_text
-    from services import catalog as cat
-    from services.artifacts import trial_files
+    from gaitcap.acquisition.recording.writer import TrialWriter
+    from gaitcap.acquisition.synthetic import save_trial
+    from gaitcap.reconstruction.calibration_io import rig_to_toml_text
+    from gaitcap.services import catalog as cat
+    from gaitcap.services.processing.artifacts import trial_files
 
     db = cat.open_catalog(data_dir / "catalog.sqlite")
     for i, trial in enumerate(trials):
@@ -57,16 +56,16 @@ def write_trials(data_dir: Path, trials: list) -> None:
 
 
 def executors(workers: int) -> dict:
-    from services.executors import Inline, LocalPool, RayCluster
+    from gaitcap.services.research.executors import Inline, LocalPool, RayCluster
 
     return {"inline": Inline(), "pool": LocalPool(workers=workers),
             "ray": RayCluster(address="local", local_cpus=workers)}
 
 
 def run_one(name: str, executor, data_dir: Path, specs) -> dict:
-    from services import catalog as cat
-    from services.reprocess import TrialSelection, plan_reprocess, run_plan
-    from services.reprocess_store import list_results
+    from gaitcap.services import catalog as cat
+    from gaitcap.services.research.reprocess import TrialSelection, plan_reprocess, run_plan
+    from gaitcap.services.research.store import list_results
 
     db = cat.open_catalog(data_dir / "catalog.sqlite")
     cache = None if name == "inline" else data_dir / ".jax-cache"
@@ -93,8 +92,8 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
 
-    from acquisition.synthetic import make_trial
-    from services.method_specs import parse_method
+    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.services.research.method_specs import parse_method
 
     specs = [parse_method(m) for m in (args.method or ["robust", "dlt"])]
     trials = [make_trial("paper", seconds=args.seconds, cameras=args.cameras, seed=100 + i, fps=30.0)

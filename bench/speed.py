@@ -32,8 +32,8 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 def pad_to_halpe136(det, seed: int = 0):
     """136-joint detections: the 26 body joints, then 110 copies of random body joints moved a few px."""
-    from reconstruction.detections import Detections
-    from reconstruction.skeletons import get_skeleton
+    from gaitcap.reconstruction.detections import Detections
+    from gaitcap.reconstruction.skeletons import get_skeleton
 
     rng = np.random.default_rng(seed)
     src = rng.integers(0, 26, 110)
@@ -58,10 +58,10 @@ def _timed(fn, repeats: int = 1) -> tuple[float, float]:
 
 def paper_step_seconds(det, rig, steps: int = 10) -> float:
     """Seconds per Adam step of the paper's implicit MLP on these detections (after compile)."""
-    from reconstruction.fits.common import fill_gaps, fit_problem, reject_spikes
-    from reconstruction.fits.implicit import ImplicitFit, _ModelObjective
-    from reconstruction.fits.optim import _adam_chunk
-    from reconstruction.triangulation import robust_triangulate
+    from gaitcap.reconstruction.fits.common import fill_gaps, fit_problem, reject_spikes
+    from gaitcap.reconstruction.fits.implicit import ImplicitFit, _ModelObjective
+    from gaitcap.reconstruction.fits.optim import _adam_chunk
+    from gaitcap.reconstruction.triangulation import robust_triangulate
 
     fit = ImplicitFit.paper()
     tri = robust_triangulate(det, rig)
@@ -80,9 +80,9 @@ def paper_step_seconds(det, rig, steps: int = 10) -> float:
 
 
 def run(*, seconds: float, cameras: int, repeats: int, anipose: bool, paper_steps: int, clip_seconds: float) -> dict:
-    from acquisition.synthetic.trial import make_trial
-    from reconstruction.methods import Explicit, Implicit, reconstruct
-    from reconstruction.triangulation import dlt_triangulate, robust_triangulate
+    from gaitcap.acquisition.synthetic.trial import make_trial
+    from gaitcap.reconstruction.methods import Explicit, Implicit, reconstruct
+    from gaitcap.reconstruction.triangulation import dlt_triangulate, robust_triangulate
 
     trial = make_trial("paper", seconds=seconds, cameras=cameras, seed=0)
     det26, rig = trial.detections, trial.rig

@@ -50,7 +50,7 @@ def watch_trial(ws_url: str, client, *, subject: str, seconds: float, timeout_s:
 
 
 def compute_times(catalog_url: str, trial_id: str) -> dict:
-    from services import catalog as cat
+    from gaitcap.services import catalog as cat
 
     db = cat.open_catalog(catalog_url)
     out = {}
@@ -63,7 +63,7 @@ def compute_times(catalog_url: str, trial_id: str) -> dict:
             out[f"{stage}_steps"] = len(r.steps)
     trial, job = cat.get_trial(db, trial_id), cat.jobs_for_trial(db, trial_id)[0]
     with db.session() as s:
-        from services.catalog.models import Job
+        from gaitcap.services.catalog.models import Job
 
         started = s.get(Job, job.id).started_at
     out["queue_s"] = None if started is None or trial.stopped_at is None else started - trial.stopped_at
@@ -83,8 +83,7 @@ def main() -> None:
     logging.basicConfig(level=logging.WARNING)
 
     import httpx
-
-    from services.stack import Stack, StackConfig, free_port_range
+    from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
 
     base = free_port_range(16)
     with tempfile.TemporaryDirectory(prefix="gaitcap-turnaround-") as tmp:

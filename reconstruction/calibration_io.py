@@ -33,9 +33,8 @@ from typing import Any
 
 import numpy as np
 import tomli_w
-
-from reconstruction.camera import Camera, Rig, check_rotation, matrix_to_rodrigues
-from reconstruction.fileio import atomic_write_text
+from gaitcap.reconstruction.camera import Camera, Rig, check_rotation, matrix_to_rodrigues
+from gaitcap.reconstruction.fileio import atomic_write_text
 
 JSON_FORMAT = "gaitcap-calibration"
 JSON_VERSION = 1

@@ -6,7 +6,7 @@ Conventions (used everywhere in gaitcap):
 - Distortion follows OpenCV's (k1, k2, p1, p2, k3) model; the paper's rig keeps only k1.
 - Image size is (width, height) in px.
 
-The JAX versions used for fitting live in :mod:`reconstruction.projection`; this module is the plain
+The JAX versions used for fitting live in :mod:`gaitcap.reconstruction.projection`; this module is the plain
 NumPy model used for I/O, validation and as a reference in tests.
 """
 

@@ -5,9 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from reconstruction.camera import Rig
-from reconstruction.skeletons import Skeleton, get_skeleton
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.skeletons import Skeleton, get_skeleton
 
 
 def validate_keypoints(keypoints, camera_names, times_s, skeleton: Skeleton | str, *, layout: str

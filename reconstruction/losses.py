@@ -2,7 +2,7 @@
 
 Layout: a trajectory is ``points (3, T, J)`` in mm (coordinate axis first); observations are
 cameras-first ``(C, T*J)`` arrays in the same (T, J) row-major order, so the projection is one matmul
-(see :mod:`reconstruction.projection`) and no reduction runs over a leading camera axis.
+(see :mod:`gaitcap.reconstruction.projection`) and no reduction runs over a leading camera axis.
 
 - L_reproj: Huber of the per-keypoint reprojection distance (px), quadratic within ``delta`` (5 px),
   then linear; optionally the slope is cut to ``cut_factor`` (0.1) beyond ``cut_px`` (10 px, the
@@ -19,8 +19,7 @@ from typing import NamedTuple
 
 import jax.numpy as jnp
 import numpy as np
-
-from reconstruction.projection import CameraArrays, project
+from gaitcap.reconstruction.projection import CameraArrays, project
 
 EPS_MM2 = 1e-6  # inside square roots, mm^2: keeps gradients finite at zero length
 

@@ -18,16 +18,15 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
-from reconstruction.fits.common import fill_gaps, fit_problem, reject_spikes
-from reconstruction.fits.explicit import ExplicitFit
-from reconstruction.fits.implicit import ImplicitFit
-from reconstruction.fits.optim import Progress
-from reconstruction.metrics import compute_metrics, reprojection_errors_px
-from reconstruction.result import Reconstruction
-from reconstruction.triangulation import TriangulationResult, dlt_triangulate, robust_triangulate
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.fits.common import fill_gaps, fit_problem, reject_spikes
+from gaitcap.reconstruction.fits.explicit import ExplicitFit
+from gaitcap.reconstruction.fits.implicit import ImplicitFit
+from gaitcap.reconstruction.fits.optim import Progress
+from gaitcap.reconstruction.metrics import compute_metrics, reprojection_errors_px
+from gaitcap.reconstruction.result import Reconstruction
+from gaitcap.reconstruction.triangulation import TriangulationResult, dlt_triangulate, robust_triangulate
 
 log = logging.getLogger(__name__)
 

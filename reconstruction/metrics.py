@@ -3,7 +3,7 @@
 - GC_d: fraction of keypoints with confidence > 0.5 (on the joints OpenPose BODY_25 also has) whose
   reconstruction reprojects within d px (d = 5, 10, 20); a NaN point counts as a miss.
 - L_reproj (Huber, px), L_smooth (mm/frame), L_skeleton (mm): the loss terms of
-  :mod:`reconstruction.losses` evaluated with binary confidence weights (> gamma), same for every method.
+  :mod:`gaitcap.reconstruction.losses` evaluated with binary confidence weights (> gamma), same for every method.
 - Per-camera reprojection error: median px over that camera's confident keypoints.
 - Against ground truth when known: MPJPE (mm, mean over finite points), heel and toe errors (mm), and
   the fraction of points that are NaN.
@@ -14,10 +14,9 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
-from reconstruction.losses import LossConfig
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.losses import LossConfig
 
 GC_THRESHOLDS_PX = (5, 10, 20)
 CONFIDENT = 0.5

@@ -7,7 +7,7 @@ leading camera axis, which XLA:CPU turns into a slow leading-axis reduction). Ca
 (C, 1) columns broadcast along N.
 
 Units: world points mm, pixels px, normalised image coordinates dimensionless.
-The NumPy reference model is :class:`reconstruction.camera.Camera`; tests check both against OpenCV.
+The NumPy reference model is :class:`gaitcap.reconstruction.camera.Camera`; tests check both against OpenCV.
 """
 
 from __future__ import annotations
@@ -18,8 +18,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-
-from reconstruction.camera import Rig
+from gaitcap.reconstruction.camera import Rig
 
 UNDISTORT_ITERS = 20
 

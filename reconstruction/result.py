@@ -25,7 +25,7 @@ class Reconstruction:
             exp(-reprojection px / 20) x confidence.
         quality: (T, J) effective number of agreeing views (sum of camera weights; 0 where NaN).
         losses: final loss terms of a fit ({} for triangulations), plus "steps" and "seconds".
-        metrics: see :func:`reconstruction.metrics.compute_metrics`.
+        metrics: see :func:`gaitcap.reconstruction.metrics.compute_metrics`.
         trajectory: for implicit fits, times_s (K,) -> (K, J, 3) mm; None otherwise.
     """
 

@@ -25,10 +25,9 @@ from itertools import combinations
 import jax
 import jax.numpy as jnp
 import numpy as np
-
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
-from reconstruction.projection import CameraArrays, camera_arrays, undistort_pixels
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.projection import CameraArrays, camera_arrays, undistort_pixels
 
 log = logging.getLogger(__name__)
 

@@ -4,7 +4,7 @@ Importing this package registers every detector config in ``DETECTOR_CONFIGS`` (
 the models themselves load only in ``config.build()``.
 """
 
-from acquisition.detectors import mediapipe, onnx, simulated  # noqa: F401  (register the configs)
-from acquisition.detectors.base import DETECTOR_CONFIGS, Detector, DetectorConfig, config_class
+from gaitcap.acquisition.detectors import mediapipe, onnx, simulated  # noqa: F401  (register the configs)
+from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, Detector, DetectorConfig, config_class
 
 __all__ = ["DETECTOR_CONFIGS", "Detector", "DetectorConfig", "config_class"]

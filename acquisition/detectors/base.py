@@ -7,7 +7,7 @@ A detector turns one camera image into keypoints of the people it sees::
 with x px, y px, confidence in [0, 1] per joint, P >= 0 people and J = ``detector.skeleton.num_joints``.
 
 Detectors are chosen by typed, frozen configs (one small class per detector kind) kept in a registry:
-``DETECTOR_CONFIGS["onnx"]`` is :class:`~acquisition.detectors.onnx.OnnxConfig`; ``config.build()``
+``DETECTOR_CONFIGS["onnx"]`` is :class:`~gaitcap.acquisition.detectors.onnx.OnnxConfig`; ``config.build()``
 returns the detector. Heavy libraries (onnxruntime, the TFLite interpreter) load inside ``build()``.
 """
 
@@ -18,8 +18,7 @@ from dataclasses import dataclass
 from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
-
-from reconstruction.skeletons import Skeleton
+from gaitcap.reconstruction.skeletons import Skeleton
 
 DETECTOR_CONFIGS: dict[str, type[DetectorConfig]] = {}
 

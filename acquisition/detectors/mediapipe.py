@@ -25,10 +25,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-
-from acquisition.detectors.base import DetectorConfig, check_image, empty_keypoints, register_detector
-from acquisition.detectors.crops import Crop, square_crop
-from reconstruction.skeletons import get_skeleton
+from gaitcap.acquisition.detectors.base import DetectorConfig, check_image, empty_keypoints, register_detector
+from gaitcap.acquisition.detectors.crops import Crop, square_crop
+from gaitcap.reconstruction.skeletons import get_skeleton
 
 log = logging.getLogger(__name__)
 

@@ -18,10 +18,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-
-from acquisition.detectors.base import DetectorConfig, check_image, empty_keypoints, register_detector
-from acquisition.detectors.crops import Crop, box_crop
-from reconstruction.skeletons import Skeleton, get_skeleton
+from gaitcap.acquisition.detectors.base import DetectorConfig, check_image, empty_keypoints, register_detector
+from gaitcap.acquisition.detectors.crops import Crop, box_crop
+from gaitcap.reconstruction.skeletons import Skeleton, get_skeleton
 
 log = logging.getLogger(__name__)
 
@@ -177,7 +176,7 @@ class OnnxDetector:
         self._std = np.asarray(config.std_rgb, dtype=np.float32)
         self._people = None
         if config.person_detector:
-            from acquisition.detectors.mediapipe import MediaPipeConfig
+            from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig
 
             self._people = MediaPipeConfig(
                 model="lite", num_poses=config.max_people, min_detection_confidence=config.person_min_score,

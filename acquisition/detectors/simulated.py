@@ -10,15 +10,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from acquisition.detectors.base import DetectorConfig, empty_keypoints, register_detector
+from gaitcap.acquisition.detectors.base import DetectorConfig, empty_keypoints, register_detector
 
 
 @register_detector
 @dataclass(frozen=True, eq=False)
 class SimulatedConfig(DetectorConfig):
-    """Detections of a synthetic trial (``acquisition.synthetic.make_trial(...)``): ``.detections``
-    (a :class:`reconstruction.detections.Detections`, one person) and, for several people, ``.multi``
+    """Detections of a synthetic trial (``gaitcap.acquisition.synthetic.make_trial(...)``): ``.detections``
+    (a :class:`gaitcap.reconstruction.detections.Detections`, one person) and, for several people, ``.multi``
     with all people's keypoints per camera (C, T, P, J, 3)."""
 
     kind = "simulated"

@@ -24,8 +24,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from acquisition.drivers.base import CaptureSettings, DriverStatus, Frame, is_ptp_jump
+from gaitcap.acquisition.drivers.base import CaptureSettings, DriverStatus, Frame, is_ptp_jump
 
 log = logging.getLogger(__name__)
 

@@ -1,6 +1,6 @@
 """Simulated cameras: the synthetic world rendered from each rig camera.
 
-Each :class:`SimulatedCamera` plays one camera of a synthetic trial (``acquisition.synthetic``): it
+Each :class:`SimulatedCamera` plays one camera of a synthetic trial (``gaitcap.acquisition.synthetic``): it
 renders frame ``i`` at the chosen resolution and frame rate and stamps it with the camera's clock:
 
     timestamp_ns = start_ns + i * period_ns + clock_offsets_ns[c] + jitter_ns[c, i]
@@ -19,8 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from acquisition.drivers.base import CaptureSettings, DriverStatus, Frame, is_ptp_jump, wait_until_ns
+from gaitcap.acquisition.drivers.base import CaptureSettings, DriverStatus, Frame, is_ptp_jump, wait_until_ns
 
 log = logging.getLogger(__name__)
 
@@ -41,7 +40,7 @@ class SimulatedFaults:
 
 
 def _default_render(trial: Any, camera_index: int, frame_index: int, size_px: tuple[int, int]) -> np.ndarray:
-    from acquisition.synthetic.render import render_frame
+    from gaitcap.acquisition.synthetic.render import render_frame
 
     return render_frame(trial, camera_index, frame_index, size_px=size_px)
 
@@ -55,7 +54,7 @@ def trial_fps(trial: Any) -> float:
 
 
 class SimulatedCamera:
-    """One camera of a synthetic trial, behind the :class:`~acquisition.drivers.base.CameraDriver` protocol.
+    """One camera of a synthetic trial, behind the :class:`~gaitcap.acquisition.drivers.base.CameraDriver` protocol.
 
     Args:
         trial: a synthetic trial (``.rig``, ``.times_s`` (T,), ``.clock_offsets_ns`` (C,),
@@ -90,7 +89,7 @@ class SimulatedCamera:
         self._status = DriverStatus(camera=self.name)
         self._start_ns: int | None = None
         self._stopped = False
-        # (SceneSwitch, BoardScene) of acquisition.synthetic.board_scene: show a calibration board instead
+        # (SceneSwitch, BoardScene) of gaitcap.acquisition.synthetic.board_scene: show a calibration board instead
         self.scene: tuple[Any, Any] | None = None
 
     def open(self) -> None:
@@ -229,7 +228,7 @@ def simulated_rig(
 class SimTrialSpec:
     """How to rebuild the same synthetic trial in several processes (camera and detector nodes).
 
-    Attributes mirror ``acquisition.synthetic.make_trial(preset, seconds, cameras, people, seed, fps)``.
+    Attributes mirror ``gaitcap.acquisition.synthetic.make_trial(preset, seconds, cameras, people, seed, fps)``.
     """
 
     preset: str = "paper"
@@ -240,7 +239,7 @@ class SimTrialSpec:
     fps: float = 30.0
 
     def make(self) -> Any:
-        from acquisition.synthetic import make_trial
+        from gaitcap.acquisition.synthetic import make_trial
 
         return make_trial(self.preset, seconds=self.seconds, cameras=self.cameras, people=self.people,
                           seed=self.seed, fps=self.fps)

@@ -8,8 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from acquisition.drivers.base import CameraDriver, CaptureSettings
-from acquisition.drivers.simulated import SimTrialSpec, parse_faults, simulated_rig
+from gaitcap.acquisition.drivers.base import CameraDriver, CaptureSettings
+from gaitcap.acquisition.drivers.simulated import SimTrialSpec, parse_faults, simulated_rig
 
 
 @dataclass(frozen=True)
@@ -42,7 +42,7 @@ class VideoSource:
     realtime: bool = True
 
     def build(self) -> list[CameraDriver]:
-        from acquisition.drivers.video import VideoCamera, WebcamCamera
+        from gaitcap.acquisition.drivers.video import VideoCamera, WebcamCamera
 
         if not self.files and not self.webcams:
             raise ValueError("video source: give --video FILE and/or --webcam INDEX")
@@ -68,7 +68,7 @@ class FlirSource:
     trigger_source: str = "Action0"
 
     def build(self) -> list[CameraDriver]:
-        from acquisition.drivers.flir import FlirSystem, GigESettings
+        from gaitcap.acquisition.drivers.flir import FlirSystem, GigESettings
 
         if not self.serials:
             raise ValueError("flir source: give --serials S1,S2,...")

@@ -13,7 +13,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from acquisition.drivers.base import CaptureSettings, DriverStatus, Frame, is_ptp_jump, wait_until_ns
+from gaitcap.acquisition.drivers.base import CaptureSettings, DriverStatus, Frame, is_ptp_jump, wait_until_ns
 
 log = logging.getLogger(__name__)
 

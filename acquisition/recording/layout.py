@@ -22,7 +22,7 @@ attachment ``calibration.toml`` (aniposelib TOML) when a calibration was given, 
 are ALSO written as the first messages so that a file cut short by a crash still carries them.
 
 While recording, the file is ``<path>.part``; a clean stop renames it to ``<path>``. A recorder that
-died leaves ``<path>.part``; :func:`acquisition.recording.reader.recover` reads every complete chunk.
+died leaves ``<path>.part``; :func:`gaitcap.acquisition.recording.recovery.recover` reads every complete chunk.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Read trial MCAPs: detections, calibration, metadata, frames; recover files cut short by a crash.
+"""Read trial MCAPs: detections, calibration, metadata, frames; scan files cut short by a crash.
 
 Complete files are read through the MCAP index (keypoints without touching image chunks). A file without
 a valid summary (``<path>.part`` left by a recorder that died, or a truncated copy) is scanned record by
@@ -18,16 +18,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from gaitcap.acquisition.encoding import parse_image_message
+from gaitcap.acquisition.recording import layout
+from gaitcap.reconstruction.calibration_io import rig_from_toml_text
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
 from mcap.exceptions import McapError
 from mcap.reader import SeekingReader
 from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
-
-from acquisition.encoding import parse_image_message
-from acquisition.recording import layout
-from reconstruction.calibration_io import rig_from_toml_text
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
 
 log = logging.getLogger(__name__)
 
@@ -147,7 +146,7 @@ def iter_messages(path: str | os.PathLike, wanted: TopicFilter) -> Iterator[tupl
                     return
                 except Exception as exc:  # lz4/zstd errors, bad records inside a chunk
                     raise ValueError(f"{p}: corrupt data ({type(exc).__name__}: {exc}); "
-                                     "acquisition.recording.reader.recover() keeps every intact chunk") from None
+                                     "gaitcap.acquisition.recording.recovery.recover() keeps every intact chunk") from None
                 yield channel.topic, message
     state = ScanState(p)
     yield from scan(p, state, wanted)
@@ -170,7 +169,7 @@ def read_metadata(path: str | os.PathLike) -> dict[str, Any]:
 
 
 def read_calibration(path: str | os.PathLike) -> Rig:
-    """The calibration recorded with the trial, as a :class:`~reconstruction.camera.Rig`."""
+    """The calibration recorded with the trial, as a :class:`~gaitcap.reconstruction.camera.Rig`."""
     calib = _first_json(path, layout.CALIBRATION_TOPIC)
     if calib is None:
         raise ValueError(f"{path}: no calibration recorded ({layout.CALIBRATION_TOPIC})")
@@ -207,7 +206,7 @@ class RecordedFrame:
     jpeg: bytes
 
     def image(self) -> np.ndarray:
-        from acquisition.encoding import decode_jpeg
+        from gaitcap.acquisition.encoding import decode_jpeg
 
         return decode_jpeg(self.jpeg, what=f"camera {self.camera} frame {self.frame_id}")
 
@@ -311,50 +310,5 @@ def _camera_order(path, per_cam: dict, cameras: list[str] | None) -> list[str]:
 
 
 def read_detections(path: str | os.PathLike, cameras: list[str] | None = None) -> Detections:
-    """The patient's keypoints (C, T, J, 3) as :class:`~reconstruction.detections.Detections`."""
+    """The patient's keypoints (C, T, J, 3) as :class:`~gaitcap.reconstruction.detections.Detections`."""
     return read_keypoints(path, cameras).patient()
-
-
-@dataclass(frozen=True)
-class RecoveryReport:
-    """What :func:`recover` found and wrote."""
-
-    source: Path
-    output: Path | None
-    was_complete: bool
-    chunks: int
-    corrupt_chunks: int
-    messages: dict[str, int]
-    error: str | None
-
-
-def recover(path: str | os.PathLike, out: str | os.PathLike | None = None) -> RecoveryReport:
-    """Read every complete chunk of a recording cut short and write them as a valid MCAP.
-
-    ``out`` defaults to the recording's final name (``x.mcap`` for ``x.mcap.part``; ``x.recovered.mcap``
-    for a complete file with a corrupt chunk); a complete, intact file is only checked (no output
-    written). ValueError when nothing readable is in the file.
-    """
-    from acquisition.recording.rewrite import rewrite_scanned
-
-    src = resolve_recording(path)
-    if is_complete(src):
-        counts: dict[str, int] = {}
-        try:
-            for topic, _ in iter_messages(src, lambda t: True):
-                counts[topic] = counts.get(topic, 0) + 1
-            return RecoveryReport(src, None, True, 0, 0, counts, None)
-        except ValueError as exc:  # complete but with a corrupt chunk: rewrite the intact ones
-            log.warning("%s", exc)
-    default = src.with_name(src.name.removesuffix(layout.PART_SUFFIX))
-    if default == src:
-        default = src.with_name(src.stem + ".recovered.mcap")
-    target = Path(out) if out is not None else default
-    if target == src or target.exists():
-        raise ValueError(f"recover: output {target} exists (or is the input); give another path")
-    state = ScanState(src)
-    counts = rewrite_scanned(scan(src, state), state, target)
-    if not counts:
-        target.unlink(missing_ok=True)
-        raise ValueError(f"{src}: no complete chunk could be read ({state.error})")
-    return RecoveryReport(src, target, False, state.chunks, state.corrupt_chunks, counts, state.error)

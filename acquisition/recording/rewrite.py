@@ -8,13 +8,12 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gaitcap.acquisition.recording import layout
 from mcap.records import Message
 from mcap.writer import CompressionType, Writer
 
-from acquisition.recording import layout
-
 if TYPE_CHECKING:
-    from acquisition.recording.reader import ScanState
+    from gaitcap.acquisition.recording.reader import ScanState
 
 
 def rewrite_scanned(messages: Iterator[tuple[str, Message]], state: ScanState, target: Path) -> dict[str, int]:

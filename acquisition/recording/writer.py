@@ -1,4 +1,4 @@
-"""The trial MCAP writer (layout: :mod:`acquisition.recording.layout`).
+"""The trial MCAP writer (layout: :mod:`gaitcap.acquisition.recording.layout`).
 
 Not thread-safe: one thread (the recorder's writer thread) calls it. Writes go to ``<path>.part``;
 :meth:`TrialWriter.finish` writes the summary and index, fsyncs and renames to ``<path>``. An OSError
@@ -15,10 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from gaitcap.acquisition.encoding import IMAGE_SCHEMA_NAME, image_schema_data
+from gaitcap.acquisition.recording import layout
 from mcap.writer import CompressionType, Writer
-
-from acquisition.encoding import IMAGE_SCHEMA_NAME, image_schema_data
-from acquisition.recording import layout
 
 log = logging.getLogger(__name__)
 

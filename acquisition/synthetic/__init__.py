@@ -1,20 +1,20 @@
 """The synthetic gait world: a walking patient with exact ground truth, seen by a simulated camera rig.
 
-    from acquisition.synthetic import make_trial, SyntheticTrial, WalkParams, PRESETS
+    from gaitcap.acquisition.synthetic import make_trial, SyntheticTrial, WalkParams, PRESETS
     trial = make_trial(preset="paper", seconds=30.0, cameras=10, people=1, seed=0, fps=30.0)
 
 Units: world mm (z up, floor z = 0, origin at the centre of the 7.4 m x 8 m room), pixels px, times s
-(clock offsets/jitter ns). Joints follow Halpe-26 (``reconstruction.skeletons``). Everything is
+(clock offsets/jitter ns). Joints follow Halpe-26 (``gaitcap.reconstruction.skeletons``). Everything is
 deterministic given the arguments. Modules: ``params`` (WalkParams), ``path`` (room, footstep plan),
 ``walker`` (kinematic body), ``truth`` (gait events and step parameters), ``room`` (camera rig),
 ``noise`` (detector model and PRESETS), ``people`` (therapist, bystander), ``trial`` (make_trial),
 ``render`` (images), ``files`` (simulate outputs on disk).
 """
 
-from acquisition.synthetic.noise import PRESETS, NoisePreset
-from acquisition.synthetic.params import WalkParams
-from acquisition.synthetic.trial import MultiPersonDetections, SyntheticTrial, make_trial
-from acquisition.synthetic.truth import GaitTruth, StepTable
+from gaitcap.acquisition.synthetic.noise import PRESETS, NoisePreset
+from gaitcap.acquisition.synthetic.params import WalkParams
+from gaitcap.acquisition.synthetic.trial import MultiPersonDetections, SyntheticTrial, make_trial
+from gaitcap.acquisition.synthetic.truth import GaitTruth, StepTable
 
 __all__ = [
     "PRESETS", "NoisePreset", "WalkParams", "make_trial", "SyntheticTrial", "MultiPersonDetections", "GaitTruth",
@@ -24,7 +24,7 @@ __all__ = [
 
 def __getattr__(name):  # lazy: files pulls in the calibration writer
     if name in ("save_trial", "load_trial_files", "TrialFiles"):
-        from acquisition.synthetic import files
+        from gaitcap.acquisition.synthetic import files
 
         return getattr(files, name)
     raise AttributeError(name)

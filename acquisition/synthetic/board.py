@@ -15,12 +15,11 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-
-from acquisition.board import Board
-from acquisition.synthetic.board_render import BoardRenderer, camera_at
-from acquisition.synthetic.room import visible as lens_visible
-from reconstruction.calibration.geometry import BoardGeometry, BoardObservations
-from reconstruction.camera import Rig
+from gaitcap.acquisition.board import Board
+from gaitcap.acquisition.synthetic.board_render import BoardRenderer, camera_at
+from gaitcap.acquisition.synthetic.room import visible as lens_visible
+from gaitcap.reconstruction.calibration.geometry import BoardGeometry, BoardObservations
+from gaitcap.reconstruction.camera import Rig
 
 FLOOR_ROTATION = np.diag([1.0, -1.0, -1.0])  # board -> world for a board lying face up
 FLOOR_SPOTS_MM = ((1500.0, 1500.0), (-1500.0, 1200.0), (1000.0, -1500.0))  # where to lay it down again
@@ -230,8 +229,8 @@ def write_board_folder(folder: str | os.PathLike, images: dict[str, np.ndarray])
 def write_board_mcap(path: str | os.PathLike, images: dict[str, np.ndarray], *, fps: float = 10.0,
                      start_ns: int = 1_700_000_000_000_000_000) -> Path:
     """Write rendered images as a trial MCAP (JPEG frames, synchronised frame ids), like the recorder."""
-    from acquisition.encoding import encode_jpeg
-    from acquisition.recording.writer import TrialWriter
+    from gaitcap.acquisition.encoding import encode_jpeg
+    from gaitcap.acquisition.recording.writer import TrialWriter
 
     writer = TrialWriter(path)
     writer.start(metadata={"kind": "calibration", "synthetic": True}, time_ns=start_ns)
@@ -245,7 +244,7 @@ def write_board_mcap(path: str | os.PathLike, images: dict[str, np.ndarray], *, 
 
 def add_jpeg_frame(writer, camera: str, jpeg: bytes, *, frame_id: int, stamp_ns: int) -> None:
     """One camera's JPEG frame into a trial writer, stamped as a synchronised rig would (ns)."""
-    from acquisition.encoding import image_message
+    from gaitcap.acquisition.encoding import image_message
 
     msg = image_message(jpeg, camera=camera, timestamp_ns=stamp_ns)
     writer.add_frame(camera, msg, timestamp_ns=stamp_ns, frame_id=frame_id, receive_ns=stamp_ns)

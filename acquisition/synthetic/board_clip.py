@@ -18,19 +18,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-
-from acquisition.board import BoardConfig, make_board
-from acquisition.encoding import encode_jpeg
-from acquisition.synthetic.board import (
+from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.encoding import encode_jpeg
+from gaitcap.acquisition.synthetic.board import (
     FLOOR_SPOTS_MM,
     BoardMotion,
     add_jpeg_frame,
     board_trajectory,
     scaled_rig,
 )
-from acquisition.synthetic.board_render import BoardRenderer, camera_at
-from acquisition.synthetic.room import build_rig
-from reconstruction.camera import Rig
+from gaitcap.acquisition.synthetic.board_render import BoardRenderer, camera_at
+from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.reconstruction.camera import Rig
 
 log = logging.getLogger(__name__)
 
@@ -85,7 +84,7 @@ def write_board_clip(
 ) -> tuple[Path, Rig]:
     """Render and write the recording to ``path`` (.mcap); returns it and the true rig at the rendered
     size. On any error no file is left behind."""
-    from acquisition.recording.writer import TrialWriter
+    from gaitcap.acquisition.recording.writer import TrialWriter
 
     rig = build_rig(10, seed=config.seed)
     rig = rig.subset(list(rig.names[: config.cameras]))

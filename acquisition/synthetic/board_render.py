@@ -6,10 +6,9 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-
-from acquisition.board import Board
-from acquisition.synthetic.room import safe_project
-from reconstruction.camera import Camera
+from gaitcap.acquisition.board import Board
+from gaitcap.acquisition.synthetic.room import safe_project
+from gaitcap.reconstruction.camera import Camera
 
 PX_PER_MM = 2.0  # texture resolution
 

@@ -21,10 +21,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-from reconstruction.calibration_io import load_rig, save_rig
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
+from gaitcap.reconstruction.calibration_io import load_rig, save_rig
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
 
 CALIBRATION = "calibration.toml"
 KEYPOINTS = "keypoints.npz"
@@ -89,7 +88,7 @@ class TrialFiles:
 
     @property
     def params(self):
-        from acquisition.synthetic.params import WalkParams
+        from gaitcap.acquisition.synthetic.params import WalkParams
 
         if self.ground_truth is None:
             raise ValueError("no ground_truth.npz was read")

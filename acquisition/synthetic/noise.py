@@ -22,11 +22,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from gaitcap.acquisition.synthetic.room import visible
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.skeletons import get_skeleton
 from scipy.signal import lfilter
-
-from acquisition.synthetic.room import visible
-from reconstruction.camera import Rig
-from reconstruction.skeletons import get_skeleton
 
 SKELETON = get_skeleton("halpe26")
 EXPOSURE_S = 0.015  # the lab's fixed exposure

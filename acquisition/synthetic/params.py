@@ -17,7 +17,7 @@ SIDES = ("left", "right")
 class WalkParams:
     """How the synthetic patient walks (and how the body is built).
 
-    Gait (straight passes reproduce these exactly, see :mod:`acquisition.synthetic.truth`):
+    Gait (straight passes reproduce these exactly, see :mod:`gaitcap.acquisition.synthetic.truth`):
         step_length_mm: mean step length (heel to previous contralateral heel, along progression).
         step_width_mm: heel-to-heel lateral distance (base of support).
         cadence_spm: steps per minute (both feet together).

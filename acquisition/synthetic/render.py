@@ -17,10 +17,9 @@ import math
 
 import cv2
 import numpy as np
-
-from acquisition.synthetic.room import safe_project
-from reconstruction.camera import Camera
-from reconstruction.skeletons import get_skeleton
+from gaitcap.acquisition.synthetic.room import safe_project
+from gaitcap.reconstruction.camera import Camera
+from gaitcap.reconstruction.skeletons import get_skeleton
 
 SKELETON = get_skeleton("halpe26")
 J = SKELETON.index

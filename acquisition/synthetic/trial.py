@@ -6,17 +6,16 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from acquisition.synthetic.noise import NoisePreset, clock_model, detect, get_preset, occlusion_mask
-from acquisition.synthetic.params import WalkParams
-from acquisition.synthetic.path import FootPlan, Room, plan_walk
-from acquisition.synthetic.people import bystander, therapist
-from acquisition.synthetic.room import build_rig
-from acquisition.synthetic.truth import GaitTruth, gait_truth
-from acquisition.synthetic.walker import Body, simulate_body
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
-from reconstruction.skeletons import Skeleton, get_skeleton
+from gaitcap.acquisition.synthetic.noise import NoisePreset, clock_model, detect, get_preset, occlusion_mask
+from gaitcap.acquisition.synthetic.params import WalkParams
+from gaitcap.acquisition.synthetic.path import FootPlan, Room, plan_walk
+from gaitcap.acquisition.synthetic.people import bystander, therapist
+from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.acquisition.synthetic.truth import GaitTruth, gait_truth
+from gaitcap.acquisition.synthetic.walker import Body, simulate_body
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.skeletons import Skeleton, get_skeleton
 
 MIN_SECONDS = 4.0
 MAX_PEOPLE = 3

@@ -20,9 +20,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from acquisition.synthetic.path import SIDE_NAME, FootPlan
-from acquisition.synthetic.walker import Body
+from gaitcap.acquisition.synthetic.path import SIDE_NAME, FootPlan
+from gaitcap.acquisition.synthetic.walker import Body
 
 
 @dataclass(frozen=True, eq=False)

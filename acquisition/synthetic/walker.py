@@ -18,11 +18,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from gaitcap.acquisition.synthetic.params import WalkParams
+from gaitcap.acquisition.synthetic.path import LEFT, RIGHT, FootPlan, forward, left_normal, wrap_angle
+from gaitcap.reconstruction.skeletons import get_skeleton
 from scipy.interpolate import PchipInterpolator
-
-from acquisition.synthetic.params import WalkParams
-from acquisition.synthetic.path import LEFT, RIGHT, FootPlan, forward, left_normal, wrap_angle
-from reconstruction.skeletons import get_skeleton
 
 SKELETON = get_skeleton("halpe26")
 J = SKELETON.index

@@ -13,8 +13,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from reconstruction.gait.walkway import Similarity2D, WalkwayTrial
+from gaitcap.reconstruction.gait.walkway import Similarity2D, WalkwayTrial
 
 
 @dataclass(frozen=True)

@@ -3,15 +3,15 @@
 Input: :class:`MultiPersonDetections` (C, T, P, J, 3) with people in arbitrary order per camera and
 frame. :func:`associate` -> :class:`Tracks`; a selector (:class:`WalkwayTrack`,
 :class:`NearestStartTrack`, :class:`ManualTrack`) picks the patient; :func:`patient_detections` gives
-the :class:`~reconstruction.detections.Detections` that reconstruction uses; :func:`person_boxes`
+the :class:`~gaitcap.reconstruction.detections.Detections` that reconstruction uses; :func:`person_boxes`
 reprojects a 3D reconstruction into per-camera boxes for top-down detectors.
 """
 
-from reconstruction.association.boxes import BoxConfig, person_boxes, track_boxes
-from reconstruction.association.crossview import AssociationConfig, FramePeople, associate_frames
-from reconstruction.association.evaluation import AssociationScore, score_association
-from reconstruction.association.multi import MultiPersonDetections
-from reconstruction.association.pipeline import (
+from gaitcap.reconstruction.association.boxes import BoxConfig, person_boxes, track_boxes
+from gaitcap.reconstruction.association.crossview import AssociationConfig, FramePeople, associate_frames
+from gaitcap.reconstruction.association.evaluation import AssociationScore, score_association
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.association.pipeline import (
     PatientSelection,
     PipelineConfig,
     associate,
@@ -20,7 +20,7 @@ from reconstruction.association.pipeline import (
     default_selector,
     walkway_from_rig,
 )
-from reconstruction.association.selection import (
+from gaitcap.reconstruction.association.selection import (
     ManualTrack,
     NearestStartTrack,
     TrackSelector,
@@ -28,7 +28,7 @@ from reconstruction.association.selection import (
     patient_detections,
     select_track_at_pixel,
 )
-from reconstruction.association.tracking import TrackingConfig, Tracks, TrackSummary, link_tracks
+from gaitcap.reconstruction.association.tracking import TrackingConfig, Tracks, TrackSummary, link_tracks
 
 __all__ = [
     "AssociationConfig", "AssociationScore", "BoxConfig", "FramePeople", "ManualTrack",

@@ -5,8 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from reconstruction.camera import Rig
+from gaitcap.reconstruction.camera import Rig
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from reconstruction.skeletons import Skeleton
+from gaitcap.reconstruction.skeletons import Skeleton
 
 DEFAULT_ASSOCIATION_JOINTS: tuple[str, ...] = (
     "nose", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",

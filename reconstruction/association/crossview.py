@@ -26,17 +26,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from reconstruction.association.config import DEFAULT_ASSOCIATION_JOINTS, AssociationConfig
-from reconstruction.association.hypotheses import (
+from gaitcap.reconstruction.association.config import DEFAULT_ASSOCIATION_JOINTS, AssociationConfig
+from gaitcap.reconstruction.association.hypotheses import (
     consensus_positions,
     drop_same_camera_conflicts,
     linked_components,
     pair_hypotheses,
 )
-from reconstruction.association.multi import MultiPersonDetections
-from reconstruction.association.rays import make_rays, quiet_warnings
-from reconstruction.association.refine import (
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.association.rays import make_rays, quiet_warnings
+from gaitcap.reconstruction.association.refine import (
     ROBUST_ITERS,
     absorb_explained,
     assign_greedy,
@@ -46,7 +45,7 @@ from reconstruction.association.refine import (
     reprojection_cost,
     triangulate_groups,
 )
-from reconstruction.camera import Rig
+from gaitcap.reconstruction.camera import Rig
 
 __all__ = ["DEFAULT_ASSOCIATION_JOINTS", "AssociationConfig", "FramePeople", "associate_frames"]
 

@@ -7,8 +7,7 @@ Rays are unit directions in world coordinates starting at the camera centre.
 from __future__ import annotations
 
 import numpy as np
-
-from reconstruction.camera import Rig
+from gaitcap.reconstruction.camera import Rig
 
 UNDISTORT_ITERS = 10
 _EPS = 1e-9

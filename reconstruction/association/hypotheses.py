@@ -9,10 +9,9 @@ coincide), and detections are linked by pairs that agree with both positions.
 from __future__ import annotations
 
 import numpy as np
-
-from reconstruction.association.config import AssociationConfig
-from reconstruction.association.geometry import two_ray_closest
-from reconstruction.association.rays import Rays
+from gaitcap.reconstruction.association.config import AssociationConfig
+from gaitcap.reconstruction.association.geometry import two_ray_closest
+from gaitcap.reconstruction.association.rays import Rays
 
 
 def pair_hypotheses(rays: Rays, config: AssociationConfig) -> tuple[np.ndarray, np.ndarray]:

@@ -5,9 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from reconstruction.detections import set_validated_fields
-from reconstruction.skeletons import Skeleton
+from gaitcap.reconstruction.detections import set_validated_fields
+from gaitcap.reconstruction.skeletons import Skeleton
 
 
 @dataclass(frozen=True, eq=False)

@@ -12,9 +12,8 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-
-from reconstruction.association.multi import MultiPersonDetections
-from reconstruction.detections import Detections
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.detections import Detections
 
 _KEYS = ("keypoints", "camera_names", "times_s", "skeleton")
 

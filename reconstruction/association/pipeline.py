@@ -5,13 +5,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from reconstruction.association.crossview import AssociationConfig, associate_frames
-from reconstruction.association.multi import MultiPersonDetections
-from reconstruction.association.selection import TrackSelector, WalkwayTrack, patient_detections
-from reconstruction.association.tracking import TrackingConfig, Tracks, link_tracks
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
+from gaitcap.reconstruction.association.crossview import AssociationConfig, associate_frames
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.association.selection import TrackSelector, WalkwayTrack, patient_detections
+from gaitcap.reconstruction.association.tracking import TrackingConfig, Tracks, link_tracks
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
 
 
 @dataclass(frozen=True)

@@ -8,11 +8,10 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-
-from reconstruction.association.config import AssociationConfig
-from reconstruction.association.geometry import pixel_rays
-from reconstruction.association.multi import MultiPersonDetections
-from reconstruction.camera import Rig
+from gaitcap.reconstruction.association.config import AssociationConfig
+from gaitcap.reconstruction.association.geometry import pixel_rays
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.camera import Rig
 
 
 @dataclass(frozen=True)

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-
-from reconstruction.association.config import AssociationConfig
-from reconstruction.association.geometry import ray_distance, triangulate_rays
-from reconstruction.association.rays import Rays
-from reconstruction.camera import Rig
+from gaitcap.reconstruction.association.config import AssociationConfig
+from gaitcap.reconstruction.association.geometry import ray_distance, triangulate_rays
+from gaitcap.reconstruction.association.rays import Rays
+from gaitcap.reconstruction.camera import Rig
 
 ROBUST_ITERS = 2  # reweightings of the final triangulation of each person
 ROBUST_SCALE_MM = 60.0  # Cauchy scale of the ray-to-point distance

@@ -19,10 +19,9 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
-
-from reconstruction.association.multi import MultiPersonDetections
-from reconstruction.association.tracking import Tracks
-from reconstruction.detections import Detections
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.association.tracking import Tracks
+from gaitcap.reconstruction.detections import Detections
 
 
 class TrackSelector(Protocol):

@@ -15,9 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from gaitcap.reconstruction.association.crossview import FramePeople
 from scipy.optimize import linear_sum_assignment
-
-from reconstruction.association.crossview import FramePeople
 
 _FAR = 1e12
 

@@ -7,17 +7,17 @@ Modules: ``geometry`` (board, observations, rotations), ``intrinsics`` (OpenCV p
 ``report`` (quality report), ``pipeline`` (all of it).
 """
 
-from reconstruction.calibration.bundle import BundleConfig
-from reconstruction.calibration.geometry import BoardGeometry, BoardObservations, grid_board
-from reconstruction.calibration.intrinsics import DistortionModel, IntrinsicsConfig
-from reconstruction.calibration.pipeline import (
+from gaitcap.reconstruction.calibration.bundle import BundleConfig
+from gaitcap.reconstruction.calibration.geometry import BoardGeometry, BoardObservations, grid_board
+from gaitcap.reconstruction.calibration.intrinsics import DistortionModel, IntrinsicsConfig
+from gaitcap.reconstruction.calibration.pipeline import (
     CalibrationConfig,
     CalibrationResult,
     calibrate_from_observations,
 )
-from reconstruction.calibration.report import CameraQuality, QualityReport, QualityThresholds
-from reconstruction.calibration.walk_frame import reframe_rig, world_from_walk
-from reconstruction.calibration.world import WorldFrameConfig
+from gaitcap.reconstruction.calibration.report import CameraQuality, QualityReport, QualityThresholds
+from gaitcap.reconstruction.calibration.walk_frame import reframe_rig, world_from_walk
+from gaitcap.reconstruction.calibration.world import WorldFrameConfig
 
 __all__ = [
     "BoardGeometry",

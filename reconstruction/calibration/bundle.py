@@ -15,10 +15,9 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+from gaitcap.reconstruction.calibration.geometry import rodrigues_batch, rvec_of
 from scipy.sparse import csr_matrix, diags
 from scipy.sparse.linalg import spsolve
-
-from reconstruction.calibration.geometry import rodrigues_batch, rvec_of
 
 log = logging.getLogger(__name__)
 

@@ -12,9 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from reconstruction.calibration.geometry import mean_rotation, rotation_angle_deg
-from reconstruction.camera import Rig
+from gaitcap.reconstruction.calibration.geometry import mean_rotation, rotation_angle_deg
+from gaitcap.reconstruction.camera import Rig
 
 
 @dataclass(frozen=True)

@@ -8,11 +8,10 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from gaitcap.reconstruction.calibration.geometry import compose, invert, mean_rotation, rotation_angle_deg
+from gaitcap.reconstruction.calibration.views import ViewPoses
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
-
-from reconstruction.calibration.geometry import compose, invert, mean_rotation, rotation_angle_deg
-from reconstruction.calibration.views import ViewPoses
 
 log = logging.getLogger(__name__)
 

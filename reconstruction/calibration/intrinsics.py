@@ -8,8 +8,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-
-from reconstruction.calibration.geometry import BoardObservations
+from gaitcap.reconstruction.calibration.geometry import BoardObservations
 
 log = logging.getLogger(__name__)
 

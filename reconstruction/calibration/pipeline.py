@@ -7,18 +7,17 @@ import logging
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from reconstruction.calibration.bundle import (
+from gaitcap.reconstruction.calibration.bundle import (
     BundleConfig,
     BundleProblem,
     BundleResult,
     BundleState,
     bundle_adjust,
 )
-from reconstruction.calibration.geometry import BoardObservations
-from reconstruction.calibration.graph import InitialPoses, initial_poses
-from reconstruction.calibration.intrinsics import Intrinsics, IntrinsicsConfig, estimate_intrinsics
-from reconstruction.calibration.report import (
+from gaitcap.reconstruction.calibration.geometry import BoardObservations
+from gaitcap.reconstruction.calibration.graph import InitialPoses, initial_poses
+from gaitcap.reconstruction.calibration.intrinsics import Intrinsics, IntrinsicsConfig, estimate_intrinsics
+from gaitcap.reconstruction.calibration.report import (
     CameraQuality,
     QualityReport,
     QualityThresholds,
@@ -26,16 +25,16 @@ from reconstruction.calibration.report import (
     error_stats,
     measured_square_mm,
 )
-from reconstruction.calibration.still import merge_still_frames
-from reconstruction.calibration.views import view_poses
-from reconstruction.calibration.world import (
+from gaitcap.reconstruction.calibration.still import merge_still_frames
+from gaitcap.reconstruction.calibration.views import view_poses
+from gaitcap.reconstruction.calibration.world import (
     WorldFrameConfig,
     floor_plane,
     floor_pose,
     to_world,
     world_from_floor,
 )
-from reconstruction.camera import Camera, Rig, matrix_to_rodrigues
+from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 
 log = logging.getLogger(__name__)
 

@@ -16,8 +16,7 @@ be compared. Frames where no camera sees the board join the run they fall in (th
 from __future__ import annotations
 
 import numpy as np
-
-from reconstruction.calibration.geometry import BoardObservations
+from gaitcap.reconstruction.calibration.geometry import BoardObservations
 
 MIN_COMMON_CORNERS = 4  # corners two views must share to be compared
 

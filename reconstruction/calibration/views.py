@@ -3,7 +3,7 @@
 A plain checkerboard's corners may come back rotated by 180 degrees or mirrored. A mirrored order still
 reprojects perfectly but puts the board's printed face AWAY from the camera, which is impossible for an
 opaque board; such candidates are dropped here. The 180-degree ambiguity cannot be decided in one view
-and is resolved across cameras in :mod:`reconstruction.calibration.graph`.
+and is resolved across cameras in :mod:`gaitcap.reconstruction.calibration.graph`.
 """
 
 from __future__ import annotations
@@ -12,9 +12,8 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-
-from reconstruction.calibration.geometry import BoardObservations
-from reconstruction.calibration.intrinsics import Intrinsics
+from gaitcap.reconstruction.calibration.geometry import BoardObservations
+from gaitcap.reconstruction.calibration.intrinsics import Intrinsics
 
 MAX_PNP_MEDIAN_PX = 3.0  # a few misplaced corners must not throw away the view
 PNP_OUTLIER_PX = 3.0

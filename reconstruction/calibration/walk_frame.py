@@ -9,9 +9,8 @@ direction of the first pass. ``reframe_rig`` moves a rig into that frame.
 from __future__ import annotations
 
 import numpy as np
-
-from reconstruction.calibration.world import WorldTransform, to_world
-from reconstruction.camera import Rig, matrix_to_rodrigues
+from gaitcap.reconstruction.calibration.world import WorldTransform, to_world
+from gaitcap.reconstruction.camera import Rig, matrix_to_rodrigues
 
 STILL_SHARE = 0.3
 FIRST_PASS_MM = 500.0  # the walking direction is the way the pelvis first moves this far

@@ -14,8 +14,7 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
-
-from reconstruction.calibration.geometry import mean_rotation, rodrigues_batch, rotation_angle_deg
+from gaitcap.reconstruction.calibration.geometry import mean_rotation, rodrigues_batch, rotation_angle_deg
 
 log = logging.getLogger(__name__)
 

@@ -7,11 +7,10 @@ from dataclasses import dataclass
 
 import jax.numpy as jnp
 import numpy as np
-
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
-from reconstruction.losses import Problem, make_observations
-from reconstruction.projection import camera_arrays
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.losses import Problem, make_observations
+from gaitcap.reconstruction.projection import camera_arrays
 
 
 @dataclass(frozen=True, eq=False)

@@ -6,10 +6,9 @@ from dataclasses import dataclass, field
 
 import jax
 import numpy as np
-
-from reconstruction.fits.common import FitOutput, from_fit_layout, to_fit_layout
-from reconstruction.fits.optim import LBFGS, Adam, Progress, Solver
-from reconstruction.losses import LossConfig, Problem, total_loss
+from gaitcap.reconstruction.fits.common import FitOutput, from_fit_layout, to_fit_layout
+from gaitcap.reconstruction.fits.optim import LBFGS, Adam, Progress, Solver
+from gaitcap.reconstruction.losses import LossConfig, Problem, total_loss
 
 
 @dataclass(frozen=True)

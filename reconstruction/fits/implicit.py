@@ -23,10 +23,9 @@ from functools import lru_cache
 import jax
 import jax.numpy as jnp
 import numpy as np
-
-from reconstruction.fits.common import FitOutput, from_fit_layout
-from reconstruction.fits.optim import LBFGS, Adam, Progress, Solver, WarmupHoldDecay
-from reconstruction.losses import LossConfig, Problem, total_loss
+from gaitcap.reconstruction.fits.common import FitOutput, from_fit_layout
+from gaitcap.reconstruction.fits.optim import LBFGS, Adam, Progress, Solver, WarmupHoldDecay
+from gaitcap.reconstruction.losses import LossConfig, Problem, total_loss
 
 MM_PER_M = 1000.0
 SPAN_TOL_S = 1e-6

@@ -4,11 +4,16 @@ Entry points: :func:`analyze_gait` (one trial -> :class:`GaitReport`) and :func:
 (a session's trials vs a walkway export -> ``WalkwayComparison``).
 """
 
-from reconstruction.gait.analysis import analyze_gait, compare_with_walkway
-from reconstruction.gait.config import GaitConfig
-from reconstruction.gait.quality import TrajectoryQuality
-from reconstruction.gait.report import GaitReport
-from reconstruction.gait.walkway import AlignmentConfig, WalkwayComparison, WalkwayTrial, read_walkway_csv
+from gaitcap.reconstruction.gait.analysis import analyze_gait, compare_with_walkway
+from gaitcap.reconstruction.gait.config import GaitConfig
+from gaitcap.reconstruction.gait.quality import TrajectoryQuality
+from gaitcap.reconstruction.gait.report import GaitReport
+from gaitcap.reconstruction.gait.walkway import (
+    AlignmentConfig,
+    WalkwayComparison,
+    WalkwayTrial,
+    read_walkway_csv,
+)
 
 __all__ = [
     "AlignmentConfig", "GaitConfig", "GaitReport", "TrajectoryQuality", "WalkwayComparison", "WalkwayTrial",

@@ -6,15 +6,14 @@ import logging
 from collections.abc import Callable, Sequence
 
 import numpy as np
-
-from reconstruction.gait.bouts import Bouts, Pass, find_bouts
-from reconstruction.gait.config import GaitConfig
-from reconstruction.gait.events import Contact, detect_contacts, rest_speed_mm_s
-from reconstruction.gait.parameters import Step, pass_steps, progression_direction, summarise
-from reconstruction.gait.quality import TrajectoryQuality, contact_confidence
-from reconstruction.gait.report import GaitReport
-from reconstruction.gait.tracks import FootTracks, foot_joint_indices
-from reconstruction.gait.walkway import AlignmentConfig, WalkwayTrial, align_walkway
+from gaitcap.reconstruction.gait.bouts import Bouts, Pass, find_bouts
+from gaitcap.reconstruction.gait.config import GaitConfig
+from gaitcap.reconstruction.gait.events import Contact, detect_contacts, rest_speed_mm_s
+from gaitcap.reconstruction.gait.parameters import Step, pass_steps, progression_direction, summarise
+from gaitcap.reconstruction.gait.quality import TrajectoryQuality, contact_confidence
+from gaitcap.reconstruction.gait.report import GaitReport
+from gaitcap.reconstruction.gait.tracks import FootTracks, foot_joint_indices
+from gaitcap.reconstruction.gait.walkway import AlignmentConfig, WalkwayTrial, align_walkway
 
 log = logging.getLogger(__name__)
 

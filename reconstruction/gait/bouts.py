@@ -16,10 +16,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from gaitcap.reconstruction.gait.config import GaitConfig
+from gaitcap.reconstruction.gait.tracks import CENTER, FootTracks
 from scipy.ndimage import uniform_filter1d
-
-from reconstruction.gait.config import GaitConfig
-from reconstruction.gait.tracks import CENTER, FootTracks
 
 
 @dataclass(frozen=True)

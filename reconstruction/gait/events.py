@@ -36,9 +36,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from reconstruction.gait.config import GaitConfig
-from reconstruction.gait.tracks import HEEL, SIDES, TOE, FootTracks
+from gaitcap.reconstruction.gait.config import GaitConfig
+from gaitcap.reconstruction.gait.tracks import HEEL, SIDES, TOE, FootTracks
 
 
 @dataclass(frozen=True)

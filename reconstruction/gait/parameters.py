@@ -21,9 +21,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from reconstruction.gait.bouts import Pass
-from reconstruction.gait.events import Contact
+from gaitcap.reconstruction.gait.bouts import Pass
+from gaitcap.reconstruction.gait.events import Contact
 
 STEP_PARAMETERS = (
     "step_length_mm", "stride_length_mm", "step_width_mm", "step_time_s", "stride_time_s",

@@ -6,10 +6,9 @@ import io
 from collections.abc import Sequence
 
 import numpy as np
-
-from reconstruction.gait.config import GaitConfig
-from reconstruction.gait.report import GaitReport
-from reconstruction.gait.tracks import HEEL, SIDES, FootTracks
+from gaitcap.reconstruction.gait.config import GaitConfig
+from gaitcap.reconstruction.gait.report import GaitReport
+from gaitcap.reconstruction.gait.tracks import HEEL, SIDES, FootTracks
 
 COLOURS = {"left": "tab:blue", "right": "tab:red"}
 

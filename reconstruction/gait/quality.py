@@ -5,8 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from reconstruction.gait.config import GaitConfig
+from gaitcap.reconstruction.gait.config import GaitConfig
 
 
 @dataclass(frozen=True, eq=False)

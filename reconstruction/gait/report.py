@@ -11,11 +11,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from reconstruction.fileio import atomic_write_text
-from reconstruction.gait.bouts import Pass, Segment
-from reconstruction.gait.events import Contact
-from reconstruction.gait.parameters import STEP_PARAMETERS, GaitSummary, Step
-from reconstruction.gait.walkway import WalkwayComparison
+from gaitcap.reconstruction.fileio import atomic_write_text
+from gaitcap.reconstruction.gait.bouts import Pass, Segment
+from gaitcap.reconstruction.gait.events import Contact
+from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS, GaitSummary, Step
+from gaitcap.reconstruction.gait.walkway import WalkwayComparison
 
 CSV_COLUMNS = (
     "index", "pass_index", "foot", "heel_strike_s", "toe_off_s", "heel_x_mm", "heel_y_mm", "heel_z_mm",

@@ -12,10 +12,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from gaitcap.reconstruction.gait.config import GaitConfig
 from scipy.interpolate import CubicSpline
 from scipy.signal import savgol_filter
-
-from reconstruction.gait.config import GaitConfig
 
 SIDES = ("left", "right")
 # Row order of the tracked points: left heel, left toe, right heel, right toe, body centre.

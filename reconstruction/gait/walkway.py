@@ -33,9 +33,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-from reconstruction.gait.parameters import progression_direction
-from reconstruction.gait.tracks import HEEL, TOE, FootTracks
+from gaitcap.reconstruction.gait.parameters import progression_direction
+from gaitcap.reconstruction.gait.tracks import HEEL, TOE, FootTracks
 
 WALKWAY_COLUMNS = ("trial", "foot", "first_contact_s", "last_contact_s", "heel_x_mm", "heel_y_mm",
                    "toe_x_mm", "toe_y_mm")

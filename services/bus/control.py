@@ -1,6 +1,6 @@
 """Small clients of the bus for other services (the web service, the CLI, tests).
 
-    session = open_session(bus)                       # services.bus.session
+    session = open_session(bus)                       # gaitcap.services.bus.session
     rec = RecorderClient(session, bus.keys)
     rec.start(trial_id="t1", path="/data/t1.mcap", metadata={...}, calibration_toml=toml_text)
     summary = rec.stop("t1")                          # frames / gaps per camera, path
@@ -17,8 +17,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from acquisition.encoding import parse_image_message
-from services.bus.keys import Keys, dumps, loads
+from gaitcap.acquisition.encoding import parse_image_message
+from gaitcap.services.bus.keys import Keys, dumps, loads
 
 
 class RecorderError(ValueError):

@@ -19,7 +19,7 @@ key expression                         kind        payload
 ``<prefix>/recorder/status``           queryable   reply JSON ``{"recording": bool, "trial_id", "path"}``
 ``<prefix>/recorder/events``           put         JSON :data:`RECORDER_EVENT`
 ``<prefix>/alive/<node>``              liveliness  token held by every node while it runs
-``<prefix>/worker/progress/<trial>``   put         JSON worker progress of one trial (``services.bus_link``)
+``<prefix>/worker/progress/<trial>``   put         JSON worker progress of one trial (``gaitcap.services.live.bus_link``)
 ``<prefix>/camera/scene``              put         JSON :data:`CAMERA_SCENE`: what simulated cameras show
 =====================================  ==========  ========================================================
 
@@ -65,7 +65,7 @@ KEYPOINTS = {
     "camera": "str",
     "frame_id": "int",
     "timestamp_ns": "int, camera timestamp of the frame",
-    "skeleton": "str, e.g. halpe26 or mediapipe33 (reconstruction.skeletons)",
+    "skeleton": "str, e.g. halpe26 or mediapipe33 (gaitcap.reconstruction.skeletons)",
     "people": "list of P people, each J lists [x px, y px, confidence 0..1]",
     "detector_ms": "float, time spent detecting",
 }

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from services.bus.keys import DEFAULT_PREFIX, Keys, check_name
+from gaitcap.services.bus.keys import DEFAULT_PREFIX, Keys, check_name
 
 log = logging.getLogger(__name__)
 

@@ -7,12 +7,12 @@ Typical use::
     set_state(cat, t.id, "recorded"); enqueue_job(cat, t.id)
 """
 
-from services.catalog.audit import entries as audit_entries
-from services.catalog.audit import record as audit
-from services.catalog.calibrations import add_calibration, get_calibration, latest_calibration
-from services.catalog.db import Catalog, SchemaMismatch, database_url, open_catalog, schema_version
-from services.catalog.ids import new_trial_id, validate_id
-from services.catalog.jobs import (
+from gaitcap.services.catalog.audit import entries as audit_entries
+from gaitcap.services.catalog.audit import record as audit
+from gaitcap.services.catalog.calibrations import add_calibration, get_calibration, latest_calibration
+from gaitcap.services.catalog.db import Catalog, SchemaMismatch, database_url, open_catalog, schema_version
+from gaitcap.services.catalog.ids import new_trial_id, validate_id
+from gaitcap.services.catalog.jobs import (
     JobInfo,
     complete_job,
     enqueue_job,
@@ -21,9 +21,9 @@ from services.catalog.jobs import (
     lease_job,
     renew_lease,
 )
-from services.catalog.results import ResultInfo, get_result, stages_available, stages_of, store_result
-from services.catalog.states import IllegalTransition, TrialState
-from services.catalog.trials import (
+from gaitcap.services.catalog.results import ResultInfo, get_result, stages_available, stages_of, store_result
+from gaitcap.services.catalog.states import IllegalTransition, TrialState
+from gaitcap.services.catalog.trials import (
     RecordingBusy,
     TrialInfo,
     TrialNotFound,

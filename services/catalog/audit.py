@@ -5,10 +5,9 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+from gaitcap.services.catalog.db import Catalog
+from gaitcap.services.catalog.models import AuditEntry
 from sqlalchemy import select
-
-from services.catalog.db import Catalog
-from services.catalog.models import AuditEntry
 
 
 @dataclass(frozen=True)

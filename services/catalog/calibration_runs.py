@@ -11,12 +11,11 @@ import math
 import time
 from dataclasses import dataclass
 
+from gaitcap.services.catalog.calibrations import add_calibration, new_calibration_id
+from gaitcap.services.catalog.db import Catalog
+from gaitcap.services.catalog.models import Calibration, CalibrationRun, Trial
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
-
-from services.catalog.calibrations import add_calibration, new_calibration_id
-from services.catalog.db import Catalog
-from services.catalog.models import Calibration, CalibrationRun, Trial
 
 RECORDING, CALIBRATING, DONE, FAILED = "recording", "calibrating", "done", "failed"
 

@@ -6,10 +6,9 @@ import json
 import secrets
 import time
 
+from gaitcap.services.catalog.db import Catalog
+from gaitcap.services.catalog.models import Calibration
 from sqlalchemy import select
-
-from services.catalog.db import Catalog
-from services.catalog.models import Calibration
 
 
 def new_calibration_id() -> str:

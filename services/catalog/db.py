@@ -14,10 +14,9 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+from gaitcap.services.catalog.models import SCHEMA_VERSION, Base, SchemaInfo
 from sqlalchemy import Engine, create_engine, event, select
 from sqlalchemy.orm import Session, sessionmaker
-
-from services.catalog.models import SCHEMA_VERSION, Base, SchemaInfo
 
 log = logging.getLogger(__name__)
 

@@ -11,11 +11,10 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+from gaitcap.services.catalog.db import Catalog
+from gaitcap.services.catalog.models import Job, Trial
+from gaitcap.services.catalog.states import TrialState
 from sqlalchemy import or_, select, update
-
-from services.catalog.db import Catalog
-from services.catalog.models import Job, Trial
-from services.catalog.states import TrialState
 
 QUEUED, RUNNING, DONE, FAILED = "queued", "running", "done", "failed"
 

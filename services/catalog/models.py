@@ -1,7 +1,7 @@
 """SQLAlchemy 2 tables of the trial catalog. All times are UNIX epoch seconds (float, UTC).
 
 The schema is portable (SQLite by default, PostgreSQL from a URL): no vendor types, JSON kept as text.
-``SCHEMA_VERSION`` is stored in ``schema_info``; :mod:`services.catalog.db` refuses a database whose
+``SCHEMA_VERSION`` is stored in ``schema_info``; :mod:`gaitcap.services.catalog.db` refuses a database whose
 version differs, so an old file is never silently misread.
 """
 

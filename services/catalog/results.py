@@ -7,10 +7,9 @@ import math
 import time
 from dataclasses import dataclass, field
 
+from gaitcap.services.catalog.db import Catalog
+from gaitcap.services.catalog.models import Result, Step, Summary
 from sqlalchemy import delete, select
-
-from services.catalog.db import Catalog
-from services.catalog.models import Result, Step, Summary
 
 STAGES = ("preliminary", "refined")
 

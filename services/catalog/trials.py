@@ -5,14 +5,13 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+from gaitcap.services.catalog.db import Catalog
+from gaitcap.services.catalog.ids import new_trial_id, validate_id
+from gaitcap.services.catalog.models import SessionRow, Subject, Trial
+from gaitcap.services.catalog.states import IllegalTransition, TrialState, check_transition
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
-
-from services.catalog.db import Catalog
-from services.catalog.ids import new_trial_id, validate_id
-from services.catalog.models import SessionRow, Subject, Trial
-from services.catalog.states import IllegalTransition, TrialState, check_transition
 
 
 class TrialNotFound(KeyError):

@@ -5,8 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-
-from services.cli._common import user_errors
+from gaitcap.services.cli._common import user_errors
 
 
 def _point(text: str | None, what: str) -> tuple[float, float, float] | None:
@@ -31,7 +30,7 @@ def register(app: typer.Typer) -> None:
             None, "--walkway", help="Walkway centre line X0,Y0,Z0,X1,Y1,Z1 mm (default: through the rig)."),
     ) -> None:
         """Associate the people seen by every camera, track them and write the patient's keypoints."""
-        from reconstruction.association import (
+        from gaitcap.reconstruction.association import (
             ManualTrack,
             NearestStartTrack,
             WalkwayTrack,
@@ -39,8 +38,8 @@ def register(app: typer.Typer) -> None:
             default_selector,
             patient_detections,
         )
-        from reconstruction.association.npz_io import load_multi_npz, save_detections_npz
-        from reconstruction.calibration_io import load_rig
+        from gaitcap.reconstruction.association.npz_io import load_multi_npz, save_detections_npz
+        from gaitcap.reconstruction.calibration_io import load_rig
 
         with user_errors():
             if sum(v is not None for v in (track, start, walkway)) > 1:

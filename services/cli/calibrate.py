@@ -5,8 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-
-from services.cli._common import progress, user_errors
+from gaitcap.services.cli._common import progress, user_errors
 
 
 def _squares(text: str) -> tuple[int, int]:
@@ -62,17 +61,17 @@ def register(app: typer.Typer) -> None:
         compare: Path | None = typer.Option(None, "--compare", help="A reference calibration (the last one, or a simulation's truth) to compare the new one with."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
-        from acquisition.board import BoardConfig
-        from acquisition.board_recording import FrameSelection, detect_recording
-        from reconstruction.calibration import (
+        from gaitcap.acquisition.board import BoardConfig
+        from gaitcap.acquisition.board_recording import FrameSelection, detect_recording
+        from gaitcap.reconstruction.calibration import (
             CalibrationConfig,
             DistortionModel,
             IntrinsicsConfig,
             WorldFrameConfig,
             calibrate_from_observations,
         )
-        from reconstruction.calibration.compare import compare_rigs
-        from reconstruction.calibration_io import load_rig, save_rig
+        from gaitcap.reconstruction.calibration.compare import compare_rigs
+        from gaitcap.reconstruction.calibration_io import load_rig, save_rig
 
         with user_errors():
             reference = load_rig(compare) if compare is not None else None

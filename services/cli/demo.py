@@ -9,8 +9,7 @@ import threading
 from pathlib import Path
 
 import typer
-
-from services.cli._common import user_errors
+from gaitcap.services.cli._common import user_errors
 
 
 def register(app: typer.Typer) -> None:
@@ -37,8 +36,8 @@ def register(app: typer.Typer) -> None:
         """Bring up the whole clinic stack (simulated rig) and print the web page's URL."""
         import logging
 
-        from api.settings import new_token
-        from services.stack import Stack, StackConfig
+        from gaitcap.api.settings import new_token
+        from gaitcap.services.ops.stack import Stack, StackConfig
 
         with user_errors():
             cfg = StackConfig(data_dir=data_dir, token=token or new_token(), port=port, bus_base_port=bus_port,
@@ -71,8 +70,7 @@ def register(app: typer.Typer) -> None:
 def _one_trial(cfg, *, seconds: float, refine: bool) -> bool:
     """Record one simulated walk through the API, wait for its results and print them; True if done."""
     import httpx
-
-    from services.auto_trial import format_metrics, run_trial
+    from gaitcap.services.ops.auto_trial import format_metrics, run_trial
 
     with httpx.Client(base_url=cfg.url, headers={"Authorization": f"Bearer {cfg.token}"}, timeout=30) as c:
         typer.echo(f"recording a {seconds:.0f} s walk ...", err=True)

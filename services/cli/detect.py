@@ -7,8 +7,7 @@ import json
 from pathlib import Path
 
 import typer
-
-from services.cli._common import progress, user_errors
+from gaitcap.services.cli._common import progress, user_errors
 
 
 def _params(items: list[str]) -> dict:
@@ -36,12 +35,12 @@ def register(app: typer.Typer) -> None:
         all_people: Path | None = typer.Option(None, "--all-people", help="Also write every person (C,T,P,J,3) here."),
     ) -> None:
         """2D keypoints of existing multi-view videos -> NPZ for `gaitcap reconstruct` / `associate`."""
-        import acquisition.detectors  # noqa: F401  (registers the detector kinds)
-        from acquisition.detectors.base import config_class
-        from acquisition.drivers.video import VideoCamera
-        from acquisition.video_detect import detect_videos, find_videos
-        from reconstruction.association.multi import MultiPersonDetections
-        from reconstruction.association.npz_io import save_detections_npz
+        import gaitcap.acquisition.detectors  # noqa: F401  (registers the detector kinds)
+        from gaitcap.acquisition.detectors.base import config_class
+        from gaitcap.acquisition.drivers.video import VideoCamera
+        from gaitcap.acquisition.video_detect import detect_videos, find_videos
+        from gaitcap.reconstruction.association.multi import MultiPersonDetections
+        from gaitcap.reconstruction.association.npz_io import save_detections_npz
 
         with user_errors():
             files = find_videos(videos)
@@ -65,7 +64,7 @@ def register(app: typer.Typer) -> None:
             patient = result.patient()
             save_detections_npz(patient, out)
             if all_people is not None:
-                from reconstruction.association.npz_io import save_multi_npz
+                from gaitcap.reconstruction.association.npz_io import save_multi_npz
 
                 save_multi_npz(MultiPersonDetections(result.people, result.camera_names, result.times_s,
                                                      result.skeleton), all_people)

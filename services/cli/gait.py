@@ -6,8 +6,7 @@ import math
 from pathlib import Path
 
 import typer
-
-from services.cli._common import user_errors
+from gaitcap.services.cli._common import user_errors
 
 _TABLE = ("step_length_mm", "stride_length_mm", "step_width_mm", "step_time_s", "stride_time_s",
           "stance_pct", "swing_pct", "double_support_pct")
@@ -15,8 +14,7 @@ _TABLE = ("step_length_mm", "stride_length_mm", "step_width_mm", "step_time_s", 
 
 def _load(path: Path):
     import numpy as np
-
-    from reconstruction.gait import TrajectoryQuality
+    from gaitcap.reconstruction.gait import TrajectoryQuality
 
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
@@ -80,8 +78,13 @@ def register(app: typer.Typer) -> None:
         plot_path: Path | None = typer.Option(None, "--plot", help="Write a PNG of the heel traces to FILE."),
     ) -> None:
         """Gait events, bouts and spatiotemporal parameters of a reconstructed trial."""
-        from reconstruction.gait import GaitConfig, analyze_gait, compare_with_walkway, read_walkway_csv
-        from reconstruction.gait.plot import heel_traces_png
+        from gaitcap.reconstruction.gait import (
+            GaitConfig,
+            analyze_gait,
+            compare_with_walkway,
+            read_walkway_csv,
+        )
+        from gaitcap.reconstruction.gait.plot import heel_traces_png
 
         with user_errors():
             points, times, names, quality = _load(result)

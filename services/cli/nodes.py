@@ -14,8 +14,7 @@ import threading
 from pathlib import Path
 
 import typer
-
-from services.cli._common import user_errors
+from gaitcap.services.cli._common import user_errors
 
 log = logging.getLogger("gaitcap.node")
 
@@ -46,7 +45,7 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def _sim_options(preset: str, seconds: float, cameras: int, people: int, seed: int, fps: float):
-    from acquisition.drivers.simulated import SimTrialSpec
+    from gaitcap.acquisition.drivers.simulated import SimTrialSpec
 
     return SimTrialSpec(preset=preset, seconds=seconds, cameras=cameras, people=people, seed=seed, fps=fps)
 
@@ -80,9 +79,9 @@ def camera_cmd(
     trigger: str = typer.Option("Action0", "--trigger", help="FLIR start: Action0 (scheduled action) or Line0.."),
 ) -> None:
     """Publish the frames and status of one host's cameras."""
-    from acquisition.drivers.sources import FlirSource, SimulatedSource, VideoSource
-    from services.bus.session import default_bus_config, open_session
-    from services.camera_node import CameraNode, attach_board_scene
+    from gaitcap.acquisition.drivers.sources import FlirSource, SimulatedSource, VideoSource
+    from gaitcap.services.bus.session import default_bus_config, open_session
+    from gaitcap.services.nodes.camera import CameraNode, attach_board_scene
 
     with user_errors():
         names = [c for c in (cameras or "").split(",") if c] or None
@@ -99,7 +98,7 @@ def camera_cmd(
         }
         if source not in builders:
             raise ValueError(f"--source: {source!r} is not one of {sorted(builders)}")
-        from acquisition.synthetic.board_scene import board_scene_config
+        from gaitcap.acquisition.synthetic.board_scene import board_scene_config
 
         board_scene_config(board_clip)  # a wrong name fails here, cleanly
         drivers = builders[source]().build()
@@ -135,7 +134,7 @@ def _param(text: str) -> tuple[str, object]:
 def detector_cmd(
     node: str = typer.Option("detector", "--node"),
     bus: Path | None = BUS_OPT,
-    detector: str = typer.Option("simulated", "--detector", help="Detector kind (acquisition.detectors)."),
+    detector: str = typer.Option("simulated", "--detector", help="Detector kind (gaitcap.acquisition.detectors)."),
     param: list[str] = typer.Option([], "--param", help="Detector config field KEY=VALUE (JSON value)."),
     workers: int = typer.Option(1, "--workers"),
     sim_preset: str = typer.Option("paper", "--sim-preset", help="Synthetic noise preset."),
@@ -146,10 +145,10 @@ def detector_cmd(
     fps: float = typer.Option(30.0, "--fps", help="Frame rate of the simulated trial."),
 ) -> None:
     """Detect 2D keypoints on every frame of the bus and publish them."""
-    import acquisition.detectors  # noqa: F401  (registers the detector kinds)
-    from acquisition.detectors.base import config_class
-    from services.bus.session import default_bus_config, open_session
-    from services.detector_node import DetectorNode
+    import gaitcap.acquisition.detectors  # noqa: F401  (registers the detector kinds)
+    from gaitcap.acquisition.detectors.base import config_class
+    from gaitcap.services.bus.session import default_bus_config, open_session
+    from gaitcap.services.nodes.detector import DetectorNode
 
     with user_errors():
         params = dict(_param(p) for p in param)
@@ -177,9 +176,9 @@ def recorder_cmd(
     flush_s: float = typer.Option(1.0, "--flush-s", help="At most this much data is lost on a crash, s."),
 ) -> None:
     """Record trials (started and stopped over the bus) into MCAP files."""
-    from acquisition.recording.writer import WriterSettings
-    from services.bus.session import default_bus_config, open_session
-    from services.recorder_node import RecorderNode
+    from gaitcap.acquisition.recording.writer import WriterSettings
+    from gaitcap.services.bus.session import default_bus_config, open_session
+    from gaitcap.services.nodes.recorder import RecorderNode
 
     with user_errors():
         settings = WriterSettings(compression=compression, chunk_size_bytes=int(chunk_mb * 2**20),

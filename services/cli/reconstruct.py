@@ -8,9 +8,8 @@ import math
 from pathlib import Path
 
 import typer
-
-from reconstruction.fileio import atomic_write_text
-from services.cli._common import progress, user_errors
+from gaitcap.reconstruction.fileio import atomic_write_text
+from gaitcap.services.cli._common import progress, user_errors
 
 
 class MethodName(enum.StrEnum):
@@ -31,7 +30,7 @@ def _jsonable(value):
 
 
 def _method(name: MethodName, paper: bool, steps: int | None):
-    from reconstruction.methods import METHODS
+    from gaitcap.reconstruction.methods import METHODS
 
     cls = METHODS[name.value]
     if paper:
@@ -59,10 +58,10 @@ def reconstruct_command(
 ) -> None:
     """Reconstruct 3D keypoint trajectories (mm) from multi-camera 2D keypoints."""
     with user_errors():
-        from acquisition.keypoint_files import read_keypoints_input
-        from reconstruction.calibration_io import load_rig
-        from reconstruction.methods import reconstruct
-        from reconstruction.trc import to_trc
+        from gaitcap.acquisition.keypoint_files import read_keypoints_input
+        from gaitcap.reconstruction.calibration_io import load_rig
+        from gaitcap.reconstruction.methods import reconstruct
+        from gaitcap.reconstruction.trc import to_trc
 
         rig = load_rig(calibration)
         det = read_keypoints_input(keypoints, rig=rig, fps=fps, skeleton=skeleton, consistent=consistent)

@@ -5,8 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-
-from services.cli._common import user_errors
+from gaitcap.services.cli._common import user_errors
 
 
 def _rate(text: str) -> float | None:
@@ -33,8 +32,8 @@ def register(app: typer.Typer) -> None:
         """Republish frames, keypoints and camera status of a recording, paced like the original."""
         import time
 
-        from services.bus.session import alive_nodes, declare_alive, default_bus_config, open_session
-        from services.replay import Replayer
+        from gaitcap.services.bus.session import alive_nodes, declare_alive, default_bus_config, open_session
+        from gaitcap.services.nodes.replay import Replayer
 
         with user_errors():
             pace = _rate(rate)

@@ -7,15 +7,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-
-from services.cli._common import progress, user_errors
+from gaitcap.services.cli._common import progress, user_errors
 
 METHOD_HELP = ("Method (repeatable): NAME or NAME@PRESET, optionally followed by :key=value,key=value; e.g. "
                "robust, robust:sigma_mm=100, implicit:gamma=0.3,huber_cut_px=10, explicit@paper:steps=2000.")
 
 
 def _executor(ray: str, workers: int, ray_retries: int):
-    from services.executors import Inline, LocalPool, RayCluster
+    from gaitcap.services.research.executors import Inline, LocalPool, RayCluster
 
     if ray:
         return RayCluster(address=ray, max_retries=ray_retries, local_cpus=workers or None)
@@ -25,7 +24,7 @@ def _executor(ray: str, workers: int, ray_retries: int):
 def _run(db, data_dir: Path, trials: str, specs, *, ray: str, workers: int, ray_retries: int,
          gpus_per_fit: float | None, retry_failed: bool, write_files: bool = True):
     """Plan, run with a progress bar, return (plan, summary)."""
-    from services.reprocess import TrialSelection, plan_reprocess, run_plan, task_resources
+    from gaitcap.services.research.reprocess import TrialSelection, plan_reprocess, run_plan, task_resources
 
     in_process = not ray and workers == 0
     plan = plan_reprocess(db, data_dir, TrialSelection.parse(trials), specs, retry_failed=retry_failed,
@@ -79,8 +78,8 @@ def register(app: typer.Typer) -> None:
         """Re-run reconstruction + gait analysis of recorded trials under one or more methods."""
         import json
 
-        from services import catalog as cat
-        from services.method_specs import parse_method
+        from gaitcap.services import catalog as cat
+        from gaitcap.services.research.method_specs import parse_method
 
         with user_errors():
             specs = [parse_method(m) for m in method]
@@ -103,8 +102,8 @@ def register(app: typer.Typer) -> None:
         gpus_per_fit: float | None = common["gpus_per_fit"], retry_failed: bool = common["retry_failed"],
     ) -> None:
         """Run a grid of methods over trials and write the summary table (the paper's appendix layout)."""
-        from services import catalog as cat
-        from services.sweep import load_grid, summarize, write_tables
+        from gaitcap.services import catalog as cat
+        from gaitcap.services.research.sweep import load_grid, summarize, write_tables
 
         with user_errors():
             specs = load_grid(grid)

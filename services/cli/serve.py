@@ -5,8 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-
-from services.cli._common import user_errors
+from gaitcap.services.cli._common import user_errors
 
 
 def register(app: typer.Typer) -> None:
@@ -25,8 +24,8 @@ def register(app: typer.Typer) -> None:
         node: str = typer.Option("api", "--node", help="Bus node name of the API."),
     ) -> None:
         """Serve the clinic page and the REST API (OpenAPI docs at /docs)."""
-        from api.server import serve as run
-        from api.settings import Settings, new_token
+        from gaitcap.api.server import serve as run
+        from gaitcap.api.settings import Settings, new_token
 
         with user_errors():
             if not token:
@@ -36,8 +35,8 @@ def register(app: typer.Typer) -> None:
                                          catalog_url=catalog or str(data_dir / "catalog.sqlite"))
             link = None
             if not no_bus:
-                from services.bus.session import default_bus_config
-                from services.bus_link import BusLink
+                from gaitcap.services.bus.session import default_bus_config
+                from gaitcap.services.live.bus_link import BusLink
 
                 link = BusLink(default_bus_config(bus), node=node)
             typer.echo(f"gaitcap clinic page: http://{host}:{port}/#token={token}")

@@ -6,8 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-
-from services.cli._common import progress, user_errors
+from gaitcap.services.cli._common import progress, user_errors
 
 
 def register(app: typer.Typer) -> None:
@@ -24,8 +23,8 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Simulate a patient walking the room's diagonal, seen by a camera rig; write calibration.toml,
         keypoints.npz and ground_truth.npz to --out and print a ground-truth gait summary."""
-        from acquisition.synthetic import make_trial
-        from acquisition.synthetic.files import save_trial, summary_json, summary_lines
+        from gaitcap.acquisition.synthetic import make_trial
+        from gaitcap.acquisition.synthetic.files import save_trial, summary_json, summary_lines
 
         with user_errors():
             trial = make_trial(preset=preset, seconds=seconds, cameras=cameras, people=people, seed=seed, fps=fps)
@@ -49,9 +48,9 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Render a calibration board carried through the synthetic room, seen by every camera, as a
         recording (then: gaitcap calibrate OUT/board.mcap --out calib.toml --compare OUT/true_calibration.toml)."""
-        from acquisition.board import BoardConfig
-        from acquisition.synthetic.board_clip import BoardClipConfig, write_board_clip
-        from reconstruction.calibration_io import save_rig
+        from gaitcap.acquisition.board import BoardConfig
+        from gaitcap.acquisition.synthetic.board_clip import BoardClipConfig, write_board_clip
+        from gaitcap.reconstruction.calibration_io import save_rig
 
         with user_errors():
             make = {"checkerboard": BoardConfig.checkerboard, "charuco": BoardConfig.charuco}

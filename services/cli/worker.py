@@ -7,8 +7,7 @@ import threading
 from pathlib import Path
 
 import typer
-
-from services.cli._common import user_errors
+from gaitcap.services.cli._common import user_errors
 
 
 def register(app: typer.Typer) -> None:
@@ -26,7 +25,7 @@ def register(app: typer.Typer) -> None:
         warm_up: bool = typer.Option(True, "--warm-up/--no-warm-up", help="Compile JAX code at start."),
     ) -> None:
         """Process recorded trials: preliminary then refined gait metrics, files, progress on the bus."""
-        from services.worker import Worker, WorkerConfig, warm_worker
+        from gaitcap.services.processing.worker import Worker, WorkerConfig, warm_worker
 
         with user_errors():
             cfg = WorkerConfig(catalog_url=catalog or str(data_dir / "catalog.sqlite"), data_dir=data_dir,
@@ -34,8 +33,8 @@ def register(app: typer.Typer) -> None:
                                **({"worker_id": worker_id} if worker_id else {}))
             progress, session = None, None
             if not no_bus:
-                from services.bus.session import declare_alive, default_bus_config, open_session
-                from services.bus_link import BusProgress
+                from gaitcap.services.bus.session import declare_alive, default_bus_config, open_session
+                from gaitcap.services.live.bus_link import BusProgress
 
                 bus_cfg = default_bus_config(bus)
                 session = open_session(bus_cfg, node)

@@ -1,8 +1,7 @@
 import cv2
 import numpy as np
 import pytest
-
-from acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.board import BoardConfig, make_board
 
 PX_PER_MM = 1.0
 

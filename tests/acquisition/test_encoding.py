@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from acquisition.encoding import (
+from gaitcap.acquisition.encoding import (
     decode_jpeg,
     encode_jpeg,
     image_message,

@@ -2,9 +2,8 @@ import json
 
 import numpy as np
 import pytest
-
-from acquisition.keypoint_files import infer_skeleton, most_confident_person, read_keypoints_input
-from reconstruction.camera import Camera, Rig
+from gaitcap.acquisition.keypoint_files import infer_skeleton, most_confident_person, read_keypoints_input
+from gaitcap.reconstruction.camera import Camera, Rig
 
 
 def _rig(names):
@@ -70,8 +69,8 @@ def test_most_confident_person():
 
 
 def test_trial_mcap_input(tmp_path):
-    from acquisition.recording.writer import TrialWriter, WriterSettings
-    from reconstruction.calibration_io import rig_to_toml_text
+    from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
+    from gaitcap.reconstruction.calibration_io import rig_to_toml_text
 
     rig = _rig(["cam0", "cam1"])
     w = TrialWriter(tmp_path / "t.mcap", WriterSettings(flush_interval_s=3600))

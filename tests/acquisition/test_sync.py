@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from acquisition.sync import PassCriteria, camera_fps, check_sync, group_frames
+from gaitcap.acquisition.sync import PassCriteria, camera_fps, check_sync, group_frames
 
 P = 33_333_333
 

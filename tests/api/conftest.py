@@ -6,10 +6,9 @@ import time
 
 import httpx
 import pytest
-
-from api.server import serve_in_thread
-from api.settings import Settings
-from services.live import CameraHealth, RecorderUnavailable
+from gaitcap.api.server import serve_in_thread
+from gaitcap.api.settings import Settings
+from gaitcap.services.live.protocols import CameraHealth, RecorderUnavailable
 
 TOKEN = "test-token-123456"
 

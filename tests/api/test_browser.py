@@ -15,9 +15,8 @@ import time
 
 import httpx
 import pytest
-
-from services import catalog as cat
-from services.stack import Stack, StackConfig, free_port_range
+from gaitcap.services import catalog as cat
+from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
 
 TOKEN = "stack-test-token-42"
 

@@ -13,12 +13,11 @@ import time
 import httpx
 import numpy as np
 import pytest
-
-from acquisition.drivers.simulated import SimTrialSpec
-from acquisition.synthetic.board import scaled_rig
-from reconstruction.calibration.geometry import rotation_angle_deg
-from reconstruction.calibration_io import load_rig
-from services.stack import Stack, StackConfig, free_port_range
+from gaitcap.acquisition.drivers.simulated import SimTrialSpec
+from gaitcap.acquisition.synthetic.board import scaled_rig
+from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
+from gaitcap.reconstruction.calibration_io import load_rig
+from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
 
 TOKEN = "calibration-test-token"
 BROWSER_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",

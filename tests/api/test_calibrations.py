@@ -1,7 +1,7 @@
 """Uploading a calibration: validated, stored, handed to the recorder with the next trial."""
 
-from reconstruction.calibration_io import save_rig
-from services.processing import ring_rig
+from gaitcap.reconstruction.calibration_io import save_rig
+from gaitcap.services.processing.pipeline import ring_rig
 
 
 def test_uploaded_calibration_goes_to_the_next_trial(server, tmp_path):

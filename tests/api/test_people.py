@@ -7,9 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from services.artifacts import trial_files
-from services.worker import Worker, WorkerConfig
+from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.worker import Worker, WorkerConfig
 
 from .conftest import TOKEN
 
@@ -21,7 +20,7 @@ _spec.loader.exec_module(_helpers)
 
 @pytest.fixture(scope="module")
 def pair():
-    from acquisition.synthetic import make_trial
+    from gaitcap.acquisition.synthetic import make_trial
 
     return make_trial(preset="paper", seconds=6.0, cameras=6, people=2, seed=1)
 

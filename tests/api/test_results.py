@@ -2,9 +2,8 @@
 
 import numpy as np
 import pytest
-
-from services import catalog as cat
-from services.artifacts import trial_files
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import trial_files
 
 
 @pytest.fixture

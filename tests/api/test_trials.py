@@ -3,8 +3,7 @@
 import concurrent.futures
 
 import httpx
-
-from services import catalog as cat
+from gaitcap.services import catalog as cat
 
 from .conftest import TOKEN
 
@@ -92,8 +91,8 @@ def test_recorder_down_fails_the_trial_with_503(server):
 
 
 def test_without_the_bus_start_is_refused_before_a_trial_exists(tmp_path):
-    from api.server import serve_in_thread
-    from api.settings import Settings
+    from gaitcap.api.server import serve_in_thread
+    from gaitcap.api.settings import Settings
 
     from .conftest import free_port
 

@@ -10,9 +10,8 @@ from pathlib import Path
 
 import pytest
 import typer.main
-
-from services.bus.session import load_bus_config
-from services.cli import app
+from gaitcap.services.bus.session import load_bus_config
+from gaitcap.services.cli import app
 
 DEPLOY = Path(__file__).resolve().parents[2] / "deploy"
 UNITS = sorted((DEPLOY / "systemd").glob("*.service"))

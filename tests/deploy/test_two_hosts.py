@@ -18,11 +18,10 @@ import time
 from pathlib import Path
 
 import pytest
-
-from services import catalog as cat
+from gaitcap.services import catalog as cat
 
 ROOT = Path(__file__).resolve().parents[2]
-PY = [sys.executable, "-c", "from services.cli import main; main()"]
+PY = [sys.executable, "-c", "from gaitcap.services.cli import main; main()"]
 SIM = {"preset": "paper", "seconds": 9.0, "cameras": 6, "seed": 5}
 SIM_ARGS = ["--sim-preset", SIM["preset"], "--sim-seconds", str(SIM["seconds"]), "--sim-cameras",
             str(SIM["cameras"]), "--sim-seed", str(SIM["seed"]), "--fps", "30"]
@@ -161,7 +160,7 @@ def test_trial_recorded_and_processed_across_two_hosts(tmp_path, two_hosts):
         result = cat.get_result(db, trial_id, "preliminary")
         assert result.method == "robust triangulation" and result.quality is not None
         assert len(result.steps) >= 3, (result.steps, result.report)
-        from acquisition.recording.reader import read_detections
+        from gaitcap.acquisition.recording.reader import read_detections
 
         det = read_detections(Path(trial.recording_path))
         assert det.shape == (SIM["cameras"], FRAMES, 26)

@@ -2,10 +2,9 @@
 
 import numpy as np
 import pytest
-
-from reconstruction.camera import Camera, Rig, matrix_to_rodrigues
-from reconstruction.detections import Detections
-from reconstruction.skeletons import get_skeleton
+from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.skeletons import get_skeleton
 
 
 def _ring_rig(n: int = 6, radius_mm: float = 4000.0, dist=(-0.12, 0.02, 0.0005, -0.0005, 0.0)) -> Rig:

@@ -2,9 +2,8 @@ import json
 
 import numpy as np
 import pytest
-
-from reconstruction.calibration_io import load_rig, rig_from_toml_text, save_rig
-from reconstruction.camera import Camera, Rig
+from gaitcap.reconstruction.calibration_io import load_rig, rig_from_toml_text, save_rig
+from gaitcap.reconstruction.camera import Camera, Rig
 
 
 def _rig() -> Rig:

@@ -1,10 +1,9 @@
 import cv2
 import numpy as np
 import pytest
+from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues, rodrigues_to_matrix
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from reconstruction.camera import Camera, Rig, matrix_to_rodrigues, rodrigues_to_matrix
 
 
 def _camera(dist=(-0.2, 0.05, 0.001, -0.002, 0.01)) -> Camera:

@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from reconstruction.detections import Detections, validate_keypoints
+from gaitcap.reconstruction.detections import Detections, validate_keypoints
 
 
 def _kp(c=2, t=4, j=26):

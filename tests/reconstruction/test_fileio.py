@@ -1,6 +1,5 @@
 import pytest
-
-from reconstruction.fileio import atomic_write_text
+from gaitcap.reconstruction.fileio import atomic_write_text
 
 
 def test_writes_and_replaces(tmp_path):

@@ -2,10 +2,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-
-from reconstruction.fits.common import fit_problem
-from reconstruction.losses import LossConfig, huber, reprojection_loss, skeleton_loss, smooth_loss, total_loss
-from reconstruction.metrics import huber_np, skeleton_loss_np, smooth_loss_np
+from gaitcap.reconstruction.fits.common import fit_problem
+from gaitcap.reconstruction.losses import (
+    LossConfig,
+    huber,
+    reprojection_loss,
+    skeleton_loss,
+    smooth_loss,
+    total_loss,
+)
+from gaitcap.reconstruction.metrics import huber_np, skeleton_loss_np, smooth_loss_np
 
 
 def test_huber_shape_and_slope_cut():
@@ -43,7 +49,7 @@ def test_zero_weight_observations_are_ignored(scene):
     kp = det.keypoints.copy()
     kp[0, :, :, :2] = np.nan  # camera 0 lost: weight 0, NaN-free observations
     w = np.ones(det.shape)
-    from reconstruction.detections import Detections
+    from gaitcap.reconstruction.detections import Detections
 
     problem = fit_problem(Detections(kp, det.camera_names, det.times_s, det.skeleton), rig, w)
     assert np.isfinite(np.asarray(problem.obs.u_px)).all()

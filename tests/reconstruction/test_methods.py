@@ -1,10 +1,9 @@
 import numpy as np
 import pytest
-
-from reconstruction.fits.implicit import FourierBasis, ImplicitFit
-from reconstruction.fits.optim import LBFGS
-from reconstruction.methods import DLT, METHODS, Explicit, Implicit, Robust, reconstruct
-from reconstruction.result import load_npz
+from gaitcap.reconstruction.fits.implicit import FourierBasis, ImplicitFit
+from gaitcap.reconstruction.fits.optim import LBFGS
+from gaitcap.reconstruction.methods import DLT, METHODS, Explicit, Implicit, Robust, reconstruct
+from gaitcap.reconstruction.result import load_npz
 
 
 def test_registry_and_paper_configs():
@@ -47,7 +46,7 @@ def test_fit_refuses_a_joint_never_seen(scene):
     rig, det, _ = scene(cameras=4, frames=30, noise_px=1.0)
     kp = det.keypoints.copy()
     kp[:, :, det.skeleton.index("left_heel"), 2] = 0.2
-    from reconstruction.detections import Detections
+    from gaitcap.reconstruction.detections import Detections
 
     bad = Detections(kp, det.camera_names, det.times_s, det.skeleton)
     with pytest.raises(ValueError, match="left_heel"):

@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from reconstruction.metrics import compute_metrics, ground_truth_errors
+from gaitcap.reconstruction.metrics import compute_metrics, ground_truth_errors
 
 
 def test_metrics_of_truth_and_of_a_shifted_copy(scene):

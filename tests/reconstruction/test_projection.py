@@ -1,11 +1,10 @@
 import cv2
 import jax.numpy as jnp
 import numpy as np
+from gaitcap.reconstruction.camera import Camera, Rig
+from gaitcap.reconstruction.projection import camera_arrays, distort, project_points, undistort_pixels
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from reconstruction.camera import Camera, Rig
-from reconstruction.projection import camera_arrays, distort, project_points, undistort_pixels
 
 
 def _rig(dist, skew=0.0) -> Rig:

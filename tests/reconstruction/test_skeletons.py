@@ -1,6 +1,5 @@
 import pytest
-
-from reconstruction.skeletons import GAIT_JOINTS, SKELETONS, get_skeleton
+from gaitcap.reconstruction.skeletons import GAIT_JOINTS, SKELETONS, get_skeleton
 
 
 def test_sizes():

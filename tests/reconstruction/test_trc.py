@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from reconstruction.trc import to_trc
+from gaitcap.reconstruction.trc import to_trc
 
 
 def test_trc_layout_and_gaps():

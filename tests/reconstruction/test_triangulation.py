@@ -1,8 +1,7 @@
 import numpy as np
 import pytest
-
-from reconstruction.detections import Detections
-from reconstruction.triangulation import dlt_triangulate, robust_triangulate
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.triangulation import dlt_triangulate, robust_triangulate
 
 
 def test_dlt_is_exact_without_noise(scene):

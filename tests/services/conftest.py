@@ -5,8 +5,7 @@ import json
 from pathlib import Path
 
 import numpy as np
-
-from reconstruction.calibration_io import save_rig
+from gaitcap.reconstruction.calibration_io import save_rig
 
 
 def rig_toml(rig, tmp_dir: Path) -> str:
@@ -17,7 +16,7 @@ def rig_toml(rig, tmp_dir: Path) -> str:
 
 def write_trial_mcap(trial, path: Path, *, metadata: dict | None = None) -> Path:
     """The synthetic trial's patient detections as a trial MCAP (frame ids 0.., camera clocks in ns)."""
-    from acquisition.recording.writer import TrialWriter
+    from gaitcap.acquisition.recording.writer import TrialWriter
 
     path.parent.mkdir(parents=True, exist_ok=True)
     writer = TrialWriter(path)
@@ -40,9 +39,8 @@ def write_multi_trial_mcap(trial, path: Path, *, stills: bool = False) -> Path:
     camera frame lists the people detected in it, in the slots' (arbitrary) order. ``stills``: also a
     small grey image per camera and frame (so the recording has images to click on)."""
     import cv2
-
-    from acquisition.encoding import image_message
-    from acquisition.recording.writer import TrialWriter
+    from gaitcap.acquisition.encoding import image_message
+    from gaitcap.acquisition.recording.writer import TrialWriter
 
     jpeg = cv2.imencode(".jpg", np.full((36, 64, 3), 128, np.uint8))[1].tobytes() if stills else b""
 

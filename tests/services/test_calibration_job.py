@@ -3,20 +3,19 @@ becomes the active calibration; a camera that never sees the board fails the run
 
 import numpy as np
 import pytest
-
-from acquisition.board import BoardConfig, make_board
-from acquisition.synthetic.board import (
+from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.synthetic.board import (
     BoardMotion,
     board_trajectory,
     render_board_images,
     scaled_rig,
     write_board_mcap,
 )
-from acquisition.synthetic.room import build_rig
-from reconstruction.calibration.geometry import rotation_angle_deg
-from services import catalog as cat
-from services.calibration_job import run_calibration
-from services.catalog import calibration_runs as runs
+from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
+from gaitcap.services import catalog as cat
+from gaitcap.services.catalog import calibration_runs as runs
+from gaitcap.services.processing.calibration_job import run_calibration
 
 SCALE = 0.3
 
@@ -39,7 +38,7 @@ def _run(tmp_path, frames):
 
 
 def test_a_good_recording_becomes_the_active_calibration(images, tmp_path):
-    from reconstruction.calibration_io import load_rig
+    from gaitcap.reconstruction.calibration_io import load_rig
 
     frames, truth = images
     db, run = _run(tmp_path, frames)
@@ -79,7 +78,7 @@ def test_a_killed_job_fails_its_run(images, tmp_path):
     import signal
     import time
 
-    from services.calibration_job import launch
+    from gaitcap.services.processing.calibration_job import launch
 
     frames, _ = images
     long = {cam: np.concatenate([f] * 20) for cam, f in frames.items()}  # about a minute of detection

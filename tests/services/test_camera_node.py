@@ -4,13 +4,12 @@ import time
 
 import numpy as np
 import pytest
-
-from acquisition.drivers.simulated import simulated_rig
-from acquisition.encoding import parse_image_message
-from acquisition.synthetic import make_trial
-from services.bus.control import CameraStatusBoard, PreviewFrames
-from services.bus.session import BusConfig, alive_nodes, open_session
-from services.camera_node import CameraNode
+from gaitcap.acquisition.drivers.simulated import simulated_rig
+from gaitcap.acquisition.encoding import parse_image_message
+from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.services.bus.control import CameraStatusBoard, PreviewFrames
+from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
+from gaitcap.services.nodes.camera import CameraNode
 
 
 def free_bus(names, prefix="gaitcap/cn"):

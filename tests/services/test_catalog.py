@@ -3,10 +3,9 @@
 import threading
 
 import pytest
+from gaitcap.services import catalog as cat
+from gaitcap.services.catalog.models import SchemaInfo
 from sqlalchemy import update
-
-from services import catalog as cat
-from services.catalog.models import SchemaInfo
 
 
 @pytest.fixture

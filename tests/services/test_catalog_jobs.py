@@ -3,8 +3,7 @@
 import time
 
 import pytest
-
-from services import catalog as cat
+from gaitcap.services import catalog as cat
 
 
 @pytest.fixture

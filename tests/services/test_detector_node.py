@@ -3,14 +3,13 @@ import threading
 import time
 
 import numpy as np
-
-from acquisition.detectors.simulated import SimulatedConfig
-from acquisition.drivers.simulated import simulated_rig
-from acquisition.synthetic import make_trial
-from reconstruction.skeletons import get_skeleton
-from services.bus.session import BusConfig, alive_nodes, open_session
-from services.camera_node import CameraNode
-from services.detector_node import DetectorNode
+from gaitcap.acquisition.detectors.simulated import SimulatedConfig
+from gaitcap.acquisition.drivers.simulated import simulated_rig
+from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.reconstruction.skeletons import get_skeleton
+from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
+from gaitcap.services.nodes.camera import CameraNode
+from gaitcap.services.nodes.detector import DetectorNode
 
 
 def free_bus(names, prefix="gaitcap/dn"):

@@ -5,18 +5,17 @@ import json
 
 import numpy as np
 import pytest
-
-from services import catalog as cat
-from services.artifacts import trial_files
-from services.people import PatientChoice, most_people_in_view, write_choice
-from services.worker import Worker, WorkerConfig
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.people import PatientChoice, most_people_in_view, write_choice
+from gaitcap.services.processing.worker import Worker, WorkerConfig
 
 from .conftest import write_multi_trial_mcap
 
 
 @pytest.fixture(scope="module")
 def pair():
-    from acquisition.synthetic import make_trial
+    from gaitcap.acquisition.synthetic import make_trial
 
     return make_trial(preset="paper", seconds=6.0, cameras=6, people=2, seed=1)
 
@@ -27,8 +26,8 @@ def _mpjpe(points_mm, truth_mm) -> float:
 
 def _alone(trial, person: int) -> np.ndarray:
     """Robust triangulation of one person's detections alone (no one else in view), (T, J, 3) mm."""
-    from reconstruction.detections import Detections
-    from reconstruction.triangulation import robust_triangulate
+    from gaitcap.reconstruction.detections import Detections
+    from gaitcap.reconstruction.triangulation import robust_triangulate
 
     det = Detections(trial.multi.person(person), trial.rig.names, trial.times_s, trial.skeleton)
     return np.asarray(robust_triangulate(det, trial.rig).points_mm)
@@ -106,8 +105,8 @@ def _agreement(keypoints, person_kp) -> float:
 
 
 def test_patient_of_honours_a_choice_and_writes_nothing(tmp_path, pair):
-    from acquisition.recording.reader import read_keypoints
-    from services.people import patient_of, select_patient
+    from gaitcap.acquisition.recording.reader import read_keypoints
+    from gaitcap.services.processing.people import patient_of, select_patient
 
     path = write_multi_trial_mcap(pair, tmp_path / "t" / "recording.mcap")
     rec = read_keypoints(path)

@@ -2,11 +2,16 @@
 reproduces a smooth trajectory."""
 
 import numpy as np
-
-from reconstruction.detections import Detections
-from reconstruction.skeletons import get_skeleton
-from reconstruction.triangulation import robust_triangulate
-from services.processing import FRAME_CHUNK, dense_sampler, pad_detections, preliminary, ring_rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.skeletons import get_skeleton
+from gaitcap.reconstruction.triangulation import robust_triangulate
+from gaitcap.services.processing.pipeline import (
+    FRAME_CHUNK,
+    dense_sampler,
+    pad_detections,
+    preliminary,
+    ring_rig,
+)
 
 
 def test_chunked_preliminary_equals_whole_trial_triangulation():

@@ -8,13 +8,12 @@ import time
 
 import pytest
 import ray  # a dev dependency: without it this test fails rather than skips
+from gaitcap.services.cli import app
+from gaitcap.services.research.executors import LocalPool, RayCluster
+from gaitcap.services.research.reprocess import TrialSelection, plan_reprocess, run_plan
+from gaitcap.services.research.store import list_results
+from gaitcap.services.research.sweep import summarize
 from typer.testing import CliRunner
-
-from services.cli import app
-from services.executors import LocalPool, RayCluster
-from services.reprocess import TrialSelection, plan_reprocess, run_plan
-from services.reprocess_store import list_results
-from services.sweep import summarize
 
 from .reprocess_trials import make_walks, recorded_catalog
 
@@ -41,7 +40,7 @@ def local_ray():
 
 
 def test_ray_sweep_survives_a_killed_worker_and_matches_the_local_pool(tmp_path, local_ray):
-    from services.method_specs import parse_method
+    from gaitcap.services.research.method_specs import parse_method
 
     walks = make_walks(3)
     specs = [parse_method("robust"), parse_method("dlt")]

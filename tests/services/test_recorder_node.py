@@ -9,14 +9,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from acquisition.drivers.simulated import parse_faults, simulated_rig
-from acquisition.recording.reader import is_complete, iter_frames, read_metadata, read_status, recover
-from acquisition.synthetic import make_trial
-from services.bus.control import RecorderClient, RecorderError, subscribe_events
-from services.bus.session import BusConfig, alive_nodes, open_session
-from services.camera_node import CameraNode
-from services.recorder_node import RecorderNode
+from gaitcap.acquisition.drivers.simulated import parse_faults, simulated_rig
+from gaitcap.acquisition.recording.reader import is_complete, iter_frames, read_metadata, read_status, recover
+from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.services.bus.control import RecorderClient, RecorderError, subscribe_events
+from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
+from gaitcap.services.nodes.camera import CameraNode
+from gaitcap.services.nodes.recorder import RecorderNode
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -127,7 +126,7 @@ def _recorder_process(bus_file: Path, *, fsize_limit: int | None = None, flush_s
             resource.setrlimit(resource.RLIMIT_FSIZE, (fsize_limit, fsize_limit))
 
     env = dict(os.environ, GAITCAP_BUS=str(bus_file), PYTHONPATH=str(ROOT))
-    cmd = [sys.executable, "-c", "from services.cli import main; main()", "node", "recorder",
+    cmd = [sys.executable, "-c", "from gaitcap.services.cli import main; main()", "node", "recorder",
            "--node", "recorder", "--flush-s", str(flush_s), "--chunk-mb", "0.1"]
     return subprocess.Popen(cmd, env=env, cwd=str(ROOT), preexec_fn=limit,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)

@@ -10,13 +10,12 @@ import time
 
 import numpy as np
 import pytest
+from gaitcap.services.cli import app
+from gaitcap.services.research.executors import Inline, LocalPool
+from gaitcap.services.research.method_specs import parse_method
+from gaitcap.services.research.reprocess import TrialSelection, plan_reprocess, run_plan
+from gaitcap.services.research.store import list_results
 from typer.testing import CliRunner
-
-from services.cli import app
-from services.executors import Inline, LocalPool
-from services.method_specs import parse_method
-from services.reprocess import TrialSelection, plan_reprocess, run_plan
-from services.reprocess_store import list_results
 
 from .reprocess_trials import make_walks, recorded_catalog
 
@@ -67,7 +66,7 @@ def _count(db) -> int:
 
 def test_a_killed_run_resumes_where_it_stopped(tmp_path, walks):
     db, ids = recorded_catalog(tmp_path, walks)
-    argv = [sys.executable, "-c", "from services.cli import main; main()", "reprocess", "--data-dir", str(tmp_path),
+    argv = [sys.executable, "-c", "from gaitcap.services.cli import main; main()", "reprocess", "--data-dir", str(tmp_path),
             "-m", "robust", "-m", "dlt", "-m", "robust:sigma_mm=100", "--workers", "0"]
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     try:
@@ -149,7 +148,7 @@ def test_bad_methods_and_trial_filters(tmp_path, walks):
 
 
 def test_fits_ask_the_cluster_for_gpus_triangulations_do_not(tmp_path):
-    from services.reprocess import ReprocessTask, TrialRef, task_resources
+    from gaitcap.services.research.reprocess import ReprocessTask, TrialRef, task_resources
 
     trial = TrialRef("t1", tmp_path / "recording.mcap")
     resources = task_resources(1.0)

@@ -5,10 +5,9 @@ import csv
 import json
 
 import pytest
+from gaitcap.services.cli import app
+from gaitcap.services.research.sweep import COLUMNS, load_grid
 from typer.testing import CliRunner
-
-from services.cli import app
-from services.sweep import COLUMNS, load_grid
 
 from .reprocess_trials import make_walks, recorded_catalog
 

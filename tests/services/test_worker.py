@@ -2,17 +2,16 @@
 
 import numpy as np
 import pytest
-
-from services import catalog as cat
-from services.artifacts import trial_files
-from services.worker import Worker, WorkerConfig
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.worker import Worker, WorkerConfig
 
 from .conftest import write_trial_mcap
 
 
 @pytest.fixture(scope="module")
 def walk():
-    from acquisition.synthetic import make_trial
+    from gaitcap.acquisition.synthetic import make_trial
 
     return make_trial("clean", seconds=10, cameras=4, people=1, seed=3, fps=30)
 

@@ -2,11 +2,10 @@
 
 from dataclasses import dataclass
 
+import gaitcap.acquisition.detectors  # noqa: F401  (registers every kind)
 import numpy as np
 import pytest
-
-import acquisition.detectors  # noqa: F401  (registers every kind)
-from acquisition.detectors.base import (
+from gaitcap.acquisition.detectors.base import (
     DETECTOR_CONFIGS,
     DetectorConfig,
     best_person,
@@ -24,7 +23,7 @@ def test_every_kind_is_registered():
 
 
 def test_a_kind_cannot_be_registered_twice(monkeypatch):
-    monkeypatch.setattr("acquisition.detectors.base.DETECTOR_CONFIGS", dict(DETECTOR_CONFIGS))
+    monkeypatch.setattr("gaitcap.acquisition.detectors.base.DETECTOR_CONFIGS", dict(DETECTOR_CONFIGS))
 
     @dataclass(frozen=True)
     class Other(DetectorConfig):

@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-
-from acquisition.detectors.crops import Crop, box_crop, square_crop
+from gaitcap.acquisition.detectors.crops import Crop, box_crop, square_crop
 
 
 def test_round_trip_and_rotation():

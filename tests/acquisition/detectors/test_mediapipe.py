@@ -10,9 +10,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-
-from acquisition.detectors.base import DETECTOR_CONFIGS, Detector
-from acquisition.detectors.mediapipe import (
+from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, Detector
+from gaitcap.acquisition.detectors.mediapipe import (
     MediaPipeConfig,
     default_model_dir,
     refine_from_heatmaps,

@@ -9,11 +9,10 @@ import cv2
 import numpy as np
 import onnx
 import pytest
+from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, Detector
+from gaitcap.acquisition.detectors.crops import box_crop
+from gaitcap.acquisition.detectors.onnx import OnnxConfig, SimccDecoder
 from onnx import TensorProto, helper
-
-from acquisition.detectors.base import DETECTOR_CONFIGS, Detector
-from acquisition.detectors.crops import box_crop
-from acquisition.detectors.onnx import OnnxConfig, SimccDecoder
 
 H, W = 128, 96  # network input (RTMPose's 256x192 halved)
 
@@ -227,7 +226,7 @@ def test_person_detector_places_the_crop_on_the_person(tmp_path):
     import sys
     from pathlib import Path
 
-    from acquisition.detectors.mediapipe import DETECTOR_FILE, MediaPipeConfig, default_model_dir
+    from gaitcap.acquisition.detectors.mediapipe import DETECTOR_FILE, MediaPipeConfig, default_model_dir
 
     video = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "sports2d-demo.mp4"
     if not (default_model_dir() / DETECTOR_FILE).is_file() or not video.is_file():

@@ -2,10 +2,9 @@
 
 import numpy as np
 import pytest
-
-from acquisition.detectors.base import DETECTOR_CONFIGS, Detector
-from acquisition.detectors.simulated import SimulatedConfig
-from acquisition.synthetic import make_trial
+from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, Detector
+from gaitcap.acquisition.detectors.simulated import SimulatedConfig
+from gaitcap.acquisition.synthetic import make_trial
 
 
 @pytest.fixture(scope="module")

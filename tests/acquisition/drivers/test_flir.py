@@ -4,9 +4,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from acquisition.drivers.base import CaptureSettings
-from acquisition.drivers.flir import FlirSystem, GigESettings, PySpinMissing, import_pyspin, to_bgr
+from gaitcap.acquisition.drivers.base import CaptureSettings
+from gaitcap.acquisition.drivers.flir import FlirSystem, GigESettings, PySpinMissing, import_pyspin, to_bgr
 
 
 def _load_fake():

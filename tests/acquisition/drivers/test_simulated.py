@@ -1,10 +1,14 @@
 import numpy as np
 import pytest
-
-from acquisition.drivers.base import CaptureSettings, is_ptp_jump
-from acquisition.drivers.simulated import SimulatedCamera, SimulatedFaults, parse_faults, simulated_rig
-from acquisition.sync import check_sync
-from acquisition.synthetic import make_trial
+from gaitcap.acquisition.drivers.base import CaptureSettings, is_ptp_jump
+from gaitcap.acquisition.drivers.simulated import (
+    SimulatedCamera,
+    SimulatedFaults,
+    parse_faults,
+    simulated_rig,
+)
+from gaitcap.acquisition.sync import check_sync
+from gaitcap.acquisition.synthetic import make_trial
 
 
 @pytest.fixture(scope="module")

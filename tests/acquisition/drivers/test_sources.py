@@ -3,9 +3,8 @@ import sys
 from pathlib import Path
 
 import pytest
-
-from acquisition.drivers.simulated import SimTrialSpec
-from acquisition.drivers.sources import FlirSource, SimulatedSource
+from gaitcap.acquisition.drivers.simulated import SimTrialSpec
+from gaitcap.acquisition.drivers.sources import FlirSource, SimulatedSource
 
 
 def _fake_pyspin():

@@ -4,15 +4,14 @@ import time
 import cv2
 import numpy as np
 import pytest
-
-from acquisition.drivers.base import CaptureSettings
-from acquisition.drivers.sources import VideoSource
-from acquisition.drivers.video import VideoCamera
-from acquisition.recording.reader import iter_frames, read_summary
-from services.bus.control import RecorderClient
-from services.bus.session import BusConfig, alive_nodes, open_session
-from services.camera_node import CameraNode
-from services.recorder_node import RecorderNode
+from gaitcap.acquisition.drivers.base import CaptureSettings
+from gaitcap.acquisition.drivers.sources import VideoSource
+from gaitcap.acquisition.drivers.video import VideoCamera
+from gaitcap.acquisition.recording.reader import iter_frames, read_summary
+from gaitcap.services.bus.control import RecorderClient
+from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
+from gaitcap.services.nodes.camera import CameraNode
+from gaitcap.services.nodes.recorder import RecorderNode
 
 
 def write_video(path, frames=12, fps=25.0, size=(64, 48)):

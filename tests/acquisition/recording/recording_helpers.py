@@ -5,11 +5,10 @@ from __future__ import annotations
 import json
 
 import numpy as np
-
-from acquisition.encoding import encode_jpeg, image_message
-from acquisition.recording.writer import TrialWriter, WriterSettings
-from reconstruction.calibration_io import rig_to_toml_text
-from reconstruction.camera import Camera, Rig
+from gaitcap.acquisition.encoding import encode_jpeg, image_message
+from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
+from gaitcap.reconstruction.calibration_io import rig_to_toml_text
+from gaitcap.reconstruction.camera import Camera, Rig
 
 CAMS = ("cam0", "cam1", "cam2")
 FRAMES = 20

@@ -3,10 +3,8 @@ import shutil
 
 import numpy as np
 import pytest
-from recording_helpers import CAMS, FRAMES, J, people_for, tiny_rig, write_trial
-
-from acquisition.recording import layout
-from acquisition.recording.reader import (
+from gaitcap.acquisition.recording import layout
+from gaitcap.acquisition.recording.reader import (
     is_complete,
     iter_frames,
     read_calibration,
@@ -15,8 +13,9 @@ from acquisition.recording.reader import (
     read_metadata,
     read_status,
     read_summary,
-    recover,
 )
+from gaitcap.acquisition.recording.recovery import recover
+from recording_helpers import CAMS, FRAMES, J, people_for, tiny_rig, write_trial
 
 
 def test_detections_aligned_by_frame_id_with_missing_as_nan(trial_mcap):

@@ -1,10 +1,9 @@
 import json
 
 import pytest
+from gaitcap.acquisition.recording import layout
+from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
 from mcap.reader import make_reader
-
-from acquisition.recording import layout
-from acquisition.recording.writer import TrialWriter, WriterSettings
 
 
 def _load(path):

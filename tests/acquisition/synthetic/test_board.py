@@ -2,9 +2,8 @@
 
 import numpy as np
 import pytest
-
-from acquisition.board import BoardConfig, make_board
-from acquisition.synthetic.board import (
+from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.synthetic.board import (
     FLOOR_ROTATION,
     BoardMotion,
     board_trajectory,
@@ -12,7 +11,7 @@ from acquisition.synthetic.board import (
     render_board_images,
     scaled_rig,
 )
-from acquisition.synthetic.room import build_rig
+from gaitcap.acquisition.synthetic.room import build_rig
 
 
 @pytest.fixture(scope="module")

@@ -4,9 +4,8 @@ behind when writing it fails."""
 import cv2
 import numpy as np
 import pytest
-
-from acquisition.recording.reader import iter_frames
-from acquisition.synthetic.board_clip import BoardClipConfig, write_board_clip
+from gaitcap.acquisition.recording.reader import iter_frames
+from gaitcap.acquisition.synthetic.board_clip import BoardClipConfig, write_board_clip
 
 SMALL = BoardClipConfig(frames=12, floor_frames=2, cameras=3, scale=0.2)
 

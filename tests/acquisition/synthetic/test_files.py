@@ -1,11 +1,10 @@
 import numpy as np
 import pytest
+from gaitcap.acquisition.synthetic import WalkParams, make_trial
+from gaitcap.acquisition.synthetic.files import load_trial_files, save_trial
+from gaitcap.reconstruction.calibration_io import load_rig
+from gaitcap.services.cli import app
 from typer.testing import CliRunner
-
-from acquisition.synthetic import WalkParams, make_trial
-from acquisition.synthetic.files import load_trial_files, save_trial
-from reconstruction.calibration_io import load_rig
-from services.cli import app
 
 GT_KEYS = {
     "points_mm", "times_s", "joint_names", "skeleton", "heel_strike_s_left", "heel_strike_s_right",

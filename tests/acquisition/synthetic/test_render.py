@@ -1,9 +1,8 @@
 import numpy as np
 import pytest
-
-from acquisition.synthetic import make_trial
-from acquisition.synthetic.render import background, render_frame, scaled_camera
-from acquisition.synthetic.room import safe_project
+from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.acquisition.synthetic.render import background, render_frame, scaled_camera
+from gaitcap.acquisition.synthetic.room import safe_project
 
 
 @pytest.fixture(scope="module")

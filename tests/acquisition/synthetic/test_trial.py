@@ -1,11 +1,10 @@
 import cv2
 import numpy as np
 import pytest
-
-from acquisition.synthetic import PRESETS, WalkParams, make_trial
-from acquisition.synthetic.room import build_rig, visible
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
+from gaitcap.acquisition.synthetic import PRESETS, WalkParams, make_trial
+from gaitcap.acquisition.synthetic.room import build_rig, visible
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
 
 
 def _dlt(rig, keypoints, min_conf=0.5):

@@ -2,11 +2,10 @@ import math
 
 import numpy as np
 import pytest
-
-from acquisition.synthetic import WalkParams
-from acquisition.synthetic.path import SIDE_NAME, plan_walk
-from acquisition.synthetic.truth import gait_truth
-from acquisition.synthetic.walker import SKELETON, Body, limb_lengths, simulate_body
+from gaitcap.acquisition.synthetic import WalkParams
+from gaitcap.acquisition.synthetic.path import SIDE_NAME, plan_walk
+from gaitcap.acquisition.synthetic.truth import gait_truth
+from gaitcap.acquisition.synthetic.walker import SKELETON, Body, limb_lengths, simulate_body
 
 FPS = 240.0
 

@@ -1,13 +1,12 @@
 import numpy as np
 import pytest
-
-from acquisition.synthetic import truth as synthetic
-from acquisition.synthetic.params import WalkParams
-from acquisition.synthetic.path import plan_walk
-from acquisition.synthetic.walker import Body, simulate_body
-from acquisition.synthetic.walkway import WalkwayExportParams, make_walkway_export
-from reconstruction.gait import analyze_gait, compare_with_walkway
-from reconstruction.skeletons import get_skeleton
+from gaitcap.acquisition.synthetic import truth as synthetic
+from gaitcap.acquisition.synthetic.params import WalkParams
+from gaitcap.acquisition.synthetic.path import plan_walk
+from gaitcap.acquisition.synthetic.walker import Body, simulate_body
+from gaitcap.acquisition.synthetic.walkway import WalkwayExportParams, make_walkway_export
+from gaitcap.reconstruction.gait import analyze_gait, compare_with_walkway
+from gaitcap.reconstruction.skeletons import get_skeleton
 
 
 @pytest.fixture(scope="module")

@@ -6,10 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
-
-from reconstruction.association.multi import MultiPersonDetections
-from reconstruction.camera import Camera, Rig
-from reconstruction.skeletons import get_skeleton
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.camera import Camera, Rig
+from gaitcap.reconstruction.skeletons import get_skeleton
 
 # Stick-figure offsets (mm) of the Halpe-26 joints from the pelvis: x forward, y left, z up.
 _OFFSETS = {
@@ -38,7 +37,7 @@ def make_rig(num_cameras: int = 8, radius_mm: float = 5000.0, size_px=(1280, 102
         x /= np.linalg.norm(x)
         y = np.cross(z, x)
         rot = np.stack([x, y, z])
-        from reconstruction.camera import matrix_to_rodrigues
+        from gaitcap.reconstruction.camera import matrix_to_rodrigues
 
         k = np.array([[1100.0, 0, size_px[0] / 2], [0, 1100.0, size_px[1] / 2], [0, 0, 1]])
         cams.append(Camera(f"cam{i}", size_px, k, dist=np.array([-0.05, 0, 0, 0, 0]),

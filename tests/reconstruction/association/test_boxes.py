@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from reconstruction.association.boxes import BoxConfig, person_boxes
+from gaitcap.reconstruction.association.boxes import BoxConfig, person_boxes
 
 
 def test_boxes_contain_the_person_with_padding_and_stay_in_the_image(scene3):
@@ -40,7 +39,7 @@ def test_bad_points_shape_and_config():
 
 
 def test_track_boxes_use_the_tracks_camera_order(scene3):
-    from reconstruction.association import associate, track_boxes
+    from gaitcap.reconstruction.association import associate, track_boxes
 
     tracks = associate(scene3.multi, scene3.rig)
     names = list(reversed(tracks.camera_names))

@@ -1,7 +1,6 @@
 import pytest
-
-from reconstruction.association.config import DEFAULT_ASSOCIATION_JOINTS, AssociationConfig
-from reconstruction.skeletons import get_skeleton
+from gaitcap.reconstruction.association.config import DEFAULT_ASSOCIATION_JOINTS, AssociationConfig
+from gaitcap.reconstruction.skeletons import get_skeleton
 
 
 def test_default_joints_are_the_body_joints_the_skeleton_has():

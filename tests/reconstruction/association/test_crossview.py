@@ -1,8 +1,7 @@
 import numpy as np
 import pytest
-
-from reconstruction.association.crossview import AssociationConfig, associate_frames
-from reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.association.crossview import AssociationConfig, associate_frames
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
 
 
 def _purity(labels, identity):
@@ -60,7 +59,7 @@ def test_unknown_camera_and_bad_config_are_named(scene3):
 
 
 def test_long_clips_are_done_in_chunks_with_the_same_result(scene3, monkeypatch):
-    import reconstruction.association.crossview as crossview
+    import gaitcap.reconstruction.association.crossview as crossview
 
     whole = associate_frames(scene3.multi, scene3.rig, AssociationConfig())
     monkeypatch.setattr(crossview, "CHUNK_ELEMENTS", 7 * 24**3)  # 7 frames a chunk (8 cameras x 3 slots)

@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from reconstruction.association.evaluation import score_association
+from gaitcap.reconstruction.association.evaluation import score_association
 
 
 def test_counts_switches_wrong_and_missed():

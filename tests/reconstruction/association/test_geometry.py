@@ -1,12 +1,11 @@
 import numpy as np
-
-from reconstruction.association.geometry import (
+from gaitcap.reconstruction.association.geometry import (
     pixel_rays,
     triangulate_rays,
     two_ray_closest,
     undistort_normalized,
 )
-from reconstruction.camera import Camera
+from gaitcap.reconstruction.camera import Camera
 
 
 def test_undistort_inverts_opencv_distortion():

@@ -1,8 +1,11 @@
 import numpy as np
-
-from reconstruction.association.config import AssociationConfig
-from reconstruction.association.hypotheses import consensus_positions, linked_components, pair_hypotheses
-from reconstruction.association.rays import make_rays
+from gaitcap.reconstruction.association.config import AssociationConfig
+from gaitcap.reconstruction.association.hypotheses import (
+    consensus_positions,
+    linked_components,
+    pair_hypotheses,
+)
+from gaitcap.reconstruction.association.rays import make_rays
 
 
 def _setup(scene):

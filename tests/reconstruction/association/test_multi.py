@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
 
 
 def _kp(c=2, t=3, p=2, j=26):

@@ -1,13 +1,12 @@
 import numpy as np
 import pytest
-
-from reconstruction.association.npz_io import (
+from gaitcap.reconstruction.association.npz_io import (
     load_detections_npz,
     load_multi_npz,
     save_detections_npz,
     save_multi_npz,
 )
-from reconstruction.detections import Detections
+from gaitcap.reconstruction.detections import Detections
 
 
 def test_multi_and_single_round_trip(tmp_path, scene3):

@@ -2,9 +2,8 @@
 
 import numpy as np
 import pytest
-
-from acquisition.synthetic import make_trial
-from reconstruction.association import (
+from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.reconstruction.association import (
     BoxConfig,
     ManualTrack,
     MultiPersonDetections,
@@ -13,8 +12,8 @@ from reconstruction.association import (
     score_association,
     select_track_at_pixel,
 )
-from reconstruction.gait.analysis import analyze_gait
-from reconstruction.triangulation import robust_triangulate
+from gaitcap.reconstruction.gait.analysis import analyze_gait
+from gaitcap.reconstruction.triangulation import robust_triangulate
 
 SECONDS = 12.0
 
@@ -100,7 +99,7 @@ def test_manual_choice_of_the_therapist_gives_the_therapists_detections():
 
 
 def test_raw_arrays_entry_point_and_its_errors(scene3):
-    from reconstruction.association import associate_keypoints
+    from gaitcap.reconstruction.association import associate_keypoints
 
     got = associate_keypoints(scene3.multi.keypoints, rig=scene3.rig, camera_names=scene3.rig.names,
                               times_s=scene3.multi.times_s)
@@ -112,7 +111,7 @@ def test_raw_arrays_entry_point_and_its_errors(scene3):
 
 
 def test_close_companion_and_a_person_crossing_between_cameras(crossing_scene):
-    from reconstruction.association import associate
+    from gaitcap.reconstruction.association import associate
 
     tracks = associate(crossing_scene.multi, crossing_scene.rig)
     score = score_association(tracks.detection_track, crossing_scene.identity)
@@ -121,7 +120,7 @@ def test_close_companion_and_a_person_crossing_between_cameras(crossing_scene):
 
 
 def test_six_people_in_view(six_scene):
-    from reconstruction.association import associate
+    from gaitcap.reconstruction.association import associate
 
     tracks = associate(six_scene.multi, six_scene.rig)
     score = score_association(tracks.detection_track, six_scene.identity)

@@ -1,8 +1,7 @@
 import numpy as np
-
-from reconstruction.association.config import AssociationConfig
-from reconstruction.association.multi import MultiPersonDetections
-from reconstruction.association.rays import make_rays
+from gaitcap.reconstruction.association.config import AssociationConfig
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.association.rays import make_rays
 
 
 def test_rays_mask_mirror_and_box_size(scene3):

@@ -1,6 +1,5 @@
 import numpy as np
-
-from reconstruction.association.refine import absorb_explained, assign_greedy, nan_median_last
+from gaitcap.reconstruction.association.refine import absorb_explained, assign_greedy, nan_median_last
 
 
 def test_nan_median_last():

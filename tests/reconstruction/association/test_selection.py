@@ -1,8 +1,7 @@
 import numpy as np
 import pytest
-
-from reconstruction.association.pipeline import associate, default_selector
-from reconstruction.association.selection import (
+from gaitcap.reconstruction.association.pipeline import associate, default_selector
+from gaitcap.reconstruction.association.selection import (
     ManualTrack,
     NearestStartTrack,
     WalkwayTrack,
@@ -74,8 +73,8 @@ def test_click_on_a_camera_preview_selects_that_person(tracked):
 
 
 def test_walkway_is_where_the_cameras_aim(scene3):
-    from reconstruction.association.pipeline import walkway_from_rig
-    from reconstruction.camera import Camera, Rig, matrix_to_rodrigues
+    from gaitcap.reconstruction.association.pipeline import walkway_from_rig
+    from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 
     assert walkway_from_rig(scene3.rig) is None  # all cameras aim at one spot
     cams = []

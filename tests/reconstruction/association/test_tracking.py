@@ -1,8 +1,7 @@
 import numpy as np
 import pytest
-
-from reconstruction.association.crossview import FramePeople
-from reconstruction.association.tracking import TrackingConfig, link_tracks
+from gaitcap.reconstruction.association.crossview import FramePeople
+from gaitcap.reconstruction.association.tracking import TrackingConfig, link_tracks
 
 
 def _people(roots):

@@ -1,7 +1,6 @@
 import numpy as np
-
-from reconstruction.calibration import bundle as B
-from reconstruction.calibration.geometry import rodrigues_batch
+from gaitcap.reconstruction.calibration import bundle as B
+from gaitcap.reconstruction.calibration.geometry import rodrigues_batch
 
 
 def _problem(rng, free=(0, 1, 2, 3, 4), cams=3, frames=12):

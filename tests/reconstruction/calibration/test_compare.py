@@ -2,10 +2,9 @@
 
 import numpy as np
 import pytest
-
-from acquisition.synthetic.room import build_rig
-from reconstruction.calibration.compare import compare_rigs
-from reconstruction.camera import Rig, matrix_to_rodrigues
+from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.reconstruction.calibration.compare import compare_rigs
+from gaitcap.reconstruction.camera import Rig, matrix_to_rodrigues
 
 
 def _moved(rig: Rig, turn: np.ndarray, shift_mm: np.ndarray) -> Rig:

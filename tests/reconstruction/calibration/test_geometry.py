@@ -1,8 +1,7 @@
 import cv2
 import numpy as np
 import pytest
-
-from reconstruction.calibration.geometry import (
+from gaitcap.reconstruction.calibration.geometry import (
     BoardObservations,
     grid_board,
     mean_rotation,

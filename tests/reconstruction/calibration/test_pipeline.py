@@ -3,15 +3,14 @@ the board lying still on the floor first (its detection errors repeat) and laid 
 
 import numpy as np
 import pytest
-
-from acquisition.board import BoardConfig, make_board
-from acquisition.synthetic.board import BoardMotion, board_trajectory, observe_board
-from acquisition.synthetic.room import build_rig
-from reconstruction.calibration import BoardObservations, calibrate_from_observations
-from reconstruction.calibration.geometry import rotation_angle_deg
-from reconstruction.calibration.still import merge_still_frames
-from reconstruction.calibration_io import load_rig, save_rig
-from reconstruction.camera import Camera
+from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.synthetic.board import BoardMotion, board_trajectory, observe_board
+from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.reconstruction.calibration import BoardObservations, calibrate_from_observations
+from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
+from gaitcap.reconstruction.calibration.still import merge_still_frames
+from gaitcap.reconstruction.calibration_io import load_rig, save_rig
+from gaitcap.reconstruction.camera import Camera
 
 NOISE_PX = 0.3
 N_BAD = 40

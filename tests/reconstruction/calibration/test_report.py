@@ -1,6 +1,5 @@
 import numpy as np
-
-from reconstruction.calibration.report import coverage, error_stats, triangulate_normalized
+from gaitcap.reconstruction.calibration.report import coverage, error_stats, triangulate_normalized
 
 
 def test_triangulation_is_exact_and_needs_two_views():

@@ -2,9 +2,8 @@
 corner order flipped between frames of a still board)."""
 
 import numpy as np
-
-from reconstruction.calibration.geometry import BoardObservations, grid_board
-from reconstruction.calibration.still import align_view, merge_still_frames
+from gaitcap.reconstruction.calibration.geometry import BoardObservations, grid_board
+from gaitcap.reconstruction.calibration.still import align_view, merge_still_frames
 
 
 def _board(mirror: bool):

@@ -1,10 +1,9 @@
 import numpy as np
 import pytest
-
-from acquisition.synthetic import make_trial
-from reconstruction.calibration.geometry import rodrigues_batch, rotation_angle_deg
-from reconstruction.calibration.walk_frame import reframe_rig, world_from_walk
-from reconstruction.camera import Camera, Rig, matrix_to_rodrigues
+from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.reconstruction.calibration.geometry import rodrigues_batch, rotation_angle_deg
+from gaitcap.reconstruction.calibration.walk_frame import reframe_rig, world_from_walk
+from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 
 FEET = ["left_heel", "right_heel", "left_big_toe", "right_big_toe"]
 
@@ -35,7 +34,7 @@ def test_floor_and_walking_direction_from_the_feet(walk):
 def test_reframe_rig_keeps_projections():
     cam = Camera("c", (640, 480), np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]]),
                  rvec=matrix_to_rodrigues(rodrigues_batch(np.array([0.1, 0.2, 0.3]))), tvec_mm=[10.0, 20, 3000])
-    from reconstruction.calibration.world import WorldTransform
+    from gaitcap.reconstruction.calibration.world import WorldTransform
 
     world = WorldTransform(rodrigues_batch(np.array([0.0, 0.5, 0.2])), np.array([100.0, 0, 50]), 0, False)
     moved = reframe_rig(Rig((cam,)), world)

@@ -1,7 +1,6 @@
 import numpy as np
-
-from reconstruction.calibration.geometry import rodrigues_batch
-from reconstruction.calibration.world import WorldFrameConfig, floor_pose, to_world, world_from_floor
+from gaitcap.reconstruction.calibration.geometry import rodrigues_batch
+from gaitcap.reconstruction.calibration.world import WorldFrameConfig, floor_pose, to_world, world_from_floor
 
 
 def test_floor_board_defines_z_up_and_origin():
@@ -40,7 +39,7 @@ def test_static_floor_frames_are_averaged():
 
 
 def test_board_laid_down_elsewhere_sets_the_floor_tilt():
-    from reconstruction.calibration.world import floor_plane
+    from gaitcap.reconstruction.calibration.world import floor_plane
 
     obj = np.column_stack([np.mgrid[0:6, 0:4].reshape(2, -1).T * 110.0, np.zeros(24)])
     face_up = np.diag([1.0, -1.0, -1.0])

@@ -1,12 +1,11 @@
 import numpy as np
 import pytest
-
-from reconstruction.fits.common import fill_gaps, fit_problem, reject_spikes
-from reconstruction.fits.explicit import ExplicitFit
-from reconstruction.fits.implicit import FourierBasis, ImplicitFit, PaperMLP
-from reconstruction.fits.optim import LBFGS, Adam, WarmupHoldDecay
-from reconstruction.metrics import skeleton_loss_np
-from reconstruction.triangulation import robust_triangulate
+from gaitcap.reconstruction.fits.common import fill_gaps, fit_problem, reject_spikes
+from gaitcap.reconstruction.fits.explicit import ExplicitFit
+from gaitcap.reconstruction.fits.implicit import FourierBasis, ImplicitFit, PaperMLP
+from gaitcap.reconstruction.fits.optim import LBFGS, Adam, WarmupHoldDecay
+from gaitcap.reconstruction.metrics import skeleton_loss_np
+from gaitcap.reconstruction.triangulation import robust_triangulate
 
 
 def _setup(scene, **kw):

@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
-
-from reconstruction.gait import TrajectoryQuality, analyze_gait
+from gaitcap.reconstruction.gait import TrajectoryQuality, analyze_gait
 
 
 def _match(report, walk):
@@ -165,7 +164,7 @@ def test_noisy_body_centre_still_gives_the_passes(walker):
 
 
 def test_any_skeleton_with_heels_and_toes(walker):
-    from reconstruction.skeletons import get_skeleton
+    from gaitcap.reconstruction.skeletons import get_skeleton
 
     walk = walker()
     mediapipe = tuple(n.replace("big_toe", "foot_index") for n in walk.joint_names)

@@ -2,9 +2,8 @@ import math
 
 import numpy as np
 import pytest
-
-from reconstruction.gait import compare_with_walkway, read_walkway_csv
-from reconstruction.gait.walkway import (
+from gaitcap.reconstruction.gait import compare_with_walkway, read_walkway_csv
+from gaitcap.reconstruction.gait.walkway import (
     ResidualStats,
     Similarity2D,
     WalkwayTrial,

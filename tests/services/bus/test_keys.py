@@ -1,6 +1,5 @@
 import pytest
-
-from services.bus.keys import DEFAULT_PREFIX, Keys, check_name, dumps, loads
+from gaitcap.services.bus.keys import DEFAULT_PREFIX, Keys, check_name, dumps, loads
 
 
 def test_key_expressions():

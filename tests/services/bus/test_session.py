@@ -8,8 +8,7 @@ import time
 from pathlib import Path
 
 import pytest
-
-from services.bus.session import (
+from gaitcap.services.bus.session import (
     BusConfig,
     alive_nodes,
     declare_alive,
@@ -92,7 +91,7 @@ def test_peers_exchange_and_liveliness_sees_a_killed_node():
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     code = (
         "import sys, time, json\n"
-        "from services.bus.session import BusConfig, open_session, declare_alive\n"
+        "from gaitcap.services.bus.session import BusConfig, open_session, declare_alive\n"
         f"bus = BusConfig(json.loads({json.dumps(json.dumps(bus.nodes))}), prefix={bus.prefix!r})\n"
         "s = open_session(bus, 'b'); tok = declare_alive(s, bus, 'b')\n"
         "time.sleep(0.5)\n"

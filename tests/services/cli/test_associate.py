@@ -2,13 +2,12 @@
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.reconstruction.association import MultiPersonDetections
+from gaitcap.reconstruction.association.npz_io import load_detections_npz, save_multi_npz
+from gaitcap.reconstruction.calibration_io import save_rig
+from gaitcap.services.cli import app
 from typer.testing import CliRunner
-
-from acquisition.synthetic import make_trial
-from reconstruction.association import MultiPersonDetections
-from reconstruction.association.npz_io import load_detections_npz, save_multi_npz
-from reconstruction.calibration_io import save_rig
-from services.cli import app
 
 
 @pytest.fixture(scope="module")

@@ -4,20 +4,19 @@ import json
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
-
-from acquisition.board import BoardConfig, make_board
-from acquisition.synthetic.board import (
+from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.synthetic.board import (
     BoardMotion,
     board_trajectory,
     render_board_images,
     scaled_rig,
     write_board_mcap,
 )
-from acquisition.synthetic.room import build_rig
-from reconstruction.calibration.geometry import rotation_angle_deg
-from reconstruction.calibration_io import load_rig
-from services.cli import app
+from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
+from gaitcap.reconstruction.calibration_io import load_rig
+from gaitcap.services.cli import app
+from typer.testing import CliRunner
 
 SCALE = 0.3
 

@@ -5,13 +5,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 import pytest
+from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, DetectorConfig
+from gaitcap.acquisition.video_detect import detect_videos, find_videos
+from gaitcap.reconstruction.association.npz_io import load_detections_npz, load_multi_npz
+from gaitcap.reconstruction.skeletons import get_skeleton
+from gaitcap.services.cli import app
 from typer.testing import CliRunner
-
-from acquisition.detectors.base import DETECTOR_CONFIGS, DetectorConfig
-from acquisition.video_detect import detect_videos, find_videos
-from reconstruction.association.npz_io import load_detections_npz, load_multi_npz
-from reconstruction.skeletons import get_skeleton
-from services.cli import app
 
 SQ = 8
 
@@ -106,7 +105,7 @@ def _demo_clips(folder, first=100, count=12, size=(640, 360)):
 
 
 def test_detect_mediapipe_on_real_video(tmp_path):
-    from acquisition.detectors.mediapipe import default_model_dir
+    from gaitcap.acquisition.detectors.mediapipe import default_model_dir
 
     if not (default_model_dir() / "pose_landmark_lite.tflite").is_file():
         pytest.skip("MediaPipe models not installed (run deploy/bootstrap.sh)")

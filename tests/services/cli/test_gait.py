@@ -4,9 +4,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from gaitcap.services.cli import app
 from typer.testing import CliRunner
-
-from services.cli import app
 
 # The gait tests' analytic walker (loaded under its own name: every test folder has a conftest).
 _WALKER = Path(__file__).resolve().parents[2] / "reconstruction" / "gait" / "conftest.py"
@@ -41,7 +40,7 @@ def test_gait_command_bad_input(tmp_path):
 
 
 def test_gait_command_with_walkway(tmp_path):
-    from reconstruction.gait.walkway import Similarity2D, WalkwayTrial, write_walkway_csv
+    from gaitcap.reconstruction.gait.walkway import Similarity2D, WalkwayTrial, write_walkway_csv
 
     walk = make_walk(segments=(("line", 5000), ("arc", 500, 180), ("line", 3200)))
     npz = tmp_path / "t1.npz"

@@ -12,18 +12,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.recording import layout
+from gaitcap.acquisition.recording.reader import iter_frames, read_calibration, read_detections, read_summary
+from gaitcap.acquisition.sync import check_sync
+from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.reconstruction.calibration_io import rig_to_toml_text
+from gaitcap.services.bus.control import RecorderClient, subscribe_events
+from gaitcap.services.bus.session import BusConfig, alive_nodes, declare_alive, open_session, watch_alive
 from mcap.reader import make_reader
 
-from acquisition.recording import layout
-from acquisition.recording.reader import iter_frames, read_calibration, read_detections, read_summary
-from acquisition.sync import check_sync
-from acquisition.synthetic import make_trial
-from reconstruction.calibration_io import rig_to_toml_text
-from services.bus.control import RecorderClient, subscribe_events
-from services.bus.session import BusConfig, alive_nodes, declare_alive, open_session, watch_alive
-
 ROOT = Path(__file__).resolve().parents[3]
-CLI = [sys.executable, "-c", "from services.cli import main; main()"]
+CLI = [sys.executable, "-c", "from gaitcap.services.cli import main; main()"]
 SIM = ["--sim-seconds", "5", "--sim-seed", "7"]
 FRAMES = 30
 

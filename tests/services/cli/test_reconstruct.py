@@ -1,12 +1,11 @@
 import json
 
 import numpy as np
+from gaitcap.reconstruction.calibration_io import save_rig
+from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.services.cli import app
 from typer.testing import CliRunner
-
-from reconstruction.calibration_io import save_rig
-from reconstruction.camera import Camera, Rig, matrix_to_rodrigues
-from reconstruction.detections import Detections
-from services.cli import app
 
 
 def _scene(cameras=4, frames=30):

@@ -5,10 +5,9 @@ import time
 from pathlib import Path
 
 import pytest
-
-from services.bus.session import BusConfig, open_session
-from services.cli.replay import _rate
-from services.replay import Replayer
+from gaitcap.services.bus.session import BusConfig, open_session
+from gaitcap.services.cli.replay import _rate
+from gaitcap.services.nodes.replay import Replayer
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "acquisition" / "recording"))
 from recording_helpers import CAMS, FRAMES, write_trial  # noqa: E402

@@ -4,11 +4,10 @@ accuracy targets are measured at full resolution by bench/calibration.py)."""
 
 import re
 
+from gaitcap.reconstruction.calibration.compare import compare_rigs
+from gaitcap.reconstruction.calibration_io import load_rig
+from gaitcap.services.cli import app
 from typer.testing import CliRunner
-
-from reconstruction.calibration.compare import compare_rigs
-from reconstruction.calibration_io import load_rig
-from services.cli import app
 
 
 def test_simulated_board_recording_calibrates_close_to_its_truth(tmp_path):

@@ -9,9 +9,8 @@ import logging
 import math
 
 import numpy as np
-
-from services.artifacts import TrialFiles, atomic_path, write_bytes_atomic
-from services.processing import Trajectory
+from gaitcap.services.processing.artifacts import TrialFiles, atomic_path, write_bytes_atomic
+from gaitcap.services.processing.pipeline import Trajectory
 
 log = logging.getLogger(__name__)
 
@@ -78,7 +77,7 @@ def report_png(traj: Trajectory, report, *, title: str) -> bytes:
     """The gait module's heel-trace plot when there is a report; else heel height and position over
     time for both feet (so a trial without steps still shows what was measured)."""
     if report is not None:
-        from reconstruction.gait.plot import heel_traces_png
+        from gaitcap.reconstruction.gait.plot import heel_traces_png
 
         return heel_traces_png(report, traj.points_mm, traj.times_s, list(traj.joint_names))
     import matplotlib
@@ -126,7 +125,7 @@ def write_data(files: TrialFiles, stage: str, traj: Trajectory, report) -> None:
 
 def write_views(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str) -> None:
     """The TRC export and the report plot (slower; written right after the result is stored)."""
-    from reconstruction.trc import to_trc
+    from gaitcap.reconstruction.trc import to_trc
 
     trc = to_trc(traj.points_mm, traj.times_s, traj.joint_names, filename=f"{trial_id}-{stage}.trc")
     write_bytes_atomic(files.stage_file(stage, "trajectory_trc"), trc.encode())

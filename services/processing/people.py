@@ -1,11 +1,11 @@
 """Several people in view: who is the patient of a trial.
 
 When a recording has more than one person in any camera frame, the worker associates everyone across
-cameras and time (:mod:`reconstruction.association`) and picks the patient: the clinician's stored choice
+cameras and time (:mod:`gaitcap.reconstruction.association`) and picks the patient: the clinician's stored choice
 (``patient_choice.json``) when there is one, else automatically (the person who walks the walkway). A
 single-person recording takes none of this (the detector's only person is the patient).
 
-Files in the trial folder (:class:`~services.artifacts.TrialFiles`):
+Files in the trial folder (:class:`~gaitcap.services.processing.artifacts.TrialFiles`):
 
 - ``people.json`` (worker): ``{"cameras": [...], "frames": T, "first_frame_id": recorder frame id of
   frame 0, "busiest_frame": a frame with the most people in view, "image_sizes_px": {camera: [w, h]},
@@ -24,11 +24,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-from reconstruction.association import ManualTrack, MultiPersonDetections, PatientSelection, Tracks
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
-from services.artifacts import TrialFiles, atomic_path, write_bytes_atomic
+from gaitcap.reconstruction.association import ManualTrack, MultiPersonDetections, PatientSelection, Tracks
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.services.processing.artifacts import TrialFiles, atomic_path, write_bytes_atomic
 
 log = logging.getLogger(__name__)
 IN_VIEW_CONFIDENCE = 0.3  # a slot with a joint above this confidence is a person in view
@@ -56,7 +55,7 @@ def most_people_in_view(people: np.ndarray, *, threshold: float = IN_VIEW_CONFID
 
 
 def multi_of(recording) -> MultiPersonDetections:
-    """A :class:`~acquisition.recording.reader.KeypointRecording` as association input."""
+    """A :class:`~gaitcap.acquisition.recording.reader.KeypointRecording` as association input."""
     return MultiPersonDetections(keypoints=recording.people, camera_names=recording.camera_names,
                                  times_s=recording.times_s, skeleton=recording.skeleton)
 
@@ -66,7 +65,7 @@ def select_patient(recording, rig: Rig, choice: PatientChoice | None) -> Patient
 
     ValueError when the chosen track does not exist (e.g. a choice made before the recording changed).
     """
-    from reconstruction.association import associate_and_select
+    from gaitcap.reconstruction.association import associate_and_select
 
     multi = multi_of(recording)
     selector = ManualTrack(choice.track_id) if choice is not None else None
@@ -184,8 +183,8 @@ def track_at_click(files: TrialFiles, *, camera: str, frame: int, x_px: float, y
     """The track of the person under a click on ``camera``'s image of ``frame`` (0 = the first frame of
     the recording). LookupError when the trial has no tracks; ValueError naming the camera, frame or
     pixel when nobody is there."""
-    from acquisition.recording.reader import read_keypoints
-    from reconstruction.association import select_track_at_pixel
+    from gaitcap.acquisition.recording.reader import read_keypoints
+    from gaitcap.reconstruction.association import select_track_at_pixel
 
     if not files.tracks_npz.is_file():
         raise LookupError("this trial has no tracked people (one person in view, or not processed yet)")
@@ -198,7 +197,7 @@ def track_at_click(files: TrialFiles, *, camera: str, frame: int, x_px: float, y
 
 def recorded_still(files: TrialFiles, *, camera: str, frame_id: int) -> bytes | None:
     """The JPEG ``camera`` recorded for ``frame_id`` (the recorder's frame id), None when not recorded."""
-    from acquisition.recording.reader import iter_frames
+    from gaitcap.acquisition.recording.reader import iter_frames
 
     for recorded in iter_frames(files.recording, camera):
         if recorded.frame_id == frame_id:

@@ -1,8 +1,8 @@
 """Calibrate from a stopped board recording, as a process of its own (the API starts it at Stop).
 
-``python -m services.calibration_job --catalog URL --id RUN_ID [--frames N]``: finds the board in the
+``python -m gaitcap.services.processing.calibration_job --catalog URL --id RUN_ID [--frames N]``: finds the board in the
 run's MCAP, calibrates every camera, stores the calibration and its quality report in the catalog
-(:mod:`services.catalog.calibration_runs`); progress goes to the run's ``stage`` / ``progress``. A
+(:mod:`gaitcap.services.catalog.calibration_runs`); progress goes to the run's ``stage`` / ``progress``. A
 recording the maths refuses (a camera that never saw the board, ...) fails naming the reason.
 """
 
@@ -16,8 +16,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from services.catalog import open_catalog
-from services.catalog.calibration_runs import (
+from gaitcap.services.catalog import open_catalog
+from gaitcap.services.catalog.calibration_runs import (
     CALIBRATING,
     FAILED,
     finish_calibration_run,
@@ -29,7 +29,7 @@ log = logging.getLogger(__name__)
 
 
 def _toml_text(rig, rms_px: float) -> str:
-    from reconstruction.calibration_io import save_rig
+    from gaitcap.reconstruction.calibration_io import save_rig
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "calibration.toml"
@@ -39,9 +39,9 @@ def _toml_text(rig, rms_px: float) -> str:
 
 def run_calibration(catalog, run_id: str, *, expected_images: int | None = None, board=None) -> None:
     """Calibrate run ``run_id`` (state ``calibrating``) and store the outcome (never raises ValueError)."""
-    from acquisition.board import BoardConfig
-    from acquisition.board_recording import detect_recording
-    from reconstruction.calibration import calibrate_from_observations
+    from gaitcap.acquisition.board import BoardConfig
+    from gaitcap.acquisition.board_recording import detect_recording
+    from gaitcap.reconstruction.calibration import calibrate_from_observations
 
     run = get_calibration_run(catalog, run_id)
     last = [0.0]
@@ -74,7 +74,7 @@ def launch(catalog_url: str, run_id: str, *, expected_images: int | None = None)
     dies without finishing it (killed, out of memory)."""
     import threading
 
-    argv = [sys.executable, "-m", "services.calibration_job", "--catalog", catalog_url, "--id", run_id]
+    argv = [sys.executable, "-m", "gaitcap.services.processing.calibration_job", "--catalog", catalog_url, "--id", run_id]
     if expected_images:
         argv += ["--frames", str(int(expected_images))]
     proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL)

@@ -1,7 +1,7 @@
 """Reconstruction methods named on the command line or in a sweep grid, as typed configs with a stable
 identity.
 
-A :class:`MethodSpec` is a method name from :data:`reconstruction.methods.METHODS` (``dlt``, ``robust``,
+A :class:`MethodSpec` is a method name from :data:`gaitcap.reconstruction.methods.METHODS` (``dlt``, ``robust``,
 ``explicit``, ``implicit``), an optional preset (a constructor of the config class, e.g. ``paper``) and
 parameter overrides. Overrides are dotted paths into the frozen config (``fit.solver.iterations=30``,
 ``robust.gamma=0.3``) or one of the short :data:`ALIASES` (``gamma``, ``sigma_mm``, ``huber_cut_px``,
@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from reconstruction.methods import METHODS
+from gaitcap.reconstruction.methods import METHODS
 
 #: short names -> dotted paths tried in order (the first that exists in the config is used).
 ALIASES: dict[str, tuple[str, ...]] = {
@@ -60,7 +60,7 @@ class MethodSpec:
         self.config()  # fails early, naming the bad parameter
 
     def config(self):
-        """The typed method config (a frozen dataclass of :mod:`reconstruction.methods`)."""
+        """The typed method config (a frozen dataclass of :mod:`gaitcap.reconstruction.methods`)."""
         cls = METHODS[self.method]
         cfg = getattr(cls, self.preset)() if self.preset else cls()
         for name, value in self.params.items():

@@ -22,10 +22,10 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from services.supervisor import ProcessSpec, Supervisor
+from gaitcap.services.ops.supervisor import ProcessSpec, Supervisor
 
 log = logging.getLogger(__name__)
-CLI = (sys.executable, "-c", "from services.cli import main; main()")
+CLI = (sys.executable, "-c", "from gaitcap.services.cli import main; main()")
 
 
 @dataclass(frozen=True)
@@ -59,7 +59,7 @@ class StackConfig:
             raise ValueError(f"cameras: need 2..64 cameras, got {self.cameras}")
         if not 1 <= self.workers <= 8:
             raise ValueError(f"workers: need 1..8 workers, got {self.workers}")
-        from acquisition.synthetic.board_scene import board_scene_config
+        from gaitcap.acquisition.synthetic.board_scene import board_scene_config
 
         board_scene_config(self.board_clip)
         if self.sim_people not in (1, 2, 3):
@@ -98,7 +98,7 @@ def free_port_range(n: int, *, low: int = 20000, high: int = 60000) -> int:
 
 
 def bus_config(cfg: StackConfig):
-    from services.bus.session import BusConfig
+    from gaitcap.services.bus.session import BusConfig
 
     nodes = ("recorder", "detector", "api", "camera-0", *cfg.worker_names())
     return BusConfig.local(cfg.bus_base_port, nodes=nodes)
@@ -133,9 +133,9 @@ def register_calibration(cfg: StackConfig) -> str:
     """Store the simulated rig's calibration in the catalog (the API hands it to the recorder)."""
     import tempfile
 
-    from acquisition.drivers.simulated import SimTrialSpec
-    from reconstruction.calibration_io import save_rig
-    from services import catalog as cat
+    from gaitcap.acquisition.drivers.simulated import SimTrialSpec
+    from gaitcap.reconstruction.calibration_io import save_rig
+    from gaitcap.services import catalog as cat
 
     rig = SimTrialSpec(preset=cfg.sim_preset, seconds=5.0, cameras=cfg.cameras, seed=cfg.seed, fps=cfg.fps).make().rig
     with tempfile.TemporaryDirectory() as tmp:
@@ -220,7 +220,7 @@ class Stack:
         raise RuntimeError(f"only {len(seen)} of {self.cfg.cameras} cameras healthy; logs in {self.supervisor.log_dir}")
 
     def _wait_keypoints(self, deadline: float) -> None:
-        from services.bus.session import open_session
+        from gaitcap.services.bus.session import open_session
 
         got = threading.Event()
         session = open_session(self.bus, None)

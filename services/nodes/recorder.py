@@ -1,6 +1,6 @@
 """Recorder node: writes one MCAP per trial from the bus (frames, keypoints, camera status).
 
-Control through queryables (``<prefix>/recorder/start|stop|status``, see :mod:`services.bus.keys`), so
+Control through queryables (``<prefix>/recorder/start|stop|status``, see :mod:`gaitcap.services.bus.keys`), so
 the caller gets an acknowledgement. Subscriber callbacks only enqueue (a deep queue, so no publisher is
 ever stalled by disk latency); one writer thread writes the MCAP. On a write error (disk full, file
 size limit) the recording stops cleanly: the ``.part`` file is closed, an ``error`` event is published
@@ -18,10 +18,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from acquisition.recording.writer import TrialWriter, WriterSettings
-from services.bus.keys import dumps, loads
-from services.bus.session import BusConfig, declare_alive
+from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
+from gaitcap.services.bus.keys import dumps, loads
+from gaitcap.services.bus.session import BusConfig, declare_alive
 
 log = logging.getLogger(__name__)
 

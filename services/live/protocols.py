@@ -2,7 +2,7 @@
 
 The API (HTTP only) never talks to cameras: it asks a :class:`TrialRecorder` to start and stop the
 trial's recording and reads camera health and JPEG previews from a :class:`LiveView`. ``BusLink``
-(``services.bus_link``) implements both over Zenoh.
+(``gaitcap.services.live.bus_link``) implements both over Zenoh.
 """
 
 from __future__ import annotations

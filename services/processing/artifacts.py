@@ -13,7 +13,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from services.catalog.ids import validate_id
+from gaitcap.services.catalog.ids import validate_id
 
 STAGES = ("preliminary", "refined")
 

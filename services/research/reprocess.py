@@ -1,18 +1,18 @@
 """Batch reprocessing: re-run reconstruction + gait analysis of recorded trials under given methods.
 
 A plan (:func:`plan_reprocess`) pairs every selected trial with every :class:`MethodSpec`, leaving out
-pairs already stored in the catalog (``services.reprocess_store``); :func:`run_plan` hands the tasks to an
-executor (``services.executors``: inline, local process pool, Ray) and counts what came back. Each task
+pairs already stored in the catalog (``gaitcap.services.research.store``); :func:`run_plan` hands the tasks to an
+executor (``gaitcap.services.research.executors``: inline, local process pool, Ray) and counts what came back. Each task
 (:func:`run_task`, run in a worker process) checks the store again, computes, writes its files (temp +
 rename) and inserts its row idempotently. Nothing is held in memory between tasks, so a run that
 crashed or was killed simply resumes when started again: done pairs are skipped.
 
 What a task computes for trial T and method M:
-- the 3D trajectory (``reconstruction.methods.reconstruct``) and the paper's metrics (GC_5/10/20,
+- the 3D trajectory (``gaitcap.reconstruction.methods.reconstruct``) and the paper's metrics (GC_5/10/20,
   L_reproj, L_skeleton, L_smooth; MPJPE and heel/toe errors when the trial has ground truth);
-- gait analysis (``reconstruction.gait.analyze_gait``): the catalog's summary and the step count;
+- gait analysis (``gaitcap.reconstruction.gait.analyze_gait``): the catalog's summary and the step count;
 - residuals against a reference, per footfall (heel/toe forward and lateral, step and stride length,
-  step width, mm) with the walkway alignment of ``reconstruction.gait``: the reference is the trial's
+  step width, mm) with the walkway alignment of ``gaitcap.reconstruction.gait``: the reference is the trial's
   ``walkway.csv`` when there is one, else the footfalls of ``ground_truth.npz`` (synthetic trials:
   the world's exact heel and toe points and contact times).
 
@@ -34,11 +34,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-
-from services import catalog as cat
-from services.artifacts import atomic_path, trial_files, write_bytes_atomic
-from services.method_specs import MethodSpec, canonical
-from services.reprocess_store import MethodResult, delete_failed, done_keys, get_result, put_result
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import atomic_path, trial_files, write_bytes_atomic
+from gaitcap.services.research.method_specs import MethodSpec, canonical
+from gaitcap.services.research.store import MethodResult, delete_failed, done_keys, get_result, put_result
 
 log = logging.getLogger(__name__)
 
@@ -172,8 +171,8 @@ class ReprocessSummary:
 
 def task_resources(gpus_per_fit: float) -> Callable[[ReprocessTask], object]:
     """Resource request of a task: 1 CPU; ``gpus_per_fit`` GPUs for trajectory fits."""
-    from reconstruction.methods import Explicit, Implicit
-    from services.executors import TaskResources
+    from gaitcap.reconstruction.methods import Explicit, Implicit
+    from gaitcap.services.research.executors import TaskResources
 
     fits = {Explicit.name, Implicit.name}
 
@@ -185,7 +184,7 @@ def task_resources(gpus_per_fit: float) -> Callable[[ReprocessTask], object]:
 
 def run_plan(plan: ReprocessPlan, executor, *, on_outcome: Callable[[TaskOutcome], None] | None = None,
              resources=None) -> ReprocessSummary:
-    """Run the plan's tasks on ``executor`` (``services.executors``), calling ``on_outcome`` as each ends."""
+    """Run the plan's tasks on ``executor`` (``gaitcap.services.research.executors``), calling ``on_outcome`` as each ends."""
     outcomes = []
     for outcome in executor.map_unordered(run_task, plan.tasks, resources):
         outcomes.append(outcome)
@@ -203,7 +202,7 @@ def _catalog(url: str) -> cat.Catalog:
 
 def _use_compile_cache(path: str) -> None:
     """Turn on JAX's persistent compilation cache once per process (best effort)."""
-    from services.processing import enable_compile_cache
+    from gaitcap.services.processing.pipeline import enable_compile_cache
 
     if path and path not in _CACHES:
         _CACHES.add(path)
@@ -237,10 +236,10 @@ def run_task(task: ReprocessTask) -> TaskOutcome:
 # ---------------------------------------------------------------------------------------------- one result
 def compute_result(task: ReprocessTask) -> MethodResult:
     """Reconstruction, metrics, gait and residuals of one trial under one method (raises ValueError)."""
-    from reconstruction.methods import reconstruct
-    from services.artifacts import TrialFiles
-    from services.people import patient_of, read_choice
-    from services.processing import load_keypoints
+    from gaitcap.reconstruction.methods import reconstruct
+    from gaitcap.services.processing.artifacts import TrialFiles
+    from gaitcap.services.processing.people import patient_of, read_choice
+    from gaitcap.services.processing.pipeline import load_keypoints
 
     recording, rig = load_keypoints(task.trial.recording)  # several people in view: the patient (stored choice)
     det, rig = patient_of(recording, rig, read_choice(TrialFiles(task.trial.folder))).aligned_to(rig)
@@ -278,8 +277,8 @@ def _truth_points(folder: Path, det) -> np.ndarray | None:
 
 
 def _gait(points, times, names, sample) -> dict:
-    from reconstruction.gait import analyze_gait
-    from services.trial_outputs import summary_of
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.services.processing.outputs import summary_of
 
     try:
         report = analyze_gait(points, times, names, sample=sample)
@@ -290,7 +289,7 @@ def _gait(points, times, names, sample) -> dict:
 
 def _reference(trial: TrialRef):
     """The walkway footfalls to compare with: ``walkway.csv`` (the trial's rows), else ground truth."""
-    from reconstruction.gait import read_walkway_csv
+    from gaitcap.reconstruction.gait import read_walkway_csv
 
     walkway = trial.folder / WALKWAY_FILE
     if walkway.is_file():
@@ -305,7 +304,7 @@ def _reference(trial: TrialRef):
 
 def _truth_footfalls(path: Path, name: str):
     """The straight-pass footfalls of a ground-truth file as an exact walkway (same frame and clock)."""
-    from reconstruction.gait.walkway import WalkwayTrial
+    from gaitcap.reconstruction.gait.walkway import WalkwayTrial
 
     with np.load(path, allow_pickle=False) as z:
         rows = np.flatnonzero((z["step_pass"] >= 0) & np.isfinite(z["step_toe_off_s"]))
@@ -317,8 +316,8 @@ def _truth_footfalls(path: Path, name: str):
 
 def _residuals(trial: TrialRef, points, times, names, sample) -> dict:
     """Per-footfall kinematic - reference errors (mm) of the walkway comparison, or the reason none."""
-    from reconstruction.gait import compare_with_walkway
-    from reconstruction.gait.walkway import RESIDUAL_PARAMETERS
+    from gaitcap.reconstruction.gait import compare_with_walkway
+    from gaitcap.reconstruction.gait.walkway import RESIDUAL_PARAMETERS
 
     kind, reference = _reference(trial)
     if reference is None:

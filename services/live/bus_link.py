@@ -1,7 +1,7 @@
 """The API's link to the live system over Zenoh: the recorder's queryables, camera status, previews.
 
-Implements :class:`services.live.Link` with ``services.bus.control`` clients on a session of the
-``api`` node (peer mode, explicit endpoints; see ``services.bus.session``).
+Implements :class:`gaitcap.services.live.protocols.Link` with ``gaitcap.services.bus.control`` clients on a session of the
+``api`` node (peer mode, explicit endpoints; see ``gaitcap.services.bus.session``).
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 import logging
 import time
 
-from services.live import CameraHealth, RecorderUnavailable
+from gaitcap.services.live.protocols import CameraHealth, RecorderUnavailable
 
 log = logging.getLogger(__name__)
 STALE_S = 3.0  # no status or frame for this long: the camera is reported as "no signal"
@@ -38,8 +38,8 @@ class BusLink:
     connected = True
 
     def __init__(self, bus, *, node: str | None = "api", timeout_s: float = 10.0) -> None:
-        from services.bus.control import CameraStatusBoard, PreviewFrames, RecorderClient
-        from services.bus.session import declare_alive, open_session
+        from gaitcap.services.bus.control import CameraStatusBoard, PreviewFrames, RecorderClient
+        from gaitcap.services.bus.session import declare_alive, open_session
 
         self.bus = bus
         self.session = open_session(bus, node)
@@ -49,7 +49,7 @@ class BusLink:
         self.previews = PreviewFrames(self.session, bus.keys)
 
     def start(self, *, trial_id: str, path: str, metadata: dict) -> None:
-        from services.bus.control import RecorderError
+        from gaitcap.services.bus.control import RecorderError
 
         meta = dict(metadata)
         calibration = meta.pop("calibration_toml", "") or None
@@ -59,7 +59,7 @@ class BusLink:
             raise RecorderUnavailable(str(exc)) from None
 
     def stop(self, trial_id: str) -> dict:
-        from services.bus.control import RecorderError
+        from gaitcap.services.bus.control import RecorderError
 
         try:
             return self.recorder.stop(trial_id).get("summary", {})
@@ -68,7 +68,7 @@ class BusLink:
 
     def show_scene(self, scene: str, *, start_ns: int) -> None:
         """Simulated cameras show ``scene`` (walker | board) from ``start_ns`` (``keys.CAMERA_SCENE``)."""
-        from services.bus.keys import dumps
+        from gaitcap.services.bus.keys import dumps
 
         self.session.put(self.bus.keys.camera_scene, dumps({"scene": scene, "start_ns": int(start_ns)}))
 
@@ -102,6 +102,6 @@ class BusProgress:
         self.session, self.prefix = session, bus.keys.prefix
 
     def publish(self, trial_id: str, payload: dict) -> None:
-        from services.bus.keys import dumps
+        from gaitcap.services.bus.keys import dumps
 
         self.session.put(f"{self.prefix}/worker/progress/{trial_id}", dumps(payload))

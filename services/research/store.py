@@ -15,11 +15,10 @@ import time
 import weakref
 from dataclasses import dataclass, field
 
+from gaitcap.services.catalog import Catalog
 from sqlalchemy import Float, Integer, String, Text, UniqueConstraint, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
-
-from services.catalog import Catalog
 
 
 class _Base(DeclarativeBase):

@@ -1,8 +1,8 @@
 """Detector node: 2D keypoints for every frame on the bus.
 
 Subscribes to ``<prefix>/camera/*/image``, decodes the JPEG, runs a
-:class:`~acquisition.detectors.base.Detector` and publishes JSON keypoints (schema
-:data:`services.bus.keys.KEYPOINTS`) on ``<prefix>/keypoints/<cam>``. The subscriber callback only
+:class:`~gaitcap.acquisition.detectors.base.Detector` and publishes JSON keypoints (schema
+:data:`gaitcap.services.bus.keys.KEYPOINTS`) on ``<prefix>/keypoints/<cam>``. The subscriber callback only
 enqueues; ``workers`` threads decode JPEGs in parallel (OpenCV releases the GIL) while ``detect`` calls
 are serialised (a model interpreter is not thread-safe). When detection falls behind
 by more than ``max_queue`` frames the oldest frames are skipped and counted (``skipped``), so live
@@ -17,10 +17,9 @@ import threading
 import time
 
 import numpy as np
-
-from acquisition.encoding import parse_image_message
-from services.bus.keys import dumps, loads
-from services.bus.session import BusConfig, declare_alive
+from gaitcap.acquisition.encoding import parse_image_message
+from gaitcap.services.bus.keys import dumps, loads
+from gaitcap.services.bus.session import BusConfig, declare_alive
 
 log = logging.getLogger(__name__)
 

@@ -1,5 +1,5 @@
 """The reconstruction worker: takes recorded trials from the catalog's job table (under a lease), reads
-the MCAP (with several people in view it finds the patient first: :mod:`services.people`), stores
+the MCAP (with several people in view it finds the patient first: :mod:`gaitcap.services.processing.people`), stores
 PRELIMINARY gait metrics (robust triangulation) first, then the REFINED ones (implicit fit), writes the
 files and reports progress on the bus.
 
@@ -22,10 +22,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
-from services import catalog as cat
-from services.artifacts import trial_files
-from services.people import most_people_in_view, patient_detections_of
-from services.processing import (
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.outputs import steps_of, summary_of, write_data, write_rrd, write_views
+from gaitcap.services.processing.people import most_people_in_view, patient_detections_of
+from gaitcap.services.processing.pipeline import (
     Trajectory,
     enable_compile_cache,
     load_keypoints,
@@ -34,7 +35,6 @@ from services.processing import (
     ring_rig,
     warm_up,
 )
-from services.trial_outputs import steps_of, summary_of, write_data, write_rrd, write_views
 
 log = logging.getLogger(__name__)
 
@@ -191,8 +191,7 @@ class Worker:
 
     def _store(self, trial_id: str, stage: str, traj: Trajectory, det, *, rrd: bool) -> None:
         import numpy as np
-
-        from reconstruction.gait import TrajectoryQuality, analyze_gait
+        from gaitcap.reconstruction.gait import TrajectoryQuality, analyze_gait
 
         t0 = time.perf_counter()
         report, problem = None, ""
@@ -227,11 +226,10 @@ class Worker:
 
 def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:
     """Compile the preliminary stage for ``cameras`` cameras and load the plotting code; seconds spent."""
+    import gaitcap.reconstruction.gait  # noqa: F401
     import rerun  # noqa: F401  (first import is slow)
-
-    import reconstruction.gait  # noqa: F401
-    from reconstruction.skeletons import get_skeleton
-    from services.trial_outputs import report_png
+    from gaitcap.reconstruction.skeletons import get_skeleton
+    from gaitcap.services.processing.outputs import report_png
 
     t0 = time.perf_counter()
     if cache_dir is not None:

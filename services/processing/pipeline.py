@@ -1,7 +1,7 @@
 """The worker's computation of one trial: recording -> preliminary and refined trajectories -> gait.
 
-Pure orchestration of ``acquisition.recording`` (reader) and ``reconstruction`` (maths); files are
-written by :mod:`services.trial_outputs`. Robust triangulation is run on detections padded to a
+Pure orchestration of ``gaitcap.acquisition.recording`` (reader) and ``reconstruction`` (maths); files are
+written by :mod:`gaitcap.services.processing.outputs`. Robust triangulation is run on detections padded to a
 fixed-size chunks of frames (the last one padded) so a warm worker never recompiles JAX for a new
 trial length.
 """
@@ -15,10 +15,9 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-
-from reconstruction.calibration_io import load_rig
-from reconstruction.camera import Rig
-from reconstruction.detections import Detections
+from gaitcap.reconstruction.calibration_io import load_rig
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
 
 log = logging.getLogger(__name__)
 FRAME_CHUNK = 256  # robust triangulation runs on chunks of this many frames: one compiled shape
@@ -54,7 +53,7 @@ def load_recording(mcap_path: Path, *, fallback_calibration: Path | None = None)
 
     The calibration recorded in the MCAP is used; ``fallback_calibration`` (TOML/JSON) when it has none.
     """
-    from acquisition.recording.reader import read_detections
+    from gaitcap.acquisition.recording.reader import read_detections
 
     return read_detections(mcap_path), recorded_rig(mcap_path, fallback_calibration=fallback_calibration)
 
@@ -62,14 +61,14 @@ def load_recording(mcap_path: Path, *, fallback_calibration: Path | None = None)
 def load_keypoints(mcap_path: Path, *, fallback_calibration: Path | None = None):
     """Everyone's 2D keypoints (a ``KeypointRecording``, (C, T, P, J, 3)) and the rig from a trial MCAP;
     ``.patient()`` of it is what :func:`load_recording` returns."""
-    from acquisition.recording.reader import read_keypoints
+    from gaitcap.acquisition.recording.reader import read_keypoints
 
     return read_keypoints(mcap_path), recorded_rig(mcap_path, fallback_calibration=fallback_calibration)
 
 
 def recorded_rig(mcap_path: Path, *, fallback_calibration: Path | None = None) -> Rig:
     """The calibration recorded in the MCAP, else ``fallback_calibration`` (TOML/JSON)."""
-    from acquisition.recording.reader import read_calibration
+    from gaitcap.acquisition.recording.reader import read_calibration
 
     try:
         return read_calibration(mcap_path)
@@ -102,7 +101,7 @@ def frame_chunks(det: Detections, chunk: int = FRAME_CHUNK):
 
 def preliminary(det: Detections, rig: Rig) -> Trajectory:
     """Robust triangulation (the paper's), chunk by chunk to reuse one compiled shape."""
-    from reconstruction.triangulation import robust_triangulate
+    from gaitcap.reconstruction.triangulation import robust_triangulate
 
     t0 = time.perf_counter()
     c, t, j = det.shape
@@ -118,7 +117,7 @@ def preliminary(det: Detections, rig: Rig) -> Trajectory:
 
 def refined(det: Detections, rig: Rig) -> Trajectory:
     """The default implicit trajectory fit (continuous in time)."""
-    from reconstruction.methods import Implicit, reconstruct
+    from gaitcap.reconstruction.methods import Implicit, reconstruct
 
     t0 = time.perf_counter()
     rec = reconstruct(det, rig, method=Implicit())
@@ -172,7 +171,7 @@ def warm_up(rig: Rig, skeleton, *, frames: tuple[int, ...] = (FRAME_CHUNK,)) -> 
 
 def ring_rig(num_cameras: int = 10, *, radius_mm: float = 5000.0, height_mm: float = 2000.0) -> Rig:
     """A ring of cameras looking at the origin (only for compiling code of the right shapes)."""
-    from reconstruction.camera import Camera, matrix_to_rodrigues
+    from gaitcap.reconstruction.camera import Camera, matrix_to_rodrigues
 
     cams = []
     for i in range(num_cameras):

@@ -13,10 +13,10 @@ import threading
 import time
 from collections.abc import Sequence
 
-from acquisition.drivers.base import CameraDriver, Frame
-from acquisition.encoding import encode_jpeg, image_message
-from services.bus.keys import dumps
-from services.bus.session import BusConfig, declare_alive
+from gaitcap.acquisition.drivers.base import CameraDriver, Frame
+from gaitcap.acquisition.encoding import encode_jpeg, image_message
+from gaitcap.services.bus.keys import dumps
+from gaitcap.services.bus.session import BusConfig, declare_alive
 
 log = logging.getLogger(__name__)
 
@@ -107,12 +107,12 @@ class CameraNode:
 
 def attach_board_scene(session, bus: BusConfig, drivers: Sequence[CameraDriver], clip: str = "short"):
     """Let simulated cameras show a calibration board on request (``<prefix>/camera/scene``, JSON
-    :data:`services.bus.keys.CAMERA_SCENE`), the board clip named ``clip`` in
-    :data:`acquisition.synthetic.board_scene.BOARD_SCENES`. Other drivers are left alone. Returns the
+    :data:`gaitcap.services.bus.keys.CAMERA_SCENE`), the board clip named ``clip`` in
+    :data:`gaitcap.acquisition.synthetic.board_scene.BOARD_SCENES`. Other drivers are left alone. Returns the
     subscriber (None when no driver is simulated)."""
-    from acquisition.drivers.simulated import SimulatedCamera
-    from acquisition.synthetic.board_scene import BoardScene, SceneSwitch, board_scene_config
-    from services.bus.keys import loads
+    from gaitcap.acquisition.drivers.simulated import SimulatedCamera
+    from gaitcap.acquisition.synthetic.board_scene import BoardScene, SceneSwitch, board_scene_config
+    from gaitcap.services.bus.keys import loads
 
     config = board_scene_config(clip)
     sims = [d for d in drivers if isinstance(d, SimulatedCamera)]

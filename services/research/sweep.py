@@ -11,7 +11,7 @@ Grid file (JSON, or TOML with ``[[methods]]`` tables)::
     ]}
 
 Each entry expands to the cartesian product of its ``grid`` values on top of its fixed ``params``
-(parameter names as in ``services.method_specs``: dotted config paths or aliases such as ``gamma``,
+(parameter names as in ``gaitcap.services.research.method_specs``: dotted config paths or aliases such as ``gamma``,
 ``sigma_mm``, ``huber_cut_px``, ``use_confidence``); ``preset`` picks a constructor such as ``paper``.
 
 Summary over the trials of the sweep: GC_d and the losses are means over the trials computed; the gait
@@ -31,9 +31,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-from services.artifacts import write_bytes_atomic
-from services.method_specs import NONE_WORDS, MethodSpec
+from gaitcap.services.processing.artifacts import write_bytes_atomic
+from gaitcap.services.research.method_specs import NONE_WORDS, MethodSpec
 
 #: (column, header, unit) of the paper's appendix table, then our extra columns.
 COLUMNS = (
@@ -150,7 +149,7 @@ def _mean(values) -> float | None:
 
 
 def _sigma_iqr(values) -> float | None:
-    from reconstruction.gait.walkway import ResidualStats
+    from gaitcap.reconstruction.gait.walkway import ResidualStats
 
     stats = ResidualStats.of([v for v in values if v is not None])
     return stats.sigma_iqr if stats.n else None
@@ -180,7 +179,7 @@ def summary_row(spec: MethodSpec, results: list) -> dict:
 
 def summarize(db, trial_ids, specs) -> SweepTable:
     """The sweep table of ``specs`` over ``trial_ids`` from the results stored in the catalog."""
-    from services.reprocess_store import list_results
+    from gaitcap.services.research.store import list_results
 
     trial_ids = list(trial_ids)
     stored = list_results(db, trial_ids=trial_ids, params_keys=[s.key for s in specs])

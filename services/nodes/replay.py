@@ -14,9 +14,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from acquisition.recording import layout
-from acquisition.recording.reader import iter_messages, resolve_recording
-from services.bus.keys import Keys, dumps
+from gaitcap.acquisition.recording import layout
+from gaitcap.acquisition.recording.reader import iter_messages, resolve_recording
+from gaitcap.services.bus.keys import Keys, dumps
 
 log = logging.getLogger(__name__)
 

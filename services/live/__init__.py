@@ -1,0 +1,1 @@
+"""What the API needs from the live system (protocols) and their implementation over Zenoh."""

@@ -1,0 +1,1 @@
+"""The live processes: camera, detector and recorder nodes, and replay of a recording on the bus."""

@@ -1,0 +1,1 @@
+"""Research use: batch reprocessing, method specs, sweeps and where batch tasks run."""
