@@ -6,12 +6,19 @@ Topics (MCAP channels):
 topic                         encoding   schema                            log_time / sequence
 ============================  =========  ================================  =========================
 ``/camera/<cam>/image``       protobuf   ``foxglove.CompressedImage``      camera timestamp ns / frame id
+``/camera/<cam>/annotations`` protobuf   ``foxglove.ImageAnnotations``     camera timestamp ns / frame id
+``/camera/<cam>/calibration`` protobuf   ``foxglove.CameraCalibration``    trial start
 ``/camera/<cam>/status``      json       ``gaitcap.CameraStatus``          receive time ns
 ``/keypoints/<cam>``          json       ``gaitcap.Keypoints2D``           camera timestamp ns / frame id
 ``/trial/metadata``           json       ``gaitcap.TrialMetadata``         trial start
 ``/trial/calibration``        json       ``gaitcap.Calibration``           trial start
 ``/recorder/events``          json       ``gaitcap.RecorderEvent``         event time
 ============================  =========  ================================  =========================
+
+The annotations (keypoints drawn: points coloured by confidence, bones, person labels) and the camera
+calibrations are Foxglove's own types (:mod:`.foxglove_messages`), so Foxglove's Image panel shows
+each camera's video with its overlay without configuration; the keypoint channel keeps full precision.
+An annotation has the log time and ``timestamp`` of the image it belongs to.
 
 Keypoint messages are buffered and written in chunks of their own (never mixed with images), so a
 reader that asks only for ``/keypoints/*`` skips every image chunk through the chunk index.
@@ -50,6 +57,14 @@ def status_topic(camera: str) -> str:
 
 def keypoints_topic(camera: str) -> str:
     return f"/keypoints/{camera}"
+
+
+def annotations_topic(camera: str) -> str:
+    return f"/camera/{camera}/annotations"
+
+
+def camera_calibration_topic(camera: str) -> str:
+    return f"/camera/{camera}/calibration"
 
 
 def camera_of_topic(topic: str) -> str:
@@ -114,8 +129,24 @@ def json_schema(name: str) -> bytes:
     return json.dumps({"title": name, **_JSON_SCHEMAS[name]}).encode()
 
 
+_PROTOBUF_SUFFIXES = {
+    "/image": "foxglove.CompressedImage",
+    "/annotations": "foxglove.ImageAnnotations",
+    "/calibration": "foxglove.CameraCalibration",
+}
+
+
+def protobuf_schema_of_topic(topic: str) -> str | None:
+    """The Foxglove protobuf schema of a ``/camera/<cam>/...`` topic, None for a JSON topic."""
+    if topic.startswith("/camera/"):
+        for suffix, name in _PROTOBUF_SUFFIXES.items():
+            if topic.endswith(suffix):
+                return name
+    return None
+
+
 def schema_of_topic(topic: str) -> str:
-    """The JSON schema name used on a non-image topic."""
+    """The JSON schema name used on a JSON topic (see :func:`protobuf_schema_of_topic` for the others)."""
     if is_keypoints_topic(topic):
         return "gaitcap.Keypoints2D"
     if is_status_topic(topic):

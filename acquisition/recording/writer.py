@@ -15,8 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from gaitcap.acquisition.encoding import IMAGE_SCHEMA_NAME, image_schema_data
 from gaitcap.acquisition.recording import layout
+from gaitcap.acquisition.recording.foxglove_messages import camera_calibration, schema_data
+from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from mcap.writer import CompressionType, Writer
 
 log = logging.getLogger(__name__)
@@ -30,11 +31,14 @@ class WriterSettings:
     compression: "lz4" or "none" (JPEG barely compresses; zstd costs CPU for ~5 %).
     chunk_size_bytes: image chunk size before it is closed.
     flush_interval_s: at most this much data is held in memory (lost on a crash).
+    annotations: also write each keypoint message as ``foxglove.ImageAnnotations`` (the overlay
+        Foxglove draws on the images; see :mod:`.foxglove_messages`).
     """
 
     compression: str = "lz4"
     chunk_size_bytes: int = 4 * 1024 * 1024
     flush_interval_s: float = 1.0
+    annotations: bool = True
 
     def __post_init__(self) -> None:
         if self.compression not in COMPRESSIONS:
@@ -76,11 +80,13 @@ class TrialWriter:
 
     # -- set-up ---------------------------------------------------------------------------------
     def start(self, *, metadata: dict[str, Any], calibration_toml: str | None = None, time_ns: int) -> None:
-        """Header, trial metadata and calibration (as messages, a metadata record and an attachment)."""
+        """Header, trial metadata and calibration (as messages, a metadata record and an attachment; and
+        one ``foxglove.CameraCalibration`` per camera). ValueError when the calibration is not a rig."""
         self._mcap.start(profile=layout.PROFILE, library="gaitcap")
         self._json(layout.TRIAL_METADATA_TOPIC, metadata, time_ns)
         self._mcap.add_metadata(layout.TRIAL_METADATA_RECORD, _flat_metadata(metadata))
         if calibration_toml is not None:
+            rig = rig_from_toml_text(calibration_toml, source="the trial's calibration")
             self._json(layout.CALIBRATION_TOPIC, {"format": "toml", "toml": calibration_toml}, time_ns)
             self._mcap.add_attachment(
                 create_time=time_ns,
@@ -89,20 +95,24 @@ class TrialWriter:
                 media_type="application/toml",
                 data=calibration_toml.encode(),
             )
+            for camera in rig:
+                self.add_message(layout.camera_calibration_topic(camera.name),
+                                 camera_calibration(camera, time_ns=time_ns), time_ns=time_ns)
         self._mcap.flush()
 
     def _schema(self, name: str) -> int:
         if name not in self._schemas:
-            if name == IMAGE_SCHEMA_NAME:
-                self._schemas[name] = self._mcap.register_schema(name, "protobuf", image_schema_data())
+            if name.startswith("foxglove."):
+                self._schemas[name] = self._mcap.register_schema(name, "protobuf", schema_data(name))
             else:
                 self._schemas[name] = self._mcap.register_schema(name, "jsonschema", layout.json_schema(name))
         return self._schemas[name]
 
     def _channel(self, topic: str) -> int:
         if topic not in self._channels:
-            if layout.is_image_topic(topic):
-                schema, encoding = self._schema(IMAGE_SCHEMA_NAME), "protobuf"
+            proto = layout.protobuf_schema_of_topic(topic)
+            if proto is not None:
+                schema, encoding = self._schema(proto), "protobuf"
             else:
                 schema, encoding = self._schema(layout.schema_of_topic(topic)), "json"
             self._channels[topic] = self._mcap.register_channel(topic, encoding, schema)
@@ -111,8 +121,7 @@ class TrialWriter:
     # -- messages -------------------------------------------------------------------------------
     def _json(self, topic: str, payload: dict[str, Any] | bytes, time_ns: int, sequence: int = 0) -> None:
         data = payload if isinstance(payload, bytes | bytearray) else json.dumps(payload).encode()
-        self._mcap.add_message(self._channel(topic), int(time_ns), bytes(data), int(time_ns), sequence)
-        self.messages += 1
+        self.add_message(topic, data, time_ns=time_ns, sequence=sequence)
 
     def add_frame(self, camera: str, image_message: bytes, *, timestamp_ns: int, frame_id: int,
                   receive_ns: int) -> None:
@@ -122,6 +131,16 @@ class TrialWriter:
                                int(frame_id) & 0xFFFFFFFF)
         self.messages += 1
         self.maybe_flush()
+
+    def add_message(self, topic: str, data: bytes, *, time_ns: int, sequence: int = 0) -> None:
+        """A serialised message on a layout topic (log time = publish time = ``time_ns``)."""
+        self._mcap.add_message(self._channel(topic), int(time_ns), bytes(data), int(time_ns), sequence)
+        self.messages += 1
+
+    def add_annotations(self, camera: str, annotations: bytes, *, timestamp_ns: int, frame_id: int) -> None:
+        """A serialised ``foxglove.ImageAnnotations`` of one frame (log time = the image's camera timestamp)."""
+        self.add_message(layout.annotations_topic(camera), annotations, time_ns=timestamp_ns,
+                         sequence=int(frame_id) & 0xFFFFFFFF)
 
     def add_keypoints(self, camera: str, keypoints_json: bytes, *, timestamp_ns: int, frame_id: int) -> None:
         """A ``gaitcap.Keypoints2D`` JSON message; buffered and written in chunks of its own."""

@@ -1,4 +1,5 @@
-"""Recorder node: writes one MCAP per trial from the bus (frames, keypoints, camera status).
+"""Recorder node: writes one MCAP per trial from the bus (frames, keypoints, camera status), and each
+keypoint message also as Foxglove image annotations (``WriterSettings.annotations``).
 
 Control through queryables (``<prefix>/recorder/start|stop|status``, see :mod:`gaitcap.services.bus.keys`), so
 the caller gets an acknowledgement. Subscriber callbacks only enqueue (a deep queue, so no publisher is
@@ -18,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from gaitcap.acquisition.recording.foxglove_messages import image_annotations
 from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
 from gaitcap.services.bus.keys import dumps, loads
 from gaitcap.services.bus.session import BusConfig, declare_alive
@@ -186,8 +188,10 @@ class RecorderNode:
                 tally.latencies_ns.append(recv_ns - int(meta["sent_ns"]))
         elif kind == "keypoints":
             msg = loads(payload, what=f"keypoints of camera {camera}")
-            rec.writer.add_keypoints(camera, payload, timestamp_ns=int(msg["timestamp_ns"]),
-                                     frame_id=int(msg["frame_id"]))
+            ts, fid = int(msg["timestamp_ns"]), int(msg["frame_id"])
+            rec.writer.add_keypoints(camera, payload, timestamp_ns=ts, frame_id=fid)
+            if self.settings.annotations:  # the overlay Foxglove draws on this frame's image
+                rec.writer.add_annotations(camera, image_annotations(msg), timestamp_ns=ts, frame_id=fid)
             tally.keypoints += 1
         else:
             tally.last_status = loads(payload, what=f"status of camera {camera}")
