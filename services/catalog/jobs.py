@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from gaitcap.services.catalog.db import Catalog
 from gaitcap.services.catalog.models import Job, Trial
-from gaitcap.services.catalog.states import TrialState
+from gaitcap.services.catalog.states import PROCESSABLE, TrialState
 from sqlalchemy import or_, select, update
 
 QUEUED, RUNNING, DONE, FAILED = "queued", "running", "done", "failed"
@@ -78,9 +78,10 @@ def lease_job(catalog: Catalog, worker_id: str, *, lease_s: float = 10.0, kind: 
 
 
 def _fail_trial(s, trial_id: str, error: str) -> None:
-    trial = s.get(Trial, trial_id)
-    if trial is not None and trial.state in (TrialState.RECORDED.value, TrialState.PROCESSING.value):
-        trial.state, trial.error, trial.updated_at, trial.stage = TrialState.FAILED.value, error, time.time(), ""
+    states = [st.value for st in (*PROCESSABLE, TrialState.PROCESSING)]
+    s.execute(update(Trial).where(Trial.id == trial_id, Trial.state.in_(states))
+              .values(state=TrialState.FAILED.value, error=error, updated_at=time.time(), stage="")
+              .execution_options(synchronize_session=False))
 
 
 def renew_lease(catalog: Catalog, job_id: int, worker_id: str, *, lease_s: float = 10.0) -> bool:

@@ -95,6 +95,17 @@ class Trial(Base):
     notes: Mapped[str] = mapped_column(Text, default="")
 
 
+class TrialQuality(Base):
+    """A trial's data-quality record: JSON sections written as the trial goes (``recorder``: the
+    recorder's summary at Stop; ``recovery``: what a crash recovery kept and lost; ``start``: a Start
+    that overrode a refused rig check; ``processing``: the worker's measures and warnings)."""
+
+    __tablename__ = "trial_quality"
+    trial_id: Mapped[str] = mapped_column(ForeignKey("trials.id"), primary_key=True)
+    updated_at: Mapped[float] = mapped_column(Float)
+    sections_json: Mapped[str] = mapped_column(Text, default="{}")
+
+
 class Job(Base):
     """Work for a worker, held under a lease: a worker that dies stops renewing and, once
     ``lease_expires_at`` has passed, another worker takes the job over."""

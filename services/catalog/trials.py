@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 from gaitcap.services.catalog.db import Catalog
 from gaitcap.services.catalog.ids import new_trial_id, validate_id
-from gaitcap.services.catalog.models import SessionRow, Subject, Trial
-from gaitcap.services.catalog.states import IllegalTransition, TrialState, check_transition
-from sqlalchemy import select
+from gaitcap.services.catalog.models import Job, SessionRow, Subject, Trial
+from gaitcap.services.catalog.states import HOLDS_SLOT, IllegalTransition, TrialState, sources_of
+from sqlalchemy import select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -139,28 +139,43 @@ def list_trials(catalog: Catalog, *, subject_id: str | None = None, limit: int =
 
 
 def set_state(
-    catalog: Catalog, trial_id: str, new_state: str, *, expect: str | None = None, **fields,
+    catalog: Catalog, trial_id: str, new_state: str, *, expect: str | None = None, enqueue: bool = False,
+    **fields,
 ) -> TrialInfo:
-    """Move a trial along the state machine (IllegalTransition if not allowed) and update ``fields``.
+    """Move a trial along the state machine in ONE compare-and-set statement and update ``fields``.
 
-    ``expect``: the state the caller believes the trial is in (IllegalTransition if it is not).
-    Leaving ``recording`` frees the recording slot.
+    The ``UPDATE`` only matches while the trial is in a state from which ``new_state`` is allowed (and,
+    with ``expect``, only in that state), so of several concurrent callers exactly one wins; the others
+    get IllegalTransition naming the state they found. Leaving ``recording``/``stopping`` frees the
+    recording slot. ``enqueue``: queue a processing job in the same transaction.
     """
+    try:
+        new = TrialState(new_state)
+        sources = sources_of(new) if expect is None else sources_of(new) & {TrialState(expect)}
+    except ValueError as exc:
+        raise IllegalTransition(f"trial {trial_id}: unknown state in {expect!r} -> {new_state!r}") from exc
+    for key in fields:
+        if key in ("id", "state", "recording_slot") or not hasattr(Trial, key):
+            raise ValueError(f"trial field {key!r} does not exist or cannot be set")
+    now = time.time()
+    values = {**fields, "state": new.value, "updated_at": now}
+    if new not in HOLDS_SLOT:
+        values["recording_slot"] = None
     with catalog.session() as s:
+        changed = s.execute(
+            update(Trial).where(Trial.id == trial_id, Trial.state.in_([x.value for x in sources]))
+            .values(**values).execution_options(synchronize_session=False)
+        ).rowcount
         trial = s.get(Trial, trial_id)
         if trial is None:
             raise TrialNotFound(f"trial {trial_id} not found")
-        if expect is not None and trial.state != expect:
-            raise IllegalTransition(f"trial {trial_id}: is {trial.state}, expected {expect}")
-        trial.state = check_transition(trial_id, trial.state, new_state).value
-        if trial.state != TrialState.RECORDING.value:
-            trial.recording_slot = None
-        for key, value in fields.items():
-            if not hasattr(Trial, key):
-                raise ValueError(f"trial field {key!r} does not exist")
-            setattr(trial, key, value)
-        trial.updated_at = time.time()
-        s.flush()
+        if changed != 1:
+            if expect is not None and trial.state != expect:
+                raise IllegalTransition(f"trial {trial_id}: is {trial.state}, expected {expect}")
+            raise IllegalTransition(f"trial {trial_id}: cannot go from {trial.state} to {new.value}")
+        if enqueue:
+            s.add(Job(trial_id=trial_id, kind="process", state="queued", attempts=0, max_attempts=3, worker_id="",
+                      lease_expires_at=0.0, created_at=now, error=""))
         return _info(trial, session_label(trial.session_id))
 
 
