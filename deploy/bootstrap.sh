@@ -124,5 +124,27 @@ install_gait_norms() {
   rm -rf "$tmp"
   return $rc
 }
+GAITKIT_VERSION="1.5.0"
+# Real gait motion capture with annotated events (CC-BY 4.0 / ODC-By 1.0 data, MIT package): the healthy
+# (Fukuchi et al. 2018) and Parkinson (PhysioNet Gait in PD) walks shipped in the gaitkit sdist, for the
+# gait tests and bench/gait_real.py (see acquisition/synthetic/mocap.py).
+install_gait_mocap() {
+  local dest="$SHARE/testdata/gait-mocap" tmp
+  [ -f "$dest/.version-$GAITKIT_VERSION" ] && return 0
+  echo "[bootstrap] fetching real gait walks (sdist gaitkit==$GAITKIT_VERSION, not installed)" >&2
+  tmp="$(mktemp -d)" || return 1
+  "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "gaitkit==$GAITKIT_VERSION" \
+    && mkdir -p "$dest" \
+    && tar xzf "$tmp"/gaitkit-*.tar.gz -C "$tmp" \
+    && install -m 644 "$tmp"/gaitkit-*/src/gaitkit/data/example_{healthy,parkinson}.json "$tmp"/gaitkit-*/LICENSE \
+      "$dest/" \
+    && touch "$dest/.version-$GAITKIT_VERSION"
+  local rc=$?
+  rm -rf "$tmp"
+  return $rc
+}
+install_mediapipe_models || echo "[bootstrap] WARNING: MediaPipe Pose models not installed (needs npm)" >&2
+install_test_video || echo "[bootstrap] WARNING: detector test video not installed" >&2
 install_opensim_setup || echo "[bootstrap] WARNING: OpenSim model and setups not installed" >&2
 install_gait_norms || echo "[bootstrap] WARNING: normal-gait kinematics not installed" >&2
+install_gait_mocap || echo "[bootstrap] WARNING: real gait walks not installed (gait tests on them skip)" >&2
