@@ -16,6 +16,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
+from gaitcap.reconstruction.distortion import distort
 
 ORTHONORMAL_TOL = 1e-6
 
@@ -144,13 +145,7 @@ class Camera:
 
     def distort_normalized(self, xy: np.ndarray) -> np.ndarray:
         """Apply OpenCV distortion to normalised image coordinates (..., 2)."""
-        k1, k2, p1, p2, k3 = self.dist
-        x, y = xy[..., 0], xy[..., 1]
-        r2 = x * x + y * y
-        radial = 1 + k1 * r2 + k2 * r2**2 + k3 * r2**3
-        xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
-        yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
-        return np.stack([xd, yd], axis=-1)
+        return np.stack(distort(xy[..., 0], xy[..., 1], *self.dist), axis=-1)
 
     def depth_mm(self, points_mm: np.ndarray) -> np.ndarray:
         """Depth along the optical axis (...,) mm; <= 0 means behind the camera."""

@@ -18,6 +18,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from gaitcap.reconstruction import distortion
 from gaitcap.reconstruction.camera import Rig
 
 UNDISTORT_ITERS = 20
@@ -72,12 +73,7 @@ def to_camera(points_mm: jnp.ndarray, cams: CameraArrays) -> tuple[jnp.ndarray, 
 
 def distort(xn: jnp.ndarray, yn: jnp.ndarray, dist: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
     """OpenCV distortion of normalised coordinates xn, yn (C, N) with dist (C, 5)."""
-    k1, k2, p1, p2, k3 = (dist[:, i : i + 1] for i in range(5))
-    r2 = xn * xn + yn * yn
-    radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    xd = xn * radial + 2 * p1 * xn * yn + p2 * (r2 + 2 * xn * xn)
-    yd = yn * radial + p1 * (r2 + 2 * yn * yn) + 2 * p2 * xn * yn
-    return xd, yd
+    return distortion.distort(xn, yn, *(dist[:, i : i + 1] for i in range(5)))
 
 
 def project(points_mm: jnp.ndarray, cams: CameraArrays) -> tuple[jnp.ndarray, jnp.ndarray]:
@@ -113,15 +109,10 @@ def undistort_normalized(
     xd: jnp.ndarray, yd: jnp.ndarray, dist: jnp.ndarray, iters: int = UNDISTORT_ITERS
 ) -> tuple[jnp.ndarray, jnp.ndarray]:
     """Invert :func:`distort` by OpenCV's fixed-point iteration (``iters`` steps)."""
-    k1, k2, p1, p2, k3 = (dist[:, i : i + 1] for i in range(5))
+    coeffs = tuple(dist[:, i : i + 1] for i in range(5))
 
     def step(_, xy):
-        x, y = xy
-        r2 = x * x + y * y
-        icdist = 1.0 / (1 + r2 * (k1 + r2 * (k2 + r2 * k3)))
-        dx = 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
-        dy = p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
-        return (xd - dx) * icdist, (yd - dy) * icdist
+        return distortion.undistort_step(*xy, xd, yd, *coeffs)
 
     return jax.lax.fori_loop(0, iters, step, (xd, yd))
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.distortion import undistort_step
 
 UNDISTORT_ITERS = 10
 _EPS = 1e-9
@@ -22,18 +23,12 @@ def undistort_normalized(xy_d: np.ndarray, dist: np.ndarray) -> np.ndarray:
     Returns:
         (..., 2) undistorted normalised coordinates.
     """
-    k1, k2, p1, p2, k3 = dist
     if not np.any(dist):
         return xy_d
     x0, y0 = xy_d[..., 0], xy_d[..., 1]
     x, y = x0, y0
     for _ in range(UNDISTORT_ITERS):
-        r2 = x * x + y * y
-        radial = 1 + k1 * r2 + k2 * r2**2 + k3 * r2**3
-        dx = 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
-        dy = p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
-        x = (x0 - dx) / radial
-        y = (y0 - dy) / radial
+        x, y = undistort_step(x, y, x0, y0, *dist)
     return np.stack([x, y], axis=-1)
 
 

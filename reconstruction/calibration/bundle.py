@@ -16,6 +16,7 @@ from typing import Literal
 
 import numpy as np
 from gaitcap.reconstruction.calibration.geometry import rodrigues_batch, rvec_of
+from gaitcap.reconstruction.distortion import distort, radial_factor
 from scipy.sparse import csr_matrix, diags
 from scipy.sparse.linalg import spsolve
 
@@ -205,9 +206,8 @@ def _project(state: BundleState, prob: BundleProblem, rows: np.ndarray, *, deriv
     x, y = pc[:, 0] * iz, pc[:, 1] * iz
     k1, k2, p1, p2, k3 = state.dist[cam].T
     r2 = x * x + y * y
-    radial = 1 + k1 * r2 + k2 * r2**2 + k3 * r2**3
-    xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
-    yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    radial = radial_factor(r2, k1, k2, k3)
+    xd, yd = distort(x, y, k1, k2, p1, p2, k3)
     k = state.matrix_px[cam]
     fx, fy = k[:, 0, 0], k[:, 1, 1]
     uv = np.stack([fx * xd + k[:, 0, 2], fy * yd + k[:, 1, 2]], axis=-1)
