@@ -1,6 +1,7 @@
 """A regular (non-editable) install: the wheel holds only the gaitcap namespace, and it imports from a
 fresh venv with the repository out of sight."""
 
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -16,7 +17,11 @@ GENERIC = {"acquisition", "reconstruction", "services", "api"}
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("wheel")
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(out), str(ROOT)],
+    src = tmp_path_factory.mktemp("source")  # a copy, so the build leaves nothing in the checkout
+    for name in (*GENERIC, "pyproject.toml", "setup.py", "README.md"):
+        copy = shutil.copytree if (ROOT / name).is_dir() else shutil.copy2
+        copy(ROOT / name, src / name, **({"ignore": shutil.ignore_patterns("__pycache__")} if copy is shutil.copytree else {}))
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(out), str(src)],
                    check=True, timeout=600)
     (found,) = out.glob("gaitcap-*.whl")
     return found
