@@ -167,10 +167,26 @@ BODY25_NAMES = (
     "right_big_toe", "right_small_toe", "right_heel",
 )
 _BODY25_NAMES = frozenset(BODY25_NAMES)
+# OpenPose's BODY_25B (the layout Pose2Sim's OpenPose demos use): COCO-17 order, then the upper neck,
+# the head top and the feet; checked against OpenPose's and Pose2Sim's skeleton definitions.
 BODY25B_NAMES = (
     "nose", *_lr("eye"), *_lr("ear"), *_lr("shoulder"), *_lr("elbow"), *_lr("wrist"), *_lr("hip"),
     *_lr("knee"), *_lr("ankle"), "upper_neck", "head_top", "left_big_toe", "left_small_toe", "left_heel",
     "right_big_toe", "right_small_toe", "right_heel",
+)
+# OpenPose's COCO-18 ("COCO" model): nose, neck, right arm, left arm, right leg, left leg, eyes, ears.
+COCO18_NAMES = (
+    "nose", "neck", "right_shoulder", "right_elbow", "right_wrist", "left_shoulder", "left_elbow",
+    "left_wrist", "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee", "left_ankle",
+    "right_eye", "left_eye", "right_ear", "left_ear",
+)
+# COCO-WholeBody-133 (MMPose/RTMLib "wholebody"): COCO-17, six foot points, 68 face, 21 + 21 hand points.
+WHOLEBODY133_NAMES = (
+    COCO17_NAMES
+    + ("left_big_toe", "left_small_toe", "left_heel", "right_big_toe", "right_small_toe", "right_heel")
+    + tuple(f"face_{i}" for i in range(68))
+    + tuple(f"left_hand_{i}" for i in range(21))
+    + tuple(f"right_hand_{i}" for i in range(21))
 )
 MEDIAPIPE33_NAMES = (
     "nose", "left_eye_inner", "left_eye", "left_eye_outer", "right_eye_inner", "right_eye",
@@ -183,6 +199,8 @@ SKELETONS: dict[str, Skeleton] = {
     s.name: s
     for s in (
         _make("coco17", COCO17_NAMES),
+        _make("coco18", COCO18_NAMES, extra_bones=(("neck", "left_shoulder"), ("neck", "right_shoulder"))),
+        _make("wholebody133", WHOLEBODY133_NAMES),
         _make("halpe26", HALPE26_NAMES, extra_limbs=_HALPE_EXTRA_LIMBS, extra_bones=_HALPE_EXTRA_BONES),
         _make("halpe136", HALPE136_NAMES, extra_limbs=_HALPE_EXTRA_LIMBS, extra_bones=_HALPE_EXTRA_BONES),
         _make("body25", BODY25_NAMES, extra_bones=(("neck", "pelvis"), ("pelvis", "left_hip"))),
