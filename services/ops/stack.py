@@ -118,7 +118,7 @@ def process_specs(cfg: StackConfig) -> list[ProcessSpec]:
                                  *_sim_args(cfg))),
         # The simulated cameras stand in for camera hardware: rendering them must not slow processing.
         ProcessSpec("camera-0", (*CLI, "node", "camera", "--node", "camera-0", "--source", "simulated",
-                                 "--size", cfg.size, "--board-clip", cfg.board_clip, *_sim_args(cfg)), max_restarts=10_000, nice=cfg.camera_nice),
+                                 "--size", cfg.size, "--board-clip", cfg.board_clip, *_sim_args(cfg)), nice=cfg.camera_nice),
     ]
     for name in cfg.worker_names():
         argv = [*CLI, "worker", "--node", name, "--id", name, "--data-dir", data, "--catalog", cfg.catalog,
@@ -234,15 +234,15 @@ class Stack:
         finally:
             session.close()
 
-    def _supervise(self, period_s: float = 0.5) -> None:
-        """Restart processes that exit (the supervising thread)."""
+    def _supervise(self, period_s: float = 0.25) -> None:
+        """Restart processes that exit, with back-off, for as long as the stack runs (the supervising
+        thread; an unexpected error is logged and supervision goes on)."""
         while not self._stop_supervising.wait(period_s):
             try:
                 for name in self.supervisor.poll():
                     log.warning("restarted %s", name)
-            except RuntimeError:
-                log.exception("giving up supervision")
-                return
+            except Exception:
+                log.exception("supervision: poll failed; trying again")
 
     def stop(self) -> None:
         self._stop_supervising.set()

@@ -1,8 +1,12 @@
 """Starting and supervising a set of processes: logs to files, restart on crash, clean shutdown.
 
 Each :class:`ProcessSpec` becomes one child process (its own process group) whose stdout and stderr go
-to ``<log_dir>/<name>.log``. :meth:`Supervisor.poll` restarts a child that exited unexpectedly (up to
-``max_restarts`` times); :meth:`Supervisor.stop` sends SIGTERM, then SIGKILL after a grace period.
+to ``<log_dir>/<name>.log``. :meth:`Supervisor.poll` restarts a child that exited unexpectedly, forever,
+with exponential back-off (:class:`Backoff`: a child that keeps crashing waits 0.5, 1, 2, ... up to 30 s
+between restarts; one that ran ``stable_s`` without crashing starts over at 0.5 s). It never gives up:
+each crash is logged as an error with the exit code and count, and :meth:`Supervisor.states` tells
+which children run, which wait for a restart and since when. :meth:`Supervisor.stop` sends SIGTERM,
+then SIGKILL after a grace period.
 """
 
 from __future__ import annotations
@@ -20,16 +24,50 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
+class Backoff:
+    """Delay before restarting a crashed child: ``first_s * 2**(crashes in a row - 1)``, at most
+    ``max_s``; a child that ran ``stable_s`` seconds counts as healthy again (crashes in a row reset)."""
+
+    first_s: float = 0.5
+    max_s: float = 30.0
+    stable_s: float = 30.0
+
+    def __post_init__(self) -> None:
+        if not 0 < self.first_s <= self.max_s:
+            raise ValueError(f"first_s/max_s: need 0 < first_s <= max_s, got {self.first_s}, {self.max_s}")
+        if self.stable_s <= 0:
+            raise ValueError(f"stable_s: must be > 0 s, got {self.stable_s}")
+
+    def delay_s(self, crashes_in_a_row: int) -> float:
+        return min(self.max_s, self.first_s * 2 ** max(0, crashes_in_a_row - 1))
+
+
+@dataclass(frozen=True)
 class ProcessSpec:
     """name: unique; argv: the command; ready_text: a line fragment the process logs once it is ready;
-    nice: added to the process's nice value (lower CPU priority)."""
+    nice: added to the process's nice value (lower CPU priority); backoff: restart delays."""
 
     name: str
     argv: tuple[str, ...]
     env: dict[str, str] = field(default_factory=dict)
     ready_text: str = ""
-    max_restarts: int = 3
     nice: int = 0  # > 0: lower CPU priority than the other processes
+    backoff: Backoff = Backoff()
+
+
+@dataclass(frozen=True)
+class ChildState:
+    """What the supervisor knows of one child: ``running`` or ``waiting`` (crashed, restart due at
+    ``restart_at``, UNIX s); restarts so far; crashes in a row; last exit code; since when (UNIX s)."""
+
+    name: str
+    state: str
+    pid: int
+    restarts: int
+    crashes_in_a_row: int
+    last_exit_code: int | None
+    since: float
+    restart_at: float | None
 
 
 @dataclass
@@ -38,7 +76,12 @@ class _Child:
     proc: subprocess.Popen
     log_path: Path
     log_offset: int
+    started: float = field(default_factory=time.monotonic)
+    since: float = field(default_factory=time.time)
     restarts: int = 0
+    crashes_in_a_row: int = 0
+    last_exit_code: int | None = None
+    restart_due: float | None = None  # monotonic s; set while waiting out the back-off
 
 
 class Supervisor:
@@ -97,20 +140,42 @@ class Supervisor:
             time.sleep(0.1)
 
     def poll(self) -> list[str]:
-        """Restart children that exited; returns the names restarted. Raises if one exhausted its restarts."""
+        """Restart children that exited once their back-off has passed; returns the names restarted.
+
+        Never raises for a crashing child: it is restarted again and again, later each time."""
         restarted = []
+        now = time.monotonic()
         with self._lock:
             for name, child in self.children.items():
-                code = child.proc.poll()
-                if code is None:
-                    continue
-                if child.restarts >= child.spec.max_restarts:
-                    raise RuntimeError(f"{name} keeps exiting (code {code}); see {child.log_path}")
-                log.warning("%s exited with code %s; restarting", name, code)
-                child.proc, child.log_path, child.log_offset = self._spawn(child.spec)
-                child.restarts += 1
-                restarted.append(name)
+                if child.restart_due is None:
+                    code = child.proc.poll()
+                    if code is None:
+                        continue
+                    self._crashed(child, code, now)
+                if now >= child.restart_due:
+                    child.proc, child.log_path, child.log_offset = self._spawn(child.spec)
+                    child.started, child.since, child.restart_due = now, time.time(), None
+                    child.restarts += 1
+                    restarted.append(name)
         return restarted
+
+    @staticmethod
+    def _crashed(child: _Child, code: int, now: float) -> None:
+        ran_s = now - child.started
+        child.crashes_in_a_row = 1 if ran_s >= child.spec.backoff.stable_s else child.crashes_in_a_row + 1
+        delay = child.spec.backoff.delay_s(child.crashes_in_a_row)
+        child.last_exit_code, child.restart_due, child.since = code, now + delay, time.time()
+        log.error("%s exited with code %s after %.1f s (%d crashes in a row); restarting in %.1f s; see %s",
+                  child.spec.name, code, ran_s, child.crashes_in_a_row, delay, child.log_path)
+
+    def states(self) -> list[ChildState]:
+        """Every child's state now (for health reports)."""
+        now_mono, now = time.monotonic(), time.time()
+        with self._lock:
+            return [ChildState(name, "waiting" if c.restart_due is not None or c.proc.poll() is not None else "running",
+                               c.proc.pid, c.restarts, c.crashes_in_a_row, c.last_exit_code, c.since,
+                               None if c.restart_due is None else now + (c.restart_due - now_mono))
+                    for name, c in self.children.items()]
 
     def kill(self, name: str, sig: int = signal.SIGKILL) -> None:
         """Send ``sig`` to one child's process group (fault injection, tests)."""
