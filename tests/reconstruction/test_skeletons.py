@@ -4,7 +4,21 @@ from gaitcap.reconstruction.skeletons import GAIT_JOINTS, SKELETONS, get_skeleto
 
 def test_sizes():
     sizes = {k: s.num_joints for k, s in SKELETONS.items()}
-    assert sizes == {"coco17": 17, "halpe26": 26, "halpe136": 136, "body25": 25, "body25b": 25, "mediapipe33": 33}
+    assert sizes == {"coco17": 17, "coco18": 18, "wholebody133": 133, "halpe26": 26, "halpe136": 136, "body25": 25,
+                     "body25b": 25, "mediapipe33": 33}
+
+
+def test_openpose_orders():
+    """BODY_25B and COCO-18 in OpenPose's order (as Pose2Sim's skeletons number them)."""
+    b = get_skeleton("body25b")
+    assert [b.index(n) for n in ("left_eye", "right_shoulder", "left_hip", "right_ankle", "upper_neck", "head_top",
+                                 "left_big_toe", "left_heel", "right_heel")] == [1, 6, 11, 16, 17, 18, 19, 21, 24]
+    c = get_skeleton("coco18")
+    assert [c.index(n) for n in ("neck", "right_shoulder", "left_wrist", "right_hip", "left_ankle", "left_ear")] == [
+        1, 2, 7, 8, 13, 17]
+    w = get_skeleton("wholebody133")
+    assert [w.index(n) for n in ("left_big_toe", "right_heel", "face_0", "left_hand_0", "right_hand_20")] == [
+        17, 22, 23, 91, 132]
 
 
 def test_halpe_limbs_follow_the_paper():
