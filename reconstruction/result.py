@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
+from gaitcap.reconstruction.fileio import atomic_path
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,20 +60,12 @@ class Reconstruction:
     def save_npz(self, path: str | os.PathLike) -> None:
         """Write ``points_mm``, ``times_s``, ``joint_names``, ``camera_names``, ``camera_weights``,
         ``quality`` atomically (temp file + rename)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez(
-                    f, points_mm=self.points_mm, times_s=self.times_s, joint_names=np.array(self.joint_names),
-                    camera_names=np.array(self.camera_names), camera_weights=self.camera_weights,
-                    quality=self.quality, method=np.array(self.method),
-                )
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        with atomic_path(path) as tmp, open(tmp, "wb") as f:
+            np.savez(
+                f, points_mm=self.points_mm, times_s=self.times_s, joint_names=np.array(self.joint_names),
+                camera_names=np.array(self.camera_names), camera_weights=self.camera_weights,
+                quality=self.quality, method=np.array(self.method),
+            )
 
 
 def load_npz(path: str | os.PathLike) -> Reconstruction:

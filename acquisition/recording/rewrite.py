@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gaitcap.acquisition.recording import layout
+from gaitcap.reconstruction.fileio import atomic_path
 from mcap.records import Message
 from mcap.writer import CompressionType, Writer
 
@@ -22,11 +22,10 @@ def rewrite_scanned(messages: Iterator[tuple[str, Message]], state: ScanState, t
     Returns message counts per topic. Metadata records and attachments found are copied too, and a
     ``summary`` record marks the file as recovered.
     """
-    tmp = target.with_name(target.name + ".tmp")
     counts: dict[str, int] = {}
     schema_ids: dict[int, int] = {}
     channel_ids: dict[int, int] = {}
-    with open(tmp, "wb") as f:
+    with atomic_path(target, fsync=True) as tmp, open(tmp, "wb") as f:
         writer = Writer(f, compression=CompressionType.LZ4)
         writer.start(profile=layout.PROFILE, library="gaitcap-recover")
         for topic, msg in messages:
@@ -50,7 +49,4 @@ def rewrite_scanned(messages: Iterator[tuple[str, Message]], state: ScanState, t
                    "cut": state.error, "messages": counts}
         writer.add_metadata(layout.SUMMARY_RECORD, {k: json.dumps(v) for k, v in summary.items()})
         writer.finish()
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, target)
     return counts

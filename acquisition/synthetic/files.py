@@ -24,6 +24,7 @@ import numpy as np
 from gaitcap.reconstruction.calibration_io import load_rig, save_rig
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.fileio import atomic_path
 
 CALIBRATION = "calibration.toml"
 KEYPOINTS = "keypoints.npz"
@@ -31,9 +32,8 @@ GROUND_TRUTH = "ground_truth.npz"
 
 
 def _atomic_savez(path: Path, **arrays) -> None:
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez_compressed(tmp, **arrays)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez_compressed(f, **arrays)
 
 
 def save_trial(trial, out_dir: str | os.PathLike) -> dict[str, Path]:

@@ -7,13 +7,12 @@ the same other keys, plus whatever extra arrays the writer adds (e.g. ``track_id
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.fileio import atomic_path
 
 _KEYS = ("keypoints", "camera_names", "times_s", "skeleton")
 
@@ -61,13 +60,5 @@ def load_detections_npz(path: str | Path) -> Detections:
 
 
 def _write(path: str | Path, **arrays: np.ndarray) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, **arrays)

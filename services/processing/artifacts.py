@@ -6,13 +6,10 @@ never reach outside the trial's folder. Files are written to a temporary name an
 
 from __future__ import annotations
 
-import contextlib
-import os
-import tempfile
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+from gaitcap.reconstruction.fileio import atomic_path, atomic_write_bytes
 from gaitcap.services.catalog.ids import validate_id
 
 STAGES = ("preliminary", "refined")
@@ -22,6 +19,7 @@ STAGE_FILES = {
     "trajectory_npz": "trajectory.npz",
     "trajectory_trc": "trajectory.trc",
     "rerun_rrd": "trajectory.rrd",
+    "results_mcap": "results.mcap",
     "gait_json": "gait.json",
     "steps_csv": "steps.csv",
     "report_png": "report.png",
@@ -71,20 +69,6 @@ def trial_files(data_dir: str | Path, trial_id: str) -> TrialFiles:
     return TrialFiles(Path(data_dir) / "trials" / trial_id)
 
 
-@contextlib.contextmanager
-def atomic_path(path: Path) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; on success it is renamed onto ``path`` (never half-written)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
-def write_bytes_atomic(path: Path, data: bytes) -> None:
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(data)
+# the one atomic writer (gaitcap.reconstruction.fileio), under the names this layer has used
+write_bytes_atomic = atomic_write_bytes
+__all__ = ["TrialFiles", "atomic_path", "trial_files", "write_bytes_atomic"]
