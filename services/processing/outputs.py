@@ -1,4 +1,5 @@
-"""Writing one processing stage's files (npz, TRC, Rerun .rrd, gait JSON/CSV, report PNG) and turning a
+"""Writing one processing stage's files (npz, TRC, gait JSON/CSV, report PNG; the viewer files are
+:mod:`gaitcap.services.processing.viewers`) and turning a
 GaitReport into the catalog's step rows and summary. Every file is written to a temporary name and
 renamed, so a reader never sees half a file."""
 
@@ -50,27 +51,6 @@ def write_npz(path, traj: Trajectory) -> None:
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         np.savez(f, points_mm=traj.points_mm, times_s=traj.times_s, joint_names=np.array(traj.joint_names),
                  num_views=traj.num_views if traj.num_views is not None else np.zeros(0))
-
-
-def write_rrd(path, traj: Trajectory, *, trial_id: str, bones) -> None:
-    """A Rerun recording (joints and bones over time, z up); no viewer, no network."""
-    import rerun as rr
-
-    t, j, _ = traj.points_mm.shape
-    with atomic_path(path) as tmp:
-        rec = rr.RecordingStream("gaitcap", recording_id=trial_id)
-        rec.save(str(tmp))
-        rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        index = [rr.TimeColumn("time", duration=traj.times_s)]
-        pts = np.nan_to_num(traj.points_mm.astype(np.float32))
-        rec.send_columns("world/joints", indexes=index,
-                         columns=rr.Points3D.columns(positions=pts.reshape(-1, 3)).partition([j] * t))
-        if bones:
-            strips = pts[:, np.asarray(bones)]
-            rec.send_columns("world/bones", indexes=index,
-                             columns=rr.LineStrips3D.columns(strips=strips.reshape(-1, 2, 3)).partition([len(bones)] * t))
-        rec.flush()
-        rec.disconnect()
 
 
 def report_png(traj: Trajectory, report, *, title: str) -> bytes:

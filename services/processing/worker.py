@@ -24,7 +24,7 @@ from typing import Protocol
 
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import trial_files
-from gaitcap.services.processing.outputs import steps_of, summary_of, write_data, write_rrd, write_views
+from gaitcap.services.processing.outputs import steps_of, summary_of, write_data, write_views
 from gaitcap.services.processing.people import most_people_in_view, patient_detections_of
 from gaitcap.services.processing.pipeline import (
     Trajectory,
@@ -35,6 +35,14 @@ from gaitcap.services.processing.pipeline import (
     ring_rig,
     warm_up,
 )
+from gaitcap.services.processing.quality import (
+    DataQuality,
+    QualityCriteria,
+    recording_quality,
+    reprojection_px,
+    with_reprojection,
+)
+from gaitcap.services.processing.viewers.files import VIEWER_FILES, trial_view, write_viewer_files
 
 log = logging.getLogger(__name__)
 
@@ -64,6 +72,7 @@ class WorkerConfig:
     poll_s: float = 0.2
     refine: bool = True
     fallback_calibration: Path | None = None
+    criteria: QualityCriteria = QualityCriteria()
 
     def __post_init__(self) -> None:
         if self.lease_s < 1.0:
@@ -163,8 +172,8 @@ class Worker:
 
     def process(self, trial_id: str, lease: LeaseKeeper) -> None:
         trial = cat.get_trial(self.db, trial_id)
-        if trial.state == "recorded":
-            cat.set_state(self.db, trial_id, "processing", stage="starting", progress=0.0)
+        if trial.state in cat.PROCESSABLE:
+            cat.set_state(self.db, trial_id, "processing", expect=trial.state, stage="starting", progress=0.0)
         elif trial.state != "processing":  # done or failed meanwhile: nothing to do
             log.info("trial %s is %s; skipping", trial_id, trial.state)
             return
@@ -175,21 +184,36 @@ class Worker:
         if most_people_in_view(recording.people) > 1:
             self._report(trial_id, "processing", "finding the patient among the people in view", 0.07, None)
         det, _ = patient_detections_of(recording, rig, files)
+        quality = recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
+                                    patient_confidence=det.keypoints[..., 2], expected_cameras=rig.names,
+                                    criteria=self.config.criteria)
         det, rig = det.aligned_to(rig)
+        source = (recording, rig, files.recording)  # what the viewer files show besides the results
         self.load_s = time.perf_counter() - t0
         self._report(trial_id, "processing", "first 3D reconstruction", 0.1, None)
         traj = preliminary(det, rig)
+        quality = with_reprojection(quality, reprojection_px(traj.points_mm, det.keypoints, rig))
         lease.check()
-        self._store(trial_id, "preliminary", traj, det, rrd=not self.config.refine)
+        self._store(trial_id, "preliminary", traj, det, viewers=None if self.config.refine else source, quality=quality)
         if self.config.refine:
             self._report(trial_id, "processing", "refining the 3D reconstruction", 0.4, "preliminary")
             traj = refined(det, rig)
             lease.check()
-            self._store(trial_id, "refined", traj, det, rrd=True)
-        cat.set_state(self.db, trial_id, "done", expect="processing", stage="done", progress=1.0)
-        self._report(trial_id, "done", "done", 1.0, "refined" if self.config.refine else "preliminary")
+            self._store(trial_id, "refined", traj, det, viewers=source, quality=quality)
+        self._finish(trial_id, quality)
 
-    def _store(self, trial_id: str, stage: str, traj: Trajectory, det, *, rrd: bool) -> None:
+    def _finish(self, trial_id: str, quality: DataQuality) -> None:
+        """``done``, or ``done_with_warnings`` when the data had serious problems (this worker's measures,
+        a crash recovery or a Start that overrode the rig check)."""
+        earlier = {k: v for k, v in cat.get_quality(self.db, trial_id).items() if k != "processing"}
+        final = "done_with_warnings" if quality.serious or cat.warnings_of(earlier) else "done"
+        cat.set_state(self.db, trial_id, final, expect="processing", stage="done", progress=1.0)
+        self._report(trial_id, final, "done", 1.0, "refined" if self.config.refine else "preliminary")
+
+    def _store(self, trial_id: str, stage: str, traj: Trajectory, det, *, viewers: tuple | None,
+               quality: DataQuality) -> None:
+        """Gait analysis, the catalog result and the stage's files; ``viewers``: (keypoint recording, rig,
+        trial MCAP) to write the viewer files (.rrd, results MCAP) from, None for none."""
         import numpy as np
         from gaitcap.reconstruction.gait import TrajectoryQuality, analyze_gait
 
@@ -207,9 +231,12 @@ class Worker:
         files = trial_files(self.config.data_dir, trial_id)
         write_data(files, stage, traj, report)
         # The plot, TRC and Rerun files follow right after the result is stored (the page retries the plot).
-        later = ["trajectory_trc", "report_png"] + (["rerun_rrd"] if rrd else [])
+        later = ["trajectory_trc", "report_png"] + (list(VIEWER_FILES) if viewers else [])
         artifacts = {**files.existing(stage), **{k: str(files.stage_file(stage, k)) for k in later}}
-        extra = {"warnings": list(report.warnings) if report else [], "problem": problem,
+        gait_warnings = list(report.warnings) if report else []
+        cat.set_quality(self.db, trial_id, "processing", {**quality.to_dict(), "warnings": list(quality.warnings),
+                                                          "gait_warnings": gait_warnings, "stage": stage})
+        extra = {"warnings": gait_warnings, "problem": problem, "data_quality": quality.to_dict(),
                  "load_s": round(getattr(self, "load_s", 0.0), 3), "compute_s": round(traj.elapsed_s, 3),
                  "gait_s": round(gait_s, 3), "gait_and_files_s": round(time.perf_counter() - t0, 3)}
         cat.store_result(self.db, trial_id=trial_id, stage=stage, method=traj.method,
@@ -220,8 +247,10 @@ class Worker:
         self._report(trial_id, "processing", f"saving the {stage} files", 0.35 if stage == "preliminary" else 0.95,
                      stage)
         write_views(files, stage, traj, report, trial_id=trial_id)
-        if rrd:
-            write_rrd(files.stage_file(stage, "rerun_rrd"), traj, trial_id=trial_id, bones=det.skeleton.bone_indices)
+        if viewers:
+            keypoints, rig, mcap = viewers
+            write_viewer_files(files, stage, trial_view(trial_id, traj, detections=det, keypoints=keypoints, rig=rig,
+                                                        report=report, recording=mcap, bones=det.skeleton.bone_indices))
 
 
 def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:

@@ -1,0 +1,40 @@
+"""The viewer files of one processing stage: ``trajectory.rrd`` (Rerun) and ``results.mcap`` (Foxglove),
+written by the worker right after the stage's result is stored."""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.services.processing.artifacts import TrialFiles
+from gaitcap.services.processing.viewers.rerun_trial import RerunSettings, write_trial_rrd
+from gaitcap.services.processing.viewers.results_mcap import write_results_mcap
+from gaitcap.services.processing.viewers.trial_view import TrialView, joint_confidence, start_ns_of
+
+log = logging.getLogger(__name__)
+
+VIEWER_FILES = ("rerun_rrd", "results_mcap")
+
+
+def trial_view(trial_id: str, traj, *, detections, keypoints, rig: Rig, report, recording: Path | None,
+               bones) -> TrialView:
+    """A :class:`TrialView` of one stage: its trajectory, the patient's detections (for per-joint
+    confidence), everyone's keypoints and the recording (for images and 2D), the rig and gait report."""
+    points = np.asarray(traj.points_mm, dtype=np.float64)
+    return TrialView(trial_id=trial_id, points_mm=points, times_s=np.asarray(traj.times_s, dtype=np.float64),
+                     joint_names=tuple(traj.joint_names), bones=np.asarray(bones, dtype=np.int64), rig=rig,
+                     start_ns=start_ns_of(keypoints), confidence=joint_confidence(detections, points.shape[0]),
+                     report=report, recording=recording, keypoints=keypoints)
+
+
+def write_viewer_files(files: TrialFiles, stage: str, view: TrialView,
+                       settings: RerunSettings = RerunSettings()) -> dict[str, Path]:
+    """Write the stage's .rrd and results MCAP; artifact key -> path."""
+    t0 = time.perf_counter()
+    out = {"rerun_rrd": write_trial_rrd(files.stage_file(stage, "rerun_rrd"), view, settings),
+           "results_mcap": write_results_mcap(files.stage_file(stage, "results_mcap"), view)}
+    log.info("trial %s %s: viewer files in %.2f s", view.trial_id, stage, time.perf_counter() - t0)
+    return out
