@@ -194,12 +194,12 @@ class Worker:
         traj = preliminary(det, rig)
         quality = with_reprojection(quality, reprojection_px(traj.points_mm, det.keypoints, rig))
         lease.check()
-        self._store(trial_id, "preliminary", traj, det, viewers=None if self.config.refine else source, quality=quality)
+        self._store(trial_id, "preliminary", traj, det, viewers=None if self.config.refine else source, data_quality=quality)
         if self.config.refine:
             self._report(trial_id, "processing", "refining the 3D reconstruction", 0.4, "preliminary")
             traj = refined(det, rig)
             lease.check()
-            self._store(trial_id, "refined", traj, det, viewers=source, quality=quality)
+            self._store(trial_id, "refined", traj, det, viewers=source, data_quality=quality)
         self._finish(trial_id, quality)
 
     def _finish(self, trial_id: str, quality: DataQuality) -> None:
@@ -211,7 +211,7 @@ class Worker:
         self._report(trial_id, final, "done", 1.0, "refined" if self.config.refine else "preliminary")
 
     def _store(self, trial_id: str, stage: str, traj: Trajectory, det, *, viewers: tuple | None,
-               quality: DataQuality) -> None:
+               data_quality: DataQuality) -> None:
         """Gait analysis, the catalog result and the stage's files; ``viewers``: (keypoint recording, rig,
         trial MCAP) to write the viewer files (.rrd, results MCAP) from, None for none."""
         import numpy as np
@@ -234,9 +234,9 @@ class Worker:
         later = ["trajectory_trc", "report_png"] + (list(VIEWER_FILES) if viewers else [])
         artifacts = {**files.existing(stage), **{k: str(files.stage_file(stage, k)) for k in later}}
         gait_warnings = list(report.warnings) if report else []
-        cat.set_quality(self.db, trial_id, "processing", {**quality.to_dict(), "warnings": list(quality.warnings),
-                                                          "gait_warnings": gait_warnings, "stage": stage})
-        extra = {"warnings": gait_warnings, "problem": problem, "data_quality": quality.to_dict(),
+        cat.set_quality(self.db, trial_id, "processing", {**data_quality.to_dict(), "gait_warnings": gait_warnings,
+                                                          "stage": stage})
+        extra = {"warnings": gait_warnings, "problem": problem, "data_quality": data_quality.to_dict(),
                  "load_s": round(getattr(self, "load_s", 0.0), 3), "compute_s": round(traj.elapsed_s, 3),
                  "gait_s": round(gait_s, 3), "gait_and_files_s": round(time.perf_counter() - t0, 3)}
         cat.store_result(self.db, trial_id=trial_id, stage=stage, method=traj.method,

@@ -1,0 +1,219 @@
+"""Data quality of a trial, measured from its recording and its reconstruction, with plain-word warnings.
+
+Measured per camera from the keypoint messages of the recording (one per processed frame, with the
+camera's timestamp): frames expected over the trial, received, lost, skips (gaps), frame rate (Hz),
+when a camera stopped or started late; the sync spread (ms) between cameras per frame; the patient's
+detection coverage (share of frames seen by >= 2 cameras); after the fit, the reprojection error per
+camera (px), flagging a camera far above the others (often a bumped camera). Judged against
+:class:`QualityCriteria` (the project's sync criteria: >= 28 fps at 30 fps nominal, 0 skips, spread
+<= 30 ms; configurable). ``serious`` warnings make a trial ``done_with_warnings``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+CONFIDENT = 0.3  # a keypoint above this confidence counts as detected
+EDGE_S = 0.5  # a camera whose frames end (begin) more than this before the end (after the start) stopped (started late)
+
+
+@dataclass(frozen=True)
+class QualityCriteria:
+    """min_fps: Hz; max_skips: gaps per camera; max_spread_ms: timestamp spread between cameras of one
+    frame; max_lost_fraction: lost frames per camera before it is serious; min_coverage: share of frames
+    the patient must be seen by >= 2 cameras; bumped_ratio / bumped_min_px: a camera whose median
+    reprojection error is that many times the median of the others and above that many px is flagged;
+    min_duration_s: shorter recordings are flagged."""
+
+    min_fps: float = 28.0
+    max_skips: int = 0
+    max_spread_ms: float = 30.0
+    max_lost_fraction: float = 0.02
+    min_coverage: float = 0.6
+    bumped_ratio: float = 3.0
+    bumped_min_px: float = 4.0
+    min_duration_s: float = 4.0
+
+    def __post_init__(self) -> None:
+        for name in ("min_fps", "max_spread_ms", "bumped_ratio", "bumped_min_px", "min_duration_s"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name}: must be > 0, got {getattr(self, name)}")
+        if not 0 <= self.max_lost_fraction <= 1 or not 0 <= self.min_coverage <= 1:
+            raise ValueError("max_lost_fraction and min_coverage: must be in [0, 1]")
+
+
+@dataclass(frozen=True)
+class CameraQuality:
+    """One camera over the trial: frames expected / received / lost, skips (gaps), fps (Hz, while it
+    delivered: from its first to its last frame), first and last frame times (s from the trial's first frame), reprojection error median (px, None before the
+    fit or without detections)."""
+
+    name: str
+    expected: int
+    received: int
+    lost: int
+    skips: int
+    fps: float
+    first_s: float | None
+    last_s: float | None
+    reprojection_px: float | None = None
+
+
+@dataclass(frozen=True)
+class DataQuality:
+    """The trial's measures and warnings (plain words); ``serious``: the results may be less accurate."""
+
+    duration_s: float
+    nominal_fps: float
+    cameras: tuple[CameraQuality, ...]
+    spread_ms_max: float | None
+    spread_ms_p95: float | None
+    coverage: float | None
+    warnings: tuple[str, ...] = ()
+    serious: bool = False
+    criteria: QualityCriteria = field(default_factory=QualityCriteria)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def _gaps(present: np.ndarray) -> int:
+    """Runs of missing frames between the first and the last received frame."""
+    idx = np.flatnonzero(present)
+    if idx.size < 2:
+        return 0
+    return int(np.count_nonzero(np.diff(idx) > 1))
+
+
+def _camera(name: str, stamps_ns: np.ndarray, t0_ns: float, nominal_fps: float) -> CameraQuality:
+    present = stamps_ns >= 0
+    received, expected = int(present.sum()), int(stamps_ns.size)
+    idx = np.flatnonzero(present)
+    first = float((stamps_ns[idx[0]] - t0_ns) / 1e9) if idx.size else None
+    last = float((stamps_ns[idx[-1]] - t0_ns) / 1e9) if idx.size else None
+    active_s = (idx[-1] - idx[0] + 1) / nominal_fps if idx.size else 0.0  # while it delivered
+    return CameraQuality(name, expected, received, expected - received, _gaps(present),
+                         round(received / active_s, 2) if active_s > 0 else 0.0, first, last)
+
+
+def nominal_fps_of(stamps_ns: np.ndarray) -> float:
+    """The cameras' frame rate (Hz): per camera, time between its first and last frame over the frame ids
+    between them; the median over the cameras (30 Hz when no camera has two frames)."""
+    rates = []
+    for row in stamps_ns:
+        idx = np.flatnonzero(row >= 0)
+        if idx.size >= 2 and row[idx[-1]] > row[idx[0]]:
+            rates.append(1e9 * (idx[-1] - idx[0]) / (row[idx[-1]] - row[idx[0]]))
+    return float(np.median(rates)) if rates else 30.0
+
+
+def sync_spread_ms(stamps_ns: np.ndarray) -> np.ndarray:
+    """Per frame seen by >= 2 cameras: latest minus earliest camera timestamp (ms)."""
+    ts = np.where(stamps_ns >= 0, stamps_ns, np.nan).astype(np.float64)
+    both = np.isfinite(ts).sum(0) >= 2
+    if not both.any():
+        return np.zeros(0)
+    return (np.nanmax(ts[:, both], 0) - np.nanmin(ts[:, both], 0)) / 1e6
+
+
+def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confidence: np.ndarray | None,
+                      expected_cameras=(), criteria: QualityCriteria = QualityCriteria()) -> DataQuality:
+    """Measures and warnings from a recording's (C, T) camera timestamps (-1 where missing) and the
+    patient's (C, T, J) detection confidences; ``expected_cameras``: the calibration's cameras (one
+    missing from the recording entirely is reported)."""
+    stamps = np.asarray(timestamps_ns, dtype=np.int64)
+    nominal = nominal_fps_of(stamps)
+    t0 = float(stamps[stamps >= 0].min()) if (stamps >= 0).any() else 0.0
+    cams = [_camera(n, stamps[c], t0, nominal) for c, n in enumerate(camera_names)]
+    duration = stamps.shape[1] / nominal
+    spread = sync_spread_ms(stamps)
+    coverage = None
+    if patient_confidence is not None and patient_confidence.size:
+        seen = (np.nan_to_num(patient_confidence) > CONFIDENT).any(-1)  # (C, T)
+        coverage = float(np.mean(seen.sum(0) >= 2))
+    quality = DataQuality(duration_s=round(duration, 3), nominal_fps=round(nominal, 2), cameras=tuple(cams),
+                          spread_ms_max=round(float(spread.max()), 2) if spread.size else None,
+                          spread_ms_p95=round(float(np.percentile(spread, 95)), 2) if spread.size else None,
+                          coverage=None if coverage is None else round(coverage, 3), criteria=criteria)
+    missing = [n for n in expected_cameras if n not in camera_names]
+    return judged(quality, missing_cameras=missing)
+
+
+def with_reprojection(quality: DataQuality, errors_px: dict[str, float | None]) -> DataQuality:
+    """The quality with each camera's median reprojection error (px) after the fit, judged again."""
+    cams = tuple(CameraQuality(**{**asdict(c), "reprojection_px": errors_px.get(c.name)}) for c in quality.cameras)
+    return judged(DataQuality(**{**asdict(quality), "cameras": cams, "criteria": quality.criteria,
+                                 "warnings": (), "serious": False}))
+
+
+def reprojection_px(points_mm: np.ndarray, keypoints: np.ndarray, rig) -> dict[str, float | None]:
+    """Median distance (px) per camera between the reconstruction (T, J, 3) mm projected through the
+    rig and the confident detections (C, T, J, 3); None for a camera without any."""
+    out: dict[str, float | None] = {}
+    finite = np.isfinite(points_mm).all(-1)
+    for c, cam in enumerate(rig.cameras):
+        ok = finite & (np.nan_to_num(keypoints[c, ..., 2]) > CONFIDENT) & np.isfinite(keypoints[c, ..., :2]).all(-1)
+        if not ok.any():
+            out[cam.name] = None
+            continue
+        err = np.linalg.norm(cam.project(points_mm[ok]) - keypoints[c, ..., :2][ok], axis=-1)
+        out[cam.name] = round(float(np.median(err)), 2)
+    return out
+
+
+def judged(q: DataQuality, *, missing_cameras=()) -> DataQuality:
+    """``q`` with its warnings (plain words, most important first) and ``serious`` set."""
+    cr, warn = q.criteria, []
+    late_s = max(EDGE_S, 2.0 / q.nominal_fps)
+    end = q.duration_s - 1.0 / q.nominal_fps - late_s
+    warn += [f"Camera {n} recorded nothing" for n in missing_cameras]
+    for c in q.cameras:
+        if c.received == 0:
+            warn.append(f"Camera {c.name} recorded nothing")
+        elif c.last_s is not None and c.last_s < end:
+            warn.append(f"Camera {c.name} stopped at {c.last_s:.1f} s")
+        elif c.first_s is not None and c.first_s > late_s:
+            warn.append(f"Camera {c.name} started late, at {c.first_s:.1f} s")
+    slow = [c for c in q.cameras if c.received and c.fps < cr.min_fps]
+    if slow:
+        names = ", ".join(f"{c.name} {c.fps:.0f} fps" for c in slow[:4]) + (", ..." if len(slow) > 4 else "")
+        warn.append(f"{len(slow)} of {len(q.cameras)} cameras below {cr.min_fps:.0f} fps ({names})")
+    lossy = [c for c in q.cameras if c.received and c.lost / max(c.expected, 1) > cr.max_lost_fraction]
+    if lossy:
+        warn.append(f"{len(lossy)} of {len(q.cameras)} cameras lost frames ("
+                    + ", ".join(f"{c.name} {c.lost} of {c.expected}" for c in lossy[:4]) + ")")
+    skipping = [c for c in q.cameras if c.skips > cr.max_skips and c not in lossy]
+    if skipping:
+        warn.append(f"{len(skipping)} of {len(q.cameras)} cameras skipped frames ("
+                    + ", ".join(f"{c.name} {c.skips} gaps" for c in skipping[:4]) + ")")
+    if q.spread_ms_max is not None and q.spread_ms_max > cr.max_spread_ms:
+        warn.append(f"Cameras out of sync: up to {q.spread_ms_max:.0f} ms between cameras "
+                    f"(limit {cr.max_spread_ms:.0f} ms)")
+    warn += _bumped(q.cameras, cr)
+    if q.coverage is not None and q.coverage < cr.min_coverage:
+        warn.append(f"The patient was seen by 2 or more cameras in only {100 * q.coverage:.0f} % of the frames")
+    if q.duration_s < cr.min_duration_s:
+        warn.append(f"Only {q.duration_s:.1f} s recorded")
+    return DataQuality(**{**asdict(q), "cameras": q.cameras, "criteria": cr, "warnings": tuple(warn),
+                          "serious": bool(warn)})
+
+
+def _bumped(cameras, cr: QualityCriteria) -> list[str]:
+    errs = {c.name: c.reprojection_px for c in cameras if c.reprojection_px is not None}
+    out = []
+    for name, err in errs.items():
+        others = [e for n, e in errs.items() if n != name]
+        if len(others) < 2:
+            continue
+        typical = float(np.median(others))
+        if err > cr.bumped_min_px and err > cr.bumped_ratio * typical:
+            out.append(f"Camera {name}: reprojection error {err:.1f} px, far above the others "
+                       f"({typical:.1f} px); it may have been moved, recalibrate")
+    return out
+
+
+def summary_sentence(warnings) -> str:
+    """The warnings as one sentence for the page: "...; ...; results may be less accurate"."""
+    return "; ".join(warnings) + "; results may be less accurate" if warnings else ""

@@ -1,0 +1,81 @@
+"""Data-quality measures and their warnings, on camera timestamps and detections with known faults."""
+
+import numpy as np
+import pytest
+from gaitcap.services.processing.pipeline import ring_rig
+from gaitcap.services.processing.quality import (
+    QualityCriteria,
+    recording_quality,
+    reprojection_px,
+    summary_sentence,
+    with_reprojection,
+)
+
+FPS, T, C = 30.0, 300, 10  # 10 s at 30 fps
+NAMES = tuple(f"cam{i}" for i in range(C))
+
+
+def _stamps(jitter_ms=0.0, seed=0):
+    rng = np.random.default_rng(seed)
+    base = 1_700_000_000_000_000_000 + (np.arange(T) * 1e9 / FPS).astype(np.int64)
+    return np.stack([base + (rng.uniform(0, jitter_ms, T) * 1e6).astype(np.int64) for _ in range(C)])
+
+
+def test_a_clean_recording_has_no_warnings():
+    conf = np.ones((C, T, 5))
+    q = recording_quality(camera_names=NAMES, timestamps_ns=_stamps(jitter_ms=5), patient_confidence=conf)
+    assert q.warnings == () and not q.serious
+    assert q.nominal_fps == pytest.approx(30.0, abs=0.01) and q.duration_s == pytest.approx(10.0, abs=0.01)
+    assert all(c.lost == 0 and c.fps == pytest.approx(30.0) for c in q.cameras)
+    assert q.spread_ms_max < 5.0 and q.coverage == 1.0
+
+
+def test_a_stopped_camera_slow_cameras_and_bad_sync_are_named():
+    stamps = _stamps()
+    stamps[7, 126:] = -1  # camera 7 stops at 4.2 s
+    for c in (1, 2, 3):  # three cameras deliver a quarter of the frames (7.5 fps)
+        stamps[c, np.arange(T) % 4 != 0] = -1
+    stamps[5] += 45_000_000  # camera 5 is 45 ms late on every frame
+    q = recording_quality(camera_names=NAMES, timestamps_ns=stamps, patient_confidence=None,
+                          expected_cameras=(*NAMES, "cam10"))
+    text = summary_sentence(q.warnings)
+    assert q.serious
+    assert "Camera cam10 recorded nothing" in q.warnings
+    assert "Camera cam7 stopped at 4.2 s" in q.warnings
+    assert any(w.startswith("3 of 10 cameras below 28 fps (cam1 8 fps") for w in q.warnings), q.warnings
+    assert "Cameras out of sync: up to 45 ms between cameras (limit 30 ms)" in q.warnings
+    cam7 = q.cameras[7]
+    assert (cam7.expected, cam7.received, cam7.lost) == (T, 126, T - 126)
+    assert text.endswith("; results may be less accurate")
+
+
+def test_short_recording_and_poor_coverage_are_flagged():
+    stamps = _stamps()[:, :84]  # 2.8 s
+    conf = np.zeros((C, 84, 5))
+    conf[:2, :30] = 1.0  # seen by two cameras in 30 of 84 frames
+    q = recording_quality(camera_names=NAMES, timestamps_ns=stamps, patient_confidence=conf)
+    assert "Only 2.8 s recorded" in q.warnings
+    assert "The patient was seen by 2 or more cameras in only 36 % of the frames" in q.warnings
+
+
+def test_a_bumped_camera_stands_out_by_its_reprojection_error():
+    rig = ring_rig(6)
+    rng = np.random.default_rng(1)
+    points = rng.uniform(-400, 400, (40, 3, 3)) + np.array([0.0, 0.0, 900.0])
+    kp = np.concatenate([rig.project(points), np.ones((6, 40, 3, 1))], axis=-1)
+    kp[..., :2] += rng.normal(0, 1.0, kp[..., :2].shape)
+    kp[4, ..., 0] += 25.0  # camera 4 was knocked: its detections sit 25 px off the reconstruction
+    errors = reprojection_px(points, kp, rig)
+    assert errors["cam4"] == pytest.approx(25.0, abs=2.0) and errors["cam0"] < 2.0
+    q = recording_quality(camera_names=tuple(rig.names), timestamps_ns=_stamps()[:6], patient_confidence=None)
+    q = with_reprojection(q, errors)
+    assert [w for w in q.warnings if "reprojection" in w] == [
+        f"Camera cam4: reprojection error {errors['cam4']:.1f} px, far above the others "
+        f"({np.median([e for n, e in errors.items() if n != 'cam4']):.1f} px); it may have been moved, recalibrate"]
+
+
+def test_criteria_are_checked():
+    with pytest.raises(ValueError, match="min_fps"):
+        QualityCriteria(min_fps=0)
+    with pytest.raises(ValueError, match="min_coverage"):
+        QualityCriteria(min_coverage=2)
