@@ -256,7 +256,9 @@ def _missing(shape: tuple[int, ...]) -> np.ndarray:
 
 
 def _frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
-    ts = np.where(timestamps_ns >= 0, timestamps_ns, np.nan).astype(np.float64)
+    # Relative to the earliest stamp before going to float: float64 holds absolute ns only to 256 ns.
+    ref = int(timestamps_ns[timestamps_ns >= 0].min()) if (timestamps_ns >= 0).any() else 0
+    ts = np.where(timestamps_ns >= 0, timestamps_ns - ref, np.nan).astype(np.float64)
     with np.errstate(all="ignore"):
         med = np.nanmedian(np.where(np.isnan(ts).all(0, keepdims=True), 0, ts), axis=0)
     have = ~np.isnan(ts).all(axis=0)

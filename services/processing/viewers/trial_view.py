@@ -73,7 +73,8 @@ def start_ns_of(keypoints) -> int:
         raise ValueError("keypoints: no camera timestamps")
     k = int(seen[0])
     column = stamps[:, k][stamps[:, k] >= 0]
-    return int(np.median(column)) - int(round(float(keypoints.times_s[k]) * 1e9))
+    ref = int(column.min())  # medians of absolute ns in float64 would round to 256 ns
+    return ref + int(round(float(np.median(column - ref)))) - int(round(float(keypoints.times_s[k]) * 1e9))
 
 
 def joint_confidence(detections, frames: int) -> np.ndarray | None:
