@@ -151,10 +151,10 @@ def run(*, seconds: float, cameras: int, fps: float, compression: str, out_dir: 
             raise RuntimeError(f"camera node failed: {cam.stderr[-2000:]}")
         cam_out = json.loads(cam.stdout.strip().splitlines()[-1])
         deadline = time.monotonic() + 60
-        while client.status()["queued"] and time.monotonic() < deadline:
+        while client.status().queued and time.monotonic() < deadline:
             time.sleep(0.1)
         time.sleep(0.5)
-        summary = client.stop("bench")["summary"]
+        summary = client.stop("bench").summary
     finally:
         session.close()
         rec.send_signal(signal.SIGTERM)

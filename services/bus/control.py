@@ -3,7 +3,10 @@
     session = open_session(bus)                       # gaitcap.services.bus.session
     rec = RecorderClient(session, bus.keys)
     rec.start(trial_id="t1", path="/data/t1.mcap", metadata={...}, calibration_toml=toml_text)
-    summary = rec.stop("t1")                          # frames / gaps per camera, path
+    summary = rec.stop("t1").summary                  # frames / gaps per camera
+
+Every payload is a typed message of :mod:`gaitcap.services.bus.messages`; malformed ones are dropped
+with a log line.
 
     status = CameraStatusBoard(session, bus.keys)     # latest status per camera: status.snapshot()
     preview = PreviewFrames(session, bus.keys)        # latest JPEG per camera: preview.latest()
@@ -11,14 +14,24 @@
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from gaitcap.acquisition.encoding import parse_image_message
-from gaitcap.services.bus.keys import Keys, dumps, loads
+from gaitcap.services.bus.keys import Keys
+from gaitcap.services.bus.messages import (
+    CameraStatus,
+    ImageFrame,
+    RecorderEvent,
+    RecorderReply,
+    RecorderStart,
+    RecorderStop,
+)
+
+log = logging.getLogger(__name__)
 
 
 class RecorderError(ValueError):
@@ -33,32 +46,37 @@ class RecorderClient:
         self.keys = keys
         self.timeout_s = timeout_s
 
-    def _query(self, key: str, payload: dict[str, Any] | None) -> dict[str, Any]:
+    def _query(self, key: str, payload: RecorderStart | RecorderStop | None) -> RecorderReply:
         kwargs = {"timeout": self.timeout_s}
         if payload is not None:
-            kwargs["payload"] = dumps(payload)
+            kwargs["payload"] = payload.to_bytes()
         for reply in self.session.get(key, **kwargs):
             if reply.ok is not None:
-                answer = loads(reply.ok.payload.to_bytes(), what=f"reply of {key}")
-                if not answer.get("ok", False):
-                    raise RecorderError(f"recorder refused ({key}): {answer.get('error')}")
+                try:
+                    answer = RecorderReply.from_bytes(reply.ok.payload.to_bytes())
+                except ValueError as exc:
+                    raise RecorderError(f"recorder reply on {key}: {exc}") from None
+                if not answer.ok:
+                    raise RecorderError(f"recorder refused ({key}): {answer.error}")
                 return answer
             raise RecorderError(f"recorder error ({key}): {reply.err.payload.to_bytes().decode(errors='replace')}")
         raise RecorderError(f"no recorder answered on {key} within {self.timeout_s} s (is the recorder node running?)")
 
     def start(self, *, trial_id: str, path: str, metadata: dict[str, Any] | None = None,
-              calibration_toml: str | None = None, cameras: list[str] | None = None) -> dict[str, Any]:
-        """Start recording ``trial_id`` into ``path`` (on the recorder's host); returns the reply."""
-        return self._query(self.keys.recorder_start, {
-            "trial_id": trial_id, "path": str(path), "metadata": metadata or {},
-            "calibration_toml": calibration_toml, "cameras": cameras,
-        })
+              calibration_toml: str | None = None, cameras: list[str] | None = None) -> RecorderReply:
+        """Start recording ``trial_id`` into ``path`` (inside the recorder's data folder); the reply."""
+        try:
+            request = RecorderStart(trial_id=trial_id, path=str(path), metadata=metadata or {},
+                                    calibration_toml=calibration_toml, cameras=cameras)
+        except ValueError as exc:
+            raise RecorderError(str(exc)) from None
+        return self._query(self.keys.recorder_start, request)
 
-    def stop(self, trial_id: str) -> dict[str, Any]:
-        """Stop recording; returns the reply with ``summary`` (frames, gaps per camera) and ``path``."""
-        return self._query(self.keys.recorder_stop, {"trial_id": trial_id})
+    def stop(self, trial_id: str) -> RecorderReply:
+        """Stop recording; the reply has ``summary`` (frames, gaps per camera) and ``path``."""
+        return self._query(self.keys.recorder_stop, RecorderStop(trial_id))
 
-    def status(self) -> dict[str, Any]:
+    def status(self) -> RecorderReply:
         return self._query(self.keys.recorder_status, None)
 
 
@@ -82,14 +100,19 @@ class CameraStatusBoard:
     def __init__(self, session, keys: Keys, on_status: Callable[[dict], None] | None = None) -> None:
         self._latest = _Latest()
         self._on_status = on_status
+        self._keys = keys
         self._sub = session.declare_subscriber(keys.status(), self._cb)
 
     def _cb(self, sample) -> None:
         try:
-            status = loads(sample.payload.to_bytes(), what=str(sample.key_expr))
-        except ValueError:
+            parsed = CameraStatus.from_bytes(sample.payload.to_bytes())
+            if parsed.camera != self._keys.camera_of(str(sample.key_expr)):
+                raise ValueError(f"status of camera {parsed.camera} on {sample.key_expr}")
+        except ValueError as exc:
+            log.warning("dropping a camera status: %s", exc)
             return
-        self._latest.set(str(status.get("camera")), status)
+        status = parsed.to_dict()
+        self._latest.set(parsed.camera, status)
         if self._on_status is not None:
             self._on_status(status)
 
@@ -114,16 +137,19 @@ class PreviewFrames:
 
     def __init__(self, session, keys: Keys) -> None:
         self._latest = _Latest()
+        self._keys = keys
         self._sub = session.declare_subscriber(keys.image(), self._cb)
 
     def _cb(self, sample) -> None:
         try:
-            msg = parse_image_message(sample.payload.to_bytes())
-            att = loads(sample.attachment.to_bytes(), what="frame attachment") if sample.attachment else {}
-        except ValueError:
+            att = sample.attachment.to_bytes() if sample.attachment is not None else None
+            frame = ImageFrame.from_bytes(sample.payload.to_bytes(), att,
+                                          camera=self._keys.camera_of(str(sample.key_expr)))
+        except ValueError as exc:
+            log.debug("dropping a preview frame: %s", exc)
             return
-        self._latest.set(msg.camera, PreviewFrame(msg.camera, int(att.get("frame_id", -1)), msg.timestamp_ns,
-                                                  msg.jpeg, time.time()))
+        self._latest.set(frame.camera, PreviewFrame(frame.camera, frame.frame_id, frame.timestamp_ns, frame.jpeg,
+                                                    time.time()))
 
     def latest(self) -> dict[str, PreviewFrame]:
         return self._latest.snapshot()
@@ -132,13 +158,15 @@ class PreviewFrames:
         self._sub.undeclare()
 
 
-def subscribe_events(session, keys: Keys, on_event: Callable[[dict], None]):
+def subscribe_events(session, keys: Keys, on_event: Callable[[RecorderEvent], None]):
     """Call ``on_event(event)`` for every recorder event (started / stopped / error)."""
 
     def _cb(sample) -> None:
         try:
-            on_event(loads(sample.payload.to_bytes(), what=keys.recorder_events))
-        except ValueError:
+            event = RecorderEvent.from_bytes(sample.payload.to_bytes())
+        except ValueError as exc:
+            log.warning("dropping a recorder event: %s", exc)
             return
+        on_event(event)
 
     return session.declare_subscriber(keys.recorder_events, _cb)

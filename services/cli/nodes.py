@@ -174,8 +174,10 @@ def recorder_cmd(
     compression: str = typer.Option("lz4", "--compression", help="lz4 | none"),
     chunk_mb: float = typer.Option(4.0, "--chunk-mb", help="Image chunk size, MB."),
     flush_s: float = typer.Option(1.0, "--flush-s", help="At most this much data is lost on a crash, s."),
+    data_dir: Path = typer.Option(Path("runs/clinic"), "--data-dir", envvar="GAITCAP_DATA_DIR",
+                                  help="The only folder the recorder writes into (trial paths must be inside)."),
 ) -> None:
-    """Record trials (started and stopped over the bus) into MCAP files."""
+    """Record trials (started and stopped over the bus) into MCAP files inside the data folder."""
     from gaitcap.acquisition.recording.writer import WriterSettings
     from gaitcap.services.bus.session import default_bus_config, open_session
     from gaitcap.services.nodes.recorder import RecorderNode
@@ -186,7 +188,7 @@ def recorder_cmd(
         cfg = default_bus_config(bus)
         session = open_session(cfg, node)
     stopper = _stop_event()
-    rec = RecorderNode(session, cfg, node, settings=settings)
+    rec = RecorderNode(session, cfg, node, data_root=data_dir, settings=settings)
     typer.echo(f"recorder node {node} ready on {cfg.prefix}")
     stopper.wait()
     rec.close()

@@ -62,15 +62,15 @@ class BusLink:
         from gaitcap.services.bus.control import RecorderError
 
         try:
-            return self.recorder.stop(trial_id).get("summary", {})
+            return self.recorder.stop(trial_id).summary or {}
         except RecorderError as exc:
             raise RecorderUnavailable(str(exc)) from None
 
     def show_scene(self, scene: str, *, start_ns: int) -> None:
-        """Simulated cameras show ``scene`` (walker | board) from ``start_ns`` (``keys.CAMERA_SCENE``)."""
-        from gaitcap.services.bus.keys import dumps
+        """Simulated cameras show ``scene`` (walker | board) from ``start_ns`` (wall clock, ns)."""
+        from gaitcap.services.bus.messages import CameraScene
 
-        self.session.put(self.bus.keys.camera_scene, dumps({"scene": scene, "start_ns": int(start_ns)}))
+        self.session.put(self.bus.keys.camera_scene, CameraScene(scene, int(start_ns)).to_bytes())
 
     def cameras(self) -> list[CameraHealth]:
         now = time.time()
@@ -96,12 +96,14 @@ class BusLink:
 
 
 class BusProgress:
-    """Publishes worker progress on ``<prefix>/worker/progress/<trial_id>`` (JSON)."""
+    """Publishes worker progress (:class:`gaitcap.services.bus.messages.WorkerProgress`) on
+    ``<prefix>/worker/progress/<trial_id>``."""
 
     def __init__(self, session, bus) -> None:
-        self.session, self.prefix = session, bus.keys.prefix
+        self.session, self.keys = session, bus.keys
 
     def publish(self, trial_id: str, payload: dict) -> None:
-        from gaitcap.services.bus.keys import dumps
+        from gaitcap.services.bus.messages import WorkerProgress
 
-        self.session.put(f"{self.prefix}/worker/progress/{trial_id}", dumps(payload))
+        message = WorkerProgress(**payload)
+        self.session.put(self.keys.worker_progress(message.trial_id), message.to_bytes())

@@ -1,7 +1,8 @@
 """Camera node: drives the cameras of one host and publishes their JPEG frames and status on the bus.
 
 One thread per camera: frames -> JPEG -> ``foxglove.CompressedImage`` on ``<prefix>/camera/<cam>/image``
-(with a JSON attachment: frame id, camera timestamp, send time). A status thread publishes each camera's
+(the camera timestamp in the protobuf; a :class:`~gaitcap.services.bus.messages.FrameMeta` attachment: frame id,
+send time). A status thread publishes each camera's
 status once per second and when a camera stops or fails; a camera that fails mid-trial does not stop
 the others. The node holds the liveliness token ``<prefix>/alive/<node>``.
 """
@@ -14,8 +15,8 @@ import time
 from collections.abc import Sequence
 
 from gaitcap.acquisition.drivers.base import CameraDriver, Frame
-from gaitcap.acquisition.encoding import encode_jpeg, image_message
-from gaitcap.services.bus.keys import dumps
+from gaitcap.acquisition.encoding import encode_jpeg
+from gaitcap.services.bus.messages import CameraScene, CameraStatus, ImageFrame
 from gaitcap.services.bus.session import BusConfig, declare_alive
 
 log = logging.getLogger(__name__)
@@ -48,16 +49,15 @@ class CameraNode:
 
     def publish_frame(self, frame: Frame) -> None:
         jpeg = frame.jpeg if frame.jpeg is not None else encode_jpeg(frame.image, quality=self.jpeg_quality)
-        payload = image_message(jpeg, camera=frame.camera, timestamp_ns=frame.timestamp_ns)
-        attachment = dumps({"frame_id": frame.frame_id, "timestamp_ns": frame.timestamp_ns,
-                            "sent_ns": time.time_ns(), "ptp_jump": frame.ptp_jump})
-        self._image_pubs[frame.camera].put(payload, attachment=attachment)
+        msg = ImageFrame.build(jpeg, camera=frame.camera, timestamp_ns=frame.timestamp_ns, frame_id=frame.frame_id,
+                               sent_ns=time.time_ns(), ptp_jump=bool(frame.ptp_jump))
+        self._image_pubs[frame.camera].put(msg.payload, attachment=msg.meta.to_bytes())
         self.published[frame.camera] += 1
 
     def publish_status(self, driver: CameraDriver) -> None:
-        status = driver.status().to_dict()
-        status.update(node=self.node, time_ns=time.time_ns(), published=self.published[driver.name])
-        self._status_pubs[driver.name].put(dumps(status))
+        status = CameraStatus.of_driver(driver.status().to_dict(), node=self.node, time_ns=time.time_ns(),
+                                        published=self.published[driver.name])
+        self._status_pubs[driver.name].put(status.to_bytes())
 
     def _run_camera(self, driver: CameraDriver) -> None:
         try:
@@ -106,14 +106,12 @@ class CameraNode:
 
 
 def attach_board_scene(session, bus: BusConfig, drivers: Sequence[CameraDriver], clip: str = "short"):
-    """Let simulated cameras show a calibration board on request (``<prefix>/camera/scene``, JSON
-    :data:`gaitcap.services.bus.keys.CAMERA_SCENE`), the board clip named ``clip`` in
+    """Let simulated cameras show a calibration board on request (``<prefix>/camera/scene``,
+    :class:`gaitcap.services.bus.messages.CameraScene`), the board clip named ``clip`` in
     :data:`gaitcap.acquisition.synthetic.board_scene.BOARD_SCENES`. Other drivers are left alone. Returns the
     subscriber (None when no driver is simulated)."""
     from gaitcap.acquisition.drivers.simulated import SimulatedCamera
     from gaitcap.acquisition.synthetic.board_scene import BoardScene, SceneSwitch, board_scene_config
-    from gaitcap.services.bus.keys import loads
-
     config = board_scene_config(clip)
     sims = [d for d in drivers if isinstance(d, SimulatedCamera)]
     if not sims:
@@ -124,12 +122,12 @@ def attach_board_scene(session, bus: BusConfig, drivers: Sequence[CameraDriver],
 
     def on_scene(sample) -> None:
         try:
-            msg = loads(sample.payload.to_bytes(), what=bus.keys.camera_scene)
-            switch.set(str(msg.get("scene")), int(msg.get("start_ns") or time.time_ns()))
-            if msg.get("scene") == "board":  # set the renderers up now, not in the cameras' frame loops
+            msg = CameraScene.from_bytes(sample.payload.to_bytes())
+            switch.set(msg.scene, msg.start_ns)
+            if msg.scene == "board":  # set the renderers up now, not in the cameras' frame loops
                 threading.Thread(target=lambda: [board.prepare(d.name, d.size_px) for d in sims],
                                  name="board-renderers", daemon=True).start()
-        except (ValueError, TypeError) as exc:
+        except ValueError as exc:
             log.warning("ignoring a scene message: %s", exc)
 
     return session.declare_subscriber(bus.keys.camera_scene, on_scene)

@@ -1,8 +1,8 @@
 """Detector node: 2D keypoints for every frame on the bus.
 
 Subscribes to ``<prefix>/camera/*/image``, decodes the JPEG, runs a
-:class:`~gaitcap.acquisition.detectors.base.Detector` and publishes JSON keypoints (schema
-:data:`gaitcap.services.bus.keys.KEYPOINTS`) on ``<prefix>/keypoints/<cam>``. The subscriber callback only
+:class:`~gaitcap.acquisition.detectors.base.Detector` and publishes
+:class:`~gaitcap.services.bus.messages.Keypoints` on ``<prefix>/keypoints/<cam>``. The subscriber callback only
 enqueues; ``workers`` threads decode JPEGs in parallel (OpenCV releases the GIL) while ``detect`` calls
 are serialised (a model interpreter is not thread-safe). When detection falls behind
 by more than ``max_queue`` frames the oldest frames are skipped and counted (``skipped``), so live
@@ -17,8 +17,7 @@ import threading
 import time
 
 import numpy as np
-from gaitcap.acquisition.encoding import parse_image_message
-from gaitcap.services.bus.keys import dumps, loads
+from gaitcap.services.bus.messages import ImageFrame, Keypoints
 from gaitcap.services.bus.session import BusConfig, declare_alive
 
 log = logging.getLogger(__name__)
@@ -52,7 +51,7 @@ class DetectorNode:
         self._token = declare_alive(session, bus, node)
 
     def _on_image(self, sample) -> None:
-        att = sample.attachment.to_bytes() if sample.attachment is not None else b"{}"
+        att = sample.attachment.to_bytes() if sample.attachment is not None else None
         with self._cond:
             if len(self._pending) >= self.max_queue:
                 self._pending.popleft()
@@ -80,22 +79,19 @@ class DetectorNode:
                 self.failed += 1
                 log.warning("detection failed on %s: %s", key, exc)
 
-    def _detect(self, key: str, payload: bytes, att: bytes) -> None:
-        camera = self.bus.keys.camera_of(key)
-        msg = parse_image_message(payload)
-        meta = loads(att, what=f"frame attachment of camera {camera}")
-        frame_id = int(meta.get("frame_id", -1))
-        image = msg.image()
+    def _detect(self, key: str, payload: bytes, att: bytes | None) -> None:
+        frame = ImageFrame.from_bytes(payload, att, camera=self.bus.keys.camera_of(key))
+        image = frame.image()
         with self._detect_lock:
             t0 = time.perf_counter()
-            people = np.asarray(self.detector.detect(image, camera=camera, frame_id=frame_id,
-                                                     timestamp_ns=msg.timestamp_ns), dtype=np.float64)
+            people = np.asarray(self.detector.detect(image, camera=frame.camera, frame_id=frame.frame_id,
+                                                     timestamp_ns=frame.timestamp_ns), dtype=np.float64)
             ms = (time.perf_counter() - t0) * 1e3
         if people.size:  # JSON has no NaN: a joint with any non-finite value becomes [0, 0, conf 0]
             people = np.where(np.isfinite(people).all(axis=-1, keepdims=True), people, 0.0)
-        out = {"camera": camera, "frame_id": frame_id, "timestamp_ns": msg.timestamp_ns,
-               "skeleton": self.skeleton, "people": np.round(people, 4).tolist(), "detector_ms": round(ms, 3)}
-        self._publisher(camera).put(dumps(out))
+        out = Keypoints(camera=frame.camera, frame_id=frame.frame_id, timestamp_ns=frame.timestamp_ns,
+                        skeleton=self.skeleton, people=np.round(people, 4).tolist(), detector_ms=round(ms, 3))
+        self._publisher(frame.camera).put(out.to_bytes())
         self.detected += 1
 
     def wait_idle(self, timeout_s: float = 10.0) -> bool:

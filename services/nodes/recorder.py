@@ -6,6 +6,12 @@ the caller gets an acknowledgement. Subscriber callbacks only enqueue (a deep qu
 ever stalled by disk latency); one writer thread writes the MCAP. On a write error (disk full, file
 size limit) the recording stops cleanly: the ``.part`` file is closed, an ``error`` event is published
 and the stop reply carries the error. Events go to ``<prefix>/recorder/events``.
+
+Every message is parsed into its typed structure (:mod:`gaitcap.services.bus.messages`) and bounded:
+a frame id more than ``MAX_TRIAL_FRAMES`` from the trial's first frame, or keypoints for a frame id
+more than ``KEYPOINT_SLACK_FRAMES`` outside the recorded frames, are rejected with a log line and
+counted (``rejected`` in the summary). The recorder only writes inside its data folder: a start whose
+path resolves outside it (``..``, an absolute path elsewhere, a symbolic link out) is refused.
 """
 
 from __future__ import annotations
@@ -14,19 +20,42 @@ import logging
 import queue
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from gaitcap.acquisition.recording.foxglove_messages import image_annotations
 from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
-from gaitcap.services.bus.keys import dumps, loads
+from gaitcap.services.bus.messages import (
+    CameraStatus,
+    ImageFrame,
+    Keypoints,
+    RecorderEvent,
+    RecorderReply,
+    RecorderStart,
+    RecorderStop,
+)
 from gaitcap.services.bus.session import BusConfig, declare_alive
 
 log = logging.getLogger(__name__)
 
 _STOP = object()
+MAX_TRIAL_FRAMES = 10_000_000  # frame ids of one trial span at most this many frames (3.8 days at 30/s)
+KEYPOINT_SLACK_FRAMES = 600  # keypoints may name frames this far outside the recorded frames' range
+_LOGGED_REJECTIONS = 20  # per trial; the rest are only counted
+
+
+def confined_path(data_root: Path, path: str) -> Path:
+    """``path`` (relative to ``data_root`` or absolute) resolved; ValueError unless it is an ``.mcap``
+    inside ``data_root`` (after resolving ``..`` and symbolic links)."""
+    root = Path(data_root).expanduser().resolve()
+    target = (root / Path(path).expanduser()).resolve()
+    if not target.is_relative_to(root) or target == root:
+        raise ValueError(f"path {path!r} is outside the recorder's data folder {root}")
+    if target.suffix != ".mcap":
+        raise ValueError(f"path {path!r} must end with .mcap")
+    return target
 
 
 @dataclass
@@ -80,6 +109,33 @@ class Recording:
         self.started_cpu = time.process_time()
         self.first_write: tuple[float, float] | None = None  # (wall s, process cpu s) at the first frame
         self.last_write: tuple[float, float] | None = None
+        self.frame_range: tuple[int, int] | None = None  # (first, last) frame id recorded, all cameras
+        self.rejected = 0
+
+    def reject(self, message: str) -> None:
+        self.rejected += 1
+        if self.rejected <= _LOGGED_REJECTIONS:
+            log.warning("trial %s: rejected %s", self.trial_id, message)
+
+    def accept_frame(self, camera: str, frame_id: int) -> bool:
+        """Keep the frame unless its id is beyond the trial's range (first frame + MAX_TRIAL_FRAMES)."""
+        if self.frame_range is None:
+            self.frame_range = (frame_id, frame_id)
+        lo, hi = self.frame_range
+        if not lo - MAX_TRIAL_FRAMES <= frame_id <= lo + MAX_TRIAL_FRAMES:
+            self.reject(f"a frame of camera {camera} with frame id {frame_id}, trial started at {lo}")
+            return False
+        self.frame_range = (min(lo, frame_id), max(hi, frame_id))
+        return True
+
+    def accept_keypoints(self, camera: str, frame_id: int) -> bool:
+        """Keep keypoints only for frame ids near the frames recorded so far."""
+        lo, hi = self.frame_range or (frame_id + 1, frame_id - 1)
+        if self.frame_range is None or not lo - KEYPOINT_SLACK_FRAMES <= frame_id <= hi + KEYPOINT_SLACK_FRAMES:
+            self.reject(f"keypoints of camera {camera} for frame id {frame_id}, outside the recorded frames "
+                        f"{self.frame_range}")
+            return False
+        return True
 
     def tally(self, camera: str) -> CameraTally:
         return self.tallies.setdefault(camera, CameraTally())
@@ -110,19 +166,31 @@ class Recording:
             "cpu_percent": 100.0 * cpu / elapsed,
             "active_s": active_s,
             "active_cpu_percent": 100.0 * active_cpu / active_s if active_s > 0 else None,
+            "rejected": self.rejected,
             "error": self.error,
         }
 
 
-class RecorderNode:
-    """Serves start/stop/status queries and records the bus into MCAP files."""
+class _NoRequest:
+    """The status query carries no payload."""
 
-    def __init__(self, session, bus: BusConfig, node: str = "recorder", *,
+    @classmethod
+    def from_bytes(cls, data: bytes) -> None:
+        if bytes(data) not in (b"", b"{}"):
+            raise ValueError("recorder status: the query takes no payload")
+
+
+class RecorderNode:
+    """Serves start/stop/status queries and records the bus into MCAP files inside ``data_root``."""
+
+    def __init__(self, session, bus: BusConfig, node: str = "recorder", *, data_root: Path,
                  settings: WriterSettings = WriterSettings()) -> None:
         self.session, self.bus, self.node, self.settings = session, bus, node, settings
+        self.data_root = Path(data_root).expanduser().resolve()
         keys = bus.keys
         self._queue: queue.Queue = queue.Queue()
         self._lock = threading.Lock()
+        self._lock_drops = threading.Lock()
         self._current: Recording | None = None
         self._accepting = False
         self._events = session.declare_publisher(keys.recorder_events)
@@ -143,7 +211,7 @@ class RecorderNode:
     # -- bus callbacks: enqueue only ----------------------------------------------------------------
     def _on_image(self, sample) -> None:
         if self._accepting:
-            att = sample.attachment.to_bytes() if sample.attachment is not None else b"{}"
+            att = sample.attachment.to_bytes() if sample.attachment is not None else None
             self._queue.put(("image", str(sample.key_expr), sample.payload.to_bytes(), att, time.time_ns()))
 
     def _on_keypoints(self, sample) -> None:
@@ -170,31 +238,39 @@ class RecorderNode:
                 self._fail(rec, f"write failed ({exc.strerror or exc}); recording stopped, "
                                 f"partial file {rec.writer.part_path}")
             except ValueError as exc:
-                log.warning("dropping a bad message: %s", exc)
+                rec.reject(f"a bad message on {item[1]}: {exc}")
 
-    def _write(self, rec: Recording, kind: str, key: str, payload: bytes, att: bytes, recv_ns: int) -> None:
+    def _write(self, rec: Recording, kind: str, key: str, payload: bytes, att: bytes | None, recv_ns: int) -> None:
         camera = self.bus.keys.camera_of(key)
-        tally = rec.tally(camera)
         if kind == "image":
-            meta = loads(att, what=f"frame attachment of camera {camera}")
-            fid, ts = int(meta["frame_id"]), int(meta["timestamp_ns"])
+            frame = ImageFrame.from_bytes(payload, att, camera=camera)
+            fid, ts = frame.frame_id, frame.timestamp_ns
+            if not rec.accept_frame(camera, fid):
+                return
+            tally = rec.tally(camera)
             rec.writer.add_frame(camera, payload, timestamp_ns=ts, frame_id=fid, receive_ns=recv_ns)
             tally.frames += 1
             tally.frame_ids.append(fid)
             rec.last_write = (time.time(), time.process_time())
             rec.first_write = rec.first_write or rec.last_write
             tally.last_timestamp_ns = ts
-            if "sent_ns" in meta:
-                tally.latencies_ns.append(recv_ns - int(meta["sent_ns"]))
+            tally.latencies_ns.append(recv_ns - frame.meta.sent_ns)
         elif kind == "keypoints":
-            msg = loads(payload, what=f"keypoints of camera {camera}")
-            ts, fid = int(msg["timestamp_ns"]), int(msg["frame_id"])
-            rec.writer.add_keypoints(camera, payload, timestamp_ns=ts, frame_id=fid)
+            kp = Keypoints.from_bytes(payload)
+            if kp.camera != camera:
+                raise ValueError(f"keypoints on camera {camera}'s key name camera {kp.camera}")
+            if not rec.accept_keypoints(camera, kp.frame_id):
+                return
+            rec.writer.add_keypoints(camera, payload, timestamp_ns=kp.timestamp_ns, frame_id=kp.frame_id)
             if self.settings.annotations:  # the overlay Foxglove draws on this frame's image
-                rec.writer.add_annotations(camera, image_annotations(msg), timestamp_ns=ts, frame_id=fid)
-            tally.keypoints += 1
+                rec.writer.add_annotations(camera, image_annotations(asdict(kp)), timestamp_ns=kp.timestamp_ns,
+                                           frame_id=kp.frame_id)
+            rec.tally(camera).keypoints += 1
         else:
-            tally.last_status = loads(payload, what=f"status of camera {camera}")
+            status = CameraStatus.from_bytes(payload)
+            if status.camera != camera:
+                raise ValueError(f"status on camera {camera}'s key names camera {status.camera}")
+            rec.tally(camera).last_status = status.to_dict()
             rec.writer.add_status(camera, payload, time_ns=recv_ns)
 
     def _fail(self, rec: Recording, message: str) -> None:
@@ -223,28 +299,26 @@ class RecorderNode:
             raise box["error"]
         return box.get("value")
 
-    def _publish_event(self, event: str, rec: Recording, **extra: Any) -> None:
-        self._events.put(dumps({"event": event, "trial_id": rec.trial_id, "path": str(rec.path),
-                                "error": rec.error, "time_ns": time.time_ns(), **extra}))
+    def _publish_event(self, event: str, rec: Recording, summary: dict | None = None) -> None:
+        self._events.put(RecorderEvent(event=event, trial_id=rec.trial_id, path=str(rec.path), error=rec.error,
+                                       time_ns=time.time_ns(), summary=summary).to_bytes())
 
     # -- control ----------------------------------------------------------------------------------
-    def start(self, request: dict[str, Any]) -> dict[str, Any]:
-        trial_id = str(request.get("trial_id") or "")
-        if not trial_id:
-            raise ValueError("start: missing trial_id")
-        if not request.get("path"):
-            raise ValueError(f"start {trial_id}: missing path")
+    def start(self, request: RecorderStart) -> RecorderReply:
+        trial_id = request.trial_id
+        try:
+            path = confined_path(self.data_root, request.path)
+        except ValueError as exc:
+            raise ValueError(f"start {trial_id}: {exc}") from None
         with self._lock:
             if self._current is not None:
                 raise ValueError(f"start {trial_id}: already recording trial {self._current.trial_id}")
-            path = Path(request["path"]).expanduser().resolve()
             writer = TrialWriter(path, self.settings)
-            rec = Recording(trial_id, path, writer, request.get("cameras"))
-            meta = dict(request.get("metadata") or {})
+            rec = Recording(trial_id, path, writer, request.cameras)
+            meta = dict(request.metadata)
             meta.setdefault("trial_id", trial_id)
             try:
-                writer.start(metadata=meta, calibration_toml=request.get("calibration_toml"),
-                             time_ns=time.time_ns())
+                writer.start(metadata=meta, calibration_toml=request.calibration_toml, time_ns=time.time_ns())
             except OSError as exc:
                 writer.abort()
                 raise ValueError(f"start {trial_id}: cannot write {path}: {exc}") from None
@@ -252,10 +326,10 @@ class RecorderNode:
             self._accepting = True
         self._publish_event("started", rec)
         log.info("recording trial %s into %s", trial_id, path)
-        return {"ok": True, "trial_id": trial_id, "path": str(path), "error": None}
+        return RecorderReply(ok=True, trial_id=trial_id, path=str(path))
 
-    def stop(self, request: dict[str, Any]) -> dict[str, Any]:
-        trial_id = str(request.get("trial_id") or "")
+    def stop(self, request: RecorderStop) -> RecorderReply:
+        trial_id = request.trial_id
         with self._lock:
             rec = self._current
             if rec is None or rec.trial_id != trial_id:
@@ -266,8 +340,8 @@ class RecorderNode:
             self._current = None
         summary = rec.summary()
         self._publish_event("stopped" if rec.error is None else "error", rec, summary=summary)
-        return {"ok": rec.error is None, "trial_id": trial_id, "path": str(path), "error": rec.error,
-                "summary": summary}
+        return RecorderReply(ok=rec.error is None, trial_id=trial_id, path=str(path), error=rec.error,
+                             summary=summary)
 
     def _finish(self, rec: Recording) -> Path:
         if rec.error is not None:
@@ -278,38 +352,44 @@ class RecorderNode:
             self._fail(rec, f"finishing failed ({exc.strerror or exc}); partial file {rec.writer.part_path}")
             return rec.writer.part_path
 
-    def status(self) -> dict[str, Any]:
+    def status(self) -> RecorderReply:
         rec = self._current
-        return {"ok": True, "recording": rec is not None, "trial_id": rec.trial_id if rec else None,
-                "path": str(rec.path) if rec else None, "error": rec.error if rec else None,
-                "queued": self._queue.qsize()}
+        return RecorderReply(ok=True, recording=rec is not None, trial_id=rec.trial_id if rec else None,
+                             path=str(rec.path) if rec else None, error=rec.error if rec else None,
+                             queued=self._queue.qsize())
 
-    def _serve(self, query, handler) -> None:
+    def _serve(self, query, message_type, handler) -> None:
+        key, unexpected = str(query.key_expr), None
         try:
-            request = loads(query.payload.to_bytes(), what=str(query.key_expr)) if query.payload else {}
+            request = message_type.from_bytes(query.payload.to_bytes() if query.payload else b"{}")
             reply = handler(request)
         except ValueError as exc:
-            reply = {"ok": False, "error": str(exc)}
+            reply = RecorderReply(ok=False, error=str(exc))
         except Exception as exc:
-            log.exception("recorder request failed")
-            reply = {"ok": False, "error": f"{type(exc).__name__}: {exc}"}
-        query.reply(query.key_expr, dumps(reply))
+            unexpected = exc
+            reply = RecorderReply(ok=False, error=f"{type(exc).__name__}: {exc}")
+        query.reply(query.key_expr, reply.to_bytes())
+        del query  # the reply goes out when the query is dropped; log only after that
+        if unexpected is not None:
+            log.error("recorder request on %s failed", key, exc_info=unexpected)
+        elif not reply.ok:
+            log.warning("recorder request on %s refused: %s", key, reply.error)
 
     def _on_start(self, query) -> None:
         # Served off Zenoh's callback thread: a stop waits for the writer to drain its queue.
-        threading.Thread(target=self._serve, args=(query, self.start), daemon=True).start()
+        threading.Thread(target=self._serve, args=(query, RecorderStart, self.start), daemon=True).start()
 
     def _on_stop(self, query) -> None:
-        threading.Thread(target=self._serve, args=(query, self.stop), daemon=True).start()
+        threading.Thread(target=self._serve, args=(query, RecorderStop, self.stop), daemon=True).start()
 
     def _on_status_query(self, query) -> None:
-        self._serve(query, lambda _req: self.status())
+        self._serve(query, _NoRequest, lambda _req: self.status())
 
     def close(self) -> None:
         """Finish a recording in progress (as a clean stop) and leave the bus."""
         rec = self._current
         if rec is not None:
-            self.stop({"trial_id": rec.trial_id})
+            self.stop(RecorderStop(rec.trial_id))
         self._token.undeclare()
         for s in self._subs + self._queryables:
             s.undeclare()

@@ -1,7 +1,8 @@
 """Replay a trial MCAP on the bus: frames, keypoints and camera status, as the live nodes publish them.
 
 Messages go out in log-time order (camera time), paced at ``rate`` x real time (``None``: as fast as
-the bus takes them). Frames keep their frame id and camera timestamp (in the Zenoh attachment), so the
+the bus takes them). Frames keep their frame id (in the :class:`~gaitcap.services.bus.messages.FrameMeta`
+attachment, marked ``replay``) and camera timestamp (in the recorded protobuf), so the
 recorder, the worker and the web page cannot tell a replay from a live trial. Works on files cut short
 by a crash too (they are scanned).
 """
@@ -16,7 +17,8 @@ from pathlib import Path
 
 from gaitcap.acquisition.recording import layout
 from gaitcap.acquisition.recording.reader import iter_messages, resolve_recording
-from gaitcap.services.bus.keys import Keys, dumps
+from gaitcap.services.bus.keys import Keys
+from gaitcap.services.bus.messages import FrameMeta
 
 log = logging.getLogger(__name__)
 
@@ -76,9 +78,8 @@ class Replayer:
                 continue
             self._pace(msg.log_time, first, wall0)
             if layout.is_image_topic(topic):
-                att = dumps({"frame_id": int(msg.sequence), "timestamp_ns": int(msg.log_time),
-                             "sent_ns": time.time_ns(), "ptp_jump": False, "replay": True})
-                self._pub(self.keys.image(camera)).put(msg.data, attachment=att)
+                att = FrameMeta(frame_id=int(msg.sequence), sent_ns=time.time_ns(), replay=True)
+                self._pub(self.keys.image(camera)).put(msg.data, attachment=att.to_bytes())
                 stats.frames += 1
                 stats.per_camera[camera] = stats.per_camera.get(camera, 0) + 1
             else:

@@ -47,13 +47,13 @@ def main() -> None:
     deadline = time.monotonic() + 30
     while time.monotonic() - last[0] < 1.5 and time.monotonic() < deadline:  # the detector's last keypoints
         time.sleep(0.1)
-    while recorder.status().get("queued", 0) and time.monotonic() < deadline:
+    while recorder.status().queued and time.monotonic() < deadline:
         time.sleep(0.1)
     sub.undeclare()
     reply = recorder.stop(trial.id)
     cat.set_state(db, trial.id, "recorded", stopped_at=time.time(), stage="queued")
     cat.enqueue_job(db, trial.id)
-    print(json.dumps({"event": "queued", "trial_id": trial.id, "summary": reply["summary"]}), flush=True)
+    print(json.dumps({"event": "queued", "trial_id": trial.id, "summary": reply.summary}), flush=True)
     session.close()
 
 

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from gaitcap.acquisition.drivers.simulated import parse_faults, simulated_rig
-from gaitcap.acquisition.recording.reader import is_complete, iter_frames, read_metadata, read_status, recover
+from gaitcap.acquisition.recording.reader import is_complete, iter_frames, read_metadata, read_status
+from gaitcap.acquisition.recording.recovery import recover
 from gaitcap.acquisition.synthetic import make_trial
 from gaitcap.services.bus.control import RecorderClient, RecorderError, subscribe_events
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
@@ -52,7 +53,7 @@ def _camera_node(session, bus, trial, *, frames, realtime, faults=None, size=(32
 def test_trial_with_a_stopped_camera_and_drops_is_recorded_and_reported(tmp_path, trial):
     bus = free_bus(["recorder", "camera-0"])
     srec, scam = open_session(bus, "recorder"), open_session(bus, "camera-0")
-    rec = RecorderNode(srec, bus)
+    rec = RecorderNode(srec, bus, data_root=tmp_path)
     events = []
     ev_sub = subscribe_events(scam, bus.keys, events.append)
     try:
@@ -60,27 +61,27 @@ def test_trial_with_a_stopped_camera_and_drops_is_recorded_and_reported(tmp_path
         client = RecorderClient(scam, bus.keys)
         reply = client.start(trial_id="t1", path=str(tmp_path / "t1.mcap"), metadata={"patient": "p"},
                              cameras=trial.rig.names)
-        assert reply["ok"] and reply["path"] == str(tmp_path / "t1.mcap")
-        assert client.status()["recording"] is True
+        assert reply.ok and reply.path == str(tmp_path / "t1.mcap")
+        assert client.status().recording is True
         node = _camera_node(scam, bus, trial, frames=30, realtime=False,
                             faults=(["cam02:3,4"], ["cam03:9"]))
         node.run(start_at_ns=time.time_ns())
-        wait_for(lambda: rec.status()["queued"] == 0, what="recorder queue drained")
+        wait_for(lambda: rec.status().queued == 0, what="recorder queue drained")
         time.sleep(0.3)
         out = client.stop("t1")
-        summary = out["summary"]
+        summary = out.summary
         cams = summary["cameras"]
         assert cams["cam01"]["frames"] == 30 and cams["cam01"]["gaps"] == []
         assert cams["cam02"]["gaps"] == [[3, 4]] and cams["cam02"]["missing_frames"] == 2
         assert cams["cam03"]["stopped_early"] and cams["cam03"]["gaps"] == [[10, 29]]
         assert cams["cam03"]["health"] == "error"
         assert summary["cameras_stopped_early"] == ["cam03"] and summary["frames"] == 30 + 28 + 10 + 30
-        path = Path(out["path"])
+        path = Path(out.path)
         assert is_complete(path) and read_metadata(path) == {"patient": "p", "trial_id": "t1"}
         assert len(list(iter_frames(path, "cam03"))) == 10
         assert read_status(path)["cam03"][-1]["health"] == "error"
-        wait_for(lambda: [e["event"] for e in events] == ["started", "stopped"], what="events")
-        assert events[1]["summary"]["cameras"]["cam03"]["gaps"] == [[10, 29]]
+        wait_for(lambda: [e.event for e in events] == ["started", "stopped"], what="events")
+        assert events[1].summary["cameras"]["cam03"]["gaps"] == [[10, 29]]
         node.close()
     finally:
         ev_sub.undeclare()
@@ -92,7 +93,7 @@ def test_trial_with_a_stopped_camera_and_drops_is_recorded_and_reported(tmp_path
 def test_refusals_are_acknowledged_with_a_reason(tmp_path):
     bus = free_bus(["recorder"])
     srec, sc = open_session(bus, "recorder"), open_session(bus)
-    rec = RecorderNode(srec, bus)
+    rec = RecorderNode(srec, bus, data_root=tmp_path)
     try:
         wait_for(lambda: "recorder" in alive_nodes(sc, bus), what="recorder alive")
         client = RecorderClient(sc, bus.keys, timeout_s=5)
@@ -106,7 +107,7 @@ def test_refusals_are_acknowledged_with_a_reason(tmp_path):
             client.start(trial_id="b", path=str(tmp_path / "b.mcap"))
         with pytest.raises(RecorderError, match="not recording it"):
             client.stop("b")
-        assert client.stop("a")["summary"]["frames"] == 0
+        assert client.stop("a").summary["frames"] == 0
         assert is_complete(tmp_path / "a.mcap")
     finally:
         rec.close()
@@ -125,7 +126,7 @@ def _recorder_process(bus_file: Path, *, fsize_limit: int | None = None, flush_s
         if fsize_limit is not None:
             resource.setrlimit(resource.RLIMIT_FSIZE, (fsize_limit, fsize_limit))
 
-    env = dict(os.environ, GAITCAP_BUS=str(bus_file), PYTHONPATH=str(ROOT))
+    env = dict(os.environ, GAITCAP_BUS=str(bus_file), GAITCAP_DATA_DIR=str(bus_file.parent), PYTHONPATH=str(ROOT))
     cmd = [sys.executable, "-c", "from gaitcap.services.cli import main; main()", "node", "recorder",
            "--node", "recorder", "--flush-s", str(flush_s), "--chunk-mb", "0.1"]
     return subprocess.Popen(cmd, env=env, cwd=str(ROOT), preexec_fn=limit,
@@ -152,9 +153,9 @@ def test_disk_full_stops_cleanly_with_an_error(tmp_path, trial):
         client.start(trial_id="full", path=str(tmp_path / "full.mcap"))
         node = _camera_node(s, bus, trial, frames=60, realtime=False, size=(96, 72))  # ~25 kB frames
         node.run(start_at_ns=time.time_ns())
-        wait_for(lambda: any(e["event"] == "error" for e in events), what="error event")
-        err = next(e for e in events if e["event"] == "error")
-        assert "write failed" in err["error"] and "File too large" in err["error"]
+        wait_for(lambda: any(e.event == "error" for e in events), what="error event")
+        err = next(e for e in events if e.event == "error")
+        assert "write failed" in err.error and "File too large" in err.error
         with pytest.raises(RecorderError, match="write failed"):
             client.stop("full")
         assert proc.poll() is None, "the recorder must survive a full disk"

@@ -60,7 +60,7 @@ def test_video_files_feed_the_live_pipeline_into_an_mcap(tmp_path):
     for s in socks:
         s.close()
     srec, scam = open_session(bus, "recorder"), open_session(bus, "camera-0")
-    rec = RecorderNode(srec, bus)
+    rec = RecorderNode(srec, bus, data_root=tmp_path)
     try:
         deadline = time.monotonic() + 10
         while "recorder" not in alive_nodes(scam, bus) and time.monotonic() < deadline:
@@ -71,10 +71,10 @@ def test_video_files_feed_the_live_pipeline_into_an_mcap(tmp_path):
         node.run(start_at_ns=time.time_ns())
         time.sleep(0.5)
         out = client.stop("v")
-        assert out["summary"]["frames"] == 20
-        frames = list(iter_frames(out["path"], "cam1"))
+        assert out.summary["frames"] == 20
+        frames = list(iter_frames(out.path, "cam1"))
         assert [f.frame_id for f in frames] == list(range(10)) and frames[0].image().shape == (48, 64, 3)
-        assert read_summary(out["path"])["cameras"]["cam0"]["gaps"] == []
+        assert read_summary(out.path)["cameras"]["cam0"]["gaps"] == []
         node.close()
     finally:
         rec.close()

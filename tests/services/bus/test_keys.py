@@ -1,5 +1,5 @@
 import pytest
-from gaitcap.services.bus.keys import DEFAULT_PREFIX, Keys, check_name, dumps, loads
+from gaitcap.services.bus.keys import DEFAULT_PREFIX, Keys, check_name
 
 
 def test_key_expressions():
@@ -24,10 +24,3 @@ def test_bad_names_and_prefixes():
     with pytest.raises(ValueError, match="names no camera"):
         Keys().camera_of("other/camera/x/image")
 
-
-def test_json_payloads():
-    assert loads(dumps({"a": 1}), what="x") == {"a": 1}
-    with pytest.raises(ValueError, match="status of cam1: payload is not JSON"):
-        loads(b"\xff", what="status of cam1")
-    with pytest.raises(ValueError, match="JSON object"):
-        loads(b"[1]", what="x")

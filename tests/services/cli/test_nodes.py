@@ -45,7 +45,7 @@ def rig(tmp_path):
     bus = free_bus(["recorder", "detector", "camera-0", "camera-1", "replay", "test"])
     bus_file = tmp_path / "bus.json"
     bus_file.write_text(json.dumps(bus.to_dict()))
-    env = dict(os.environ, GAITCAP_BUS=str(bus_file), PYTHONPATH=str(ROOT))
+    env = dict(os.environ, GAITCAP_BUS=str(bus_file), GAITCAP_DATA_DIR=str(tmp_path), PYTHONPATH=str(ROOT))
     procs = {}
 
     def spawn(name, args):
@@ -88,15 +88,15 @@ def test_ten_cameras_through_separate_processes_into_mcap_and_replay(tmp_path, r
                   + (["--stop", "cam08:14"] if k == 1 else []))
         for k in range(2):
             assert procs[f"camera-{k}"].wait(timeout=90) == 0, procs[f"camera-{k}"].stdout.read()
-        wait_for(lambda: client.status()["queued"] == 0, 20, "recorder drained")
+        wait_for(lambda: client.status().queued == 0, 20, "recorder drained")
         time.sleep(1.0)  # last keypoints
         reply = client.stop("e2e")
-        summary = reply["summary"]
-        assert reply["ok"] and summary["frames"] == 9 * FRAMES + 15
+        summary = reply.summary
+        assert reply.ok and summary["frames"] == 9 * FRAMES + 15
         assert summary["cameras_stopped_early"] == ["cam08"]
         assert summary["cameras"]["cam08"]["gaps"] == [[15, FRAMES - 1]]
         assert summary["keypoints"] == summary["frames"]
-        wait_for(lambda: [e["event"] for e in events] == ["started", "stopped"], 10, "recorder events")
+        wait_for(lambda: [e.event for e in events] == ["started", "stopped"], 10, "recorder events")
 
         # The file opens with the mcap library's own reader and holds what the layout promises.
         with open(out, "rb") as f:

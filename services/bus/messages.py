@@ -1,0 +1,368 @@
+"""Typed bus messages: one frozen dataclass per payload, ``to_bytes`` / ``from_bytes`` with bounds.
+
+Every producer builds these and every consumer parses with ``from_bytes``, which raises ValueError
+naming the message and the field when a payload is malformed, out of bounds or too large (the caller
+logs it and drops the message). Frames carry ONE timestamp: the camera timestamp in the protobuf
+``foxglove.CompressedImage``; the attachment (:class:`FrameMeta`) only carries the frame id and the
+send time. Key expressions are in :mod:`gaitcap.services.bus.keys`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any, ClassVar
+
+from gaitcap.acquisition.encoding import decode_jpeg, image_message, parse_image_message
+
+#: Frame ids count frames from a camera's synchronised start: 2**31 frames is 2 years at 30 frames/s.
+MAX_FRAME_ID = 2**31 - 1
+#: Camera / wall-clock timestamps in ns: 0 .. year 2262.
+MAX_TIME_NS = 2**63 - 1
+MAX_PEOPLE = 32
+MAX_JOINTS = 256
+MAX_IMAGE_PX = 100_000  # a keypoint coordinate beyond this (px) is not from a camera image
+MAX_JSON_BYTES = 4 * 2**20  # a calibration TOML and trial metadata fit easily
+MAX_JPEG_BYTES = 64 * 2**20
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.\-]{0,63}$")
+
+
+def _reject_constant(value: str) -> None:
+    raise ValueError(f"{value} is not allowed")
+
+
+def _load(data: bytes | bytearray | memoryview, what: str) -> dict[str, Any]:
+    raw = bytes(data)
+    if len(raw) > MAX_JSON_BYTES:
+        raise ValueError(f"{what}: payload of {len(raw)} bytes exceeds {MAX_JSON_BYTES}")
+    try:
+        obj = json.loads(raw, parse_constant=_reject_constant)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{what}: payload is not JSON ({str(exc)[:120]})") from None
+    if not isinstance(obj, dict):
+        raise ValueError(f"{what}: payload must be a JSON object, got {type(obj).__name__}")
+    return obj
+
+
+def check_name(value: Any, *, what: str) -> str:
+    """A camera, node or trial name: 1-64 letters, digits, ``_ . -``, no ``..``."""
+    if not isinstance(value, str) or not _NAME.match(value) or ".." in value:
+        raise ValueError(f"{what}: {str(value)[:80]!r} is not a valid name (1-64 letters, digits, '_', '.', '-')")
+    return value
+
+
+def _int(value: Any, what: str, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise ValueError(f"{what}: {str(value)[:40]} is not an integer in [{lo}, {hi}]")
+    return value
+
+
+def _num(value: Any, what: str, lo: float, hi: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) \
+            or not lo <= value <= hi:
+        raise ValueError(f"{what}: {str(value)[:40]} is not a finite number in [{lo}, {hi}]")
+    return float(value)
+
+
+def _str(value: Any, what: str, max_len: int, *, optional: bool = False) -> str | None:
+    if value is None and optional:
+        return None
+    if not isinstance(value, str) or len(value) > max_len:
+        raise ValueError(f"{what}: must be a string of at most {max_len} characters")
+    return value
+
+
+def _choice(value: Any, what: str, choices: tuple[str, ...]) -> str:
+    if value not in choices:
+        raise ValueError(f"{what}: {str(value)[:40]!r} is not one of {list(choices)}")
+    return value
+
+
+def _dict(value: Any, what: str, *, optional: bool = True) -> dict[str, Any]:
+    if value is None and optional:
+        return {}
+    if not isinstance(value, dict):
+        raise ValueError(f"{what}: must be a JSON object")
+    return value
+
+
+class _Json:
+    """``to_bytes`` / ``from_bytes`` for a dataclass whose ``check`` validates every field."""
+
+    what: ClassVar[str] = "message"
+
+    def to_bytes(self) -> bytes:
+        return json.dumps(asdict(self), separators=(",", ":"), allow_nan=False).encode()
+
+    @classmethod
+    def from_bytes(cls, data: bytes | bytearray | memoryview):
+        obj = _load(data, cls.what)
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(obj) - names)
+        if unknown:
+            raise ValueError(f"{cls.what}: unknown fields {unknown[:5]}")
+        try:
+            return cls(**obj)
+        except TypeError as exc:
+            raise ValueError(f"{cls.what}: {exc}") from None
+
+
+@dataclass(frozen=True)
+class FrameMeta(_Json):
+    """Zenoh attachment of every image put (the camera timestamp is in the protobuf only).
+
+    frame_id: frame counter from the synchronised start (gaps = dropped frames); sent_ns: wall clock
+    (ns) when published (bus latency); ptp_jump: the interval to the previous frame differs from the
+    period by > 10x; replay: published from a recording."""
+
+    what: ClassVar[str] = "frame attachment"
+    frame_id: int
+    sent_ns: int
+    ptp_jump: bool = False
+    replay: bool = False
+
+    def __post_init__(self) -> None:
+        _int(self.frame_id, f"{self.what}.frame_id", 0, MAX_FRAME_ID)
+        _int(self.sent_ns, f"{self.what}.sent_ns", 0, MAX_TIME_NS)
+        if not isinstance(self.ptp_jump, bool) or not isinstance(self.replay, bool):
+            raise ValueError(f"{self.what}: ptp_jump and replay must be booleans")
+
+
+@dataclass(frozen=True)
+class ImageFrame:
+    """One camera frame as it travels: the protobuf ``foxglove.CompressedImage`` bytes and its meta."""
+
+    camera: str
+    timestamp_ns: int
+    jpeg: bytes
+    meta: FrameMeta
+    payload: bytes
+
+    @classmethod
+    def build(cls, jpeg: bytes, *, camera: str, timestamp_ns: int, frame_id: int, sent_ns: int,
+              ptp_jump: bool = False, replay: bool = False) -> ImageFrame:
+        meta = FrameMeta(frame_id, sent_ns, ptp_jump, replay)
+        _int(timestamp_ns, "image.timestamp_ns", 0, MAX_TIME_NS)
+        return cls(camera, timestamp_ns, jpeg, meta, image_message(jpeg, camera=camera, timestamp_ns=timestamp_ns))
+
+    @classmethod
+    def from_bytes(cls, payload: bytes, attachment: bytes | None, *, camera: str) -> ImageFrame:
+        """Parse a frame published on camera ``camera``'s key; the protobuf must name that camera."""
+        if len(payload) > MAX_JPEG_BYTES:
+            raise ValueError(f"image of camera {camera}: {len(payload)} bytes exceeds {MAX_JPEG_BYTES}")
+        if attachment is None:
+            raise ValueError(f"image of camera {camera}: no frame attachment")
+        meta = FrameMeta.from_bytes(attachment)
+        msg = parse_image_message(payload)
+        if msg.camera != camera:
+            raise ValueError(f"image on camera {camera}'s key names camera {msg.camera[:64]!r}")
+        _int(msg.timestamp_ns, f"image of camera {camera}.timestamp_ns", 0, MAX_TIME_NS)
+        return cls(camera, msg.timestamp_ns, msg.jpeg, meta, bytes(payload))
+
+    @property
+    def frame_id(self) -> int:
+        return self.meta.frame_id
+
+    def image(self):
+        """The decoded (H, W, 3) uint8 BGR image; ValueError naming the camera and frame."""
+        return decode_jpeg(self.jpeg, what=f"camera {self.camera} frame {self.frame_id}")
+
+
+def _people(value: Any, what: str) -> list:
+    """P x J x [x px, y px, confidence] with P <= MAX_PEOPLE, J <= MAX_JOINTS, the same J for all."""
+    if not isinstance(value, list) or len(value) > MAX_PEOPLE:
+        raise ValueError(f"{what}: must be a list of at most {MAX_PEOPLE} people")
+    joints = None
+    for p, person in enumerate(value):
+        if not isinstance(person, list) or not 0 < len(person) <= MAX_JOINTS:
+            raise ValueError(f"{what}[{p}]: must be a list of 1..{MAX_JOINTS} joints")
+        if joints is not None and len(person) != joints:
+            raise ValueError(f"{what}[{p}]: {len(person)} joints, person 0 has {joints}")
+        joints = len(person)
+        for j, xyc in enumerate(person):
+            if not isinstance(xyc, list) or len(xyc) != 3:
+                raise ValueError(f"{what}[{p}][{j}]: must be [x px, y px, confidence]")
+            _num(xyc[0], f"{what}[{p}][{j}].x", -MAX_IMAGE_PX, MAX_IMAGE_PX)
+            _num(xyc[1], f"{what}[{p}][{j}].y", -MAX_IMAGE_PX, MAX_IMAGE_PX)
+            _num(xyc[2], f"{what}[{p}][{j}].confidence", 0.0, 1.0)
+    return value
+
+
+@dataclass(frozen=True)
+class Keypoints(_Json):
+    """2D keypoints of one frame of one camera (people[0] is the patient): ``people`` is P lists of J
+    ``[x px, y px, confidence 0..1]``; ``timestamp_ns`` is the frame's camera timestamp."""
+
+    what: ClassVar[str] = "keypoints"
+    camera: str
+    frame_id: int
+    timestamp_ns: int
+    skeleton: str
+    people: list
+    detector_ms: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_name(self.camera, what=f"{self.what}.camera")
+        _int(self.frame_id, f"{self.what}.frame_id", 0, MAX_FRAME_ID)
+        _int(self.timestamp_ns, f"{self.what}.timestamp_ns", 0, MAX_TIME_NS)
+        check_name(self.skeleton, what=f"{self.what}.skeleton")
+        _people(self.people, f"{self.what} of camera {self.camera}.people")
+        _num(self.detector_ms, f"{self.what}.detector_ms", 0.0, 3.6e6)
+
+
+@dataclass(frozen=True)
+class CameraStatus(_Json):
+    """Status of one camera (about once per second and on every state change)."""
+
+    what: ClassVar[str] = "camera status"
+    camera: str
+    node: str
+    state: str
+    health: str
+    fps: float = 0.0
+    frames: int = 0
+    drops: int = 0
+    last_timestamp_ns: int | None = None
+    last_frame_id: int | None = None
+    ptp_jumps: int = 0
+    error: str | None = None
+    time_ns: int = 0
+    published: int = 0
+    extra: dict = field(default_factory=dict)
+
+    STATES: ClassVar[tuple[str, ...]] = ("closed", "open", "configured", "running", "stopped", "error")
+
+    def __post_init__(self) -> None:
+        check_name(self.camera, what=f"{self.what}.camera")
+        check_name(self.node, what=f"{self.what}.node")
+        _choice(self.state, f"{self.what}.state", self.STATES)
+        _str(self.health, f"{self.what}.health", 64)
+        _num(self.fps, f"{self.what}.fps", 0.0, 1e5)
+        for name in ("frames", "drops", "ptp_jumps", "published"):
+            _int(getattr(self, name), f"{self.what}.{name}", 0, 2**63 - 1)
+        if self.last_timestamp_ns is not None:
+            _int(self.last_timestamp_ns, f"{self.what}.last_timestamp_ns", 0, MAX_TIME_NS)
+        if self.last_frame_id is not None:
+            _int(self.last_frame_id, f"{self.what}.last_frame_id", 0, MAX_FRAME_ID)
+        _str(self.error, f"{self.what}.error", 2000, optional=True)
+        _int(self.time_ns, f"{self.what}.time_ns", 0, MAX_TIME_NS)
+        _dict(self.extra, f"{self.what}.extra", optional=False)
+
+    @classmethod
+    def of_driver(cls, status: dict[str, Any], *, node: str, time_ns: int, published: int) -> CameraStatus:
+        """From ``DriverStatus.to_dict()`` (driver-specific keys go to ``extra``)."""
+        known = {f.name for f in fields(cls)}
+        base = {k: v for k, v in status.items() if k in known}
+        extra = {k: v for k, v in status.items() if k not in known}
+        return cls(**base, node=node, time_ns=time_ns, published=published, extra=extra)
+
+    def to_dict(self) -> dict[str, Any]:
+        out = asdict(self)
+        out.update(out.pop("extra"))
+        return out
+
+
+@dataclass(frozen=True)
+class RecorderStart(_Json):
+    """Start recording ``trial_id`` into ``path`` (relative to the recorder's data folder, or inside it)."""
+
+    what: ClassVar[str] = "recorder start"
+    trial_id: str
+    path: str
+    metadata: dict = field(default_factory=dict)
+    calibration_toml: str | None = None
+    cameras: list | None = None
+
+    def __post_init__(self) -> None:
+        check_name(self.trial_id, what=f"{self.what}.trial_id")
+        if not self.path:
+            raise ValueError(f"{self.what} {self.trial_id}: missing path")
+        _str(self.path, f"{self.what}.path", 4096)
+        if "\x00" in self.path:
+            raise ValueError(f"{self.what}.path: contains a NUL byte")
+        _dict(self.metadata, f"{self.what}.metadata", optional=False)
+        _str(self.calibration_toml, f"{self.what}.calibration_toml", 2**20, optional=True)
+        if self.cameras is not None:
+            if not isinstance(self.cameras, list) or len(self.cameras) > 256:
+                raise ValueError(f"{self.what}.cameras: must be a list of at most 256 camera names")
+            for c in self.cameras:
+                check_name(c, what=f"{self.what}.cameras")
+
+
+@dataclass(frozen=True)
+class RecorderStop(_Json):
+    what: ClassVar[str] = "recorder stop"
+    trial_id: str
+
+    def __post_init__(self) -> None:
+        check_name(self.trial_id, what=f"{self.what}.trial_id")
+
+
+@dataclass(frozen=True)
+class RecorderReply(_Json):
+    """Reply of the recorder's queryables (``ok`` false + ``error`` on refusal); ``summary`` on stop;
+    ``recording`` / ``queued`` on status."""
+
+    what: ClassVar[str] = "recorder reply"
+    ok: bool
+    trial_id: str | None = None
+    path: str | None = None
+    error: str | None = None
+    summary: dict | None = None
+    recording: bool | None = None
+    queued: int | None = None
+
+
+@dataclass(frozen=True)
+class RecorderEvent(_Json):
+    what: ClassVar[str] = "recorder event"
+    event: str
+    trial_id: str
+    path: str
+    time_ns: int
+    error: str | None = None
+    summary: dict | None = None
+
+    def __post_init__(self) -> None:
+        _choice(self.event, f"{self.what}.event", ("started", "stopped", "error"))
+        check_name(self.trial_id, what=f"{self.what}.trial_id")
+        _int(self.time_ns, f"{self.what}.time_ns", 0, MAX_TIME_NS)
+
+
+@dataclass(frozen=True)
+class CameraScene(_Json):
+    """What simulated cameras show from ``start_ns`` (wall clock, ns); real cameras ignore it."""
+
+    what: ClassVar[str] = "camera scene"
+    scene: str
+    start_ns: int
+
+    def __post_init__(self) -> None:
+        _choice(self.scene, f"{self.what}.scene", ("walker", "board"))
+        _int(self.start_ns, f"{self.what}.start_ns", 0, MAX_TIME_NS)
+
+
+@dataclass(frozen=True)
+class WorkerProgress(_Json):
+    """Progress of one trial's processing: ``progress`` 0..1, ``result`` null | preliminary | refined."""
+
+    what: ClassVar[str] = "worker progress"
+    trial_id: str
+    state: str
+    stage: str
+    progress: float
+    worker: str
+    time_ns: int
+    result: str | None = None
+
+    def __post_init__(self) -> None:
+        check_name(self.trial_id, what=f"{self.what}.trial_id")
+        _str(self.state, f"{self.what}.state", 32)
+        _str(self.stage, f"{self.what}.stage", 64)
+        _num(self.progress, f"{self.what}.progress", 0.0, 1.0)
+        _str(self.worker, f"{self.what}.worker", 128)
+        _int(self.time_ns, f"{self.what}.time_ns", 0, MAX_TIME_NS)
+        if self.result is not None:
+            _choice(self.result, f"{self.what}.result", ("preliminary", "refined"))

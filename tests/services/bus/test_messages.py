@@ -1,0 +1,110 @@
+"""Typed bus messages: round trips, bounds and the error that names the field; path confinement."""
+
+import json
+import os
+
+import pytest
+from gaitcap.services.bus.messages import (
+    MAX_FRAME_ID,
+    MAX_JSON_BYTES,
+    MAX_PEOPLE,
+    CameraScene,
+    CameraStatus,
+    FrameMeta,
+    ImageFrame,
+    Keypoints,
+    RecorderEvent,
+    RecorderReply,
+    RecorderStart,
+    RecorderStop,
+    WorkerProgress,
+)
+from gaitcap.services.nodes.recorder import confined_path
+
+JPEG = bytes.fromhex("ffd8ffe000104a464946") + b"\x00" * 20 + bytes.fromhex("ffd9")
+
+
+def _kp(**over):
+    msg = {"camera": "cam01", "frame_id": 12, "timestamp_ns": 10**18, "skeleton": "halpe26",
+           "people": [[[10.0, 20.0, 0.9]] * 26], "detector_ms": 3.5}
+    msg.update(over)
+    return json.dumps(msg).encode()
+
+
+@pytest.mark.parametrize("message", [
+    Keypoints("cam01", 3, 10**18, "halpe26", [[[1.0, 2.0, 0.5]] * 26, [[3.0, 4.0, 1.0]] * 26], 2.0),
+    CameraStatus("cam01", "camera-0", "running", "ok", fps=29.9, frames=3, last_frame_id=2, time_ns=5,
+                 extra={"serial": "123"}),
+    RecorderStart("t-1", "t-1/recording.mcap", {"patient": "P1"}, "[cam]", ["cam01"]),
+    RecorderStop("t-1"),
+    RecorderReply(ok=False, error="no"),
+    RecorderEvent("stopped", "t-1", "/d/t.mcap", 7, summary={"frames": 3}),
+    CameraScene("board", 5),
+    WorkerProgress("t-1", "processing", "fit", 0.5, "w0", 9, "preliminary"),
+    FrameMeta(4, 10**18, ptp_jump=True),
+])
+def test_round_trip(message):
+    assert type(message).from_bytes(message.to_bytes()) == message
+
+
+@pytest.mark.parametrize("payload,match", [
+    (_kp(frame_id=2**40), "keypoints.frame_id: 1099511627776 is not an integer"),
+    (_kp(frame_id=-1), "keypoints.frame_id"),
+    (_kp(frame_id=True), "keypoints.frame_id"),
+    (_kp(people=[[[1.0, 2.0, 0.5]]] * (MAX_PEOPLE + 1)), "at most 32 people"),
+    (_kp(people=[[[1.0, 2.0]]]), r"people\[0\]\[0\]: must be \[x px, y px, confidence\]"),
+    (_kp(people=[[[1.0, 2.0, 0.5]] * 3, [[1.0, 2.0, 0.5]] * 2]), r"people\[1\]: 2 joints, person 0 has 3"),
+    (_kp(people=[[[1.0, 2.0, 1.5]]]), "confidence"),
+    (_kp(people=[[[1e9, 2.0, 0.5]]]), r"\.x"),
+    (_kp(camera="../etc"), "keypoints.camera"),
+    (_kp(extra=1), r"unknown fields \['extra'\]"),
+    (_kp().replace(b"10.0", b"NaN"), "NaN is not allowed"),
+    (_kp().replace(b"10.0", b"Infinity"), "Infinity is not allowed"),
+    (b"[1]", "JSON object"),
+    (b"\xff", "not JSON"),
+    (b" " * (MAX_JSON_BYTES + 1), "exceeds"),
+])
+def test_keypoints_out_of_bounds_are_refused_naming_the_field(payload, match):
+    with pytest.raises(ValueError, match=match):
+        Keypoints.from_bytes(payload)
+
+
+def test_one_timestamp_per_frame_and_the_camera_must_match_its_key():
+    frame = ImageFrame.build(JPEG, camera="cam01", timestamp_ns=123_456_789_000, frame_id=7, sent_ns=10**18)
+    att = frame.meta.to_bytes()
+    assert "timestamp" not in json.loads(att)
+    parsed = ImageFrame.from_bytes(frame.payload, att, camera="cam01")
+    assert (parsed.timestamp_ns, parsed.frame_id, parsed.jpeg) == (123_456_789_000, 7, JPEG)
+    with pytest.raises(ValueError, match="image on camera cam02's key names camera 'cam01'"):
+        ImageFrame.from_bytes(frame.payload, att, camera="cam02")
+    with pytest.raises(ValueError, match="no frame attachment"):
+        ImageFrame.from_bytes(frame.payload, None, camera="cam01")
+    with pytest.raises(ValueError, match="frame attachment.frame_id"):
+        ImageFrame.from_bytes(frame.payload, json.dumps({"frame_id": 2**40, "sent_ns": 1}).encode(), camera="cam01")
+
+
+def test_control_messages_are_bounded():
+    with pytest.raises(ValueError, match="recorder start.trial_id"):
+        RecorderStart.from_bytes(json.dumps({"trial_id": "a/../b", "path": "x.mcap"}).encode())
+    with pytest.raises(ValueError, match="missing path"):
+        RecorderStart("t1", "")
+    with pytest.raises(ValueError, match="recorder start.cameras"):
+        RecorderStart("t1", "t1.mcap", cameras=["ok", "not ok"])
+    with pytest.raises(ValueError, match="camera scene.scene"):
+        CameraScene.from_bytes(b'{"scene": "walls", "start_ns": 1}')
+    with pytest.raises(ValueError, match="worker progress.progress"):
+        WorkerProgress("t1", "processing", "fit", 1.5, "w", 1)
+    assert MAX_FRAME_ID == 2**31 - 1
+
+
+def test_recorder_paths_are_confined_to_the_data_folder(tmp_path):
+    root = tmp_path / "data"
+    (root / "t1").mkdir(parents=True)
+    assert confined_path(root, "t1/recording.mcap") == (root / "t1" / "recording.mcap").resolve()
+    assert confined_path(root, str(root / "t1" / "r.mcap")) == (root / "t1" / "r.mcap").resolve()
+    os.symlink(tmp_path, root / "out")
+    for bad in ("../evil.mcap", str(tmp_path / "evil.mcap"), "/etc/evil.mcap", "out/evil.mcap", "t1/../../x.mcap"):
+        with pytest.raises(ValueError, match="outside the recorder's data folder"):
+            confined_path(root, bad)
+    with pytest.raises(ValueError, match="must end with .mcap"):
+        confined_path(root, "t1/notes.txt")

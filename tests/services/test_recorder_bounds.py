@@ -1,0 +1,61 @@
+"""The recorder over a real Zenoh bus: paths outside its data folder refused, out-of-range and
+malformed messages rejected with a count (never written, never allocating by frame id)."""
+
+import json
+import time
+
+import pytest
+from gaitcap.acquisition.recording import layout
+from gaitcap.acquisition.recording.reader import iter_messages
+from gaitcap.services.bus.control import RecorderClient, RecorderError
+from gaitcap.services.bus.messages import ImageFrame, Keypoints
+from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
+from gaitcap.services.nodes.recorder import KEYPOINT_SLACK_FRAMES, RecorderNode
+
+JPEG = bytes.fromhex("ffd8ffe000104a464946") + b"\x00" * 20 + bytes.fromhex("ffd9")
+
+
+def _wait(cond, what, timeout_s=10.0):
+    end = time.monotonic() + timeout_s
+    while not cond():
+        if time.monotonic() > end:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.05)
+
+
+def test_recorder_refuses_outside_paths_and_rejects_out_of_range_messages(tmp_path):
+    bus = BusConfig.free_local(["recorder", "camera-0"], prefix="gaitcap/bounds")
+    data = tmp_path / "data"
+    (data / "t1").mkdir(parents=True)
+    srec, s = open_session(bus, "recorder"), open_session(bus, "camera-0")
+    rec = RecorderNode(srec, bus, data_root=data)
+    try:
+        _wait(lambda: "recorder" in alive_nodes(s, bus), "recorder alive")
+        client = RecorderClient(s, bus.keys, timeout_s=5)
+        for bad in (str(tmp_path / "evil.mcap"), "../evil.mcap"):
+            with pytest.raises(RecorderError, match="outside the recorder's data folder"):
+                client.start(trial_id="t1", path=bad)
+        assert not (tmp_path / "evil.mcap").exists()
+        client.start(trial_id="t1", path="t1/recording.mcap")
+        for fid in range(100, 105):
+            f = ImageFrame.build(JPEG, camera="cam01", timestamp_ns=10**18 + fid, frame_id=fid, sent_ns=time.time_ns())
+            s.put(bus.keys.image("cam01"), f.payload, attachment=f.meta.to_bytes())
+        people = [[[1.0, 2.0, 0.5]] * 26]
+        far = 104 + KEYPOINT_SLACK_FRAMES + 1
+        time.sleep(0.3)
+        for fid in (102, far, 2**31 - 1):
+            s.put(bus.keys.keypoints("cam01"), Keypoints("cam01", fid, 10**18 + fid, "halpe26", people).to_bytes())
+        s.put(bus.keys.keypoints("cam01"), json.dumps({"camera": "cam01", "frame_id": 2**40}).encode())
+        s.put(bus.keys.keypoints("cam02"), Keypoints("cam01", 103, 1, "halpe26", people).to_bytes())
+        _wait(lambda: rec.status().queued == 0, "queue drained")
+        time.sleep(0.3)
+        summary = client.stop("t1").summary
+        assert summary["frames"] == 5 and summary["keypoints"] == 1
+        assert summary["rejected"] == 4
+        path = data / "t1" / "recording.mcap"
+        ids = [json.loads(m.data)["frame_id"] for _t, m in iter_messages(path, layout.is_keypoints_topic)]
+        assert ids == [102]
+    finally:
+        rec.close()
+        srec.close()
+        s.close()
