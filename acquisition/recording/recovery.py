@@ -65,3 +65,26 @@ def recover(path: str | os.PathLike, out: str | os.PathLike | None = None) -> Re
         target.unlink(missing_ok=True)
         raise ValueError(f"{src}: no complete chunk could be read ({state.error})")
     return RecoveryReport(src, target, False, state.chunks, state.corrupt_chunks, counts, state.error)
+
+
+CUT_SUFFIX = ".cut"
+
+
+def finalise_cut(part: str | os.PathLike) -> dict:
+    """Recover a ``<x>.mcap.part`` left by a recorder that died into ``<x>.mcap`` (complete chunks kept)
+    and keep the cut original as ``<x>.mcap.part.cut``. Returns a JSON-ready report (``error`` set, and
+    the ``.part`` left in place, when nothing could be recovered)."""
+    part = Path(part)
+    target = part.with_name(part.name.removesuffix(layout.PART_SUFFIX))
+    try:
+        if target.exists():
+            raise ValueError(f"{target} exists already; {part.name} left as it is")
+        rep = recover(part, target)
+        part.rename(part.with_name(part.name + CUT_SUFFIX))
+    except (ValueError, OSError) as exc:
+        log.error("could not recover %s: %s", part, exc)
+        return {"source": str(part), "path": str(target), "error": str(exc)}
+    kept = sum(rep.messages.values())
+    log.warning("recovered %s: %d chunks, %d messages kept (cut: %s)", target, rep.chunks, kept, rep.error)
+    return {"source": str(part), "path": str(target), "chunks": rep.chunks, "corrupt_chunks": rep.corrupt_chunks,
+            "messages": kept, "cut": rep.error, "error": None}

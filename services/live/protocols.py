@@ -43,7 +43,15 @@ class LiveView(Protocol):
         """(receive time s, JPEG bytes) of the newest preview frame of ``camera``, or None."""
 
 
-class Link(TrialRecorder, LiveView, Protocol):
+class Components(Protocol):
+    def nodes(self) -> dict:
+        """{node name: :class:`gaitcap.services.live.nodes.NodeState`} of the bus nodes seen."""
+
+    def recorder_status(self) -> dict | None:
+        """The recorder's status (``trial_id`` it records, ``queued``, ...), None when it does not answer."""
+
+
+class Link(TrialRecorder, LiveView, Components, Protocol):
     connected: bool  # False: no recorder can ever answer (Start is refused before a trial is created)
 
     def close(self) -> None: ...
@@ -64,6 +72,12 @@ class NoLink:
         return []
 
     def preview(self, camera: str) -> tuple[float, bytes] | None:
+        return None
+
+    def nodes(self) -> dict:
+        return {}
+
+    def recorder_status(self) -> dict | None:
         return None
 
     def close(self) -> None:
