@@ -36,9 +36,10 @@ JPEG = cv2.imencode(".jpg", np.full((24, 32, 3), 90, np.uint8))[1].tobytes()
 @pytest.fixture(scope="module")
 def processed(tmp_path_factory):
     """A 6 s synthetic trial recorded as the recorder writes it, 'processed' with its true 3D joints."""
-    root = tmp_path_factory.mktemp("trial")
+    root = tmp_path_factory.mktemp("data") / "trials" / "t1"
     trial = make_trial("paper", seconds=6.0, cameras=3, people=1, seed=2, fps=30.0)
     files = TrialFiles(root)
+    root.mkdir(parents=True)
     w = TrialWriter(files.recording)
     w.start(metadata={"trial_id": "t1"}, calibration_toml=rig_to_toml_text(trial.rig), time_ns=T0_NS - 1000)
     kp = trial.detections.keypoints
@@ -183,3 +184,24 @@ def test_rrd_reads_back_with_reruns_own_reader(processed):
     assert all(rows[f"/confidence/{j}"] == frames for j in view.joint_names)
     assert rows["/gait/events"] == len(gait_logs(view.report))
     assert any(path.startswith("/viewport") for path in rows)  # the blueprint travels with the file
+
+
+def test_gaitcap_view_lists_the_files_and_says_how_to_open_them(processed, monkeypatch):
+    from gaitcap.services.cli import app
+    from typer.testing import CliRunner
+
+    trial, _, files, paths = processed
+    data_dir = files.root.parent.parent
+    runner = CliRunner()
+    out = runner.invoke(app, ["view", "t1", "--data-dir", str(data_dir), "--no-open", "--foxglove-layout"])
+    assert out.exit_code == 0, out.output
+    assert str(paths["rerun_rrd"]) in out.output and str(paths["results_mcap"]) in out.output
+    assert json.loads((files.root / "foxglove_layout.json").read_text()) == layout_for(trial.rig.names)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    out = runner.invoke(app, ["view", "t1", "--data-dir", str(data_dir)])
+    assert out.exit_code == 1 and "No display here" in out.output and "rerun trajectory.rrd" in out.output
+    out = runner.invoke(app, ["view", "t1", "--data-dir", str(data_dir), "--stage", "preliminary"])
+    assert out.exit_code == 2 and "no Rerun file for stage preliminary" in out.output
+    out = runner.invoke(app, ["view", "nope", "--data-dir", str(data_dir)])
+    assert out.exit_code == 2 and "trial nope" in out.output
