@@ -143,8 +143,48 @@ install_gait_mocap() {
   rm -rf "$tmp"
   return $rc
 }
+# Real multi-camera recordings made with Pose2Sim (BSD-3-Clause; wheels not installed), for the readers of
+# other tools' folders, layout recognition and several people in view (see docs/offline.md): from pose2sim
+# 0.8.4 its demo session's OpenPose BODY_25B JSON of 4 cameras (one participant; two participants together),
+# Config.toml files and Qualisys calibration with Pose2Sim's own conversion of it; from 0.10.49 (the version
+# above) the 4-camera videos of two people walking and their calibration.
+POSE2SIM_DEMO_VERSION="0.8.4"
+install_pose2sim_demos() {
+  local dest="$SHARE/testdata/pose2sim" tmp
+  [ -f "$dest/.version-$POSE2SIM_DEMO_VERSION-$POSE2SIM_VERSION" ] && return 0
+  echo "[bootstrap] fetching Pose2Sim demo recordings (wheels pose2sim==$POSE2SIM_DEMO_VERSION and" \
+    "$POSE2SIM_VERSION, not installed)" >&2
+  tmp="$(mktemp -d)" || return 1
+  "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "pose2sim==$POSE2SIM_DEMO_VERSION" \
+    && "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "pose2sim==$POSE2SIM_VERSION" \
+    && "$VENV/bin/python" - "$tmp" "$dest" <<'PYEOF'
+import glob, os, shutil, sys, zipfile
+tmp, dest = sys.argv[1], sys.argv[2]
+keep = {  # wheel -> (prefix inside it, folder under dest, suffixes kept)
+    "0.8.4": ("Pose2Sim/S00_Demo_BatchSession/", "S00_Demo_BatchSession/", (".json", ".toml", ".qca.txt", ".test")),
+    "0.10.49": ("Pose2Sim/Demo_MultiPerson/", "Demo_MultiPerson/", (".mp4", ".toml", ".qca.txt")),
+}
+shutil.rmtree(dest, ignore_errors=True)
+for version, (prefix, folder, suffixes) in keep.items():
+    with zipfile.ZipFile(glob.glob(os.path.join(tmp, f"pose2sim-{version}-*.whl"))[0]) as z:
+        for name in z.namelist():
+            if name.startswith(prefix) and name.endswith(suffixes):
+                path = os.path.join(dest, folder, name[len(prefix):])
+                os.makedirs(os.path.dirname(path), exist_ok=True)
+                with open(path, "wb") as f:
+                    f.write(z.read(name))
+        lic = next(n for n in z.namelist() if n.endswith("LICENSE"))
+        with open(os.path.join(dest, folder, "LICENSE"), "wb") as f:
+            f.write(z.read(lic))
+PYEOF
+  local rc=$?
+  [ $rc -eq 0 ] && touch "$dest/.version-$POSE2SIM_DEMO_VERSION-$POSE2SIM_VERSION"
+  rm -rf "$tmp"
+  return $rc
+}
 install_mediapipe_models || echo "[bootstrap] WARNING: MediaPipe Pose models not installed (needs npm)" >&2
 install_test_video || echo "[bootstrap] WARNING: detector test video not installed" >&2
 install_opensim_setup || echo "[bootstrap] WARNING: OpenSim model and setups not installed" >&2
 install_gait_norms || echo "[bootstrap] WARNING: normal-gait kinematics not installed" >&2
 install_gait_mocap || echo "[bootstrap] WARNING: real gait walks not installed (gait tests on them skip)" >&2
+install_pose2sim_demos || echo "[bootstrap] WARNING: Pose2Sim demo recordings not installed (tests on them skip)" >&2
