@@ -42,16 +42,36 @@ def _confidences(contacts, tracks: FootTracks, joint_names, quality, config) -> 
     return out
 
 
-def _steps(bouts: Bouts, contacts: Sequence[Contact], confidence) -> tuple[list[Step], list[Pass], list[str]]:
+def _extended(bouts: Bouts, p: Pass) -> Pass:
+    """The pass with the straight walking at its ends (speeding up, slowing down: "transition" segments
+    that touch it), whose steps are reported as edge steps."""
+    start, end = p.start_s, p.end_s
+    segs = bouts.segments
+    i = next(k for k, s in enumerate(segs) if s.kind == "pass" and s.start_s == p.start_s)
+    if i > 0 and segs[i - 1].kind == "transition":
+        start = segs[i - 1].start_s
+    if i + 1 < len(segs) and segs[i + 1].kind == "transition":
+        end = segs[i + 1].end_s
+    return Pass(p.index, start, end, p.direction, p.speed_mm_s)
+
+
+def _steps(bouts: Bouts, contacts: Sequence[Contact], confidence,
+           config: GaitConfig) -> tuple[list[Step], list[Pass], list[str]]:
     steps, passes, warnings = [], [], []
     for p in bouts.passes:
-        found, notes = pass_steps(p, contacts, contacts, confidence, first_index=len(steps))
+        wide = _extended(bouts, p)
+        found, notes = pass_steps(wide, contacts, contacts, confidence, first_index=len(steps), steady=p,
+                                  low_confidence=config.low_confidence)
         steps += found
         warnings += notes
-        seq = [c for c in contacts if c.valid and p.contains(c.heel_strike_s)]
+        seq = [c for c in contacts if c.valid and wide.contains(c.heel_strike_s)]
         d = progression_direction([c.foot for c in seq], np.array([c.heel_mm[:2] for c in seq]),
                                   np.asarray(p.direction))
         passes.append(Pass(p.index, p.start_s, p.end_s, (float(d[0]), float(d[1])), p.speed_mm_s))
+    low = [s for s in steps if s.low_confidence]
+    if low:
+        warnings.append(f"{len(low)} step(s) detected with low confidence (< {config.low_confidence:.2f}): "
+                        + ", ".join(f"{s.foot} at {s.heel_strike_s:.2f} s" for s in low))
     return steps, passes, warnings
 
 
@@ -86,7 +106,7 @@ def analyze_gait(
     speed = _walking_speed(bouts, config)
     contacts = detect_contacts(tracks, speed, config)
     confidence = _confidences(contacts, tracks, joint_names, quality, config)
-    steps, passes, warnings = _steps(bouts, contacts, confidence)
+    steps, passes, warnings = _steps(bouts, contacts, confidence, config)
     if tracks.all_gaps_s:
         warnings.append("data gaps (no contacts measured there): " + ", ".join(
             f"{a:.2f}-{b:.2f} s" for a, b in tracks.all_gaps_s))
@@ -94,7 +114,8 @@ def analyze_gait(
     if turns:
         warnings.append("turns (steps there are not analysed): " + ", ".join(
             f"{s.start_s:.2f}-{s.end_s:.2f} s" for s in turns))
-    outside = [c for c in contacts if c.valid and bouts.pass_at(c.heel_strike_s) is None]
+    walked = [_extended(bouts, p) for p in bouts.passes]
+    outside = [c for c in contacts if c.valid and not any(w.contains(c.heel_strike_s) for w in walked)]
     if outside:
         warnings.append(f"{len(outside)} contact(s) in turns, standing or at pass edges were not used "
                         "as steps")

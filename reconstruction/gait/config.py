@@ -39,10 +39,14 @@ class GaitConfig:
         min_stance_s: shortest foot contact kept (s).
         min_swing_s: shorter swings are treated as a noise blip inside one contact (s).
         min_foot_travel_mm: consecutive contacts of a foot closer than this are one contact (mm).
+        contact_distance_mm: heel strike is the first time heel or toe comes within this distance of where
+            it rests in stance, toe off the last time the toe is within it (mm; 0: speed thresholds only).
+            Real heels land moving and roll 20-40 mm to rest (heel rocker); see events.
         event_resolution_s: resolution of sub-frame event location on the continuous trajectory (s).
         full_confidence_views: cameras needed at a contact for full confidence (with quality given).
         reprojection_scale_px: reprojection error that lowers confidence by a factor e (px).
         stance_spread_scale_mm: spread of the heel during stance that lowers confidence by e (mm).
+        low_confidence: steps whose confidence is below this are flagged (``Step.low_confidence``).
     """
 
     min_trial_s: float = 2.0
@@ -68,10 +72,12 @@ class GaitConfig:
     min_stance_s: float = 0.12
     min_swing_s: float = 0.12
     min_foot_travel_mm: float = 100.0
+    contact_distance_mm: float = 30.0
     event_resolution_s: float = 0.001
     full_confidence_views: int = 3
     reprojection_scale_px: float = 10.0
     stance_spread_scale_mm: float = 20.0
+    low_confidence: float = 0.3
 
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():

@@ -206,9 +206,48 @@ def _contact_runs(tracks: FootTracks, side: str, speed: np.ndarray, v_rest: floa
     return [(a, b) for a, b in runs if times[b] - times[a] + dt >= config.min_stance_s], rest
 
 
+def _first_below(grid: np.ndarray, dist: np.ndarray, level: float, anchor: int) -> float:
+    """Time where ``dist`` (N,) last falls below ``level`` at or before grid index ``anchor`` (the foot
+    arriving); NaN when it is below over the whole window (the arrival is not in it)."""
+    above = np.flatnonzero(dist[: anchor + 1] >= level)
+    if len(above) == 0:
+        return float("nan")
+    j = above[-1]
+    if j + 1 >= len(grid):
+        return float(grid[j])
+    f0, f1 = dist[j] - level, dist[j + 1] - level
+    return float(grid[j] + (f0 / (f0 - f1) if f0 != f1 else 0.0) * (grid[j + 1] - grid[j]))
+
+
+def _near_rest(tracks: FootTracks, side: str, run: tuple[int, int], heel_mm, toe_mm, config: GaitConfig, *,
+               limit_s: float) -> tuple[float, float]:
+    """(heel strike, toe off) of one contact by distance from the rest points (see the module docstring):
+    the first time heel or toe comes within ``contact_distance_mm`` of where it rests, and the last time
+    the toe is within it. NaN where that crossing is not inside the data (or the window)."""
+    times = tracks.times_s
+    a, b = run
+    d = config.contact_distance_mm
+    res = config.event_resolution_s
+    lo = max(times[0], times[a] - config.event_window_s)
+    grid = np.arange(lo, times[min(a + 2, b)] + res / 2, res)
+    pts = tracks.sampler(grid)
+    dist = np.minimum(np.linalg.norm(pts[:, HEEL[side]] - heel_mm, axis=1),
+                      np.linalg.norm(pts[:, TOE[side]] - toe_mm, axis=1))
+    hs = _first_below(grid, dist, d, int(np.searchsorted(grid, times[a])))
+    hi = min(times[-1], times[b] + config.event_window_s, limit_s)
+    grid = np.arange(times[max(b - 2, a)], hi + res / 2, res)
+    dist = np.linalg.norm(tracks.sampler(grid)[:, TOE[side]] - toe_mm, axis=1)
+    back = _first_below(grid[::-1], dist[::-1], d, len(grid) - 1 - int(np.searchsorted(grid, times[b])))
+    if grid[-1] >= times[-1] - 1e-9 and dist[-1] < d:
+        back = float("nan")  # still on the floor when the data ends
+    return hs, back
+
+
 def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: np.ndarray, v_rest: float,
-                 config: GaitConfig) -> tuple[np.ndarray, np.ndarray]:
-    """(R,) heel strike and toe off times (s) of the runs; NaN where a run touches the trial's ends."""
+                 config: GaitConfig, rest_points) -> tuple[np.ndarray, np.ndarray]:
+    """(R,) heel strike and toe off times (s) of the runs (see the module docstring); NaN where the event
+    is not inside the trial. The speed-threshold events are the fallback where the distance crossing is
+    not found inside a run's window (a contact too short or too noisy for its rest point)."""
     times = tracks.times_s
     last, dt = len(times) - 1, float(np.median(np.diff(times)))
     h, t = HEEL[side], TOE[side]
@@ -226,6 +265,14 @@ def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: n
     hs_all, to_all = np.full(len(runs), np.nan), np.full(len(runs), np.nan)
     hs_all[[i for i, (a, _) in enumerate(runs) if a > 0]] = hs
     to_all[[i for i, (_, b) in enumerate(runs) if b < last]] = to
+    if config.contact_distance_mm <= 0:
+        return hs_all, to_all
+    for i, (run, (heel_mm, toe_mm)) in enumerate(zip(runs, rest_points, strict=True)):
+        limit = times[runs[i + 1][0]] if i + 1 < len(runs) else times[-1]
+        near_hs, near_to = _near_rest(tracks, side, run, heel_mm, toe_mm, config, limit_s=limit)
+        at_start, at_end = run[0] == 0, run[1] == last
+        hs_all[i] = near_hs if np.isfinite(near_hs) or at_start else hs_all[i]
+        to_all[i] = near_to if np.isfinite(near_to) or at_end else to_all[i]
     return hs_all, to_all
 
 
@@ -240,10 +287,11 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
     for side in SIDES:
         h, t = HEEL[side], TOE[side]
         runs, rest = _contact_runs(tracks, side, speed, v_rest, config)
-        hs, to = _event_times(tracks, side, runs, speed, rest, v_rest, config)
-        for (a, b), t_hs, t_to in zip(runs, hs, to, strict=True):
-            heel, spread = _rest_point(frames[a:b + 1, h], speed[a:b + 1, h], v_rest)
-            toe, _ = _rest_point(frames[a:b + 1, t], speed[a:b + 1, t], v_rest)
+        points = [(_rest_point(frames[a:b + 1, h], speed[a:b + 1, h], v_rest),
+                   _rest_point(frames[a:b + 1, t], speed[a:b + 1, t], v_rest)[0]) for a, b in runs]
+        hs, to = _event_times(tracks, side, runs, speed, rest, v_rest, config,
+                              [(heel, toe) for (heel, _), toe in points])
+        for (a, b), t_hs, t_to, ((heel, spread), toe) in zip(runs, hs, to, points, strict=True):
             ok = bool(np.isfinite(t_hs) and tracks.is_valid(times[a] - 4 * dt, times[b] + 4 * dt, (h, t)))
             contacts.append(Contact(side, float(t_hs), float(t_to), tuple(map(float, heel)),
                                     tuple(map(float, toe)), spread, ok))

@@ -12,7 +12,11 @@ Definitions (heel positions are the stationary heel points of the contacts, see 
 - direction of progression of a pass: the common direction of two parallel lines fitted to its left and
   its right heel contacts (exact for straight walking); the body-centre direction when too few contacts.
 A step is formed only when this contact and the previous contralateral contact both lie in the same
-pass (steps in turns and standing are excluded); parameters that need a missing contact are NaN.
+pass, a pass here including the speeding-up and slowing-down walking at its ends (steps in turns and
+standing are excluded); parameters that need a missing contact are NaN. The first and last step of a pass
+and every step outside its steady part are edge steps (``steady`` False: acceleration/deceleration, or the
+ends of a short clip): reported, but left out of the summary statistics. A step whose confidence is below
+``low_confidence`` says so (``low_confidence``).
 """
 
 from __future__ import annotations
@@ -56,6 +60,8 @@ class Step:
     single_support_pct: float
     double_support_pct: float
     confidence: float
+    steady: bool = True
+    low_confidence: bool = False
 
 
 def progression_direction(feet: Sequence[str], heels_xy_mm: np.ndarray, fallback: np.ndarray) -> np.ndarray:
@@ -115,14 +121,18 @@ def _timing(k: Contact, p: Contact | None, c: Contact, c0: Contact | None) -> di
 
 
 def pass_steps(pass_: Pass, contacts: Sequence[Contact], all_contacts: Sequence[Contact],
-               confidence: dict[int, float], first_index: int = 0) -> tuple[list[Step], list[str]]:
+               confidence: dict[int, float], first_index: int = 0, *, steady: Pass | None = None,
+               low_confidence: float = 0.0) -> tuple[list[Step], list[str]]:
     """Steps of one pass from the trial's contacts (ordered by heel strike), plus warnings.
 
     ``confidence`` maps id(contact) -> confidence in [0, 1]; a step gets the lower of its two contacts.
+    ``steady``: the steady part of the pass (default: all of it); the first and last step and steps with
+    a contact outside it are edge steps. Steps with confidence below ``low_confidence`` are flagged.
     """
     seq = [c for c in contacts if c.valid and pass_.contains(c.heel_strike_s)]
     direction = progression_direction([c.foot for c in seq], np.array([c.heel_mm[:2] for c in seq]),
                                       np.asarray(pass_.direction))
+    core = steady or pass_
     steps, warnings = [], []
     for i in range(1, len(seq)):
         k, c = seq[i], seq[i - 1]
@@ -146,10 +156,45 @@ def pass_steps(pass_: Pass, contacts: Sequence[Contact], all_contacts: Sequence[
             warnings.append(f"pass {pass_.index}: {k.foot} step at {k.heel_strike_s:.2f} s dropped ({implausible})")
             continue
         conf = min(confidence.get(id(k), 1.0), confidence.get(id(c), 1.0))
+        edge = i == 1 or i == len(seq) - 1 or not (core.contains(k.heel_strike_s) and core.contains(c.heel_strike_s))
         steps.append(Step(first_index + len(steps), pass_.index, k.foot, k.heel_strike_s, k.toe_off_s,
-                          k.heel_mm, k.toe_mm, confidence=conf,
+                          k.heel_mm, k.toe_mm, confidence=conf, steady=not edge,
+                          low_confidence=conf < low_confidence,
                           **{name: values[name] for name in STEP_PARAMETERS}))
     return steps, warnings
+
+
+def _annotated_contacts(foot: str, heel_strikes_s, toe_offs_s) -> list[Contact]:
+    """Contacts of one foot from event lists: each heel strike with the first toe off before the next."""
+    hs = np.sort(np.asarray(heel_strikes_s, dtype=np.float64))
+    to = np.sort(np.asarray(toe_offs_s, dtype=np.float64))
+    out = []
+    for i, t in enumerate(hs):
+        end = hs[i + 1] if i + 1 < len(hs) else np.inf
+        after = to[(to > t) & (to < end)]
+        out.append(Contact(foot, float(t), float(after[0]) if len(after) else float("nan"), (0.0,) * 3,
+                           (0.0,) * 3, 0.0, True))
+    return out
+
+
+def cycle_timing(foot: str, heel_strike_s: float, heel_strikes_s: dict, toe_offs_s: dict, *,
+                 match_s: float) -> dict[str, float] | None:
+    """Timing parameters (the ``STEP_PARAMETERS`` from step_time_s on) of the step of ``foot`` ending at
+    ``heel_strike_s``, computed from reference events (e.g. force plates): ``{"left"|"right": (K,) s}``
+    heel strikes and toe offs. None when no reference heel strike of that foot lies within ``match_s``."""
+    contacts = sorted(_annotated_contacts("left", heel_strikes_s["left"], toe_offs_s["left"])
+                      + _annotated_contacts("right", heel_strikes_s["right"], toe_offs_s["right"]),
+                      key=lambda c: c.heel_strike_s)
+    mine = [i for i, c in enumerate(contacts) if c.foot == foot and abs(c.heel_strike_s - heel_strike_s) <= match_s]
+    if not mine or mine[0] == 0:
+        return None
+    i = mine[0]
+    k, c = contacts[i], contacts[i - 1]
+    if c.foot == foot:
+        return None
+    p = contacts[i - 2] if i >= 2 and contacts[i - 2].foot == foot else None
+    earlier = [x for x in contacts[:max(i - 2, 0)] if x.foot == c.foot] if p is not None else []
+    return _timing(k, p, c, earlier[-1] if earlier else None)
 
 
 # Plausible ranges of a walking step (mm): outside them a step is a detection error, not gait.
@@ -193,7 +238,11 @@ class GaitSummary:
         cadence_steps_min: 60 / mean step time (steps/min).
         gait_speed_m_s: total stride length / total stride time (m/s).
         parameters: name -> {"all" | "left" | "right" -> Stats}.
-        asymmetry_pct: name -> 100 |left mean - right mean| / mean of both (symmetry index, %).
+        asymmetry_pct: name -> symmetry index (%) of Robinson, Herzog & Nigg (1987),
+            SI = 100 |left mean - right mean| / (0.5 (left mean + right mean)); 0 is symmetric.
+        num_edge_steps: steps reported but left out of these statistics (first/last steps of a pass,
+            acceleration and deceleration; see ``Step.steady``).
+    Statistics ("all", "left", "right": n, mean, SD, CV) are over the steady steps.
     """
 
     num_steps: int
@@ -202,10 +251,14 @@ class GaitSummary:
     gait_speed_m_s: float
     parameters: dict[str, dict[str, Stats]] = field(default_factory=dict)
     asymmetry_pct: dict[str, float] = field(default_factory=dict)
+    num_edge_steps: int = 0
 
 
 def summarise(steps: Sequence[Step], num_passes: int) -> GaitSummary:
-    """Per-trial and per-side statistics, cadence, gait speed and asymmetry of ``steps``."""
+    """Per-trial and per-side statistics, cadence, gait speed and asymmetry of the steady ``steps``
+    (all of them when none is steady, e.g. a clip of two steps)."""
+    all_steps = list(steps)
+    steps = [s for s in all_steps if s.steady] or all_steps
     params, asym = {}, {}
     for name in STEP_PARAMETERS:
         groups = {"all": steps, "left": [s for s in steps if s.foot == "left"],
@@ -219,4 +272,5 @@ def summarise(steps: Sequence[Step], num_passes: int) -> GaitSummary:
              if np.isfinite(s.stride_length_mm) and np.isfinite(s.stride_time_s)]
     speed = sum(p[0] for p in pairs) / sum(p[1] for p in pairs) / 1000.0 if pairs else float("nan")
     cadence = 60.0 / step_time if np.isfinite(step_time) and step_time > 0 else float("nan")
-    return GaitSummary(len(steps), num_passes, float(cadence), float(speed), params, asym)
+    return GaitSummary(len(all_steps), num_passes, float(cadence), float(speed), params, asym,
+                       len(all_steps) - len(steps))

@@ -1,5 +1,7 @@
-"""An analytic walker for the gait tests: feet flat in stance, swings with a brisk push-off and a smooth
-landing along a path."""
+"""An analytic walker for the gait tests: feet flat in stance, swings with a brisk push-off and a landing
+like a real one along a path: at initial contact the foot still moves forward (at 2 ROLL_MM / LOAD_S,
+0.9 m/s) and comes to rest ROLL_MM further on after LOAD_S (the heel rocker; real heels travel 20-40 mm
+after contact, see acquisition/synthetic/foot.py)."""
 
 from __future__ import annotations
 
@@ -11,6 +13,8 @@ import pytest
 JOINTS = ("left_hip", "right_hip", "left_ankle", "right_ankle", "left_heel", "right_heel",
           "left_big_toe", "right_big_toe")
 FOOT_MM = 230.0
+ROLL_MM = 35.0
+LOAD_S = 0.08
 
 
 @dataclass
@@ -47,10 +51,11 @@ def _path(segments, heading_deg):
     return np.array(pts), np.array(tangents)
 
 
-def _swing(tau):
-    """Swing progress 0 -> 1: speed ~ tau (1 - tau)^2, a brisk push-off and a smooth landing."""
+def _swing(tau, end_slope=0.0):
+    """Swing progress 0 -> 1: speed ~ tau (1 - tau)^2 (a brisk push-off), plus end_slope tau^2 (tau - 1)
+    so that the foot lands with speed end_slope x distance / swing time."""
     tau = np.clip(tau, 0.0, 1.0)
-    return 6 * tau**2 - 8 * tau**3 + 3 * tau**4
+    return 6 * tau**2 - 8 * tau**3 + 3 * tau**4 + end_slope * tau**2 * (tau - 1)
 
 
 def make_walk(*, segments=(("line", 6000),), heading_deg=30.0, step_mm=650.0, width_mm=140.0,
@@ -80,14 +85,19 @@ def make_walk(*, segments=(("line", 6000),), heading_deg=30.0, step_mm=650.0, wi
             for a, b in zip(ks[:-1], ks[1:], strict=True):
                 swing = (t >= to[a]) & (t < hs[b])
                 tau = (t[swing] - to[a]) / (hs[b] - to[a])
-                s = _swing(tau)[:, None]
-                heel[swing, :2] = heels[a] + s * (heels[b] - heels[a])
+                land = heels[b] - ROLL_MM * heading[b]
+                span = np.linalg.norm(land - heels[a])
+                s = _swing(tau, 2 * ROLL_MM / LOAD_S * (hs[b] - to[a]) / span)[:, None]
+                heel[swing, :2] = heels[a] + s * (land - heels[a])
                 heel[swing, 2] = lift_mm * np.sin(np.pi * np.clip(tau, 0, 1)) ** 2
                 hv = heading[a] + s * (heading[b] - heading[a])
                 head[swing] = hv / np.linalg.norm(hv, axis=1, keepdims=True)
             for k in ks:
                 stance = (t >= hs[k]) & (t <= to[k])
                 heel[stance, :2] = heels[k]
+                loading = stance & (t < hs[k] + LOAD_S)
+                rolled = ROLL_MM * (1 - (t[loading] - hs[k]) / LOAD_S) ** 2
+                heel[loading, :2] = heels[k] - rolled[:, None] * heading[k]
                 heel[stance, 2] = 0.0
                 head[stance] = heading[k]
             out[:, 4 + f] = heel + [0, 0, 40.0]
