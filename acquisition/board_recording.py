@@ -1,7 +1,10 @@
 """Board observations from a calibration recording: a trial MCAP written by the recorder, or a folder
-with one sub-folder of images (``FOLDER/cam01/000123.png``) or one video (``FOLDER/cam01.mp4``) per
-camera. Frames are matched across cameras by frame id (MCAP) or by order (folders), subsampled, and
-searched for the board; then :func:`calibrate_from_recording` calibrates.
+with one sub-folder of images or one video per camera (see :mod:`gaitcap.acquisition.board_sources`).
+
+Frames are paired across cameras by time (:mod:`gaitcap.acquisition.board_pairing`; by order when a
+folder has no times), the pairs subsampled and searched for the board, views of a board that moved
+between the cameras' exposures left out, and what was found summarised per camera
+(:mod:`gaitcap.acquisition.board_diagnosis`); then :func:`calibrate_from_recording` calibrates.
 """
 
 from __future__ import annotations
@@ -10,12 +13,21 @@ import logging
 import os
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
 import numpy as np
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.board import BoardConfig, BoardFind, make_board
+from gaitcap.acquisition.board_diagnosis import CameraDetection, detection_table, too_few_views_error
+from gaitcap.acquisition.board_pairing import (
+    MISSING,
+    PairingConfig,
+    default_tolerance_ns,
+    moving_views,
+    pair_by_time,
+)
+from gaitcap.acquisition.board_sources import IMAGE_SUFFIXES, VIDEO_SUFFIXES, folder_sources
 from gaitcap.reconstruction.calibration import (
     BoardObservations,
     CalibrationConfig,
@@ -25,16 +37,17 @@ from gaitcap.reconstruction.calibration import (
 
 log = logging.getLogger(__name__)
 
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
-VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
+__all__ = ["IMAGE_SUFFIXES", "VIDEO_SUFFIXES", "BoardDetections", "FrameSelection", "calibrate_from_recording",
+           "detect_recording", "find_board_views"]
 
 MAX_WORKERS = 8
+PROBE_FRAMES = 8  # frames per camera searched with every printing variant when a fixed one finds nothing
 Progress = Callable[[int, int | None], None]  # (images done, total images or None)
 
 
 @dataclass(frozen=True)
 class FrameSelection:
-    """Which frames to search: every ``every``-th frame, at most ``max_frames`` of them (None = all)."""
+    """Which frame sets to search: every ``every``-th, at most ``max_frames`` of them (None = all)."""
 
     every: int = 1
     max_frames: int | None = None
@@ -44,137 +57,185 @@ class FrameSelection:
             raise ValueError(f"frame selection: every ({self.every}) and max_frames ({self.max_frames}) must be >= 1")
 
 
-def _gray(data: bytes | np.ndarray, what: str) -> np.ndarray:
-    if isinstance(data, bytes | bytearray):
-        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE)
-        if img is None:
-            raise ValueError(f"{what}: not a decodable image")
-        return img
-    return cv2.cvtColor(data, cv2.COLOR_BGR2GRAY) if data.ndim == 3 else data
+@dataclass(frozen=True, eq=False)
+class BoardDetections:
+    """Observations for the calibration, what was found per camera, and whether frames had times."""
+
+    observations: BoardObservations
+    cameras: tuple[CameraDetection, ...]
+    board: BoardConfig
+    timed: bool
+
+    def table(self) -> str:
+        return detection_table(self.cameras)
+
+    def check(self, min_views: int) -> None:
+        """ValueError naming each camera with fewer than ``min_views`` usable views and what to change."""
+        err = too_few_views_error(self.cameras, self.board, min_views)
+        if err is not None:
+            raise err
 
 
-def _folder_sources(folder: Path) -> dict[str, list[Path] | Path]:
-    sources: dict[str, list[Path] | Path] = {}
-    for entry in sorted(folder.iterdir()):
-        if entry.is_dir():
-            images = sorted(p for p in entry.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
-            if images:
-                sources[entry.name] = images
-        elif entry.suffix.lower() in VIDEO_SUFFIXES:
-            sources[entry.stem] = entry
-    if not sources:
-        raise ValueError(
-            f"{folder}: no camera images or videos found; expected FOLDER/<camera>/*.png|jpg or FOLDER/<camera>.mp4"
-        )
-    return sources
+@dataclass(frozen=True, eq=False)
+class _Camera:
+    name: str
+    times_ns: np.ndarray | None
+    n_frames: int
 
 
-def _video_frames(path: Path) -> Iterator[np.ndarray]:
-    cap = cv2.VideoCapture(str(path))
-    if not cap.isOpened():
-        raise ValueError(f"{path}: cannot open the video")
-    try:
-        while True:
-            ok, frame = cap.read()
-            if not ok:
-                return
-            yield frame
-    finally:
-        cap.release()
-
-
-def _iter_folder(folder: Path, sel: FrameSelection) -> Iterator[tuple[str, int, int | None, np.ndarray]]:
-    """(camera, frame index, None, grey image) for the selected frames of every camera."""
-    for cam, src in _folder_sources(folder).items():
-        frames = iter(src) if isinstance(src, list) else _video_frames(src)
-        for i, item in enumerate(frames):
-            if sel.max_frames is not None and i >= sel.every * sel.max_frames:
-                break
-            if i % sel.every:
-                continue
-            if isinstance(item, Path):
-                img = cv2.imread(str(item), cv2.IMREAD_GRAYSCALE)
-                if img is None:
-                    raise ValueError(f"{item}: not a readable image")
-            else:
-                img = _gray(item, f"{src} frame {i}")
-            yield cam, i, None, img
-
-
-def _iter_mcap(path: Path, sel: FrameSelection) -> Iterator[tuple[str, int, int | None, np.ndarray]]:
-    """(camera, frame id, timestamp ns, grey image) for the selected frames."""
+def _mcap_cameras(path: Path) -> list[_Camera]:
     from gaitcap.acquisition.recording.reader import iter_frames
 
-    first: int | None = None
+    stamps: dict[str, list[int]] = {}
     for frame in iter_frames(path):
-        first = frame.frame_id if first is None else first
-        k = frame.frame_id - first
-        if k % sel.every or (sel.max_frames is not None and k >= sel.every * sel.max_frames):
-            continue
-        yield frame.camera, frame.frame_id, frame.timestamp_ns, _gray(frame.jpeg, f"camera {frame.camera} frame {frame.frame_id}")
+        stamps.setdefault(frame.camera, []).append(frame.timestamp_ns)
+    return [_Camera(c, np.asarray(t, dtype=np.int64), len(t)) for c, t in sorted(stamps.items())]
 
 
-def _batches(items: Iterator, size: int) -> Iterator[list]:
-    batch = []
-    for item in items:
-        batch.append(item)
-        if len(batch) == size:
-            yield batch
-            batch = []
-    if batch:
-        yield batch
+def _mcap_frames(path: Path, wanted: list[set[int]], names: list[str]) -> Iterator[tuple[int, int, np.ndarray]]:
+    from gaitcap.acquisition.recording.reader import iter_frames
+
+    count = dict.fromkeys(names, 0)
+    col = {n: c for c, n in enumerate(names)}
+    for frame in iter_frames(path):
+        c, i = col[frame.camera], count[frame.camera]
+        count[frame.camera] += 1
+        if i in wanted[c]:
+            img = cv2.imdecode(np.frombuffer(frame.jpeg, np.uint8), cv2.IMREAD_GRAYSCALE)
+            if img is None:
+                raise ValueError(f"camera {frame.camera} frame {frame.frame_id}: not a decodable image")
+            yield c, i, img
 
 
-def detect_recording(
+def _frame_sets(cams: list[_Camera], pairing: PairingConfig) -> tuple[np.ndarray, bool]:
+    """(S, C) frame sets and whether they were paired by time (else by order)."""
+    timed = all(c.times_ns is not None and len(c.times_ns) == c.n_frames for c in cams)
+    if not timed:
+        return pair_by_time([np.arange(c.n_frames, dtype=np.int64) for c in cams], 0), False
+    times = [c.times_ns for c in cams]
+    tol = int(pairing.tolerance_ms * 1e6) if pairing.tolerance_ms is not None else default_tolerance_ns(times)
+    return pair_by_time(times, tol), True
+
+
+def _detect(frames: Iterator[tuple[int, int, np.ndarray]], board: BoardConfig, workers: int,
+            progress: Progress | None) -> tuple[dict[tuple[int, int], BoardFind], dict[int, tuple[int, int]],
+                                                dict[int, dict[str, int]]]:
+    """Every frame searched: {(camera, index): find}, image sizes, and probes of other printing variants."""
+    detector = make_board(board)
+    free = replace(board, inverted=None, legacy_layout=None)
+    prober = make_board(free) if free != board else None
+    finds: dict[tuple[int, int], BoardFind] = {}
+    sizes: dict[int, tuple[int, int]] = {}
+    probes: dict[int, dict[str, int]] = {}
+    probed: dict[int, int] = {}
+    batch: list[tuple[int, int, np.ndarray]] = []
+
+    def run(items):
+        for (c, i, img), found in zip(items, pool.map(lambda b: detector.find(b[2]), items), strict=True):
+            sizes.setdefault(c, (img.shape[1], img.shape[0]))
+            finds[(c, i)] = found
+            if prober is not None and found.corners is None and probed.get(c, 0) < PROBE_FRAMES:
+                probed[c] = probed.get(c, 0) + 1
+                alt = prober.find(img)
+                if alt.corners is not None and alt.variant is not None:
+                    key = alt.variant.describe()
+                    probes.setdefault(c, {})[key] = probes.get(c, {}).get(key, 0) + 1
+            if progress is not None:
+                progress(len(finds), None)
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for item in frames:
+            batch.append(item)
+            if len(batch) == 4 * workers:
+                run(batch)
+                batch = []
+        run(batch)
+    return finds, sizes, probes
+
+
+def find_board_views(
     path: str | os.PathLike, *, board: BoardConfig = BoardConfig(), selection: FrameSelection = FrameSelection(),
-    progress: Progress | None = None, workers: int | None = None,
-) -> BoardObservations:
-    """Find the board in the selected frames of every camera of a recording (MCAP file or folder).
+    pairing: PairingConfig = PairingConfig(), progress: Progress | None = None, workers: int | None = None,
+) -> BoardDetections:
+    """Find the board in the selected frame sets of a recording (MCAP file or folder).
 
     ``workers`` threads run the detector (OpenCV releases the GIL); default: the CPU count, at most 8.
     """
     path = Path(path)
     if not path.exists():
         raise ValueError(f"recording {path} does not exist")
-    detector = make_board(board)
-    frames = _iter_folder(path, selection) if path.is_dir() else _iter_mcap(path, selection)
-    found: dict[tuple[str, int], np.ndarray] = {}
-    sizes: dict[str, tuple[int, int]] = {}
-    stamps: dict[int, int] = {}
-    done = 0
-    workers = workers or min(os.cpu_count() or 1, MAX_WORKERS)
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        for batch in _batches(frames, 4 * workers):
-            for (cam, frame_id, stamp_ns, img), corners in zip(batch, pool.map(lambda b: detector.detect(b[3]), batch),
-                                                               strict=True):
-                sizes.setdefault(cam, (img.shape[1], img.shape[0]))
-                if stamp_ns is not None:
-                    stamps.setdefault(frame_id, stamp_ns)
-                if corners is not None:
-                    found[(cam, frame_id)] = corners
-                done += 1
-                if progress is not None:
-                    progress(done, None)
-    if not sizes:
-        raise ValueError(f"recording {path}: no camera frames in it")
-    cams = sorted(sizes)
-    frame_ids = sorted({f for _, f in found}) or [0]
-    corners = np.full((len(cams), len(frame_ids), detector.geometry.num_corners, 2), np.nan)
-    col = {f: i for i, f in enumerate(frame_ids)}
-    for (cam, f), c in found.items():
-        corners[cams.index(cam), col[f]] = c
-    log.info("board found in %d of %d images", len(found), done)
-    if stamps and found:  # recorder timestamps; folders have none, so times are frame indices
-        times_s = (np.array([stamps[f] for f in frame_ids]) - min(stamps.values())) * 1e-9
+    if path.is_dir():
+        sources = folder_sources(path)
+        cams = [_Camera(s.name, s.times_ns, s.n_frames) for s in sources]
     else:
-        times_s = np.asarray(frame_ids, dtype=np.float64)
-    return BoardObservations(tuple(cams), tuple(sizes[c] for c in cams), corners, detector.geometry, times_s)
+        cams = _mcap_cameras(path)
+    if not cams or not any(c.n_frames for c in cams):
+        raise ValueError(f"recording {path}: no camera frames in it")
+    sets, timed = _frame_sets(cams, pairing)
+    sets = sets[:: selection.every][: selection.max_frames]
+    wanted = [set(sets[:, c][sets[:, c] != MISSING].tolist()) for c in range(len(cams))]
+    names = [c.name for c in cams]
+    if path.is_dir():
+        frames = ((c, i, img) for c, s in enumerate(sources) for i, img in s.frames(wanted[c]))
+    else:
+        frames = _mcap_frames(path, wanted, names)
+    finds, sizes, probes = _detect(frames, board, workers or min(os.cpu_count() or 1, MAX_WORKERS), progress)
+    return _assemble(cams, sets, timed, finds, sizes, probes, board, pairing)
+
+
+def _assemble(cams, sets, timed, finds, sizes, probes, board, pairing) -> BoardDetections:
+    geometry = make_board(board).geometry
+    hit = np.array([[s[c] != MISSING and finds.get((c, int(s[c]))) is not None
+                     and finds[(c, int(s[c]))].corners is not None for c in range(len(cams))] for s in sets])
+    keep = np.flatnonzero(hit.any(1)) if hit.size else np.zeros(0, dtype=int)
+    keep = keep if keep.size else np.zeros(1, dtype=int)[: len(sets)]
+    corners = np.full((len(cams), len(keep), geometry.num_corners, 2), np.nan)
+    cam_t = np.full((len(cams), len(keep)), np.nan)
+    for k, s in enumerate(keep):
+        for c in range(len(cams)):
+            i = int(sets[s, c])
+            found = finds.get((c, i)) if i != MISSING else None
+            if found is not None and found.corners is not None:
+                corners[c, k] = found.corners
+            if i != MISSING:
+                cam_t[c, k] = cams[c].times_ns[i] * 1e-9 if timed else float(i)
+    with np.errstate(all="ignore"):
+        set_t = np.nanmedian(cam_t, axis=0) if cam_t.size else np.zeros(0)
+    moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px) if timed else np.zeros(cam_t.shape, bool)
+    corners[moving] = np.nan
+    missing = [c.name for i, c in enumerate(cams) if i not in sizes]
+    if missing:
+        raise ValueError(f"cameras {missing}: no frame could be read")
+    times_s = set_t - np.nanmin(set_t) if timed and set_t.size else np.nanmin(cam_t, axis=0)
+    obs = BoardObservations(tuple(c.name for c in cams), tuple(sizes[c] for c in range(len(cams))), corners,
+                            geometry, np.nan_to_num(times_s))
+    per_cam = tuple(
+        CameraDetection.from_finds(cam.name, [f for (c, _), f in finds.items() if c == ci],
+                                   min_corners=geometry.min_corners, moving=int(moving[ci].sum()),
+                                   probe=probes.get(ci))
+        for ci, cam in enumerate(cams)
+    )
+    log.info("board found in %d of %d images (%s)", sum(c.with_board for c in per_cam), len(finds),
+             "paired by time" if timed else "paired by order")
+    return BoardDetections(obs, per_cam, board, timed)
+
+
+def detect_recording(
+    path: str | os.PathLike, *, board: BoardConfig = BoardConfig(), selection: FrameSelection = FrameSelection(),
+    progress: Progress | None = None, workers: int | None = None,
+) -> BoardObservations:
+    """The board observations of a recording (see :func:`find_board_views`)."""
+    return find_board_views(path, board=board, selection=selection, progress=progress, workers=workers).observations
 
 
 def calibrate_from_recording(
     path: str | os.PathLike, *, board: BoardConfig = BoardConfig(), config: CalibrationConfig | None = None,
-    selection: FrameSelection = FrameSelection(), progress: Progress | None = None,
+    selection: FrameSelection = FrameSelection(), pairing: PairingConfig = PairingConfig(),
+    progress: Progress | None = None,
 ) -> CalibrationResult:
-    """Detect the board in a recording and calibrate every camera in it (ValueError names the problem)."""
-    obs = detect_recording(path, board=board, selection=selection, progress=progress)
-    return calibrate_from_observations(obs, config=config)
+    """Detect the board in a recording and calibrate every camera in it (ValueError names the problem:
+    per camera, what was found and what to change)."""
+    config = config or CalibrationConfig()
+    found = find_board_views(path, board=board, selection=selection, pairing=pairing, progress=progress)
+    found.check(config.intrinsics.min_views)
+    return calibrate_from_observations(found.observations, config=config)

@@ -4,6 +4,10 @@ A plain checkerboard's corners may come back rotated by 180 degrees or mirrored.
 reprojects perfectly but puts the board's printed face AWAY from the camera, which is impossible for an
 opaque board; such candidates are dropped here. The 180-degree ambiguity cannot be decided in one view
 and is resolved across cameras in :mod:`gaitcap.reconstruction.calibration.graph`.
+
+A board whose corners carry ids (ChArUco) has no such ambiguity, and may be seen from either side: a
+board printed on both faces (the back as the mirror image, as caliscope prints them) is found from
+behind in the mirrored image, so the front-facing test is not applied to it.
 """
 
 from __future__ import annotations
@@ -73,6 +77,7 @@ def view_poses(obs: BoardObservations, intrinsics: list[Intrinsics]) -> ViewPose
     tvec = np.zeros((c_count, f_count, len(syms), 3))
     valid = np.zeros((c_count, f_count, len(syms)), dtype=bool)
     seen, views = obs.seen(), obs.views()
+    one_order = len(syms) == 1  # corners with ids: a view from the back is a mirror-printed back side
     for c in range(c_count):
         for f in np.flatnonzero(views[c]):
             img = obs.corners_px[c, f][seen[c, f]]
@@ -80,5 +85,6 @@ def view_poses(obs: BoardObservations, intrinsics: list[Intrinsics]) -> ViewPose
                 obj = obs.board.object_points_mm[perm[seen[c, f]]]
                 r, t, median = _solve_view(obj, img, intrinsics[c])
                 rot[c, f, s], tvec[c, f, s] = r, t
-                valid[c, f, s] = median < MAX_PNP_MEDIAN_PX and t[2] > 0 and _front_facing(r, t)
+                facing = one_order or _front_facing(r, t)
+                valid[c, f, s] = median < MAX_PNP_MEDIAN_PX and t[2] > 0 and facing
     return ViewPoses(rot, tvec, valid)

@@ -1,0 +1,103 @@
+"""Frames of unsynchronised cameras paired by time, and board views that moved between the cameras'
+exposures.
+
+Webcams and USB cameras deliver frames at slightly different times. Frames are paired when their times
+lie within a tolerance (default: half the median frame interval). A board seen by two cameras a few ms
+apart while it moves is in two different places: a view whose corner speed (px/s, from the same
+camera's neighbouring views) times its time offset from the pair's median time exceeds ``max_shift_px``
+is left out, so that extrinsics come from still boards.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+MISSING = -1
+MOTION_WINDOW_S = 0.5  # neighbouring views further apart than this say nothing about the speed
+
+
+@dataclass(frozen=True)
+class PairingConfig:
+    """tolerance_ms: frames closer than this pair (None: half the median frame interval);
+    max_shift_px: largest board shift (speed x time offset) accepted in a paired view, px."""
+
+    tolerance_ms: float | None = None
+    max_shift_px: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.tolerance_ms is not None and self.tolerance_ms <= 0:
+            raise ValueError(f"pairing: tolerance_ms must be > 0, got {self.tolerance_ms}")
+        if self.max_shift_px <= 0:
+            raise ValueError(f"pairing: max_shift_px must be > 0, got {self.max_shift_px}")
+
+
+def default_tolerance_ns(times_ns: list[np.ndarray]) -> int:
+    """Half the median interval between consecutive frames over all cameras, ns (at least 1)."""
+    gaps = [np.diff(np.sort(t)) for t in times_ns if len(t) > 1]
+    gaps = np.concatenate(gaps) if gaps else np.zeros(0)
+    gaps = gaps[gaps > 0]
+    return max(1, int(np.median(gaps) // 2)) if gaps.size else 1
+
+
+def pair_by_time(times_ns: list[np.ndarray], tolerance_ns: int) -> np.ndarray:
+    """Frame sets (S, C) of frame indices (-1 where a camera has none) from each camera's frame times.
+
+    Greedy in time order: a set starts at its earliest frame and takes, from each camera, its first
+    frame no later than ``tolerance_ns`` after that start. Sets come out in time order.
+    """
+    cam = np.concatenate([np.full(len(t), c) for c, t in enumerate(times_ns)]).astype(int)
+    idx = np.concatenate([np.arange(len(t)) for t in times_ns]).astype(int)
+    t_all = np.concatenate([np.asarray(t, dtype=np.int64) for t in times_ns])
+    order = np.argsort(t_all, kind="stable")
+    sets: list[np.ndarray] = []
+    start = None
+    for k in order:
+        if start is None or t_all[k] - start > tolerance_ns or sets[-1][cam[k]] != MISSING:
+            sets.append(np.full(len(times_ns), MISSING))
+            start = t_all[k]
+        sets[-1][cam[k]] = idx[k]
+    return np.stack(sets) if sets else np.zeros((0, len(times_ns)), dtype=int)
+
+
+def board_speed_px_s(corners_px: np.ndarray, times_s: np.ndarray) -> np.ndarray:
+    """Corner speed (px/s) of each view of one camera: median corner displacement to its nearest view
+    (in time, within ``MOTION_WINDOW_S``) over the time between them; NaN without such a neighbour.
+
+    corners_px: (F, N, 2), NaN where unseen; times_s: (F,) this camera's frame times, s.
+    """
+    seen = np.any(np.isfinite(corners_px[..., 0]), axis=1)
+    speed = np.full(len(times_s), np.nan)
+    views = np.flatnonzero(seen)
+    for k, f in enumerate(views):
+        best = np.nan
+        for g in (views[k - 1] if k > 0 else None, views[k + 1] if k + 1 < len(views) else None):
+            if g is None:
+                continue
+            dt = abs(times_s[g] - times_s[f])
+            if 0 < dt <= MOTION_WINDOW_S:
+                d = np.linalg.norm(corners_px[g] - corners_px[f], axis=-1)
+                d = d[np.isfinite(d)]
+                if d.size:
+                    v = float(np.median(d)) / dt
+                    best = v if np.isnan(best) else min(best, v)
+        speed[f] = best
+    return speed
+
+
+def moving_views(corners_px: np.ndarray, times_s: np.ndarray, set_times_s: np.ndarray,
+                 max_shift_px: float) -> np.ndarray:
+    """(C, F) views whose board shift over their time offset from the set's time exceeds ``max_shift_px``.
+
+    corners_px: (C, F, N, 2); times_s: (C, F) each camera's frame time (NaN where it has no frame);
+    set_times_s: (F,) the set's time (median over its cameras).
+    """
+    out = np.zeros(corners_px.shape[:2], dtype=bool)
+    for c in range(corners_px.shape[0]):
+        ok = np.isfinite(times_s[c])
+        speed = np.full(corners_px.shape[1], np.nan)
+        speed[ok] = board_speed_px_s(corners_px[c, ok], times_s[c, ok])
+        shift = speed * np.abs(times_s[c] - set_times_s)
+        out[c] = np.isfinite(shift) & (shift > max_shift_px)
+    return out
