@@ -16,27 +16,12 @@ from gaitcap.reconstruction.gait.bouts import Pass, Segment
 from gaitcap.reconstruction.gait.events import Contact
 from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS, GaitSummary, Step
 from gaitcap.reconstruction.gait.walkway import WalkwayComparison
+from gaitcap.reconstruction.jsonable import json_ready
 
 CSV_COLUMNS = (
     "index", "pass_index", "foot", "heel_strike_s", "toe_off_s", "heel_x_mm", "heel_y_mm", "heel_z_mm",
     "toe_x_mm", "toe_y_mm", "toe_z_mm", *STEP_PARAMETERS, "confidence",
 )
-
-
-def _plain(value: Any) -> Any:
-    """Dataclasses/tuples/dicts -> JSON-ready values; NaN and inf -> None."""
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
-    if hasattr(value, "tolist"):
-        return _plain(value.tolist())
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    return value
-
 
 
 @dataclass(frozen=True)
@@ -67,7 +52,7 @@ class GaitReport:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict: steps (list of objects), summary, passes, segments, contacts, warnings,
         walkway (or None). NaN values become None."""
-        return _plain(self)
+        return json_ready(self)
 
     def to_json(self, **kwargs: Any) -> str:
         return json.dumps(self.to_dict(), allow_nan=False, **kwargs)

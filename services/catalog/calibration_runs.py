@@ -7,10 +7,10 @@ the same id: the active one for later trials) or ``failed`` (the reason in ``err
 from __future__ import annotations
 
 import json
-import math
 import time
 from dataclasses import dataclass
 
+from gaitcap.reconstruction.jsonable import json_ready
 from gaitcap.services.catalog.calibrations import add_calibration, new_calibration_id
 from gaitcap.services.catalog.db import Catalog
 from gaitcap.services.catalog.models import Calibration, CalibrationRun, Trial
@@ -46,17 +46,6 @@ class CalibrationRunInfo:
     report: dict
     calibration_id: str | None
     has_toml: bool
-
-
-def _finite(value):
-    """JSON-safe copy: NaN / inf (a camera without views) become None."""
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def _info(row: CalibrationRun) -> CalibrationRunInfo:
@@ -142,7 +131,7 @@ def finish_calibration_run(catalog: Catalog, run_id: str, *, toml: str, report: 
                            problems: str = "") -> CalibrationRunInfo:
     """Store the result. No failed camera: the calibration is stored (same id) and becomes active;
     otherwise the run is ``failed`` naming the cameras, and nothing is activated."""
-    report_json = json.dumps(_finite(report), default=float)
+    report_json = json.dumps(json_ready(report), default=float)
     if failed:
         return update_calibration_run(catalog, run_id, state=FAILED, toml=toml, report_json=report_json,
                                       stage="", progress=1.0,

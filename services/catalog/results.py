@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import json
-import math
 import time
 from dataclasses import dataclass, field
 
+from gaitcap.reconstruction.jsonable import finite_or_none
 from gaitcap.services.catalog.db import Catalog
 from gaitcap.services.catalog.models import Result, Step, Summary
 from sqlalchemy import delete, select
@@ -28,22 +28,14 @@ class ResultInfo:
     summary: dict[str, dict] = field(default_factory=dict)
 
 
-def _num(x) -> float | None:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return None
-    return v if math.isfinite(v) else None
-
-
 def _summary_rows(summary: dict) -> list[Summary]:
     rows = []
     for name, item in summary.items():
         if isinstance(item, dict):
-            rows.append(Summary(name=name, value=_num(item.get("mean", item.get("value"))),
-                                sd=_num(item.get("sd")), unit=str(item.get("unit", ""))))
+            rows.append(Summary(name=name, value=finite_or_none(item.get("mean", item.get("value"))),
+                                sd=finite_or_none(item.get("sd")), unit=str(item.get("unit", ""))))
         else:
-            rows.append(Summary(name=name, value=_num(item), sd=None, unit=""))
+            rows.append(Summary(name=name, value=finite_or_none(item), sd=None, unit=""))
     return rows
 
 
@@ -71,7 +63,7 @@ def store_result(
         s.flush()
         for i, step in enumerate(steps):
             s.add(Step(result_id=res.id, index=i, side=str(step.get("side", "")),
-                       time_s=_num(step.get("time_s")) or 0.0, values_json=json.dumps(step, default=float)))
+                       time_s=finite_or_none(step.get("time_s")) or 0.0, values_json=json.dumps(step, default=float)))
         for row in _summary_rows(summary):
             row.result_id = res.id
             s.add(row)

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import io
 import logging
-import math
 
 import numpy as np
+from gaitcap.reconstruction.jsonable import finite_or_none
 from gaitcap.services.processing.artifacts import TrialFiles, atomic_path, write_bytes_atomic
 from gaitcap.services.processing.pipeline import Trajectory
 
@@ -21,28 +21,24 @@ SUMMARY_PARAMS = (("step_length_mm", "mm"), ("stride_length_mm", "mm"), ("step_w
                   ("step_time_s", "s"), ("stance_pct", "%"), ("double_support_pct", "%"))
 
 
-def _f(x) -> float | None:
-    return float(x) if x is not None and math.isfinite(float(x)) else None
-
-
 def steps_of(report) -> list[dict]:
     """Catalog step rows: side, time_s, then the main parameters (units in the names)."""
     return [{"side": s.foot, "time_s": round(float(s.heel_strike_s), 3), "pass_no": s.pass_index + 1,
-             **{k: _f(getattr(s, k)) for k in STEP_COLUMNS}} for s in report.steps]
+             **{k: finite_or_none(getattr(s, k)) for k in STEP_COLUMNS}} for s in report.steps]
 
 
 def summary_of(report) -> dict[str, dict]:
     """Catalog summary: cadence, speed, step count and mean +- SD of the main parameters."""
     s = report.summary
-    out = {"gait_speed_m_per_s": {"mean": _f(s.gait_speed_m_s), "unit": "m/s"},
-           "cadence_steps_per_min": {"mean": _f(s.cadence_steps_min), "unit": "steps/min"}}
+    out = {"gait_speed_m_per_s": {"mean": finite_or_none(s.gait_speed_m_s), "unit": "m/s"},
+           "cadence_steps_per_min": {"mean": finite_or_none(s.cadence_steps_min), "unit": "steps/min"}}
     for name, unit in SUMMARY_PARAMS:
         stats = s.parameters.get(name, {}).get("all")
         if stats is not None:
-            out[name] = {"mean": _f(stats.mean), "sd": _f(stats.sd), "unit": unit}
+            out[name] = {"mean": finite_or_none(stats.mean), "sd": finite_or_none(stats.sd), "unit": unit}
     sym = s.asymmetry_pct.get("step_length_mm")
     if sym is not None:
-        out["step_length_asymmetry_pct"] = {"mean": _f(sym), "unit": "%"}
+        out["step_length_asymmetry_pct"] = {"mean": finite_or_none(sym), "unit": "%"}
     out["steps_count"] = {"mean": float(s.num_steps), "unit": ""}
     return out
 

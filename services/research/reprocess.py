@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from gaitcap.reconstruction.jsonable import finite_or_none, json_ready
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import atomic_path, trial_files, write_bytes_atomic
 from gaitcap.services.research.method_specs import MethodSpec, canonical
@@ -252,7 +253,7 @@ def compute_result(task: ReprocessTask) -> MethodResult:
     metrics = {k: v for k, v in rec.metrics.items()}
     metrics.update({f"fit.{k}": float(v) for k, v in rec.losses.items() if np.isscalar(v) and k != "seconds"})
     result = MethodResult(task.trial.trial_id, task.spec.method, task.spec.key, task.spec.to_dict(), "ok",
-                          skeleton=det.skeleton.name, metrics=_jsonable(metrics), gait=gait, residuals=residuals)
+                          skeleton=det.skeleton.name, metrics=json_ready(metrics), gait=gait, residuals=residuals)
     if task.write_files:
         result = MethodResult(**{**result.__dict__, "artifacts": _write_files(task, result, points, times, names)})
     return result
@@ -326,23 +327,9 @@ def _residuals(trial: TrialRef, points, times, names, sample) -> dict:
         cmp = compare_with_walkway([(points, times, names)], [reference], samples=[sample])
     except ValueError as exc:
         return {"reference": kind, "problem": str(exc)}
-    out = {p: [_num(getattr(c, p)) for c in cmp.contacts] for p in RESIDUAL_PARAMETERS}
+    out = {p: [finite_or_none(getattr(c, p)) for c in cmp.contacts] for p in RESIDUAL_PARAMETERS}
     return {"reference": kind, "problem": "", "footfalls": len(cmp.contacts), "parameters": out,
-            "forward_bias_mm": _num(cmp.forward_bias_mm), "offset_s": _num(next(iter(cmp.offsets_s.values()), None))}
-
-
-def _num(x) -> float | None:
-    return None if x is None or not np.isfinite(x) else float(x)
-
-
-def _jsonable(value):
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.generic | float | int) and not isinstance(value, bool):
-        return _num(float(value))
-    return value
+            "forward_bias_mm": finite_or_none(cmp.forward_bias_mm), "offset_s": finite_or_none(next(iter(cmp.offsets_s.values()), None))}
 
 
 def _write_files(task: ReprocessTask, result: MethodResult, points, times, names) -> dict[str, str]:

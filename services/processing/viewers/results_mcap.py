@@ -38,6 +38,7 @@ from gaitcap.acquisition.recording.foxglove_messages import (
     set_time,
 )
 from gaitcap.reconstruction.camera import Camera
+from gaitcap.reconstruction.jsonable import finite_or_none
 from gaitcap.services.processing.artifacts import atomic_path
 from gaitcap.services.processing.viewers.trial_view import TrialView
 from mcap.writer import CompressionType, Writer
@@ -59,10 +60,6 @@ STEP_SCHEMA = {
                    "heel_strike_s": {"type": "number"},
                    **{f: {"type": ["number", "null"]} for f in STEP_FIELDS}},
 }
-
-
-def _finite(x) -> float | None:
-    return float(x) if x is not None and math.isfinite(float(x)) else None
 
 
 class _Results:
@@ -163,7 +160,7 @@ def gait_logs(report) -> list[tuple[float, str]]:
 
 def step_message(step) -> dict:
     return {"index": int(step.index), "pass": int(step.pass_index) + 1, "foot": step.foot,
-            "heel_strike_s": float(step.heel_strike_s), **{f: _finite(getattr(step, f)) for f in STEP_FIELDS}}
+            "heel_strike_s": float(step.heel_strike_s), **{f: finite_or_none(getattr(step, f)) for f in STEP_FIELDS}}
 
 
 def _write_gait(out: _Results, view: TrialView) -> None:
