@@ -12,6 +12,8 @@ import secrets
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR, catalog_url
+
 
 def parse_tokens(text: str) -> dict[str, str]:
     """``"alice:tok1,bob:tok2"`` -> {token: user}. Raises ValueError naming a bad entry."""
@@ -49,10 +51,10 @@ class Settings:
         tokens = parse_tokens(env.get("GAITCAP_TOKENS", ""))
         if env.get("GAITCAP_TOKEN"):
             tokens[env["GAITCAP_TOKEN"]] = "clinic"
-        data_dir = Path(env.get("GAITCAP_DATA_DIR", "runs/clinic"))
+        data_dir = Path(env.get("GAITCAP_DATA_DIR", DEFAULT_DATA_DIR))
         values = dict(
             tokens=tokens,
-            catalog_url=env.get("GAITCAP_CATALOG", str(data_dir / "catalog.sqlite")),
+            catalog_url=catalog_url(data_dir, env.get("GAITCAP_CATALOG")),
             data_dir=data_dir,
             host=env.get("GAITCAP_HOST", "127.0.0.1"),
             port=int(env.get("GAITCAP_PORT", "8000")),

@@ -9,6 +9,7 @@ import threading
 from pathlib import Path
 
 import typer
+from gaitcap.services.catalog.paths import DEMO_DATA_DIR
 from gaitcap.services.cli._common import user_errors
 
 
@@ -17,7 +18,7 @@ def register(app: typer.Typer) -> None:
     def demo(
         auto: bool = typer.Option(False, "--auto", help="Run one trial without a browser, print metrics, exit."),
         seconds: float = typer.Option(20.0, "--seconds", help="--auto: how long the trial records (s)."),
-        data_dir: Path = typer.Option(Path("runs/demo"), "--data-dir", help="Catalog, recordings, results, logs."),
+        data_dir: Path = typer.Option(DEMO_DATA_DIR, "--data-dir", help="Catalog, recordings, results, logs."),
         port: int = typer.Option(8000, "--port", help="Web page / API port on 127.0.0.1."),
         bus_port: int = typer.Option(7447, "--bus-port", help="First bus port (one per node, on 127.0.0.1)."),
         token: str = typer.Option("", "--token", envvar="GAITCAP_TOKEN", help="API token (generated if empty)."),

@@ -14,6 +14,7 @@ import threading
 from pathlib import Path
 
 import typer
+from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR
 from gaitcap.services.cli._common import user_errors
 
 log = logging.getLogger("gaitcap.node")
@@ -174,7 +175,7 @@ def recorder_cmd(
     compression: str = typer.Option("lz4", "--compression", help="lz4 | none"),
     chunk_mb: float = typer.Option(4.0, "--chunk-mb", help="Image chunk size, MB."),
     flush_s: float = typer.Option(1.0, "--flush-s", help="At most this much data is lost on a crash, s."),
-    data_dir: Path = typer.Option(Path("runs/clinic"), "--data-dir", envvar="GAITCAP_DATA_DIR",
+    data_dir: Path = typer.Option(DEFAULT_DATA_DIR, "--data-dir", envvar="GAITCAP_DATA_DIR",
                                   help="The only folder the recorder writes into (trial paths must be inside)."),
 ) -> None:
     """Record trials (started and stopped over the bus) into MCAP files inside the data folder."""

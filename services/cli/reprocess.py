@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
+from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR, catalog_url
 from gaitcap.services.cli._common import progress, user_errors
 
 METHOD_HELP = ("Method (repeatable): NAME or NAME@PRESET, optionally followed by :key=value,key=value; e.g. "
@@ -51,7 +52,7 @@ def _run(db, data_dir: Path, trials: str, specs, *, ray: str, workers: int, ray_
 
 def register(app: typer.Typer) -> None:
     common = {
-        "data_dir": typer.Option(Path("runs/clinic"), "--data-dir", envvar="GAITCAP_DATA_DIR",
+        "data_dir": typer.Option(DEFAULT_DATA_DIR, "--data-dir", envvar="GAITCAP_DATA_DIR",
                                  help="Trial files (DATA_DIR/trials/<id>/recording.mcap)."),
         "catalog": typer.Option("", "--catalog", envvar="GAITCAP_CATALOG",
                                 help="SQLite path or SQLAlchemy URL (default DATA_DIR/catalog.sqlite)."),
@@ -83,7 +84,7 @@ def register(app: typer.Typer) -> None:
 
         with user_errors():
             specs = [parse_method(m) for m in method]
-            db = cat.open_catalog(catalog or str(data_dir / "catalog.sqlite"))
+            db = cat.open_catalog(catalog_url(data_dir, catalog))
             plan, summary = _run(db, data_dir, trials, specs, ray=ray, workers=workers, ray_retries=ray_retries,
                                  gpus_per_fit=gpus_per_fit, retry_failed=retry_failed)
         if json_out:
@@ -107,7 +108,7 @@ def register(app: typer.Typer) -> None:
 
         with user_errors():
             specs = load_grid(grid)
-            db = cat.open_catalog(catalog or str(data_dir / "catalog.sqlite"))
+            db = cat.open_catalog(catalog_url(data_dir, catalog))
             plan, _ = _run(db, data_dir, trials, specs, ray=ray, workers=workers, ray_retries=ray_retries,
                            gpus_per_fit=gpus_per_fit, retry_failed=retry_failed)
             table = summarize(db, [t.trial_id for t in plan.trials], plan.specs)

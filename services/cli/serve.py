@@ -5,13 +5,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
+from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR, catalog_url
 from gaitcap.services.cli._common import user_errors
 
 
 def register(app: typer.Typer) -> None:
     @app.command()
     def serve(
-        data_dir: Path = typer.Option(Path("runs/clinic"), "--data-dir", envvar="GAITCAP_DATA_DIR",
+        data_dir: Path = typer.Option(DEFAULT_DATA_DIR, "--data-dir", envvar="GAITCAP_DATA_DIR",
                                       help="Where trial files go (recordings, results)."),
         catalog: str = typer.Option("", "--catalog", envvar="GAITCAP_CATALOG",
                                     help="SQLite path or SQLAlchemy URL (default DATA_DIR/catalog.sqlite)."),
@@ -32,7 +33,7 @@ def register(app: typer.Typer) -> None:
                 token = new_token()
                 typer.echo(f"API token: {token}")
             settings = Settings.from_env(tokens={token: "clinic"}, data_dir=data_dir, host=host, port=port,
-                                         catalog_url=catalog or str(data_dir / "catalog.sqlite"))
+                                         catalog_url=catalog_url(data_dir, catalog))
             link = None
             if not no_bus:
                 from gaitcap.services.bus.session import default_bus_config

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import typer
+from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR
 from gaitcap.services.cli._common import user_errors
 
 log = logging.getLogger(__name__)
@@ -50,7 +51,7 @@ def register(app: typer.Typer) -> None:
     @app.command("view")
     def view(
         trial: str = typer.Argument(..., help="Trial id (its folder under DATA_DIR/trials)."),
-        data_dir: Path = typer.Option(Path("runs/clinic"), "--data-dir", envvar="GAITCAP_DATA_DIR",
+        data_dir: Path = typer.Option(DEFAULT_DATA_DIR, "--data-dir", envvar="GAITCAP_DATA_DIR",
                                       help="The clinic's data folder."),
         stage: str = typer.Option(None, "--stage", help="refined or preliminary (default: the latest there is)."),
         foxglove_layout: bool = typer.Option(False, "--foxglove-layout",

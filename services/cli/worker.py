@@ -7,13 +7,14 @@ import threading
 from pathlib import Path
 
 import typer
+from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR, catalog_url
 from gaitcap.services.cli._common import user_errors
 
 
 def register(app: typer.Typer) -> None:
     @app.command()
     def worker(
-        data_dir: Path = typer.Option(Path("runs/clinic"), "--data-dir", envvar="GAITCAP_DATA_DIR"),
+        data_dir: Path = typer.Option(DEFAULT_DATA_DIR, "--data-dir", envvar="GAITCAP_DATA_DIR"),
         catalog: str = typer.Option("", "--catalog", envvar="GAITCAP_CATALOG",
                                     help="SQLite path or SQLAlchemy URL (default DATA_DIR/catalog.sqlite)."),
         worker_id: str = typer.Option("", "--id", help="Worker name (default host-pid)."),
@@ -28,7 +29,7 @@ def register(app: typer.Typer) -> None:
         from gaitcap.services.processing.worker import Worker, WorkerConfig, warm_worker
 
         with user_errors():
-            cfg = WorkerConfig(catalog_url=catalog or str(data_dir / "catalog.sqlite"), data_dir=data_dir,
+            cfg = WorkerConfig(catalog_url=catalog_url(data_dir, catalog), data_dir=data_dir,
                                lease_s=lease_s, refine=not no_refine,
                                **({"worker_id": worker_id} if worker_id else {}))
             progress, session = None, None

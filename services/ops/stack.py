@@ -22,6 +22,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from gaitcap.services.catalog.paths import DEMO_DATA_DIR, catalog_url
 from gaitcap.services.ops.supervisor import ProcessSpec, Supervisor
 
 log = logging.getLogger(__name__)
@@ -32,7 +33,7 @@ CLI = (sys.executable, "-c", "from gaitcap.services.cli import main; main()")
 class StackConfig:
     """Where and how the stack runs. Ports: API ``port``; bus nodes ``bus_base_port`` and up."""
 
-    data_dir: Path = Path("runs/demo")
+    data_dir: Path = DEMO_DATA_DIR
     token: str = ""
     host: str = "127.0.0.1"
     port: int = 8000
@@ -69,7 +70,7 @@ class StackConfig:
 
     @property
     def catalog(self) -> str:
-        return self.catalog_url or str(Path(self.data_dir).resolve() / "catalog.sqlite")
+        return catalog_url(Path(self.data_dir).resolve(), self.catalog_url)
 
     @property
     def url(self) -> str:
