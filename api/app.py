@@ -24,6 +24,8 @@ from gaitcap.api import (
 )
 from gaitcap.api.settings import Settings
 from gaitcap.services import catalog as cat
+from gaitcap.services.live.guard import TrialGuard
+from gaitcap.services.live.health import health_report
 from gaitcap.services.live.protocols import NoLink
 
 log = logging.getLogger(__name__)
@@ -51,9 +53,12 @@ def create_app(settings: Settings, link=None) -> FastAPI:
     async def lifespan(app: FastAPI):
         app.state.catalog = cat.open_catalog(settings.catalog_url)
         log.info("catalog %s, data %s", app.state.catalog.url, settings.data_dir)
+        guard = TrialGuard(app.state.catalog, app.state.link).start() if app.state.link.connected else None
         try:
             yield
         finally:
+            if guard is not None:
+                guard.close()
             app.state.catalog.close()
             app.state.link.close()
 
@@ -71,9 +76,10 @@ def create_app(settings: Settings, link=None) -> FastAPI:
     app.include_router(routes_calibration_runs.router)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
 
-    @app.get("/health", tags=["health"], summary="Liveness check (no token needed)")
+    @app.get("/health", tags=["health"], summary="Each component's state (no token needed)")
     def health(request: Request) -> dict:
-        return {"status": "ok", "recorder": bool(getattr(request.app.state.link, "connected", True))}
+        """``status`` ok | degraded; ``components``: database, disk, recorder, detector, workers, cameras."""
+        return health_report(request.app.state.catalog, request.app.state.link, settings.data_dir)
 
     @app.get("/", include_in_schema=False)
     def page() -> FileResponse:

@@ -18,7 +18,8 @@ def checked_trial_id(trial_id: str) -> str:
         raise HTTPException(status_code=422, detail=str(exc)) from None
 
 
-def trial_out(db: cat.Catalog, t: cat.TrialInfo, stages: list[str] | None = None) -> TrialOut:
+def trial_out(db: cat.Catalog, t: cat.TrialInfo, stages: list[str] | None = None,
+              quality: dict | None = None) -> TrialOut:
     text = STATE_WORDS.get(t.state, t.state)
     if t.state == "processing" and t.stage:
         text = f"Processing: {t.stage}"
@@ -27,10 +28,12 @@ def trial_out(db: cat.Catalog, t: cat.TrialInfo, stages: list[str] | None = None
         created_at=t.created_at, started_at=t.started_at, stopped_at=t.stopped_at, duration_s=t.duration_s,
         stage=t.stage, progress=t.progress, error=t.error,
         results=sorted(cat.stages_available(db, t.id) if stages is None else stages),
+        warnings=cat.warnings_of(cat.get_quality(db, t.id) if quality is None else quality),
     )
 
 
 def trials_out(db: cat.Catalog, trials: list[cat.TrialInfo]) -> list[TrialOut]:
     """Several trials with their result stages (one query for the stages)."""
-    stages = cat.stages_of(db, [t.id for t in trials])
-    return [trial_out(db, t, stages.get(t.id, [])) for t in trials]
+    ids = [t.id for t in trials]
+    stages, quality = cat.stages_of(db, ids), cat.qualities_of(db, ids)
+    return [trial_out(db, t, stages.get(t.id, []), quality.get(t.id, {})) for t in trials]

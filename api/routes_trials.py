@@ -9,9 +9,11 @@ from fastapi import APIRouter, Depends, HTTPException, Request
 from gaitcap.api.auth import require_user
 from gaitcap.api.deps import catalog_of, checked_trial_id, trial_out, trials_out
 from gaitcap.api.schemas import StartTrial, TrialOut
+from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog.calibration_runs import current_board_recording
 from gaitcap.services.live.protocols import RecorderUnavailable
+from gaitcap.services.live.rig_check import recorder_warnings, rig_problems
 from gaitcap.services.processing.artifacts import trial_files
 
 log = logging.getLogger(__name__)
@@ -20,6 +22,9 @@ router = APIRouter(tags=["trials"])
 
 @router.post("/trials", status_code=201, response_model=TrialOut, summary="Start recording a trial")
 def start(body: StartTrial, request: Request, user: str = Depends(require_user)) -> TrialOut:
+    """Refused (409) when the rig is not fit to record (cameras the calibration needs are down, or far
+    below the frame rate), unless ``override_rig_check`` confirms it (audited; a warning of the trial).
+    A Start that fails part-way leaves no trial ``recording`` (it ends ``failed`` with the reason)."""
     db, settings, link = catalog_of(request), request.app.state.settings, request.app.state.link
     if not getattr(link, "connected", True):
         raise HTTPException(status_code=503, detail="recorder: this server runs without the cameras and "
@@ -28,46 +33,92 @@ def start(body: StartTrial, request: Request, user: str = Depends(require_user))
     if board is not None:
         raise HTTPException(status_code=409, detail=f"board recording {board.id} is under way; stop it first")
     calibration = cat.latest_calibration(db)
+    problems = rig_problems(link.cameras(), _calibrated_cameras(calibration))
+    if problems and not body.override_rig_check:
+        raise HTTPException(status_code=409, detail="Start refused: " + "; ".join(problems)
+                            + ". To record anyway, confirm (override_rig_check).")
+    trial_id = cat.new_trial_id()
+    folder = trial_files(settings.data_dir, trial_id).root
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise HTTPException(status_code=507, detail=f"trials folder: cannot write {folder.parent} "
+                                                    f"({exc.strerror or exc}); no trial was started") from None
     try:
         trial = cat.start_trial(
-            db, subject_id=body.subject_id, session=body.session,
+            db, subject_id=body.subject_id, session=body.session, trial_id=trial_id,
             recording_path_for=lambda tid: trial_files(settings.data_dir, tid).recording,
             calibration_id=calibration[0] if calibration else None,
         )
     except cat.RecordingBusy as exc:
+        folder.rmdir()
         raise HTTPException(status_code=409, detail=str(exc)) from None
     cat.audit(db, actor=user, action="start", trial_id=trial.id, detail=f"subject {trial.subject_id}")
+    if problems:
+        cat.audit(db, actor=user, action="start override", trial_id=trial.id, detail="; ".join(problems))
+        cat.set_quality(db, trial.id, "start", {"by": user, "problems": problems,
+                                                "warnings": [f"Started although {'; '.join(problems)}"]})
+    _start_recorder(db, link, trial, calibration, user)
+    return trial_out(db, trial)
+
+
+def _calibrated_cameras(calibration: tuple[str, str] | None) -> list[str] | None:
+    if calibration is None:
+        return None
+    try:
+        return list(rig_from_toml_text(calibration[1], source=f"calibration {calibration[0]}").names)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise HTTPException(status_code=409, detail=f"calibration {calibration[0]} in use does not load: {exc}") from None
+
+
+def _start_recorder(db: cat.Catalog, link, trial: cat.TrialInfo, calibration, user: str) -> None:
+    """Ask the recorder to start; on any failure the trial ends ``failed`` (never a phantom recording)."""
     metadata = {"trial_id": trial.id, "subject_id": trial.subject_id, "session": trial.session,
                 "calibration_id": trial.calibration_id or "", "started_by": user,
                 "calibration_toml": calibration[1] if calibration else ""}
     try:
-        trial_files(settings.data_dir, trial.id).root.mkdir(parents=True, exist_ok=True)
         link.start(trial_id=trial.id, path=trial.recording_path, metadata=metadata)
     except RecorderUnavailable as exc:
-        cat.set_state(db, trial.id, "failed", error=f"recorder: {exc}", stage="")
+        _fail_start(db, trial, f"recorder: {exc}")
         raise HTTPException(status_code=503, detail=f"recorder: {exc}") from None
-    return trial_out(db, trial)
+    except BaseException as exc:
+        _fail_start(db, trial, f"start failed: {type(exc).__name__}: {exc}")
+        raise
+
+
+def _fail_start(db: cat.Catalog, trial: cat.TrialInfo, error: str) -> None:
+    try:
+        cat.set_state(db, trial.id, "failed", expect="recording", error=error, stage="", stopped_at=time.time())
+    except cat.IllegalTransition:
+        log.warning("trial %s: start failed (%s) but it had moved on meanwhile", trial.id, error)
 
 
 @router.post("/trials/{trial_id}/stop", response_model=TrialOut, summary="Stop recording; queue processing")
 def stop(trial_id: str, request: Request, user: str = Depends(require_user)) -> TrialOut:
+    """Idempotent: of concurrent Stops exactly one (compare-and-set ``recording -> stopping``) closes the
+    file and queues processing; the others, and any later Stop, get the trial as it is. 503 when the
+    recorder does not answer: the trial is then ``interrupted`` and its recording recovered."""
     db, link = catalog_of(request), request.app.state.link
     trial = _get(db, checked_trial_id(trial_id))
-    if trial.state != "recording":
-        raise HTTPException(status_code=409, detail=f"trial {trial.id} is {trial.state}, not recording")
+    try:
+        trial = cat.set_state(db, trial.id, "stopping", expect="recording", stage="saving the recording")
+    except cat.IllegalTransition:
+        trial = _get(db, trial.id)
+        if trial.state == "failed":
+            raise HTTPException(status_code=409, detail=f"trial {trial.id} is failed: {trial.error}") from None
+        return trial_out(db, trial)  # already stopped (or being stopped) by another request
     cat.audit(db, actor=user, action="stop", trial_id=trial.id)
     try:
         summary = link.stop(trial.id)
     except RecorderUnavailable as exc:
-        cat.set_state(db, trial.id, "failed", error=f"recorder: {exc}", stopped_at=time.time(), stage="")
-        raise HTTPException(status_code=503, detail=f"recorder: {exc}") from None
-    try:
-        trial = cat.set_state(db, trial.id, "recorded", expect="recording", stopped_at=time.time(),
-                              stage="waiting for a worker", progress=0.0)
-    except cat.IllegalTransition as exc:
-        raise HTTPException(status_code=409, detail=str(exc)) from None
-    cat.enqueue_job(db, trial.id)
-    log.info("trial %s stopped (%s); processing queued", trial.id, summary)
+        reason = f"recorder: {exc}; the recording is kept and will be recovered"
+        trial = cat.set_state(db, trial.id, "interrupted", expect="stopping", error=reason, stopped_at=time.time(),
+                              stage="recovering the recording")
+        raise HTTPException(status_code=503, detail=f"{reason} (trial {trial.id} is interrupted)") from None
+    cat.set_quality(db, trial.id, "recorder", {**summary, "warnings": recorder_warnings(summary)})
+    trial = cat.set_state(db, trial.id, "recorded", expect="stopping", enqueue=True, stopped_at=time.time(),
+                          stage="waiting for a worker", progress=0.0)
+    log.info("trial %s stopped; processing queued", trial.id)
     return trial_out(db, trial)
 
 

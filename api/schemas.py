@@ -10,9 +10,13 @@ ID_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$"
 
 STATE_WORDS = {
     "recording": "Recording",
+    "stopping": "Saving the recording",
+    "interrupted": "Recorder lost: recovering the recording",
+    "recovered": "Recovered after a recorder crash, waiting for processing",
     "recorded": "Recorded, waiting for processing",
     "processing": "Processing",
     "done": "Done",
+    "done_with_warnings": "Done, with warnings",
     "failed": "Failed",
 }
 
@@ -24,6 +28,8 @@ class StartTrial(BaseModel):
     subject_id: str = Field(pattern=ID_PATTERN, description="Pseudonymous subject id, e.g. P0042")
     session: str = Field(default_factory=lambda: dt.date.today().isoformat(), pattern=ID_PATTERN,
                          description="Session (visit) label; default today's date")
+    override_rig_check: bool = Field(default=False, description="Record although the rig check refused "
+                                     "(cameras down or far below the frame rate); audited, a warning of the trial")
 
 
 class TrialOut(BaseModel):
@@ -40,6 +46,8 @@ class TrialOut(BaseModel):
     progress: float = Field(description="Processing progress in [0, 1]")
     error: str
     results: list[str] = Field(default_factory=list, description="Result stages available")
+    warnings: list[str] = Field(default_factory=list, description="Data-quality warnings in plain words "
+                                "(recovery, rig override, cameras, sync, coverage, reprojection), most important first")
 
 
 class CameraOut(BaseModel):

@@ -8,6 +8,7 @@ import httpx
 import pytest
 from gaitcap.api.server import serve_in_thread
 from gaitcap.api.settings import Settings
+from gaitcap.services.live.nodes import NodeState
 from gaitcap.services.live.protocols import CameraHealth, RecorderUnavailable
 
 TOKEN = "test-token-123456"
@@ -25,20 +26,31 @@ class RecordingLink:
     connected = True
 
     def __init__(self):
-        self.calls, self.fail = [], False
+        self.calls, self.fail, self.recording = [], False, None
+        self.camera_list = [CameraHealth("cam0", 30.0, True, "ok", 0.01),
+                            CameraHealth("cam1", 12.0, False, "low frame rate", 0.5)]
+        self.up = {n: NodeState(n, True, time.time(), False) for n in ("recorder", "detector", "worker-0")}
         self.jpeg = bytes.fromhex("ffd8ffe000104a464946") + b"\x00" * 20 + bytes.fromhex("ffd9")
 
     def start(self, *, trial_id, path, metadata):
         if self.fail:
             raise RecorderUnavailable("recorder did not answer within 2 s")
         self.calls.append(("start", trial_id, path, metadata))
+        self.recording = trial_id
 
     def stop(self, trial_id):
         self.calls.append(("stop", trial_id))
+        self.recording = None
         return {"frames": 10}
 
     def cameras(self):
-        return [CameraHealth("cam0", 30.0, True, "ok", 0.01), CameraHealth("cam1", 12.0, False, "low frame rate", 0.5)]
+        return list(self.camera_list)
+
+    def nodes(self):
+        return dict(self.up)
+
+    def recorder_status(self):
+        return {"trial_id": self.recording, "queued": 0} if self.up["recorder"].alive else None
 
     def preview(self, camera):
         return (time.time(), self.jpeg) if camera in ("cam0", "cam1") else None

@@ -1,11 +1,13 @@
 """Uploading a calibration: validated, stored, handed to the recorder with the next trial."""
 
 from gaitcap.reconstruction.calibration_io import save_rig
+from gaitcap.services.live.protocols import CameraHealth
 from gaitcap.services.processing.pipeline import ring_rig
 
 
 def test_uploaded_calibration_goes_to_the_next_trial(server, tmp_path):
     _, client, link, _ = server
+    link.camera_list = [CameraHealth(f"cam{i}", 30.0, True, "ok", 0.01) for i in range(3)]
     save_rig(ring_rig(3), tmp_path / "rig.toml")
     toml = (tmp_path / "rig.toml").read_text()
     r = client.post("/calibrations", json={"toml": toml, "source": "board session 1"})

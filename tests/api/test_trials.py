@@ -10,7 +10,10 @@ from .conftest import TOKEN
 
 def test_health_needs_no_token_but_everything_else_does(server):
     srv, client, _, _ = server
-    assert httpx.get(f"{srv.url}/health").json()["status"] == "ok"
+    health = httpx.get(f"{srv.url}/health").json()
+    assert health["status"] == "degraded"  # camera cam1 is not working
+    assert health["components"]["cameras"]["not_working"] == {"cam1": "low frame rate"}
+    assert all(health["components"][c]["ok"] for c in ("database", "recorder", "detector", "workers"))
     for path in ("/trials", "/cameras", "/status", "/audit", "/trials/T1/gait"):
         r = httpx.get(f"{srv.url}{path}")
         assert r.status_code == 401 and "token" in r.json()["detail"], path
@@ -34,7 +37,8 @@ def test_start_stop_queues_processing_and_tells_the_recorder(server):
     assert link.calls[1] == ("stop", tid)
     db = cat.open_catalog(settings.catalog_url)
     assert [j.state for j in cat.jobs_for_trial(db, tid)] == ["queued"]
-    assert client.post(f"/trials/{tid}/stop").status_code == 409
+    again = client.post(f"/trials/{tid}/stop")  # a client retry: the same trial, nothing done twice
+    assert again.status_code == 200 and again.json()["state"] == "recorded" and link.calls[2:] == []
     assert [t["id"] for t in client.get("/trials").json()] == [tid]
     assert client.get(f"/trials/{tid}").json()["subject_id"] == "P0042"
     actions = [(e["actor"], e["action"]) for e in client.get("/audit", params={"trial_id": tid}).json()]
