@@ -11,11 +11,16 @@ def catalog_of(request: Request) -> cat.Catalog:
     return request.app.state.catalog
 
 
-def checked_trial_id(trial_id: str) -> str:
+def checked_id(value: str, *, field: str) -> str:
+    """``value`` if it is a safe id, else 422 naming ``field`` (the one id check of every route)."""
     try:
-        return cat.validate_id(trial_id, field="trial_id")
+        return cat.validate_id(value, field=field)
     except ValueError as exc:
         raise HTTPException(status_code=422, detail=str(exc)) from None
+
+
+def checked_trial_id(trial_id: str) -> str:
+    return checked_id(trial_id, field="trial_id")
 
 
 def trial_out(db: cat.Catalog, t: cat.TrialInfo, stages: list[str] | None = None,

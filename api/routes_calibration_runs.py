@@ -10,7 +10,7 @@ from pathlib import Path
 from fastapi import APIRouter, Depends, HTTPException, Request
 from fastapi.responses import PlainTextResponse
 from gaitcap.api.auth import require_user
-from gaitcap.api.deps import catalog_of
+from gaitcap.api.deps import catalog_of, checked_id
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibration_runs as runs
 from gaitcap.services.live.protocols import RecorderUnavailable
@@ -108,18 +108,11 @@ def list_all(request: Request, limit: int = 50, user: str = Depends(require_user
     return sorted(out, key=lambda c: c["created_at"], reverse=True)[:limit]
 
 
-def _checked(cal_id: str) -> str:
-    try:
-        return cat.validate_id(cal_id, field="calibration_id")
-    except ValueError as exc:
-        raise HTTPException(status_code=422, detail=str(exc)) from None
-
-
 @router.get("/calibrations/{cal_id}", summary="One calibration with its quality report")
 def show(cal_id: str, request: Request, user: str = Depends(require_user)) -> dict:
     db = catalog_of(request)
     try:
-        return _out(runs.get_calibration_run(db, _checked(cal_id)), _active_id(db))
+        return _out(runs.get_calibration_run(db, checked_id(cal_id, field="calibration_id")), _active_id(db))
     except runs.CalibrationNotFound:
         pass
     try:
@@ -135,7 +128,7 @@ def show(cal_id: str, request: Request, user: str = Depends(require_user)) -> di
             summary="Download the calibration (aniposelib/Pose2Sim TOML, metres)")
 def download(cal_id: str, request: Request, user: str = Depends(require_user)) -> PlainTextResponse:
     db = catalog_of(request)
-    cal_id = _checked(cal_id)
+    cal_id = checked_id(cal_id, field="calibration_id")
     try:
         toml = runs.calibration_run_toml(db, cal_id)
     except runs.CalibrationNotFound:

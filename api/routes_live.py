@@ -10,7 +10,7 @@ import time
 from fastapi import APIRouter, Depends, HTTPException, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import Response, StreamingResponse
 from gaitcap.api.auth import require_user, websocket_user
-from gaitcap.api.deps import trials_out
+from gaitcap.api.deps import checked_id, trials_out
 from gaitcap.api.schemas import CameraOut
 from gaitcap.services import catalog as cat
 from starlette.concurrency import run_in_threadpool
@@ -83,16 +83,9 @@ async def preview_ws(ws: WebSocket, fps: float = 5.0) -> None:
         return
 
 
-def _checked_camera(name: str) -> str:
-    try:
-        return cat.validate_id(name, field="camera")
-    except ValueError as exc:
-        raise HTTPException(status_code=422, detail=str(exc)) from None
-
-
 @router.get("/cameras/{name}/preview.jpg", summary="The newest preview frame of one camera")
 def preview_jpg(name: str, request: Request, user: str = Depends(require_user)):
-    frame = request.app.state.link.preview(_checked_camera(name))
+    frame = request.app.state.link.preview(checked_id(name, field="camera"))
     if frame is None:
         raise HTTPException(status_code=404, detail=f"camera {name}: no preview frame")
     return Response(frame[1], media_type="image/jpeg")
@@ -100,7 +93,7 @@ def preview_jpg(name: str, request: Request, user: str = Depends(require_user)):
 
 @router.get("/cameras/{name}/preview.mjpg", summary="Multipart MJPEG preview stream of one camera")
 async def preview_mjpeg(name: str, request: Request, fps: float = 5.0, user: str = Depends(require_user)):
-    link, cam, period = request.app.state.link, _checked_camera(name), 1.0 / max(0.5, min(fps, 30.0))
+    link, cam, period = request.app.state.link, checked_id(name, field="camera"), 1.0 / max(0.5, min(fps, 30.0))
 
     async def frames():
         last = None

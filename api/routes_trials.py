@@ -7,7 +7,7 @@ import time
 
 from fastapi import APIRouter, Depends, HTTPException, Request
 from gaitcap.api.auth import require_user
-from gaitcap.api.deps import catalog_of, checked_trial_id, trial_out, trials_out
+from gaitcap.api.deps import catalog_of, checked_id, checked_trial_id, trial_out, trials_out
 from gaitcap.api.schemas import StartTrial, TrialOut
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.services import catalog as cat
@@ -126,7 +126,7 @@ def stop(trial_id: str, request: Request, user: str = Depends(require_user)) -> 
 def list_trials(request: Request, subject_id: str | None = None, limit: int = 50,
                 user: str = Depends(require_user)) -> list[TrialOut]:
     if subject_id is not None:
-        checked = _validated(subject_id, "subject_id")
+        checked = checked_id(subject_id, field="subject_id")
         subject_id = checked
     if not 1 <= limit <= 1000:
         raise HTTPException(status_code=422, detail="limit: must be between 1 and 1000")
@@ -156,10 +156,3 @@ def _get(db: cat.Catalog, trial_id: str) -> cat.TrialInfo:
         return cat.get_trial(db, trial_id)
     except cat.TrialNotFound as exc:
         raise HTTPException(status_code=404, detail=str(exc)) from None
-
-
-def _validated(value: str, field: str) -> str:
-    try:
-        return cat.validate_id(value, field=field)
-    except ValueError as exc:
-        raise HTTPException(status_code=422, detail=str(exc)) from None

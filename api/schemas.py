@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import datetime as dt
 
+from gaitcap.services.catalog.ids import ID_PATTERN
 from pydantic import BaseModel, ConfigDict, Field
-
-ID_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$"
 
 STATE_WORDS = {
     "recording": "Recording",

@@ -6,7 +6,9 @@ import re
 import secrets
 import time
 
-_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+ID_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$"
+"""A safe id: 1-64 letters, digits, ``_ . -``, starting with a letter or digit (``..`` is refused too)."""
+_ID = re.compile(ID_PATTERN)
 
 
 def validate_id(value: str, *, field: str) -> str:
