@@ -19,6 +19,11 @@ a JSON5/JSON bus file (``deploy/zenoh/*.json5``)::
     }
 
 Use ``--bus FILE`` on the node commands, or set ``GAITCAP_BUS=FILE`` for every process.
+
+Security: a bus whose endpoints reach beyond loopback needs a ``security`` section (mutual TLS on
+``tls/`` endpoints, user/password, access control by node role: :mod:`gaitcap.services.bus.security`;
+keys from ``gaitcap bus-keys``), or ``insecure_plain: true`` to say explicitly that the network is
+trusted. A loopback-only bus may stay plain; every node says so in its log at start-up.
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from gaitcap.services.bus.keys import DEFAULT_PREFIX, Keys, check_name
+from gaitcap.services.bus.security import BusSecurity, zenoh_security
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +46,11 @@ BUS_ENV = "GAITCAP_BUS"
 DEFAULT_BASE_PORT = 7447
 LOCAL_NODES = ("recorder", "detector", "worker", "api", "replay", *(f"camera-{i}" for i in range(10)))
 _ENDPOINT = re.compile(r"^(tcp|udp|tls|quic)/[^\s:]+:\d{1,5}$|^(tcp|udp|tls|quic)/\[[0-9a-fA-F:]+\]:\d{1,5}$")
+_LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "[::1]")
+
+
+def _host(endpoint: str) -> str:
+    return endpoint.split("/", 1)[1].rsplit(":", 1)[0]
 
 
 @dataclass(frozen=True)
@@ -50,11 +61,15 @@ class BusConfig:
         nodes: node name -> the endpoint it listens on (``tcp/host:port``).
         prefix: key-expression prefix of this rig.
         lease_ms: a node that stops answering (hung, unplugged) is declared gone after this long.
+        security: mTLS + user/password + access control (None: plain TCP).
+        insecure_plain: explicitly allow a plain bus beyond loopback (a trusted, isolated network).
     """
 
     nodes: dict[str, str] = field(default_factory=dict)
     prefix: str = DEFAULT_PREFIX
     lease_ms: int = 3000
+    security: BusSecurity | None = None
+    insecure_plain: bool = False
 
     def __post_init__(self) -> None:
         for name, endpoint in self.nodes.items():
@@ -67,6 +82,23 @@ class BusConfig:
         if self.lease_ms < 500:
             raise ValueError(f"lease_ms: must be >= 500, got {self.lease_ms}")
         Keys(self.prefix)
+        if self.security is not None:
+            plain = sorted(n for n, e in self.nodes.items() if not e.startswith("tls/"))
+            if plain:
+                raise ValueError(f"security: nodes {plain} must listen on tls/ endpoints")
+        elif not self.loopback_only and not self.insecure_plain:
+            raise ValueError("the bus listens beyond loopback without security: add a 'security' section "
+                             "(keys from 'gaitcap bus-keys') or, on a trusted isolated network, insecure_plain: true")
+
+    @property
+    def loopback_only(self) -> bool:
+        return all(_host(e) in _LOOPBACK_HOSTS for e in self.nodes.values())
+
+    @property
+    def identities(self) -> list[str]:
+        """Every name that may join the bus: the nodes and the security section's clients."""
+        extra = self.security.clients if self.security is not None else ()
+        return [*self.nodes, *(c for c in extra if c not in self.nodes)]
 
     @property
     def keys(self) -> Keys:
@@ -100,7 +132,12 @@ class BusConfig:
         return [e for n, e in self.nodes.items() if n != node]
 
     def to_dict(self) -> dict[str, Any]:
-        return {"prefix": self.prefix, "lease_ms": self.lease_ms, "nodes": dict(self.nodes)}
+        out = {"prefix": self.prefix, "lease_ms": self.lease_ms, "nodes": dict(self.nodes)}
+        if self.security is not None:
+            out["security"] = self.security.to_dict()
+        if self.insecure_plain:
+            out["insecure_plain"] = True
+        return out
 
 
 def _strip_json5(text: str) -> str:
@@ -136,12 +173,14 @@ def load_bus_config(path: str | os.PathLike) -> BusConfig:
         raise ValueError(f"bus file {p}: not valid JSON5 ({exc})") from None
     if not isinstance(data, dict) or not isinstance(data.get("nodes"), dict):
         raise ValueError(f"bus file {p}: expected an object with a 'nodes' object (name -> endpoint)")
-    unknown = sorted(set(data) - {"prefix", "lease_ms", "nodes"})
+    unknown = sorted(set(data) - {"prefix", "lease_ms", "nodes", "security", "insecure_plain"})
     if unknown:
         raise ValueError(f"bus file {p}: unknown fields {unknown}")
     try:
+        security = BusSecurity.from_dict(data["security"], base=p.parent) if "security" in data else None
         return BusConfig(nodes=data["nodes"], prefix=data.get("prefix", DEFAULT_PREFIX),
-                         lease_ms=int(data.get("lease_ms", 3000)))
+                         lease_ms=int(data.get("lease_ms", 3000)), security=security,
+                         insecure_plain=data.get("insecure_plain") is True)
     except ValueError as exc:
         raise ValueError(f"bus file {p}: {exc}") from None
 
@@ -164,6 +203,12 @@ def zenoh_config(bus: BusConfig, node: str | None):
     conf.insert_json5("connect/endpoints", json.dumps(bus.connect_for(node)))
     conf.insert_json5("connect/retry", '{"period_init_ms": 200, "period_max_ms": 1000, "period_increase_factor": 2}')
     conf.insert_json5("transport/link/tx/lease", str(int(bus.lease_ms)))
+    if bus.security is not None:
+        if node is None:
+            raise ValueError("bus: this bus is secured; give the identity to connect as (--node NAME, a node "
+                             "or a security.clients entry)")
+        for path, value in zenoh_security(bus.security, node, prefix=bus.prefix, identities=bus.identities).items():
+            conf.insert_json5(path, json.dumps(value))
     return conf
 
 
@@ -173,8 +218,13 @@ def open_session(bus: BusConfig, node: str | None = None):
 
     if node is not None:
         check_name(node, what="node")
+    conf = zenoh_config(bus, node)
+    if bus.security is None and bus.listen_for(node):
+        where = "loopback only" if bus.loopback_only else "BEYOND LOOPBACK (insecure_plain)"
+        log.warning("bus %s: plain TCP, %s: no authentication, any process that reaches it can use it",
+                    bus.prefix, where)
     try:
-        return zenoh.open(zenoh_config(bus, node))
+        return zenoh.open(conf)
     except zenoh.ZError as exc:
         where = bus.listen_for(node)
         raise ValueError(f"bus: cannot open a session for node {node!r} (listen {where}): {exc}") from None

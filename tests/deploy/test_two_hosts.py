@@ -121,7 +121,7 @@ def _read_event(proc: subprocess.Popen, expected: str, timeout_s: float) -> dict
 def test_trial_recorded_and_processed_across_two_hosts(tmp_path, two_hosts):
     acq, proc_ns, addr_a, addr_p = two_hosts
     bus_file = tmp_path / "bus.json5"
-    bus_file.write_text(json.dumps({"prefix": "gaitcap/netns", "lease_ms": 3000, "nodes": {
+    bus_file.write_text(json.dumps({"prefix": "gaitcap/netns", "lease_ms": 3000, "insecure_plain": True, "nodes": {
         "camera-0": f"tcp/{addr_a}:7447", "camera-1": f"tcp/{addr_a}:7448",
         "recorder": f"tcp/{addr_p}:7447", "detector": f"tcp/{addr_p}:7448", "worker": f"tcp/{addr_p}:7449"}}))
     data = tmp_path / "data"

@@ -32,6 +32,7 @@ def test_bus_file_json5(tmp_path):
       // two hosts
       prefix: 'gaitcap/lab1',
       lease_ms: 2000,
+      insecure_plain: true,  // a plain bus beyond loopback must be asked for
       nodes: {
         "camera-0": "tcp/192.168.50.10:7447",   /* acquisition PC */
         recorder: "tcp/192.168.50.20:7447",
@@ -50,6 +51,7 @@ def test_shipped_deploy_configs_load():
     for f in files:
         cfg = load_bus_config(f)
         assert any(n.startswith("camera") for n in cfg.nodes) and "recorder" in cfg.nodes
+        assert cfg.security is not None and all(e.startswith("tls/") for e in cfg.nodes.values()), f.name
 
 
 @pytest.mark.parametrize("text,match", [
