@@ -2,8 +2,9 @@
 
 Each video is one camera, named after the file stem; frame ``i`` of every file is frame set ``i``
 (times ``i / fps`` from the files' frame rate). Files of different lengths are padded with missing
-frames (NaN, confidence 0). The patient is the person with the highest mean confidence in each frame;
-all people are kept too, for cross-view association.
+frames (NaN, confidence 0). Every person the detector finds is kept (most confident first in each camera
+frame): who the patient is is decided across cameras by the processing path's association, never per
+camera.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.drivers.base import CaptureSettings
 from gaitcap.acquisition.drivers.video import VideoCamera
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.acquisition.keypoint_input import sort_people
 
 log = logging.getLogger(__name__)
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm")
@@ -46,18 +47,6 @@ class VideoKeypoints:
     times_s: np.ndarray
     skeleton: str
     fps: float
-
-    def patient(self) -> Detections:
-        """Per frame and camera the most confident person (NaN / 0 where nobody was found)."""
-        c, t, p, j, _ = self.people.shape
-        if p == 0:
-            kp = np.full((c, t, j, 3), np.nan)
-            kp[..., 2] = 0
-        else:
-            score = np.nan_to_num(self.people[..., 2]).mean(-1)  # (C, T, P)
-            best = score.argmax(-1)
-            kp = np.take_along_axis(self.people, best[:, :, None, None, None], axis=2)[:, :, 0]
-        return Detections(kp, self.camera_names, self.times_s, self.skeleton)
 
 
 def detect_videos(files: list[Path], detector, *, fps: float | None = None,
@@ -94,4 +83,4 @@ def detect_videos(files: list[Path], detector, *, fps: float | None = None,
         for i, people in enumerate(frames):
             out[c, i, : len(people)] = people
     rate = float(rates[0])
-    return VideoKeypoints(out, tuple(f.stem for f in files), np.arange(t) / rate, detector.skeleton.name, rate)
+    return VideoKeypoints(sort_people(out), tuple(f.stem for f in files), np.arange(t) / rate, detector.skeleton.name, rate)

@@ -23,6 +23,34 @@ def _params(items: list[str]) -> dict:
     return out
 
 
+def build_detector(kind: str, model: Path | None, param: list[str]):
+    """A detector of ``kind`` with its model file and other config fields KEY=VALUE (ValueError if bad)."""
+    import gaitcap.acquisition.detectors  # noqa: F401  (registers the detector kinds)
+    from gaitcap.acquisition.detectors.base import config_class
+
+    cls = config_class(kind)
+    params = _params(param)
+    fields = {f.name for f in dataclasses.fields(cls)}
+    if model is not None:
+        key = "model_path" if "model_path" in fields else "model"
+        if key not in fields:
+            raise ValueError(f"--model: detector {kind} takes no model file")
+        params[key] = model if key == "model_path" else str(model)
+    return cls(**params).build()
+
+
+def frame_count(files: list[Path]) -> int:
+    from gaitcap.acquisition.drivers.video import VideoCamera
+
+    total = 0
+    for f in files:
+        cam = VideoCamera(f, realtime=False)
+        cam.open()
+        total += cam.frame_count or 0
+        cam.close()
+    return total
+
+
 def register(app: typer.Typer) -> None:
     @app.command("detect")
     def detect_cmd(
@@ -31,43 +59,26 @@ def register(app: typer.Typer) -> None:
         model: Path | None = typer.Option(None, "--model", help="Model file (onnx: the .onnx top-down model)."),
         param: list[str] = typer.Option([], "--param", help="Other detector config field KEY=VALUE."),
         fps: float | None = typer.Option(None, "--fps", help="Frame rate (default: the files')."),
-        out: Path = typer.Option(..., "--out", help="Output keypoints .npz (the reconstruction's input)."),
-        all_people: Path | None = typer.Option(None, "--all-people", help="Also write every person (C,T,P,J,3) here."),
+        out: Path = typer.Option(..., "--out", help="Output keypoints .npz: everyone, (C, T, P, J, 3), most "
+                                 "confident first (the input of `gaitcap reconstruct` / `process`)."),
+        one_per_camera: bool = typer.Option(
+            False, "--one-per-camera", help="Write only the most confident person of each camera frame (C, T, J, 3), "
+            "chosen in each camera on its own: only for recordings with one person in view."),
     ) -> None:
-        """2D keypoints of existing multi-view videos -> NPZ for `gaitcap reconstruct` / `associate`."""
-        import gaitcap.acquisition.detectors  # noqa: F401  (registers the detector kinds)
-        from gaitcap.acquisition.detectors.base import config_class
-        from gaitcap.acquisition.drivers.video import VideoCamera
+        """2D keypoints of everyone in existing multi-view videos -> NPZ for `gaitcap reconstruct` / `process`."""
+        import numpy as np
         from gaitcap.acquisition.video_detect import detect_videos, find_videos
         from gaitcap.reconstruction.association.multi import MultiPersonDetections
-        from gaitcap.reconstruction.association.npz_io import save_detections_npz
+        from gaitcap.reconstruction.association.npz_io import save_multi_npz
 
         with user_errors():
             files = find_videos(videos)
-            cls = config_class(detector)
-            params = _params(param)
-            fields = {f.name for f in dataclasses.fields(cls)}
-            if model is not None:
-                key = "model_path" if "model_path" in fields else "model"
-                if key not in fields:
-                    raise ValueError(f"--model: detector {detector} takes no model file")
-                params[key] = model if key == "model_path" else str(model)
-            det = cls(**params).build()
-            total = 0
-            for f in files:
-                cam = VideoCamera(f, realtime=False)
-                cam.open()
-                total += cam.frame_count or 0
-                cam.close()
-            with progress(total=total or None, desc="detect", unit="frame") as bar:
+            det = build_detector(detector, model, param)
+            with progress(total=frame_count(files) or None, desc="detect", unit="frame") as bar:
                 result = detect_videos(files, det, fps=fps, on_frame=lambda: bar.update(1))
-            patient = result.patient()
-            save_detections_npz(patient, out)
-            if all_people is not None:
-                from gaitcap.reconstruction.association.npz_io import save_multi_npz
-
-                save_multi_npz(MultiPersonDetections(result.people, result.camera_names, result.times_s,
-                                                     result.skeleton), all_people)
-        seen = float((patient.keypoints[..., 2] > 0.5).mean())
-        typer.echo(f"{out}: {len(files)} cameras x {patient.shape[1]} frames ({result.fps:g} fps), "
-                   f"{patient.skeleton.name}, {100 * seen:.0f} % keypoints with confidence > 0.5")
+            people = result.people[:, :, :1] if one_per_camera else result.people
+            save_multi_npz(MultiPersonDetections(people, result.camera_names, result.times_s, result.skeleton), out)
+        seen = (np.nan_to_num(result.people[..., 2]) > 0.5).any(-1)  # (C, T, P)
+        typer.echo(f"{out}: {len(files)} cameras x {result.people.shape[1]} frames ({result.fps:g} fps), "
+                   f"{result.skeleton}, up to {int(seen.sum(-1).max())} people per camera frame"
+                   + (" (kept the most confident per camera)" if one_per_camera else ""))

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import enum
 import json
-import math
 from pathlib import Path
 
 import typer
 from gaitcap.reconstruction.fileio import atomic_write_text
+from gaitcap.reconstruction.jsonable import json_ready
 from gaitcap.services.cli._common import progress, user_errors
 
 
@@ -17,16 +17,6 @@ class MethodName(enum.StrEnum):
     robust = "robust"
     explicit = "explicit"
     implicit = "implicit"
-
-
-
-def _jsonable(value):
-    """Metrics with NaN/inf as null (strict JSON)."""
-    if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def _method(name: MethodName, paper: bool, steps: int | None):
@@ -42,9 +32,31 @@ def _method(name: MethodName, paper: bool, steps: int | None):
     return cls()
 
 
+def patient_request(person: int | None, patient_near: str | None):
+    """``--person N`` / ``--patient-near X,Y`` as a :class:`~gaitcap.services.processing.offline.PatientRequest`."""
+    from gaitcap.services.processing.offline import PatientRequest
+
+    near = None
+    if patient_near is not None:
+        parts = [p for p in patient_near.replace(" ", "").split(",") if p]
+        if len(parts) != 2:
+            raise ValueError(f"--patient-near: expected X,Y in mm (a floor point), got {patient_near!r}")
+        near = (float(parts[0]), float(parts[1]))
+    return PatientRequest(track_id=person, near_mm=near)
+
+
+def figure(value, fmt: str = ".3f", why: str = "not measurable") -> str:
+    """A number for the terminal, or ``n/a (why)`` instead of NaN."""
+    import math
+
+    return f"{value:{fmt}}" if value is not None and math.isfinite(value) else f"n/a ({why})"
+
+
 def reconstruct_command(
-    calibration: Path = typer.Option(..., "--calibration", help="aniposelib/Pose2Sim TOML or gaitcap JSON."),
-    keypoints: Path = typer.Option(..., "--keypoints", help="NPZ file, OpenPose JSON folder or trial MCAP."),
+    calibration: Path | None = typer.Option(
+        None, "--calibration", help="aniposelib/Pose2Sim TOML or gaitcap JSON (default: the input's own)."),
+    keypoints: Path = typer.Option(..., "--keypoints", help="NPZ, trial MCAP, OpenPose/MMPose JSON, or a Pose2Sim, "
+                                   "anipose or FreeMoCap folder."),
     method: MethodName = typer.Option(MethodName.implicit, "--method", help="Reconstruction method."),
     out: Path = typer.Option(..., "--out", help="Result NPZ (points_mm, times_s, joint_names, camera_weights)."),
     trc: Path | None = typer.Option(None, "--trc", help="Also write an OpenSim TRC file."),
@@ -52,19 +64,29 @@ def reconstruct_command(
     paper: bool = typer.Option(False, "--paper", help="The paper's configuration (explicit/implicit; slow)."),
     steps: int | None = typer.Option(None, "--steps", help="Steps of the --paper configuration."),
     fps: float = typer.Option(30.0, "--fps", help="Frame rate when the input has no times."),
-    skeleton: str | None = typer.Option(None, "--skeleton", help="Keypoint layout if not in the input."),
-    consistent: bool = typer.Option(
-        False, "--consistent-person", help="Several people: take the one consistent across views."),
+    skeleton: str | None = typer.Option(None, "--skeleton", help="Keypoint layout (default: the input's, else "
+                                        "recognised from the keypoints)."),
+    person: int | None = typer.Option(None, "--person", help="Several people in view: this track id is the patient."),
+    patient_near: str | None = typer.Option(
+        None, "--patient-near", help="Several people in view: the one nearest this floor point X,Y mm early on."),
 ) -> None:
     """Reconstruct 3D keypoint trajectories (mm) from multi-camera 2D keypoints."""
+    import numpy as np
+
     with user_errors():
-        from gaitcap.acquisition.keypoint_files import read_keypoints_input
-        from gaitcap.reconstruction.calibration_io import load_rig
         from gaitcap.reconstruction.methods import reconstruct
         from gaitcap.reconstruction.trc import to_trc
+        from gaitcap.services.processing.offline import OfflineOptions, load_input
+        from gaitcap.services.processing.pipeline import check_usable, patient_input, resolve_layout
 
-        rig = load_rig(calibration)
-        det = read_keypoints_input(keypoints, rig=rig, fps=fps, skeleton=skeleton, consistent=consistent)
+        options = OfflineOptions(skeleton=skeleton, fps=fps, patient=patient_request(person, patient_near))
+        data, rig = load_input(keypoints, calibration=calibration, options=options)
+        check_usable(data.recording.patient())
+        recording, layout = resolve_layout(data.recording, rig, named=data.layout)
+        det, rig, selection = patient_input(recording, rig, selector=options.patient.selector())
+        if selection is not None:
+            typer.echo(f"{selection.tracks.num_tracks} people tracked; the patient is track {selection.track_id} "
+                       f"({'requested' if options.patient.selector() else 'automatic'})", err=True)
         config = _method(method, paper, steps)
         with progress(desc=method.value, unit="step") as bar:
 
@@ -74,18 +96,29 @@ def reconstruct_command(
                 bar.refresh()
 
             rec = reconstruct(det, rig, method=config, progress=report)
+        if not np.isfinite(rec.points_mm).any():
+            raise ValueError("no joint could be reconstructed in any frame (nothing written)")
         rec.save_npz(out)
         if trc is not None:
             atomic_write_text(trc, to_trc(rec.points_mm, rec.times_s, rec.joint_names, filename=trc.name))
-        if as_json:
-            typer.echo(json.dumps(_jsonable({"method": rec.method, **rec.metrics, "losses": rec.losses})))
-        else:
-            m = rec.metrics
-            typer.echo(
-                f"{rec.method}: {rec.points_mm.shape[0]} frames x {rec.points_mm.shape[1]} joints -> {out}; "
-                f"GC_5 {m['GC_5']:.3f} GC_10 {m['GC_10']:.3f} GC_20 {m['GC_20']:.3f} L_reproj {m['L_reproj']:.2f} "
-                f"L_smooth {m['L_smooth']:.2f} mm L_skeleton {m['L_skeleton']:.2f} mm"
-            )
+    missing = ~np.isfinite(rec.points_mm).all(-1)
+    if as_json:
+        typer.echo(json.dumps(json_ready({"method": rec.method, **rec.metrics, "losses": rec.losses,
+                                          "layout": layout.skeleton, "layout_evidence": layout.evidence()})))
+    else:
+        m = rec.metrics
+        typer.echo(f"{layout.evidence()}")
+        typer.echo(
+            f"{rec.method}: {rec.points_mm.shape[0]} frames x {rec.points_mm.shape[1]} joints -> {out}; "
+            f"GC_5 {figure(m['GC_5'])} GC_10 {figure(m['GC_10'])} GC_20 {figure(m['GC_20'])} "
+            f"L_reproj {figure(m['L_reproj'], '.2f')} L_smooth {figure(m['L_smooth'], '.2f')} mm "
+            f"L_skeleton {figure(m['L_skeleton'], '.2f')} mm"
+        )
+    if missing.any():
+        names = [n for n, gone in zip(rec.joint_names, missing.any(0), strict=True) if gone]
+        typer.echo("note: joints missing in some frames (NaN in the file): "
+                   + ", ".join(f"{n} ({int(missing[:, rec.joint_names.index(n)].sum())} frames)" for n in names),
+                   err=True)
 
 
 def register(app: typer.Typer) -> None:

@@ -10,7 +10,7 @@ Files in the trial folder (:class:`~gaitcap.services.processing.artifacts.TrialF
 - ``people.json`` (worker): ``{"cameras": [...], "frames": T, "first_frame_id": recorder frame id of
   frame 0, "busiest_frame": a frame with the most people in view, "image_sizes_px": {camera: [w, h]},
   "boxes_px": {camera: [{"track_id", "box_px": [x0, y0, x1, y1]}]} (everyone in the busiest frame),
-  "patient_track_id": int, "chosen_by": "automatic" | "clinician", "people": [{"track_id", "first_s",
+  "patient_track_id": int, "chosen_by": "automatic" | "clinician" | "requested", "people": [{"track_id", "first_s",
   "last_s", "seen_s", "frames", "mean_views", "path_mm", "mean_position_mm"}]}``.
 - ``tracks.npz`` (worker): the tracks (which detection is whose), to resolve a click on a camera image.
 - ``patient_choice.json`` (API): ``{"track_id": int, "chosen_by": user, "how": words}``.
@@ -60,15 +60,17 @@ def multi_of(recording) -> MultiPersonDetections:
                                  times_s=recording.times_s, skeleton=recording.skeleton)
 
 
-def select_patient(recording, rig: Rig, choice: PatientChoice | None) -> PatientSelection:
-    """Associate everyone in ``recording`` and choose the patient (``choice`` wins; else automatic).
+def select_patient(recording, rig: Rig, choice: PatientChoice | None, selector=None) -> PatientSelection:
+    """Associate everyone in ``recording`` and choose the patient: ``selector`` (a track selector, e.g.
+    ``--person`` / ``--patient-near``) wins, then ``choice`` (the clinician's), else automatic.
 
     ValueError when the chosen track does not exist (e.g. a choice made before the recording changed).
     """
     from gaitcap.reconstruction.association import associate_and_select
 
     multi = multi_of(recording)
-    selector = ManualTrack(choice.track_id) if choice is not None else None
+    if selector is None and choice is not None:
+        selector = ManualTrack(choice.track_id)
     try:
         return associate_and_select(multi, rig.subset(multi.camera_names), selector)
     except ValueError as exc:
@@ -78,28 +80,37 @@ def select_patient(recording, rig: Rig, choice: PatientChoice | None) -> Patient
                          f"{choice.track_id}): {exc}") from None
 
 
-def patient_detections_of(recording, rig: Rig, files: TrialFiles) -> tuple[Detections, PatientSelection | None]:
+def patient_detections_of(recording, rig: Rig, files: TrialFiles, *, selector=None
+                          ) -> tuple[Detections, PatientSelection | None]:
     """The patient's detections: the only person of a single-person recording (nothing else is done), or
     the chosen track of several people in view (then ``people.json`` and ``tracks.npz`` are written)."""
     if most_people_in_view(recording.people) <= 1:
         return recording.patient(), None
     choice = read_choice(files)
-    selection = select_patient(recording, rig, choice)
+    selection = select_patient(recording, rig, choice, selector)
     sizes = {cam.name: [int(v) for v in cam.size_px] for cam in rig.cameras if cam.name in recording.camera_names}
     busiest = busiest_frame(selection.tracks)
-    write_people(files, selection, chosen_by="clinician" if choice is not None else "automatic",
-                 first_frame_id=int(recording.frame_ids[0]), image_sizes_px=sizes, busiest=busiest,
-                 boxes=boxes_in_frame(multi_of(recording), selection.tracks, busiest))
+    how = "requested" if selector is not None else "clinician" if choice is not None else "automatic"
+    write_people(files, selection, chosen_by=how, first_frame_id=int(recording.frame_ids[0]), image_sizes_px=sizes,
+                 busiest=busiest, boxes=boxes_in_frame(multi_of(recording), selection.tracks, busiest))
     log.info("%s: %d people tracked; patient is track %d (%s)", files.root.name, selection.tracks.num_tracks,
-             selection.track_id, "clinician's choice" if choice else "automatic")
+             selection.track_id, how)
+    return selection.detections, selection
+
+
+def patient_selection(recording, rig: Rig, choice: PatientChoice | None = None, *, selector=None
+                      ) -> tuple[Detections, PatientSelection | None]:
+    """The patient's detections as :func:`patient_detections_of` finds them, and the selection (None with
+    one person in view); writes nothing."""
+    if most_people_in_view(recording.people) <= 1:
+        return recording.patient(), None
+    selection = select_patient(recording, rig, choice, selector)
     return selection.detections, selection
 
 
 def patient_of(recording, rig: Rig, choice: PatientChoice | None = None) -> Detections:
     """The patient's detections as :func:`patient_detections_of` finds them, writing nothing."""
-    if most_people_in_view(recording.people) <= 1:
-        return recording.patient()
-    return select_patient(recording, rig, choice).detections
+    return patient_selection(recording, rig, choice)[0]
 
 
 # ------------------------------------------------------------------ files

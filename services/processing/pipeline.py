@@ -1,4 +1,7 @@
-"""The worker's computation of one trial: recording -> preliminary and refined trajectories -> gait.
+"""The computation of one trial: recording -> the patient's detections -> preliminary and refined
+trajectories -> gait. The ONE processing path: the worker, ``gaitcap process`` / ``reconstruct``,
+reprocessing and sweeps call these functions (the patient: :func:`patient_input`; a trajectory:
+:func:`preliminary`, :func:`refined` or :func:`trajectory_of`; gait: :func:`gait_of`).
 
 Pure orchestration of ``gaitcap.acquisition.recording`` (reader) and ``reconstruction`` (maths); files are
 written by :mod:`gaitcap.services.processing.outputs`. Robust triangulation is run on detections padded to a
@@ -115,15 +118,115 @@ def preliminary(det: Detections, rig: Rig) -> Trajectory:
                       num_views=views, metrics={}, elapsed_s=time.perf_counter() - t0)
 
 
-def refined(det: Detections, rig: Rig) -> Trajectory:
-    """The default implicit trajectory fit (continuous in time)."""
+def refined(det: Detections, rig: Rig, *, progress=None) -> Trajectory:
+    """The default implicit trajectory fit (continuous in time); ``progress(done, total)`` as it runs."""
     from gaitcap.reconstruction.methods import Implicit, reconstruct
 
     t0 = time.perf_counter()
-    rec = reconstruct(det, rig, method=Implicit())
-    return Trajectory("implicit trajectory fit", np.asarray(rec.points_mm), np.asarray(rec.times_s),
-                      tuple(rec.joint_names), num_views=None, sample=dense_sampler(rec.sample, rec.times_s),
-                      metrics=_plain_metrics(rec.metrics), elapsed_s=time.perf_counter() - t0)
+    rec = reconstruct(det, rig, method=Implicit(), progress=progress)
+    return trajectory_of(rec, method="implicit trajectory fit", elapsed_s=time.perf_counter() - t0)
+
+
+def trajectory_of(rec, *, method: str | None = None, elapsed_s: float = 0.0) -> Trajectory:
+    """A :class:`~gaitcap.reconstruction.result.Reconstruction` of any method as a :class:`Trajectory`
+    (continuous fits get the :func:`dense_sampler`; triangulations keep their agreeing views)."""
+    points, times = np.asarray(rec.points_mm), np.asarray(rec.times_s)
+    continuous = rec.trajectory is not None
+    return Trajectory(method or rec.method, points, times, tuple(rec.joint_names),
+                      num_views=None if continuous else np.asarray(rec.quality),
+                      sample=dense_sampler(rec.sample, times) if continuous else None,
+                      metrics=_plain_metrics(rec.metrics), elapsed_s=elapsed_s)
+
+
+def gait_of(traj: Trajectory):
+    """Gait analysis of a trajectory: (GaitReport or None, the reason there is none ("" when there is))."""
+    from gaitcap.reconstruction.gait import TrajectoryQuality, analyze_gait
+
+    quality = None if traj.num_views is None else TrajectoryQuality(
+        num_views=traj.num_views, reprojection_px=np.full(traj.num_views.shape, np.nan))
+    try:
+        return analyze_gait(traj.points_mm, traj.times_s, list(traj.joint_names), sample=traj.sample,
+                            quality=quality), ""
+    except ValueError as exc:
+        return None, str(exc)
+
+
+# ---------------------------------------------------------------------------------------------- the patient
+USABLE_CONFIDENCE = 0.1  # a view of a joint below this confidence is not an observation
+
+
+class NoUsableObservations(ValueError):
+    """The input has nothing to reconstruct (the message says what is missing)."""
+
+
+def check_usable(det: Detections, *, min_confidence: float = USABLE_CONFIDENCE) -> None:
+    """NoUsableObservations naming what is missing: no camera frame has a joint above ``min_confidence``
+    (which cameras), or no joint is seen by two cameras in any frame (which joints each camera sees)."""
+    kp = det.keypoints
+    seen = (np.nan_to_num(kp[..., 2]) > min_confidence) & np.isfinite(kp[..., :2]).all(-1)  # (C, T, J)
+    empty = [n for n, s in zip(det.camera_names, seen.any((1, 2)), strict=True) if not s]
+    if len(empty) == len(det.camera_names):
+        raise NoUsableObservations(f"no usable observation: every confidence of every camera ({', '.join(empty)}) is "
+                                   f"at or below {min_confidence} (or its pixels are NaN)")
+    if not (seen.sum(0) >= 2).any():
+        per_cam = "; ".join(f"{n}: {int(s.any(0).sum())} joints" for n, s in zip(det.camera_names, seen, strict=True))
+        raise NoUsableObservations(f"no usable observation: no joint is seen by two cameras in any frame with "
+                                   f"confidence > {min_confidence} ({per_cam}; cameras with none: {empty or 'none'})")
+
+
+def missing_joints(traj: Trajectory) -> dict[str, int]:
+    """Joint name -> number of frames where the trajectory has no point (only joints with some)."""
+    gone = ~np.isfinite(traj.points_mm).all(-1)  # (T, J)
+    return {n: int(c) for n, c in zip(traj.joint_names, gone.sum(0), strict=True) if c}
+
+
+def resolve_layout(recording, rig: Rig, *, named: str | None):
+    """The recording in its keypoint layout, and the :class:`~gaitcap.reconstruction.layout_guess.LayoutChoice`.
+
+    Every layout with the recording's keypoint count is scored on the patient's triangulated keypoints
+    (:mod:`gaitcap.reconstruction.layout_guess`); ``named`` (the input's metadata or ``--skeleton``) wins,
+    with a warning when another layout fits clearly better. AmbiguousLayout when none is named and two
+    fit alike; the choice and its evidence are logged."""
+    from gaitcap.reconstruction.layout_guess import (
+        candidate_layouts,
+        choose_layout,
+        sample_points,
+        score_layout,
+    )
+    from gaitcap.services.processing.people import patient_of
+
+    scores = []
+    for skel in candidate_layouts(recording.people.shape[-2]):
+        rec = replace(recording, skeleton=skel.name)
+        try:
+            det, sub = patient_of(rec, rig).aligned_to(rig)
+            scores.append(score_layout(sample_points(det, sub), skel))
+        except ValueError as exc:  # the people cannot even be associated under this layout
+            log.info("layout %s: not scored (%s)", skel.name, exc)
+    if not scores:
+        raise ValueError(f"keypoint layout: no layout with {recording.people.shape[-2]} keypoints could be scored "
+                         "(too few joints seen by two cameras)")
+    choice = choose_layout(scores, explicit=named)
+    log.info("%s", choice.evidence())
+    for warning in choice.warnings:
+        log.warning("%s", warning)
+    return replace(recording, skeleton=choice.skeleton), choice
+
+
+def patient_input(recording, rig: Rig, *, files=None, selector=None) -> tuple[Detections, Rig, object]:
+    """The patient's detections aligned to the rig's cameras, checked usable, and the selection (None with
+    one person in view). ``files``: the trial's :class:`~gaitcap.services.processing.artifacts.TrialFiles`
+    (then ``people.json`` / ``tracks.npz`` are written when several people are in view); ``selector``: how
+    to choose the patient (a track selector; default: the clinician's stored choice, else automatic)."""
+    from gaitcap.services.processing.people import patient_detections_of, patient_selection
+
+    if files is not None:
+        det, selection = patient_detections_of(recording, rig, files, selector=selector)
+    else:
+        det, selection = patient_selection(recording, rig, selector=selector)
+    det, rig = det.aligned_to(rig)
+    check_usable(det)
+    return det, rig, selection
 
 
 def dense_sampler(sample: Callable[[np.ndarray], np.ndarray], times_s: np.ndarray, *, oversample: int = 4):

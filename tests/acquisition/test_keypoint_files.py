@@ -2,7 +2,8 @@ import json
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.keypoint_files import infer_skeleton, most_confident_person, read_keypoints_input
+from gaitcap.acquisition.keypoint_files import read_keypoints_input
+from gaitcap.acquisition.keypoint_input import sort_people
 from gaitcap.reconstruction.camera import Camera, Rig
 
 
@@ -27,9 +28,12 @@ def _write_openpose(root, folders, frames, people_per_frame):
 
 def test_openpose_folder_by_name_and_by_order(tmp_path):
     _write_openpose(tmp_path / "a", ["cam1_json", "cam0_json"], [0, 1, 2, 4], 2)
-    det = read_keypoints_input(tmp_path / "a", rig=_rig(["cam0", "cam1"]), fps=25)
+    data = read_keypoints_input(tmp_path / "a", rig=_rig(["cam0", "cam1"]), fps=25)
+    assert data.layout is None and data.rig is None  # BODY_25 or BODY_25B: to be recognised
+    assert data.recording.people.shape == (2, 5, 2, 25, 3)
+    det = data.recording.patient()  # the most confident person comes first
     assert det.camera_names == ("cam0", "cam1")
-    assert det.keypoints.shape == (2, 5, 25, 3) and det.skeleton.name == "body25"
+    assert det.keypoints.shape == (2, 5, 25, 3)
     c0 = det.camera_names.index("cam0")
     assert det.keypoints[c0, 0, 0, 0] == pytest.approx(111)  # folder cam0_json was written second (c = 1), p = 1
     assert (det.keypoints[c0, 3, :, 2] == 0).all()  # frame 3 is in no folder
@@ -37,7 +41,7 @@ def test_openpose_folder_by_name_and_by_order(tmp_path):
     assert det.times_s[-1] == pytest.approx(4 / 25)
     _write_openpose(tmp_path / "b", ["x", "y"], [0, 1], 1)
     det2 = read_keypoints_input(tmp_path / "b", rig=_rig(["c0", "c1"]))
-    assert det2.camera_names == ("c0", "c1")
+    assert det2.recording.camera_names == ("c0", "c1")
     with pytest.raises(ValueError, match="match neither"):
         read_keypoints_input(tmp_path / "b", rig=_rig(["c0", "c1", "c2"]))
 
@@ -45,27 +49,34 @@ def test_openpose_folder_by_name_and_by_order(tmp_path):
 def test_npz_input(tmp_path):
     kp = np.random.default_rng(0).uniform(0, 1, (3, 4, 26, 3))
     np.savez(tmp_path / "k.npz", keypoints=kp, cameras=np.array(["a", "b", "c"]))
-    det = read_keypoints_input(tmp_path / "k.npz")
-    assert det.skeleton.name == "halpe26" and det.times_s[1] == pytest.approx(1 / 30)
+    data = read_keypoints_input(tmp_path / "k.npz")
+    assert data.layout is None and data.recording.skeleton == "halpe26"  # the only 26-keypoint layout
+    assert data.recording.times_s[1] == pytest.approx(1 / 30)
+    np.savez(tmp_path / "named.npz", keypoints=kp[..., :25, :], cameras=np.array(["a", "b", "c"]),
+             skeleton=np.array("body25b"))
+    assert read_keypoints_input(tmp_path / "named.npz").layout == "body25b"
+    assert read_keypoints_input(tmp_path / "named.npz", skeleton="body25").layout == "body25"  # the flag wins
     np.savez(tmp_path / "bad.npz", keypoints=kp, cameras=np.array(["a", "b"]))
     with pytest.raises(ValueError, match="2 camera names for 3 cameras"):
         read_keypoints_input(tmp_path / "bad.npz")
     np.savez(tmp_path / "nocam.npz", keypoints=kp)
     with pytest.raises(ValueError, match="cameras"):
         read_keypoints_input(tmp_path / "nocam.npz")
-    with pytest.raises(ValueError, match="infer"):
-        infer_skeleton(7)
+    np.savez(tmp_path / "seven.npz", keypoints=kp[..., :7, :], cameras=np.array(["a", "b", "c"]))
+    with pytest.raises(ValueError, match="no known layout has 7 keypoints"):
+        read_keypoints_input(tmp_path / "seven.npz")
     with pytest.raises(FileNotFoundError):
         read_keypoints_input(tmp_path / "missing.npz")
 
 
-def test_most_confident_person():
+def test_people_sorted_most_confident_first():
     people = np.zeros((1, 2, 3, 4, 3))
     people[0, 0, 2, :, 2] = 0.9
     people[0, 1, 0, :, 2] = 0.5
     people[..., 0] = np.arange(3)[None, None, :, None]
-    best = most_confident_person(people)
-    assert best.shape == (1, 2, 4, 3) and best[0, 0, 0, 0] == 2 and best[0, 1, 0, 0] == 0
+    ordered = sort_people(people)
+    assert ordered.shape == people.shape and ordered[0, 0, 0, 0, 0] == 2 and ordered[0, 1, 0, 0, 0] == 0
+    assert sorted(ordered[0, 0, :, 0, 0]) == [0, 1, 2]  # nobody dropped
 
 
 def test_trial_mcap_input(tmp_path):
@@ -85,6 +96,8 @@ def test_trial_mcap_input(tmp_path):
             msg = {"camera": cam, "frame_id": f, "timestamp_ns": ts, "skeleton": "halpe26", "people": people.tolist()}
             w.add_keypoints(cam, json.dumps(msg).encode(), timestamp_ns=ts, frame_id=f)
     w.finish({})
-    det = read_keypoints_input(tmp_path / "t.mcap", rig=rig)
+    data = read_keypoints_input(tmp_path / "t.mcap", rig=rig)
+    assert data.layout == "halpe26" and data.rig is not None and data.rig.names == rig.names
+    det = data.recording.patient()
     assert det.keypoints.shape == (2, 3, 26, 3) and det.skeleton.name == "halpe26"
     assert det.keypoints[1, 2, 0, 0] == 12 and det.times_s[1] == pytest.approx(1 / 30, abs=1e-6)

@@ -4,6 +4,7 @@ import logging
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.synthetic.layouts import points_in_layout
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.layout_guess import (
     AmbiguousLayout,
@@ -14,30 +15,6 @@ from gaitcap.reconstruction.layout_guess import (
     score_layout,
 )
 from gaitcap.reconstruction.skeletons import SKELETONS, get_skeleton
-
-# Joints a layout has and Halpe-26 lacks: placed rigidly near the Halpe-26 joint they belong to (mm).
-_NEAR = (("upper_neck", "neck", (0, 0, 40)), ("head_top", "head", (0, 0, 60)), ("pelvis", "pelvis", (0, 0, 0)),
-         ("foot_index", "big_toe", (0, 0, 0)), ("eye_inner", "eye", (0, 0, -8)), ("eye_outer", "eye", (0, 0, 8)),
-         ("mouth", "nose", (0, 0, -50)), ("pinky", "wrist", (0, 0, -60)), ("index", "wrist", (0, 0, -70)),
-         ("thumb", "wrist", (0, 0, -40)), ("hand_", "wrist", (0, 0, -50)), ("face_", "nose", (0, 0, -20)))
-
-
-def in_layout(points26: np.ndarray, layout: str) -> np.ndarray:
-    """Halpe-26 points (T, 26, 3) mm rewritten in ``layout``'s joint order."""
-    halpe, skel = get_skeleton("halpe26"), get_skeleton(layout)
-    out = np.empty((points26.shape[0], skel.num_joints, 3))
-    for j, name in enumerate(skel.joint_names):
-        if halpe.has(name):
-            out[:, j] = points26[:, halpe.index(name)]
-            continue
-        part, side = name, ""
-        for s in ("left_", "right_"):
-            if name.startswith(s):
-                part, side = name[len(s):], s
-        key, offset = next((n, o) for k, n, o in _NEAR if part.startswith(k) or part.endswith(k.rstrip("_")))
-        base = key if key in ("neck", "head", "pelvis", "nose") else side + key
-        out[:, j] = points26[:, halpe.index(base)] + np.asarray(offset, float)
-    return out
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +40,7 @@ def _recognise(rig, det: Detections, explicit=None):
 @pytest.mark.parametrize("layout", sorted(SKELETONS))
 def test_every_layout_is_recognised(walk, layout):
     rig, points, times = walk
-    det = _detections(rig, in_layout(points, layout), times, layout)
+    det = _detections(rig, points_in_layout(points, layout), times, layout)
     choice = _recognise(rig, det)
     assert choice.skeleton == layout, choice.evidence()
     assert choice.score_of(layout).limb_sd_mm < 15, choice.evidence()
@@ -75,7 +52,7 @@ def test_every_layout_is_recognised(walk, layout):
 
 def test_body25b_read_as_body25_is_warned_about(walk, caplog):
     rig, points, times = walk
-    det = _detections(rig, in_layout(points, "body25b"), times, "body25b")
+    det = _detections(rig, points_in_layout(points, "body25b"), times, "body25b")
     choice = _recognise(rig, det, explicit="body25")
     assert choice.skeleton == "body25" and choice.how == "explicit"  # an explicit choice always wins
     assert len(choice.warnings) == 1

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, DetectorConfig
 from gaitcap.acquisition.video_detect import detect_videos, find_videos
-from gaitcap.reconstruction.association.npz_io import load_detections_npz, load_multi_npz
+from gaitcap.reconstruction.association.npz_io import load_multi_npz
+from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
@@ -39,6 +40,12 @@ class BlobConfig(DetectorConfig):
         return BlobDetector()
 
 
+def _one_person(path):
+    """The first (most confident) person of a detect output as one person's detections."""
+    multi = load_multi_npz(path)
+    return Detections(multi.keypoints[:, :, 0], multi.camera_names, multi.times_s, multi.skeleton)
+
+
 def _video(path, n, fps, dx):
     out = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), fps, (64, 48))
     for i in range(n):
@@ -56,17 +63,24 @@ def test_detect_command_writes_the_reconstruction_input(tmp_path, monkeypatch):
     _video(vids / "left.avi", 12, 30, 0)
     _video(vids / "right.avi", 10, 30, 10)
     (vids / "notes.txt").write_text("not a video")
-    out, multi = tmp_path / "kp.npz", tmp_path / "all.npz"
+    out, one = tmp_path / "kp.npz", tmp_path / "one.npz"
     res = CliRunner().invoke(app, ["detect", "--videos", str(vids), "--detector", "test-blob", "--model", "x.onnx",
-                                   "--out", str(out), "--all-people", str(multi)])
+                                   "--out", str(out)])
     assert res.exit_code == 0, res.output
-    det = load_detections_npz(out)
-    assert det.camera_names == ("left", "right") and det.shape == (2, 12, 17)
-    np.testing.assert_allclose(np.diff(det.times_s), 1 / 30, rtol=1e-6)
-    np.testing.assert_allclose(det.keypoints[0, :, 0, 0], 4 + 2 * np.arange(12) + (SQ - 1) / 2, atol=0.6)
-    np.testing.assert_allclose(det.keypoints[0, :, 0, 2], 0.9)  # the confident person, odd frames too
-    assert (det.keypoints[1, 10:, :, 2] == 0).all()  # the shorter file is padded as missing
-    assert load_multi_npz(multi).keypoints.shape == (2, 12, 2, 17, 3)
+    assert "up to 1 people per camera frame" in res.output  # the faint one is below 0.5
+    multi = load_multi_npz(out)  # everyone by default, most confident first
+    assert multi.camera_names == ("left", "right") and multi.keypoints.shape == (2, 12, 2, 17, 3)
+    np.testing.assert_allclose(np.diff(multi.times_s), 1 / 30, rtol=1e-6)
+    np.testing.assert_allclose(multi.keypoints[0, :, 0, 0, 0], 4 + 2 * np.arange(12) + (SQ - 1) / 2, atol=0.6)
+    np.testing.assert_allclose(multi.keypoints[0, :, 0, 0, 2], 0.9)  # the confident person first, odd frames too
+    np.testing.assert_allclose(multi.keypoints[0, 1::2, 1, 0, 2], 0.3)  # the faint one is kept, second
+    assert (multi.keypoints[1, 10:, :, :, 2] == 0).all()  # the shorter file is padded as missing
+    res = CliRunner().invoke(app, ["detect", "--videos", str(vids), "--detector", "test-blob", "--model", "x.onnx",
+                                   "--out", str(one), "--one-per-camera"])
+    assert res.exit_code == 0, res.output
+    det = load_multi_npz(one)
+    assert det.keypoints.shape == (2, 12, 1, 17, 3)
+    np.testing.assert_allclose(det.keypoints[0, :, 0, 0, 2], 0.9)
 
 
 def test_bad_folders_and_rates(tmp_path):
@@ -115,9 +129,9 @@ def test_detect_mediapipe_on_real_video(tmp_path):
     out = tmp_path / "kp.npz"
     lite = default_model_dir() / "pose_landmark_lite.tflite"
     res = CliRunner().invoke(app, ["detect", "--videos", str(vids), "--detector", "mediapipe", "--model", str(lite),
-                                   "--out", str(out)])
+                                   "--out", str(out), "--one-per-camera"])
     assert res.exit_code == 0, res.output
-    det = load_detections_npz(out)
+    det = _one_person(out)
     assert det.camera_names == ("mirror", "side") and det.shape == (2, 12, 33)
     assert det.skeleton.name == "mediapipe33"
     np.testing.assert_allclose(det.times_s, np.arange(12) / 30)
@@ -157,7 +171,7 @@ def test_detect_onnx_model_by_path(tmp_path):
     res = CliRunner().invoke(app, ["detect", "--videos", str(vids), "--detector", "onnx", "--model", str(model),
                                    "--out", str(out)])
     assert res.exit_code == 0, res.output
-    det = load_detections_npz(out)
+    det = _one_person(out)
     assert det.skeleton.name == "coco17" and det.shape == (1, 6, 17)
     # Whole 64x48 image as the box, padded 1.25: one crop px is 80 / 48 image px. The flat square's first
     # brightest crop column / row lies inside the square (give or take one crop px).

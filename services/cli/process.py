@@ -1,0 +1,91 @@
+"""``gaitcap process INPUT --out DIR``: from recordings to a gait report in one command, through the
+worker's processing path (:mod:`gaitcap.services.processing.offline`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+from gaitcap.services.cli._common import progress, user_errors
+
+
+def _echo_summary(result, out: Path) -> None:
+    from gaitcap.services.cli.reconstruct import figure
+
+    typer.echo(f"{result.source}: {len(result.cameras)} cameras ({', '.join(result.cameras)}), {result.frames} frames")
+    typer.echo(result.layout.evidence())
+    for warning in result.layout.warnings:
+        typer.echo(f"warning: {warning}", err=True)
+    if result.selection is not None:
+        typer.echo(f"{result.selection.tracks.num_tracks} people tracked; the patient is track "
+                   f"{result.selection.track_id} (see {out / 'people.json'})")
+    for name, stage in result.stages.items():
+        s = stage.report.summary if stage.report is not None else None
+        if s is None:
+            typer.echo(f"{name} ({stage.trajectory.method}): no gait parameters: {stage.problem}")
+        else:
+            typer.echo(f"{name} ({stage.trajectory.method}): {s.num_steps} steps, cadence "
+                       f"{figure(s.cadence_steps_min, '.1f', 'too few steps')} steps/min, gait speed "
+                       f"{figure(s.gait_speed_m_s, '.2f', 'no straight pass')} m/s")
+        if stage.missing:
+            typer.echo("  joints missing in some frames: " + ", ".join(f"{j} ({n})" for j, n in stage.missing.items()))
+        typer.echo(f"  files: {out / name}/ ({', '.join(sorted(Path(p).name for p in stage.files.values()))})")
+    typer.echo("time: " + ", ".join(f"{k} {v:.1f} s" for k, v in result.timings_s.items()))
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("process")
+    def process_cmd(
+        source: Path = typer.Argument(..., help="A folder of videos (one per camera), a trial MCAP, keypoints (NPZ, "
+                                      "OpenPose/MMPose JSON) or a Pose2Sim, anipose or FreeMoCap folder."),
+        out: Path = typer.Option(..., "--out", help="Output folder: <stage>/trajectory.npz|.trc, gait.json, steps.csv, "
+                                 "report.png, trajectory.rrd, results.mcap; people.json with several people."),
+        calibration: Path | None = typer.Option(
+            None, "--calibration", help="Calibration TOML/JSON (default: the one the input carries)."),
+        skeleton: str | None = typer.Option(None, "--skeleton", help="Keypoint layout (default: the input's, else "
+                                            "recognised from the keypoints)."),
+        person: int | None = typer.Option(None, "--person", help="Several people in view: this track is the patient."),
+        patient_near: str | None = typer.Option(
+            None, "--patient-near", help="Several people in view: the one nearest floor point X,Y mm early on."),
+        detector: str = typer.Option("mediapipe", "--detector", help="Videos: detector kind (mediapipe | onnx)."),
+        model: Path | None = typer.Option(None, "--model", help="Videos: the detector's model file."),
+        param: list[str] = typer.Option([], "--param", help="Videos: other detector config field KEY=VALUE."),
+        fps: float = typer.Option(30.0, "--fps", help="Frame rate when the input has none."),
+        refine: bool = typer.Option(True, "--refine/--no-refine", help="Also run the implicit fit (slower)."),
+        as_json: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),
+    ) -> None:
+        """Detection (videos) -> association -> reconstruction -> gait -> files, as the worker does."""
+        import time
+
+        from gaitcap.reconstruction.jsonable import json_ready
+        from gaitcap.services.cli.detect import build_detector
+        from gaitcap.services.cli.reconstruct import patient_request
+        from gaitcap.services.processing.offline import OfflineOptions, load_input, process_input
+
+        with user_errors():
+            options = OfflineOptions(skeleton=skeleton, fps=fps, refine=refine,
+                                     patient=patient_request(person, patient_near))
+            t0 = time.perf_counter()
+            with progress(desc="detect", unit="frame") as bar:
+                data, rig = load_input(source, calibration=calibration, options=options,
+                                       detector_factory=lambda: build_detector(detector, model, param),
+                                       on_frame=lambda: bar.update(1))
+            read_s = time.perf_counter() - t0
+            with progress(total=3 if refine else 2, desc="stages", unit="stage") as stages, \
+                    progress(desc="fit", unit="step") as fit:
+
+                def on_stage(name: str) -> None:
+                    stages.set_description(name)
+                    stages.update(0 if name == "layout" else 1)
+
+                def on_fit(done: int, total: int) -> None:
+                    fit.total, fit.n = total, done
+                    fit.refresh()
+
+                result = process_input(data, rig, out, options=options, on_stage=on_stage, fit_progress=on_fit,
+                                       timings_s={"read and detect": read_s})
+        if as_json:
+            typer.echo(json.dumps(json_ready(result.summary())))
+        else:
+            _echo_summary(result, out)
