@@ -132,17 +132,12 @@ def process_specs(cfg: StackConfig) -> list[ProcessSpec]:
 
 def register_calibration(cfg: StackConfig) -> str:
     """Store the simulated rig's calibration in the catalog (the API hands it to the recorder)."""
-    import tempfile
-
     from gaitcap.acquisition.drivers.simulated import SimTrialSpec
-    from gaitcap.reconstruction.calibration_io import save_rig
+    from gaitcap.reconstruction.calibration_io import rig_to_toml_text
     from gaitcap.services import catalog as cat
 
     rig = SimTrialSpec(preset=cfg.sim_preset, seconds=5.0, cameras=cfg.cameras, seed=cfg.seed, fps=cfg.fps).make().rig
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "rig.toml"
-        save_rig(rig, path)
-        toml = path.read_text()
+    toml = rig_to_toml_text(rig)
     db = cat.open_catalog(cfg.catalog)
     try:
         latest = cat.latest_calibration(db)
@@ -211,14 +206,14 @@ class Stack:
         while time.monotonic() < deadline:
             try:
                 seen = [c for c in httpx.get(f"{self.cfg.url}/cameras", headers=headers, timeout=5).json()
-                        if c["healthy"]]
+                        if c["healthy"] or c["status"].startswith("slow")]  # delivering (a slow one is judged at Start)
             except httpx.HTTPError:
                 seen = []
             if len(seen) >= self.cfg.cameras:
                 return
             self.supervisor.poll()
             time.sleep(0.5)
-        raise RuntimeError(f"only {len(seen)} of {self.cfg.cameras} cameras healthy; logs in {self.supervisor.log_dir}")
+        raise RuntimeError(f"only {len(seen)} of {self.cfg.cameras} cameras delivering; logs in {self.supervisor.log_dir}")
 
     def _wait_keypoints(self, deadline: float) -> None:
         from gaitcap.services.bus.session import open_session

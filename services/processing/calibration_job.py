@@ -12,9 +12,7 @@ import argparse
 import logging
 import subprocess
 import sys
-import tempfile
 import time
-from pathlib import Path
 
 from gaitcap.services.catalog import open_catalog
 from gaitcap.services.catalog.calibration_runs import (
@@ -29,12 +27,9 @@ log = logging.getLogger(__name__)
 
 
 def _toml_text(rig, rms_px: float) -> str:
-    from gaitcap.reconstruction.calibration_io import save_rig
+    from gaitcap.reconstruction.calibration_io import rig_to_toml_text
 
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "calibration.toml"
-        save_rig(rig, path, metadata={"error": rms_px})
-        return path.read_text()
+    return rig_to_toml_text(rig, metadata={"error": rms_px})
 
 
 def run_calibration(catalog, run_id: str, *, expected_images: int | None = None, board=None) -> None:
