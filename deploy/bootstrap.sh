@@ -182,9 +182,65 @@ PYEOF
   rm -rf "$tmp"
   return $rc
 }
+# Real calibration recordings for the calibration tests (BSD licences, kept beside them): caliscope's
+# 4-webcam ChArUco session (its corner detections, board file and calibration) and real checkerboard
+# frames from the caliscope 0.7.5 sdist; the Pose2Sim wheel's single-person demo calibration folder
+# (checkerboard intrinsics images, its Config.toml and the Qualisys calibration of the same cameras).
+CALISCOPE_VERSION="0.7.5"
+install_calibration_recordings() {
+  local dest="$SHARE/testdata/calibration" tmp
+  [ -f "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION" ] && return 0
+  echo "[bootstrap] fetching real calibration recordings (sdist caliscope==$CALISCOPE_VERSION and wheel" \
+    "pose2sim==$POSE2SIM_VERSION, not installed)" >&2
+  tmp="$(mktemp -d)" || return 1
+  "$VENV/bin/python" -m pip download -q --no-deps --no-binary :all: -d "$tmp" "caliscope==$CALISCOPE_VERSION" \
+    && "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "pose2sim==$POSE2SIM_VERSION" \
+    && "$VENV/bin/python" - "$tmp" "$dest" "$CALISCOPE_VERSION" "$POSE2SIM_VERSION" <<'PYEOF'
+import glob, os, shutil, sys, tarfile, zipfile
+tmp, dest, cs_version, p2s_version = sys.argv[1:5]
+shutil.rmtree(dest, ignore_errors=True)
+root = f"caliscope-{cs_version}/"
+keep = {  # path in the sdist -> path under dest
+    "tests/sessions/4_cam_recording/charuco.toml": "caliscope-4cam/charuco.toml",
+    "tests/sessions/4_cam_recording/camera_array.toml": "caliscope-4cam/camera_array.toml",
+    "tests/sessions/4_cam_recording/calibration/extrinsic/xy.csv": "caliscope-4cam/calibration/extrinsic/xy.csv",
+    "tests/sessions/4_cam_recording/calibration/extrinsic/timestamps.csv":
+        "caliscope-4cam/calibration/extrinsic/timestamps.csv",
+    "LICENSE": "caliscope-4cam/LICENSE",
+}
+with tarfile.open(glob.glob(os.path.join(tmp, f"caliscope-{cs_version}.tar.gz"))[0]) as tar:
+    for member in tar.getmembers():
+        name = member.name[len(root):]
+        target = keep.get(name)
+        if target is None and name.startswith("tests/sessions/chessboard_intrinsic/") and name.endswith(".jpg"):
+            target = "caliscope-chessboard/" + os.path.basename(name)
+        if target is None:
+            continue
+        path = os.path.join(dest, target)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, "wb") as f:
+            f.write(tar.extractfile(member).read())
+shutil.copy(os.path.join(dest, "caliscope-4cam/LICENSE"), os.path.join(dest, "caliscope-chessboard/LICENSE"))
+prefix = "Pose2Sim/Demo_SinglePerson/"
+with zipfile.ZipFile(glob.glob(os.path.join(tmp, f"pose2sim-{p2s_version}-*.whl"))[0]) as z:
+    for name in z.namelist():
+        if name.startswith(prefix + "calibration/") and name.endswith((".jpg", ".qca.txt")) \
+                or name == prefix + "Config.toml" or name.endswith("LICENSE"):
+            rel = "LICENSE" if name.endswith("LICENSE") else name[len(prefix):]
+            path = os.path.join(dest, "pose2sim-single", rel)
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+            with open(path, "wb") as f:
+                f.write(z.read(name))
+PYEOF
+  local rc=$?
+  [ $rc -eq 0 ] && touch "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION"
+  rm -rf "$tmp"
+  return $rc
+}
 install_mediapipe_models || echo "[bootstrap] WARNING: MediaPipe Pose models not installed (needs npm)" >&2
 install_test_video || echo "[bootstrap] WARNING: detector test video not installed" >&2
 install_opensim_setup || echo "[bootstrap] WARNING: OpenSim model and setups not installed" >&2
 install_gait_norms || echo "[bootstrap] WARNING: normal-gait kinematics not installed" >&2
 install_gait_mocap || echo "[bootstrap] WARNING: real gait walks not installed (gait tests on them skip)" >&2
 install_pose2sim_demos || echo "[bootstrap] WARNING: Pose2Sim demo recordings not installed (tests on them skip)" >&2
+install_calibration_recordings || echo "[bootstrap] WARNING: real calibration recordings not installed (tests on them skip)" >&2
