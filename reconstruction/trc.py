@@ -3,15 +3,19 @@
 from __future__ import annotations
 
 import numpy as np
+from gaitcap.reconstruction.kinematics.frames import room_to_opensim
+
+UNIT_SCALES = {"mm": 1.0, "m": 1e-3}
 
 
 def to_trc(
     points_mm: np.ndarray, times_s: np.ndarray, joint_names, *, filename: str = "trial.trc", units: str = "mm"
 ) -> str:
-    """Tab-separated TRC text of points (T, J, 3) mm at times (T,) s, one marker per joint.
+    """Tab-separated TRC text of points (T, J, 3) mm in the room frame at times (T,) s, one marker per name.
 
-    Coordinates are written in the world frame of the calibration (z up in gaitcap's synthetic rig) in
-    ``units`` ("mm" or "m"). NaN points are written as empty fields (OpenSim reads them as gaps).
+    Written in OpenSim's convention: y up (X = room x, Y = room z, Z = -room y), in ``units`` ("mm" or "m",
+    named in the header's Units column, which OpenSim reads). NaN points are written as empty fields
+    (OpenSim reads them as gaps).
     """
     pts = np.asarray(points_mm, dtype=np.float64)
     times = np.asarray(times_s, dtype=np.float64).reshape(-1)
@@ -22,7 +26,7 @@ def to_trc(
         raise ValueError(f"times_s: {times.size} times for {pts.shape[0]} frames")
     if pts.shape[1] != len(names):
         raise ValueError(f"joint_names: {len(names)} names for {pts.shape[1]} joints")
-    scale = {"mm": 1.0, "m": 1e-3}.get(units)
+    scale = UNIT_SCALES.get(units)
     if scale is None:
         raise ValueError(f"units: expected 'mm' or 'm', got {units!r}")
     t, j = pts.shape[:2]
@@ -35,7 +39,8 @@ def to_trc(
         "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, j + 1)),
         "",
     ]
+    values = room_to_opensim(pts) * scale
     for f in range(t):
-        vals = ["" if not np.isfinite(v) else f"{v * scale:.5f}" for v in pts[f].reshape(-1)]
-        lines.append(f"{f + 1}\t{times[f]:.5f}\t" + "\t".join(vals))
+        vals = ["" if not np.isfinite(v) else f"{v:.6f}" for v in values[f].reshape(-1)]
+        lines.append(f"{f + 1}\t{times[f]:.6f}\t" + "\t".join(vals))
     return "\n".join(lines) + "\n"

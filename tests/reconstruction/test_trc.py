@@ -13,10 +13,10 @@ def test_trc_layout_and_gaps():
     assert lines[3].startswith("Frame#\tTime\ta\t\t\tb")
     assert lines[4].split("\t")[2:5] == ["X1", "Y1", "Z1"]
     row1 = lines[6].split("\t")
-    assert row1[0] == "1" and float(row1[4]) == 2.0
+    assert row1[0] == "1" and [float(v) for v in row1[2:5]] == [0.0, 2.0, -1.0]  # OpenSim frame: y up
     row2 = lines[7].split("\t")
     assert row2[2:5] == ["", "", ""] and float(row2[5]) == 9.0
-    assert float(to_trc(pts, [0, 0.1], ["a", "b"], units="m").splitlines()[6].split("\t")[4]) == 0.002
+    assert float(to_trc(pts, [0, 0.1], ["a", "b"], units="m").splitlines()[6].split("\t")[3]) == 0.002
 
 
 def test_trc_bad_input_named():

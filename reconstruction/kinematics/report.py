@@ -1,0 +1,75 @@
+"""The kinematics report of a trial: gait-cycle curves (mean +- SD per side), key clinical values, norms,
+marker errors of the model fit. JSON-ready via :meth:`KinematicsReport.to_dict`, CSV via :meth:`to_csv`."""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, field
+
+import numpy as np
+from gaitcap.reconstruction.kinematics.angles import SIDES, clinical_angles
+from gaitcap.reconstruction.kinematics.clinical import key_values
+from gaitcap.reconstruction.kinematics.cycles import (
+    CYCLE_POINTS,
+    CycleCurves,
+    cycle_curves,
+    cycles_from_steps,
+)
+from gaitcap.reconstruction.kinematics.norms import SOURCE, NormBand
+
+
+def _list(a: np.ndarray) -> list[float | None]:
+    return [None if not np.isfinite(v) else round(float(v), 2) for v in a]
+
+
+@dataclass(frozen=True, eq=False)
+class KinematicsReport:
+    """curves: variable -> side -> CycleCurves; key_values: side -> name -> stats; norms: variable ->
+    NormBand; marker_errors_mm: marker -> {"rms", "max"}; model: facts about the fit (engine, seconds...)."""
+
+    curves: dict[str, dict[str, CycleCurves]]
+    key_values: dict[str, dict[str, dict]]
+    norms: dict[str, NormBand] = field(default_factory=dict)
+    marker_errors_mm: dict[str, dict[str, float]] = field(default_factory=dict)
+    model: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        curves = {var: {side: {"n_cycles": cc.n, "mean_deg": _list(cc.mean), "sd_deg": _list(cc.sd)}
+                        for side, cc in by_side.items()} for var, by_side in self.curves.items()}
+        return {
+            "units": {"angles": "deg", "cycle": "% of gait cycle (0..100, 101 points)", "marker_errors": "mm"},
+            "percent": list(range(CYCLE_POINTS)), "curves": curves, "key_values": self.key_values,
+            "norms": {"source": SOURCE if self.norms else None,
+                      "bands": {k: v.to_dict() for k, v in self.norms.items()}},
+            "marker_errors_mm": self.marker_errors_mm, "model": self.model,
+        }
+
+    def to_csv(self) -> str:
+        """One row per % of the cycle: mean and SD of every variable and side (degrees), norm mean and SD."""
+        cols, data = ["percent"], [np.arange(CYCLE_POINTS, dtype=float)]
+        for var, by_side in self.curves.items():
+            for side in SIDES:
+                cc = by_side[side]
+                cols += [f"{var}_{side}_mean_deg", f"{var}_{side}_sd_deg"]
+                data += [cc.mean, cc.sd]
+            if var in self.norms:
+                cols += [f"{var}_norm_mean_deg", f"{var}_norm_sd_deg"]
+                data += [self.norms[var].mean, self.norms[var].sd]
+        out = io.StringIO()
+        out.write(",".join(cols) + "\n")
+        for row in np.column_stack(data):
+            out.write(",".join("" if not np.isfinite(v) else f"{v:.3f}" for v in row) + "\n")
+        return out.getvalue()
+
+
+def kinematics_report(coordinates_deg: dict[str, np.ndarray], times_s: np.ndarray, steps, *,
+                      norms: dict[str, NormBand] | None = None, marker_errors_mm=None,
+                      model: dict | None = None) -> KinematicsReport:
+    """Curves and key values from the model's coordinates (name -> (T,) degrees) and the gait report's
+    steps (objects with foot, heel_strike_s, toe_off_s, pass_index)."""
+    cycles = cycles_from_steps(steps)
+    angles = clinical_angles(coordinates_deg)
+    curves = {var: {side: cycle_curves(vals[side], times_s, cycles, side) for side in SIDES}
+              for var, vals in angles.items()}
+    keys = {side: key_values({var: curves[var][side] for var in curves}) for side in SIDES}
+    return KinematicsReport(curves, keys, dict(norms or {}), dict(marker_errors_mm or {}), dict(model or {}))

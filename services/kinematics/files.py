@@ -1,0 +1,46 @@
+"""Where deploy/bootstrap.sh installs the OpenSim model, marker sets, scaling/IK setups and the norms."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from functools import lru_cache
+from pathlib import Path
+
+from gaitcap.reconstruction.kinematics.norms import NormBand, bands_from_schwartz
+
+MODEL_FILE = "Model_Pose2Sim_simple.osim"
+
+
+def setup_dir() -> Path:
+    """``$GAITCAP_OPENSIM_DIR`` or ``<venv>/share/gaitcap/opensim``."""
+    env = os.environ.get("GAITCAP_OPENSIM_DIR")
+    return Path(env) if env else Path(sys.prefix) / "share" / "gaitcap" / "opensim"
+
+
+def norms_file() -> Path:
+    """``$GAITCAP_NORMS_FILE`` or ``<venv>/share/gaitcap/normative/Schwartz2008.json``."""
+    env = os.environ.get("GAITCAP_NORMS_FILE")
+    return Path(env) if env else Path(sys.prefix) / "share" / "gaitcap" / "normative" / "Schwartz2008.json"
+
+
+def setup_files(setup: str) -> dict[str, Path]:
+    """model, markers, scaling and ik files of a marker layout (FileNotFoundError naming the missing ones)."""
+    d = setup_dir()
+    marker_name = "BlazePose" if setup == "Blazepose" else setup
+    files = {"model": d / MODEL_FILE, "markers": d / f"Markers_{marker_name}.xml",
+             "scaling": d / f"Scaling_Setup_Pose2Sim_{setup}.xml", "ik": d / f"IK_Setup_Pose2Sim_{setup}.xml"}
+    missing = [str(p) for p in files.values() if not p.is_file()]
+    if missing:
+        raise FileNotFoundError(f"OpenSim setup files missing (run deploy/bootstrap.sh): {', '.join(missing)}")
+    return files
+
+
+@lru_cache(maxsize=1)
+def norm_bands() -> dict[str, NormBand]:
+    """The normal-gait bands, {} when the norms file is not installed."""
+    path = norms_file()
+    if not path.is_file():
+        return {}
+    return bands_from_schwartz(json.loads(path.read_text()))

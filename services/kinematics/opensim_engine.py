@@ -1,0 +1,224 @@
+"""The OpenSim engine: Pose2Sim's full-body model (pelvis, hips, knees, ankles, subtalar, lumbar, shoulders,
+elbows) scaled to the patient's segment lengths, then inverse kinematics frame by frame.
+
+Scaling: for every measurement of the layout's scaling setup (e.g. thigh = hip-knee of both sides), the
+ratio of the median distance between the two keypoints over the trial's frames (robust to outlier frames,
+and valid on walking frames, which averaging marker positions like OpenSim's ScaleTool is not) to the
+same distance on the unscaled model; the ratio scales the measurement's bodies on its axes. Inverse
+kinematics: OpenSim's InverseKinematicsSolver with the setup's marker weights times the reconstruction's
+confidence in each marker; frames without both hips, knees and ankles are not fitted (NaN).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+from gaitcap.reconstruction.fileio import atomic_write_text
+from gaitcap.reconstruction.kinematics.frames import opensim_to_room, room_to_opensim
+from gaitcap.reconstruction.kinematics.mot import to_mot
+from gaitcap.reconstruction.trc import to_trc
+from gaitcap.services.kinematics.base import FitRequest, KinematicsUnavailable, ModelFit
+from gaitcap.services.kinematics.files import MODEL_FILE, setup_dir, setup_files
+
+log = logging.getLogger(__name__)
+LEG_MARKERS = ("LHip", "RHip", "LKnee", "RKnee", "LAnkle", "RAnkle")
+IK_ACCURACY = 1e-4
+
+
+def _import_opensim():
+    try:
+        import opensim
+    except ImportError as exc:
+        raise KinematicsUnavailable(f"the 'opensim' package is not installed ({exc}); install gaitcap with "
+                                    "its 'kinematics' extra") from None
+    return opensim
+
+
+def scale_factors(setup_xml: Path, markers_m: np.ndarray, names: tuple[str, ...],
+                  model_markers_m: dict[str, np.ndarray]) -> dict[str, tuple[float, float, float]]:
+    """body -> (x, y, z) scale factors from the setup's measurements (see the module docstring)."""
+    col = {n: i for i, n in enumerate(names)}
+    out: dict[str, tuple[float, float, float]] = {}
+    for meas in ET.parse(setup_xml).getroot().iter("Measurement"):
+        if (meas.findtext("apply") or "").strip().lower() != "true":
+            continue
+        ratios = []
+        for pair in meas.iter("MarkerPair"):
+            a, b = (pair.findtext("markers") or "").split()
+            if not all(m in col and m in model_markers_m for m in (a, b)):
+                continue
+            d = np.linalg.norm(markers_m[:, col[a]] - markers_m[:, col[b]], axis=-1)
+            d = d[np.isfinite(d)]
+            model_d = float(np.linalg.norm(model_markers_m[a] - model_markers_m[b]))
+            if d.size >= 3 and model_d > 1e-6:
+                ratios.append(float(np.median(d)) / model_d)
+        if not ratios:
+            log.info("scaling: no keypoints for measurement %s; its bodies keep the model's size", meas.get("name"))
+            continue
+        r = float(np.mean(ratios))
+        for body in meas.iter("BodyScale"):
+            axes = (body.findtext("axes") or "X Y Z").split()
+            out[body.get("name")] = tuple(r if ax in axes else 1.0 for ax in "XYZ")
+    return out
+
+
+def _ik_weights(ik_xml: Path) -> dict[str, float]:
+    out = {}
+    for task in ET.parse(ik_xml).getroot().iter("IKMarkerTask"):
+        if (task.findtext("apply") or "true").strip().lower() == "true":
+            out[task.get("name")] = float(task.findtext("weight") or 1.0)
+    return out
+
+
+def _initial_pose(model, state, frame_mm: np.ndarray, names: tuple[str, ...]) -> None:
+    """Start the solver from the patient's place and heading (pelvis between the hips, facing forward) and
+    the model's default joint angles, so that assembly does not fall into a twisted local minimum."""
+    cs = model.getCoordinateSet()
+    for i in range(cs.getSize()):
+        c = cs.get(i)
+        c.setValue(state, c.getDefaultValue(), False)
+    hips = room_to_opensim(frame_mm[[names.index("LHip"), names.index("RHip")]]) / 1000.0
+    right = hips[1] - hips[0]
+    forward = np.cross([0.0, 1.0, 0.0], right)
+    centre = hips.mean(axis=0)
+    for name, value in (("pelvis_rotation", math.atan2(-forward[2], forward[0])), ("pelvis_tx", centre[0]),
+                        ("pelvis_tz", centre[2])):
+        if cs.contains(name):
+            cs.get(name).setValue(state, float(value), False)
+    model.assemble(state)
+
+
+def _coordinate_tasks(ik_xml: Path) -> list[tuple[str, float, str, float]]:
+    """(coordinate, weight, value_type, value) of the setup's applied coordinate tasks."""
+    out = []
+    for task in ET.parse(ik_xml).getroot().iter("IKCoordinateTask"):
+        if (task.findtext("apply") or "true").strip().lower() == "true":
+            out.append((task.get("name"), float(task.findtext("weight") or 0.0),
+                        (task.findtext("value_type") or "default_value").strip(), float(task.findtext("value") or 0.0)))
+    return out
+
+
+class OpenSimEngine:
+    name = "opensim"
+
+    def __init__(self) -> None:
+        self.osim = _import_opensim()
+        if not (setup_dir() / MODEL_FILE).is_file():
+            raise KinematicsUnavailable(f"the OpenSim model {setup_dir() / MODEL_FILE} is not installed (run "
+                                        "deploy/bootstrap.sh)")
+        self.osim.Logger.setLevelString("Error")
+
+    def zero_pose_markers_mm(self, setup: str) -> dict[str, np.ndarray]:
+        """marker -> (3,) mm in the room frame (z up) of the unscaled model in its zero pose."""
+        files = setup_files(setup)
+        model = self.osim.Model(str(files["model"]))
+        model.set_MarkerSet(self.osim.MarkerSet(str(files["markers"])))
+        state = model.initSystem()
+        ms = model.getMarkerSet()
+        return {ms.get(i).getName(): opensim_to_room(ms.get(i).getLocationInGround(state).to_numpy()) * 1000.0
+                for i in range(ms.getSize())}
+
+    def fit(self, request: FitRequest) -> ModelFit:
+        req = request
+        pts = np.asarray(req.points_mm, dtype=np.float64)
+        if pts.ndim != 3 or pts.shape[1:] != (len(req.marker_names), 3) or pts.shape[0] != len(req.times_s):
+            raise ValueError(f"points_mm: expected ({len(req.times_s)}, {len(req.marker_names)}, 3), got {pts.shape}")
+        try:
+            files = setup_files(req.setup)
+        except FileNotFoundError as exc:
+            raise KinematicsUnavailable(str(exc)) from None
+        out = Path(req.out_dir)
+        paths = {k: out / f"{req.stem}.{k}" for k in ("trc", "osim", "mot")}
+        times = np.round(np.asarray(req.times_s, dtype=np.float64), 6)
+        atomic_write_text(paths["trc"], to_trc(pts, times, req.marker_names, filename=paths["trc"].name, units="m"))
+        t0 = time.perf_counter()
+        factors = self._scale(files, room_to_opensim(pts) / 1000.0, req, paths["osim"])
+        t1 = time.perf_counter()
+        coords, errors = self._ik(files, paths, req, times, pts)
+        t2 = time.perf_counter()
+        atomic_write_text(paths["mot"], to_mot(times, coords, name=req.stem))
+        return ModelFit(times, coords, errors, paths, {b: f[0] for b, f in factors.items()},
+                        {"scale": round(t1 - t0, 3), "ik": round(t2 - t1, 3)})
+
+    def _scale(self, files, markers_m, req: FitRequest, out_path: Path) -> dict:
+        osim = self.osim
+        model = osim.Model(str(files["model"]))
+        model.set_MarkerSet(osim.MarkerSet(str(files["markers"])))
+        state = model.initSystem()
+        ms = model.getMarkerSet()
+        model_markers = {ms.get(i).getName(): ms.get(i).getLocationInGround(state).to_numpy()
+                         for i in range(ms.getSize())}
+        factors = scale_factors(files["scaling"], markers_m, req.marker_names, model_markers)
+        if not factors:
+            raise ValueError("scaling: no segment could be measured (every keypoint pair is missing)")
+        scale_set = osim.ScaleSet()
+        bodies = model.getBodySet()
+        for body, f in factors.items():
+            if not bodies.contains(body):
+                continue
+            s = osim.Scale()
+            s.setSegmentName(body)
+            s.setScaleFactors(osim.Vec3(*f))
+            s.setApply(True)
+            scale_set.cloneAndAppend(s)
+        model.scale(state, scale_set, True, float(req.mass_kg))
+        model.setName(req.stem)
+        out_path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out_path.with_name(f".{out_path.name}.tmp")
+        model.printToXML(str(tmp))
+        tmp.replace(out_path)
+        return factors
+
+    def _ik(self, files, paths, req: FitRequest, times: np.ndarray, pts: np.ndarray):
+        osim = self.osim
+        model = osim.Model(str(paths["osim"]))
+        state = model.initSystem()
+        setup_w = _ik_weights(files["ik"])
+        weights = osim.SetMarkerWeights()
+        used = []
+        for name, conf in zip(req.marker_names, np.asarray(req.weights, dtype=float), strict=True):
+            if name in setup_w and model.getMarkerSet().contains(name) and conf > 0 and setup_w[name] > 0:
+                weights.cloneAndAppend(osim.MarkerWeight(name, setup_w[name] * float(conf)))
+                used.append(name)
+        mref = osim.MarkersReference(str(paths["trc"]), weights)
+        coord_refs = osim.SimTKArrayCoordinateReference()
+        for name, weight, kind, value in _coordinate_tasks(files["ik"]):
+            if weight > 0 and model.getCoordinateSet().contains(name):
+                target = model.getCoordinateSet().get(name).getDefaultValue() if kind == "default_value" else value
+                coord_refs.push_back(osim.CoordinateReference(name, osim.Constant(target)))
+                coord_refs.back().setWeight(weight)
+        solver = osim.InverseKinematicsSolver(model, mref, coord_refs, math.inf)
+        solver.setAccuracy(IK_ACCURACY)
+        cset = model.getCoordinateSet()
+        coords = [cset.get(i) for i in range(cset.getSize())]
+        rot = [c.getMotionType() == 1 for c in coords]  # 1 = Rotational
+        values = np.full((len(times), len(coords)), np.nan)
+        legs = [req.marker_names.index(m) for m in LEG_MARKERS if m in req.marker_names]
+        ok = np.isfinite(pts[:, legs]).all(axis=(1, 2)) if legs else np.zeros(len(times), bool)
+        dist_m: dict[str, list[float]] = {}
+        errs = osim.SimTKArrayDouble()
+        assembled_at = -2
+        for f in np.nonzero(ok)[0]:
+            state.setTime(float(times[f]))
+            if assembled_at != f - 1:
+                _initial_pose(model, state, pts[f], req.marker_names)
+                solver.assemble(state)
+            else:
+                solver.track(state)
+            assembled_at = f
+            values[f] = [c.getValue(state) for c in coords]
+            solver.computeCurrentMarkerErrors(errs)
+            for i in range(errs.size()):
+                dist_m.setdefault(solver.getMarkerNameForIndex(i), []).append(errs.getElt(i))
+        values[:, rot] = np.degrees(values[:, rot])
+        errors = {m: {"rms": round(1000 * float(np.sqrt(np.mean(np.square(e)))), 2),
+                      "max": round(1000 * float(np.max(e)), 2)} for m, e in dist_m.items() if e}
+        if not ok.any():
+            raise ValueError("inverse kinematics: no frame has both hips, knees and ankles")
+        log.info("IK: %d of %d frames fitted with %d markers", int(ok.sum()), len(times), len(used))
+        return {c.getName(): values[:, i] for i, c in enumerate(coords)}, errors
