@@ -159,6 +159,3 @@ def reconstruct(
     metrics = compute_metrics(rec.points_mm, detections, rig, truth_mm=truth_mm)
     log.info("%s: %s", rec.method, {k: v for k, v in metrics.items() if not isinstance(v, dict)})
     return Reconstruction(**{**rec.__dict__, "metrics": metrics})
-
-# Aliases: the configs are also known by these names.
-DLTConfig, RobustConfig, ExplicitConfig, ImplicitConfig = DLT, Robust, Explicit, Implicit

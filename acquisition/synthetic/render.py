@@ -195,9 +195,3 @@ def render_frame(trial, camera_index: int, frame_index: int, size_px: tuple[int,
         cmds += _draw_person(img, cam, pts[p], heights[p], _OUTFITS[p % len(_OUTFITS)])
     _execute(img, cmds)
     return img
-
-
-def render_frames(trial, camera_index: int, frame_indices, size_px: tuple[int, int] = (640, 480)):
-    """Yield rendered frames for several frame indices of one camera (the background is reused)."""
-    for i in frame_indices:
-        yield render_frame(trial, camera_index, int(i), size_px)

@@ -40,10 +40,6 @@ class MultiPersonDetections:
         """The keypoints (C, T, P, J, 3), so ``np.asarray(trial.multi)`` works like a plain array."""
         return np.asarray(self.keypoints, dtype=dtype)
 
-    @property
-    def num_people(self) -> int:
-        return int(self.points_mm.shape[0])
-
     def person(self, p: int) -> np.ndarray:
         """(C, T, J, 3) detections of person ``p`` gathered from the slots (NaN / 0 where not detected)."""
         c, t, n, j, _ = self.keypoints.shape
@@ -83,11 +79,6 @@ class SyntheticTrial:
     def all_points_mm(self) -> np.ndarray:
         """(P, T, J, 3): every person's ground truth (patient first)."""
         return self.multi.points_mm if self.multi is not None else self.points_mm[None]
-
-    @property
-    def capture_times_s(self) -> np.ndarray:
-        """(C, T) true capture time of each camera frame: frame time + clock offset + jitter."""
-        return self.times_s[None, :] + (self.clock_offsets_ns[:, None] + self.jitter_ns) * 1e-9
 
 
 def _velocity(points: np.ndarray, times: np.ndarray) -> np.ndarray:

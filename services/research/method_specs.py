@@ -84,16 +84,6 @@ class MethodSpec:
     def to_dict(self) -> dict[str, Any]:
         return {"method": self.method, "preset": self.preset, "params": dict(self.params), "label": self.label}
 
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> MethodSpec:
-        unknown = sorted(set(data) - {"method", "preset", "params", "label"})
-        if unknown:
-            raise ValueError(f"method spec: unknown fields {unknown}")
-        if "method" not in data:
-            raise ValueError("method spec: 'method' is missing")
-        return cls(str(data["method"]), dict(data.get("params") or {}), str(data.get("preset") or ""),
-                   str(data.get("label") or ""))
-
 
 def parse_method(text: str) -> MethodSpec:
     """``name[@preset][:key=value,key=value]`` -> MethodSpec (values: numbers, true/false, none)."""
