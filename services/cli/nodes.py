@@ -177,19 +177,22 @@ def recorder_cmd(
     flush_s: float = typer.Option(1.0, "--flush-s", help="At most this much data is lost on a crash, s."),
     data_dir: Path = typer.Option(DEFAULT_DATA_DIR, "--data-dir", envvar="GAITCAP_DATA_DIR",
                                   help="The only folder the recorder writes into (trial paths must be inside)."),
+    queue_max: int = typer.Option(1000, "--queue-max", help="Messages queued for the disk at most."),
+    queue_block_s: float = typer.Option(0.25, "--queue-block-s", help="Wait this long for room, then drop, s."),
 ) -> None:
     """Record trials (started and stopped over the bus) into MCAP files inside the data folder."""
     from gaitcap.acquisition.recording.writer import WriterSettings
     from gaitcap.services.bus.session import default_bus_config, open_session
-    from gaitcap.services.nodes.recorder import RecorderNode
+    from gaitcap.services.nodes.recorder import QueuePolicy, RecorderNode
 
     with user_errors():
         settings = WriterSettings(compression=compression, chunk_size_bytes=int(chunk_mb * 2**20),
                                   flush_interval_s=flush_s)
+        policy = QueuePolicy(max_items=queue_max, block_s=queue_block_s)
         cfg = default_bus_config(bus)
         session = open_session(cfg, node)
     stopper = _stop_event()
-    rec = RecorderNode(session, cfg, node, data_root=data_dir, settings=settings)
+    rec = RecorderNode(session, cfg, node, data_root=data_dir, settings=settings, policy=policy)
     typer.echo(f"recorder node {node} ready on {cfg.prefix}")
     stopper.wait()
     rec.close()

@@ -7,16 +7,23 @@ Implements :class:`gaitcap.services.live.protocols.Link` with ``gaitcap.services
 from __future__ import annotations
 
 import logging
+import os
 import time
 
+from gaitcap.services.live.nodes import NodeBoard
 from gaitcap.services.live.protocols import CameraHealth, RecorderUnavailable
+from gaitcap.services.processing.quality import QualityCriteria
 
 log = logging.getLogger(__name__)
 STALE_S = 3.0  # no status or frame for this long: the camera is reported as "no signal"
+# below the sync criteria's frame rate a camera is not healthy (28 Hz for 30 Hz cameras; GAITCAP_MIN_FPS)
+MIN_FPS = float(os.environ.get("GAITCAP_MIN_FPS", QualityCriteria().min_fps_at(30.0)))
 
 
-def camera_health(name: str, status: dict | None, frame_age_s: float | None, now_s: float) -> CameraHealth:
-    """Health in words from the camera's latest status message and the age of its newest frame."""
+def camera_health(name: str, status: dict | None, frame_age_s: float | None, now_s: float,
+                  min_fps: float = MIN_FPS) -> CameraHealth:
+    """Health in words from the camera's latest status message and the age of its newest frame; a
+    camera delivering below ``min_fps`` (Hz) is not healthy ("slow")."""
     status = status or {}
     fps = float(status.get("fps") or 0.0)
     status_age = now_s - status.get("time_ns", 0) / 1e9 if status else float("inf")
@@ -28,10 +35,13 @@ def camera_health(name: str, status: dict | None, frame_age_s: float | None, now
         words, ok = f"error: {status['error']}", False
     elif health != "ok":
         words, ok = health, False
+    elif status and fps < min_fps:
+        words, ok = f"slow: {fps:.0f} fps (needs {min_fps:.0f})", False
     else:
         words, ok = "ok", True
     details = {k: status.get(k) for k in ("state", "frames", "drops", "ptp_jumps") if k in status}
-    return CameraHealth(name, fps, ok, words, age if age != float("inf") else -1.0, details)
+    delivering = ok or words.startswith("slow")
+    return CameraHealth(name, fps, ok, words, age if age != float("inf") else -1.0, details, delivering)
 
 
 class BusLink:
@@ -45,8 +55,10 @@ class BusLink:
         self.session = open_session(bus, node)
         self._alive = declare_alive(self.session, bus, node) if node else None
         self.recorder = RecorderClient(self.session, bus.keys, timeout_s=timeout_s)
+        self._recorder_status = RecorderClient(self.session, bus.keys, timeout_s=1.0)
         self.status_board = CameraStatusBoard(self.session, bus.keys)
         self.previews = PreviewFrames(self.session, bus.keys)
+        self.node_board = NodeBoard(self.session, bus)
 
     def start(self, *, trial_id: str, path: str, metadata: dict) -> None:
         from gaitcap.services.bus.control import RecorderError
@@ -80,12 +92,24 @@ class BusLink:
         return [camera_health(n, statuses.get(n), now - frames[n].received_s if n in frames else None, now)
                 for n in names]
 
+    def nodes(self) -> dict:
+        return self.node_board.snapshot()
+
+    def recorder_status(self) -> dict | None:
+        from gaitcap.services.bus.control import RecorderError
+
+        try:
+            reply = self._recorder_status.status()
+        except RecorderError:
+            return None
+        return {"trial_id": reply.trial_id, "recording": reply.recording, "queued": reply.queued}
+
     def preview(self, camera: str) -> tuple[float, bytes] | None:
         frame = self.previews.latest().get(camera)
         return None if frame is None else (frame.received_s, frame.jpeg)
 
     def close(self) -> None:
-        for item in (self.status_board, self.previews):
+        for item in (self.status_board, self.previews, self.node_board):
             try:
                 item.close()
             except Exception:  # closing during shutdown: nothing left to do

@@ -17,7 +17,8 @@ class RecorderUnavailable(RuntimeError):
 
 @dataclass(frozen=True)
 class CameraHealth:
-    """One camera as seen on the bus: frame rate (Hz), health in words, last frame age (s)."""
+    """One camera as seen on the bus: frame rate (Hz), health in words, last frame age (s); ``delivering``:
+    frames arrive (a slow camera delivers but is not healthy)."""
 
     name: str
     fps: float
@@ -25,6 +26,11 @@ class CameraHealth:
     status: str
     age_s: float
     details: dict = field(default_factory=dict)
+    delivering: bool | None = None  # images arrive (perhaps too slowly); None: same as ``healthy``
+
+    @property
+    def has_signal(self) -> bool:
+        return self.healthy if self.delivering is None else self.delivering
 
 
 class TrialRecorder(Protocol):

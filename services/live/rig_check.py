@@ -8,10 +8,16 @@ unless the clinician confirms (the override is audited and becomes a warning of 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, field
 
 from gaitcap.services.live.protocols import CameraHealth
 from gaitcap.services.processing.quality import QualityCriteria
+
+
+def _min_fps() -> float:
+    """The sync criteria's frame rate (Hz) for the live cameras: 28 for 30 Hz cameras, or GAITCAP_MIN_FPS."""
+    return float(os.environ.get("GAITCAP_MIN_FPS", QualityCriteria().min_fps_at(30.0)))
 
 
 @dataclass(frozen=True)
@@ -19,7 +25,7 @@ class RigCriteria:
     """min_fps: the sync criteria's frame rate (Hz); start_fraction: Start is refused below this share of
     it (far below, not merely below: a camera a little slow gives a warning on the trial instead)."""
 
-    min_fps: float = QualityCriteria().min_fps
+    min_fps: float = field(default_factory=_min_fps)
     start_fraction: float = 0.75
 
     def __post_init__(self) -> None:
@@ -40,7 +46,7 @@ def rig_problems(cameras: list[CameraHealth], calibrated: list[str] | None,
                  criteria: RigCriteria = RigCriteria()) -> list[str]:
     """What is wrong with the rig now (empty: fit to record). ``calibrated``: the camera names of the
     calibration in use (None: no calibration, only the live cameras are judged)."""
-    working = {c.name: c for c in cameras if c.healthy}
+    working = {c.name: c for c in cameras if c.has_signal}
     if not working:
         return ["no camera is delivering images"]
     problems = []

@@ -2,10 +2,17 @@
 keypoint message also as Foxglove image annotations (``WriterSettings.annotations``).
 
 Control through queryables (``<prefix>/recorder/start|stop|status``, see :mod:`gaitcap.services.bus.keys`), so
-the caller gets an acknowledgement. Subscriber callbacks only enqueue (a deep queue, so no publisher is
-ever stalled by disk latency); one writer thread writes the MCAP. On a write error (disk full, file
+the caller gets an acknowledgement. Subscriber callbacks only enqueue; one writer thread writes the MCAP.
+The queue is bounded (:class:`QueuePolicy`): when the disk is slower than the cameras a subscriber waits
+at most ``block_s`` for room, then the message is dropped and counted per camera (``dropped_frames`` in
+the trial's summary), so a slow disk cannot eat the machine's memory. On a write error (disk full, file
 size limit) the recording stops cleanly: the ``.part`` file is closed, an ``error`` event is published
 and the stop reply carries the error. Events go to ``<prefix>/recorder/events``.
+
+Recovery on restart: at start the recorder finalises every ``*.mcap.part`` a recorder that died left in
+its data folder (:func:`recover_orphans`): the complete chunks become the trial's ``*.mcap`` (its summary
+says ``recovered`` and where it was cut; the API's trial guard then marks the trial ``recovered`` and
+queues it), the cut original is kept as ``*.mcap.part.cut``.
 
 Every message is parsed into its typed structure (:mod:`gaitcap.services.bus.messages`) and bounded:
 a frame id more than ``MAX_TRIAL_FRAMES`` from the trial's first frame, or keypoints for a frame id
@@ -41,6 +48,31 @@ from gaitcap.services.bus.session import BusConfig, declare_alive
 log = logging.getLogger(__name__)
 
 _STOP = object()
+
+
+@dataclass(frozen=True)
+class QueuePolicy:
+    """The writer queue's bound: ``max_items`` messages (frames, keypoints, status); a subscriber waits
+    at most ``block_s`` seconds for room, then drops the message and counts it."""
+
+    max_items: int = 1000
+    block_s: float = 0.25
+
+    def __post_init__(self) -> None:
+        if self.max_items < 10:
+            raise ValueError(f"max_items: need >= 10 queued messages, got {self.max_items}")
+        if not 0 <= self.block_s <= 5:
+            raise ValueError(f"block_s: must be in [0, 5] s, got {self.block_s}")
+
+
+def recover_orphans(root: Path) -> list[dict[str, Any]]:
+    """Finalise every ``*.mcap.part`` under ``root`` (left by a recorder that died) into ``*.mcap``
+    (complete chunks kept, the cut original kept as ``*.mcap.part.cut``); one report per file."""
+    from gaitcap.acquisition.recording.recovery import finalise_cut
+
+    return [finalise_cut(part) for part in sorted(Path(root).rglob("*.mcap.part"))]
+
+
 MAX_TRIAL_FRAMES = 10_000_000  # frame ids of one trial span at most this many frames (3.8 days at 30/s)
 KEYPOINT_SLACK_FRAMES = 600  # keypoints may name frames this far outside the recorded frames' range
 _LOGGED_REJECTIONS = 20  # per trial; the rest are only counted
@@ -109,6 +141,7 @@ class Recording:
         self.started_cpu = time.process_time()
         self.first_write: tuple[float, float] | None = None  # (wall s, process cpu s) at the first frame
         self.last_write: tuple[float, float] | None = None
+        self.dropped: dict[str, int] = {}  # camera -> messages dropped because the queue stayed full
         self.frame_range: tuple[int, int] | None = None  # (first, last) frame id recorded, all cameras
         self.rejected = 0
 
@@ -167,6 +200,7 @@ class Recording:
             "active_s": active_s,
             "active_cpu_percent": 100.0 * active_cpu / active_s if active_s > 0 else None,
             "rejected": self.rejected,
+            "dropped_frames": dict(sorted(self.dropped.items())),
             "error": self.error,
         }
 
@@ -184,11 +218,12 @@ class RecorderNode:
     """Serves start/stop/status queries and records the bus into MCAP files inside ``data_root``."""
 
     def __init__(self, session, bus: BusConfig, node: str = "recorder", *, data_root: Path,
-                 settings: WriterSettings = WriterSettings()) -> None:
-        self.session, self.bus, self.node, self.settings = session, bus, node, settings
+                 settings: WriterSettings = WriterSettings(), policy: QueuePolicy = QueuePolicy()) -> None:
+        self.session, self.bus, self.node, self.settings, self.policy = session, bus, node, settings, policy
         self.data_root = Path(data_root).expanduser().resolve()
         keys = bus.keys
-        self._queue: queue.Queue = queue.Queue()
+        self.recovered = recover_orphans(self.data_root) if self.data_root.is_dir() else []
+        self._queue: queue.Queue = queue.Queue(maxsize=policy.max_items)
         self._lock = threading.Lock()
         self._lock_drops = threading.Lock()
         self._current: Recording | None = None
@@ -209,18 +244,29 @@ class RecorderNode:
         self._token = declare_alive(session, bus, node)
 
     # -- bus callbacks: enqueue only ----------------------------------------------------------------
+    def _enqueue(self, item: tuple) -> None:
+        """Queue for the writer; wait at most ``policy.block_s`` for room, then drop and count."""
+        try:
+            self._queue.put(item, timeout=self.policy.block_s)
+        except queue.Full:
+            rec = self._current
+            if rec is not None:
+                camera = self.bus.keys.camera_of(item[1])
+                with self._lock_drops:
+                    rec.dropped[camera] = rec.dropped.get(camera, 0) + 1
+
     def _on_image(self, sample) -> None:
         if self._accepting:
             att = sample.attachment.to_bytes() if sample.attachment is not None else None
-            self._queue.put(("image", str(sample.key_expr), sample.payload.to_bytes(), att, time.time_ns()))
+            self._enqueue(("image", str(sample.key_expr), sample.payload.to_bytes(), att, time.time_ns()))
 
     def _on_keypoints(self, sample) -> None:
         if self._accepting:
-            self._queue.put(("keypoints", str(sample.key_expr), sample.payload.to_bytes(), b"", time.time_ns()))
+            self._enqueue(("keypoints", str(sample.key_expr), sample.payload.to_bytes(), b"", time.time_ns()))
 
     def _on_status(self, sample) -> None:
         if self._accepting:
-            self._queue.put(("status", str(sample.key_expr), sample.payload.to_bytes(), b"", time.time_ns()))
+            self._enqueue(("status", str(sample.key_expr), sample.payload.to_bytes(), b"", time.time_ns()))
 
     # -- writer thread ----------------------------------------------------------------------------
     def _write_loop(self) -> None:

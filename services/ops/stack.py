@@ -175,7 +175,10 @@ class Stack:
         self.data_dir.mkdir(parents=True, exist_ok=True)
         self.bus_file.write_text(json.dumps(self.bus.to_dict(), indent=2))
         register_calibration(self.cfg)
-        env = {"GAITCAP_BUS": str(self.bus_file), "GAITCAP_TOKEN": self.cfg.token,
+        from gaitcap.services.processing.quality import QualityCriteria
+
+        env = {"GAITCAP_MIN_FPS": str(QualityCriteria().min_fps_at(self.cfg.fps)),  # the criteria scale with fps
+               "GAITCAP_BUS": str(self.bus_file), "GAITCAP_TOKEN": self.cfg.token,
                "GAITCAP_DATA_DIR": str(self.data_dir), "GAITCAP_CATALOG": self.cfg.catalog, **self.cfg.extra_env}
         self.supervisor.base_env.update(env)
         try:

@@ -21,13 +21,14 @@ EDGE_S = 0.5  # a camera whose frames end (begin) more than this before the end 
 
 @dataclass(frozen=True)
 class QualityCriteria:
-    """min_fps: Hz; max_skips: gaps per camera; max_spread_ms: timestamp spread between cameras of one
+    """min_fps_fraction: a camera must deliver this share of the nominal rate (28 of 30 Hz); max_skips:
+    gaps per camera; max_spread_ms: timestamp spread between cameras of one
     frame; max_lost_fraction: lost frames per camera before it is serious; min_coverage: share of frames
     the patient must be seen by >= 2 cameras; bumped_ratio / bumped_min_px: a camera whose median
     reprojection error is that many times the median of the others and above that many px is flagged;
     min_duration_s: shorter recordings are flagged."""
 
-    min_fps: float = 28.0
+    min_fps_fraction: float = 28.0 / 30.0
     max_skips: int = 0
     max_spread_ms: float = 30.0
     max_lost_fraction: float = 0.02
@@ -36,10 +37,16 @@ class QualityCriteria:
     bumped_min_px: float = 4.0
     min_duration_s: float = 4.0
 
+    def min_fps_at(self, nominal_fps: float) -> float:
+        """The least frame rate (Hz) accepted from cameras running at ``nominal_fps``."""
+        return round(self.min_fps_fraction * nominal_fps, 1)
+
     def __post_init__(self) -> None:
-        for name in ("min_fps", "max_spread_ms", "bumped_ratio", "bumped_min_px", "min_duration_s"):
+        for name in ("min_fps_fraction", "max_spread_ms", "bumped_ratio", "bumped_min_px", "min_duration_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name}: must be > 0, got {getattr(self, name)}")
+        if self.min_fps_fraction > 1:
+            raise ValueError(f"min_fps_fraction: must be in (0, 1], got {self.min_fps_fraction}")
         if not 0 <= self.max_lost_fraction <= 1 or not 0 <= self.min_coverage <= 1:
             raise ValueError("max_lost_fraction and min_coverage: must be in [0, 1]")
 
@@ -176,10 +183,11 @@ def judged(q: DataQuality, *, missing_cameras=()) -> DataQuality:
             warn.append(f"Camera {c.name} stopped at {c.last_s:.1f} s")
         elif c.first_s is not None and c.first_s > late_s:
             warn.append(f"Camera {c.name} started late, at {c.first_s:.1f} s")
-    slow = [c for c in q.cameras if c.received and c.fps < cr.min_fps]
+    min_fps = cr.min_fps_at(q.nominal_fps)
+    slow = [c for c in q.cameras if c.received and c.fps < min_fps]
     if slow:
         names = ", ".join(f"{c.name} {c.fps:.0f} fps" for c in slow[:4]) + (", ..." if len(slow) > 4 else "")
-        warn.append(f"{len(slow)} of {len(q.cameras)} cameras below {cr.min_fps:.0f} fps ({names})")
+        warn.append(f"{len(slow)} of {len(q.cameras)} cameras below {min_fps:.0f} fps ({names})")
     lossy = [c for c in q.cameras if c.received and c.lost / max(c.expected, 1) > cr.max_lost_fraction]
     if lossy:
         warn.append(f"{len(lossy)} of {len(q.cameras)} cameras lost frames ("

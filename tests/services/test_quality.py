@@ -75,7 +75,8 @@ def test_a_bumped_camera_stands_out_by_its_reprojection_error():
 
 
 def test_criteria_are_checked():
-    with pytest.raises(ValueError, match="min_fps"):
-        QualityCriteria(min_fps=0)
+    with pytest.raises(ValueError, match="min_fps_fraction"):
+        QualityCriteria(min_fps_fraction=0)
+    assert QualityCriteria().min_fps_at(30.0) == 28.0 and QualityCriteria().min_fps_at(15.0) == 14.0
     with pytest.raises(ValueError, match="min_coverage"):
         QualityCriteria(min_coverage=2)

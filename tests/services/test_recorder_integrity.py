@@ -1,0 +1,89 @@
+"""The recorder under faults (real Zenoh on loopback, real MCAP files): a disk slower than the cameras
+cannot grow the queue past its bound (frames are dropped and counted), and a recorder started after a
+crash finalises the recording the dead one left."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+from gaitcap.acquisition.drivers.simulated import simulated_rig
+from gaitcap.acquisition.recording.reader import is_complete, read_summary
+from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
+from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.services.bus.control import RecorderClient
+from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
+from gaitcap.services.nodes.camera import CameraNode
+from gaitcap.services.nodes.recorder import QueuePolicy, RecorderNode
+
+
+def _noise(trial, camera_index, frame_index, size_px):
+    rng = np.random.default_rng(camera_index * 10_000 + frame_index)
+    return rng.integers(0, 255, (size_px[1], size_px[0], 3), dtype=np.uint8)
+
+
+def _wait(cond, timeout_s=20.0, what="condition"):
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        if cond():
+            return
+        time.sleep(0.02)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+@pytest.fixture(scope="module")
+def trial():
+    return make_trial("paper", seconds=4.0, cameras=3, people=1, seed=2, fps=30.0)
+
+
+def test_a_stalled_disk_keeps_the_queue_bounded_and_counts_dropped_frames(tmp_path, trial):
+    bus = BusConfig.free_local(["recorder", "camera-0"], prefix="gaitcap/ri")
+    srec, scam = open_session(bus, "recorder"), open_session(bus, "camera-0")
+    policy = QueuePolicy(max_items=20, block_s=0.01)
+    rec = RecorderNode(srec, bus, data_root=tmp_path, policy=policy)
+    gate = threading.Event()
+    try:
+        _wait(lambda: "recorder" in alive_nodes(scam, bus), what="recorder alive")
+        client = RecorderClient(scam, bus.keys)
+        client.start(trial_id="t1", path=str(tmp_path / "t1.mcap"))
+        rec._queue.put(("control", gate.wait))  # the disk stalls: the writer thread is stuck on it
+        drivers = simulated_rig(trial, size_px=(32, 24), realtime=False, render=_noise, max_frames=60)
+        node = CameraNode(scam, bus, "camera-0", drivers, status_interval_s=0.2)
+        node.run(start_at_ns=time.time_ns())
+        assert rec.status().queued <= policy.max_items
+        gate.set()  # the disk is back
+        _wait(lambda: sum(rec._current.tally(c).frames for c in trial.rig.names)
+              + sum(rec._current.dropped.values()) >= 3 * 60 - 5, what="every frame written or counted")
+        summary = client.stop("t1").summary
+        dropped = summary["dropped_frames"]
+        assert sum(dropped.values()) > 0 and set(dropped) <= set(trial.rig.names), dropped
+        assert summary["frames"] + sum(dropped.values()) >= 3 * 60 - 5  # kept or counted (status messages too)
+        assert is_complete(tmp_path / "t1.mcap")
+        node.close()
+    finally:
+        gate.set()
+        rec.close()
+        srec.close()
+        scam.close()
+
+
+def test_a_restarted_recorder_finalises_the_recording_a_dead_one_left(tmp_path):
+    folder = tmp_path / "trials" / "T1"
+    folder.mkdir(parents=True)
+    writer = TrialWriter(folder / "recording.mcap", WriterSettings(chunk_size_bytes=1000, flush_interval_s=0.01))
+    writer.start(metadata={"trial_id": "T1"}, time_ns=1)
+    for i in range(40):
+        writer.add_status("cam01", {"camera": "cam01", "frame": i}, time_ns=i + 2)
+        writer.flush()
+    writer._file.close()  # SIGKILL: the file is never finished
+    bus = BusConfig.free_local(["recorder"], prefix="gaitcap/ri2")
+    session = open_session(bus, "recorder")
+    rec = RecorderNode(session, bus, data_root=tmp_path)
+    try:
+        assert [r["error"] for r in rec.recovered] == [None]
+        final = folder / "recording.mcap"
+        assert is_complete(final) and read_summary(final)["recovered"] is True
+        assert (folder / "recording.mcap.part.cut").is_file() and not (folder / "recording.mcap.part").exists()
+    finally:
+        rec.close()
+        session.close()
