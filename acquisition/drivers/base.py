@@ -57,7 +57,6 @@ class Frame:
         timestamp_ns: camera timestamp in ns (PTP / synthetic clock, same epoch for all cameras).
         frame_id: frame counter from the synchronised start (0-based).
         ptp_jump: True when the interval to the previous frame differs from the period by > 10x.
-        truth: ground truth for simulated frames (e.g. {"frame_index": int}).
         jpeg: the image already JPEG-encoded (drivers that deliver compressed frames; ``image`` may then
             be None).
     """
@@ -67,7 +66,6 @@ class Frame:
     timestamp_ns: int
     frame_id: int
     ptp_jump: bool = False
-    truth: dict[str, Any] | None = None
     jpeg: bytes | None = None
 
 

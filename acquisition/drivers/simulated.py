@@ -6,8 +6,8 @@ renders frame ``i`` at the chosen resolution and frame rate and stamps it with t
     timestamp_ns = start_ns + i * period_ns + clock_offsets_ns[c] + jitter_ns[c, i]
 
 Optional faults: dropped frame ids (the id is skipped, as a real camera's counter would) and a camera that
-stops after a given frame id (the iterator ends and the status says ``error``). Ground truth rides along
-in ``Frame.truth`` (``{"frame_index": i, "trial_time_s": t}``).
+stops after a given frame id (the iterator ends and the status says ``error``). The ground truth of a
+frame stays with the simulator: :meth:`SimulatedCamera.trial_index` maps a frame id to the trial's frame.
 """
 
 from __future__ import annotations
@@ -123,7 +123,8 @@ class SimulatedCamera:
         self._status.state = "running"
         self._status.started_wall_s = self._start_ns / 1e9 if self.realtime else time.time()
 
-    def _trial_index(self, frame_id: int) -> int:
+    def trial_index(self, frame_id: int) -> int:
+        """The index into the synthetic trial (its ``times_s``, ground truth) of frame ``frame_id``."""
         t0 = float(self.trial.times_s[0])
         t = t0 + frame_id / self._settings.fps
         idx = int(np.searchsorted(self.trial.times_s, t - 1e-9))
@@ -131,7 +132,7 @@ class SimulatedCamera:
 
     def timestamp_ns(self, frame_id: int) -> int:
         """The camera timestamp of ``frame_id`` (ns): start + i * period + clock offset + jitter."""
-        idx = self._trial_index(frame_id)
+        idx = self.trial_index(frame_id)
         c = self.camera_index
         offset = int(np.asarray(self.trial.clock_offsets_ns)[c])
         jitter = int(np.asarray(self.trial.jitter_ns)[c, idx])
@@ -151,7 +152,7 @@ class SimulatedCamera:
             ts = self.timestamp_ns(frame_id)
             if self.realtime:
                 wait_until_ns(ts)
-            idx = self._trial_index(frame_id)
+            idx = self.trial_index(frame_id)
             image = self._image(frame_id, idx)
             jump = last_ts is not None and is_ptp_jump(ts - last_ts, period * (frame_id - last_id))
             frame = Frame(
@@ -160,7 +161,6 @@ class SimulatedCamera:
                 timestamp_ns=ts,
                 frame_id=frame_id,
                 ptp_jump=jump,
-                truth={"frame_index": idx, "trial_time_s": float(self.trial.times_s[idx])},
             )
             self._status.count(frame)
             last_ts, last_id = ts, frame_id
