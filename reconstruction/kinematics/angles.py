@@ -55,6 +55,66 @@ VARIABLES: dict[str, AngleVariable] = {v.name: v for v in (
 )}
 
 
-def clinical_angles(coordinates_deg: dict[str, np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
-    """variable -> side -> (T,) degrees, for every variable of :data:`VARIABLES`."""
-    return {name: {s: v.of(coordinates_deg, s) for s in SIDES} for name, v in VARIABLES.items()}
+PELVIS = ("pelvis_tilt", "pelvis_list", "pelvis_rotation")
+PROGRESSION_WINDOW_S = 1.1  # about one stride: the pelvis's mean heading over it is the progression
+
+
+def _rz(a):
+    c, s, z, o = np.cos(a), np.sin(a), np.zeros_like(a), np.ones_like(a)
+    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+
+
+def _rx(a):
+    c, s, z, o = np.cos(a), np.sin(a), np.zeros_like(a), np.ones_like(a)
+    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
+
+
+def _ry(a):
+    c, s, z, o = np.cos(a), np.sin(a), np.zeros_like(a), np.ones_like(a)
+    return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2)
+
+
+def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
+    ok = np.isfinite(x)
+    k = np.ones(max(1, n))
+    num = np.convolve(np.where(ok, x, 0.0), k, mode="same")
+    den = np.convolve(ok.astype(float), k, mode="same")
+    return np.where(den > 0, num / np.maximum(den, 1), np.nan)
+
+
+def pelvis_in_progression(coordinates_deg: dict[str, np.ndarray], times_s: np.ndarray, *,
+                          window_s: float = PROGRESSION_WINDOW_S) -> dict[str, np.ndarray]:
+    """The pelvis angles relative to the direction of progression instead of the room.
+
+    The model's ground-pelvis joint is R = Rz(tilt) Rx(list) Ry(rotation) in the room (y up), so its tilt
+    and list are about the room's axes: walking along the room's diagonal, or back, mixes and flips them.
+    The progression heading is the pelvis's heading averaged over ``window_s`` (about a stride); the
+    pelvis orientation is turned back by it and decomposed again in the same order. Returns a copy of
+    ``coordinates_deg`` with the three pelvis angles replaced (degrees)."""
+    if not all(k in coordinates_deg for k in PELVIS):
+        return dict(coordinates_deg)
+    tilt, lst, rot = (np.radians(np.asarray(coordinates_deg[k], dtype=np.float64)) for k in PELVIS)
+    t = np.asarray(times_s, dtype=np.float64)
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    ok = np.isfinite(rot)
+    unwrapped = np.full_like(rot, np.nan)
+    unwrapped[ok] = np.unwrap(rot[ok])
+    heading = _moving_mean(unwrapped, int(round(window_s / dt)) | 1)
+    fill = lambda a: np.where(np.isfinite(a), a, 0.0)  # noqa: E731
+    rel = _ry(-fill(heading)) @ _rz(fill(tilt)) @ _rx(fill(lst)) @ _ry(fill(rot))
+    new_list = np.arcsin(np.clip(rel[:, 2, 1], -1.0, 1.0))
+    new_rot = np.arctan2(-rel[:, 2, 0], rel[:, 2, 2])
+    new_tilt = np.arctan2(-rel[:, 0, 1], rel[:, 1, 1])
+    bad = ~(np.isfinite(tilt) & np.isfinite(lst) & ok & np.isfinite(heading))
+    out = dict(coordinates_deg)
+    for name, v in zip(PELVIS, (new_tilt, new_list, new_rot), strict=True):
+        out[name] = np.where(bad, np.nan, np.degrees(v))
+    return out
+
+
+def clinical_angles(coordinates_deg: dict[str, np.ndarray], times_s: np.ndarray | None = None
+                    ) -> dict[str, dict[str, np.ndarray]]:
+    """variable -> side -> (T,) degrees, for every variable of :data:`VARIABLES`; with ``times_s`` the
+    pelvis angles are taken relative to the direction of progression (:func:`pelvis_in_progression`)."""
+    coords = coordinates_deg if times_s is None else pelvis_in_progression(coordinates_deg, times_s)
+    return {name: {s: v.of(coords, s) for s in SIDES} for name, v in VARIABLES.items()}

@@ -68,7 +68,7 @@ def kinematics_report(coordinates_deg: dict[str, np.ndarray], times_s: np.ndarra
     """Curves and key values from the model's coordinates (name -> (T,) degrees) and the gait report's
     steps (objects with foot, heel_strike_s, toe_off_s, pass_index)."""
     cycles = cycles_from_steps(steps)
-    angles = clinical_angles(coordinates_deg)
+    angles = clinical_angles(coordinates_deg, times_s)
     curves = {var: {side: cycle_curves(vals[side], times_s, cycles, side) for side in SIDES}
               for var, vals in angles.items()}
     keys = {side: key_values({var: curves[var][side] for var in curves}) for side in SIDES}

@@ -144,3 +144,25 @@ def test_c3d_content_events_and_checks():
     assert c.events == (("Left", "Foot Strike", 0.01), ("Right", "Foot Strike", 0.015))
     with pytest.raises(ValueError, match="times_s"):
         c3d_content(pts, [0.0], ["a", "b"])
+
+
+def test_pelvis_angles_relative_to_progression():
+    from gaitcap.reconstruction.kinematics.angles import _rx, _ry, _rz, pelvis_in_progression
+
+    t = np.arange(0, 4.0, 0.01)
+    heading = np.radians(135.0)  # walking the room's diagonal
+    tilt_a, obl_a, rot_a = np.radians(5.0), np.radians(3.0), np.radians(4.0)
+    wave = np.sin(2 * np.pi * t)
+    # anatomical angles about the progression frame, then expressed like the model's ground-pelvis joint
+    anat = _rz(np.full(t.size, tilt_a)) @ _rx(obl_a * wave) @ _ry(rot_a * wave)
+    room = _ry(np.full(t.size, heading)) @ anat
+    lst = np.arcsin(room[:, 2, 1])
+    coords = {"pelvis_tilt": np.degrees(np.arctan2(-room[:, 0, 1], room[:, 1, 1])),
+              "pelvis_list": np.degrees(lst), "pelvis_rotation": np.degrees(np.arctan2(-room[:, 2, 0], room[:, 2, 2]))}
+    assert np.abs(coords["pelvis_list"]).max() > 4.0  # in the room's frame tilt leaks into list
+    out = pelvis_in_progression(coords, t, window_s=1.0)  # one period: the mean heading is exact
+    mid = slice(100, 300)
+    assert np.allclose(out["pelvis_tilt"][mid], 5.0, atol=0.05)
+    assert np.allclose(out["pelvis_list"][mid], 3.0 * wave[mid], atol=0.05)
+    # the room's rotation coordinate mixes in tilt and obliquity, so its mean misses the heading by ~0.1 deg
+    assert np.allclose(out["pelvis_rotation"][mid], 4.0 * wave[mid], atol=0.2)
