@@ -84,7 +84,7 @@ def register(app: typer.Typer) -> None:
             compare_with_walkway,
             read_walkway_csv,
         )
-        from gaitcap.reconstruction.gait.plot import heel_traces_png
+        from gaitcap.services.processing.report_plot import heel_traces_png
 
         with user_errors():
             points, times, names, quality = _load(result)

@@ -53,7 +53,7 @@ def report_png(traj: Trajectory, report, *, title: str) -> bytes:
     """The gait module's heel-trace plot when there is a report; else heel height and position over
     time for both feet (so a trial without steps still shows what was measured)."""
     if report is not None:
-        from gaitcap.reconstruction.gait.plot import heel_traces_png
+        from gaitcap.services.processing.report_plot import heel_traces_png
 
         return heel_traces_png(report, traj.points_mm, traj.times_s, list(traj.joint_names))
     import matplotlib

@@ -1,4 +1,5 @@
-"""PNG of the heel forward and lateral traces with the detected contacts (like the paper's Figure 2)."""
+"""PNG of the heel forward and lateral traces with the detected contacts (like the paper's Figure 2): plotting
+is I/O, so it lives with the trial outputs, not in the pure gait analysis."""
 
 from __future__ import annotations
 
