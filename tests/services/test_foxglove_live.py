@@ -1,0 +1,127 @@
+"""The live Foxglove view: a real camera node and detector node on a real Zenoh bus, the relay's
+WebSocket server, and a client speaking Foxglove's WebSocket protocol that decodes what it gets with
+foxglove-schemas-protobuf."""
+
+import json
+import struct
+import threading
+import time
+
+import numpy as np
+import pytest
+from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
+from gaitcap.acquisition.detectors.simulated import SimulatedConfig
+from gaitcap.acquisition.drivers.simulated import simulated_rig
+from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
+from gaitcap.services.nodes.camera import CameraNode
+from gaitcap.services.nodes.detector import DetectorNode
+from gaitcap.services.nodes.foxglove_live import FoxgloveLiveConfig, FoxgloveRelay
+
+pytest.importorskip("foxglove", reason="foxglove-sdk is installed by deploy/bootstrap.sh (gaitcap[dev])")
+from websockets.sync.client import connect  # noqa: E402
+
+DECODERS = {"foxglove.CompressedImage": CompressedImage, "foxglove.ImageAnnotations": ImageAnnotations,
+            "foxglove.CameraCalibration": CameraCalibration}
+
+
+class FoxgloveClient:
+    """Subscribes to every channel the server advertises; keeps (topic, schema, log time ns, payload)."""
+
+    def __init__(self, port: int) -> None:
+        self.ws = connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"], open_timeout=5)
+        self.channels, self.subscriptions, self.messages = {}, {}, []
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data = self.ws.recv(timeout=0.2)
+            except TimeoutError:
+                continue
+            except Exception:
+                return
+            if isinstance(data, str):
+                msg = json.loads(data)
+                if msg["op"] == "advertise":
+                    subs = []
+                    for ch in msg["channels"]:
+                        sub = len(self.subscriptions) + 1
+                        self.subscriptions[sub] = (ch["topic"], ch["schemaName"])
+                        self.channels[ch["id"]] = sub
+                        subs.append({"id": sub, "channelId": ch["id"]})
+                    self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+                elif msg["op"] == "status" and msg["message"].startswith("Unknown channel ID"):
+                    # A channel advertised while this client was connecting: subscribe again.
+                    channel = int(msg["message"].rsplit(":", 1)[1])
+                    time.sleep(0.1)
+                    self.ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                        {"id": self.channels[channel], "channelId": channel}]}))
+            elif data[0] == 1:  # message data: opcode, subscription id u32, log time u64, payload
+                sub, log_time = struct.unpack_from("<IQ", data, 1)
+                self.messages.append((*self.subscriptions[sub], log_time, data[13:]))
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(2)
+        self.ws.close()
+
+
+def test_relay_refuses_to_expose_itself_without_being_told():
+    with pytest.raises(ValueError, match="not loopback.*no authentication"):
+        FoxgloveLiveConfig(host="0.0.0.0")
+    with pytest.raises(ValueError, match="preview_fps"):
+        FoxgloveLiveConfig(preview_fps=0)
+
+
+def test_live_rig_is_watched_in_foxglove():
+    trial = make_trial("paper", seconds=5.0, cameras=4, people=1, seed=5, fps=30.0)
+    bus = BusConfig.free_local(["camera-0", "detector", "relay"], prefix="gaitcap/fx")
+    sc, sd, sr = (open_session(bus, n) for n in ("camera-0", "detector", "relay"))
+    detector = DetectorNode(sd, bus, "detector", SimulatedConfig(trial=trial).build())
+    relay = FoxgloveRelay(sr, bus, FoxgloveLiveConfig(port=0, preview_fps=5.0, calibration_interval_s=0.3),
+                          rig=trial.rig)
+    client = FoxgloveClient(relay.port)
+    node = None
+    try:
+        deadline = time.monotonic() + 10
+        while "detector" not in alive_nodes(sr, bus) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.8)  # the calibration channels are advertised and subscribed
+        drivers = simulated_rig(trial, size_px=(32, 24), realtime=True, max_frames=60,
+                                render=lambda t, c, f, s: np.full((s[1], s[0], 3), f, np.uint8))
+        node = CameraNode(sc, bus, "camera-0", drivers, status_interval_s=0.2)
+        node.run(start_at_ns=time.time_ns())  # 2 s of 30 fps
+        assert detector.wait_idle(10)
+        time.sleep(0.5)
+    finally:
+        client.close()
+        if node is not None:
+            node.close()
+        relay.close()
+        detector.close()
+        for s in (sc, sd, sr):
+            s.close()
+    got = client.messages
+    for cam in trial.rig.names:
+        images = [(t, CompressedImage.FromString(p)) for topic, schema, t, p in got
+                  if topic == f"/camera/{cam}/image" and schema == "foxglove.CompressedImage"]
+        assert 6 <= len(images) <= 12, len(images)  # 2 s at 5 of the 30 frames per second
+        assert all(m.frame_id == cam and m.timestamp.seconds * 10**9 + m.timestamp.nanos == t for t, m in images)
+        notes = [(t, ImageAnnotations.FromString(p)) for topic, schema, t, p in got
+                 if topic == f"/camera/{cam}/annotations" and schema == "foxglove.ImageAnnotations"]
+        image_times = {t for t, _ in images}
+        assert len(notes) >= len(images) - 2 and all(t in image_times for t, _ in notes)
+        in_view = bool((np.nan_to_num(trial.detections.keypoints[trial.rig.names.index(cam), :60, :, 2]) > 0).any())
+        assert any(n.points and len(n.points[0].points) > 0 for _, n in notes) == in_view
+        calibrations = [CameraCalibration.FromString(p) for topic, schema, _, p in got
+                        if topic == f"/camera/{cam}/calibration" and schema == "foxglove.CameraCalibration"]
+        assert calibrations and calibrations[0].frame_id == cam
+        assert (calibrations[0].width, calibrations[0].height) == trial.rig[cam].size_px
+        statuses = [json.loads(p) for topic, _, _, p in got if topic == f"/camera/{cam}/status"]
+        assert statuses and statuses[-1]["camera"] == cam
+    assert relay.frames_in == 4 * 60 and relay.frames_out <= 4 * 12
