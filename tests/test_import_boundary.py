@@ -149,7 +149,8 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     return components
 
 
-def _generic_imports(path: Path) -> set[str]:
+def _top_level_imports(path: Path) -> set[str]:
+    """First names of every absolute import in the file (``numpy`` for ``from numpy.linalg import x``)."""
     tree = ast.parse(path.read_text(), filename=str(path))
     found = set()
     for node in ast.walk(tree):
@@ -157,7 +158,11 @@ def _generic_imports(path: Path) -> set[str]:
             found.update(a.name.split(".")[0] for a in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             found.add(node.module.split(".")[0])
-    return found & set(LAYERS)
+    return found
+
+
+def _generic_imports(path: Path) -> set[str]:
+    return _top_level_imports(path) & set(LAYERS)
 
 
 def test_every_layer_rule_holds():
@@ -189,3 +194,16 @@ def test_checks_detect_violations_and_cycles(tmp_path):
     assert _violations(graph) == ["gaitcap.reconstruction.a -> gaitcap.services.bus"]
     assert _cycles(graph) == [["gaitcap.services.bus", "gaitcap.services.worker"]]
     assert _generic_imports(tmp_path / "services" / "worker.py") == {"api"}
+
+
+IO_LIBRARIES = {"matplotlib", "zenoh", "mcap", "mcap_protobuf", "fastapi", "starlette", "sqlalchemy", "uvicorn",
+                "rerun", "opensim", "PIL"}
+
+
+def test_reconstruction_uses_no_io_library():
+    """Pure computation: no plotting, bus, recording, web, database, viewer or engine library (OpenCV's
+    calibration and geometry functions are maths and allowed)."""
+    files = sorted((ROOT / "reconstruction").rglob("*.py"))
+    offenders = {str(p.relative_to(ROOT)): sorted(_top_level_imports(p) & IO_LIBRARIES) for p in files}
+    offenders = {k: v for k, v in offenders.items() if v}
+    assert not offenders, f"reconstruction must stay pure: {offenders}"
