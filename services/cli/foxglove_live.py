@@ -1,0 +1,43 @@
+"""``gaitcap foxglove-live``: watch the live rig in Foxglove (a Foxglove WebSocket server on the bus)."""
+
+from __future__ import annotations
+
+import signal
+import threading
+from pathlib import Path
+
+import typer
+from gaitcap.services.cli._common import user_errors
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("foxglove-live")
+    def foxglove_live(
+        bus: Path | None = typer.Option(None, "--bus", help="Bus file (JSON5); default $GAITCAP_BUS or local."),
+        node: str | None = typer.Option(None, "--node", help="Identity on a secured bus (a security.clients entry)."),
+        host: str = typer.Option("127.0.0.1", "--host", help="Address to bind (loopback unless --allow-remote)."),
+        port: int = typer.Option(8765, "--port", help="WebSocket port."),
+        preview_fps: float = typer.Option(5.0, "--preview-fps", help="Frames per second and camera relayed."),
+        calibration: Path | None = typer.Option(None, "--calibration",
+                                                help="Rig calibration (TOML/JSON): cameras as CameraCalibration."),
+        allow_remote: bool = typer.Option(False, "--allow-remote",
+                                          help="Bind beyond loopback (the protocol has NO authentication)."),
+    ) -> None:
+        """Relay the live bus to Foxglove: open ws://HOST:PORT in Foxglove (Open connection)."""
+        from gaitcap.reconstruction.calibration_io import load_rig
+        from gaitcap.services.bus.session import default_bus_config, open_session
+        from gaitcap.services.nodes.foxglove_live import FoxgloveLiveConfig, FoxgloveRelay
+
+        with user_errors():
+            config = FoxgloveLiveConfig(host=host, port=port, preview_fps=preview_fps, allow_remote=allow_remote)
+            rig = load_rig(calibration) if calibration is not None else None
+            cfg = default_bus_config(bus)
+            session = open_session(cfg, node)
+            relay = FoxgloveRelay(session, cfg, config, rig=rig)
+        stop = threading.Event()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: stop.set())
+        typer.echo(f"Foxglove live view: ws://{host}:{relay.port} (Ctrl-C stops)")
+        stop.wait()
+        relay.close()
+        session.close()
