@@ -17,6 +17,7 @@ from fastapi.staticfiles import StaticFiles
 from gaitcap.api import (
     routes_calibration_runs,
     routes_calibrations,
+    routes_kinematics,
     routes_live,
     routes_people,
     routes_results,
@@ -70,6 +71,7 @@ def create_app(settings: Settings, link=None) -> FastAPI:
     app.add_exception_handler(RequestValidationError, lambda _r, exc: _field_errors(exc))
     app.include_router(routes_trials.router)
     app.include_router(routes_results.router)
+    app.include_router(routes_kinematics.router)
     app.include_router(routes_live.router)
     app.include_router(routes_calibrations.router)
     app.include_router(routes_people.router)

@@ -23,6 +23,13 @@ STAGE_FILES = {
     "gait_json": "gait.json",
     "steps_csv": "steps.csv",
     "report_png": "report.png",
+    # joint kinematics (gaitcap.services.kinematics.trial.FILES, in a subfolder)
+    "kinematics_json": "kinematics/kinematics.json",
+    "kinematics_csv": "kinematics/kinematics.csv",
+    "kinematics_mot": "kinematics/kinematics.mot",
+    "kinematics_osim": "kinematics/kinematics.osim",
+    "kinematics_trc": "kinematics/kinematics.trc",
+    "trajectory_c3d": "kinematics/trajectory.c3d",
 }
 
 

@@ -1,0 +1,71 @@
+"""Joint kinematics of a trial: gait-cycle curves with norms and key values (JSON, CSV) and the model files
+(MOT angles, scaled OSIM model, the fitted markers as TRC, trajectories and gait events as C3D)."""
+
+from __future__ import annotations
+
+import json
+from enum import StrEnum
+
+from fastapi import APIRouter, Depends, HTTPException, Request
+from fastapi.responses import FileResponse, PlainTextResponse
+from gaitcap.api.auth import require_user
+from gaitcap.api.deps import catalog_of
+from gaitcap.api.routes_results import Stage, _attachment, _result
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import trial_files
+
+router = APIRouter(tags=["results"])
+
+
+class KinematicsFormat(StrEnum):
+    json = "json"
+    csv = "csv"
+    mot = "mot"
+    osim = "osim"
+    trc = "trc"
+    c3d = "c3d"
+
+
+# format -> (artifact key, media type, download suffix)
+_FILES = {
+    KinematicsFormat.csv: ("kinematics_csv", "text/csv", "kinematics.csv"),
+    KinematicsFormat.mot: ("kinematics_mot", "text/plain", "kinematics.mot"),
+    KinematicsFormat.osim: ("kinematics_osim", "application/xml", "model.osim"),
+    KinematicsFormat.trc: ("kinematics_trc", "text/plain", "markers.trc"),
+    KinematicsFormat.c3d: ("trajectory_c3d", "application/octet-stream", "trajectory.c3d"),
+}
+
+
+def _status(request: Request, trial_id: str, stage: str) -> dict:
+    """The stage's kinematics.json, or 404 saying why there is none (engine missing, not computed yet)."""
+    path = trial_files(request.app.state.settings.data_dir, trial_id).stage_file(stage, "kinematics_json")
+    if path.is_file():
+        return json.loads(path.read_text())
+    from gaitcap.services.kinematics import availability
+
+    ok, reason = availability()
+    detail = (f"trial {trial_id}: {stage} kinematics not computed (yet)" if ok
+              else f"kinematics are unavailable on this server: {reason}")
+    raise HTTPException(status_code=404, detail=detail)
+
+
+@router.get("/trials/{trial_id}/kinematics",
+            summary="Joint angles over the gait cycle with norms and key values (JSON, CSV), model files")
+def kinematics(trial_id: str, request: Request, stage: Stage | None = None,
+               format: KinematicsFormat = KinematicsFormat.json, user: str = Depends(require_user)):
+    r = _result(request, trial_id, stage)
+    cat.audit(catalog_of(request), actor=user, action="download" if format is not KinematicsFormat.json else "view",
+              trial_id=r.trial_id, detail=f"kinematics {r.stage} {format.value}")
+    status = _status(request, r.trial_id, r.stage)
+    if format is KinematicsFormat.json:
+        return {"trial_id": r.trial_id, "stage": r.stage, **status}
+    if not status.get("available", False):
+        raise HTTPException(status_code=404, detail=f"trial {r.trial_id}: no kinematics: {status.get('reason', '')}")
+    key, media, suffix = _FILES[format]
+    path = trial_files(request.app.state.settings.data_dir, r.trial_id).stage_file(r.stage, key)
+    if not path.is_file():
+        raise HTTPException(status_code=404, detail=f"trial {r.trial_id}: {r.stage} {key} not available")
+    if format is KinematicsFormat.csv:
+        return PlainTextResponse(path.read_text(), media_type=media,
+                                 headers=_attachment(f"{r.trial_id}-{r.stage}-{suffix}"))
+    return FileResponse(path, media_type=media, filename=f"{r.trial_id}-{r.stage}-{suffix}")
