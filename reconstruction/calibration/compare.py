@@ -78,3 +78,55 @@ def compare_rigs(reference: Rig, other: Rig) -> RigComparison:
     tilt = float(np.degrees(np.arccos(np.clip(turn[2, 2], -1.0, 1.0))))
     heading = float(np.degrees(np.arctan2(turn[1, 0] - turn[0, 1], turn[0, 0] + turn[1, 1])))
     return RigComparison(cams, tilt, abs(heading), float(np.linalg.norm(shift)))
+
+
+@dataclass(frozen=True)
+class SimilarityComparison:
+    """Two calibrations from different tools (own world frames and units) compared after the similarity
+    (scale, turn, shift) that best puts ``other``'s camera centres on the reference's (least squares).
+
+    scale: reference length per ``other`` length (1.0 when both measure the same board in mm);
+    centre_mm / rotation_deg: per camera, in the order of ``names``.
+    """
+
+    names: tuple[str, ...]
+    scale: float
+    centre_mm: tuple[float, ...]
+    rotation_deg: tuple[float, ...]
+
+    @property
+    def centre_mm_max(self) -> float:
+        return max(self.centre_mm)
+
+    @property
+    def rotation_deg_max(self) -> float:
+        return max(self.rotation_deg)
+
+
+def similarity_transform(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Umeyama: (s, R (3, 3), t (3,)) minimising |dst - (s R src + t)|^2 over points (P, 3), P >= 3."""
+    mu_s, mu_d = src.mean(0), dst.mean(0)
+    a, b = src - mu_s, dst - mu_d
+    u, sing, vt = np.linalg.svd(b.T @ a / len(src))
+    d = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
+    rot = u @ d @ vt
+    scale = float(np.trace(np.diag(sing) @ d) / np.mean(np.sum(a**2, -1)))
+    return scale, rot, mu_d - scale * rot @ mu_s
+
+
+def compare_similar(reference: Rig, other: Rig) -> SimilarityComparison:
+    """``other`` against ``reference`` after a similarity alignment of the camera centres (ValueError
+    when the camera names differ or fewer than 3 cameras leave the alignment undetermined)."""
+    if sorted(reference.names) != sorted(other.names):
+        raise ValueError(f"compare: the calibrations hold different cameras: {sorted(reference.names)} vs "
+                         f"{sorted(other.names)}")
+    names = tuple(reference.names)
+    if len(names) < 3:
+        raise ValueError(f"compare: a similarity alignment needs 3 or more cameras, got {len(names)}")
+    ref = np.stack([reference[n].center_mm for n in names])
+    got = np.stack([other[n].center_mm for n in names])
+    scale, rot, shift = similarity_transform(got, ref)
+    aligned = scale * got @ rot.T + shift
+    centre = tuple(float(x) for x in np.linalg.norm(aligned - ref, axis=1))
+    rotation = tuple(rotation_angle_deg(reference[n].rotation, other[n].rotation @ rot.T) for n in names)
+    return SimilarityComparison(names, scale, centre, tuple(float(r) for r in rotation))

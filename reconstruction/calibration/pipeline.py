@@ -4,7 +4,8 @@ adjustment -> world frame from the floor board -> Rig + quality report."""
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from gaitcap.reconstruction.calibration.bundle import (
@@ -41,12 +42,18 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class CalibrationConfig:
-    """Everything that steers a calibration (all parts have sensible defaults)."""
+    """Everything that steers a calibration (all parts have sensible defaults).
+
+    known_intrinsics: {camera: (K (3, 3) px, dist (5,))} from an earlier calibration (e.g. a separate
+    intrinsics session, as caliscope and Pose2Sim do): held fixed, only the poses are estimated. Every
+    camera must be in it when given.
+    """
 
     intrinsics: IntrinsicsConfig = field(default_factory=IntrinsicsConfig)
     bundle: BundleConfig = field(default_factory=BundleConfig)
     world: WorldFrameConfig = field(default_factory=WorldFrameConfig)
     thresholds: QualityThresholds = field(default_factory=QualityThresholds)
+    known_intrinsics: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,8 +75,8 @@ def _check_cameras(obs: BoardObservations, config: IntrinsicsConfig) -> None:
     if few:
         raise ValueError(
             f"cameras {', '.join(few)} saw the board too rarely (need at least {config.min_views} views "
-            f"with {obs.board.min_corners}+ corners of {obs.board.name}); check the board size given, then "
-            "record again moving the board through every camera's view"
+            f"with {obs.board.min_corners}+ corners of {obs.board.name}); record again moving the board "
+            "through every camera's whole view, closer and slower"
         )
 
 
@@ -95,7 +102,9 @@ def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, .
     return prob, frames
 
 
-def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThresholds) -> CameraQuality:
+def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThresholds,
+                    others_rms: float, intrinsics_estimated: bool) -> CameraQuality:
+    """One camera's figures and problems (coverage matters only where the intrinsics were estimated)."""
     mine = prob.cam == c
     err = np.linalg.norm(res.residual_px[mine & res.inlier], axis=-1)
     mean, p95, rms = error_stats(err)
@@ -103,17 +112,34 @@ def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThr
     problems = []
     if not p95 <= thresholds.max_p95_px:
         problems.append(f"reprojection p95 {p95:.2f} px > {thresholds.max_p95_px} px")
-    if cov < thresholds.min_coverage:
+    if intrinsics_estimated and cov < thresholds.min_coverage:
         problems.append(f"board covered {100 * cov:.0f} % of the image (< {100 * thresholds.min_coverage:.0f} %)")
+    if rms > thresholds.max_rms_ratio * others_rms and rms > thresholds.rms_floor_px:
+        problems.append(f"reprojection RMS {rms:.2f} px is {rms / others_rms:.1f} x the other cameras' median "
+                        f"({others_rms:.2f} px)")
     n_views = len(np.unique(prob.frame[mine]))
+    detected = int(obs.views()[c].sum())
     return CameraQuality(
         obs.camera_names[c], n_views, int((mine & res.inlier).sum()), int((mine & ~res.inlier).sum()),
-        mean, p95, rms, cov, not problems, tuple(problems),
+        mean, p95, rms, cov, not problems, tuple(problems), median_px=float(np.median(err)) if err.size else
+        float("nan"), views_found=detected, views_kept_fraction=n_views / detected if detected else 0.0,
     )
 
 
+def _rms_per_camera(prob, res: BundleResult, n_cams: int) -> np.ndarray:
+    out = np.full(n_cams, np.nan)
+    for c in range(n_cams):
+        err = res.residual_px[(prob.cam == c) & res.inlier]
+        if len(err):
+            out[c] = float(np.sqrt(np.mean(np.sum(err**2, -1))))
+    return out
+
+
 def _report(obs, config, prob, frames, res, world, cams_r, cams_t) -> QualityReport:
-    per_cam = tuple(_camera_quality(obs, prob, res, c, config.thresholds) for c in range(obs.shape[0]))
+    rms = _rms_per_camera(prob, res, obs.shape[0])
+    others = [float(np.nanmedian(np.delete(rms, c))) if obs.shape[0] > 1 else float(rms[c]) for c in range(len(rms))]
+    per_cam = tuple(_camera_quality(obs, prob, res, c, config.thresholds, others[c],
+                                    config.known_intrinsics is None) for c in range(obs.shape[0]))
     mean, p95, rms = error_stats(np.linalg.norm(res.residual_px[res.inlier], axis=-1))
     ordered = np.full((obs.shape[0], len(frames), obs.board.num_corners, 2), np.nan)
     inl = res.inlier
@@ -138,6 +164,24 @@ def _initial_state(intr: list[Intrinsics], init: InitialPoses, frames: np.ndarra
     )
 
 
+def _intrinsics(obs: BoardObservations, config: CalibrationConfig) -> list[Intrinsics]:
+    """Each camera's intrinsics: the known ones when given (ValueError naming a camera without), else
+    estimated from its own board views."""
+    if config.known_intrinsics is None:
+        return [estimate_intrinsics(obs, c, config.intrinsics) for c in range(obs.shape[0])]
+    missing = [n for n in obs.camera_names if n not in config.known_intrinsics]
+    if missing:
+        raise ValueError(f"known intrinsics: none given for cameras {missing} "
+                         f"(given: {sorted(config.known_intrinsics)})")
+    out = []
+    for name in obs.camera_names:
+        k, dist = (np.asarray(a, dtype=np.float64) for a in config.known_intrinsics[name])
+        if k.shape != (3, 3) or dist.size > 5:
+            raise ValueError(f"known intrinsics of camera {name!r}: need K (3, 3) and up to 5 distortion terms")
+        out.append(Intrinsics(k, np.pad(dist.ravel(), (0, 5 - dist.size)), float("nan")))
+    return out
+
+
 def calibrate_from_observations(
     obs: BoardObservations, *, config: CalibrationConfig | None = None, serials: dict[str, str] | None = None
 ) -> CalibrationResult:
@@ -147,7 +191,9 @@ def calibrate_from_observations(
     obs, kept = merge_still_frames(obs)
     runs = np.searchsorted(kept, np.arange(n_given), side="right") - 1  # merged frame of each given frame
     _check_cameras(obs, config.intrinsics)
-    intr = [estimate_intrinsics(obs, c, config.intrinsics) for c in range(obs.shape[0])]
+    intr = _intrinsics(obs, config)
+    if config.known_intrinsics is not None:
+        config = replace(config, bundle=replace(config.bundle, refine_intrinsics=False))
     poses = view_poses(obs, intr)
     no_pose = [n for c, n in enumerate(obs.camera_names) if not poses.valid[c].any()]
     if no_pose:

@@ -21,16 +21,22 @@ class QualityThresholds:
         max_p95_px: 95th percentile of its reprojection error, px.
         min_coverage: fraction of image cells (``grid`` columns x rows) with at least one corner.
         grid: (columns, rows) of the coverage grid.
+        max_rms_ratio / rms_floor_px: a camera whose reprojection RMS is more than ``max_rms_ratio`` times
+            the other cameras' median RMS (and above ``rms_floor_px``) fails: one bad camera spoils every
+            triangulation it takes part in.
     """
 
     max_p95_px: float = 3.0
     min_coverage: float = 0.3
     grid: tuple[int, int] = (8, 5)
+    max_rms_ratio: float = 2.5
+    rms_floor_px: float = 0.5
 
 
 @dataclass(frozen=True)
 class CameraQuality:
-    """One camera: board views used, corners (inliers / outliers), reprojection error (px) and coverage."""
+    """One camera: board views used, corners (inliers / outliers), reprojection error (px: mean, p95, RMS,
+    median) and coverage; views_found: views the detector gave; views_kept_fraction: used / found."""
 
     name: str
     n_detections: int
@@ -42,6 +48,9 @@ class CameraQuality:
     coverage: float
     ok: bool
     problems: tuple[str, ...]
+    median_px: float = float("nan")
+    views_found: int = 0
+    views_kept_fraction: float = float("nan")
 
 
 @dataclass(frozen=True)

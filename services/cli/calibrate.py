@@ -6,22 +6,28 @@ from pathlib import Path
 
 import typer
 from gaitcap.services.cli._common import progress, user_errors
-
-
-def _squares(text: str) -> tuple[int, int]:
-    x, sep, y = text.lower().partition("x")
-    if not sep or not x.isdigit() or not y.isdigit():
-        raise ValueError(f"--squares: expected COLSxROWS such as 7x5, got {text!r}")
-    return int(x), int(y)
+from gaitcap.services.cli.board import (
+    BOARD_FILE,
+    DICTIONARY,
+    INVERTED,
+    KIND,
+    LEGACY,
+    MARKER_MM,
+    SQUARE_MM,
+    SQUARES,
+    board_from_options,
+)
 
 
 def _summary(report) -> str:
-    lines = [f"{'camera':<10} {'views':>6} {'corners':>8} {'mean px':>8} {'p95 px':>7} {'coverage':>9}  status"]
+    lines = [f"{'camera':<10} {'views':>6} {'kept':>5} {'corners':>8} {'RMS px':>7} {'median':>7} {'p95 px':>7} "
+             f"{'coverage':>9}  status"]
     for q in report.cameras:
         status = "ok" if q.ok else "FAILED: " + "; ".join(q.problems)
         lines.append(
-            f"{q.name:<10} {q.n_detections:>6} {q.n_corners:>8} {q.reprojection_mean_px:>8.3f} "
-            f"{q.reprojection_p95_px:>7.3f} {100 * q.coverage:>8.0f}%  {status}"
+            f"{q.name:<10} {q.n_detections:>6} {100 * q.views_kept_fraction:>4.0f}% {q.n_corners:>8} "
+            f"{q.reprojection_rms_px:>7.3f} {q.median_px:>7.3f} {q.reprojection_p95_px:>7.3f} "
+            f"{100 * q.coverage:>8.0f}%  {status}"
         )
     lines.append(
         f"reprojection RMS {report.reprojection_rms_px:.3f} px, p95 {report.reprojection_p95_px:.3f} px; "
@@ -43,26 +49,34 @@ def _comparison(cmp) -> str:
     return "\n".join(lines)
 
 
+def _similar(cmp) -> str:
+    per = ", ".join(f"{n} {c:.1f} mm {r:.2f} deg" for n, c, r in zip(cmp.names, cmp.centre_mm, cmp.rotation_deg,
+                                                                    strict=True))
+    return (f"after a similarity alignment (scale {cmp.scale:.4f}): centres max {cmp.centre_mm_max:.2f} mm, "
+            f"rotations max {cmp.rotation_deg_max:.3f} deg ({per})")
+
+
 def register(app: typer.Typer) -> None:
     @app.command("calibrate")
     def calibrate_cmd(
         recording: Path = typer.Argument(..., help="Board recording: a trial .mcap, or a folder with <camera>/ images or <camera>.mp4 videos."),
         out: Path = typer.Option(..., "--out", help="Calibration to write (.toml aniposelib/Pose2Sim, or .json gaitcap)."),
-        board: str = typer.Option("checkerboard", "--board", help="Board kind: checkerboard | charuco."),
-        squares: str | None = typer.Option(None, "--squares", help="Squares COLSxROWS (default 7x5 checkerboard, 5x7 charuco)."),
-        square_mm: float | None = typer.Option(None, "--square-mm", help="Square side in mm (default 110 checkerboard, 109 charuco)."),
-        marker_mm: float | None = typer.Option(None, "--marker-mm", help="ChArUco marker side in mm (default 0.75 x square)."),
-        dictionary: str = typer.Option("DICT_4X4_50", "--dictionary", help="ChArUco ArUco dictionary."),
+        board_file: Path | None = BOARD_FILE, board: str | None = KIND, squares: str | None = SQUARES,
+        square_mm: float | None = SQUARE_MM, marker_mm: float | None = MARKER_MM,
+        dictionary: str | None = DICTIONARY, inverted: bool | None = INVERTED, legacy: bool | None = LEGACY,
         distortion: str = typer.Option("k1", "--distortion", help="Distortion terms: k1 (the paper's) | k1k2p1p2k3."),
         every: int = typer.Option(1, "--every", help="Use every N-th frame."),
         max_frames: int | None = typer.Option(None, "--max-frames", help="Use at most this many frames."),
         floor_frame: int | None = typer.Option(None, "--floor-frame", help="Index, among the frames where the board was found, of one with the board on the floor (default 0)."),
         report_path: Path | None = typer.Option(None, "--report", help="Quality report JSON (default: OUT with .report.json)."),
         compare: Path | None = typer.Option(None, "--compare", help="A reference calibration (the last one, or a simulation's truth) to compare the new one with."),
+        intrinsics: Path | None = typer.Option(None, "--intrinsics", help="Keep these cameras' intrinsics (a calibration .toml/.json, e.g. from a separate intrinsics session); estimate only the poses."),
+        sync_tolerance_ms: float | None = typer.Option(None, "--sync-tolerance-ms", help="Pair frames of different cameras closer than this in time (default: half a frame interval)."),
+        accept_failed: bool = typer.Option(False, "--accept-failed", help="Write the calibration even when a camera fails the quality checks."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
-        from gaitcap.acquisition.board import BoardConfig
-        from gaitcap.acquisition.board_recording import FrameSelection, detect_recording
+        from gaitcap.acquisition.board_pairing import PairingConfig
+        from gaitcap.acquisition.board_recording import FrameSelection, find_board_views
         from gaitcap.reconstruction.calibration import (
             CalibrationConfig,
             DistortionModel,
@@ -70,7 +84,7 @@ def register(app: typer.Typer) -> None:
             WorldFrameConfig,
             calibrate_from_observations,
         )
-        from gaitcap.reconstruction.calibration.compare import compare_rigs
+        from gaitcap.reconstruction.calibration.compare import compare_rigs, compare_similar
         from gaitcap.reconstruction.calibration_io import load_rig, save_rig
 
         with user_errors():
@@ -80,29 +94,37 @@ def register(app: typer.Typer) -> None:
             models = {m.value: m for m in DistortionModel}
             if distortion not in models:
                 raise ValueError(f"--distortion: choose one of {sorted(models)}, got {distortion!r}")
-            make = {"checkerboard": BoardConfig.checkerboard, "charuco": BoardConfig.charuco}
-            if board not in make:
-                raise ValueError(f"--board: choose checkerboard or charuco, got {board!r}")
-            cfg = make[board]()
-            sx, sy = _squares(squares) if squares else (cfg.squares_x, cfg.squares_y)
-            cfg = BoardConfig(board, sx, sy, square_mm or cfg.square_mm, marker_mm, dictionary)  # type: ignore[arg-type]
+            cfg = board_from_options(board_file, board, squares, square_mm, marker_mm, dictionary, inverted, legacy)
+            known = load_rig(intrinsics) if intrinsics is not None else None
             config = CalibrationConfig(
                 intrinsics=IntrinsicsConfig(distortion=models[distortion]),
                 world=WorldFrameConfig(floor_frame=floor_frame),
+                known_intrinsics={c.name: (c.matrix_px, c.dist) for c in known.cameras} if known else None,
             )
             with progress(desc="finding the board", unit="img") as bar:
-                obs = detect_recording(recording, board=cfg, selection=FrameSelection(every, max_frames),
-                                       progress=lambda done, total: bar.update(1))
-            typer.echo(f"board {obs.board.name}: {int(obs.views().sum())} views in {obs.shape[1]} frames", err=True)
+                found = find_board_views(recording, board=cfg, selection=FrameSelection(every, max_frames),
+                                         pairing=PairingConfig(tolerance_ms=sync_tolerance_ms),
+                                         progress=lambda done, total: bar.update(1))
+            obs = found.observations
+            typer.echo(f"board {cfg.describe()}: {int(obs.views().sum())} views in {obs.shape[1]} frame sets "
+                       f"(paired {'by time' if found.timed else 'by order'})\n{found.table()}", err=True)
+            found.check(config.intrinsics.min_views)
             result = calibrate_from_observations(obs, config=config)
-            save_rig(result.rig, out, metadata={"error": result.report.reprojection_rms_px})
+            refused = bool(result.report.failed_cameras) and not accept_failed
+            target = out.with_name(out.stem + ".refused" + out.suffix) if refused else out
+            save_rig(result.rig, target, metadata={"error": result.report.reprojection_rms_px})
             report_file = report_path or out.with_suffix(".report.json")
             result.report.save_json(report_file)
             comparison = compare_rigs(reference, result.rig) if reference is not None else None
+            similar = compare_similar(reference, result.rig) if reference is not None and len(reference) >= 3 else None
         typer.echo(_summary(result.report))
         if comparison is not None:
             typer.echo(f"compared with {compare}:")
             typer.echo(_comparison(comparison))
-        typer.echo(f"wrote {out} and {report_file}")
-        if result.report.failed_cameras:
-            typer.echo(f"warning: cameras {list(result.report.failed_cameras)} failed the quality checks", err=True)
+        if similar is not None:
+            typer.echo(_similar(similar))
+        typer.echo(f"wrote {target} and {report_file}")
+        if refused:
+            typer.echo(f"calibration refused for use: cameras {list(result.report.failed_cameras)} failed the quality "
+                       f"checks (written to {target}; --accept-failed writes it to {out})", err=True)
+            raise typer.Exit(code=1)

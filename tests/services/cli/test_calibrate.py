@@ -51,5 +51,6 @@ def test_wrong_board_is_a_clear_error(recording, tmp_path):
     result = CliRunner().invoke(app, ["calibrate", str(mcap), "--squares", "8x6", "--out", str(tmp_path / "c.toml"),
                                       "--max-frames", "3"])
     assert result.exit_code == 2
-    assert "'cam01' (0 views)" in result.output and "check the board size" in result.output
+    assert "camera 'cam01': no frame showed the whole 8x6-square checkerboard" in result.output
+    assert "camera 'cam02'" in result.output and "board size" not in result.output
     assert not (tmp_path / "c.toml").exists()
