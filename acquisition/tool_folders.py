@@ -96,6 +96,19 @@ def read_qca(path: Path, *, binning_factor: int = 1) -> Rig:
     return Rig(tuple(sorted(cams, key=lambda c: _natural(c.name))))
 
 
+def load_calibration(path: Path) -> Rig:
+    """Any calibration file gaitcap reads: Qualisys ``.qca.txt``, Pose2Sim/aniposelib ``.toml`` (m or mm),
+    gaitcap ``.json``."""
+    from gaitcap.reconstruction.calibration_io import load_rig
+
+    path = Path(path)
+    if path.name.lower().endswith(".qca.txt"):
+        return read_qca(path)
+    if path.suffix.lower() == ".toml":
+        return load_toml_rig(path)
+    return load_rig(path)
+
+
 def _natural(name: str) -> list:
     return [int(p) if p.isdigit() else p for p in re.split(r"(\d+)", name)]
 
@@ -110,6 +123,12 @@ def is_pose2sim_folder(path: Path) -> bool:
     return path.is_dir() and (path / "pose").is_dir() and bool(_configs(path))
 
 
+def pose2sim_videos(path: Path) -> Path | None:
+    """The ``videos/`` folder of a Pose2Sim folder that has no 2D keypoints yet (None otherwise)."""
+    ok = path.is_dir() and (path / "videos").is_dir() and not (path / "pose").is_dir() and bool(_configs(path))
+    return path / "videos" if ok else None
+
+
 def _setting(configs: list[Path], section: str, key: str):
     for path in configs:
         try:
@@ -121,7 +140,7 @@ def _setting(configs: list[Path], section: str, key: str):
     return None, None
 
 
-def _pose2sim_calibration(folder: Path) -> Rig | None:
+def pose2sim_calibration(folder: Path) -> Rig | None:
     for d in (folder, folder.parent, folder.parent.parent):
         for calib in sorted(p for p in d.iterdir() if p.is_dir() and "calib" in p.name.lower()):
             tomls = sorted(calib.glob("*.toml"))
@@ -147,7 +166,7 @@ def read_pose2sim_folder(path: Path, *, fps: float, camera_names: list[str] | No
     rate, _ = _setting(configs, "project", "frame_rate")
     if isinstance(rate, int | float) and rate > 0:
         fps = float(rate)
-    rig = _pose2sim_calibration(path)
+    rig = pose2sim_calibration(path)
     kp, folders, frames = openpose_people(path / "pose")
     names = match_cameras(folders, camera_names or (list(rig.names) if rig is not None else None))
     return make_input(kp, names, (frames - frames[0]) / fps, layout=layout, rig=rig,

@@ -15,7 +15,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -131,13 +131,16 @@ def detect_input(path: Path, detector, *, fps: float | None, on_frame: Callable[
 def load_input(path: Path, *, calibration: Path | None, options: OfflineOptions, detector_factory=None,
                on_frame: Callable[[], None] | None = None) -> tuple[KeypointInput, Rig]:
     """The keypoint input and the rig (``calibration`` wins over one carried by the input)."""
-    from gaitcap.reconstruction.calibration_io import load_rig
+    from gaitcap.acquisition.tool_folders import load_calibration, pose2sim_calibration, pose2sim_videos
 
-    user_rig = load_rig(calibration) if calibration is not None else None
-    if _has_videos(path):
+    user_rig = load_calibration(calibration) if calibration is not None else None
+    videos = path if _has_videos(path) else pose2sim_videos(path)
+    if videos is not None:
         if detector_factory is None:
-            raise ValueError(f"{path}: a folder of videos needs a detector (--detector)")
-        data = detect_input(path, detector_factory(), fps=None, on_frame=on_frame)
+            raise ValueError(f"{videos}: a folder of videos needs a detector (--detector)")
+        data = detect_input(videos, detector_factory(), fps=None, on_frame=on_frame)
+        if videos != path:  # a Pose2Sim project before its pose estimation: its calibration
+            data = replace(data, rig=pose2sim_calibration(path))
     else:
         data = read_keypoints_input(path, rig=user_rig, fps=options.fps, skeleton=options.skeleton)
     rig = user_rig or data.rig

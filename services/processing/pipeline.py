@@ -213,17 +213,18 @@ def resolve_layout(recording, rig: Rig, *, named: str | None):
     return replace(recording, skeleton=choice.skeleton), choice
 
 
-def patient_input(recording, rig: Rig, *, files=None, selector=None) -> tuple[Detections, Rig, object]:
+def patient_input(recording, rig: Rig, *, files=None, choice=None, selector=None) -> tuple[Detections, Rig, object]:
     """The patient's detections aligned to the rig's cameras, checked usable, and the selection (None with
     one person in view). ``files``: the trial's :class:`~gaitcap.services.processing.artifacts.TrialFiles`
     (then ``people.json`` / ``tracks.npz`` are written when several people are in view); ``selector``: how
-    to choose the patient (a track selector; default: the clinician's stored choice, else automatic)."""
+    to choose the patient (a track selector; default: the clinician's stored choice, else automatic);
+    ``choice``: the clinician's choice when ``files`` is None (reprocessing reads it without writing)."""
     from gaitcap.services.processing.people import patient_detections_of, patient_selection
 
     if files is not None:
         det, selection = patient_detections_of(recording, rig, files, selector=selector)
     else:
-        det, selection = patient_selection(recording, rig, selector=selector)
+        det, selection = patient_selection(recording, rig, choice, selector=selector)
     det, rig = det.aligned_to(rig)
     check_usable(det)
     return det, rig, selection

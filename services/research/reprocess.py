@@ -239,17 +239,17 @@ def compute_result(task: ReprocessTask) -> MethodResult:
     """Reconstruction, metrics, gait and residuals of one trial under one method (raises ValueError)."""
     from gaitcap.reconstruction.methods import reconstruct
     from gaitcap.services.processing.artifacts import TrialFiles
-    from gaitcap.services.processing.people import patient_of, read_choice
-    from gaitcap.services.processing.pipeline import load_keypoints
+    from gaitcap.services.processing.people import read_choice
+    from gaitcap.services.processing.pipeline import load_keypoints, patient_input, trajectory_of
 
     recording, rig = load_keypoints(task.trial.recording)  # several people in view: the patient (stored choice)
-    det, rig = patient_of(recording, rig, read_choice(TrialFiles(task.trial.folder))).aligned_to(rig)
+    det, rig, _ = patient_input(recording, rig, choice=read_choice(TrialFiles(task.trial.folder)))
     truth = _truth_points(task.trial.folder, det)
     rec = reconstruct(det, rig, method=task.spec.config(), truth_mm=truth)
-    points, times, names = np.asarray(rec.points_mm), np.asarray(rec.times_s), list(rec.joint_names)
-    sample = _clipped_sample(rec, times) if rec.trajectory is not None else None
-    gait = _gait(points, times, names, sample)
-    residuals = _residuals(task.trial, points, times, names, sample)
+    traj = trajectory_of(rec)  # the worker's trajectory: its sampler and gait analysis
+    points, times, names = traj.points_mm, traj.times_s, list(traj.joint_names)
+    gait = _gait(traj)
+    residuals = _residuals(task.trial, points, times, names, traj.sample)
     metrics = {k: v for k, v in rec.metrics.items()}
     metrics.update({f"fit.{k}": float(v) for k, v in rec.losses.items() if np.isscalar(v) and k != "seconds"})
     result = MethodResult(task.trial.trial_id, task.spec.method, task.spec.key, task.spec.to_dict(), "ok",
@@ -257,11 +257,6 @@ def compute_result(task: ReprocessTask) -> MethodResult:
     if task.write_files:
         result = MethodResult(**{**result.__dict__, "artifacts": _write_files(task, result, points, times, names)})
     return result
-
-
-def _clipped_sample(rec, times):
-    lo, hi = float(times[0]), float(times[-1])
-    return lambda t: np.asarray(rec.sample(np.clip(t, lo, hi)))
 
 
 def _truth_points(folder: Path, det) -> np.ndarray | None:
@@ -277,14 +272,14 @@ def _truth_points(folder: Path, det) -> np.ndarray | None:
     return points
 
 
-def _gait(points, times, names, sample) -> dict:
-    from gaitcap.reconstruction.gait import analyze_gait
+def _gait(traj) -> dict:
+    """The worker's gait analysis (:func:`~gaitcap.services.processing.pipeline.gait_of`) and catalog summary."""
     from gaitcap.services.processing.outputs import summary_of
+    from gaitcap.services.processing.pipeline import gait_of
 
-    try:
-        report = analyze_gait(points, times, names, sample=sample)
-    except ValueError as exc:
-        return {"problem": str(exc), "steps": 0, "summary": {}}
+    report, problem = gait_of(traj)
+    if report is None:
+        return {"problem": problem, "steps": 0, "summary": {}}
     return {"problem": "", "steps": len(report.steps), "summary": summary_of(report)}
 
 
