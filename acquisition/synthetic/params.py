@@ -34,7 +34,12 @@ class WalkParams:
             overrides (None = from height). ``foot_mm`` is the heel-to-big-toe keypoint distance.
     Style:
         arm_swing_deg: peak shoulder flexion/extension of the arm swing.
-        heel_strike_angle_deg: foot-floor angle (toes up) at heel strike.
+        heel_strike_angle_deg: foot-floor angle at initial contact: > 0 heel first (toes up), 0 flat foot,
+            < 0 toe first (heel up); see :mod:`gaitcap.acquisition.synthetic.foot`.
+        paretic_heel_strike_angle_deg: the same for the side that is not ``short_side`` (the paretic side
+            of ``hemiparetic``), None: ``heel_strike_angle_deg``.
+        heel_roll_mm: distance the foot's contact point still travels after initial contact, rolling to
+            rest at foot flat (real heels: 20-40 mm).
         toe_off_angle_deg: foot-floor angle (heel up) at toe-off.
         swing_lift_mm: extra heel lift at mid-swing (foot clearance).
         pelvis_sway_mm: lateral pelvis shift towards the stance foot.
@@ -69,6 +74,8 @@ class WalkParams:
     shoulder_width_mm: float | None = None
     arm_swing_deg: float = 18.0
     heel_strike_angle_deg: float = 18.0
+    paretic_heel_strike_angle_deg: float | None = None
+    heel_roll_mm: float = 30.0
     toe_off_angle_deg: float = 45.0
     swing_lift_mm: float = 20.0
     pelvis_sway_mm: float = 22.0
@@ -104,7 +111,10 @@ class WalkParams:
             v = getattr(self, name)
             need(v is None or 50.0 <= v <= 800.0, f"{name} must be None or in [50, 800], got {v}")
         need(0.0 <= self.arm_swing_deg <= 60.0, f"arm_swing_deg must be in [0, 60], got {self.arm_swing_deg}")
-        need(0.0 <= self.heel_strike_angle_deg <= 35.0, "heel_strike_angle_deg must be in [0, 35]")
+        for name in ("heel_strike_angle_deg", "paretic_heel_strike_angle_deg"):
+            v = getattr(self, name)
+            need(v is None or -20.0 <= v <= 35.0, f"{name} must be in [-20, 35], got {v}")
+        need(0.0 <= self.heel_roll_mm <= 60.0, f"heel_roll_mm must be in [0, 60], got {self.heel_roll_mm}")
         need(5.0 <= self.toe_off_angle_deg <= 70.0, "toe_off_angle_deg must be in [5, 70]")
         need(0.0 <= self.swing_lift_mm <= 200.0, "swing_lift_mm must be in [0, 200]")
         need(0.0 <= self.pelvis_sway_mm <= 80.0, "pelvis_sway_mm must be in [0, 80]")
@@ -133,6 +143,12 @@ class WalkParams:
         a = self.step_asymmetry
         return self.step_length_mm * ((1 - a) if side == self.short_side else (1 + a))
 
+    def side_heel_strike_angle_deg(self, side: str) -> float:
+        """Foot-floor angle at initial contact of ``side`` (degrees; < 0 toe first)."""
+        if side != self.short_side and self.paretic_heel_strike_angle_deg is not None:
+            return self.paretic_heel_strike_angle_deg
+        return self.heel_strike_angle_deg
+
     def side_stance_fraction(self, side: str) -> float:
         s = self.stance_asymmetry
         return self.stance_fraction + (s if side == self.short_side else -s)
@@ -155,21 +171,34 @@ class WalkParams:
     # -- named patterns ---------------------------------------------------------------------------
     @classmethod
     def hemiparetic(cls, paretic_side: str = "left", **changes) -> WalkParams:
-        """A slow asymmetric gait: the sound side takes shorter steps and stands longer."""
+        """A slow asymmetric gait: the sound side takes shorter steps and stands longer; the paretic foot
+        lands toe first (-5 degrees) and rolls less."""
         if paretic_side not in SIDES:
             raise ValueError(f"paretic_side must be 'left' or 'right', got {paretic_side!r}")
         sound = "right" if paretic_side == "left" else "left"
         base = dict(
             step_length_mm=480.0, step_width_mm=160.0, cadence_spm=88.0, stance_fraction=0.66,
             step_asymmetry=0.15, stance_asymmetry=0.05, short_side=sound, arm_swing_deg=8.0,
-            toe_off_angle_deg=30.0, heel_strike_angle_deg=8.0, turn_steps=6,
+            toe_off_angle_deg=30.0, heel_strike_angle_deg=8.0, paretic_heel_strike_angle_deg=-5.0,
+            heel_roll_mm=20.0, turn_steps=6,
         )
+        base.update(changes)
+        return cls(**base)
+
+    @classmethod
+    def parkinsonian(cls, **changes) -> WalkParams:
+        """Shuffling: short quick steps, flat-foot contacts with little roll, low clearance, little arm
+        swing (see :mod:`gaitcap.acquisition.synthetic.foot`)."""
+        base = dict(step_length_mm=420.0, step_width_mm=120.0, cadence_spm=112.0, stance_fraction=0.66,
+                    arm_swing_deg=5.0, heel_strike_angle_deg=0.0, heel_roll_mm=15.0, toe_off_angle_deg=25.0,
+                    swing_lift_mm=5.0, trunk_lean_deg=10.0, turn_steps=8)
         base.update(changes)
         return cls(**base)
 
     @classmethod
     def slow(cls, **changes) -> WalkParams:
         """An elderly / cautious gait."""
-        base = dict(step_length_mm=520.0, step_width_mm=130.0, cadence_spm=96.0, stance_fraction=0.65, arm_swing_deg=10.0)
+        base = dict(step_length_mm=520.0, step_width_mm=130.0, cadence_spm=96.0, stance_fraction=0.65, arm_swing_deg=10.0,
+                    heel_strike_angle_deg=12.0, heel_roll_mm=25.0)
         base.update(changes)
         return cls(**base)

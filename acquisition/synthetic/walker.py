@@ -1,10 +1,12 @@
 """Kinematic walker: Halpe-26 joint trajectories (mm) of one rigid body following a footstep plan.
 
-Feet are rigid bodies (heel, ankle, big toe, small toe) that
-  - land heel first with the toes up (heel strike: the heel reaches its contact point with zero speed),
-  - roll about the stationary heel to foot flat,
-  - stay flat, then roll about the stationary big toe (heel rise) until toe-off,
-  - swing to the next contact (minimum-jerk transport plus a clearance lift).
+Feet are rigid bodies (heel, ankle, big toe, small toe) that land and leave like real feet (see
+:mod:`gaitcap.acquisition.synthetic.foot` for the kinematics and their sources):
+  - land heel first with the toes up, flat, or toe first (``heel_strike_angle_deg``), still moving
+    forward: the contact point travels ``heel_roll_mm`` more while the foot rolls down to foot flat,
+  - stay flat (the heel keypoint at rest from foot flat), then roll about the stationary big toe (heel
+    rise) until toe-off,
+  - swing to the next contact (a brisk start, a clearance lift, and the landing velocity at the end).
 The pelvis follows anchor points derived from the feet (midway between the landing heel and the trailing
 toe at each heel strike, shifted towards the stance foot in mid single support); its height is the
 highest the legs reach (soft minimum over both legs), which gives the inverted-pendulum bounce. Knees come
@@ -18,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from gaitcap.acquisition.synthetic.foot import landing_speed_mm_s, landing_term, rolled_back
 from gaitcap.acquisition.synthetic.params import WalkParams
 from gaitcap.acquisition.synthetic.path import LEFT, RIGHT, FootPlan, forward, left_normal, wrap_angle
 from gaitcap.reconstruction.skeletons import get_skeleton
@@ -25,6 +28,7 @@ from scipy.interpolate import PchipInterpolator
 
 SKELETON = get_skeleton("halpe26")
 J = SKELETON.index
+SIDE_NAMES = {LEFT: "left", RIGHT: "right"}
 
 
 def min_jerk(tau):
@@ -112,8 +116,9 @@ def foot_trajectory(plan: FootPlan, body: Body, params: WalkParams, side: int, t
     """(T, 4, 3) heel, ankle, big toe, small toe of one foot."""
     pts = body.foot_points(side)
     toe_off = pts[2]
-    th_hs = math.radians(params.heel_strike_angle_deg)
+    th_hs = math.radians(params.side_heel_strike_angle_deg(SIDE_NAMES[side]))
     th_to = math.radians(params.toe_off_angle_deg)
+    roll = params.heel_roll_mm
     contacts = plan.by_side(side)
     t = np.asarray(times, float)
     heel = np.zeros((t.size, 3))
@@ -124,19 +129,31 @@ def foot_trajectory(plan: FootPlan, body: Body, params: WalkParams, side: int, t
     def flat_heel(c):
         return np.array([c.heel_xy[0], c.heel_xy[1], body.heel_height])
 
-    def toe_fixed_heel(c, yaw_c, p):
-        """Heel position while rolling about the stationary big toe with pitch p."""
-        toe = flat_heel(c) + _foot_rot(yaw_c, 0.0) @ toe_off
+    def ahead(c):
+        return np.array([math.cos(c.heading), math.sin(c.heading), 0.0])
+
+    def toe_fixed_heel(toe, yaw_c, p):
+        """Heel position while the big toe is at ``toe`` and the foot pitched p."""
         return toe - (_foot_rot(np.full(np.shape(p), yaw_c), p) @ toe_off)
+
+    def landing_heel(c, back, p):
+        """Heel while landing: contact point ``back`` mm short of its rest, foot pitched p (about the heel
+        when landing heel first or flat, about the big toe when landing toe first)."""
+        shift = np.asarray(back)[..., None] * ahead(c)
+        if th_hs >= 0:
+            return flat_heel(c) - shift
+        toe = flat_heel(c) + _foot_rot(c.heading, 0.0) @ toe_off - shift
+        return toe_fixed_heel(toe, c.heading, p)
 
     for i, c in enumerate(contacts):
         nxt = contacts[i + 1] if i + 1 < len(contacts) else None
         h0 = flat_heel(c)
-        # loading: heel fixed, pitch th_hs -> 0
+        # loading: the contact point rolls to rest, pitch th_hs -> 0
         m = (t >= c.t_hs) & (t < c.t_ff) & ~done
         if m.any():
             tau = (t[m] - c.t_hs) / (c.t_ff - c.t_hs)
-            heel[m], yaw[m], pitch[m] = h0, c.heading, th_hs * (1 - min_jerk(tau))
+            p = th_hs * (1 - min_jerk(tau))
+            heel[m], yaw[m], pitch[m] = landing_heel(c, rolled_back(tau, roll), p), c.heading, p
             done |= m
         # flat
         m = (t >= c.t_ff) & (t < c.t_hr) & ~done
@@ -144,21 +161,24 @@ def foot_trajectory(plan: FootPlan, body: Body, params: WalkParams, side: int, t
         done |= m
         if nxt is None:
             continue
+        toe_rest = h0 + _foot_rot(c.heading, 0.0) @ toe_off
         # heel rise: rotate about the big toe, pitch 0 -> -th_to
         m = (t >= c.t_hr) & (t < c.t_to) & ~done
         if m.any():
             tau = (t[m] - c.t_hr) / (c.t_to - c.t_hr)
             p = -th_to * min_jerk(tau)
-            heel[m], yaw[m], pitch[m] = toe_fixed_heel(c, c.heading, p), c.heading, p
+            heel[m], yaw[m], pitch[m] = toe_fixed_heel(toe_rest, c.heading, p), c.heading, p
             done |= m
-        # swing: heel from its toe-off position to the next contact
+        # swing: heel from its toe-off position to where it lands, arriving at the landing velocity
         m = (t >= c.t_to) & (t < nxt.t_hs) & ~done
         if m.any():
-            tau = (t[m] - c.t_to) / (nxt.t_hs - c.t_to)
+            swing_s = nxt.t_hs - c.t_to
+            tau = (t[m] - c.t_to) / swing_s
             s = swing_profile(tau)[:, None]
-            start = toe_fixed_heel(c, c.heading, -th_to)
-            end = flat_heel(nxt)
-            hh = start * (1 - s) + end * s
+            start = toe_fixed_heel(toe_rest, c.heading, -th_to)
+            end = landing_heel(nxt, roll, th_hs)
+            v_land = landing_speed_mm_s(roll, nxt.t_ff - nxt.t_hs) * ahead(nxt)
+            hh = start * (1 - s) + end * s + landing_term(tau)[:, None] * (v_land * swing_s)
             hh[:, 2] += params.swing_lift_mm * bump(tau)
             dyaw = float(wrap_angle(nxt.heading - c.heading))
             heel[m], yaw[m] = hh, c.heading + dyaw * s[:, 0]

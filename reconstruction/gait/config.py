@@ -40,8 +40,12 @@ class GaitConfig:
         min_swing_s: shorter swings are treated as a noise blip inside one contact (s).
         min_foot_travel_mm: consecutive contacts of a foot closer than this are one contact (mm).
         contact_distance_mm: heel strike is the first time heel or toe comes within this distance of where
-            it rests in stance, toe off the last time the toe is within it (mm; 0: speed thresholds only).
-            Real heels land moving and roll 20-40 mm to rest (heel rocker); see events.
+            it rests in stance (mm; 0: speed thresholds only, for both events). Real heels land moving and
+            roll 20-40 mm to rest (heel rocker); see events.
+        toe_off_distance_mm: toe off is the last time the toe is within this distance of where it rested
+            (mm); the toe off is then refined to the toe's farthest point behind the body centre within
+            ``toe_off_window_s`` of that (Zeni et al. 2008).
+        toe_off_window_s: see toe_off_distance_mm (s).
         event_resolution_s: resolution of sub-frame event location on the continuous trajectory (s).
         full_confidence_views: cameras needed at a contact for full confidence (with quality given).
         reprojection_scale_px: reprojection error that lowers confidence by a factor e (px).
@@ -73,6 +77,8 @@ class GaitConfig:
     min_swing_s: float = 0.12
     min_foot_travel_mm: float = 100.0
     contact_distance_mm: float = 30.0
+    toe_off_distance_mm: float = 30.0
+    toe_off_window_s: float = 0.1
     event_resolution_s: float = 0.001
     full_confidence_views: int = 3
     reprojection_scale_px: float = 10.0

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from gaitcap.reconstruction.gait.config import GaitConfig
-from gaitcap.reconstruction.gait.tracks import HEEL, SIDES, TOE, FootTracks
+from gaitcap.reconstruction.gait.tracks import CENTER, HEEL, SIDES, TOE, FootTracks
 
 
 @dataclass(frozen=True)
@@ -237,10 +237,30 @@ def _near_rest(tracks: FootTracks, side: str, run: tuple[int, int], heel_mm, toe
     hi = min(times[-1], times[b] + config.event_window_s, limit_s)
     grid = np.arange(times[max(b - 2, a)], hi + res / 2, res)
     dist = np.linalg.norm(tracks.sampler(grid)[:, TOE[side]] - toe_mm, axis=1)
+    d = config.toe_off_distance_mm
     back = _first_below(grid[::-1], dist[::-1], d, len(grid) - 1 - int(np.searchsorted(grid, times[b])))
     if grid[-1] >= times[-1] - 1e-9 and dist[-1] < d:
         back = float("nan")  # still on the floor when the data ends
     return hs, back
+
+
+def _toe_behind(tracks: FootTracks, side: str, t_s: float, heel_mm, toe_mm, config: GaitConfig) -> float:
+    """Time (s) within ``toe_off_window_s`` of ``t_s`` when the toe is farthest behind the body centre
+    along the foot's own direction (heel to toe at rest); NaN when that is at the window's edge (no
+    clear extremum) or the window leaves the data."""
+    if not np.isfinite(t_s):
+        return float("nan")
+    w = config.toe_off_window_s
+    lo, hi = t_s - w, t_s + w
+    if lo < tracks.times_s[0] or hi > tracks.times_s[-1]:
+        return float("nan")
+    fwd = np.asarray(toe_mm[:2]) - np.asarray(heel_mm[:2])
+    fwd = fwd / max(float(np.linalg.norm(fwd)), 1e-9)
+    grid = np.arange(lo, hi, config.event_resolution_s)
+    pts = tracks.sampler(grid)
+    ahead = (pts[:, TOE[side], :2] - pts[:, CENTER, :2]) @ fwd
+    j = int(np.argmin(ahead))
+    return float(grid[j]) if 0 < j < len(grid) - 1 else float("nan")
 
 
 def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: np.ndarray, v_rest: float,
@@ -272,7 +292,15 @@ def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: n
         near_hs, near_to = _near_rest(tracks, side, run, heel_mm, toe_mm, config, limit_s=limit)
         at_start, at_end = run[0] == 0, run[1] == last
         hs_all[i] = near_hs if np.isfinite(near_hs) or at_start else hs_all[i]
-        to_all[i] = near_to if np.isfinite(near_to) or at_end else to_all[i]
+        if not (np.isfinite(near_to) or at_end):
+            continue
+        # toe off: the toe farthest behind the body centre (Zeni et al. 2008) near the toe leaving its
+        # rest point, else midway between that and the brisk departure (see the module docstring)
+        behind = _toe_behind(tracks, side, near_to, heel_mm, toe_mm, config)
+        if np.isfinite(behind):
+            to_all[i] = behind
+        else:
+            to_all[i] = near_to if not np.isfinite(to_all[i]) else 0.5 * (near_to + to_all[i])
     return hs_all, to_all
 
 
