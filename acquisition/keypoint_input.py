@@ -84,6 +84,7 @@ def match_cameras(folders: list[str], camera_names: list[str] | None) -> list[st
         f = plain(folder)
         hits = [c for c in camera_names if f == plain(c)]
         hits = hits or [c for c in camera_names if f.startswith(plain(c))]
+        hits = hits or [c for c in camera_names if f.endswith(plain(c))]  # anipose: "walk-camA" is camera "A"
         hits = hits or [c for c in camera_names if plain(c) in f]
         return max(hits, key=len) if hits else None
 
