@@ -1,8 +1,11 @@
 """The worker on a real catalog and a real trial MCAP of a synthetic walk: results against ground truth."""
 
+import json
+
 import numpy as np
 import pytest
 from gaitcap.services import catalog as cat
+from gaitcap.services.kinematics import availability
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.worker import Worker, WorkerConfig
 
@@ -61,6 +64,10 @@ def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path,
         for key in ("trajectory_npz", "trajectory_trc", "gait_json", "steps_csv", "report_png"):
             assert files.stage_file(stage, key).stat().st_size > 100, (stage, key)
     assert files.stage_file("refined", "rerun_rrd").stat().st_size > 1000
+    kin = json.loads(files.stage_file("refined", "kinematics_json").read_text())  # the step after the result
+    assert kin["available"] is availability()[0], kin
+    if kin["available"]:
+        assert kin["curves"]["knee_flexion"]["left"]["n_cycles"] >= 1
     assert cat.get_result(db, tid, "refined").quality["GC_10"] > 0.9
     results = [p["result"] for p in published if p["result"]]
     assert sorted(set(results), key=results.index) == ["preliminary", "refined"]
