@@ -87,6 +87,10 @@ class FoxgloveRelay:
         self.frames_in = self.frames_out = self.annotations_out = 0
         self.server = foxglove.start_server(name="gaitcap live", host=config.host, port=config.port,
                                             context=self._context)
+        for camera in rig.names if rig is not None else ():  # advertised before any frame: none is missed
+            for topic in (layout.image_topic(camera), layout.annotations_topic(camera),
+                          layout.camera_calibration_topic(camera), layout.status_topic(camera)):
+                self._channel(topic)
         self._stop = threading.Event()
         self._subs = [session.declare_subscriber(bus.keys.image(), self._on_image),
                       session.declare_subscriber(bus.keys.keypoints(), self._on_keypoints),

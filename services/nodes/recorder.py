@@ -27,7 +27,7 @@ import logging
 import queue
 import threading
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -309,7 +309,7 @@ class RecorderNode:
                 return
             rec.writer.add_keypoints(camera, payload, timestamp_ns=kp.timestamp_ns, frame_id=kp.frame_id)
             if self.settings.annotations:  # the overlay Foxglove draws on this frame's image
-                rec.writer.add_annotations(camera, image_annotations(asdict(kp)), timestamp_ns=kp.timestamp_ns,
+                rec.writer.add_annotations(camera, image_annotations(kp), timestamp_ns=kp.timestamp_ns,
                                            frame_id=kp.frame_id)
             rec.tally(camera).keypoints += 1
         else:

@@ -91,7 +91,9 @@ def test_live_rig_is_watched_in_foxglove():
         deadline = time.monotonic() + 10
         while "detector" not in alive_nodes(sr, bus) and time.monotonic() < deadline:
             time.sleep(0.05)
-        time.sleep(0.8)  # the calibration channels are advertised and subscribed
+        while len(client.subscriptions) < 4 * len(trial.rig) and time.monotonic() < deadline:
+            time.sleep(0.05)  # the rig's channels are advertised at start, and subscribed
+        time.sleep(0.3)
         drivers = simulated_rig(trial, size_px=(32, 24), realtime=True, max_frames=60,
                                 render=lambda t, c, f, s: np.full((s[1], s[0], 3), f, np.uint8))
         node = CameraNode(sc, bus, "camera-0", drivers, status_interval_s=0.2)
@@ -125,3 +127,57 @@ def test_live_rig_is_watched_in_foxglove():
         statuses = [json.loads(p) for topic, _, _, p in got if topic == f"/camera/{cam}/status"]
         assert statuses and statuses[-1]["camera"] == cam
     assert relay.frames_in == 4 * 60 and relay.frames_out <= 4 * 12
+
+
+def test_a_live_recorded_trial_opens_in_foxglove_with_overlays(tmp_path):
+    """Camera node -> detector node -> recorder node over Zenoh: the MCAP holds each camera's images,
+    an annotation for every keypoint message at its image's log time, and the camera calibrations."""
+    from gaitcap.reconstruction.calibration_io import rig_to_toml_text
+    from gaitcap.services.bus.control import RecorderClient
+    from gaitcap.services.nodes.recorder import RecorderNode
+    from mcap.reader import make_reader
+    from mcap_protobuf.decoder import DecoderFactory
+
+    trial = make_trial("paper", seconds=5.0, cameras=4, people=1, seed=5, fps=30.0)
+    bus = BusConfig.free_local(["camera-0", "detector", "recorder"], prefix="gaitcap/fr")
+    sc, sd, sr = (open_session(bus, n) for n in ("camera-0", "detector", "recorder"))
+    detector = DetectorNode(sd, bus, "detector", SimulatedConfig(trial=trial).build())
+    recorder = RecorderNode(sr, bus, data_root=tmp_path)
+    node = None
+    try:
+        deadline = time.monotonic() + 10
+        while not {"detector", "recorder"} <= alive_nodes(sc, bus) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        client = RecorderClient(sc, bus.keys)
+        client.start(trial_id="t1", path=str(tmp_path / "t1.mcap"), calibration_toml=rig_to_toml_text(trial.rig),
+                     cameras=trial.rig.names)
+        drivers = simulated_rig(trial, size_px=(32, 24), realtime=True, max_frames=30,
+                                render=lambda t, c, f, s: np.full((s[1], s[0], 3), f, np.uint8))
+        node = CameraNode(sc, bus, "camera-0", drivers, status_interval_s=0.2)
+        node.run(start_at_ns=time.time_ns())
+        assert detector.wait_idle(10)
+        time.sleep(0.5)
+        summary = client.stop("t1").summary
+    finally:
+        if node is not None:
+            node.close()
+        recorder.close()
+        detector.close()
+        for s in (sc, sd, sr):
+            s.close()
+    with open(tmp_path / "t1.mcap", "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        channels = reader.get_summary().channels.values()
+        topics = [c.topic for c in channels if c.message_encoding == "protobuf"]
+        got: dict[str, list] = {}
+        for schema, channel, message, decoded in reader.iter_decoded_messages(topics, log_time_order=False):
+            got.setdefault(channel.topic, []).append((schema.name, message.log_time, decoded))
+    for cam in trial.rig.names:
+        images = got[f"/camera/{cam}/image"]
+        notes = got[f"/camera/{cam}/annotations"]
+        assert {s for s, _, _ in notes} == {"foxglove.ImageAnnotations"}
+        assert len(images) == summary["cameras"][cam]["frames"] >= 28  # 1 s at 30 fps (a loaded bus may drop one)
+        assert len(notes) == summary["cameras"][cam]["keypoints"] >= 28  # every keypoint message is drawn
+        assert {t for _, t, _ in notes} <= {t for _, t, _ in images}  # ... on its own image
+        (calibration,) = got[f"/camera/{cam}/calibration"]
+        assert calibration[2].frame_id == cam == images[0][2].frame_id
