@@ -22,15 +22,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
+from gaitcap.acquisition.recording.reader import read_summary
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.kinematics_step import kinematics_step
 from gaitcap.services.processing.outputs import steps_of, summary_of, write_data, write_views
-from gaitcap.services.processing.people import most_people_in_view, patient_detections_of
+from gaitcap.services.processing.people import most_people_in_view
 from gaitcap.services.processing.pipeline import (
     Trajectory,
     enable_compile_cache,
+    gait_of,
     load_keypoints,
+    patient_input,
     preliminary,
     refined,
     ring_rig,
@@ -184,11 +187,12 @@ class Worker:
         recording, rig = load_keypoints(files.recording, fallback_calibration=self.config.fallback_calibration)
         if most_people_in_view(recording.people) > 1:
             self._report(trial_id, "processing", "finding the patient among the people in view", 0.07, None)
-        det, _ = patient_detections_of(recording, rig, files)
+        det, seen_rig, _ = patient_input(recording, rig, files=files)
         quality = recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
                                     patient_confidence=det.keypoints[..., 2], expected_cameras=rig.names,
+                                    recorded_s=read_summary(files.recording).get("duration_s"),
                                     criteria=self.config.criteria)
-        det, rig = det.aligned_to(rig)
+        rig = seen_rig
         source = (recording, rig, files.recording)  # what the viewer files show besides the results
         self.load_s = time.perf_counter() - t0
         self._report(trial_id, "processing", "first 3D reconstruction", 0.1, None)
@@ -217,19 +221,10 @@ class Worker:
                data_quality: DataQuality) -> None:
         """Gait analysis, the catalog result and the stage's files; ``viewers``: (keypoint recording, rig,
         trial MCAP) to write the viewer files (.rrd, results MCAP) from, None for none."""
-        import numpy as np
-        from gaitcap.reconstruction.gait import TrajectoryQuality, analyze_gait
-
         t0 = time.perf_counter()
-        report, problem = None, ""
-        quality = None if traj.num_views is None else TrajectoryQuality(
-            num_views=traj.num_views, reprojection_px=np.full(traj.num_views.shape, np.nan))
-        try:
-            report = analyze_gait(traj.points_mm, traj.times_s, list(traj.joint_names), sample=traj.sample,
-                                  quality=quality)
-        except ValueError as exc:
-            problem = str(exc)
-            log.warning("trial %s %s: no gait parameters: %s", trial_id, stage, exc)
+        report, problem = gait_of(traj)
+        if problem:
+            log.warning("trial %s %s: no gait parameters: %s", trial_id, stage, problem)
         gait_s = time.perf_counter() - t0
         files = trial_files(self.config.data_dir, trial_id)
         write_data(files, stage, traj, report)
