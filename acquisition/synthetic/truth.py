@@ -1,7 +1,9 @@
 """Ground-truth gait events and spatial step parameters of a synthetic walk.
 
 Definitions (shared with the gait analysis, which computes the same quantities from trajectories):
-- heel position of a contact: the stationary heel keypoint during stance (from heel strike to heel rise);
+- heel strike: initial contact, the first instant the foot touches the floor (the foot is still moving then
+  and rolls to rest at foot flat, see ``foot``); toe off: the last instant of contact;
+- heel position of a contact: the stationary heel keypoint during stance (from foot flat to heel rise);
   toe position: the stationary big-toe keypoint (from foot flat to toe-off);
 - step length: this heel minus the previous contralateral heel, projected on the direction of progression;
 - stride length: this heel minus the previous ipsilateral heel, projected on the direction of progression;

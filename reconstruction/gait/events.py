@@ -1,34 +1,36 @@
-"""Heel strike and toe off of each foot from heel and toe kinematics alone (foot-velocity method).
+"""Heel strike and toe off of each foot from heel and toe kinematics alone.
 
 Contacts: a foot is on the ground while its heel or its toe is at rest, i.e. slower than
 ``v_rest = max(min_rest_speed_mm_s, rest_speed_fraction x walking speed, rest_noise_factor x the feet's
 speed noise at rest)``, and heel or toe is within ``max_contact_lift_mm`` of its stance height. Contacts
 shorter than ``min_stance_s``, swings shorter than ``min_swing_s`` and "swings" after which the heel
-rests less than ``min_foot_travel_mm`` from where it was are noise and removed.
+rests less than ``min_foot_travel_mm`` from where it was are noise and removed. Heel and toe positions at
+a contact are the median of each point over the frames of the contact when that point is at rest.
 
-Heel strike (initial contact): the moment the first of heel and toe comes to rest, located on the
-continuous trajectory (the caller's sampler, else a cubic spline through the frames) at
-``event_resolution_s`` where the foot's speed falls below the event speed (3 x the noise at rest, at
-least ``min_event_speed_mm_s``). On a caller's continuous trajectory it is then extrapolated to zero
-speed assuming the speed falls quadratically into contact (a smooth landing): the event lies as far
-after the crossing of v as that is after the crossing of 4 v (``extrapolate_events``; corrections over
-a frame are not applied; off for splines, whose ringing at 30 fps defeats it).
+Heel strike (initial contact, the first instant of ground contact): real feet reach the floor still
+moving; the heel rolls 20-40 mm over the heel rocker and comes to rest 60-130 ms later (see
+``gaitcap.acquisition.synthetic.foot``), so the moment the foot comes to rest is 2-3 frames late at
+30 fps. The heel strike is the first time heel or toe comes within ``contact_distance_mm`` (30 mm) of
+where it rests in this contact, located on the continuous trajectory (the caller's sampler, else a cubic
+spline through the frames) at ``event_resolution_s``. A position threshold is also far less sensitive to
+noise than a speed threshold. Where no such crossing exists in the window (a contact without a clear
+approach) the older speed criterion is the fallback: where the foot's speed falls below the event speed
+(3 x the noise at rest, at least ``min_event_speed_mm_s``), extrapolated to zero speed on a caller's
+continuous trajectory. Toe-first contacts are located by the toe in the same way.
 
-Toe off: the first time after the contact that the foot's speed exceeds ``toe_off_peak_fraction`` of
-the following swing's peak speed (falls back to the event-speed crossing). Feet push off briskly, so
-this level costs a few ms, and it is far above the wobble a fitted toe shows during heel rise.
+Toe off (the last instant of contact): the last time the toe is within ``toe_off_distance_mm`` of its
+rest point, refined to the moment the toe is farthest behind the body centre along the foot's direction
+within ``toe_off_window_s`` of that (Zeni et al. 2008, Gait & Posture 27:710-714; a toe keypoint at the tip
+of the toe, which pivots until it leaves, and a forefoot marker, which moves before, both give it within
+about 15 ms). Fallbacks: midway between that distance crossing and the first time the foot's speed
+exceeds ``toe_off_peak_fraction`` of the following swing's peak, else the speed crossing.
 
-Known biases (measured on the synthetic world, 30 fps): heel strike comes early by the time the foot
-needs to slow from the event speed to rest (steady steps: ground truth frames -4 +- 3 ms; robust
-triangulation of clean detections -15 +- 5 ms, of noisy ones -16 +- 17 ms; slow landings such as a
-first step from standing up to -35 ms on ground truth); toe off comes late by the push-off's rise to
-10 % of peak (+5 +- 2 ms). Noise raises the event
-speed and thus the bias; noisy frames are smoothed (``smoothing_window_s``), which blurs the events
-further; so does a trajectory fit that blurs the foot's stop and push-off. Toe walkers' "heel strike"
-is their initial contact with the toe.
-
-Heel and toe positions at a contact are the median of each point over the frames of the contact when
-that point is at rest (the stationary heel point during stance).
+Known biases (30 fps): on the synthetic walker (heel_roll_mm 30, ground-truth frames) heel strike 0 ms,
+toe off +15 ms; feet that roll less than 30 mm after contact are found early by the time they take to
+cover the difference (flat-foot and shuffling contacts: -30 to -40 ms on the walker's Parkinsonian and
+hemiparetic patterns). On the real walks of ``bench/gait_real.py`` see docs/gait.md. Noise raises the
+rest points' spread; noisy frames are smoothed (``smoothing_window_s``), which blurs the events; so does a
+trajectory fit that rounds the foot's stop and push-off.
 """
 
 from __future__ import annotations
@@ -234,13 +236,15 @@ def _near_rest(tracks: FootTracks, side: str, run: tuple[int, int], heel_mm, toe
     dist = np.minimum(np.linalg.norm(pts[:, HEEL[side]] - heel_mm, axis=1),
                       np.linalg.norm(pts[:, TOE[side]] - toe_mm, axis=1))
     hs = _first_below(grid, dist, d, int(np.searchsorted(grid, times[a])))
+    if np.isnan(hs) and lo <= times[0]:
+        hs = -np.inf  # already on the floor when the data starts
     hi = min(times[-1], times[b] + config.event_window_s, limit_s)
     grid = np.arange(times[max(b - 2, a)], hi + res / 2, res)
     dist = np.linalg.norm(tracks.sampler(grid)[:, TOE[side]] - toe_mm, axis=1)
     d = config.toe_off_distance_mm
     back = _first_below(grid[::-1], dist[::-1], d, len(grid) - 1 - int(np.searchsorted(grid, times[b])))
     if grid[-1] >= times[-1] - 1e-9 and dist[-1] < d:
-        back = float("nan")  # still on the floor when the data ends
+        back = np.inf  # still on the floor when the data ends
     return hs, back
 
 
@@ -291,8 +295,11 @@ def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: n
         limit = times[runs[i + 1][0]] if i + 1 < len(runs) else times[-1]
         near_hs, near_to = _near_rest(tracks, side, run, heel_mm, toe_mm, config, limit_s=limit)
         at_start, at_end = run[0] == 0, run[1] == last
-        hs_all[i] = near_hs if np.isfinite(near_hs) or at_start else hs_all[i]
-        if not (np.isfinite(near_to) or at_end):
+        # a foot already near its rest point when the data start may still be rolling in after a contact
+        # just before or inside the data: only a foot at rest from the first frame has no heel strike
+        hs_all[i] = near_hs if np.isfinite(near_hs) else (np.nan if at_start else hs_all[i])
+        if not np.isfinite(near_to):
+            to_all[i] = np.nan if at_end or near_to > 0 else to_all[i]
             continue
         # toe off: the toe farthest behind the body centre (Zeni et al. 2008) near the toe leaving its
         # rest point, else midway between that and the brisk departure (see the module docstring)
