@@ -22,7 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["people"])
-CHOOSABLE_STATES = ("done", "failed")
+CHOOSABLE_STATES = ("done", "done_with_warnings", "failed")
 
 
 class PatientIn(BaseModel):
@@ -119,7 +119,9 @@ def choose_patient(trial_id: str, body: PatientIn, request: Request, user: str =
                               progress=0.0, error="")
     except cat.IllegalTransition as exc:
         raise HTTPException(status_code=409, detail=str(exc)) from None
+    cleared = cat.clear_results(db, trial.id)  # the old numbers are someone else's: never shown as current
     cat.enqueue_job(db, trial.id)
+    log.info("trial %s: %d old results cleared", trial.id, cleared)
     cat.audit(db, actor=user, action="choose patient", trial_id=trial.id, detail=f"track {track} ({how})")
     log.info("trial %s: %s chose track %d as the patient (%s); processing queued", trial.id, user, track, how)
     return _people_out(trial, files)

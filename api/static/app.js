@@ -1,27 +1,18 @@
-// gaitcap clinic page: plain JS, no build step. Talks to the API with the access token.
+// gaitcap clinic page: plain JS, no build step. Signed in by the session cookie (HttpOnly; set by /login).
 "use strict";
 
 const $ = (sel) => document.querySelector(sel);
-const state = { token: null, recording: null, followed: null, shownResult: null, cameras: {}, statusWs: null, busy: false, rerun: null };
+const state = { user: null, recording: null, followed: null, shownResult: null, cameras: {}, statusWs: null, busy: false, rerun: null };
 
-// ---------- access token ----------
-function readToken() {
-  const m = location.hash.match(/token=([^&]+)/);
-  if (m) {
-    sessionStorage.setItem("gaitcap-token", decodeURIComponent(m[1]));
-    history.replaceState(null, "", location.pathname + location.search);
-  }
-  return sessionStorage.getItem("gaitcap-token");
-}
-
+// ---------- session ----------
 async function api(path, options = {}) {
-  const headers = Object.assign({ Authorization: "Bearer " + state.token }, options.headers || {});
+  const headers = Object.assign({}, options.headers || {});
   if (options.body && typeof options.body !== "string") {
     options.body = JSON.stringify(options.body);
     headers["Content-Type"] = "application/json";
   }
-  const res = await fetch(path, Object.assign({}, options, { headers }));
-  if (res.status === 401) { showLogin("The access code is not valid. Please enter it again."); throw new Error("not signed in"); }
+  const res = await fetch(path, Object.assign({ credentials: "same-origin" }, options, { headers }));
+  if (res.status === 401) { showLogin(state.user ? "You were signed out. Please sign in again." : ""); state.user = null; throw new Error("not signed in"); }
   if (!res.ok) {
     let msg = res.status + " " + res.statusText;
     try { const body = await res.json(); if (body.detail) msg = typeof body.detail === "string" ? body.detail : JSON.stringify(body.detail); } catch (e) { /* not JSON */ }
@@ -30,7 +21,7 @@ async function api(path, options = {}) {
   return res.headers.get("content-type")?.includes("json") ? res.json() : res.text();
 }
 
-function withToken(url) { return url + (url.includes("?") ? "&" : "?") + "token=" + encodeURIComponent(state.token); }
+function withToken(url) { return url; }  // downloads and images carry the session cookie
 
 function showLogin(message) {
   $("#app").hidden = true; $("#login").hidden = false;
@@ -38,12 +29,25 @@ function showLogin(message) {
   if (state.statusWs) { state.statusWs.onclose = null; state.statusWs.close(); state.statusWs = null; }
 }
 
-async function signIn(token) {
-  state.token = token;
-  await api("/trials?limit=1");
-  sessionStorage.setItem("gaitcap-token", token);
+function enterApp(me) {
+  state.user = me.user;
+  $("#account-name").textContent = me.user + " (" + me.roles.join(", ") + ")"; $("#account").hidden = false;
   $("#login").hidden = true; $("#app").hidden = false;
   connectStatus(); connectPreviews();
+}
+
+async function signIn(user, password) {
+  const res = await fetch("/login", { method: "POST", credentials: "same-origin", headers: { "Content-Type": "application/json" },
+    body: JSON.stringify({ user, password }) });
+  if (res.status === 401) throw new Error("The user name or password is not right.");
+  if (res.status === 429) throw new Error("Too many failed attempts. Please wait a few minutes.");
+  if (!res.ok) throw new Error(res.status + " " + res.statusText);
+  enterApp(await res.json());
+}
+
+async function signOut() {
+  await fetch("/logout", { method: "POST", credentials: "same-origin" });
+  state.user = null; $("#account").hidden = true; showLogin("You are signed out.");
 }
 
 // ---------- messages ----------
@@ -58,12 +62,25 @@ async function startTrial() {
   state.busy = true; $("#start").disabled = true;
   setStatus("Starting the recording…");
   try {
-    const trial = await api("/trials", { method: "POST", body: { subject_id: subject, session: $("#session").value.trim() || undefined } });
+    const body = { subject_id: subject, session: $("#session").value.trim() || undefined };
+    let trial;
+    try {
+      trial = await api("/trials", { method: "POST", body: Object.assign({}, body) });
+    } catch (e) {
+      // the rig check refused: say why, and record only if the clinician confirms (the override is audited)
+      if (e.status !== 409 || !e.message.startsWith("Start refused")) throw e;
+      if (!confirm(e.message.replace(". To record anyway, confirm (override_rig_check).", ".") + "\n\nRecord anyway? The results will carry a warning.")) {
+        showError(e.message.replace(" To record anyway, confirm (override_rig_check).", "")); setStatus("Not recording.");
+        state.busy = false; renderRecording(); return;
+      }
+      trial = await api("/trials", { method: "POST", body: Object.assign({ override_rig_check: true }, body) });
+    }
     state.recording = trial; state.followed = null; renderRecording();
   } catch (e) {
     if (e.status === 409) showError("Another recording is already running: " + e.message);
     else if (e.status === 422) showError("Please check the form: " + e.message);
     else if (e.status === 503) showError("The cameras or the recorder are not ready: " + e.message);
+    else if (e.status === 507) showError("The recordings cannot be saved: " + e.message);
     else showError("Could not start: " + e.message);
     setStatus("Not recording.");
   }
@@ -80,7 +97,9 @@ async function stopTrial() {
     state.recording = null; follow(trial.id);
     setStatus("Saved. Computing the results…");
   } catch (e) {
-    showError("Could not stop: " + e.message);
+    showError(e.status === 503 ? "The recorder is not answering. The recording is kept and will be recovered and processed: " + e.message
+      : "Could not stop: " + e.message);
+    if (e.status === 503) { const id = state.recording.id; state.recording = null; follow(id); }
   }
   state.busy = false; renderRecording();
 }
@@ -98,7 +117,7 @@ function renderRecording() {
 // ---------- live status ----------
 function connectStatus() {
   const proto = location.protocol === "https:" ? "wss" : "ws";
-  const ws = new WebSocket(`${proto}://${location.host}/ws/status?token=${encodeURIComponent(state.token)}`);
+  const ws = new WebSocket(`${proto}://${location.host}/ws/status`);
   state.statusWs = ws;
   ws.onopen = () => setConnection(true);
   ws.onmessage = (ev) => onStatus(JSON.parse(ev.data));
@@ -132,7 +151,7 @@ function renderTrials(trials) {
     const progress = t.state === "processing" ? ` <progress max="1" value="${t.progress}"></progress>` : "";
     tr.innerHTML = `<td>${fmtTime(t.started_at || t.created_at)}</td><td>${esc(t.subject_id)}</td><td>${esc(t.session)}</td>
       <td>${t.duration_s == null ? "" : fmtDuration(t.duration_s)}</td>
-      <td><span class="state state-${t.state}">${esc(t.state_text)}</span>${progress}${t.error ? `<div class="error">${esc(t.error)}</div>` : ""}</td>
+      <td><span class="state state-${t.state}">${esc(t.state_text)}</span>${progress}${t.error ? `<div class="error">${esc(t.error)}</div>` : ""}${t.warnings.length ? `<div class="warning-count">${t.warnings.length} warning${t.warnings.length > 1 ? "s" : ""}</div>` : ""}</td>
       <td>${t.results.length ? '<button class="btn view">View results</button>' : ""}</td>`;
     const btn = tr.querySelector(".view");
     if (btn) btn.onclick = () => follow(t.id);
@@ -162,7 +181,7 @@ function renderCameras(cams) {
 
 function connectPreviews() {
   const proto = location.protocol === "https:" ? "wss" : "ws";
-  const ws = new WebSocket(`${proto}://${location.host}/ws/preview?fps=4&token=${encodeURIComponent(state.token)}`);
+  const ws = new WebSocket(`${proto}://${location.host}/ws/preview?fps=4`);
   ws.binaryType = "arraybuffer";
   ws.onmessage = (ev) => {
     const bytes = new Uint8Array(ev.data);
@@ -186,11 +205,23 @@ function follow(trialId) {
   $("#results-summary").innerHTML = ""; $("#results-summary").dataset.stage = "";
   $("#steps-table thead").innerHTML = ""; $("#steps-table tbody").innerHTML = "";
   $("#report-plot").removeAttribute("src"); $("#downloads").innerHTML = "";
+  renderWarnings([], null); $("#results-summary").classList.remove("superseded");
   peopleBox().hidden = true; state.rerun = null; $("#people-status").textContent = "";
   api("/trials/" + encodeURIComponent(trialId)).then(updateFollowed).catch((e) => showError(e.message));
 }
 
+function renderWarnings(warnings, t) {
+  // data-quality warnings in plain words, above the numbers; the quality line says when there are none
+  const box = $("#results-warnings"), list = box.querySelector("ul");
+  list.innerHTML = warnings.map((w) => `<li>${esc(w)}</li>`).join("");
+  box.hidden = !warnings.length;
+  const done = t && (t.state === "done" || t.state === "done_with_warnings");
+  $("#results-quality").textContent = !t ? "" : warnings.length ? "" : done ? "Data quality: every check passed (cameras, sync, coverage, calibration)." : "Data quality: checked when processing ends.";
+  state.warnings = warnings;
+}
+
 function updateFollowed(t) {
+  renderWarnings(t.warnings || [], t);
   if (state.rerun === t.id && !rerunFinished(t)) return;
   const best = t.results.includes("refined") ? "refined" : t.results.includes("preliminary") ? "preliminary" : null;
   if (t.state === "failed") {
@@ -210,7 +241,10 @@ function updateFollowed(t) {
 
 async function loadResult(trialId, stage, trialState) {
   const g = await api(`/trials/${encodeURIComponent(trialId)}/gait?stage=${stage}`);
-  const label = stage === "refined" ? "Final results (refined 3D reconstruction)." : "Preliminary results. Refining the 3D reconstruction…";
+  const warned = (state.warnings || []).length > 0;
+  const label = stage === "refined" ? (warned ? "Results with warnings (refined 3D reconstruction): read the warnings above."
+    : "Final results (refined 3D reconstruction).") : "Preliminary results. Refining the 3D reconstruction…";
+  $("#results-summary").classList.remove("superseded");
   $("#results-stage").textContent = label;
   $("#results-stage").className = "stage " + stage;
   const summary = $("#results-summary");
@@ -343,6 +377,10 @@ async function choosePatient(trialId, choice) {
     state.rerun = trialId;
     state.rerunWho = chosen == null ? "the chosen person" : `person ${chosen + 1}`;
     $("#people-status").textContent = `Computing the walk again for ${state.rerunWho}…`;
+    // the numbers shown are for the previously chosen person: superseded until the new ones arrive
+    $("#results-summary").classList.add("superseded"); $("#results-summary").dataset.stage = "superseded";
+    $("#results-stage").textContent = "Superseded: these numbers are for the previously chosen person. New results are being computed…";
+    $("#results-stage").className = "stage";
   } catch (e) {
     showError(e.status === 404 && typeof choice !== "number" ? "Nobody was found where you clicked. Please click on the person, or use the buttons in the list."
       : "Could not choose the patient: " + e.message);
@@ -360,6 +398,23 @@ function rerunFinished(t) {
   state.rerun = null; state.shownResult = null;
   $("#people-status").textContent = t.state === "done" ? "Done: the results below are for the chosen person." : "";
   return true;
+}
+
+// ---------- system health (every component; shown when one is down for more than a few seconds) ----------
+const COMPONENT_NAMES = { database: "Database", disk: "Disk space", recorder: "Recorder", detector: "Detector",
+  workers: "Processing workers", cameras: "Cameras" };
+const DOWN_GRACE_S = 3;
+async function pollHealth() {
+  let h = null;
+  try { const r = await fetch("/health"); h = await r.json(); } catch (e) { /* the connection pill says it */ }
+  const now = Date.now() / 1000, items = [];
+  for (const [name, c] of Object.entries((h && h.components) || {})) {
+    if (c.ok !== false) continue;
+    if (c.since && now - c.since < DOWN_GRACE_S) continue;
+    items.push(`<li data-component="${esc(name)}"><b>${esc(COMPONENT_NAMES[name] || name)}:</b> ${esc(c.status)}</li>`);
+  }
+  $("#system-list").innerHTML = items.join("");
+  $("#system").hidden = !items.length;
 }
 
 // ---------- formatting ----------
@@ -380,7 +435,12 @@ function esc(s) { return String(s).replace(/[&<>"']/g, (c) => ({ "&": "&amp;", "
 $("#start").onclick = startTrial;
 $("#stop").onclick = stopTrial;
 $("#session").value = new Date().toISOString().slice(0, 10);
-$("#login-form").onsubmit = (ev) => { ev.preventDefault(); signIn($("#token-input").value.trim()).catch((e) => showLogin(e.message === "not signed in" ? "The access code is not valid." : e.message)); };
+$("#login-form").onsubmit = (ev) => {
+  ev.preventDefault();
+  const password = $("#password-input").value; $("#password-input").value = "";
+  signIn($("#user-input").value.trim(), password).catch((e) => showLogin(e.message));
+};
+$("#logout").onclick = () => { signOut().catch(() => {}); };
 setInterval(renderRecording, 1000);
-const saved = readToken();
-if (saved) signIn(saved).catch(() => {}); else showLogin("");
+setInterval(pollHealth, 2000); pollHealth();
+fetch("/me", { credentials: "same-origin" }).then((r) => (r.ok ? r.json().then(enterApp) : showLogin(""))).catch(() => showLogin(""));

@@ -22,7 +22,14 @@ from gaitcap.services.catalog.jobs import (
     renew_lease,
 )
 from gaitcap.services.catalog.quality import get_quality, qualities_of, set_quality, warnings_of
-from gaitcap.services.catalog.results import ResultInfo, get_result, stages_available, stages_of, store_result
+from gaitcap.services.catalog.results import (
+    ResultInfo,
+    clear_results,
+    get_result,
+    stages_available,
+    stages_of,
+    store_result,
+)
 from gaitcap.services.catalog.states import FINISHED, PROCESSABLE, IllegalTransition, TrialState
 from gaitcap.services.catalog.trials import (
     RecordingBusy,
@@ -41,7 +48,7 @@ __all__ = [
     "TrialState", "IllegalTransition", "RecordingBusy", "TrialInfo", "TrialNotFound",
     "start_trial", "get_trial", "list_trials", "set_state", "set_progress", "current_recording",
     "JobInfo", "enqueue_job", "lease_job", "renew_lease", "complete_job", "fail_job", "jobs_for_trial",
-    "ResultInfo", "store_result", "get_result", "stages_available", "stages_of",
+    "ResultInfo", "clear_results", "store_result", "get_result", "stages_available", "stages_of",
     "add_calibration", "get_calibration", "latest_calibration",
     "get_quality", "qualities_of", "set_quality", "warnings_of", "FINISHED", "PROCESSABLE",
     "audit", "audit_entries", "new_trial_id", "validate_id",

@@ -98,3 +98,15 @@ def stages_of(catalog: Catalog, trial_ids: list[str]) -> dict[str, list[str]]:
         for tid, stage in s.execute(select(Result.trial_id, Result.stage).where(Result.trial_id.in_(trial_ids))):
             out.setdefault(tid, []).append(stage)
     return out
+
+
+def clear_results(catalog: Catalog, trial_id: str) -> int:
+    """Remove a trial's results (all stages), e.g. when the patient was chosen anew and the old numbers
+    are for someone else; returns how many were removed. The files are replaced by the next processing."""
+    with catalog.session() as s:
+        ids = list(s.scalars(select(Result.id).where(Result.trial_id == trial_id)))
+        if ids:
+            s.execute(delete(Step).where(Step.result_id.in_(ids)))
+            s.execute(delete(Summary).where(Summary.result_id.in_(ids)))
+            s.execute(delete(Result).where(Result.id.in_(ids)))
+        return len(ids)

@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 CONFIDENT = 0.3  # a keypoint above this confidence counts as detected
+NO_IMAGES_S = 1.5  # Start to Stop longer than the images by more than this: the cameras stopped early
 EDGE_S = 0.5  # a camera whose frames end (begin) more than this before the end (after the start) stopped (started late)
 
 
@@ -78,6 +79,7 @@ class DataQuality:
     spread_ms_max: float | None
     spread_ms_p95: float | None
     coverage: float | None
+    recorded_s: float | None = None  # wall time from Start to Stop (the recorder's), None when unknown
     warnings: tuple[str, ...] = ()
     serious: bool = False
     criteria: QualityCriteria = field(default_factory=QualityCriteria)
@@ -126,10 +128,12 @@ def sync_spread_ms(stamps_ns: np.ndarray) -> np.ndarray:
 
 
 def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confidence: np.ndarray | None,
-                      expected_cameras=(), criteria: QualityCriteria = QualityCriteria()) -> DataQuality:
+                      expected_cameras=(), recorded_s: float | None = None,
+                      criteria: QualityCriteria = QualityCriteria()) -> DataQuality:
     """Measures and warnings from a recording's (C, T) camera timestamps (-1 where missing) and the
     patient's (C, T, J) detection confidences; ``expected_cameras``: the calibration's cameras (one
-    missing from the recording entirely is reported)."""
+    missing from the recording entirely is reported); ``recorded_s``: Start to Stop (s) as the recorder
+    timed it (images ending long before Stop: every camera stopped)."""
     stamps = np.asarray(timestamps_ns, dtype=np.int64)
     nominal = nominal_fps_of(stamps)
     t0 = float(stamps[stamps >= 0].min()) if (stamps >= 0).any() else 0.0
@@ -143,7 +147,8 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     quality = DataQuality(duration_s=round(duration, 3), nominal_fps=round(nominal, 2), cameras=tuple(cams),
                           spread_ms_max=round(float(spread.max()), 2) if spread.size else None,
                           spread_ms_p95=round(float(np.percentile(spread, 95)), 2) if spread.size else None,
-                          coverage=None if coverage is None else round(coverage, 3), criteria=criteria)
+                          coverage=None if coverage is None else round(coverage, 3), criteria=criteria,
+                          recorded_s=None if recorded_s is None else round(float(recorded_s), 3))
     missing = [n for n in expected_cameras if n not in camera_names]
     return judged(quality, missing_cameras=missing)
 
@@ -202,6 +207,9 @@ def judged(q: DataQuality, *, missing_cameras=()) -> DataQuality:
     warn += _bumped(q.cameras, cr)
     if q.coverage is not None and q.coverage < cr.min_coverage:
         warn.append(f"The patient was seen by 2 or more cameras in only {100 * q.coverage:.0f} % of the frames")
+    if q.recorded_s is not None and q.recorded_s - q.duration_s > NO_IMAGES_S:
+        warn.append(f"No camera images for {q.recorded_s - q.duration_s:.1f} s of the {q.recorded_s:.1f} s "
+                    "between Start and Stop (the cameras stopped)")
     if q.duration_s < cr.min_duration_s:
         warn.append(f"Only {q.duration_s:.1f} s recorded")
     return DataQuality(**{**asdict(q), "cameras": q.cameras, "criteria": cr, "warnings": tuple(warn),
