@@ -1,18 +1,27 @@
-// gaitcap clinic page: plain JS, no build step. Signed in by the session cookie (HttpOnly; set by /login).
+// gaitcap clinic page: plain JS, no build step. Talks to the API with the access token.
 "use strict";
 
 const $ = (sel) => document.querySelector(sel);
-const state = { user: null, recording: null, followed: null, shownResult: null, cameras: {}, statusWs: null, busy: false, rerun: null };
+const state = { token: null, recording: null, followed: null, shownResult: null, cameras: {}, statusWs: null, busy: false, rerun: null };
 
-// ---------- session ----------
+// ---------- access token ----------
+function readToken() {
+  const m = location.hash.match(/token=([^&]+)/);
+  if (m) {
+    sessionStorage.setItem("gaitcap-token", decodeURIComponent(m[1]));
+    history.replaceState(null, "", location.pathname + location.search);
+  }
+  return sessionStorage.getItem("gaitcap-token");
+}
+
 async function api(path, options = {}) {
-  const headers = Object.assign({}, options.headers || {});
+  const headers = Object.assign({ Authorization: "Bearer " + state.token }, options.headers || {});
   if (options.body && typeof options.body !== "string") {
     options.body = JSON.stringify(options.body);
     headers["Content-Type"] = "application/json";
   }
-  const res = await fetch(path, Object.assign({ credentials: "same-origin" }, options, { headers }));
-  if (res.status === 401) { showLogin(state.user ? "You were signed out. Please sign in again." : ""); state.user = null; throw new Error("not signed in"); }
+  const res = await fetch(path, Object.assign({}, options, { headers }));
+  if (res.status === 401) { showLogin("The access code is not valid. Please enter it again."); throw new Error("not signed in"); }
   if (!res.ok) {
     let msg = res.status + " " + res.statusText;
     try { const body = await res.json(); if (body.detail) msg = typeof body.detail === "string" ? body.detail : JSON.stringify(body.detail); } catch (e) { /* not JSON */ }
@@ -21,7 +30,7 @@ async function api(path, options = {}) {
   return res.headers.get("content-type")?.includes("json") ? res.json() : res.text();
 }
 
-function withToken(url) { return url; }  // downloads and images carry the session cookie
+function withToken(url) { return url + (url.includes("?") ? "&" : "?") + "token=" + encodeURIComponent(state.token); }
 
 function showLogin(message) {
   $("#app").hidden = true; $("#login").hidden = false;
@@ -29,25 +38,12 @@ function showLogin(message) {
   if (state.statusWs) { state.statusWs.onclose = null; state.statusWs.close(); state.statusWs = null; }
 }
 
-function enterApp(me) {
-  state.user = me.user;
-  $("#account-name").textContent = me.user + " (" + me.roles.join(", ") + ")"; $("#account").hidden = false;
+async function signIn(token) {
+  state.token = token;
+  await api("/trials?limit=1");
+  sessionStorage.setItem("gaitcap-token", token);
   $("#login").hidden = true; $("#app").hidden = false;
   connectStatus(); connectPreviews();
-}
-
-async function signIn(user, password) {
-  const res = await fetch("/login", { method: "POST", credentials: "same-origin", headers: { "Content-Type": "application/json" },
-    body: JSON.stringify({ user, password }) });
-  if (res.status === 401) throw new Error("The user name or password is not right.");
-  if (res.status === 429) throw new Error("Too many failed attempts. Please wait a few minutes.");
-  if (!res.ok) throw new Error(res.status + " " + res.statusText);
-  enterApp(await res.json());
-}
-
-async function signOut() {
-  await fetch("/logout", { method: "POST", credentials: "same-origin" });
-  state.user = null; $("#account").hidden = true; showLogin("You are signed out.");
 }
 
 // ---------- messages ----------
@@ -117,7 +113,7 @@ function renderRecording() {
 // ---------- live status ----------
 function connectStatus() {
   const proto = location.protocol === "https:" ? "wss" : "ws";
-  const ws = new WebSocket(`${proto}://${location.host}/ws/status`);
+  const ws = new WebSocket(`${proto}://${location.host}/ws/status?token=${encodeURIComponent(state.token)}`);
   state.statusWs = ws;
   ws.onopen = () => setConnection(true);
   ws.onmessage = (ev) => onStatus(JSON.parse(ev.data));
@@ -181,7 +177,7 @@ function renderCameras(cams) {
 
 function connectPreviews() {
   const proto = location.protocol === "https:" ? "wss" : "ws";
-  const ws = new WebSocket(`${proto}://${location.host}/ws/preview?fps=4`);
+  const ws = new WebSocket(`${proto}://${location.host}/ws/preview?fps=4&token=${encodeURIComponent(state.token)}`);
   ws.binaryType = "arraybuffer";
   ws.onmessage = (ev) => {
     const bytes = new Uint8Array(ev.data);
@@ -435,12 +431,8 @@ function esc(s) { return String(s).replace(/[&<>"']/g, (c) => ({ "&": "&amp;", "
 $("#start").onclick = startTrial;
 $("#stop").onclick = stopTrial;
 $("#session").value = new Date().toISOString().slice(0, 10);
-$("#login-form").onsubmit = (ev) => {
-  ev.preventDefault();
-  const password = $("#password-input").value; $("#password-input").value = "";
-  signIn($("#user-input").value.trim(), password).catch((e) => showLogin(e.message));
-};
-$("#logout").onclick = () => { signOut().catch(() => {}); };
+$("#login-form").onsubmit = (ev) => { ev.preventDefault(); signIn($("#token-input").value.trim()).catch((e) => showLogin(e.message === "not signed in" ? "The access code is not valid." : e.message)); };
 setInterval(renderRecording, 1000);
 setInterval(pollHealth, 2000); pollHealth();
-fetch("/me", { credentials: "same-origin" }).then((r) => (r.ok ? r.json().then(enterApp) : showLogin(""))).catch(() => showLogin(""));
+const saved = readToken();
+if (saved) signIn(saved).catch(() => {}); else showLogin("");
