@@ -1,0 +1,142 @@
+"""The OpenSim model fit on the synthetic walker: accuracy against its true joint angles, the files
+(MOT, OSIM, TRC, C3D read back), the sign conventions read off the model, and a clear error without it."""
+
+import json
+
+import numpy as np
+import pytest
+from gaitcap.services.kinematics import KinematicsUnavailable, get_engine
+
+opensim = pytest.importorskip("opensim", reason="the kinematics extra (opensim) is not installed")
+
+
+@pytest.fixture(scope="module")
+def engine():
+    try:
+        return get_engine()
+    except KinematicsUnavailable as exc:
+        pytest.skip(f"OpenSim setup files not installed: {exc}")
+
+
+@pytest.fixture(scope="module")
+def fitted(engine, tmp_path_factory):
+    """8 s of the synthetic walker (exact keypoints), fitted once."""
+    from gaitcap.acquisition.synthetic.params import WalkParams
+    from gaitcap.acquisition.synthetic.path import Room, plan_walk
+    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.skeletons import get_skeleton
+    from gaitcap.services.kinematics.trial import trial_kinematics
+
+    params, times = WalkParams(), np.arange(240) / 30.0
+    points = simulate_body(plan_walk(params, 8.0, Room(), seed=1), params, times)
+    names = get_skeleton("halpe26").joint_names
+    report = analyze_gait(points, times, list(names))
+    out = tmp_path_factory.mktemp("kin")
+    kin = trial_kinematics(points, times, names, steps=report.steps, out_dir=out)
+    return points, times, names, report, kin, out
+
+
+def test_ik_matches_the_walkers_true_angles(engine, fitted):
+    from gaitcap.reconstruction.kinematics.angles import clinical_angles
+    from gaitcap.reconstruction.kinematics.geometric import keypoint_angles, zero_pose_offsets
+    from gaitcap.reconstruction.kinematics.markers import layout_for
+    from gaitcap.reconstruction.kinematics.mot import parse_mot
+
+    points, times, names, _, _, out = fitted
+    layout = layout_for("halpe26")
+    zero = engine.zero_pose_markers_mm(layout.setup)
+    offsets = zero_pose_offsets(np.array([zero.get(layout.markers.get(j, ""), [np.nan] * 3) for j in names]), names)
+    truth = keypoint_angles(points, names)
+    mot_times, coords, in_degrees = parse_mot((out / "kinematics.mot").read_text())
+    assert in_degrees and np.allclose(mot_times, times, atol=1e-5)
+    ik = clinical_angles(coords)
+    for var, limit in (("knee_flexion", 1.5), ("ankle_dorsiflexion", 3.0), ("hip_adduction", 2.5)):
+        for side in ("left", "right"):
+            err = ik[var][side] - (truth[var][side] - offsets[var][side])
+            # measured on 30 s: knee 0.8, ankle 1.9, hip adduction 1.5 deg RMSE
+            assert np.sqrt(np.mean(err**2)) < limit, (var, side)
+    # hip flexion: the pelvis's tilt comes from the trunk markers (the walker's pelvis is upright), a
+    # steady offset; the shape follows the truth (measured SD of the error 1.2 deg)
+    err = ik["hip_flexion"]["right"] - (truth["hip_flexion"]["right"] - offsets["hip_flexion"]["right"])
+    assert err.std() < 2.0
+
+
+def test_report_files_and_exports(fitted):
+    import ezc3d
+    from gaitcap.services.kinematics.files import norms_file
+
+    points, times, names, report, kin, out = fitted
+    d = json.loads((out / "kinematics.json").read_text())
+    assert d["available"] and d["model"]["frames_fitted"] == len(times)
+    assert d["curves"]["knee_flexion"]["left"]["n_cycles"] >= 2
+    assert 50 < d["key_values"]["right"]["knee_peak_flexion_swing_deg"]["mean"] < 75
+    assert d["marker_errors_mm"]["LKnee"]["rms"] < 20
+    if norms_file().is_file():  # installed by deploy/bootstrap.sh
+        assert "Schwartz" in d["norms"]["source"] and len(d["norms"]["bands"]["knee_flexion"]["mean_deg"]) == 101
+        assert "knee_flexion_norm_mean_deg" in (out / "kinematics.csv").read_text().splitlines()[0]
+    else:
+        assert d["norms"]["bands"] == {}
+    c = ezc3d.c3d(str(out / "trajectory.c3d"))
+    assert list(c["parameters"]["POINT"]["LABELS"]["value"]) == list(names)
+    assert c["parameters"]["POINT"]["RATE"]["value"][0] == pytest.approx(30.0)
+    assert np.allclose(c["data"]["points"][:3, names.index("left_heel"), :].T, points[:, names.index("left_heel")],
+                       atol=0.01)
+    strikes = [s for s in report.steps if np.isfinite(s.heel_strike_s)]
+    labels = list(c["parameters"]["EVENT"]["LABELS"]["value"])
+    assert labels.count("Foot Strike") == len(strikes)
+    trc = (out / "kinematics.trc").read_text().splitlines()
+    assert trc[2].split("\t")[4] == "m" and trc[3].split("\t")[2] == "Nose"
+    model = opensim.Model(str(out / "kinematics.osim"))
+    assert model.getMarkerSet().contains("RKnee") and model.getCoordinateSet().contains("knee_angle_r")
+
+
+def test_sign_conventions_match_the_model(engine):
+    """Each clinical variable's sign, read off the model: moving the coordinate moves a marker the
+    anatomical way (OpenSim frame: x forward, y up, z right)."""
+    from gaitcap.reconstruction.kinematics.angles import VARIABLES
+    from gaitcap.services.kinematics.files import setup_files
+
+    files = setup_files("Halpe26")
+    model = opensim.Model(str(files["model"]))
+    model.set_MarkerSet(opensim.MarkerSet(str(files["markers"])))
+    state = model.initSystem()
+
+    def moved(coordinate: str, marker: str) -> np.ndarray:
+        c, m = model.getCoordinateSet().get(coordinate), model.getMarkerSet().get(marker)
+        c.setValue(state, 0.0)
+        before = m.getLocationInGround(state).to_numpy()
+        c.setValue(state, 0.2)
+        after = m.getLocationInGround(state).to_numpy()
+        c.setValue(state, 0.0)
+        return after - before
+
+    def sign(var: str, side: str) -> float:
+        return VARIABLES[var].sign[side]
+
+    for side, s in (("right", "R"), ("left", "L")):
+        assert sign("knee_flexion", side) * moved(VARIABLES["knee_flexion"].coordinate[side], f"{s}Ankle")[0] < 0
+        assert sign("hip_flexion", side) * moved(VARIABLES["hip_flexion"].coordinate[side], f"{s}Knee")[0] > 0
+        toe = moved(VARIABLES["ankle_dorsiflexion"].coordinate[side], f"{s}BigToe")
+        assert sign("ankle_dorsiflexion", side) * toe[1] > 0
+        medial = -1.0 if side == "right" else 1.0  # toward the other leg along z
+        assert sign("hip_adduction", side) * moved(VARIABLES["hip_adduction"].coordinate[side], f"{s}Knee")[2] * medial > 0
+        # obliquity up on this side: the hip marker of this side rises
+        assert sign("pelvis_obliquity", side) * moved("pelvis_list", f"{s}Hip")[1] > 0
+        assert sign("pelvis_rotation", side) * moved("pelvis_rotation", f"{s}Hip")[0] > 0
+    assert sign("pelvis_tilt", "left") * moved("pelvis_tilt", "Neck")[0] > 0  # anterior: the trunk goes forward
+    assert sign("trunk_flexion", "left") * moved("L5_S1_Flex_Ext", "Neck")[0] > 0
+
+
+def test_missing_setup_files_make_kinematics_unavailable(tmp_path, monkeypatch, fitted):
+    from gaitcap.services.kinematics import availability
+    from gaitcap.services.kinematics.trial import trial_kinematics
+
+    monkeypatch.setenv("GAITCAP_OPENSIM_DIR", str(tmp_path / "nowhere"))
+    ok, reason = availability()
+    assert not ok and "bootstrap" in reason
+    points, times, names, *_ = fitted
+    with pytest.raises(KinematicsUnavailable):
+        trial_kinematics(points[:30], times[:30], names, out_dir=tmp_path / "out")
+    d = json.loads((tmp_path / "out" / "kinematics.json").read_text())
+    assert d == {"available": False, "reason": reason}
