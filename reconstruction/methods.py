@@ -6,7 +6,7 @@ Each method is a small frozen dataclass with ``run(detections, rig, progress) ->
 - :class:`Robust`: the paper's robust triangulation per frame.
 - :class:`Explicit`: robust triangulation, then the points optimised on the paper's loss (L-BFGS).
 - :class:`Implicit` (default): robust triangulation, then a time function fitted on the paper's loss
-  (Fourier features + Adam by default; ``Implicit.paper()`` is the paper's MLP and schedule).
+  (cubic B-splines + L-BFGS by default; ``Implicit.paper()`` is the paper's MLP and schedule).
 
 ``METHODS`` maps CLI names to classes.
 """
@@ -119,7 +119,7 @@ class Explicit(_FitMethod):
 
 @dataclass(frozen=True)
 class Implicit(_FitMethod):
-    """Implicit trajectory fit (default: Fourier time features; :meth:`paper`: the paper's MLP)."""
+    """Implicit trajectory fit (default: cubic B-spline time model; :meth:`paper`: the paper's MLP)."""
 
     fit: ImplicitFit = field(default_factory=ImplicitFit)
     robust: Robust = field(default_factory=Robust)

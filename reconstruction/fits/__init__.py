@@ -3,5 +3,6 @@
 - :mod:`.common`: the fit problem (observations, weights, initial trajectory, gap filling).
 - :mod:`.optim`: Adam (with the paper's schedule) and L-BFGS, run in jitted chunks.
 - :mod:`.explicit`: points as free parameters.
-- :mod:`.implicit`: Fourier time features (default) or the paper's MLP.
+- :mod:`.implicit`: a function of time: cubic B-splines (default, :mod:`.bspline`), Fourier features or
+  the paper's MLP.
 """

@@ -12,6 +12,8 @@ from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.losses import Problem, make_observations
 from gaitcap.reconstruction.projection import camera_arrays
 
+SPAN_TOL_S = 1e-6
+
 
 @dataclass(frozen=True, eq=False)
 class FitOutput:
@@ -93,3 +95,17 @@ def to_fit_layout(points_mm: np.ndarray) -> jnp.ndarray:
 def from_fit_layout(points) -> np.ndarray:
     """(3, T, J) -> (T, J, 3) float64."""
     return np.transpose(np.asarray(points, dtype=np.float64), (1, 2, 0))
+
+
+def check_span(times_s, t0: float, duration: float) -> np.ndarray:
+    """times_s as a flat float array; ValueError if any is non-finite or outside [t0, t0 + duration] s."""
+    t = np.asarray(times_s, dtype=np.float64).reshape(-1)
+    if not np.all(np.isfinite(t)):
+        raise ValueError("times_s: contains NaN or infinite values")
+    lo, hi = t0 - SPAN_TOL_S, t0 + duration + SPAN_TOL_S
+    outside = t[(t < lo) | (t > hi)]
+    if outside.size:
+        raise ValueError(
+            f"times_s: {outside[0]:.4f} s is outside the fitted span [{t0:.4f}, {t0 + duration:.4f}] s"
+        )
+    return t

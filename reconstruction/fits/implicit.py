@@ -1,12 +1,17 @@
 """Implicit representation: the trajectory is a function of time, fitted to the detections.
 
-Two models of time -> pose (J x 3 mm):
+Three models of time -> pose (J x 3 mm):
 
-- :class:`FourierBasis` (default): a linear model on band-limited time features [1, tau, cos(pi k tau),
-  sin(pi k tau)] (tau = time scaled to [0, 1] over the trial, harmonics up to ``max_freq_hz``). Its
-  weights start at the ridge least-squares fit to the robust triangulation, then a few hundred Adam steps
-  minimise the paper's loss. Band-limiting plus the skeleton term is what removes detector noise; the
-  model cannot represent faster jitter, so it needs no early stopping.
+- :class:`~gaitcap.reconstruction.fits.bspline.BSplineBasis` (default): uniform cubic B-splines with
+  knots at the band limit (8 Hz, 62.5 ms apart). Local support: each frame depends on 4 control points,
+  so cost and memory grow linearly with the trial. The control points start at the banded penalised
+  least-squares fit to the robust triangulation, then L-BFGS minimises the paper's loss.
+- :class:`FourierBasis`: a linear model on band-limited global time features [1, tau, cos(pi k tau),
+  sin(pi k tau)] (tau = time scaled to [0, 1] over the trial, harmonics up to ``max_freq_hz``), started at
+  the ridge least-squares fit. As accurate on short trials, but its feature matrix is frames x (4 x
+  ``max_freq_hz`` x duration): time and memory grow with the square of the trial.
+  Band-limiting plus the skeleton term is what removes detector noise; neither linear model can represent
+  faster jitter, so they need no early stopping.
 - :class:`PaperMLP`: the paper's network (positional encoding of t in [0, pi] with 6 octaves fed to each
   of the first four layers, Dense-LayerNorm-ReLU layers 128..2048, output x 1000 mm), trained from
   random initialisation with the paper's schedule. Faithful reference; slow on a CPU.
@@ -23,25 +28,12 @@ from functools import lru_cache
 import jax
 import jax.numpy as jnp
 import numpy as np
-from gaitcap.reconstruction.fits.common import FitOutput, from_fit_layout
+from gaitcap.reconstruction.fits.bspline import BSplineBasis
+from gaitcap.reconstruction.fits.common import FitOutput, check_span, from_fit_layout
 from gaitcap.reconstruction.fits.optim import LBFGS, Adam, Progress, Solver, WarmupHoldDecay
 from gaitcap.reconstruction.losses import LossConfig, Problem, total_loss
 
 MM_PER_M = 1000.0
-SPAN_TOL_S = 1e-6
-
-
-def _check_span(times_s, t0: float, duration: float) -> np.ndarray:
-    t = np.asarray(times_s, dtype=np.float64).reshape(-1)
-    if not np.all(np.isfinite(t)):
-        raise ValueError("times_s: contains NaN or infinite values")
-    lo, hi = t0 - SPAN_TOL_S, t0 + duration + SPAN_TOL_S
-    outside = t[(t < lo) | (t > hi)]
-    if outside.size:
-        raise ValueError(
-            f"times_s: {outside[0]:.4f} s is outside the fitted span [{t0:.4f}, {t0 + duration:.4f}] s"
-        )
-    return t
 
 
 # ----------------------------------------------------------------------------- Fourier basis
@@ -93,7 +85,7 @@ class FourierTrajectory:
     num_joints: int
 
     def __call__(self, times_s) -> np.ndarray:
-        t = _check_span(times_s, self.t0, self.duration)
+        t = check_span(times_s, self.t0, self.duration)
         out = MM_PER_M * (self.basis.features(t, self.t0, self.duration) @ self.weights_m)
         return out.reshape(len(t), 3, self.num_joints).transpose(0, 2, 1)
 
@@ -164,14 +156,14 @@ class MLPTrajectory:
     params: dict
 
     def __call__(self, times_s) -> np.ndarray:
-        t = _check_span(times_s, self.t0, self.duration)
+        t = check_span(times_s, self.t0, self.duration)
         tin = jnp.asarray(np.pi * (t - self.t0) / self.duration, jnp.float32)[:, None]
         return from_fit_layout(jax.jit(self.model.points)(self.params, tin))
 
 
 # ----------------------------------------------------------------------------- the fit
 
-Model = FourierBasis | PaperMLP
+Model = BSplineBasis | FourierBasis | PaperMLP
 
 
 @dataclass(frozen=True)
@@ -204,13 +196,13 @@ def _fast_loss() -> LossConfig:
 class ImplicitFit:
     """Fit a time function to the detections.
 
-    Default: Fourier features up to 6 Hz, ridge start, 150 L-BFGS iterations on the paper's loss terms
-    with the Huber slope cut beyond 10 px and both regularisers weighted 0.3 (the paper: 0.1; see the
-    README for the measurements behind this). :meth:`paper`: the paper's MLP, schedule, weights and 50k
+    Default: cubic B-splines with knots 62.5 ms apart (8 Hz band limit), banded least-squares start,
+    150 L-BFGS iterations on the paper's loss terms with the Huber slope cut beyond 10 px and both
+    regularisers weighted 0.3 (the paper: 0.1; see docs/methods.md for the measurements behind this). :meth:`paper`: the paper's MLP, schedule, weights and 50k
     Adam steps.
     """
 
-    model: Model = field(default_factory=FourierBasis)
+    model: Model = field(default_factory=BSplineBasis)
     solver: Solver = field(default_factory=lambda: LBFGS(iterations=150))
     loss: LossConfig = field(default_factory=_fast_loss)
 

@@ -1,8 +1,9 @@
 import numpy as np
 import pytest
+from gaitcap.reconstruction.fits.bspline import BSplineBasis
 from gaitcap.reconstruction.fits.common import fill_gaps, fit_problem, reject_spikes
 from gaitcap.reconstruction.fits.explicit import ExplicitFit
-from gaitcap.reconstruction.fits.implicit import FourierBasis, ImplicitFit, PaperMLP
+from gaitcap.reconstruction.fits.implicit import ImplicitFit, PaperMLP
 from gaitcap.reconstruction.fits.optim import LBFGS, Adam, WarmupHoldDecay
 from gaitcap.reconstruction.metrics import skeleton_loss_np
 from gaitcap.reconstruction.triangulation import robust_triangulate
@@ -25,7 +26,7 @@ def test_explicit_and_implicit_beat_robust_triangulation(scene):
     base = _mpjpe(rob.points_mm, gt)
     limbs = det.skeleton.limb_indices
     exp = ExplicitFit(solver=LBFGS(iterations=30)).fit(problem, init, det.times_s)
-    imp = ImplicitFit(model=FourierBasis(max_freq_hz=3.0), solver=LBFGS(iterations=20)).fit(problem, init, det.times_s)
+    imp = ImplicitFit(model=BSplineBasis(max_freq_hz=3.0), solver=LBFGS(iterations=20)).fit(problem, init, det.times_s)
     for out in (exp, imp):
         assert out.points_mm.shape == gt.shape and np.isfinite(out.points_mm).all()
         assert _mpjpe(out.points_mm, gt) < 0.8 * base
