@@ -23,6 +23,7 @@ from gaitcap.api import (
     routes_results,
     routes_trials,
 )
+from gaitcap.api.security import install_security
 from gaitcap.api.settings import Settings
 from gaitcap.services import catalog as cat
 from gaitcap.services.live.guard import TrialGuard
@@ -34,17 +35,19 @@ STATIC = Path(__file__).parent / "static"
 
 
 def _field_errors(exc: RequestValidationError) -> JSONResponse:
-    """422 whose ``detail`` names the field(s): ``"subject_id: String should match pattern ..."``."""
+    """422 whose ``detail`` names the field(s): ``"subject_id: String should match pattern ..."``; the
+    client's input is never echoed back (at most the first 10 errors, each message cut to 200 characters)."""
     parts = []
-    for err in exc.errors():
+    for err in exc.errors()[:10]:
         loc = [str(p) for p in err.get("loc", ()) if p not in ("body", "query", "path")]
-        parts.append(f"{'.'.join(loc) or 'body'}: {err.get('msg', 'invalid')}")
-    return JSONResponse(status_code=422, content={"detail": "; ".join(parts), "errors": jsonable(exc.errors())})
+        parts.append(f"{'.'.join(loc)[:80] or 'body'}: {str(err.get('msg', 'invalid'))[:200]}")
+    return JSONResponse(status_code=422, content={"detail": "; ".join(parts), "errors": jsonable(exc.errors()[:10])})
 
 
 def jsonable(errors) -> list[dict]:
-    return [{k: (v if isinstance(v, str | int | float | list | type(None)) else str(v)) for k, v in e.items()}
-            for e in errors]
+    """The errors without the client's ``input`` (and ``ctx``, which may quote it)."""
+    return [{k: (v[:200] if isinstance(v, str) else [str(p)[:80] for p in v] if k == "loc" else v)
+             for k, v in e.items() if k in ("type", "loc", "msg")} for e in errors]
 
 
 def create_app(settings: Settings, link=None) -> FastAPI:
@@ -63,12 +66,16 @@ def create_app(settings: Settings, link=None) -> FastAPI:
             app.state.catalog.close()
             app.state.link.close()
 
-    app = FastAPI(title="gaitcap clinic API", version="1", lifespan=lifespan,
+    app = FastAPI(title="gaitcap clinic API", version="1", lifespan=lifespan, docs_url=None, redoc_url=None,
                   description="Start and stop gait trials, follow processing, fetch gait metrics and files. "
-                              "Every route except /health needs the API token (Bearer header or ?token=).")
+                              "Sign in with POST /login (session cookie) or send a user's API token "
+                              "(Authorization: Bearer); each route needs a role's permission.")
     app.state.settings = settings
+    install_security(app, settings)
     app.state.link = link if link is not None else NoLink()
     app.add_exception_handler(RequestValidationError, lambda _r, exc: _field_errors(exc))
+    app.add_exception_handler(ValueError, lambda _r, exc: JSONResponse(status_code=422,
+                                                                       content={"detail": str(exc)[:300]}))
     app.include_router(routes_trials.router)
     app.include_router(routes_results.router)
     app.include_router(routes_kinematics.router)

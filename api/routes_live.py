@@ -45,9 +45,9 @@ def status(request: Request, user: str = Depends(require_user)):
 
 @router.websocket("/ws/status")
 async def status_ws(ws: WebSocket) -> None:
-    """Sends the status snapshot as JSON every ``status_period_s`` (0.5 s). Token in ``?token=``."""
+    """Sends the status snapshot as JSON every ``status_period_s`` (0.5 s). Signed in by the session cookie."""
     if websocket_user(ws) is None:
-        await ws.close(code=1008, reason="token: missing or wrong API token")
+        await ws.close(code=1008, reason="not signed in, not allowed or wrong Origin")
         return
     await ws.accept()
     period = ws.app.state.settings.status_period_s
@@ -64,7 +64,7 @@ async def status_ws(ws: WebSocket) -> None:
 async def preview_ws(ws: WebSocket, fps: float = 5.0) -> None:
     """Binary messages, one per new preview frame: 1 byte name length, the camera name, the JPEG."""
     if websocket_user(ws) is None:
-        await ws.close(code=1008, reason="token: missing or wrong API token")
+        await ws.close(code=1008, reason="not signed in, not allowed or wrong Origin")
         return
     await ws.accept()
     link, period = ws.app.state.link, 1.0 / max(0.5, min(fps, 30.0))

@@ -1,4 +1,5 @@
-"""Running the API under uvicorn (127.0.0.1 by default), in the foreground or in a thread (tests)."""
+"""Running the API under uvicorn (127.0.0.1 by default; HTTPS when the settings name a certificate),
+in the foreground or in a thread (tests)."""
 
 from __future__ import annotations
 
@@ -12,8 +13,12 @@ from gaitcap.api.settings import Settings
 
 
 def uvicorn_config(settings: Settings, link=None, *, log_level: str = "warning") -> uvicorn.Config:
+    tls = {}
+    if settings.tls_enabled:
+        tls = {"ssl_certfile": str(settings.tls_cert), "ssl_keyfile": str(settings.tls_key)}
     return uvicorn.Config(create_app(settings, link), host=settings.host, port=settings.port,
-                          log_level=log_level, ws="websockets-sansio", lifespan="on", access_log=False)
+                          log_level=log_level, ws="websockets-sansio", lifespan="on", access_log=False,
+                          server_header=False, **tls)
 
 
 def serve(settings: Settings, link=None, *, log_level: str = "info") -> None:
@@ -31,7 +36,7 @@ class ThreadedServer:
     @property
     def url(self) -> str:
         cfg = self.server.config
-        return f"http://{cfg.host}:{cfg.port}"
+        return f"{'https' if cfg.ssl_certfile else 'http'}://{cfg.host}:{cfg.port}"
 
     def stop(self, timeout_s: float = 10.0) -> None:
         self.server.should_exit = True

@@ -1,67 +1,112 @@
 """API settings from arguments or the environment.
 
-Environment: ``GAITCAP_TOKEN`` (one token, user ``clinic``) or ``GAITCAP_TOKENS`` (``user:token,...``),
-``GAITCAP_CATALOG`` (SQLite path or SQLAlchemy URL), ``GAITCAP_DATA_DIR``, ``GAITCAP_HOST`` (default
-127.0.0.1), ``GAITCAP_PORT`` (8000). The bus (``GAITCAP_BUS``) is opened by ``gaitcap serve``, not here.
+Environment: ``GAITCAP_DATA_DIR`` (trial files; accounts in ``accounts.json``, the audit trail in
+``audit.log`` there), ``GAITCAP_CATALOG`` (SQLite path or SQLAlchemy URL), ``GAITCAP_HOST`` (default
+127.0.0.1), ``GAITCAP_PORT`` (8000), ``GAITCAP_TLS_CERT`` / ``GAITCAP_TLS_KEY`` (PEM files: HTTPS),
+``GAITCAP_TOKENS`` (``user:token,...``: API tokens for scripts, each acting as that user's account),
+``GAITCAP_AUDIT_SYSLOG`` (``host:port`` or a socket path such as ``/dev/log``). The bus (``GAITCAP_BUS``)
+is opened by ``gaitcap serve``, not here.
 """
 
 from __future__ import annotations
 
+import ipaddress
 import os
 import secrets
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR, catalog_url
-
 
 def parse_tokens(text: str) -> dict[str, str]:
-    """``"alice:tok1,bob:tok2"`` -> {token: user}. Raises ValueError naming a bad entry."""
+    """``"alice:tok1,bob:tok2"`` -> {token: user}. Raises ValueError naming a bad entry (never the token)."""
     tokens = {}
     for item in filter(None, (p.strip() for p in text.split(","))):
         user, sep, token = item.partition(":")
-        if not sep or not user or len(token) < 8:
-            raise ValueError(f"GAITCAP_TOKENS: entry {user or item!r} must be user:token with >= 8 token chars")
+        if not sep or not user or len(token) < 16:
+            raise ValueError(f"GAITCAP_TOKENS: entry for user {user or '?'!r} must be user:token with >= 16 "
+                             "token characters")
         tokens[token] = user
     return tokens
 
 
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
 @dataclass(frozen=True)
 class Settings:
-    """tokens: token -> user name (the name goes into the audit log)."""
+    """tokens: API token -> user name (the user's account gives the roles); tls_cert / tls_key: PEM files
+    (HTTPS, HSTS, Secure cookies); plain_http_beyond_loopback: listen beyond loopback WITHOUT TLS
+    (only behind a TLS reverse proxy on the same host); session_idle_s / session_max_s: automatic
+    log-off after this long idle / after sign-in (s); max_body_bytes: larger request bodies are refused."""
 
-    tokens: dict[str, str]
     catalog_url: str
     data_dir: Path
+    tokens: dict[str, str] = field(default_factory=dict)
     host: str = "127.0.0.1"
     port: int = 8000
     status_period_s: float = 0.5
+    tls_cert: Path | None = None
+    tls_key: Path | None = None
+    plain_http_beyond_loopback: bool = False
+    accounts_path: Path | None = None
+    audit_path: Path | None = None
+    audit_syslog: str | None = None
+    session_idle_s: float = 15 * 60
+    session_max_s: float = 10 * 3600
+    max_body_bytes: int = 2 * 2**20
+    login_failures: int = 5  # per user name and per client address ...
+    login_window_s: float = 300.0  # ... within this window, then 429 until it has passed
+    expensive_per_minute: int = 120
     extra: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if not self.tokens:
-            raise ValueError("tokens: at least one API token is required")
         for token in self.tokens:
-            if len(token) < 8:
-                raise ValueError("tokens: every token needs at least 8 characters")
+            if len(token) < 16:
+                raise ValueError("tokens: every API token needs at least 16 characters")
+        if (self.tls_cert is None) != (self.tls_key is None):
+            raise ValueError("tls: give both the certificate and the private key")
+        for f in (self.tls_cert, self.tls_key):
+            if f is not None and not Path(f).is_file():
+                raise ValueError(f"tls: {f} does not exist")
+        if not is_loopback(self.host) and not self.tls_enabled and not self.plain_http_beyond_loopback:
+            raise ValueError(f"host {self.host}: refusing to serve beyond loopback without TLS (give --tls-cert/"
+                             "--tls-key or --self-signed; behind a TLS reverse proxy: --plain-http-beyond-loopback)")
+        if self.accounts_path is None:
+            object.__setattr__(self, "accounts_path", Path(self.data_dir) / "accounts.json")
+        if self.audit_path is None:
+            object.__setattr__(self, "audit_path", Path(self.data_dir) / "audit.log")
+
+    @property
+    def tls_enabled(self) -> bool:
+        return self.tls_cert is not None
+
+    @property
+    def scheme(self) -> str:
+        return "https" if self.tls_enabled else "http"
 
     @classmethod
     def from_env(cls, env: dict | None = None, **overrides) -> Settings:
         env = dict(os.environ if env is None else env)
-        tokens = parse_tokens(env.get("GAITCAP_TOKENS", ""))
-        if env.get("GAITCAP_TOKEN"):
-            tokens[env["GAITCAP_TOKEN"]] = "clinic"
-        data_dir = Path(env.get("GAITCAP_DATA_DIR", DEFAULT_DATA_DIR))
+        data_dir = Path(env.get("GAITCAP_DATA_DIR", "runs/clinic"))
         values = dict(
-            tokens=tokens,
-            catalog_url=catalog_url(data_dir, env.get("GAITCAP_CATALOG")),
+            tokens=parse_tokens(env.get("GAITCAP_TOKENS", "")),
+            catalog_url=env.get("GAITCAP_CATALOG", str(data_dir / "catalog.sqlite")),
             data_dir=data_dir,
             host=env.get("GAITCAP_HOST", "127.0.0.1"),
             port=int(env.get("GAITCAP_PORT", "8000")),
+            tls_cert=Path(env["GAITCAP_TLS_CERT"]) if env.get("GAITCAP_TLS_CERT") else None,
+            tls_key=Path(env["GAITCAP_TLS_KEY"]) if env.get("GAITCAP_TLS_KEY") else None,
+            audit_syslog=env.get("GAITCAP_AUDIT_SYSLOG") or None,
         )
         values.update(overrides)
         return cls(**values)
 
 
 def new_token() -> str:
-    return secrets.token_urlsafe(18)
+    return secrets.token_urlsafe(24)

@@ -30,7 +30,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from bench._common import jsonable  # noqa: E402
 
 TARGET_CENTRE_MM, TARGET_ROTATION_DEG = 5.0, 0.2
-TOKEN = "calibration-live-bench"
+TOKEN = "calibration-live-bench"  # the demo account's password
 
 
 def _calibrate_over_rest(client, record_s: float, timeout_s: float) -> tuple[str, dict, float]:
@@ -49,7 +49,6 @@ def _calibrate_over_rest(client, record_s: float, timeout_s: float) -> tuple[str
 
 
 def run(cameras: int, size: tuple[int, int], record_s: float, timeout_s: float) -> dict:
-    import httpx
     from gaitcap.acquisition.drivers.simulated import SimTrialSpec
     from gaitcap.acquisition.synthetic.board_render import camera_resized
     from gaitcap.reconstruction.calibration.compare import compare_rigs
@@ -63,8 +62,7 @@ def run(cameras: int, size: tuple[int, int], record_s: float, timeout_s: float) 
         # sim_seconds: the simulated walk must not end during the recording (its camera node restarts)
         cfg = StackConfig(data_dir=Path(tmp), token=TOKEN, port=base, bus_base_port=base + 1, cameras=cameras,
                           size=f"{size[0]}x{size[1]}", fps=fps, sim_seconds=600.0, refine=False, board_clip="full")
-        with Stack(cfg) as stack, httpx.Client(base_url=stack.cfg.url, timeout=60,
-                                               headers={"Authorization": f"Bearer {TOKEN}"}) as client:
+        with Stack(cfg) as stack, stack.client(timeout_s=60) as client:
             cal_id, final, job_s = _calibrate_over_rest(client, record_s, timeout_s)
             if final["state"] != "done":
                 return {"state": final["state"], "error": final.get("error"), "meets_targets": False}

@@ -26,7 +26,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 TARGET_PRELIMINARY_S, TARGET_REFINED_S = 3.0, 20.0
 
 
-def watch_trial(ws_url: str, client, *, subject: str, seconds: float, timeout_s: float) -> dict:
+def watch_trial(ws_url: str, client, cookie: dict, *, subject: str, seconds: float, timeout_s: float) -> dict:
     """Start, record, stop; seconds from Stop until the page's status shows each result stage."""
     from websockets.sync.client import connect
 
@@ -37,7 +37,7 @@ def watch_trial(ws_url: str, client, *, subject: str, seconds: float, timeout_s:
     stop_call_s = time.monotonic() - t_stop
     seen: dict[str, float] = {}
     trial: dict = {}
-    with connect(ws_url) as ws:
+    with connect(ws_url, additional_headers=cookie) as ws:
         while time.monotonic() - t_stop < timeout_s:
             snap = json.loads(ws.recv(timeout=timeout_s))
             trial = next((t for t in snap["trials"] if t["id"] == tid), trial)
@@ -82,7 +82,6 @@ def main() -> None:
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
 
-    import httpx
     from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
 
     base = free_port_range(16)
@@ -92,11 +91,12 @@ def main() -> None:
         t0 = time.monotonic()
         with Stack(cfg) as stack:
             startup_s = time.monotonic() - t0
-            ws_url = f"ws://{cfg.host}:{cfg.port}/ws/status?token={cfg.token}"
+            ws_url = f"ws://{cfg.host}:{cfg.port}/ws/status"
             rows = []
-            with httpx.Client(base_url=cfg.url, headers={"Authorization": f"Bearer {cfg.token}"}, timeout=60) as c:
+            with stack.client(timeout_s=60) as c:
+                cookie = {"Cookie": f"gaitcap_session={c.cookies['gaitcap_session']}"}
                 for i in range(args.trials):
-                    row = watch_trial(ws_url, c, subject=f"BENCH{i}", seconds=args.seconds, timeout_s=args.timeout)
+                    row = watch_trial(ws_url, c, cookie, subject=f"BENCH{i}", seconds=args.seconds, timeout_s=args.timeout)
                     row.update(compute_times(cfg.catalog, row["trial_id"]))
                     rows.append(row)
                     print(f"trial {i}: {row}", file=sys.stderr)

@@ -1,27 +1,18 @@
-// gaitcap clinic page: plain JS, no build step. Talks to the API with the access token.
+// gaitcap clinic page: plain JS, no build step. Signed in by the session cookie (HttpOnly; set by /login).
 "use strict";
 
 const $ = (sel) => document.querySelector(sel);
-const state = { token: null, recording: null, followed: null, shownResult: null, cameras: {}, statusWs: null, busy: false, rerun: null };
+const state = { user: null, recording: null, followed: null, shownResult: null, cameras: {}, statusWs: null, busy: false, rerun: null };
 
-// ---------- access token ----------
-function readToken() {
-  const m = location.hash.match(/token=([^&]+)/);
-  if (m) {
-    sessionStorage.setItem("gaitcap-token", decodeURIComponent(m[1]));
-    history.replaceState(null, "", location.pathname + location.search);
-  }
-  return sessionStorage.getItem("gaitcap-token");
-}
-
+// ---------- session ----------
 async function api(path, options = {}) {
-  const headers = Object.assign({ Authorization: "Bearer " + state.token }, options.headers || {});
+  const headers = Object.assign({}, options.headers || {});
   if (options.body && typeof options.body !== "string") {
     options.body = JSON.stringify(options.body);
     headers["Content-Type"] = "application/json";
   }
-  const res = await fetch(path, Object.assign({}, options, { headers }));
-  if (res.status === 401) { showLogin("The access code is not valid. Please enter it again."); throw new Error("not signed in"); }
+  const res = await fetch(path, Object.assign({ credentials: "same-origin" }, options, { headers }));
+  if (res.status === 401) { showLogin(state.user ? "You were signed out. Please sign in again." : ""); state.user = null; throw new Error("not signed in"); }
   if (!res.ok) {
     let msg = res.status + " " + res.statusText;
     try { const body = await res.json(); if (body.detail) msg = typeof body.detail === "string" ? body.detail : JSON.stringify(body.detail); } catch (e) { /* not JSON */ }
@@ -30,7 +21,7 @@ async function api(path, options = {}) {
   return res.headers.get("content-type")?.includes("json") ? res.json() : res.text();
 }
 
-function withToken(url) { return url + (url.includes("?") ? "&" : "?") + "token=" + encodeURIComponent(state.token); }
+function withToken(url) { return url; }  // downloads and images carry the session cookie
 
 function showLogin(message) {
   $("#app").hidden = true; $("#login").hidden = false;
@@ -38,12 +29,25 @@ function showLogin(message) {
   if (state.statusWs) { state.statusWs.onclose = null; state.statusWs.close(); state.statusWs = null; }
 }
 
-async function signIn(token) {
-  state.token = token;
-  await api("/trials?limit=1");
-  sessionStorage.setItem("gaitcap-token", token);
+function enterApp(me) {
+  state.user = me.user;
+  $("#account-name").textContent = me.user + " (" + me.roles.join(", ") + ")"; $("#account").hidden = false;
   $("#login").hidden = true; $("#app").hidden = false;
   connectStatus(); connectPreviews();
+}
+
+async function signIn(user, password) {
+  const res = await fetch("/login", { method: "POST", credentials: "same-origin", headers: { "Content-Type": "application/json" },
+    body: JSON.stringify({ user, password }) });
+  if (res.status === 401) throw new Error("The user name or password is not right.");
+  if (res.status === 429) throw new Error("Too many failed attempts. Please wait a few minutes.");
+  if (!res.ok) throw new Error(res.status + " " + res.statusText);
+  enterApp(await res.json());
+}
+
+async function signOut() {
+  await fetch("/logout", { method: "POST", credentials: "same-origin" });
+  state.user = null; $("#account").hidden = true; showLogin("You are signed out.");
 }
 
 // ---------- messages ----------
@@ -113,7 +117,7 @@ function renderRecording() {
 // ---------- live status ----------
 function connectStatus() {
   const proto = location.protocol === "https:" ? "wss" : "ws";
-  const ws = new WebSocket(`${proto}://${location.host}/ws/status?token=${encodeURIComponent(state.token)}`);
+  const ws = new WebSocket(`${proto}://${location.host}/ws/status`);
   state.statusWs = ws;
   ws.onopen = () => setConnection(true);
   ws.onmessage = (ev) => onStatus(JSON.parse(ev.data));
@@ -177,7 +181,7 @@ function renderCameras(cams) {
 
 function connectPreviews() {
   const proto = location.protocol === "https:" ? "wss" : "ws";
-  const ws = new WebSocket(`${proto}://${location.host}/ws/preview?fps=4&token=${encodeURIComponent(state.token)}`);
+  const ws = new WebSocket(`${proto}://${location.host}/ws/preview?fps=4`);
   ws.binaryType = "arraybuffer";
   ws.onmessage = (ev) => {
     const bytes = new Uint8Array(ev.data);
@@ -431,8 +435,12 @@ function esc(s) { return String(s).replace(/[&<>"']/g, (c) => ({ "&": "&amp;", "
 $("#start").onclick = startTrial;
 $("#stop").onclick = stopTrial;
 $("#session").value = new Date().toISOString().slice(0, 10);
-$("#login-form").onsubmit = (ev) => { ev.preventDefault(); signIn($("#token-input").value.trim()).catch((e) => showLogin(e.message === "not signed in" ? "The access code is not valid." : e.message)); };
+$("#login-form").onsubmit = (ev) => {
+  ev.preventDefault();
+  const password = $("#password-input").value; $("#password-input").value = "";
+  signIn($("#user-input").value.trim(), password).catch((e) => showLogin(e.message));
+};
+$("#logout").onclick = () => { signOut().catch(() => {}); };
 setInterval(renderRecording, 1000);
 setInterval(pollHealth, 2000); pollHealth();
-const saved = readToken();
-if (saved) signIn(saved).catch(() => {}); else showLogin("");
+fetch("/me", { credentials: "same-origin" }).then((r) => (r.ok ? r.json().then(enterApp) : showLogin(""))).catch(() => showLogin(""));

@@ -41,7 +41,8 @@ def _key_pem(key) -> bytes:
                              serialization.NoEncryption())
 
 
-def _ca(out: Path, days: int):
+def lab_ca(out: Path, days: int = 3650):
+    """The lab CA in ``out`` (``ca.pem``, ``ca.key`` 0600), created when missing: (certificate, key)."""
     pem, key_file = out / "ca.pem", out / "ca.key"
     if pem.exists() and key_file.exists():
         return (x509.load_pem_x509_certificate(pem.read_bytes()),
@@ -88,6 +89,21 @@ def node_certificate(ca_cert, ca_key, node: str, host: str | None, *, days: int)
     return cert, key
 
 
+def web_certificate(host: str, out: str | os.PathLike, *, days: int = 825) -> tuple[Path, Path]:
+    """A certificate for the web service on ``host`` signed by the lab CA in ``out`` (kept when present):
+    (``web.pem``, ``web.key``). Install ``out/ca.pem`` in the clinic browsers to trust it."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    out.chmod(0o700)
+    pem, key_file = out / "web.pem", out / "web.key"
+    if not (pem.exists() and key_file.exists()):
+        ca_cert, ca_key = lab_ca(out)
+        cert, key = node_certificate(ca_cert, ca_key, host, host, days=days)
+        _write_private(key_file, _key_pem(key))
+        pem.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    return pem, key_file
+
+
 def _host_of(endpoint: str | None) -> str | None:
     if not endpoint:
         return None
@@ -101,7 +117,7 @@ def make_bus_keys(identities: dict[str, str | None], out: str | os.PathLike, *, 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     out.chmod(0o700)
-    ca_cert, ca_key = _ca(out, days=max(days, 3650))
+    ca_cert, ca_key = lab_ca(out, days=max(days, 3650))
     made = []
     for node, endpoint in identities.items():
         pem, key_file = out / f"{node}.pem", out / f"{node}.key"

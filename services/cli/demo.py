@@ -1,5 +1,5 @@
 """``gaitcap demo``: the whole stack on embedded defaults (simulated 10-camera rig, detector, recorder,
-worker, API; Zenoh peers on loopback) as real processes. Prints the page's URL and the token and runs
+worker, API; Zenoh peers on loopback) as real processes. Prints the page's URL and the demo account's password and runs
 until Ctrl-C; ``--auto`` records one trial without a browser, prints the metrics and shuts down."""
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ def register(app: typer.Typer) -> None:
         data_dir: Path = typer.Option(DEMO_DATA_DIR, "--data-dir", help="Catalog, recordings, results, logs."),
         port: int = typer.Option(8000, "--port", help="Web page / API port on 127.0.0.1."),
         bus_port: int = typer.Option(7447, "--bus-port", help="First bus port (one per node, on 127.0.0.1)."),
-        token: str = typer.Option("", "--token", envvar="GAITCAP_TOKEN", help="API token (generated if empty)."),
+        token: str = typer.Option("", "--password", help="Password of the demo account (generated if empty)."),
         cameras: int = typer.Option(10, "--cameras", help="Simulated cameras."),
         size: str = typer.Option("240x180", "--size", help="Simulated image size WIDTHxHEIGHT (px)."),
         workers: int = typer.Option(1, "--workers", help="Reconstruction workers."),
@@ -54,10 +54,10 @@ def register(app: typer.Typer) -> None:
         try:
             stack.start()
             typer.echo(f"gaitcap clinic page: {stack.page_url}")
-            typer.echo(f"API token: {cfg.token}")
+            typer.echo(f"sign in as: demo / {cfg.token}  (this terminal only; not logged)")
             typer.echo(f"API docs: {cfg.url}/docs")
             if auto or first_trial:
-                ok = _one_trial(cfg, seconds=seconds, refine=refine)
+                ok = _one_trial(stack, seconds=seconds, refine=refine)
                 if auto:
                     if not ok:
                         raise typer.Exit(code=1)
@@ -68,12 +68,11 @@ def register(app: typer.Typer) -> None:
             stack.stop()
 
 
-def _one_trial(cfg, *, seconds: float, refine: bool) -> bool:
+def _one_trial(stack, *, seconds: float, refine: bool) -> bool:
     """Record one simulated walk through the API, wait for its results and print them; True if done."""
-    import httpx
     from gaitcap.services.ops.auto_trial import format_metrics, run_trial
 
-    with httpx.Client(base_url=cfg.url, headers={"Authorization": f"Bearer {cfg.token}"}, timeout=30) as c:
+    with stack.client() as c:
         typer.echo(f"recording a {seconds:.0f} s walk ...", err=True)
         t = run_trial(c, subject_id="DEMO001", seconds=seconds)
         if t.state != "done":

@@ -1,44 +1,51 @@
-"""``gaitcap serve``: the clinic web page and REST API (uvicorn, 127.0.0.1 by default)."""
+"""``gaitcap serve``: the clinic web page and REST API (uvicorn, 127.0.0.1 by default; HTTPS built in)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import typer
-from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR, catalog_url
 from gaitcap.services.cli._common import user_errors
 
 
 def register(app: typer.Typer) -> None:
     @app.command()
     def serve(
-        data_dir: Path = typer.Option(DEFAULT_DATA_DIR, "--data-dir", envvar="GAITCAP_DATA_DIR",
-                                      help="Where trial files go (recordings, results)."),
+        data_dir: Path = typer.Option(Path("runs/clinic"), "--data-dir", envvar="GAITCAP_DATA_DIR",
+                                      help="Where trial files go (recordings, results), accounts and the audit log."),
         catalog: str = typer.Option("", "--catalog", envvar="GAITCAP_CATALOG",
                                     help="SQLite path or SQLAlchemy URL (default DATA_DIR/catalog.sqlite)."),
         host: str = typer.Option("127.0.0.1", "--host", envvar="GAITCAP_HOST", help="Bind address."),
         port: int = typer.Option(8000, "--port", envvar="GAITCAP_PORT"),
-        token: str = typer.Option("", "--token", envvar="GAITCAP_TOKEN",
-                                  help="API token (generated and printed when empty)."),
+        tls_cert: Path | None = typer.Option(None, "--tls-cert", envvar="GAITCAP_TLS_CERT", help="HTTPS certificate (PEM)."),
+        tls_key: Path | None = typer.Option(None, "--tls-key", envvar="GAITCAP_TLS_KEY", help="HTTPS private key (PEM)."),
+        self_signed: bool = typer.Option(False, "--self-signed",
+                                         help="HTTPS with a certificate from a lab CA made in DATA_DIR/tls (kept)."),
+        plain_http: bool = typer.Option(False, "--plain-http-beyond-loopback",
+                                        help="Listen beyond loopback without TLS (only behind a TLS reverse proxy)."),
         bus: Path | None = typer.Option(None, "--bus", envvar="GAITCAP_BUS", help="Bus file (JSON5)."),
         no_bus: bool = typer.Option(False, "--no-bus", help="Serve the catalog only (no recorder, cameras)."),
         node: str = typer.Option("api", "--node", help="Bus node name of the API."),
     ) -> None:
-        """Serve the clinic page and the REST API (OpenAPI docs at /docs)."""
+        """Serve the clinic page and the REST API (docs at /docs). Accounts: gaitcap user add."""
         from gaitcap.api.server import serve as run
-        from gaitcap.api.settings import Settings, new_token
+        from gaitcap.api.settings import Settings
 
         with user_errors():
-            if not token:
-                token = new_token()
-                typer.echo(f"API token: {token}")
-            settings = Settings.from_env(tokens={token: "clinic"}, data_dir=data_dir, host=host, port=port,
-                                         catalog_url=catalog_url(data_dir, catalog))
+            if self_signed and tls_cert is None:
+                from gaitcap.services.bus.certs import web_certificate
+
+                tls_cert, tls_key = web_certificate(host if host not in ("0.0.0.0", "::") else "localhost",
+                                                    data_dir / "tls")
+                typer.echo(f"HTTPS certificate {tls_cert} (trust {data_dir / 'tls' / 'ca.pem'} in the browsers)")
+            settings = Settings.from_env(data_dir=data_dir, host=host, port=port, tls_cert=tls_cert, tls_key=tls_key,
+                                         plain_http_beyond_loopback=plain_http,
+                                         catalog_url=catalog or str(data_dir / "catalog.sqlite"))
             link = None
             if not no_bus:
                 from gaitcap.services.bus.session import default_bus_config
                 from gaitcap.services.live.bus_link import BusLink
 
                 link = BusLink(default_bus_config(bus), node=node)
-            typer.echo(f"gaitcap clinic page: http://{host}:{port}/#token={token}")
+            typer.echo(f"gaitcap clinic page: {settings.scheme}://{host}:{port}/")
         run(settings, link)

@@ -31,7 +31,8 @@ CLI = (sys.executable, "-c", "from gaitcap.services.cli import main; main()")
 
 @dataclass(frozen=True)
 class StackConfig:
-    """Where and how the stack runs. Ports: API ``port``; bus nodes ``bus_base_port`` and up."""
+    """Where and how the stack runs. Ports: API ``port``; bus nodes ``bus_base_port`` and up. ``token`` is
+    the password of the stack's ``demo`` account (every role), made in ``data_dir/accounts.json``."""
 
     data_dir: Path = DEMO_DATA_DIR
     token: str = ""
@@ -54,8 +55,8 @@ class StackConfig:
     extra_env: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if len(self.token) < 8:
-            raise ValueError("token: the API token needs at least 8 characters")
+        if len(self.token) < 12:
+            raise ValueError("token: the demo account's password needs at least 12 characters")
         if not 2 <= self.cameras <= 64:
             raise ValueError(f"cameras: need 2..64 cameras, got {self.cameras}")
         if not 1 <= self.workers <= 8:
@@ -162,7 +163,7 @@ class Stack:
 
     @property
     def page_url(self) -> str:
-        return f"{self.cfg.url}/#token={self.cfg.token}"
+        return f"{self.cfg.url}/"
 
     def __enter__(self) -> Stack:
         self.start()
@@ -175,10 +176,14 @@ class Stack:
         self.data_dir.mkdir(parents=True, exist_ok=True)
         self.bus_file.write_text(json.dumps(self.bus.to_dict(), indent=2))
         register_calibration(self.cfg)
+        from gaitcap.services.access.accounts import AccountStore
+        from gaitcap.services.access.client import DEMO_ROLES, DEMO_USER
+
+        AccountStore(self.data_dir / "accounts.json").set(DEMO_USER, password=self.cfg.token, roles=DEMO_ROLES)
         from gaitcap.services.processing.quality import QualityCriteria
 
         env = {"GAITCAP_MIN_FPS": str(QualityCriteria().min_fps_at(self.cfg.fps)),  # the criteria scale with fps
-               "GAITCAP_BUS": str(self.bus_file), "GAITCAP_TOKEN": self.cfg.token,
+               "GAITCAP_BUS": str(self.bus_file),
                "GAITCAP_DATA_DIR": str(self.data_dir), "GAITCAP_CATALOG": self.cfg.catalog, **self.cfg.extra_env}
         self.supervisor.base_env.update(env)
         try:
@@ -201,21 +206,32 @@ class Stack:
         self._wait_keypoints(deadline)
         log.info("stack ready at %s", self.cfg.url)
 
+    def client(self, timeout_s: float = 30.0):
+        """An ``httpx.Client`` on the API, signed in as the demo account (close it after use)."""
+        import httpx
+        from gaitcap.services.access.client import DEMO_USER, sign_in
+
+        return sign_in(httpx.Client(base_url=self.cfg.url, timeout=timeout_s), DEMO_USER, self.cfg.token)
+
     def _wait_cameras(self, deadline: float) -> None:
         import httpx
 
-        headers = {"Authorization": f"Bearer {self.cfg.token}"}
-        seen = []
-        while time.monotonic() < deadline:
-            try:
-                seen = [c for c in httpx.get(f"{self.cfg.url}/cameras", headers=headers, timeout=5).json()
-                        if c["healthy"] or c["status"].startswith("slow")]  # delivering (a slow one is judged at Start)
-            except httpx.HTTPError:
-                seen = []
-            if len(seen) >= self.cfg.cameras:
-                return
-            self.supervisor.poll()
-            time.sleep(0.5)
+        seen, client = [], None
+        try:
+            while time.monotonic() < deadline:
+                try:
+                    client = client or self.client(timeout_s=5)
+                    seen = [c for c in client.get("/cameras").json()
+                            if c["healthy"] or c["status"].startswith("slow")]  # delivering (a slow one: at Start)
+                except httpx.HTTPError:
+                    seen = []
+                if len(seen) >= self.cfg.cameras:
+                    return
+                self.supervisor.poll()
+                time.sleep(0.5)
+        finally:
+            if client is not None:
+                client.close()
         raise RuntimeError(f"only {len(seen)} of {self.cfg.cameras} cameras delivering; logs in {self.supervisor.log_dir}")
 
     def _wait_keypoints(self, deadline: float) -> None:

@@ -1,6 +1,7 @@
 """A real uvicorn on 127.0.0.1 with a real SQLite catalog; the live system behind it is a small
 in-test link that records the recorder calls (the full stack runs in the browser and fault tests)."""
 
+import contextlib
 import socket
 import time
 
@@ -11,7 +12,7 @@ from gaitcap.api.settings import Settings
 from gaitcap.services.live.nodes import NodeState
 from gaitcap.services.live.protocols import CameraHealth, RecorderUnavailable
 
-TOKEN = "test-token-123456"
+TOKEN = "test-api-token-123456"  # an API token of alice (scripts)
 
 
 def free_port() -> int:
@@ -59,8 +60,41 @@ class RecordingLink:
         pass
 
 
+ALL_ROLES = ("admin", "clinician", "engineer", "researcher")
+PASSWORD = "a-long-test-password"
+
+
+def make_accounts(data_dir, **users) -> None:
+    """Accounts ``name=(role, ...)``, all with :data:`PASSWORD`."""
+    from gaitcap.services.access.accounts import AccountStore
+
+    store = AccountStore(data_dir / "accounts.json")
+    for name, roles in users.items():
+        store.set(name, password=PASSWORD, roles=roles)
+
+
+@contextlib.contextmanager
+def signed_in(url: str, user: str = "alice", **kwargs):
+    """A client with the session cookie of ``user`` (closed on exit)."""
+    from gaitcap.services.access.client import sign_in
+
+    with httpx.Client(base_url=url, timeout=10, **kwargs) as client:
+        yield sign_in(client, user, PASSWORD)
+
+
+def sign_in_page(page, url: str, user: str = "alice", password: str = PASSWORD) -> None:
+    """Open the page and sign in through its form (the session cookie is HttpOnly: the page never sees it)."""
+    page.goto(url.rstrip("/") + "/")
+    page.wait_for_selector("#login:not([hidden])")
+    page.fill("#user-input", user)
+    page.fill("#password-input", password)
+    page.click("#login-form button")
+    page.wait_for_selector("#app:not([hidden])")
+
+
 @pytest.fixture
 def server(tmp_path):
+    make_accounts(tmp_path / "data", alice=ALL_ROLES)
     settings = Settings(tokens={TOKEN: "alice"}, catalog_url=str(tmp_path / "catalog.sqlite"),
                         data_dir=tmp_path / "data", port=free_port(), status_period_s=0.1)
     link = RecordingLink()

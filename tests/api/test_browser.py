@@ -18,6 +18,8 @@ import pytest
 from gaitcap.services import catalog as cat
 from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
 
+from .conftest import sign_in_page
+
 TOKEN = "stack-test-token-42"
 
 
@@ -63,18 +65,22 @@ def page(tmp_path):
 def test_sign_in_asks_for_the_access_code(stack, page):
     page.goto(stack.cfg.url + "/")
     page.wait_for_selector("#login:not([hidden])")
-    page.fill("#token-input", "wrong-code-123")
+    page.fill("#user-input", "demo")
+    page.fill("#password-input", "wrong-password-123")
     page.click("#login-form button")
     page.wait_for_selector("#login-error:not([hidden])")
-    assert "not valid" in page.inner_text("#login-error")
-    page.fill("#token-input", TOKEN)
+    assert "not right" in page.inner_text("#login-error")
+    assert "session" not in page.evaluate("document.cookie")  # HttpOnly: scripts never see the session
+    page.fill("#user-input", "demo")
+    page.fill("#password-input", TOKEN)
     page.click("#login-form button")
     page.wait_for_selector("#app:not([hidden])")
+    assert "demo" in page.inner_text("#account-name")
     assert page.is_enabled("#start") and not page.is_enabled("#stop")
 
 
 def test_start_walk_stop_shows_metrics(stack, page, tmp_path):
-    page.goto(stack.page_url)
+    sign_in_page(page, stack.page_url, "demo", TOKEN)
     page.wait_for_function("document.querySelectorAll('.camera.ok img[src^=\"blob:\"]').length >= 6",
                            timeout=60_000)
     assert "all working" in page.inner_text("#camera-summary")
@@ -113,7 +119,7 @@ def test_start_walk_stop_shows_metrics(stack, page, tmp_path):
 
 
 def _client(stack) -> httpx.Client:
-    return httpx.Client(base_url=stack.cfg.url, headers={"Authorization": f"Bearer {TOKEN}"}, timeout=30)
+    return stack.client()
 
 
 def _wait(predicate, timeout_s: float, what: str, poll_s: float = 0.2):

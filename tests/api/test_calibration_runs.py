@@ -19,6 +19,8 @@ from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.reconstruction.calibration_io import load_rig
 from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
 
+from .conftest import sign_in_page
+
 TOKEN = "calibration-test-token"
 BROWSER_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
                 "--disable-component-update", "--disable-sync", "--no-first-run"]
@@ -40,7 +42,7 @@ def stack(tmp_path_factory):
 
 @pytest.fixture
 def client(stack):
-    with httpx.Client(base_url=stack.cfg.url, headers={"Authorization": f"Bearer {TOKEN}"}, timeout=30) as c:
+    with stack.client() as c:
         yield c
 
 
@@ -52,8 +54,7 @@ def test_calibrate_from_the_page_gives_the_active_calibration(stack, client, tmp
         page = browser.new_page(viewport={"width": 1280, "height": 1400})
         page.set_default_timeout(30_000)
         try:
-            page.goto(stack.page_url)
-            page.wait_for_selector("#app:not([hidden])")
+            sign_in_page(page, stack.page_url, "demo", TOKEN)
             page.click("#calibrate")
             page.wait_for_function("document.querySelector('#calibration-status').textContent"
                                    ".includes('Recording the board')")

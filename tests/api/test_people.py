@@ -10,7 +10,7 @@ import pytest
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.worker import Worker, WorkerConfig
 
-from .conftest import TOKEN
+from .conftest import sign_in_page
 
 _spec = importlib.util.spec_from_file_location("services_test_helpers",
                                                Path(__file__).parents[1] / "services" / "conftest.py")
@@ -160,7 +160,7 @@ def test_the_page_lists_the_people_and_switches_the_patient(server, processed, p
         page = browser.new_page(viewport={"width": 1280, "height": 1100})
         page.set_default_timeout(20_000)
         try:
-            page.goto(f"{srv.url}/#token={TOKEN}")
+            sign_in_page(page, srv.url)
             page.locator(f'tr[data-trial="{tid}"] .view').click()
             expect(page.locator("#people-table tbody tr")).to_have_count(2)
             expect(page.locator(f'#people tr[data-track="{auto}"]')).to_contain_text("Patient (chosen automatically)")

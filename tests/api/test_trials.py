@@ -16,9 +16,10 @@ def test_health_needs_no_token_but_everything_else_does(server):
     assert all(health["components"][c]["ok"] for c in ("database", "recorder", "detector", "workers"))
     for path in ("/trials", "/cameras", "/status", "/audit", "/trials/T1/gait"):
         r = httpx.get(f"{srv.url}{path}")
-        assert r.status_code == 401 and "token" in r.json()["detail"], path
+        assert r.status_code == 401 and "not signed in" in r.json()["detail"], path
     assert httpx.get(f"{srv.url}/trials", headers={"Authorization": "Bearer wrong-token-xx"}).status_code == 401
-    assert httpx.get(f"{srv.url}/trials", params={"token": TOKEN}).status_code == 200
+    assert httpx.get(f"{srv.url}/trials", params={"token": TOKEN}).status_code == 401  # never in a URL
+    assert httpx.get(f"{srv.url}/trials", headers={"Authorization": f"Bearer {TOKEN}"}).status_code == 200
     assert "Start recording" in httpx.get(f"{srv.url}/").text
     assert httpx.get(f"{srv.url}/openapi.json").json()["info"]["title"] == "gaitcap clinic API"
 
@@ -98,8 +99,9 @@ def test_without_the_bus_start_is_refused_before_a_trial_exists(tmp_path):
     from gaitcap.api.server import serve_in_thread
     from gaitcap.api.settings import Settings
 
-    from .conftest import free_port
+    from .conftest import free_port, make_accounts
 
+    make_accounts(tmp_path, bob=("clinician",))
     settings = Settings(tokens={TOKEN: "bob"}, catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path,
                         port=free_port())
     srv = serve_in_thread(settings)  # no link: catalog only

@@ -1,0 +1,168 @@
+"""The web service's security, against a real uvicorn (HTTP and HTTPS) and a real catalog: every route
+of the OpenAPI schema refused without sign-in and to the wrong roles, body limits before parsing, no
+echo, NaN refused, headers, cookies, throttled sign-in, the hash-chained audit trail, TLS and modes."""
+
+import contextlib
+import json
+import re
+import ssl
+import stat
+import time
+
+import httpx
+import pytest
+from gaitcap.api.audit_chain import verify
+from gaitcap.api.auth import PUBLIC_PATHS, ROUTE_PERMISSIONS
+from gaitcap.api.server import serve_in_thread
+from gaitcap.api.settings import Settings
+from gaitcap.services.access.accounts import ROLES
+
+from .conftest import PASSWORD, RecordingLink, free_port, make_accounts, signed_in
+
+ROLE_USERS = {f"{r}1": (r,) for r in ROLES}
+SAMPLE = {"trial_id": "T1", "cal_id": "C1", "name": "cam0", "camera": "cam0"}
+
+
+@pytest.fixture(scope="module")
+def srv(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("sec")
+    make_accounts(tmp / "data", **ROLE_USERS)
+    settings = Settings(catalog_url=str(tmp / "data" / "catalog.sqlite"), data_dir=tmp / "data", port=free_port(),
+                        max_body_bytes=100_000, login_failures=3, login_window_s=60)
+    server = serve_in_thread(settings, RecordingLink())
+    yield server, settings
+    server.stop()
+
+
+def _routes(url):
+    schema = httpx.get(f"{url}/openapi.json").json()
+    for path, methods in schema["paths"].items():
+        for method in methods:
+            yield method.upper(), path
+
+
+def _fill(path):
+    return re.sub(r"\{(\w+)\}", lambda m: SAMPLE[m.group(1)], path)
+
+
+def test_every_route_needs_sign_in_and_the_right_role(srv):
+    server, _ = srv
+    routes = [r for r in _routes(server.url) if r[1] not in PUBLIC_PATHS]
+    assert len(routes) >= 25
+    missing = [r for r in routes if r not in ROUTE_PERMISSIONS]
+    assert not missing, f"routes without a permission (refused to everyone): {missing}"
+    with contextlib.ExitStack() as stack:
+        clients = {u: stack.enter_context(signed_in(server.url, u)) for u in ROLE_USERS}
+        for method, path in routes:
+            url = f"{server.url}{_fill(path)}"
+            assert httpx.request(method, url, json={}).status_code == 401, (method, path)
+            for user, (role,) in ROLE_USERS.items():
+                code = clients[user].request(method, _fill(path), json={} if method == "POST" else None,
+                                             timeout=3).status_code if "mjpg" not in path else None
+                if code is None:
+                    continue
+                allowed = bool(ROUTE_PERMISSIONS[(method, path)] & ROLES[role])
+                assert (code == 403) != allowed, (method, path, role, code)
+
+
+def test_bodies_are_limited_before_parsing_and_never_echoed(srv):
+    server, _ = srv
+    big = b"{" + b"x" * 200_000
+    r = httpx.post(f"{server.url}/trials", content=big, headers={"content-type": "application/json"})
+    assert r.status_code == 413 and len(r.content) < 200  # refused from its size: not parsed, not echoed
+    r = httpx.post(f"{server.url}/trials", content=b'{"subject_id": ', headers={"content-type": "application/json"})
+    assert r.status_code == 401  # unauthenticated first, even when malformed
+
+    def chunks():  # no Content-Length: counted while streaming
+        for _ in range(30):
+            yield b" " * 10_000
+
+    with signed_in(server.url, "clinician1") as c:
+        assert c.post("/trials", content=chunks(), headers={"content-type": "application/json"}).status_code == 413
+        for bad in (b'{"subject_id": "P1", "x": NaN}', b'{"subject_id": "P1", "x": Infinity}'):
+            r = c.post("/trials", content=bad, headers={"content-type": "application/json"})
+            assert r.status_code == 422 and "JSON allows" in r.json()["detail"], bad
+        secret = "SECRET-INPUT-" + "y" * 500
+        r = c.post("/trials", json={"subject_id": secret})
+        assert r.status_code == 422 and "SECRET-INPUT" not in r.text and "subject_id" in r.json()["detail"]
+        r = c.post("/trials", json={"subject_id": "P1", "session": "x..y"})
+        assert r.status_code == 422 and "session" in r.text
+
+
+def test_security_headers_and_the_session_cookie(srv):
+    server, settings = srv
+    for path in ("/", "/health", "/docs", "/static/app.js"):
+        h = httpx.get(f"{server.url}{path}").headers
+        assert "script-src 'self'" in h["content-security-policy"] and "unsafe-inline" not in \
+            h["content-security-policy"].split("script-src")[1].split(";")[0], path
+        assert "frame-ancestors 'none'" in h["content-security-policy"]
+        assert (h["x-frame-options"], h["referrer-policy"], h["x-content-type-options"]) == \
+            ("DENY", "no-referrer", "nosniff")
+        assert "strict-transport-security" not in h  # plain HTTP on loopback
+    docs = httpx.get(f"{server.url}/docs").text
+    assert "cdn" not in docs.lower() and "<script>" not in docs
+    assert httpx.get(f"{server.url}/static-docs/swagger-ui-bundle.js").status_code == 200
+    r = httpx.post(f"{server.url}/login", json={"user": "clinician1", "password": PASSWORD})
+    cookie = r.headers["set-cookie"].lower()
+    assert "httponly" in cookie and "samesite=strict" in cookie and "secure" not in cookie
+    assert PASSWORD not in (settings.audit_path.read_text() + (settings.data_dir / "accounts.json").read_text())
+
+
+def test_sign_in_is_throttled_and_every_access_audited_as_the_signed_in_user(srv):
+    server, settings = srv
+    url = server.url
+    for _ in range(3):
+        assert httpx.post(f"{url}/login", json={"user": "researcher1", "password": "wrong"}).status_code == 401
+    r = httpx.post(f"{url}/login", json={"user": "researcher1", "password": PASSWORD})
+    assert r.status_code == 429  # even the right password, until the window has passed
+    with signed_in(url, "clinician1", headers={"X-Gaitcap-User": "mallory"}) as c:
+        c.get("/trials", params={"limit": 3})
+    lines = [json.loads(x) for x in settings.audit_path.read_text().splitlines()]
+    assert [x["action"] for x in lines if "researcher1" in x["detail"]][:4] == ["login failed"] * 3 + ["login throttled"]
+    mine = [x for x in lines if x["target"] == "/trials" and x["detail"] == "limit=3"]
+    assert mine and mine[-1]["actor"] == "clinician1" and "mallory" not in settings.audit_path.read_text()
+    assert verify(settings.audit_path) == (len(lines), None)
+    tampered = settings.audit_path.with_name("tampered.log")
+    tampered.write_text(settings.audit_path.read_text().replace('"actor":"clinician1"', '"actor":"someone"', 1))
+    n, problem = verify(tampered)
+    assert problem and "edited" in problem
+    for f in (settings.audit_path, settings.data_dir / "accounts.json", settings.data_dir / "catalog.sqlite"):
+        assert stat.S_IMODE(f.stat().st_mode) == 0o600, f
+
+
+def test_sessions_end_when_idle_and_on_sign_out(tmp_path):
+    make_accounts(tmp_path, ann=("clinician",))
+    settings = Settings(catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path, port=free_port(), session_idle_s=1.0)
+    server = serve_in_thread(settings)
+    try:
+        with signed_in(server.url, "ann") as c:
+            assert c.get("/trials").status_code == 200
+            time.sleep(1.3)
+            assert c.get("/trials").status_code == 401  # automatic log-off
+        with signed_in(server.url, "ann") as c:
+            assert c.post("/logout").status_code == 200 and c.get("/trials").status_code == 401
+    finally:
+        server.stop()
+
+
+def test_https_with_the_lab_certificate_and_no_plain_http_beyond_loopback(tmp_path):
+    from gaitcap.services.bus.certs import web_certificate
+
+    with pytest.raises(ValueError, match="beyond loopback without TLS"):
+        Settings(catalog_url="x", data_dir=tmp_path, host="0.0.0.0")
+    cert, key = web_certificate("127.0.0.1", tmp_path / "tls")
+    make_accounts(tmp_path, ann=("clinician",))
+    settings = Settings(catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path, port=free_port(),
+                        tls_cert=cert, tls_key=key)
+    server = serve_in_thread(settings)
+    try:
+        assert server.url.startswith("https://")
+        verify_ca = ssl.create_default_context(cafile=str(tmp_path / "tls" / "ca.pem"))
+        with httpx.Client(base_url=server.url, verify=verify_ca) as c:
+            r = c.post("/login", json={"user": "ann", "password": PASSWORD})
+            assert r.status_code == 200 and "secure" in r.headers["set-cookie"].lower()
+            assert "max-age=31536000" in c.get("/trials").headers["strict-transport-security"]
+        with pytest.raises(httpx.ConnectError):  # an unknown certificate is not trusted
+            httpx.get(f"{server.url}/health")
+    finally:
+        server.stop()
