@@ -14,8 +14,8 @@ def to_trc(
     """Tab-separated TRC text of points (T, J, 3) mm in the room frame at times (T,) s, one marker per name.
 
     Written in OpenSim's convention: y up (X = room x, Y = room z, Z = -room y), in ``units`` ("mm" or "m",
-    named in the header's Units column, which OpenSim reads). NaN points are written as empty fields
-    (OpenSim reads them as gaps).
+    named in the header's Units column, which OpenSim reads). Missing points are written as ``NaN``, which
+    OpenSim reads as gaps (empty fields at the end of a row make its reader miscount the columns).
     """
     pts = np.asarray(points_mm, dtype=np.float64)
     times = np.asarray(times_s, dtype=np.float64).reshape(-1)
@@ -41,6 +41,6 @@ def to_trc(
     ]
     values = room_to_opensim(pts) * scale
     for f in range(t):
-        vals = ["" if not np.isfinite(v) else f"{v:.6f}" for v in values[f].reshape(-1)]
+        vals = ["NaN" if not np.isfinite(v) else f"{v:.6f}" for v in values[f].reshape(-1)]
         lines.append(f"{f + 1}\t{times[f]:.6f}\t" + "\t".join(vals))
     return "\n".join(lines) + "\n"

@@ -34,6 +34,21 @@ def _echo_summary(result, out: Path) -> None:
     typer.echo("time: " + ", ".join(f"{k} {v:.1f} s" for k, v in result.timings_s.items()))
 
 
+def _kinematics(out: Path, result) -> str:
+    """The worker's kinematics step on the last stage; a line saying where the files are, or why not."""
+    from gaitcap.services.processing.artifacts import TrialFiles
+    from gaitcap.services.processing.kinematics_step import kinematics_step
+
+    stage = list(result.stages)[-1]
+    files = TrialFiles(out)
+    kinematics_step(files, stage, result.stages[stage].trajectory)
+    path = files.stage_file(stage, "kinematics_json")
+    status = json.loads(path.read_text()) if path.is_file() else {"available": False, "reason": "not written"}
+    if status.get("available"):
+        return f"kinematics ({stage}): {path.parent}/ (kinematics.mot, .osim, .trc, .json, .csv, trajectory.c3d)"
+    return f"kinematics ({stage}) unavailable: {status.get('reason', '')}"
+
+
 def register(app: typer.Typer) -> None:
     @app.command("process")
     def process_cmd(
@@ -53,6 +68,8 @@ def register(app: typer.Typer) -> None:
         param: list[str] = typer.Option([], "--param", help="Videos: other detector config field KEY=VALUE."),
         fps: float = typer.Option(30.0, "--fps", help="Frame rate when the input has none."),
         refine: bool = typer.Option(True, "--refine/--no-refine", help="Also run the implicit fit (slower)."),
+        kinematics: bool = typer.Option(True, "--kinematics/--no-kinematics",
+                                        help="Joint kinematics of the last stage (OpenSim model fit)."),
         as_json: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),
     ) -> None:
         """Detection (videos) -> association -> reconstruction -> gait -> files, as the worker does."""
@@ -85,7 +102,10 @@ def register(app: typer.Typer) -> None:
 
                 result = process_input(data, rig, out, options=options, on_stage=on_stage, fit_progress=on_fit,
                                        timings_s={"read and detect": read_s})
+            kinematics_note = _kinematics(out, result) if kinematics else ""
         if as_json:
             typer.echo(json.dumps(json_ready(result.summary())))
         else:
             _echo_summary(result, out)
+            if kinematics_note:
+                typer.echo(kinematics_note)
