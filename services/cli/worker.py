@@ -24,13 +24,16 @@ def register(app: typer.Typer) -> None:
         no_bus: bool = typer.Option(False, "--no-bus", help="Do not publish progress on the bus."),
         node: str = typer.Option("worker", "--node", help="Bus node name of this worker."),
         warm_up: bool = typer.Option(True, "--warm-up/--no-warm-up", help="Compile JAX code at start."),
+        rerun_images_hz: float = typer.Option(5.0, "--rerun-images-hz",
+                                              help="Images per second and camera in the trial's .rrd (0: none)."),
     ) -> None:
         """Process recorded trials: preliminary then refined gait metrics, files, progress on the bus."""
+        from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
         from gaitcap.services.processing.worker import Worker, WorkerConfig, warm_worker
 
         with user_errors():
             cfg = WorkerConfig(catalog_url=catalog_url(data_dir, catalog), data_dir=data_dir,
-                               lease_s=lease_s, refine=not no_refine,
+                               lease_s=lease_s, refine=not no_refine, rerun=RerunSettings(image_rate_hz=rerun_images_hz),
                                **({"worker_id": worker_id} if worker_id else {}))
             progress, session = None, None
             if not no_bus:

@@ -47,6 +47,7 @@ from gaitcap.services.processing.quality import (
     with_reprojection,
 )
 from gaitcap.services.processing.viewers.files import VIEWER_FILES, trial_view, write_viewer_files
+from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +68,8 @@ class NoProgress:
 @dataclass(frozen=True)
 class WorkerConfig:
     """catalog_url: SQLite path or URL; data_dir: trial files; lease_s: job lease (s), renewed every
-    lease_s / 3; poll_s: how often the job table is polled (s); refine: run the implicit fit."""
+    lease_s / 3; poll_s: how often the job table is polled (s); refine: run the implicit fit;
+    rerun: the .rrd's settings (images per second and camera copied from the recording)."""
 
     catalog_url: str
     data_dir: Path
@@ -77,6 +79,7 @@ class WorkerConfig:
     refine: bool = True
     fallback_calibration: Path | None = None
     criteria: QualityCriteria = QualityCriteria()
+    rerun: RerunSettings = RerunSettings()
 
     def __post_init__(self) -> None:
         if self.lease_s < 1.0:
@@ -248,7 +251,8 @@ class Worker:
         if viewers:
             keypoints, rig, mcap = viewers
             write_viewer_files(files, stage, trial_view(trial_id, traj, detections=det, keypoints=keypoints, rig=rig,
-                                                        report=report, recording=mcap, bones=det.skeleton.bone_indices))
+                                                        report=report, recording=mcap, bones=det.skeleton.bone_indices),
+                               self.config.rerun)
 
 
 def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:

@@ -85,16 +85,20 @@ def _log_rig(rec, view: TrialView, settings: RerunSettings) -> None:
 def _log_images(rec, view: TrialView, rate_hz: float) -> int:
     """The recorded JPEGs, at most ``rate_hz`` per camera; returns how many were copied."""
     import rerun as rr
-    from gaitcap.acquisition.recording.reader import iter_frames
+    from gaitcap.acquisition.encoding import parse_image_message
+    from gaitcap.acquisition.recording import layout
+    from gaitcap.acquisition.recording.reader import iter_messages
 
     period_ns, last, count = int(1e9 / rate_hz), {}, 0
     known = set(view.rig.names)
-    for frame in iter_frames(view.recording):
-        if frame.camera not in known or frame.timestamp_ns - last.get(frame.camera, -period_ns) < period_ns:
+    for topic, message in iter_messages(view.recording, layout.is_image_topic):
+        camera = layout.camera_of_topic(topic)  # log time = camera timestamp: skip before parsing
+        if camera not in known or message.log_time - last.get(camera, -period_ns) < period_ns:
             continue
-        last[frame.camera] = frame.timestamp_ns
+        last[camera] = message.log_time
+        frame = parse_image_message(message.data)
         rec.set_time("time", duration=(frame.timestamp_ns - view.start_ns) / 1e9)
-        rec.log(image_entity(frame.camera), rr.EncodedImage(contents=frame.jpeg, media_type="image/jpeg"))
+        rec.log(image_entity(camera), rr.EncodedImage(contents=frame.jpeg, media_type="image/jpeg"))
         count += 1
     return count
 
