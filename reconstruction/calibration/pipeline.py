@@ -103,7 +103,7 @@ def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, .
 
 
 def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThresholds,
-                    others_rms: float, intrinsics_estimated: bool) -> CameraQuality:
+                    all_rms: float, others_rms: float, intrinsics_estimated: bool) -> CameraQuality:
     """One camera's figures and problems (coverage matters only where the intrinsics were estimated)."""
     mine = prob.cam == c
     err = np.linalg.norm(res.residual_px[mine & res.inlier], axis=-1)
@@ -114,9 +114,9 @@ def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThr
         problems.append(f"reprojection p95 {p95:.2f} px > {thresholds.max_p95_px} px")
     if intrinsics_estimated and cov < thresholds.min_coverage:
         problems.append(f"board covered {100 * cov:.0f} % of the image (< {100 * thresholds.min_coverage:.0f} %)")
-    if rms > thresholds.max_rms_ratio * others_rms and rms > thresholds.rms_floor_px:
-        problems.append(f"reprojection RMS {rms:.2f} px is {rms / others_rms:.1f} x the other cameras' median "
-                        f"({others_rms:.2f} px)")
+    if all_rms > thresholds.max_rms_ratio * others_rms and all_rms > thresholds.rms_floor_px:
+        problems.append(f"reprojection RMS over all its corners {all_rms:.2f} px is {all_rms / others_rms:.1f} x "
+                        f"the other cameras' median ({others_rms:.2f} px)")
     n_views = len(np.unique(prob.frame[mine]))
     detected = int(obs.views()[c].sum())
     return CameraQuality(
@@ -127,9 +127,11 @@ def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThr
 
 
 def _rms_per_camera(prob, res: BundleResult, n_cams: int) -> np.ndarray:
+    """Each camera's reprojection RMS over ALL its corners, outliers included (px): a noisy camera loses
+    many corners to outlier rejection, which would hide it from an inlier RMS."""
     out = np.full(n_cams, np.nan)
     for c in range(n_cams):
-        err = res.residual_px[(prob.cam == c) & res.inlier]
+        err = res.residual_px[prob.cam == c]
         if len(err):
             out[c] = float(np.sqrt(np.mean(np.sum(err**2, -1))))
     return out
@@ -138,8 +140,8 @@ def _rms_per_camera(prob, res: BundleResult, n_cams: int) -> np.ndarray:
 def _report(obs, config, prob, frames, res, world, cams_r, cams_t) -> QualityReport:
     rms = _rms_per_camera(prob, res, obs.shape[0])
     others = [float(np.nanmedian(np.delete(rms, c))) if obs.shape[0] > 1 else float(rms[c]) for c in range(len(rms))]
-    per_cam = tuple(_camera_quality(obs, prob, res, c, config.thresholds, others[c],
-                                    config.known_intrinsics is None) for c in range(obs.shape[0]))
+    per_cam = tuple(_camera_quality(obs, prob, res, c, config.thresholds, rms[c],
+                                    others[c], config.known_intrinsics is None) for c in range(obs.shape[0]))
     mean, p95, rms = error_stats(np.linalg.norm(res.residual_px[res.inlier], axis=-1))
     ordered = np.full((obs.shape[0], len(frames), obs.board.num_corners, 2), np.nan)
     inl = res.inlier

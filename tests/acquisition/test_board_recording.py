@@ -50,3 +50,65 @@ def test_bad_recordings_are_named(tmp_path, recordings):
         detect_recording(tmp_path)
     with pytest.raises(ValueError, match="every"):
         FrameSelection(every=0)
+
+
+def _stamps(folder, offsets_ms: dict[str, float], period_ms: float = 100.0) -> None:
+    lines = ["camera,frame,time_s"]
+    for cam, offset in offsets_ms.items():
+        for i, _ in enumerate(sorted((folder / cam).iterdir())):
+            lines.append(f"{cam},{i},{1000.5 + (i * period_ms + offset) / 1000:.6f}")
+    (folder / "timestamps.csv").write_text("\n".join(lines) + "\n")
+
+
+@pytest.fixture(scope="module")
+def truth(recordings):
+    return detect_recording(recordings[0], board=BoardConfig.checkerboard())
+
+
+def test_frames_are_paired_by_time_not_by_order(recordings, truth, tmp_path):
+    import shutil
+
+    folder, _ = recordings
+    late = shutil.copytree(folder, tmp_path / "late")
+    (late / "cam02" / "000000.png").unlink()  # cam02 started one frame late: its image k is frame k + 1
+    by_order = detect_recording(late, board=BoardConfig.checkerboard())
+    assert not np.array_equal(by_order.views(), truth.views())
+    _stamps(late, {"cam01": 0.0, "cam02": 100.0})
+    by_time = detect_recording(late, board=BoardConfig.checkerboard())
+    assert by_time.shape == truth.shape
+    assert np.array_equal(by_time.views()[0], truth.views()[0])
+    assert np.array_equal(by_time.views()[1, 1:], truth.views()[1, 1:]) and not by_time.views()[1, 0]
+    both = np.isfinite(by_time.corners_px) & np.isfinite(truth.corners_px)
+    assert both[1].any() and np.abs(by_time.corners_px - truth.corners_px)[both].max() < 1e-9
+    assert np.allclose(by_time.times_s, truth.times_s * 0.1)  # s from the file (truth: frame indices)
+
+
+def test_views_of_a_board_moving_between_exposures_are_left_out(recordings, truth, tmp_path):
+    import shutil
+
+    from gaitcap.acquisition.board_pairing import PairingConfig
+    from gaitcap.acquisition.board_recording import find_board_views
+
+    folder, _ = recordings
+    copy = shutil.copytree(folder, tmp_path / "offset")
+    _stamps(copy, {"cam01": 0.0, "cam02": 20.0})  # 20 ms apart while the board moves hundreds of px/s
+    moved = find_board_views(copy, board=BoardConfig.checkerboard())
+    assert all(c.moving > 0 for c in moved.cameras)
+    assert moved.observations.views().sum() == truth.views().sum() - sum(c.moving for c in moved.cameras)
+    assert "moving" in moved.table()
+    assert moved.timed and np.allclose(moved.observations.times_s, truth.times_s * 0.1)  # s since the first set
+    with pytest.raises(ValueError, match="max_shift_px"):
+        PairingConfig(max_shift_px=0)
+
+
+def test_timestamps_file_errors_name_the_problem(recordings, tmp_path):
+    import shutil
+
+    folder, _ = recordings
+    copy = shutil.copytree(folder, tmp_path / "bad")
+    (copy / "timestamps.csv").write_text("camera,when\ncam01,1.0\n")
+    with pytest.raises(ValueError, match="needs a camera column"):
+        detect_recording(copy)
+    (copy / "timestamps.csv").write_text("camera,time_s\ncam09,1.0\n")
+    with pytest.raises(ValueError, match="camera 'cam09' is none of"):
+        detect_recording(copy)

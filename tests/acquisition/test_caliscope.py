@@ -1,0 +1,104 @@
+"""A real calibration session: caliscope's four 1280x720 webcams and a hand-held inverted ChArUco board
+(4 x 5 squares of 54 mm, DICT_4X4_1000), its corner detections and caliscope's own calibration (from the
+caliscope 0.7.5 sdist, installed by deploy/bootstrap.sh)."""
+
+import csv
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from gaitcap.acquisition.board_pairing import PairingConfig
+from gaitcap.acquisition.caliscope import read_camera_array, read_session
+from gaitcap.reconstruction.calibration import CalibrationConfig, calibrate_from_observations
+from gaitcap.reconstruction.calibration.compare import compare_similar
+
+SESSION = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "calibration" / "caliscope-4cam"
+pytestmark = pytest.mark.skipif(not (SESSION / "calibration" / "extrinsic" / "xy.csv").exists(),
+                                reason=f"caliscope session not installed in {SESSION} (run deploy/bootstrap.sh)")
+
+
+@pytest.fixture(scope="module")
+def session():
+    return read_session(SESSION)
+
+
+@pytest.fixture(scope="module")
+def with_their_intrinsics(session):
+    _, obs, ref, _ = session
+    known = {c.name: (c.matrix_px, c.dist) for c in ref.cameras}
+    return calibrate_from_observations(obs, config=CalibrationConfig(known_intrinsics=known))
+
+
+def test_board_file_and_detections(session):
+    board, obs, ref, moving = session
+    assert board.describe() == "charuco 4 x 5 squares of 54 mm, markers 40.5 mm DICT_4X4_1000, inverted"
+    assert obs.camera_names == ("cam_0", "cam_1", "cam_2", "cam_3") == tuple(ref.names)
+    assert obs.shape == (4, 48, 12)  # 48 frame sets, as caliscope paired them
+    assert obs.views().sum(1).tolist() == [45, 45, 41, 22]
+    assert moving == 3  # views of a board that moved between the cameras' exposures (up to 11 ms apart)
+
+
+def test_pairing_by_time_matches_caliscopes_sync_index():
+    with open(SESSION / "calibration" / "extrinsic" / "xy.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    theirs = {(r["cam_id"], r["frame_index"]): r["sync_index"] for r in rows}
+    board, obs, ref, _ = read_session(SESSION, pairing=PairingConfig(max_shift_px=1e9))
+    # the same corner coordinates in the same set: every set of ours holds frames of one caliscope sync index
+    for f in range(obs.shape[1]):
+        syncs = set()
+        for c in range(4):
+            if obs.views()[c, f]:
+                uv = obs.corners_px[c, f][np.isfinite(obs.corners_px[c, f, :, 0])][0]
+                match = [theirs[(r["cam_id"], r["frame_index"])] for r in rows if r["cam_id"] == str(c)
+                         and abs(float(r["img_loc_x"]) - uv[0]) < 1e-9 and abs(float(r["img_loc_y"]) - uv[1]) < 1e-9]
+                syncs.update(match)
+        assert len(syncs) == 1, f"set {f}: frames of caliscope sync indices {sorted(syncs)}"
+
+
+def test_with_the_same_intrinsics_the_rig_matches_caliscopes(session, with_their_intrinsics):
+    _, _, ref, _ = session
+    report = with_their_intrinsics.report
+    assert report.failed_cameras == ()
+    assert all(q.reprojection_rms_px < 1.0 for q in report.cameras), [q.reprojection_rms_px for q in report.cameras]
+    assert abs(report.square_measured_mm - 54.0) < 0.3  # the scale: triangulated squares
+    cmp = compare_similar(ref, with_their_intrinsics.rig)
+    assert abs(cmp.scale - 1) < 0.01  # both in mm from the same board
+    assert cmp.centre_mm_max < 3.0 and cmp.rotation_deg_max < 0.4, (cmp.centre_mm, cmp.rotation_deg)
+
+
+def test_estimating_intrinsics_from_this_clip_calibrates_every_camera_and_flags_coverage(session):
+    _, obs, _, _ = session
+    result = calibrate_from_observations(obs)
+    rms = [q.reprojection_rms_px for q in result.report.cameras]
+    assert all(r < 1.0 for r in rms), rms
+    assert all(q.views_kept_fraction > 0.9 for q in result.report.cameras)
+    # the board never covered more than a fifth of an image: the report says so for every camera
+    assert set(result.report.failed_cameras) == set(obs.camera_names)
+    assert all(any("covered" in p for p in q.problems) for q in result.report.cameras)
+
+
+def test_a_camera_far_above_the_others_rms_fails(session):
+    _, obs, ref, _ = session
+    noisy = obs.corners_px.copy()
+    noisy[3] += np.random.default_rng(0).normal(0, 2.0, noisy[3].shape)
+    from gaitcap.reconstruction.calibration import BoardObservations
+
+    bad = BoardObservations(obs.camera_names, obs.image_sizes_px, noisy, obs.board, obs.times_s)
+    known = {c.name: (c.matrix_px, c.dist) for c in ref.cameras}
+    result = calibrate_from_observations(bad, config=CalibrationConfig(known_intrinsics=known))
+    assert result.report.failed_cameras == ("cam_3",)
+    assert "x the other cameras' median" in " ".join(result.report.cameras[3].problems)
+
+
+def test_known_intrinsics_must_name_every_camera(session):
+    _, obs, ref, _ = session
+    known = {c.name: (c.matrix_px, c.dist) for c in ref.cameras[:3]}
+    with pytest.raises(ValueError, match=r"none given for cameras \['cam_3'\]"):
+        calibrate_from_observations(obs, config=CalibrationConfig(known_intrinsics=known))
+
+
+def test_camera_array_units(session):
+    rig = read_camera_array(SESSION / "camera_array.toml")
+    assert np.linalg.norm(rig["cam_1"].tvec_mm) < 5  # caliscope's anchor camera, metres -> mm
+    assert 1000 < np.linalg.norm(rig["cam_0"].center_mm) < 3000
