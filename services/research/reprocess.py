@@ -45,7 +45,7 @@ log = logging.getLogger(__name__)
 REPROCESS_DIR = "reprocess"
 WALKWAY_FILE = "walkway.csv"
 GROUND_TRUTH_FILE = "ground_truth.npz"
-SELECTABLE_STATES = ("recorded", "processing", "done", "failed")
+SELECTABLE_STATES = ("recorded", "recovered", "processing", "done", "done_with_warnings", "failed")
 _CATALOGS: dict[str, cat.Catalog] = {}
 _CACHES: set[str] = set()
 
