@@ -41,7 +41,7 @@ class LayoutRules:
 
     min_margin_mm: float = 5.0
     min_ratio: float = 1.5
-    implausible_mm: float = 60.0
+    implausible_mm: float = 120.0
 
     def __post_init__(self) -> None:
         if self.min_margin_mm < 0 or self.min_ratio < 1 or self.implausible_mm <= 0:

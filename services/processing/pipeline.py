@@ -195,7 +195,7 @@ def resolve_layout(recording, rig: Rig, *, named: str | None):
     )
     from gaitcap.services.processing.people import patient_of
 
-    scores = []
+    scores, problems = [], []
     for skel in candidate_layouts(recording.people.shape[-2]):
         rec = replace(recording, skeleton=skel.name)
         try:
@@ -203,9 +203,10 @@ def resolve_layout(recording, rig: Rig, *, named: str | None):
             scores.append(score_layout(sample_points(det, sub), skel))
         except ValueError as exc:  # the people cannot even be associated under this layout
             log.info("layout %s: not scored (%s)", skel.name, exc)
+            problems.append(f"{skel.name}: {exc}")
     if not scores:
         raise ValueError(f"keypoint layout: no layout with {recording.people.shape[-2]} keypoints could be scored "
-                         "(too few joints seen by two cameras)")
+                         f"({'; '.join(problems)}); check that the calibration matches the images")
     choice = choose_layout(scores, explicit=named)
     log.info("%s", choice.evidence())
     for warning in choice.warnings:
