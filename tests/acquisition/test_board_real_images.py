@@ -1,0 +1,29 @@
+"""Board detection on real webcam frames: a hand-held 10 x 7 checkerboard filmed by caliscope's four
+1280x720 webcams (frames from the caliscope 0.7.5 sdist, installed by deploy/bootstrap.sh)."""
+
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from gaitcap.acquisition.board import BoardConfig, make_board
+
+FRAMES = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "calibration" / "caliscope-chessboard"
+pytestmark = pytest.mark.skipif(not (FRAMES / "cam_0_frame_1070.jpg").exists(),
+                                reason=f"caliscope checkerboard frames not installed in {FRAMES} (run deploy/bootstrap.sh)")
+
+
+def test_the_board_is_found_in_real_frames_and_only_when_whole():
+    board = make_board(BoardConfig.checkerboard(10, 7, 25.0))
+    for cam in (0, 3):  # two of the four cameras: real-size frames are slow to search on 2 cores
+        gray = cv2.imread(str(FRAMES / f"cam_{cam}_frame_1070.jpg"), cv2.IMREAD_GRAYSCALE)
+        corners = board.detect(gray)
+        assert corners is not None and corners.shape == (54, 2), f"cam_{cam}"
+        # a real lens bends the grid a little, but the corners still lie on one projective grid
+        obj = board.geometry.object_points_mm[:, :2]
+        hom, _ = cv2.findHomography(obj, corners)
+        resid = np.linalg.norm(cv2.perspectiveTransform(obj.reshape(-1, 1, 2), hom).reshape(-1, 2) - corners, axis=1)
+        assert np.median(resid) < 2.0 and resid.max() < 4.0, f"cam_{cam}: {np.median(resid):.2f} px"
+    cut = cv2.imread(str(FRAMES / "cam_0_frame_000.jpg"), cv2.IMREAD_GRAYSCALE)  # board half out of the image
+    assert board.detect(cut) is None
