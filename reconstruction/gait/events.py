@@ -204,8 +204,14 @@ def _contact_runs(tracks: FootTracks, side: str, speed: np.ndarray, v_rest: floa
     edges = np.flatnonzero(np.diff(np.r_[0, rest.astype(int), 0]))
     runs = _merge_in_place(list(zip(edges[::2], edges[1::2] - 1, strict=True)), frames[:, h],
                            speed[:, h], v_rest, config.min_foot_travel_mm)
-    # Short contacts go only now, so that a blip inside a stance cannot cut off the stance's end.
-    return [(a, b) for a, b in runs if times[b] - times[a] + dt >= config.min_stance_s], rest
+    # Short contacts go only now, so that a blip inside a stance cannot cut off the stance's end. A contact
+    # cut by the start or end of the recording (within min_stance_s of it) is kept if it lasts 2 frames.
+    def kept(a: int, b: int) -> bool:
+        if times[b] - times[a] + dt >= config.min_stance_s:
+            return True
+        cut = times[a] - times[0] < config.min_stance_s or times[-1] - times[b] < config.min_stance_s
+        return cut and b > a
+    return [(a, b) for a, b in runs if kept(a, b)], rest
 
 
 def _first_below(grid: np.ndarray, dist: np.ndarray, level: float, anchor: int) -> float:
@@ -236,8 +242,8 @@ def _near_rest(tracks: FootTracks, side: str, run: tuple[int, int], heel_mm, toe
     dist = np.minimum(np.linalg.norm(pts[:, HEEL[side]] - heel_mm, axis=1),
                       np.linalg.norm(pts[:, TOE[side]] - toe_mm, axis=1))
     hs = _first_below(grid, dist, d, int(np.searchsorted(grid, times[a])))
-    if np.isnan(hs) and lo <= times[0]:
-        hs = -np.inf  # already on the floor when the data starts
+    if np.isnan(hs) and lo <= times[0] and dist[0] < d / 3:
+        hs = -np.inf  # already at rest when the data start (closer, but farther than d/3: rolling in)
     hi = min(times[-1], times[b] + config.event_window_s, limit_s)
     grid = np.arange(times[max(b - 2, a)], hi + res / 2, res)
     dist = np.linalg.norm(tracks.sampler(grid)[:, TOE[side]] - toe_mm, axis=1)
@@ -295,10 +301,14 @@ def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: n
         limit = times[runs[i + 1][0]] if i + 1 < len(runs) else times[-1]
         near_hs, near_to = _near_rest(tracks, side, run, heel_mm, toe_mm, config, limit_s=limit)
         at_start, at_end = run[0] == 0, run[1] == last
-        # a foot already near its rest point when the data start may still be rolling in after a contact
-        # just before or inside the data: only a foot at rest from the first frame has no heel strike
-        hs_all[i] = near_hs if np.isfinite(near_hs) else (np.nan if at_start else hs_all[i])
-        if not np.isfinite(near_to):
+        # a foot near its rest point when the data start may still be rolling in after a contact just
+        # before or inside the data (speed fallback); one within d/3 of it is at rest: no heel strike
+        short = times[run[1]] - times[run[0]] + dt < config.min_stance_s  # kept only as cut by an end
+        at_start |= short and run[0] < last - run[1]
+        at_end |= short and run[0] >= last - run[1]
+        hs_all[i] = near_hs if np.isfinite(near_hs) and not at_start else (
+            np.nan if at_start or near_hs < 0 else hs_all[i])
+        if not np.isfinite(near_to) or (at_end and short):
             to_all[i] = np.nan if at_end or near_to > 0 else to_all[i]
             continue
         # toe off: the toe farthest behind the body centre (Zeni et al. 2008) near the toe leaving its

@@ -20,8 +20,9 @@ from gaitcap.reconstruction.jsonable import json_ready
 
 CSV_COLUMNS = (
     "index", "pass_index", "foot", "heel_strike_s", "toe_off_s", "heel_x_mm", "heel_y_mm", "heel_z_mm",
-    "toe_x_mm", "toe_y_mm", "toe_z_mm", *STEP_PARAMETERS, "confidence",
+    "toe_x_mm", "toe_y_mm", "toe_z_mm", *STEP_PARAMETERS, "confidence", "steady", "low_confidence",
 )
+SUMMARY_CSV_COLUMNS = ("parameter", "side", "n", "mean", "sd", "cv_pct", "symmetry_index_pct")
 
 
 @dataclass(frozen=True)
@@ -64,9 +65,21 @@ class GaitReport:
         writer.writerow(CSV_COLUMNS)
         for s in self.steps:
             row = [s.index, s.pass_index, s.foot, s.heel_strike_s, s.toe_off_s, *s.heel_mm, *s.toe_mm,
-                   *(getattr(s, p) for p in STEP_PARAMETERS), s.confidence]
-            writer.writerow(["" if isinstance(v, float) and not math.isfinite(v) else
-                             (f"{v:.6g}" if isinstance(v, float) else v) for v in row])
+                   *(getattr(s, p) for p in STEP_PARAMETERS), s.confidence, int(s.steady), int(s.low_confidence)]
+            writer.writerow(_cells(row))
+        return buf.getvalue()
+
+    def to_summary_csv(self) -> str:
+        """Per-side statistics of the steady steps: one row per parameter and side ("all", "left",
+        "right"), columns ``SUMMARY_CSV_COLUMNS`` (units those of the parameter; the symmetry index of
+        ``GaitSummary.asymmetry_pct`` on every row of its parameter)."""
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(SUMMARY_CSV_COLUMNS)
+        for name, groups in self.summary.parameters.items():
+            for side, st in groups.items():
+                writer.writerow(_cells([name, side, st.n, st.mean, st.sd, st.cv_pct,
+                                        self.summary.asymmetry_pct.get(name, float("nan"))]))
         return buf.getvalue()
 
     def write_json(self, path: str | Path) -> None:
@@ -74,3 +87,12 @@ class GaitReport:
 
     def write_csv(self, path: str | Path) -> None:
         atomic_write_text(path, self.to_csv())
+
+    def write_summary_csv(self, path: str | Path) -> None:
+        atomic_write_text(path, self.to_summary_csv())
+
+
+def _cells(row: list) -> list:
+    """CSV cells: empty for NaN, 6 significant digits for floats."""
+    return ["" if isinstance(v, float) and not math.isfinite(v) else (f"{v:.6g}" if isinstance(v, float) else v)
+            for v in row]
