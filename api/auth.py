@@ -33,6 +33,7 @@ ROUTE_PERMISSIONS: dict[tuple[str, str], frozenset[str]] = {
     ("GET", "/trials/{trial_id}/steps"): frozenset({READ}),
     ("GET", "/trials/{trial_id}/recording"): frozenset({EXPORT}),
     ("GET", "/trials/{trial_id}/rerun.rrd"): frozenset({EXPORT}),
+    ("GET", "/trials/{trial_id}/results.mcap"): frozenset({EXPORT}),
     ("GET", "/trials/{trial_id}/trajectory"): frozenset({EXPORT}),
     ("GET", "/trials/{trial_id}/kinematics"): frozenset({READ}),
     ("POST", "/trials"): frozenset({RECORD}),

@@ -1,4 +1,5 @@
-"""Results and downloads: gait metrics, steps, trajectory, the recording, the report plot, the .rrd."""
+"""Results and downloads: gait metrics, steps, trajectory, the recording, the report plot, the .rrd and
+the results MCAP (for Rerun and Foxglove)."""
 
 from __future__ import annotations
 
@@ -63,6 +64,7 @@ def _downloads(trial_id: str, stage: str) -> dict[str, str]:
         "trajectory_json": f"{base}/trajectory?format=json&stage={stage}",
         "report_png": f"{base}/report.png?stage={stage}",
         "rerun_rrd": f"{base}/rerun.rrd?stage={stage}",
+        "results_mcap": f"{base}/results.mcap?stage={stage}",
         "recording_mcap": f"{base}/recording",
     }
 
@@ -117,6 +119,14 @@ def rerun(trial_id: str, request: Request, stage: Stage | None = None, user: str
     cat.audit(catalog_of(request), actor=user, action="download", trial_id=r.trial_id, detail=f"rrd {r.stage}")
     return FileResponse(_file(request, r.trial_id, r.stage, "rerun_rrd"), media_type="application/octet-stream",
                         filename=f"{r.trial_id}-{r.stage}.rrd")
+
+
+@router.get("/trials/{trial_id}/results.mcap", summary="The results for Foxglove (skeleton, rig, gait events)")
+def results_mcap(trial_id: str, request: Request, stage: Stage | None = None, user: str = Depends(require_user)):
+    r = _result(request, trial_id, stage)
+    cat.audit(catalog_of(request), actor=user, action="download", trial_id=r.trial_id, detail=f"results mcap {r.stage}")
+    return FileResponse(_file(request, r.trial_id, r.stage, "results_mcap"), media_type="application/octet-stream",
+                        filename=f"{r.trial_id}-{r.stage}-results.mcap")
 
 
 @router.get("/trials/{trial_id}/recording", summary="The trial's MCAP recording")

@@ -262,7 +262,8 @@ async function loadResult(trialId, stage, trialState) {
   loadPeople(trialId);
   showPlot(withToken(`/trials/${encodeURIComponent(trialId)}/report.png?stage=${stage}`), 30);
   const names = { steps_csv: "Steps (CSV)", trajectory_csv: "3D trajectory (CSV)", trajectory_trc: "3D trajectory (TRC)",
-    report_png: "Report plot (PNG)", rerun_rrd: "3D view for Rerun (.rrd)", recording_mcap: "Raw recording (MCAP)" };
+    report_png: "Report plot (PNG)", rerun_rrd: "3D view for Rerun (.rrd)", results_mcap: "Results for Foxglove (MCAP)",
+    recording_mcap: "Raw recording (MCAP)" };
   $("#downloads").innerHTML = "Downloads: " + Object.entries(names).filter(([k]) => g.downloads[k])
     .map(([k, text]) => `<a href="${withToken(g.downloads[k])}" download>${text}</a>`).join("");
 }

@@ -39,7 +39,7 @@ def test_gait_and_steps(done_trial):
     assert client.get(f"/trials/{tid}/steps").json()["steps"][0]["side"] == "left"
 
 
-def test_trajectory_formats_and_files(done_trial):
+def test_trajectory_formats_and_files(done_trial, server):
     client, tid = done_trial
     j = client.get(f"/trials/{tid}/trajectory").json()
     assert j["joint_names"] == ["left_heel", "right_heel"] and j["points_mm"][1][1] == [9.0, 10.0, 11.0]
@@ -48,6 +48,11 @@ def test_trajectory_formats_and_files(done_trial):
     assert client.get(f"/trials/{tid}/trajectory", params={"format": "trc"}).text.startswith("PathFileType")
     assert client.get(f"/trials/{tid}/report.png").content.startswith(b"\x89PNG")
     assert client.get(f"/trials/{tid}/rerun.rrd").status_code == 404
+    assert client.get(f"/trials/{tid}/results.mcap").status_code == 404
+    files = trial_files(server[3].data_dir, tid)
+    files.stage_file("preliminary", "results_mcap").write_bytes(b"\x89MCAP0\r\n results")
+    got = client.get(f"/trials/{tid}/results.mcap")
+    assert got.content.endswith(b"results") and f"{tid}-preliminary-results.mcap" in got.headers["content-disposition"]
     assert client.get(f"/trials/{tid}/recording").content.startswith(b"\x89MCAP")
     downloads = [e["detail"] for e in client.get("/audit", params={"trial_id": tid}).json() if e["action"] == "download"]
     assert "recording" in downloads and "trajectory preliminary csv" in downloads
