@@ -108,7 +108,7 @@ def test_start_walk_stop_shows_metrics(stack, page, tmp_path):
     cadence = page.inner_text("[data-metric='cadence_steps_per_min'] .value")
     assert 60 < float(cadence.split()[0]) < 160, cadence
     assert page.locator("#steps-table tbody tr").count() >= 2
-    assert page.locator("#downloads a").count() == 6
+    assert page.locator("#downloads a").count() == 7
     page.wait_for_selector("#trials tbody tr:first-child .state-done", timeout=60_000)  # files written
     assert page.inner_text("#trials tbody tr:first-child .state") == "Done"
     page.wait_for_function("document.querySelector('#record-status').textContent.startsWith('Ready for the next')")
