@@ -1,4 +1,4 @@
-"""Joint kinematics of a trial: gait-cycle curves with norms and key values (JSON, CSV) and the model files
+"""Joint kinematics of a trial: gait-cycle curves with norms and key values (JSON, CSV, PNG) and the model files
 (MOT angles, scaled OSIM model, the fitted markers as TRC, trajectories and gait events as C3D)."""
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ router = APIRouter(tags=["results"])
 class KinematicsFormat(StrEnum):
     json = "json"
     csv = "csv"
+    png = "png"
     mot = "mot"
     osim = "osim"
     trc = "trc"
@@ -29,6 +30,7 @@ class KinematicsFormat(StrEnum):
 # format -> (artifact key, media type, download suffix)
 _FILES = {
     KinematicsFormat.csv: ("kinematics_csv", "text/csv", "kinematics.csv"),
+    KinematicsFormat.png: ("kinematics_png", "image/png", "kinematics.png"),
     KinematicsFormat.mot: ("kinematics_mot", "text/plain", "kinematics.mot"),
     KinematicsFormat.osim: ("kinematics_osim", "application/xml", "model.osim"),
     KinematicsFormat.trc: ("kinematics_trc", "text/plain", "markers.trc"),

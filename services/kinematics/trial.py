@@ -2,8 +2,8 @@
 
 Files (base names fixed, see ``FILES``): the fitted markers (``kinematics.trc``, OpenSim names, y up, m),
 the scaled model (``kinematics.osim``), the joint angles (``kinematics.mot``), the report
-(``kinematics.json``, curves CSV ``kinematics.csv``) and the trajectories with gait events
-(``trajectory.c3d``). When kinematics cannot be computed, ``kinematics.json`` says why
+(``kinematics.json``, curves CSV ``kinematics.csv``, curves with the norm band ``kinematics.png``) and the
+trajectories with gait events (``trajectory.c3d``). When kinematics cannot be computed, ``kinematics.json`` says why
 (``{"available": false, "reason": ...}``) and the other files are absent.
 """
 
@@ -24,11 +24,12 @@ from gaitcap.services.kinematics.base import FitRequest, KinematicsUnavailable
 from gaitcap.services.kinematics.c3d_file import write_c3d
 from gaitcap.services.kinematics.engine import get_engine
 from gaitcap.services.kinematics.files import norm_bands
+from gaitcap.services.kinematics.plot import curves_png
 
 log = logging.getLogger(__name__)
 STEM = "kinematics"
 FILES = {"trc": f"{STEM}.trc", "osim": f"{STEM}.osim", "mot": f"{STEM}.mot", "json": f"{STEM}.json",
-         "csv": f"{STEM}.csv", "c3d": "trajectory.c3d"}
+         "csv": f"{STEM}.csv", "png": f"{STEM}.png", "c3d": "trajectory.c3d"}
 MIN_WEIGHT = 0.1
 
 
@@ -52,6 +53,12 @@ def marker_weights(quality: np.ndarray | None, points_mm: np.ndarray) -> np.ndar
     med = np.median(q, axis=0)
     rel = med / med.max() if med.max() > 0 else np.ones_like(med)
     return np.clip(rel * present, MIN_WEIGHT, 1.0)
+
+
+def _write_bytes(path: Path, data: bytes) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_bytes(data)
+    tmp.replace(path)
 
 
 def write_unavailable(out_dir: Path, reason: str) -> None:
@@ -91,6 +98,7 @@ def trial_kinematics(points_mm: np.ndarray, times_s: np.ndarray, joint_names, *,
     atomic_write_text(out_dir / FILES["json"], json.dumps({"available": True, **report.to_dict()}) + "\n")
     atomic_write_text(out_dir / FILES["csv"], report.to_csv())
     write_c3d(out_dir / FILES["c3d"], c3d_content(pts, times_s, names, steps))
+    _write_bytes(out_dir / FILES["png"], curves_png(report))
     log.info("kinematics: %d frames, scale %.2f s, IK %.2f s", len(fit.times_s), fit.seconds.get("scale", 0),
              fit.seconds.get("ik", 0))
     return report

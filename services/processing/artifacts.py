@@ -26,6 +26,7 @@ STAGE_FILES = {
     # joint kinematics (gaitcap.services.kinematics.trial.FILES, in a subfolder)
     "kinematics_json": "kinematics/kinematics.json",
     "kinematics_csv": "kinematics/kinematics.csv",
+    "kinematics_png": "kinematics/kinematics.png",
     "kinematics_mot": "kinematics/kinematics.mot",
     "kinematics_osim": "kinematics/kinematics.osim",
     "kinematics_trc": "kinematics/kinematics.trc",

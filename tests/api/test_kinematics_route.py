@@ -70,6 +70,8 @@ def test_kinematics_json_csv_and_files(trial_with_result, synthetic_walk):
     assert csv.headers["content-type"].startswith("text/csv")
     assert csv.text.splitlines()[0].startswith("percent,pelvis_tilt_left_mean_deg")
     assert len(csv.text.splitlines()) == 102
+    png = client.get(f"/trials/{tid}/kinematics", params={"format": "png"})
+    assert png.headers["content-type"] == "image/png" and png.content.startswith(b"\x89PNG")
     mot = client.get(f"/trials/{tid}/kinematics", params={"format": "mot"})
     assert "endheader" in mot.text and "knee_angle_r" in mot.text
     c3d = client.get(f"/trials/{tid}/kinematics", params={"format": "c3d"})

@@ -1,0 +1,48 @@
+"""The kinematics page of a report: gait-cycle curves per side (mean +- SD) over the normal-gait band."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+from gaitcap.reconstruction.kinematics.angles import VARIABLES
+from gaitcap.reconstruction.kinematics.report import KinematicsReport
+
+COLORS = {"left": "#1f77b4", "right": "#d62728"}
+
+
+def curves_png(report: KinematicsReport, *, title: str = "Joint kinematics") -> bytes:
+    """A 3 x 3 grid, one panel per variable: each side's mean +- SD (n cycles in the legend) and the norm
+    band (mean +- SD, grey) where there is one; degrees over % of the gait cycle."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(11, 9), dpi=90)
+    axes = fig.subplots(3, 3).ravel()
+    pct = np.arange(101)
+    for ax, (name, var) in zip(axes, VARIABLES.items(), strict=True):
+        band = report.norms.get(name)
+        if band is not None:
+            ax.fill_between(pct, band.mean - band.sd, band.mean + band.sd, color="0.85", label="norm")
+        for side, color in COLORS.items():
+            cc = report.curves[name][side]
+            if cc.n:
+                ax.plot(pct, cc.mean, color=color, lw=1.4, label=f"{side} (n={cc.n})")
+                if cc.n > 1:
+                    ax.fill_between(pct, cc.mean - cc.sd, cc.mean + cc.sd, color=color, alpha=0.15)
+        ax.set_title(var.label, fontsize=9)
+        ax.set_xlim(0, 100)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=6, loc="best")
+    for ax in axes[6:]:
+        ax.set_xlabel("% gait cycle", fontsize=8)
+    for ax in axes[::3]:
+        ax.set_ylabel("deg", fontsize=8)
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
