@@ -62,6 +62,9 @@ STEP_SCHEMA = {
 }
 
 
+JSON_SCHEMAS = {"gaitcap.GaitStep": STEP_SCHEMA}
+
+
 class _Results:
     """Channels registered on first use; every message's log time = publish time."""
 
@@ -69,14 +72,15 @@ class _Results:
         self.mcap, self.schemas, self.channels = mcap, {}, {}
 
     def add(self, topic: str, schema: str, data: bytes, time_ns: int) -> None:
+        """``schema``: a JSON schema of :data:`JSON_SCHEMAS` or a Foxglove protobuf type."""
+        is_json = schema in JSON_SCHEMAS
+        if schema not in self.schemas:
+            self.schemas[schema] = self.mcap.register_schema(
+                schema, "jsonschema" if is_json else "protobuf",
+                json.dumps(JSON_SCHEMAS[schema]).encode() if is_json else schema_data(schema))
         if topic not in self.channels:
-            if schema not in self.schemas:
-                is_json = not schema.startswith("foxglove.")
-                self.schemas[schema] = self.mcap.register_schema(
-                    schema, "jsonschema" if is_json else "protobuf",
-                    json.dumps(STEP_SCHEMA).encode() if is_json else schema_data(schema))
-            encoding = "json" if schema == "gaitcap.GaitStep" else "protobuf"
-            self.channels[topic] = self.mcap.register_channel(topic, encoding, self.schemas[schema])
+            self.channels[topic] = self.mcap.register_channel(topic, "json" if is_json else "protobuf",
+                                                              self.schemas[schema])
         self.mcap.add_message(self.channels[topic], int(time_ns), data, int(time_ns))
 
 
