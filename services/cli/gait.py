@@ -14,7 +14,7 @@ _TABLE = ("step_length_mm", "stride_length_mm", "step_width_mm", "step_time_s", 
 
 def _load(path: Path):
     import numpy as np
-    from gaitcap.reconstruction.gait import TrajectoryQuality
+    from gaitcap.services.processing.pipeline import Trajectory
 
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
@@ -24,14 +24,11 @@ def _load(path: Path):
             raise ValueError(f"{path}: missing array(s) {', '.join(missing)} (need points_mm, times_s, "
                              "joint_names)")
         points, times = data["points_mm"], data["times_s"]
-        names = [str(n) for n in data["joint_names"]]
-        quality = None
+        names = tuple(str(n) for n in data["joint_names"])
         views = next((data[k] for k in ("num_views", "quality")  # "quality": effective agreeing views
                       if k in data.files and data[k].shape == points.shape[:2]), None)
-        if views is not None:
-            reproj = data["reprojection_px"] if "reprojection_px" in data.files else np.full(views.shape, np.nan)
-            quality = TrajectoryQuality(views, reproj)
-    return points, times, names, quality
+        reproj = data["reprojection_px"] if views is not None and "reprojection_px" in data.files else None
+    return Trajectory(str(path.name), points, times, names, num_views=views), reproj
 
 
 def _pick_trial(trials, result: Path):
@@ -78,18 +75,17 @@ def register(app: typer.Typer) -> None:
         plot_path: Path | None = typer.Option(None, "--plot", help="Write a PNG of the heel traces to FILE."),
     ) -> None:
         """Gait events, bouts and spatiotemporal parameters of a reconstructed trial."""
-        from gaitcap.reconstruction.gait import (
-            GaitConfig,
-            analyze_gait,
-            compare_with_walkway,
-            read_walkway_csv,
-        )
+        from gaitcap.reconstruction.gait import GaitConfig, compare_with_walkway, read_walkway_csv
+        from gaitcap.services.processing.pipeline import gait_of
         from gaitcap.services.processing.report_plot import heel_traces_png
 
         with user_errors():
-            points, times, names, quality = _load(result)
+            traj, reproj = _load(result)
+            points, times, names = traj.points_mm, traj.times_s, list(traj.joint_names)
             config = GaitConfig()
-            report = analyze_gait(points, times, names, quality=quality, config=config)
+            report, problem = gait_of(traj, reprojection_px=reproj)  # the worker's gait analysis
+            if report is None:
+                raise ValueError(f"{result}: no gait parameters: {problem}")
             if walkway is not None:
                 trial = _pick_trial(read_walkway_csv(walkway), result)
                 report = report.with_walkway(

@@ -138,12 +138,14 @@ def trajectory_of(rec, *, method: str | None = None, elapsed_s: float = 0.0) -> 
                       metrics=_plain_metrics(rec.metrics), elapsed_s=elapsed_s)
 
 
-def gait_of(traj: Trajectory):
-    """Gait analysis of a trajectory: (GaitReport or None, the reason there is none ("" when there is))."""
+def gait_of(traj: Trajectory, *, reprojection_px: np.ndarray | None = None):
+    """Gait analysis of a trajectory: (GaitReport or None, the reason there is none ("" when there is)).
+    ``reprojection_px``: (T, J) px per point when known (a result file's), else unknown."""
     from gaitcap.reconstruction.gait import TrajectoryQuality, analyze_gait
 
     quality = None if traj.num_views is None else TrajectoryQuality(
-        num_views=traj.num_views, reprojection_px=np.full(traj.num_views.shape, np.nan))
+        num_views=traj.num_views,
+        reprojection_px=np.full(traj.num_views.shape, np.nan) if reprojection_px is None else reprojection_px)
     try:
         return analyze_gait(traj.points_mm, traj.times_s, list(traj.joint_names), sample=traj.sample,
                             quality=quality), ""

@@ -198,3 +198,15 @@ def test_real_videos_of_two_people_give_one_consistent_walker(tmp_path):
     jumps = pelvis_jumps_mm(walker, "mediapipe33")
     assert np.isfinite(jumps).all() and jumps.max() < 150  # the same person in every frame
     assert limb_sd_mm(walker, "mediapipe33") < 40
+
+
+@needs_demos
+def test_reconstruct_command_chooses_and_reports_the_patient(tmp_path):
+    runner = CliRunner()
+    base = ["reconstruct", "--keypoints", str(TWO_PEOPLE), "--method", "dlt"]  # the folder's own calibration
+    auto = runner.invoke(app, base + ["--out", str(tmp_path / "auto.npz")])
+    assert auto.exit_code == 0, auto.output
+    assert "2 people tracked; the patient is track 1 (automatic)" in auto.output
+    assert "layout body25b (explicit)" in auto.output and "NaN" not in auto.output
+    bad = runner.invoke(app, base + ["--out", str(tmp_path / "x.npz"), "--person", "7"])
+    assert bad.exit_code == 2 and "7" in bad.output and not (tmp_path / "x.npz").exists()  # --person reaches it
