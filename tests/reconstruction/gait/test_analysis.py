@@ -1,3 +1,6 @@
+import csv
+import io
+
 import numpy as np
 import pytest
 from gaitcap.reconstruction.gait import TrajectoryQuality, analyze_gait
@@ -174,3 +177,44 @@ def test_any_skeleton_with_heels_and_toes(walker):
     coco = get_skeleton("coco17").joint_names
     with pytest.raises(ValueError, match="heel"):
         analyze_gait(np.zeros((100, len(coco), 3)), np.arange(100) / 30.0, coco)
+
+
+def test_edge_steps_are_reported_and_left_out_of_the_summary(walker):
+    walk = walker()
+    report = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names, sample=walk.sample)
+    steps = report.steps
+    assert not steps[0].steady and not steps[-1].steady and all(s.steady for s in steps[1:-1])
+    assert report.summary.num_edge_steps == 2 and report.summary.num_steps == len(steps)
+    assert report.summary.parameters["step_length_mm"]["all"].n == len(steps) - 2
+    rows = list(csv.DictReader(io.StringIO(report.to_csv())))
+    assert [r["steady"] for r in rows] == [str(int(s.steady)) for s in steps]
+
+
+def test_per_side_summary_and_symmetry_index_of_a_hemiparetic_walk():
+    """Every parameter per side (n, mean, SD, CV) with the symmetry index 100 |L - R| / mean(L, R), in the
+    JSON and the summary CSV: the hemiparetic walker's 15 % step asymmetry gives SI 30 %."""
+    from gaitcap.acquisition.synthetic.params import WalkParams
+    from gaitcap.acquisition.synthetic.path import plan_walk
+    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS
+    from gaitcap.reconstruction.skeletons import get_skeleton
+
+    params = WalkParams.hemiparetic("left")
+    plan = plan_walk(params, 24.0)
+    times = np.arange(0.0, plan.duration_s, 1 / 30)
+    report = analyze_gait(simulate_body(plan, params, times), times, get_skeleton("halpe26").joint_names)
+    summary = report.summary
+    left, right = (summary.parameters["step_length_mm"][s].mean for s in ("left", "right"))
+    assert left == pytest.approx(params.side_step_length_mm("left"), abs=2.0)
+    assert right == pytest.approx(params.side_step_length_mm("right"), abs=2.0)
+    assert summary.asymmetry_pct["step_length_mm"] == pytest.approx(30.0, abs=0.5)
+    assert summary.parameters["stance_pct"]["right"].mean > summary.parameters["stance_pct"]["left"].mean
+    rows = list(csv.DictReader(io.StringIO(report.to_summary_csv())))
+    assert {(r["parameter"], r["side"]) for r in rows} == {(p, s) for p in STEP_PARAMETERS
+                                                             for s in ("all", "left", "right")}
+    row = next(r for r in rows if r["parameter"] == "step_length_mm" and r["side"] == "left")
+    assert float(row["mean"]) == pytest.approx(left, abs=1e-3 * left)
+    assert float(row["symmetry_index_pct"]) == pytest.approx(30.0, abs=0.5)
+    data = report.to_dict()["summary"]
+    assert data["parameters"]["double_support_pct"]["right"]["n"] >= 2
+    assert data["asymmetry_pct"]["step_width_mm"] is not None
