@@ -46,3 +46,26 @@ def test_one_camera_moved():
 def test_different_cameras_are_an_error():
     with pytest.raises(ValueError, match="different cameras"):
         compare_rigs(build_rig(5, seed=0), build_rig(4, seed=0))
+
+
+def _scaled(rig: Rig, scale: float) -> Rig:
+    """The same rig measured in other units (another tool's world): centres scaled, rotations kept."""
+    return Rig(tuple(c.replace(tvec_mm=c.tvec_mm * scale) for c in rig))
+
+
+def test_similarity_takes_out_another_tools_world_and_units():
+    from gaitcap.reconstruction.calibration.compare import compare_similar
+    from scipy.spatial.transform import Rotation
+
+    rig = build_rig(5, seed=1)
+    turn = Rotation.from_euler("xyz", [30, -20, 75], degrees=True).as_matrix()
+    other = _scaled(_moved(rig, turn, np.array([400.0, -250.0, 90.0])), 0.001)  # metres, its own frame
+    cmp = compare_similar(rig, other)
+    assert abs(cmp.scale - 1000.0) < 1e-6 and cmp.centre_mm_max < 1e-6 and cmp.rotation_deg_max < 1e-4
+    cams = list(other)
+    tilted = Rotation.from_rotvec([0, np.radians(0.5), 0]).as_matrix() @ cams[1].rotation  # turned in place
+    cams[1] = cams[1].replace(rvec=matrix_to_rodrigues(tilted), tvec_mm=-tilted @ cams[1].center_mm)
+    cmp = compare_similar(rig, Rig(tuple(cams)))
+    assert abs(cmp.rotation_deg[1] - 0.5) < 1e-4 and max(np.delete(cmp.rotation_deg, 1)) < 1e-4
+    with pytest.raises(ValueError, match="3 or more cameras"):
+        compare_similar(rig.subset(["cam01", "cam02"]), rig.subset(["cam01", "cam02"]))
