@@ -12,6 +12,7 @@ and is restarted when it ends (the world starts over).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import random
@@ -206,32 +207,30 @@ class Stack:
         self._wait_keypoints(deadline)
         log.info("stack ready at %s", self.cfg.url)
 
+    @contextlib.contextmanager
     def client(self, timeout_s: float = 30.0):
-        """An ``httpx.Client`` on the API, signed in as the demo account (close it after use)."""
+        """``with stack.client() as c``: an ``httpx.Client`` on the API, signed in as the demo account."""
         import httpx
         from gaitcap.services.access.client import DEMO_USER, sign_in
 
-        return sign_in(httpx.Client(base_url=self.cfg.url, timeout=timeout_s), DEMO_USER, self.cfg.token)
+        with httpx.Client(base_url=self.cfg.url, timeout=timeout_s) as client:
+            yield sign_in(client, DEMO_USER, self.cfg.token)
 
     def _wait_cameras(self, deadline: float) -> None:
         import httpx
 
-        seen, client = [], None
-        try:
-            while time.monotonic() < deadline:
-                try:
-                    client = client or self.client(timeout_s=5)
+        seen = []
+        while time.monotonic() < deadline:
+            try:
+                with self.client(timeout_s=5) as client:
                     seen = [c for c in client.get("/cameras").json()
                             if c["healthy"] or c["status"].startswith("slow")]  # delivering (a slow one: at Start)
-                except httpx.HTTPError:
-                    seen = []
-                if len(seen) >= self.cfg.cameras:
-                    return
-                self.supervisor.poll()
-                time.sleep(0.5)
-        finally:
-            if client is not None:
-                client.close()
+            except httpx.HTTPError:
+                seen = []
+            if len(seen) >= self.cfg.cameras:
+                return
+            self.supervisor.poll()
+            time.sleep(0.5)
         raise RuntimeError(f"only {len(seen)} of {self.cfg.cameras} cameras delivering; logs in {self.supervisor.log_dir}")
 
     def _wait_keypoints(self, deadline: float) -> None:

@@ -11,7 +11,10 @@ One stack serves every test of this module (starting it is the slow part).
 
 import concurrent.futures
 import contextlib
+import json
+import stat
 import time
+from pathlib import Path
 
 import httpx
 import pytest
@@ -79,9 +82,20 @@ def test_sign_in_asks_for_the_access_code(stack, page):
     assert page.is_enabled("#start") and not page.is_enabled("#stop")
 
 
+def test_the_password_is_in_no_child_environment_command_line_or_log(stack):
+    assert TOKEN not in json.dumps(stack.supervisor.base_env)
+    for name in stack.supervisor.children:
+        pid = stack.supervisor.pid(name)
+        for what in ("environ", "cmdline"):
+            assert TOKEN.encode() not in Path(f"/proc/{pid}/{what}").read_bytes(), (name, what)
+    for f in [*stack.supervisor.log_dir.glob("*"), stack.data_dir / "audit.log", stack.data_dir / "accounts.json"]:
+        assert TOKEN not in f.read_text(errors="replace"), f
+    assert stat.S_IMODE((stack.data_dir / "accounts.json").stat().st_mode) == 0o600
+
+
 def test_start_walk_stop_shows_metrics(stack, page, tmp_path):
     sign_in_page(page, stack.page_url, "demo", TOKEN)
-    page.wait_for_function("document.querySelectorAll('.camera.ok img[src^=\"blob:\"]').length >= 6",
+    page.wait_for_function("() => document.querySelectorAll('.camera.ok img[src^=\"blob:\"]').length >= 6",
                            timeout=60_000)
     assert "all working" in page.inner_text("#camera-summary")
     page.screenshot(path=str(tmp_path / "1-ready.png"), full_page=True)
@@ -90,7 +104,7 @@ def test_start_walk_stop_shows_metrics(stack, page, tmp_path):
     assert "patient ID" in page.inner_text("#error")
     page.fill("#subject", "P0042")
     page.click("#start")
-    page.wait_for_function("document.querySelector('#record-status').textContent.includes('Recording patient P0042')")
+    page.wait_for_function("() => document.querySelector('#record-status').textContent.includes('Recording patient P0042')")
     assert page.is_enabled("#stop") and not page.is_enabled("#start")
     page.wait_for_selector("#trials tr[data-trial] .state-recording")
     time.sleep(12)  # long enough to hold a straight pass of the simulated walk wherever it starts
@@ -101,7 +115,7 @@ def test_start_walk_stop_shows_metrics(stack, page, tmp_path):
                            timeout=60_000)
     page.screenshot(path=str(tmp_path / "3-preliminary.png"), full_page=True)
     page.wait_for_selector("#results-summary[data-stage='refined']", timeout=180_000)
-    page.wait_for_function("document.querySelector('#report-plot').naturalWidth > 0")
+    page.wait_for_function("() => document.querySelector('#report-plot').naturalWidth > 0")
     page.screenshot(path=str(tmp_path / "4-refined.png"), full_page=True)
 
     assert "Final results" in page.inner_text("#results-stage")
@@ -111,7 +125,7 @@ def test_start_walk_stop_shows_metrics(stack, page, tmp_path):
     assert page.locator("#downloads a").count() == 7
     page.wait_for_selector("#trials tbody tr:first-child .state-done", timeout=60_000)  # files written
     assert page.inner_text("#trials tbody tr:first-child .state") == "Done"
-    page.wait_for_function("document.querySelector('#record-status').textContent.startsWith('Ready for the next')")
+    page.wait_for_function("() => document.querySelector('#record-status').textContent.startsWith('Ready for the next')")
     assert page.is_enabled("#start")
 
 

@@ -56,17 +56,17 @@ def test_calibrate_from_the_page_gives_the_active_calibration(stack, client, tmp
         try:
             sign_in_page(page, stack.page_url, "demo", TOKEN)
             page.click("#calibrate")
-            page.wait_for_function("document.querySelector('#calibration-status').textContent"
+            page.wait_for_function("() => document.querySelector('#calibration-status').textContent"
                                    ".includes('Recording the board')")
             cal_id = client.get("/calibrations").json()[0]["id"]
             assert client.post("/trials", json={"subject_id": "P1"}).status_code == 409  # the board records
             assert client.post("/calibrations/record/start").status_code == 409
             time.sleep(6.5)  # the board clip: 60 frames at 10 frames/s (the floor frames first)
             page.click("#calibrate-stop")
-            page.wait_for_function("document.querySelector('#calibration-status').textContent"
+            page.wait_for_function("() => document.querySelector('#calibration-status').textContent"
                                    ".startsWith('Calibrating')")
             assert client.post("/calibrations/record/stop").status_code == 409  # nothing records now
-            page.wait_for_function("document.querySelector('#calibration-status').textContent"
+            page.wait_for_function("() => document.querySelector('#calibration-status').textContent"
                                    ".startsWith('Calibration ')", timeout=300_000)  # passed / failed
             cells = page.locator("#calibration-table tbody tr td:nth-child(2)").all_inner_texts()
             assert cells == ["pass"] * CAMERAS, page.inner_text("#calibration-card")
