@@ -9,6 +9,7 @@ from fastapi import APIRouter, Depends, HTTPException, Request
 from gaitcap.api.auth import require_user
 from gaitcap.api.deps import catalog_of, checked_id, checked_trial_id, trial_out, trials_out
 from gaitcap.api.schemas import StartTrial, TrialOut
+from gaitcap.api.subject_ids import check_subject_id
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog.calibration_runs import current_board_recording
@@ -26,6 +27,10 @@ def start(body: StartTrial, request: Request, user: str = Depends(require_user))
     below the frame rate), unless ``override_rig_check`` confirms it (audited; a warning of the trial).
     A Start that fails part-way leaves no trial ``recording`` (it ends ``failed`` with the reason)."""
     db, settings, link = catalog_of(request), request.app.state.settings, request.app.state.link
+    try:
+        subject_id = check_subject_id(body.subject_id, settings.subject_id_pattern)
+    except ValueError as exc:
+        raise HTTPException(status_code=422, detail=str(exc)) from None
     if not getattr(link, "connected", True):
         raise HTTPException(status_code=503, detail="recorder: this server runs without the cameras and "
                                                     "recorder (started with --no-bus)")
@@ -46,7 +51,7 @@ def start(body: StartTrial, request: Request, user: str = Depends(require_user))
                                                     f"({exc.strerror or exc}); no trial was started") from None
     try:
         trial = cat.start_trial(
-            db, subject_id=body.subject_id, session=body.session, trial_id=trial_id,
+            db, subject_id=subject_id, session=body.session, trial_id=trial_id,
             recording_path_for=lambda tid: trial_files(settings.data_dir, tid).recording,
             calibration_id=calibration[0] if calibration else None,
         )
@@ -126,7 +131,7 @@ def stop(trial_id: str, request: Request, user: str = Depends(require_user)) -> 
 def list_trials(request: Request, subject_id: str | None = None, limit: int = 50,
                 user: str = Depends(require_user)) -> list[TrialOut]:
     if subject_id is not None:
-        checked = checked_id(subject_id, field="subject_id")
+        checked = checked_id(subject_id, field="subject_id").upper()  # ids match case-insensitively
         subject_id = checked
     if not 1 <= limit <= 1000:
         raise HTTPException(status_code=422, detail="limit: must be between 1 and 1000")

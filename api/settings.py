@@ -16,6 +16,8 @@ import secrets
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from gaitcap.api.subject_ids import DEFAULT_PATTERN
+
 
 def parse_tokens(text: str) -> dict[str, str]:
     """``"alice:tok1,bob:tok2"`` -> {token: user}. Raises ValueError naming a bad entry (never the token)."""
@@ -63,6 +65,7 @@ class Settings:
     login_failures: int = 5  # per user name and per client address ...
     login_window_s: float = 300.0  # ... within this window, then 429 until it has passed
     expensive_per_minute: int = 120
+    subject_id_pattern: str = DEFAULT_PATTERN  # a patient id must match it (and look like no name or date)
     extra: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -103,6 +106,7 @@ class Settings:
             tls_cert=Path(env["GAITCAP_TLS_CERT"]) if env.get("GAITCAP_TLS_CERT") else None,
             tls_key=Path(env["GAITCAP_TLS_KEY"]) if env.get("GAITCAP_TLS_KEY") else None,
             audit_syslog=env.get("GAITCAP_AUDIT_SYSLOG") or None,
+            subject_id_pattern=env.get("GAITCAP_SUBJECT_ID_PATTERN") or DEFAULT_PATTERN,
         )
         values.update(overrides)
         return cls(**values)

@@ -166,3 +166,28 @@ def test_https_with_the_lab_certificate_and_no_plain_http_beyond_loopback(tmp_pa
             httpx.get(f"{server.url}/health")
     finally:
         server.stop()
+
+
+@pytest.mark.parametrize("subject,refused", [
+    ("P0042", None), ("p0042", None), ("DEMO001", None), ("P-netns", None),
+    ("Smith_John", "looks like a name"), ("P19840217", "date"), ("anna.berg-2", "looks like a name"),
+    ("P-17.02.1984", "date"), ("x" * 40, "must match"),
+])
+def test_subject_ids_are_pseudonyms_matched_case_insensitively(subject, refused):
+    from gaitcap.api.subject_ids import check_subject_id
+
+    if refused is None:
+        assert check_subject_id(subject) == subject.upper()
+    else:
+        with pytest.raises(ValueError, match=refused):
+            check_subject_id(subject)
+
+
+def test_the_api_refuses_name_like_ids_and_finds_patients_in_any_case(server):
+    srv, client, _, _ = server
+    r = client.post("/trials", json={"subject_id": "Maria_Lopez"})
+    assert r.status_code == 422 and "looks like a name" in r.json()["detail"]
+    tid = client.post("/trials", json={"subject_id": "p0042"}).json()["id"]
+    client.post(f"/trials/{tid}/stop")
+    assert [t["id"] for t in client.get("/trials", params={"subject_id": "P0042"}).json()] == [tid]
+    assert [t["id"] for t in client.get("/trials", params={"subject_id": "p0042"}).json()] == [tid]
