@@ -23,7 +23,7 @@ from gaitcap.api import (
     routes_results,
     routes_trials,
 )
-from gaitcap.api.security import install_security
+from gaitcap.api.security import install_security, start_backups
 from gaitcap.api.settings import Settings
 from gaitcap.services import catalog as cat
 from gaitcap.services.live.guard import TrialGuard
@@ -58,9 +58,12 @@ def create_app(settings: Settings, link=None) -> FastAPI:
         app.state.catalog = cat.open_catalog(settings.catalog_url)
         log.info("catalog %s, data %s", app.state.catalog.url, settings.data_dir)
         guard = TrialGuard(app.state.catalog, app.state.link).start() if app.state.link.connected else None
+        backups = start_backups(settings)
         try:
             yield
         finally:
+            if backups is not None:
+                backups.stop()
             if guard is not None:
                 guard.close()
             app.state.catalog.close()

@@ -39,6 +39,17 @@ def install_security(app: FastAPI, settings: Settings) -> None:
     _docs(app)
 
 
+def start_backups(settings: Settings):
+    """The catalog's backup schedule (None when off or the catalog is not SQLite); stop it at shutdown."""
+    from gaitcap.api.backups import BackupSchedule, sqlite_path
+
+    src = sqlite_path(settings.catalog_url)
+    if src is None or settings.backup_interval_s <= 0:
+        return None
+    return BackupSchedule(src, Path(settings.data_dir) / "backups", interval_s=settings.backup_interval_s,
+                          keep=settings.backup_keep).start()
+
+
 def _docs(app: FastAPI) -> None:
     try:
         import fastapi_offline

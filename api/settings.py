@@ -65,6 +65,8 @@ class Settings:
     login_failures: int = 5  # per user name and per client address ...
     login_window_s: float = 300.0  # ... within this window, then 429 until it has passed
     expensive_per_minute: int = 120
+    backup_interval_s: float = 6 * 3600  # SQLite catalog backups (0: none) into DATA_DIR/backups ...
+    backup_keep: int = 28  # ... the newest this many kept
     subject_id_pattern: str = DEFAULT_PATTERN  # a patient id must match it (and look like no name or date)
     extra: dict = field(default_factory=dict)
 

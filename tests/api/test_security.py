@@ -191,3 +191,26 @@ def test_the_api_refuses_name_like_ids_and_finds_patients_in_any_case(server):
     client.post(f"/trials/{tid}/stop")
     assert [t["id"] for t in client.get("/trials", params={"subject_id": "P0042"}).json()] == [tid]
     assert [t["id"] for t in client.get("/trials", params={"subject_id": "p0042"}).json()] == [tid]
+
+
+def test_the_catalog_is_backed_up_online_on_a_schedule(tmp_path):
+    import sqlite3
+
+    make_accounts(tmp_path, ann=("clinician",))
+    settings = Settings(catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path, port=free_port(),
+                        backup_interval_s=0.4, backup_keep=2)
+    server = serve_in_thread(settings, RecordingLink())
+    try:
+        with signed_in(server.url, "ann") as c:
+            tid = c.post("/trials", json={"subject_id": "P7"}).json()["id"]
+        deadline = time.monotonic() + 10
+        while len(list((tmp_path / "backups").glob("*.sqlite"))) < 2 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        time.sleep(0.5)
+        copies = sorted((tmp_path / "backups").glob("catalog-*.sqlite"))
+        assert len(copies) == 2  # the newest two kept
+        assert stat.S_IMODE(copies[-1].stat().st_mode) == 0o600
+        with sqlite3.connect(copies[-1]) as db:
+            assert [tid] in [list(r) for r in db.execute("SELECT id FROM trials")]
+    finally:
+        server.stop()
