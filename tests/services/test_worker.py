@@ -8,6 +8,7 @@ from gaitcap.services import catalog as cat
 from gaitcap.services.kinematics import availability
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.worker import Worker, WorkerConfig
+from mcap.reader import make_reader
 
 from .conftest import write_trial_mcap
 
@@ -64,6 +65,12 @@ def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path,
         for key in ("trajectory_npz", "trajectory_trc", "gait_json", "steps_csv", "report_png"):
             assert files.stage_file(stage, key).stat().st_size > 100, (stage, key)
     assert files.stage_file("refined", "rerun_rrd").stat().st_size > 1000
+    with open(files.stage_file("refined", "results_mcap"), "rb") as f:  # the viewer files of the final stage
+        summary = make_reader(f).get_summary()
+    counts = {c.topic: summary.statistics.channel_message_counts[i] for i, c in summary.channels.items()}
+    with np.load(files.stage_file("refined", "trajectory_npz")) as npz:
+        assert counts["/skeleton"] == npz["times_s"].size
+    assert counts["/gait/steps"] == len(cat.get_result(db, tid, "refined").steps)
     kin = json.loads(files.stage_file("refined", "kinematics_json").read_text())  # the step after the result
     assert kin["available"] is availability()[0], kin
     if kin["available"]:
