@@ -209,7 +209,7 @@ def judged(q: DataQuality, *, missing_cameras=()) -> DataQuality:
         warn.append(f"The patient was seen by 2 or more cameras in only {100 * q.coverage:.0f} % of the frames")
     if q.recorded_s is not None and q.recorded_s - q.duration_s > NO_IMAGES_S:
         warn.append(f"No camera images for {q.recorded_s - q.duration_s:.1f} s of the {q.recorded_s:.1f} s "
-                    "between Start and Stop (the cameras stopped)")
+                    "between Start and Stop (the cameras stopped or fell behind)")
     if q.duration_s < cr.min_duration_s:
         warn.append(f"Only {q.duration_s:.1f} s recorded")
     return DataQuality(**{**asdict(q), "cameras": q.cameras, "criteria": cr, "warnings": tuple(warn),

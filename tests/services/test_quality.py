@@ -51,7 +51,8 @@ def test_a_stopped_camera_slow_cameras_and_bad_sync_are_named():
 
 def test_images_ending_long_before_stop_are_flagged():
     q = recording_quality(camera_names=NAMES, timestamps_ns=_stamps(), patient_confidence=None, recorded_s=13.2)
-    assert q.warnings == ("No camera images for 3.2 s of the 13.2 s between Start and Stop (the cameras stopped)",)
+    assert q.warnings == ("No camera images for 3.2 s of the 13.2 s between Start and Stop "
+                          "(the cameras stopped or fell behind)",)
     assert not recording_quality(camera_names=NAMES, timestamps_ns=_stamps(), patient_confidence=None,
                                  recorded_s=10.6).warnings
 
