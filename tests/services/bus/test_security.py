@@ -41,7 +41,8 @@ def secured(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("secure")
     names = ["recorder", "api", "camera-0"]
     nodes = {n: f"tls/127.0.0.1:{p}" for n, p in zip(names, _ports(3), strict=True)}
-    bus = BusConfig(nodes, prefix="gaitcap/sec", security=BusSecurity(tmp / "keys", clients=("operator",)))
+    bus = BusConfig(nodes, prefix="gaitcap/sec", security=BusSecurity(tmp / "keys", clients=("operator",),
+                                                                     cameras={"camera-0": ("cam01",)}))
     made = make_bus_keys({n: bus.nodes.get(n) for n in bus.identities}, tmp / "keys")
     assert made == ["recorder", "api", "camera-0", "operator"]
     other_ca = make_bus_keys({"api": nodes["api"]}, tmp / "other-ca")  # a valid-looking cert, wrong CA
@@ -89,6 +90,7 @@ def test_api_may_record_but_a_camera_may_not_start_the_recorder(secured):
         time.sleep(0.5)
         frame = ImageFrame.build(JPEG, camera="cam01", timestamp_ns=1, frame_id=0, sent_ns=1)
         cam.put(bus.keys.image("cam01"), frame.payload, attachment=frame.meta.to_bytes())
+        cam.put(bus.keys.image("cam02"), frame.payload, attachment=frame.meta.to_bytes())  # not its camera
         cam.put(bus.keys.keypoints("cam01"), b"{}")  # a camera may not publish keypoints
         cam.put(bus.keys.recorder_events, b"{}")
         assert _wait(lambda: bus.keys.image("cam01") in got)

@@ -4,6 +4,7 @@ separate processes (`gaitcap node ...`), into an MCAP that opens with the mcap r
 import json
 import os
 import signal
+import stat
 import subprocess
 import sys
 import threading
@@ -96,6 +97,7 @@ def test_ten_cameras_through_separate_processes_into_mcap_and_replay(tmp_path, r
         assert summary["cameras_stopped_early"] == ["cam08"]
         assert summary["cameras"]["cam08"]["gaps"] == [[15, FRAMES - 1]]
         assert summary["keypoints"] == summary["frames"]
+        assert stat.S_IMODE(out.stat().st_mode) == 0o600  # patient video: owner only (umask 077)
         wait_for(lambda: [e.event for e in events] == ["started", "stopped"], 10, "recorder events")
 
         # The file opens with the mcap library's own reader and holds what the layout promises.
