@@ -20,7 +20,8 @@ from urllib.parse import urlsplit
 from fastapi import HTTPException, Request, WebSocket
 from gaitcap.api.sessions import COOKIE
 
-READ, LIVE, RECORD, CALIBRATE, EXPORT, USERS, AUDIT = "read", "live", "record", "calibrate", "export", "users", "audit"
+READ, LIVE, RECORD, CALIBRATE, EXPORT = "read", "live", "record", "calibrate", "export"
+USERS, AUDIT, RETENTION = "users", "audit", "retention"
 
 #: (method, path template) -> the permissions any of which lets a user call it.
 ROUTE_PERMISSIONS: dict[tuple[str, str], frozenset[str]] = {
@@ -39,6 +40,7 @@ ROUTE_PERMISSIONS: dict[tuple[str, str], frozenset[str]] = {
     ("POST", "/trials"): frozenset({RECORD}),
     ("POST", "/trials/{trial_id}/stop"): frozenset({RECORD}),
     ("POST", "/trials/{trial_id}/patient"): frozenset({RECORD}),
+    ("POST", "/trials/{trial_id}/void"): frozenset({RETENTION}),
     ("GET", "/calibrations"): frozenset({READ, CALIBRATE}),
     ("GET", "/calibrations/latest"): frozenset({READ, CALIBRATE}),
     ("GET", "/calibrations/{cal_id}"): frozenset({READ, CALIBRATE}),

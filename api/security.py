@@ -11,7 +11,7 @@ from pathlib import Path
 from fastapi import FastAPI
 from fastapi.responses import HTMLResponse
 from fastapi.staticfiles import StaticFiles
-from gaitcap.api import routes_auth
+from gaitcap.api import routes_auth, routes_retention
 from gaitcap.api.audit_chain import AuditChain
 from gaitcap.api.http_guard import HttpGuard
 from gaitcap.api.sessions import RateLimiter, SessionStore
@@ -34,6 +34,7 @@ def install_security(app: FastAPI, settings: Settings) -> None:
         "user": RateLimiter(settings.login_failures, settings.login_window_s),
         "ip": RateLimiter(4 * settings.login_failures, settings.login_window_s)}
     app.include_router(routes_auth.router)
+    app.include_router(routes_retention.router)
     app.add_middleware(HttpGuard, max_body_bytes=settings.max_body_bytes, tls=settings.tls_enabled,
                        expensive_limiter=RateLimiter(settings.expensive_per_minute, 60.0))
     _docs(app)

@@ -8,7 +8,7 @@ role         permissions
 clinician    ``record`` (start/stop trials, choose the patient), ``read``, ``live``
 engineer     ``calibrate`` (board recordings, calibrations), ``read``, ``live``
 researcher   ``read``, ``export`` (recordings, trajectories, steps, Rerun files)
-admin        ``users`` (accounts), ``audit`` (the audit log)
+admin        ``users`` (accounts), ``audit`` (the audit log), ``retention`` (void trials)
 ===========  ==================================================================
 
 Manage accounts with ``gaitcap user add|list|remove`` (the file is ``<data dir>/accounts.json``).
@@ -30,7 +30,7 @@ ROLES: dict[str, frozenset[str]] = {
     "clinician": frozenset({"record", "read", "live"}),
     "engineer": frozenset({"calibrate", "read", "live"}),
     "researcher": frozenset({"read", "export"}),
-    "admin": frozenset({"users", "audit"}),
+    "admin": frozenset({"users", "audit", "retention"}),
 }
 PERMISSIONS = frozenset().union(*ROLES.values())
 MIN_PASSWORD = 12

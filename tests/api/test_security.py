@@ -214,3 +214,18 @@ def test_the_catalog_is_backed_up_online_on_a_schedule(tmp_path):
             assert [tid] in [list(r) for r in db.execute("SELECT id FROM trials")]
     finally:
         server.stop()
+
+
+def test_an_admin_voids_a_trial_with_a_reason_files_and_rows_go_the_audit_stays(server):
+    srv, client, _, settings = server
+    tid = client.post("/trials", json={"subject_id": "P8"}).json()["id"]
+    folder = settings.data_dir / "trials" / tid
+    assert client.post(f"/trials/{tid}/void", json={"reason": "wrong patient"}).status_code == 409  # recording
+    client.post(f"/trials/{tid}/stop")
+    assert client.post(f"/trials/{tid}/void", json={"reason": "x"}).status_code == 422  # a reason is required
+    r = client.post(f"/trials/{tid}/void", json={"reason": "consent withdrawn"})
+    assert r.status_code == 200 and r.json()["catalog_rows"] == 1 and r.json()["files_removed"]
+    assert not folder.exists() and client.get(f"/trials/{tid}").status_code == 404
+    audit = client.get("/audit", params={"trial_id": tid}).json()
+    assert audit[0]["action"] == "void" and audit[0]["detail"] == "consent withdrawn" and audit[0]["actor"] == "alice"
+    assert "consent withdrawn" in settings.audit_path.read_text()
