@@ -86,7 +86,8 @@ def run(*, preset: str, seconds: float, method: str, seed: int, config=None) -> 
     steps = trial.truth.steps
     return {
         "preset": preset, "seconds": seconds, "method": method, "seed": seed,
-        "steps_found": len(report.steps), "truth_straight_steps": int(np.sum(steps.pass_index >= 0)),
+        "steps_found": len(report.steps), "edge_steps": sum(not s.steady for s in report.steps),
+        "truth_straight_steps": int(np.sum(steps.pass_index >= 0)),
         "events": {**_event_errors(report, trial.truth, in_passes=False),
                    **_event_errors(report, trial.truth, in_passes=True)},
         "parameters": _step_errors(report, steps),
@@ -107,7 +108,8 @@ def _f(x, d=1):
 
 def _table(r: dict) -> str:
     lines = [f"gait benchmark: preset {r['preset']}, {r['seconds']} s, method {r['method']}, seed {r['seed']}",
-             f"steps found {r['steps_found']} (ground truth straight steps {r['truth_straight_steps']})",
+             f"steps found {r['steps_found']}, {r['edge_steps']} of them edge steps (ground truth straight "
+             f"steps {r['truth_straight_steps']})",
              f"{'quantity':<22}{'n':>5}{'mean':>9}{'SD':>9}{'max|e|':>9}{'in frame':>10}"]
     for name, s in {**r["events"], **r["parameters"]}.items():
         frame = _f(100 * s["within_frame"], 0) + "%" if s.get("within_frame") is not None else ""
