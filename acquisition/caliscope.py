@@ -27,6 +27,23 @@ from gaitcap.reconstruction.calibration import BoardObservations
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 
 CAMERA_PREFIX = "cam_"
+SESSION_POINTS = "calibration/extrinsic/xy.csv"
+
+
+def is_session(folder: str | os.PathLike) -> bool:
+    """A caliscope session folder with a board, a calibration and extrinsic corner detections."""
+    folder = Path(folder)
+    return all((folder / f).is_file() for f in ("charuco.toml", "camera_array.toml", SESSION_POINTS))
+
+
+def is_camera_array(path: str | os.PathLike) -> bool:
+    """caliscope's ``camera_array.toml`` (cameras under ``[cameras.<id>]``)."""
+    path = Path(path)
+    if path.suffix.lower() != ".toml" or not path.is_file():
+        return False
+    with open(path, "rb") as f:
+        cameras = tomllib.load(f).get("cameras")
+    return isinstance(cameras, dict) and all(k.isdigit() and isinstance(v, dict) for k, v in cameras.items())
 
 
 def camera_name(cam_id: int | str) -> str:
@@ -126,13 +143,15 @@ def _half_gap_ns(per_cam: list[list]) -> int:
     return max(1, int(gaps.min() * 1e9 // 2)) if gaps.size else 1
 
 
-def read_session(folder: str | os.PathLike, points: str = "calibration/extrinsic/xy.csv",
-                 pairing: PairingConfig = PairingConfig()) -> tuple[BoardConfig, BoardObservations, Rig, int]:
-    """A caliscope session folder: (board, observations, caliscope's calibration, views left out moving)."""
+def read_session(folder: str | os.PathLike, points: str = SESSION_POINTS,
+                 pairing: PairingConfig = PairingConfig(), board: BoardConfig | None = None,
+                 ) -> tuple[BoardConfig, BoardObservations, Rig, int]:
+    """A caliscope session folder: (board, observations, caliscope's calibration, views left out moving);
+    the board from its ``charuco.toml`` unless given."""
     from gaitcap.acquisition.board_file import read_board_file
 
     folder = Path(folder)
-    board = read_board_file(folder / "charuco.toml")
+    board = board or read_board_file(folder / "charuco.toml")
     rig = read_camera_array(folder / "camera_array.toml")
     obs, moving = read_points(folder / points, board=board, pairing=pairing,
                               image_sizes_px={c.name: c.size_px for c in rig.cameras})

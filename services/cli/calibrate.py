@@ -56,10 +56,34 @@ def _similar(cmp) -> str:
             f"rotations max {cmp.rotation_deg_max:.3f} deg ({per})")
 
 
+def _load_calibration(path: Path):
+    """A calibration file: gaitcap's/aniposelib's, or caliscope's camera_array.toml."""
+    from gaitcap.acquisition.caliscope import is_camera_array, read_camera_array
+    from gaitcap.reconstruction.calibration_io import load_rig
+
+    return read_camera_array(path) if is_camera_array(path) else load_rig(path)
+
+
+def _views(recording: Path, cfg, flags_given: bool, selection, pairing, progress_bar):
+    """Board observations and a line (or table) on what was found: a recording, or a caliscope session
+    folder (its corner detections; its board unless one is given)."""
+    from gaitcap.acquisition.board_recording import find_board_views
+    from gaitcap.acquisition.caliscope import is_session, read_session
+
+    if is_session(recording):
+        board, obs, _, moving = read_session(recording, pairing=pairing, board=cfg if flags_given else None)
+        counts = ", ".join(f"{n} {k}" for n, k in zip(obs.camera_names, obs.views().sum(1).tolist(), strict=True))
+        return board, obs, None, f"caliscope session: views {counts}; {moving} left out (board moving)"
+    found = find_board_views(recording, board=cfg, selection=selection, pairing=pairing, progress=progress_bar)
+    obs = found.observations
+    return cfg, obs, found, (f"{int(obs.views().sum())} views in {obs.shape[1]} frame sets (paired "
+                             f"{'by time' if found.timed else 'by order'})\n{found.table()}")
+
+
 def register(app: typer.Typer) -> None:
     @app.command("calibrate")
     def calibrate_cmd(
-        recording: Path = typer.Argument(..., help="Board recording: a trial .mcap, or a folder with <camera>/ images or <camera>.mp4 videos."),
+        recording: Path = typer.Argument(..., help="Board recording: a trial .mcap, a folder with <camera>/ images or <camera>.mp4 videos (and a timestamps.csv), or a caliscope session folder."),
         out: Path = typer.Option(..., "--out", help="Calibration to write (.toml aniposelib/Pose2Sim, or .json gaitcap)."),
         board_file: Path | None = BOARD_FILE, board: str | None = KIND, squares: str | None = SQUARES,
         square_mm: float | None = SQUARE_MM, marker_mm: float | None = MARKER_MM,
@@ -76,7 +100,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
         from gaitcap.acquisition.board_pairing import PairingConfig
-        from gaitcap.acquisition.board_recording import FrameSelection, find_board_views
+        from gaitcap.acquisition.board_recording import FrameSelection
         from gaitcap.reconstruction.calibration import (
             CalibrationConfig,
             DistortionModel,
@@ -85,30 +109,31 @@ def register(app: typer.Typer) -> None:
             calibrate_from_observations,
         )
         from gaitcap.reconstruction.calibration.compare import compare_rigs, compare_similar
-        from gaitcap.reconstruction.calibration_io import load_rig, save_rig
+        from gaitcap.reconstruction.calibration_io import save_rig
 
         with user_errors():
-            reference = load_rig(compare) if compare is not None else None
+            reference = _load_calibration(compare) if compare is not None else None
             if out.suffix.lower() not in (".toml", ".json"):
                 raise ValueError(f"--out {out}: use a .toml or .json file name")
             models = {m.value: m for m in DistortionModel}
             if distortion not in models:
                 raise ValueError(f"--distortion: choose one of {sorted(models)}, got {distortion!r}")
             cfg = board_from_options(board_file, board, squares, square_mm, marker_mm, dictionary, inverted, legacy)
-            known = load_rig(intrinsics) if intrinsics is not None else None
+            known = _load_calibration(intrinsics) if intrinsics is not None else None
+            flags_given = board_file is not None or any(
+                v is not None for v in (board, squares, square_mm, marker_mm, dictionary, inverted, legacy))
             config = CalibrationConfig(
                 intrinsics=IntrinsicsConfig(distortion=models[distortion]),
                 world=WorldFrameConfig(floor_frame=floor_frame),
                 known_intrinsics={c.name: (c.matrix_px, c.dist) for c in known.cameras} if known else None,
             )
             with progress(desc="finding the board", unit="img") as bar:
-                found = find_board_views(recording, board=cfg, selection=FrameSelection(every, max_frames),
-                                         pairing=PairingConfig(tolerance_ms=sync_tolerance_ms),
-                                         progress=lambda done, total: bar.update(1))
-            obs = found.observations
-            typer.echo(f"board {cfg.describe()}: {int(obs.views().sum())} views in {obs.shape[1]} frame sets "
-                       f"(paired {'by time' if found.timed else 'by order'})\n{found.table()}", err=True)
-            found.check(config.intrinsics.min_views)
+                cfg, obs, found, what = _views(recording, cfg, flags_given, FrameSelection(every, max_frames),
+                                               PairingConfig(tolerance_ms=sync_tolerance_ms),
+                                               lambda done, total: bar.update(1))
+            typer.echo(f"board {cfg.describe()}: {what}", err=True)
+            if found is not None:
+                found.check(config.intrinsics.min_views)
             result = calibrate_from_observations(obs, config=config)
             refused = bool(result.report.failed_cameras) and not accept_failed
             target = out.with_name(out.stem + ".refused" + out.suffix) if refused else out

@@ -1,0 +1,36 @@
+"""``gaitcap calibrate`` on a real session: caliscope's 4 webcams and inverted two-sided ChArUco board
+(its corner detections; installed by deploy/bootstrap.sh), compared with caliscope's calibration."""
+
+import re
+import sys
+from pathlib import Path
+
+import pytest
+from gaitcap.reconstruction.calibration_io import load_rig
+from gaitcap.services.cli import app
+from typer.testing import CliRunner
+
+SESSION = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "calibration" / "caliscope-4cam"
+pytestmark = pytest.mark.skipif(not (SESSION / "camera_array.toml").exists(),
+                                reason=f"caliscope session not installed in {SESSION} (run deploy/bootstrap.sh)")
+
+
+def test_with_caliscopes_intrinsics_the_rig_matches_and_is_written(tmp_path):
+    out = tmp_path / "calib.toml"
+    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out), "--distortion", "k1k2p1p2k3",
+                                      "--intrinsics", str(SESSION / "camera_array.toml"),
+                                      "--compare", str(SESSION / "camera_array.toml")])
+    assert result.exit_code == 0, result.output
+    assert "board charuco 4 x 5 squares of 54 mm, markers 40.5 mm DICT_4X4_1000, inverted" in result.output
+    m = re.search(r"similarity alignment \(scale ([\d.]+)\): centres max ([\d.]+) mm, rotations max ([\d.]+) deg",
+                  result.output)
+    assert m and abs(float(m[1]) - 1) < 0.01 and float(m[2]) < 3.0 and float(m[3]) < 0.4, result.output
+    assert load_rig(out).names == ["cam_0", "cam_1", "cam_2", "cam_3"]
+
+
+def test_a_calibration_failing_its_checks_is_refused(tmp_path):
+    out = tmp_path / "calib.toml"
+    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out)])
+    assert result.exit_code == 1
+    assert "calibration refused for use" in result.output and "board covered 10 % of the image" in result.output
+    assert not out.exists() and (tmp_path / "calib.refused.toml").exists() and (tmp_path / "calib.report.json").exists()
