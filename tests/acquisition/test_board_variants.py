@@ -102,3 +102,32 @@ def test_a_fixed_variant_that_finds_nothing_is_probed():
     assert all(f.corners is None for f in finds.values())
     stats = CameraDetection.from_finds("cam01", list(finds.values()), min_corners=6, probe=probes.get(0))
     assert "found the board as inverted (2 frames)" in " ".join(stats.advice(said, 6))
+
+
+def test_an_inverted_checkerboard_is_found_too():
+    board = make_board(BoardConfig.checkerboard(7, 5, 30.0))
+    tex, _ = board.texture(3.0)
+    inverted = cv2.copyMakeBorder(255 - tex, 40, 40, 40, 40, cv2.BORDER_CONSTANT, value=0)
+    assert board.detect(inverted).shape == (24, 2)  # the checkerboard search is colour-blind
+
+
+def test_the_issues_recording_webcam_videos_of_an_inverted_board(tmp_path):
+    """The issue's case: videos of a 4 x 5 inverted DICT_4X4_1000 board, described without --inverted
+    (the second camera's video one frame shorter), paired by the containers' frame times."""
+    from gaitcap.acquisition.board_recording import find_board_views
+
+    printed = BoardConfig("charuco", 4, 5, 54.0, 40.5, "DICT_4X4_1000", inverted=True)
+    for cam, n in (("cam_a", 6), ("cam_b", 5)):
+        frames = [photo(printed, seed=s) for s in range(n)]
+        h, w = frames[0].shape
+        video = cv2.VideoWriter(str(tmp_path / f"{cam}.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), 10.0, (w, h))
+        assert video.isOpened()
+        for f in frames:
+            video.write(cv2.cvtColor(f, cv2.COLOR_GRAY2BGR))
+        video.release()
+    said = BoardConfig("charuco", 4, 5, 54.0, 40.5, "DICT_4X4_1000")
+    found = find_board_views(tmp_path, board=said)
+    assert found.timed  # frame times from the containers
+    assert [c.with_board for c in found.cameras] == [6, 5]
+    assert all(c.variants == {"inverted": c.with_board} for c in found.cameras)
+    assert found.observations.views().sum(1).tolist() == [6, 5] and found.observations.shape[1] == 6
