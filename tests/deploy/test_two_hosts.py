@@ -129,7 +129,8 @@ def test_trial_recorded_and_processed_across_two_hosts(tmp_path, two_hosts):
     env = dict(os.environ, GAITCAP_BUS=str(bus_file), PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1")
     procs = Processes(tmp_path, env)
     try:
-        procs.start("recorder", proc_ns, [*PY, "node", "recorder", "--node", "recorder", "--flush-s", "0.5"])
+        procs.start("recorder", proc_ns, [*PY, "node", "recorder", "--node", "recorder", "--flush-s", "0.5",
+                                          "--data-dir", str(data)])
         procs.start("detector", proc_ns, [*PY, "node", "detector", "--node", "detector", *SIM_ARGS])
         procs.start("worker", proc_ns, [*PY, "worker", "--node", "worker", "--data-dir", str(data), "--no-refine",
                                         "--no-warm-up", "--lease", "30"])
