@@ -132,7 +132,8 @@ def run(*, seconds: float, cameras: int, fps: float, compression: str, out_dir: 
     bus_file.write_text(json.dumps(bus.to_dict()))
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     rec = subprocess.Popen([sys.executable, "-c", "from gaitcap.services.cli import main; main()", "node", "recorder",
-                            "--node", "recorder", "--bus", str(bus_file), "--compression", compression],
+                            "--node", "recorder", "--bus", str(bus_file), "--compression", compression,
+                            "--data-dir", str(out_dir)],
                            env=env, cwd=str(ROOT), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     session = open_session(bus, "bench")
     try:
