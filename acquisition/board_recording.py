@@ -27,7 +27,7 @@ from gaitcap.acquisition.board_pairing import (
     moving_views,
     pair_by_time,
 )
-from gaitcap.acquisition.board_sources import IMAGE_SUFFIXES, VIDEO_SUFFIXES, folder_sources
+from gaitcap.acquisition.board_sources import folder_sources
 from gaitcap.reconstruction.calibration import (
     BoardObservations,
     CalibrationConfig,
@@ -36,9 +36,6 @@ from gaitcap.reconstruction.calibration import (
 )
 
 log = logging.getLogger(__name__)
-
-__all__ = ["IMAGE_SUFFIXES", "VIDEO_SUFFIXES", "BoardDetections", "FrameSelection", "calibrate_from_recording",
-           "detect_recording", "find_board_views"]
 
 MAX_WORKERS = 8
 PROBE_FRAMES = 8  # frames per camera searched with every printing variant when a fixed one finds nothing

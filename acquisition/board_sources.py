@@ -19,9 +19,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from gaitcap.acquisition.video_detect import VIDEO_SUFFIXES
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
-VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
 TIMESTAMPS_FILE = "timestamps.csv"
 _TIME_COLUMNS = {"time_s": 1e9, "frame_time": 1e9, "time_ns": 1.0, "timestamp_ns": 1.0}
 _CAMERA_COLUMNS = ("camera", "cam_id", "port")
