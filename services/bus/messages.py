@@ -15,6 +15,7 @@ import re
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any, ClassVar
 
+import numpy as np
 from gaitcap.acquisition.encoding import decode_jpeg, image_message, parse_image_message
 
 #: Frame ids count frames from a camera's synchronised start: 2**31 frames is 2 years at 30 frames/s.
@@ -172,6 +173,29 @@ class ImageFrame:
 
 def _people(value: Any, what: str) -> list:
     """P x J x [x px, y px, confidence] with P <= MAX_PEOPLE, J <= MAX_JOINTS, the same J for all."""
+    if _people_ok(value):
+        return value
+    return _people_checked(value, what)
+
+
+def _people_ok(value: Any) -> bool:
+    """The fast path (one array): True when every bound holds; False sends the message to the slow,
+    naming check."""
+    if not isinstance(value, list) or len(value) > MAX_PEOPLE:
+        return False
+    if not value:
+        return True
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (ValueError, TypeError):
+        return False
+    if arr.ndim != 3 or arr.shape[2] != 3 or not 0 < arr.shape[1] <= MAX_JOINTS or not np.isfinite(arr).all():
+        return False
+    xy, conf = arr[..., :2], arr[..., 2]
+    return bool((np.abs(xy) <= MAX_IMAGE_PX).all() and (conf >= 0).all() and (conf <= 1).all())
+
+
+def _people_checked(value: Any, what: str) -> list:
     if not isinstance(value, list) or len(value) > MAX_PEOPLE:
         raise ValueError(f"{what}: must be a list of at most {MAX_PEOPLE} people")
     joints = None
