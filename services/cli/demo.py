@@ -21,7 +21,6 @@ def register(app: typer.Typer) -> None:
         data_dir: Path = typer.Option(DEMO_DATA_DIR, "--data-dir", help="Catalog, recordings, results, logs."),
         port: int = typer.Option(8000, "--port", help="Web page / API port on 127.0.0.1."),
         bus_port: int = typer.Option(7447, "--bus-port", help="First bus port (one per node, on 127.0.0.1)."),
-        token: str = typer.Option("", "--password", help="Password of the demo account (generated if empty)."),
         cameras: int = typer.Option(10, "--cameras", help="Simulated cameras."),
         size: str = typer.Option("240x180", "--size", help="Simulated image size WIDTHxHEIGHT (px)."),
         workers: int = typer.Option(1, "--workers", help="Reconstruction workers."),
@@ -41,7 +40,7 @@ def register(app: typer.Typer) -> None:
         from gaitcap.services.ops.stack import Stack, StackConfig
 
         with user_errors():
-            cfg = StackConfig(data_dir=data_dir, token=token or new_token(), port=port, bus_base_port=bus_port,
+            cfg = StackConfig(data_dir=data_dir, token=new_token(), port=port, bus_base_port=bus_port,
                               cameras=cameras, size=size, workers=workers, refine=refine, sim_people=people,
                               board_clip=board_clip)
         logging.getLogger("httpx").setLevel(logging.WARNING)
