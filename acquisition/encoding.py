@@ -8,7 +8,6 @@ A frame on the wire is a serialised ``foxglove.CompressedImage``:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -80,9 +79,8 @@ def parse_image_message(data: bytes) -> ImageMessage:
     return ImageMessage(camera=msg.frame_id, timestamp_ns=int(ts), jpeg=msg.data)
 
 
-@lru_cache(maxsize=1)
 def image_schema_data() -> bytes:
     """The serialised FileDescriptorSet of ``foxglove.CompressedImage`` (the MCAP schema data)."""
-    from mcap_protobuf.schema import build_file_descriptor_set
+    from gaitcap.acquisition.recording.foxglove_messages import schema_data
 
-    return build_file_descriptor_set(CompressedImage).SerializeToString()
+    return schema_data(IMAGE_SCHEMA_NAME)
