@@ -51,24 +51,22 @@ def register(app: typer.Typer) -> None:
         as_json: bool = typer.Option(False, "--json", help="Print the kinematics report as one JSON object."),
     ) -> None:
         """Scale an OpenSim model to the trial, inverse kinematics, gait-cycle joint angles with norms."""
-        from gaitcap.reconstruction.gait import analyze_gait
         from gaitcap.services.cli.gait import _load
         from gaitcap.services.kinematics import KinematicsUnavailable
         from gaitcap.services.kinematics.trial import KinematicsConfig, trial_kinematics
+        from gaitcap.services.processing.pipeline import gait_of
 
         folder = out or result.with_name(f"{result.stem}-kinematics")
         with user_errors():
             if not math.isfinite(mass_kg) or not 20.0 <= mass_kg <= 300.0:
                 raise ValueError(f"--mass-kg: must be in [20, 300], got {mass_kg}")
-            points, times, names, quality = _load(result)
+            traj, reproj = _load(result)
+            gait, problem = gait_of(traj, reprojection_px=reproj)  # the worker's gait analysis
+            if gait is None:
+                typer.echo(f"note: no gait cycles ({problem}); joint angles only", err=True)
             try:
-                steps = analyze_gait(points, times, names, quality=quality).steps
-            except ValueError as exc:
-                typer.echo(f"note: no gait cycles ({exc}); joint angles only", err=True)
-                steps = ()
-            try:
-                report = trial_kinematics(points, times, names, steps=steps,
-                                          quality=None if quality is None else quality.num_views,
+                report = trial_kinematics(traj.points_mm, traj.times_s, traj.joint_names,
+                                          steps=gait.steps if gait is not None else (), quality=traj.num_views,
                                           out_dir=folder, config=KinematicsConfig(mass_kg=mass_kg))
             except KinematicsUnavailable as exc:
                 typer.echo(f"error: kinematics are unavailable: {exc}", err=True)

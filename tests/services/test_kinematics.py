@@ -140,3 +140,22 @@ def test_missing_setup_files_make_kinematics_unavailable(tmp_path, monkeypatch, 
         trial_kinematics(points[:30], times[:30], names, out_dir=tmp_path / "out")
     d = json.loads((tmp_path / "out" / "kinematics.json").read_text())
     assert d == {"available": False, "reason": reason}
+
+
+def test_cli_kinematics(tmp_path, fitted):
+    from gaitcap.services.cli import app
+    from typer.testing import CliRunner
+
+    points, times, names, *_ = fitted
+    npz = tmp_path / "walk.npz"
+    np.savez(npz, points_mm=points[:150], times_s=times[:150], joint_names=np.array(names))
+    runner = CliRunner()
+    res = runner.invoke(app, ["kinematics", str(npz), "--out", str(tmp_path / "k")])
+    assert res.exit_code == 0, res.output
+    assert "knee_peak_flexion_swing_deg" in res.output and "marker error RMS" in res.output
+    assert {p.name for p in (tmp_path / "k").iterdir()} >= {"kinematics.mot", "kinematics.osim", "kinematics.json",
+                                                           "kinematics.csv", "kinematics.png", "trajectory.c3d"}
+    res = runner.invoke(app, ["kinematics", str(npz), "--mass-kg", "5"])
+    assert res.exit_code == 2 and "--mass-kg" in res.output
+    res = runner.invoke(app, ["kinematics", str(tmp_path / "none.npz")])
+    assert res.exit_code == 2 and "no such file" in res.output

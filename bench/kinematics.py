@@ -1,0 +1,180 @@
+"""Joint kinematics: accuracy of the OpenSim model fit on the synthetic walker, and its speed.
+
+    python bench/kinematics.py [--preset paper] [--seconds 30] [--cameras 10] [--json] [--real DIR]
+
+The synthetic walker's true joint angles are measured on its exact keypoints (rigid thigh, shank and foot;
+``reconstruction.kinematics.geometric``), with the model's zero pose measured the same way subtracted, and
+compared frame by frame with inverse kinematics (IK) on three trajectories of the same trial: the ground
+truth, the robust triangulation and the default fit (implicit). Per variable (both sides pooled, every
+fitted frame including standing and turns): RMSE, bias (mean error) and the SD of the error (RMSE with the
+bias removed), degrees; marker RMS error (mm). Targets on the default fit of the ``paper`` preset: knee
+and hip flexion RMSE <= 3 deg, ankle <= 5 deg; scale + IK of the 30 s, 30 fps trial under 15 s.
+
+``--real NPZ``: a reconstructed real walk (e.g. ``gaitcap process``'s ``preliminary/trajectory.npz``): its
+gait cycles when there are steps, and the largest knee flexion per side over the trial, checked for
+plausibility (a healthy walker's peak knee flexion in swing is 50-70 deg).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import jsonable  # noqa: E402
+
+VARIABLES = ("hip_flexion", "hip_adduction", "knee_flexion", "ankle_dorsiflexion")
+TARGETS_DEG = {"knee_flexion": 3.0, "hip_flexion": 3.0, "ankle_dorsiflexion": 5.0}
+SPEED_TARGET_S = 15.0
+
+
+def true_angles(points_mm, joint_names, engine, layout) -> dict:
+    """The walker's joint angles in the model's convention (its zero pose's keypoint angles subtracted)."""
+    from gaitcap.reconstruction.kinematics.geometric import keypoint_angles, zero_pose_offsets
+
+    zero = engine.zero_pose_markers_mm(layout.setup)
+    model_pts = np.array([zero.get(layout.markers.get(j, ""), np.full(3, np.nan)) for j in joint_names])
+    offsets = zero_pose_offsets(model_pts, joint_names)
+    angles = keypoint_angles(points_mm, joint_names)
+    return {v: {s: angles[v][s] - offsets[v][s] for s in ("left", "right")} for v in VARIABLES}
+
+
+def fit(points_mm, times_s, joint_names, quality, engine, layout, out_dir: Path) -> tuple[dict, dict, float]:
+    from gaitcap.reconstruction.kinematics.angles import clinical_angles
+    from gaitcap.services.kinematics.base import FitRequest
+    from gaitcap.services.kinematics.trial import marker_weights
+
+    markers, pts = layout.select(points_mm, joint_names)
+    idx = [list(joint_names).index(k) for k in layout.markers if k in joint_names]
+    weights = marker_weights(None if quality is None else quality[:, idx], pts)
+    t0 = time.perf_counter()
+    result = engine.fit(FitRequest(pts, times_s, markers, weights, layout.setup, out_dir, "bench"))
+    seconds = time.perf_counter() - t0
+    return clinical_angles(result.coordinates_deg), result.marker_errors_mm, seconds
+
+
+def compare(ik: dict, truth: dict) -> dict:
+    out = {}
+    for v in VARIABLES:
+        err = np.concatenate([ik[v][s] - truth[v][s] for s in ("left", "right")])
+        err = err[np.isfinite(err)]
+        out[v] = {"rmse_deg": float(np.sqrt(np.mean(err**2))), "bias_deg": float(err.mean()),
+                  "sd_deg": float(err.std()), "frames": int(err.size // 2)}
+    return out
+
+
+def run(*, preset: str, seconds: float, cameras: int, seed: int) -> dict:
+    from gaitcap.acquisition.synthetic.trial import make_trial
+    from gaitcap.reconstruction.kinematics.markers import layout_for
+    from gaitcap.reconstruction.methods import Implicit, Robust, reconstruct
+    from gaitcap.services.kinematics import get_engine
+
+    trial = make_trial(preset, seconds=seconds, cameras=cameras, seed=seed)
+    names = trial.skeleton.joint_names
+    engine, layout = get_engine(), layout_for(trial.skeleton.name)
+    truth = true_angles(trial.points_mm, names, engine, layout)
+    inputs = {"ground truth": (trial.points_mm, None)}
+    for label, method in (("robust triangulation", Robust()), ("default fit", Implicit())):
+        rec = reconstruct(trial.detections, trial.rig, method=method)
+        inputs[label] = (rec.points_mm, rec.quality)
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, (pts, quality) in inputs.items():
+            ik, errors, secs = fit(pts, trial.times_s, names, quality, engine, layout, Path(tmp))
+            rms = [e["rms"] for e in errors.values()]
+            rows[label] = {"angles": compare(ik, truth), "marker_rms_mm_mean": float(np.mean(rms)),
+                           "marker_rms_mm_worst": float(np.max(rms)),
+                           "worst_marker": max(errors, key=lambda m: errors[m]["rms"]), "seconds": secs}
+    default, speed = rows["default fit"], rows["ground truth"]["seconds"]
+    targets = {f"{v} RMSE <= {lim:g} deg (default fit)": {"value": default["angles"][v]["rmse_deg"],
+                                                          "met": bool(default["angles"][v]["rmse_deg"] <= lim)}
+               for v, lim in TARGETS_DEG.items()}
+    targets[f"scale + IK of {seconds:g} s at {trial.fps:g} fps <= {SPEED_TARGET_S:g} s"] = {
+        "value": speed, "met": bool(speed <= SPEED_TARGET_S)}
+    return {"setup": {"preset": preset, "seconds": seconds, "cameras": cameras, "seed": seed,
+                      "frames": int(trial.num_frames), "fps": trial.fps, "engine": engine.name,
+                      "model": layout.setup},
+            "rows": rows, "targets": targets}
+
+
+def real(npz: Path) -> dict:
+    """Kinematics of a reconstructed real walk: cycles and key values when the gait analysis finds steps,
+    and the largest knee flexion of each side over the whole trial (the swing peak when a swing is in it)."""
+    from gaitcap.reconstruction.kinematics.angles import clinical_angles
+    from gaitcap.reconstruction.kinematics.mot import parse_mot
+    from gaitcap.services.cli.gait import _load
+    from gaitcap.services.kinematics.trial import FILES, trial_kinematics
+    from gaitcap.services.processing.pipeline import gait_of
+
+    traj, reproj = _load(npz)
+    times = traj.times_s
+    gait, note = gait_of(traj, reprojection_px=reproj)
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        report = trial_kinematics(traj.points_mm, times, traj.joint_names, out_dir=Path(tmp),
+                                  steps=gait.steps if gait is not None else (), quality=traj.num_views)
+        secs = time.perf_counter() - t0
+        mot_times, coords, _ = parse_mot((Path(tmp) / FILES["mot"]).read_text())
+    knee = clinical_angles(coords, mot_times)["knee_flexion"]
+    d = report.to_dict()
+    peaks = {s: float(np.nanmax(knee[s])) for s in ("left", "right")}
+    return {"file": str(npz), "frames": int(len(times)), "duration_s": float(times[-1] - times[0]),
+            "seconds": secs, "gait_note": note,
+            "cycles": {s: d["curves"]["knee_flexion"][s]["n_cycles"] for s in ("left", "right")},
+            "key_values": d["key_values"], "knee_max_flexion_deg": peaks,
+            "marker_rms_mm": {m: e["rms"] for m, e in d["marker_errors_mm"].items()},
+            "knee_peak_plausible_50_70": bool(all(50.0 <= v <= 70.0 for v in peaks.values()))}
+
+
+def print_table(result: dict) -> None:
+    s = result["setup"]
+    print(f"synthetic '{s['preset']}' trial: {s['cameras']} cameras, {s['frames']} frames at {s['fps']:g} fps "
+          f"(seed {s['seed']}); {s['engine']} model {s['model']}; angles in deg, marker errors in mm")
+    print(f"{'input':<22}{'variable':<20}{'RMSE':>7}{'bias':>7}{'SD':>7}")
+    for label, row in result["rows"].items():
+        for v, a in row["angles"].items():
+            print(f"{label:<22}{v:<20}{a['rmse_deg']:7.2f}{a['bias_deg']:7.2f}{a['sd_deg']:7.2f}")
+        print(f"{label:<22}{'marker RMS':<20}{row['marker_rms_mm_mean']:7.1f}  (worst {row['worst_marker']} "
+              f"{row['marker_rms_mm_worst']:.1f}); scale + IK {row['seconds']:.1f} s")
+    print("\ntargets:")
+    for name, t in result["targets"].items():
+        print(f"  {'met ' if t['met'] else 'MISS'}  {name}: {t['value']:.2f}")
+    if "real" in result:
+        r = result["real"]
+        print(f"\nreal walk {r['file']}: {r['frames']} frames ({r['duration_s']:.2f} s), gait cycles {r['cycles']}"
+              f"{' (' + r['gait_note'] + ')' if r['gait_note'] else ''}; kinematics {r['seconds']:.1f} s")
+        print("  largest knee flexion (deg): " + ", ".join(f"{s} {v:.1f}" for s, v in r["knee_max_flexion_deg"].items())
+              + f"; within 50-70: {r['knee_peak_plausible_50_70']}")
+        rms = r["marker_rms_mm"]
+        print(f"  marker RMS (mm): median {np.median(list(rms.values())):.1f}, worst {max(rms, key=rms.get)} "
+              f"{max(rms.values()):.1f}")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--preset", default="paper")
+    ap.add_argument("--seconds", type=float, default=30.0)
+    ap.add_argument("--cameras", type=int, default=10)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--real", type=Path, default=None, help="also check a reconstructed real walk (NPZ)")
+    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING)
+    result = run(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed)
+    if args.real is not None:
+        result["real"] = real(args.real)
+    if args.json:
+        print(json.dumps(jsonable(result)))
+    else:
+        print_table(result)
+
+
+if __name__ == "__main__":
+    main()
