@@ -116,6 +116,12 @@ def _summary(errors: list[float], scale: float = 1000.0) -> dict:
             "p90_abs": float(np.percentile(np.abs(e), 90))}
 
 
+def _row(method: str, walk: str, detector: str, kind: str, pooled: dict) -> dict:
+    summary = {f"{k}_ms" if k != "n" else k: v for k, v in _summary(pooled["errors_s"]).items()}
+    return {"reconstruction": method, "walk": walk, "detector": detector, "event": kind, **summary,
+            "found": pooled["found"], "annotated": pooled["annotated"], "invented": pooled["invented"]}
+
+
 def run(*, methods: list[str], phases: int, seed: int) -> dict:
     from gaitcap.acquisition.synthetic.mocap import available_walks, load_walk
 
@@ -124,6 +130,7 @@ def run(*, methods: list[str], phases: int, seed: int) -> dict:
         raise SystemExit("no real walks installed: run deploy/bootstrap.sh (install_gait_mocap)")
     rows, temporal, info = [], {}, {}
     for method in methods:
+        everything: dict = {}
         for name in walks:
             walk = load_walk(name)
             info[name] = {"source": walk.source, "seconds": walk.duration_s,
@@ -142,10 +149,13 @@ def run(*, methods: list[str], phases: int, seed: int) -> dict:
                 for k in temp:
                     temp[k] += r["temporal"][k]
             for (det, kind), p in pooled.items():
-                rows.append({"reconstruction": method, "walk": name, "detector": det, "event": kind,
-                             **{f"{k}_ms" if k != "n" else k: v for k, v in _summary(p["errors_s"]).items()}, "found": p["found"], "annotated": p["annotated"],
-                             "invented": p["invented"]})
+                rows.append(_row(method, name, det, kind, p))
+                total = everything.setdefault((det, kind), {"errors_s": [], "found": 0, "annotated": 0,
+                                                            "invented": 0})
+                for key, value in p.items():
+                    total[key] += value
             temporal[f"{method}/{name}"] = {k: _summary(vals, scale=1.0) for k, vals in temp.items()}
+        rows += [_row(method, "all", det, kind, p) for (det, kind), p in everything.items()]
     return {"fps": FPS, "phases": phases, "seed": seed, "rows": rows, "temporal_pct": temporal, "walks": info}
 
 
