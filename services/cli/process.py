@@ -18,8 +18,11 @@ def _echo_summary(result, out: Path) -> None:
     for warning in result.layout.warnings:
         typer.echo(f"warning: {warning}", err=True)
     if result.selection is not None:
-        typer.echo(f"{result.selection.tracks.num_tracks} people tracked; the patient is track "
-                   f"{result.selection.track_id} (see {out / 'people.json'})")
+        from gaitcap.services.processing.offline import people_lines
+
+        typer.echo(f"{result.selection.tracks.num_tracks} people tracked (see {out / 'people.json'}):")
+        for line in people_lines(result.selection, how=result.chosen_how):
+            typer.echo(f"  {line}")
     for name, stage in result.stages.items():
         s = stage.report.summary if stage.report is not None else None
         if s is None:
@@ -29,7 +32,8 @@ def _echo_summary(result, out: Path) -> None:
                        f"{figure(s.cadence_steps_min, '.1f', 'too few steps')} steps/min, gait speed "
                        f"{figure(s.gait_speed_m_s, '.2f', 'no straight pass')} m/s")
         if stage.missing:
-            typer.echo("  joints missing in some frames: " + ", ".join(f"{j} ({n})" for j, n in stage.missing.items()))
+            typer.echo("  joints missing in some frames (NaN in the files): "
+                       + "; ".join(f"{j} frames {r}" for j, r in stage.missing_frames.items()))
         typer.echo(f"  files: {out / name}/ ({', '.join(sorted(Path(p).name for p in stage.files.values()))})")
     typer.echo("time: " + ", ".join(f"{k} {v:.1f} s" for k, v in result.timings_s.items()))
 

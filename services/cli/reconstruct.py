@@ -85,8 +85,11 @@ def reconstruct_command(
         recording, layout = resolve_layout(data.recording, rig, named=data.layout)
         det, rig, selection = patient_input(recording, rig, selector=options.patient.selector())
         if selection is not None:
-            typer.echo(f"{selection.tracks.num_tracks} people tracked; the patient is track {selection.track_id} "
-                       f"({'requested' if options.patient.selector() else 'automatic'})", err=True)
+            from gaitcap.services.processing.offline import choice_reason, people_lines
+
+            typer.echo(f"{selection.tracks.num_tracks} people tracked:", err=True)
+            for line in people_lines(selection, how=choice_reason(options.patient)):
+                typer.echo(f"  {line}", err=True)
         config = _method(method, paper, steps)
         with progress(desc=method.value, unit="step") as bar:
 
@@ -115,10 +118,11 @@ def reconstruct_command(
             f"L_skeleton {figure(m['L_skeleton'], '.2f')} mm"
         )
     if missing.any():
-        names = [n for n, gone in zip(rec.joint_names, missing.any(0), strict=True) if gone]
-        typer.echo("note: joints missing in some frames (NaN in the file): "
-                   + ", ".join(f"{n} ({int(missing[:, rec.joint_names.index(n)].sum())} frames)" for n in names),
-                   err=True)
+        from gaitcap.services.processing.offline import frame_ranges
+
+        typer.echo("note: joints missing in some frames (NaN in the file): " + "; ".join(
+            f"{n} frames {frame_ranges(np.flatnonzero(missing[:, j]))}"
+            for j, n in enumerate(rec.joint_names) if missing[:, j].any()), err=True)
 
 
 def register(app: typer.Typer) -> None:

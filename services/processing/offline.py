@@ -81,6 +81,7 @@ class StageResult:
     report: object | None
     problem: str
     missing: dict[str, int]
+    missing_frames: dict[str, str]
     files: dict[str, str]
 
 
@@ -93,6 +94,7 @@ class OfflineResult:
     frames: int
     stages: dict[str, StageResult]
     timings_s: dict[str, float] = field(default_factory=dict)
+    chosen_how: str = ""
 
     def summary(self) -> dict:
         """JSON-ready summary (the ``--json`` output)."""
@@ -100,16 +102,52 @@ class OfflineResult:
 
         people = None
         if self.selection is not None:
-            people = {"tracks": int(self.selection.tracks.num_tracks), "patient_track_id": int(self.selection.track_id)}
+            people = {"tracks": int(self.selection.tracks.num_tracks), "patient_track_id": int(self.selection.track_id),
+                      "chosen_by": self.chosen_how, "lines": people_lines(self.selection, how=self.chosen_how)}
         return {"source": self.source, "layout": {"skeleton": self.layout.skeleton, "how": self.layout.how,
                                                   "evidence": self.layout.evidence(),
                                                   "warnings": list(self.layout.warnings)},
                 "cameras": list(self.cameras), "frames": self.frames, "people": people,
                 "stages": {name: {"method": s.trajectory.method, "problem": s.problem,
-                                  "missing_frames_per_joint": s.missing, "files": s.files,
+                                  "missing_frames_per_joint": s.missing, "missing_frames": s.missing_frames,
+                                  "files": s.files,
                                   "summary": summary_of(s.report) if s.report is not None else {}}
                            for name, s in self.stages.items()},
                 "timings_s": {k: round(v, 3) for k, v in self.timings_s.items()}}
+
+
+def people_lines(selection, *, how: str) -> list[str]:
+    """Who was tracked and who was chosen, one line per track (``how``: why that one)."""
+    lines = []
+    for t in selection.tracks.summaries():
+        mark = "*" if t.track_id == selection.track_id else " "
+        lines.append(f"{mark} track {t.track_id}: {t.frames} frames ({t.first_s:.2f}-{t.last_s:.2f} s), "
+                     f"{t.mean_views:.1f} cameras on average, walked {t.path_mm / 1000:.2f} m")
+    lines.append(f"the patient is track {selection.track_id} ({how})")
+    return lines
+
+
+def choice_reason(request: PatientRequest) -> str:
+    if request.track_id is not None:
+        return f"--person {request.track_id}"
+    if request.near_mm is not None:
+        return f"--patient-near: nearest ({request.near_mm[0]:g}, {request.near_mm[1]:g}) mm early on"
+    return "automatic: the person who walks the walkway"
+
+
+def frame_ranges(frames: np.ndarray) -> str:
+    """Frame indices -> "0-5, 40-61"."""
+    if frames.size == 0:
+        return ""
+    breaks = np.flatnonzero(np.diff(frames) > 1)
+    starts, ends = np.r_[frames[0], frames[breaks + 1]], np.r_[frames[breaks], frames[-1]]
+    return ", ".join(f"{a}" if a == b else f"{a}-{b}" for a, b in zip(starts, ends, strict=True))
+
+
+def missing_frames(traj: Trajectory) -> dict[str, str]:
+    """Joint name -> the frames (ranges) where the trajectory has no point, for joints with some."""
+    gone = ~np.isfinite(traj.points_mm).all(-1)  # (T, J)
+    return {n: frame_ranges(np.flatnonzero(gone[:, j])) for j, n in enumerate(traj.joint_names) if gone[:, j].any()}
 
 
 # ---------------------------------------------------------------------------------------------- input
@@ -168,7 +206,7 @@ def _stage(files: TrialFiles, name: str, traj: Trajectory, det, *, recording, ri
     write_views(files, name, traj, report, trial_id=trial_id)
     write_viewer_files(files, name, trial_view(trial_id, traj, detections=det, keypoints=recording, rig=rig,
                                                report=report, recording=None, bones=det.skeleton.bone_indices))
-    return StageResult(traj, report, problem, missing, files.existing(name))
+    return StageResult(traj, report, problem, missing, missing_frames(traj), files.existing(name))
 
 
 def process_input(data: KeypointInput, rig: Rig, out: Path, *, options: OfflineOptions = OfflineOptions(),
@@ -188,7 +226,8 @@ def process_input(data: KeypointInput, rig: Rig, out: Path, *, options: OfflineO
     notify("patient")
     det, rig_used, selection = patient_input(recording, rig, files=files, selector=options.patient.selector())
     if selection is not None:
-        log.info("%d people tracked; the patient is track %d", selection.tracks.num_tracks, selection.track_id)
+        for line in people_lines(selection, how=choice_reason(options.patient)):
+            log.info("%s", line)
     timings["association"] = time.perf_counter() - t0
     stages = {}
     runs = [("preliminary", lambda: preliminary(det, rig_used))]
@@ -204,5 +243,6 @@ def process_input(data: KeypointInput, rig: Rig, out: Path, *, options: OfflineO
         t0 = time.perf_counter()
         stages[name] = _stage(files, name, traj, det, recording=recording, rig=rig_used, trial_id=files.root.name)
         timings[f"{name} gait and files"] = time.perf_counter() - t0
-    return OfflineResult(data.source, layout, selection, tuple(det.camera_names), int(det.shape[1]), stages, timings)
+    return OfflineResult(data.source, layout, selection, tuple(det.camera_names), int(det.shape[1]), stages, timings,
+                         choice_reason(options.patient))
 

@@ -206,7 +206,19 @@ def test_reconstruct_command_chooses_and_reports_the_patient(tmp_path):
     base = ["reconstruct", "--keypoints", str(TWO_PEOPLE), "--method", "dlt"]  # the folder's own calibration
     auto = runner.invoke(app, base + ["--out", str(tmp_path / "auto.npz")])
     assert auto.exit_code == 0, auto.output
-    assert "2 people tracked; the patient is track 1 (automatic)" in auto.output
+    assert "2 people tracked" in auto.output and "* track 1: 100 frames" in auto.output
+    assert "the patient is track 1 (automatic: the person who walks the walkway)" in auto.output
     assert "layout body25b (explicit)" in auto.output and "NaN" not in auto.output
     bad = runner.invoke(app, base + ["--out", str(tmp_path / "x.npz"), "--person", "7"])
     assert bad.exit_code == 2 and "7" in bad.output and not (tmp_path / "x.npz").exists()  # --person reaches it
+
+
+def test_missing_frames_are_named_as_ranges():
+    from gaitcap.services.processing.offline import frame_ranges, missing_frames
+    from gaitcap.services.processing.pipeline import Trajectory
+
+    assert frame_ranges(np.array([0, 1, 2, 5, 7, 8])) == "0-2, 5, 7-8"
+    points = np.zeros((6, 2, 3))
+    points[[1, 2, 4], 1] = np.nan
+    traj = Trajectory("t", points, np.arange(6) / 30, ("left_heel", "right_heel"))
+    assert missing_frames(traj) == {"right_heel": "1-2, 4"}
