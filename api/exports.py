@@ -9,12 +9,14 @@ from pathlib import Path
 import numpy as np
 
 
-def steps_csv(steps: list[dict]) -> str:
-    """One row per step; columns = the union of the steps' keys (first-seen order)."""
+def steps_csv(steps: list[dict], warnings: list[str] = ()) -> str:
+    """One row per step; columns = the union of the steps' keys (first-seen order). The trial's
+    data-quality ``warnings`` come first, one ``# warning: ...`` line each (read with ``comment="#"``)."""
     columns: list[str] = []
     for step in steps:
         columns += [k for k in step if k not in columns]
     out = io.StringIO()
+    out.writelines(f"# warning: {w}\n" for w in warnings)
     writer = csv.DictWriter(out, fieldnames=columns or ["side"], extrasaction="ignore", lineterminator="\n")
     writer.writeheader()
     writer.writerows(steps)

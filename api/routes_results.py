@@ -75,7 +75,9 @@ def gait(trial_id: str, request: Request, stage: Stage | None = None, user: str 
     cat.audit(catalog_of(request), actor=user, action="view", trial_id=r.trial_id, detail=f"gait {r.stage}")
     return GaitOut(trial_id=r.trial_id, stage=r.stage, method=r.method, elapsed_s=r.elapsed_s,
                    summary=r.summary, steps=r.steps, quality=r.quality,
-                   downloads=_downloads(r.trial_id, r.stage))
+                   downloads=_downloads(r.trial_id, r.stage),
+                   warnings=cat.warnings_of(cat.get_quality(catalog_of(request), r.trial_id)),
+                   data_quality=r.report.get("data_quality", {}))
 
 
 @router.get("/trials/{trial_id}/steps", summary="Per-step parameters (JSON or CSV)")
@@ -85,7 +87,8 @@ def steps(trial_id: str, request: Request, stage: Stage | None = None, format: T
     cat.audit(catalog_of(request), actor=user, action="download", trial_id=r.trial_id,
               detail=f"steps {r.stage} {format.value}")
     if format is TableFormat.csv:
-        return PlainTextResponse(steps_csv(r.steps), media_type="text/csv", headers=_attachment(
+        warnings = cat.warnings_of(cat.get_quality(catalog_of(request), r.trial_id))
+        return PlainTextResponse(steps_csv(r.steps, warnings), media_type="text/csv", headers=_attachment(
             f"{r.trial_id}-{r.stage}-steps.csv"))
     return {"trial_id": r.trial_id, "stage": r.stage, "steps": r.steps}
 

@@ -66,3 +66,6 @@ class GaitOut(BaseModel):
     steps: list[dict]
     quality: dict
     downloads: dict[str, str]
+    warnings: list[str] = Field(default_factory=list, description="The trial's data-quality warnings, plain words")
+    data_quality: dict = Field(default_factory=dict, description="Per camera frames expected / received / lost, "
+                               "fps, sync spread (ms), coverage, reprojection error (px), and the criteria")

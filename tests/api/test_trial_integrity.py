@@ -148,3 +148,19 @@ def test_health_names_the_component_that_is_down(server):
     body = httpx.get(f"{srv.url}/health").json()
     assert body["status"] == "degraded" and body["components"]["recorder"]["ok"] is False
     assert body["components"]["recorder"]["status"].startswith("down since")
+
+
+def test_results_carry_the_warnings_in_json_and_the_csv_header(server):
+    _, client, _, settings = server
+    tid = client.post("/trials", json={"subject_id": "P7"}).json()["id"]
+    client.post(f"/trials/{tid}/stop")
+    db = cat.open_catalog(settings.catalog_url)
+    quality = {"cameras": [{"name": "cam07", "lost": 156}], "warnings": ["Camera cam07 stopped at 4.2 s"]}
+    cat.set_quality(db, tid, "processing", quality)
+    cat.store_result(db, trial_id=tid, stage="preliminary", method="m", steps=[{"side": "left", "time_s": 1.0}],
+                     summary={}, report={"data_quality": quality})
+    db.close()
+    g = client.get(f"/trials/{tid}/gait").json()
+    assert g["warnings"] == ["Camera cam07 stopped at 4.2 s"] and g["data_quality"]["cameras"][0]["lost"] == 156
+    lines = client.get(f"/trials/{tid}/steps", params={"format": "csv"}).text.splitlines()
+    assert lines == ["# warning: Camera cam07 stopped at 4.2 s", "side,time_s", "left,1.0"]
