@@ -49,6 +49,7 @@ class GuardTimes:
 class TrialGuard:
     def __init__(self, catalog: cat.Catalog, link, *, times: GuardTimes = GuardTimes()) -> None:
         self.catalog, self.link, self.times = catalog, link, times
+        self.started = time.time()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="trial-guard", daemon=True)
         self._by_state = {"recording": self._recording, "stopping": self._stopping, "interrupted": self._interrupted}
@@ -83,8 +84,12 @@ class TrialGuard:
                 log.info("trial guard: %s", exc)
 
     def _recording(self, trial: cat.TrialInfo, node, status: dict | None, now: float) -> None:
-        if node is None or not node.alive:
-            if node is not None and now - node.since > self.times.down_s:
+        if node is None:  # never seen since this API started
+            if now - self.started > self.times.start_grace_s:
+                self._interrupt(trial, "no recorder is running (none seen on the bus since the API started)")
+            return
+        if not node.alive:
+            if now - node.since > self.times.down_s:
                 self._interrupt(trial, f"the recorder stopped at {_clock(node.since)} during the recording")
             return
         if status is None or status.get("trial_id") == trial.id:

@@ -133,3 +133,14 @@ def test_an_interrupted_trial_without_any_file_fails_in_the_end(db, tmp_path):
     guard.check(time.time() + 121)
     trial = cat.get_trial(db, t.id)
     assert trial.state == "failed" and "no recording was found" in trial.error
+
+
+def test_a_recording_with_no_recorder_ever_seen_is_interrupted_after_the_start_grace(db, tmp_path):
+    t = _trial(db, tmp_path)
+    bus = BusView()  # the API restarted while the recorder was down: no token at all
+    guard = TrialGuard(db, bus, times=TIMES)
+    guard.check(guard.started + 10)
+    assert cat.get_trial(db, t.id).state == "recording"
+    guard.check(guard.started + 16)
+    trial = cat.get_trial(db, t.id)
+    assert trial.state == "interrupted" and "no recorder is running" in trial.error
