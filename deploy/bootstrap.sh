@@ -183,13 +183,14 @@ PYEOF
   return $rc
 }
 # Real calibration recordings for the calibration tests (BSD licences, kept beside them): caliscope's
-# 4-webcam ChArUco session (its corner detections, board file and calibration) and real checkerboard
+# two 4-webcam ChArUco sessions (their corner detections, board files and calibrations) and real checkerboard
 # frames from the caliscope 0.7.5 sdist; the Pose2Sim wheel's single-person demo calibration folder
 # (checkerboard intrinsics images, its Config.toml and the Qualisys calibration of the same cameras).
 CALISCOPE_VERSION="0.7.5"
+CALIBRATION_DATA_REVISION="2"
 install_calibration_recordings() {
   local dest="$SHARE/testdata/calibration" tmp
-  [ -f "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION" ] && return 0
+  [ -f "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION-$CALIBRATION_DATA_REVISION" ] && return 0
   echo "[bootstrap] fetching real calibration recordings (sdist caliscope==$CALISCOPE_VERSION and wheel" \
     "pose2sim==$POSE2SIM_VERSION, not installed)" >&2
   tmp="$(mktemp -d)" || return 1
@@ -207,6 +208,9 @@ keep = {  # path in the sdist -> path under dest
     "tests/sessions/4_cam_recording/calibration/extrinsic/timestamps.csv":
         "caliscope-4cam/calibration/extrinsic/timestamps.csv",
     "LICENSE": "caliscope-4cam/LICENSE",
+    "tests/sessions/post_optimization/charuco.toml": "caliscope-4cam-2/charuco.toml",
+    "tests/sessions/post_optimization/camera_array.toml": "caliscope-4cam-2/camera_array.toml",
+    "tests/sessions/post_optimization/calibration/extrinsic/xy.csv": "caliscope-4cam-2/calibration/extrinsic/xy.csv",
 }
 with tarfile.open(glob.glob(os.path.join(tmp, f"caliscope-{cs_version}.tar.gz"))[0]) as tar:
     for member in tar.getmembers():
@@ -220,7 +224,8 @@ with tarfile.open(glob.glob(os.path.join(tmp, f"caliscope-{cs_version}.tar.gz"))
         os.makedirs(os.path.dirname(path), exist_ok=True)
         with open(path, "wb") as f:
             f.write(tar.extractfile(member).read())
-shutil.copy(os.path.join(dest, "caliscope-4cam/LICENSE"), os.path.join(dest, "caliscope-chessboard/LICENSE"))
+for other in ("caliscope-chessboard", "caliscope-4cam-2"):
+    shutil.copy(os.path.join(dest, "caliscope-4cam/LICENSE"), os.path.join(dest, other, "LICENSE"))
 prefix = "Pose2Sim/Demo_SinglePerson/"
 with zipfile.ZipFile(glob.glob(os.path.join(tmp, f"pose2sim-{p2s_version}-*.whl"))[0]) as z:
     for name in z.namelist():
@@ -233,7 +238,7 @@ with zipfile.ZipFile(glob.glob(os.path.join(tmp, f"pose2sim-{p2s_version}-*.whl"
                 f.write(z.read(name))
 PYEOF
   local rc=$?
-  [ $rc -eq 0 ] && touch "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION"
+  [ $rc -eq 0 ] && touch "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION-$CALIBRATION_DATA_REVISION"
   rm -rf "$tmp"
   return $rc
 }
