@@ -34,9 +34,7 @@ def register(app: typer.Typer) -> None:
             ManualTrack,
             NearestStartTrack,
             WalkwayTrack,
-            associate,
-            default_selector,
-            patient_detections,
+            associate_and_select,
         )
         from gaitcap.reconstruction.association.npz_io import load_multi_npz, save_detections_npz
         from gaitcap.reconstruction.calibration_io import load_rig
@@ -46,7 +44,7 @@ def register(app: typer.Typer) -> None:
                 raise ValueError("give at most one of --track, --start and --walkway")
             multi = load_multi_npz(keypoints)
             rig = load_rig(calibration)
-            tracks = associate(multi, rig)
+            selector = None  # automatic, as the worker chooses
             if track is not None:
                 selector = ManualTrack(track)
             elif start is not None:
@@ -57,10 +55,8 @@ def register(app: typer.Typer) -> None:
                     raise ValueError(f"--walkway: expected six numbers X0,Y0,Z0,X1,Y1,Z1, got {walkway!r}")
                 selector = WalkwayTrack(start_mm=_point(",".join(ends[:3]), "--walkway"),
                                         end_mm=_point(",".join(ends[3:]), "--walkway"))
-            else:
-                selector = default_selector(rig)
-            chosen = selector.choose(tracks)
-            det = patient_detections(multi, tracks, chosen)
+            selection = associate_and_select(multi, rig.subset(multi.camera_names), selector)  # the worker's call
+            tracks, chosen, det = selection.tracks, selection.track_id, selection.detections
             save_detections_npz(det, out, track_id=chosen,
                                 detection_track=tracks.detection_track, track_roots_mm=tracks.root_mm)
         for m in tracks.ids:
