@@ -205,3 +205,15 @@ def test_gaitcap_view_lists_the_files_and_says_how_to_open_them(processed, monke
     assert out.exit_code == 2 and "no Rerun file for stage preliminary" in out.output
     out = runner.invoke(app, ["view", "nope", "--data-dir", str(data_dir)])
     assert out.exit_code == 2 and "trial nope" in out.output
+
+
+def test_a_viewer_file_that_cannot_be_written_is_logged_and_the_other_written(processed, tmp_path, caplog):
+    import dataclasses
+
+    _, view, _, _ = processed
+    gone = tmp_path / "gone.mcap"  # the recording was moved away meanwhile
+    files = TrialFiles(tmp_path / "t2")
+    out = write_viewer_files(files, "refined", dataclasses.replace(view, recording=gone))
+    assert set(out) == {"results_mcap"} and out["results_mcap"].is_file()
+    assert not files.stage_file("refined", "rerun_rrd").exists()
+    assert "trajectory.rrd not written" in caplog.text and "gone.mcap" in caplog.text

@@ -32,9 +32,19 @@ def trial_view(trial_id: str, traj, *, detections, keypoints, rig: Rig, report, 
 
 def write_viewer_files(files: TrialFiles, stage: str, view: TrialView,
                        settings: RerunSettings = RerunSettings()) -> dict[str, Path]:
-    """Write the stage's .rrd and results MCAP; artifact key -> path."""
+    """Write the stage's .rrd and results MCAP; artifact key -> path of those written.
+
+    The trial's results are stored before: a viewer file that cannot be written (an unreadable recording,
+    a full disk) is logged as an error with its cause and left out, and the trial stays done."""
     t0 = time.perf_counter()
-    out = {"rerun_rrd": write_trial_rrd(files.stage_file(stage, "rerun_rrd"), view, settings),
-           "results_mcap": write_results_mcap(files.stage_file(stage, "results_mcap"), view)}
+    writers = {"rerun_rrd": lambda path: write_trial_rrd(path, view, settings),
+               "results_mcap": lambda path: write_results_mcap(path, view)}
+    out = {}
+    for key, write in writers.items():
+        path = files.stage_file(stage, key)
+        try:
+            out[key] = write(path)
+        except Exception:
+            log.exception("trial %s %s: %s not written", view.trial_id, stage, path.name)
     log.info("trial %s %s: viewer files in %.2f s", view.trial_id, stage, time.perf_counter() - t0)
     return out
