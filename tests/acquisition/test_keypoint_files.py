@@ -1,4 +1,5 @@
 import json
+import logging
 
 import numpy as np
 import pytest
@@ -26,7 +27,7 @@ def _write_openpose(root, folders, frames, people_per_frame):
             (d / f"trial_{f:012d}_keypoints.json").write_text(json.dumps({"version": 1.3, "people": people}))
 
 
-def test_openpose_folder_by_name_and_by_order(tmp_path):
+def test_openpose_folder_by_name_and_by_order(tmp_path, caplog):
     _write_openpose(tmp_path / "a", ["cam1_json", "cam0_json"], [0, 1, 2, 4], 2)
     data = read_keypoints_input(tmp_path / "a", rig=_rig(["cam0", "cam1"]), fps=25)
     assert data.layout is None and data.rig is None  # BODY_25 or BODY_25B: to be recognised
@@ -40,8 +41,10 @@ def test_openpose_folder_by_name_and_by_order(tmp_path):
     assert np.isnan(det.keypoints[c0, 0, 3, 0]) and det.keypoints[c0, 0, 3, 2] == 0
     assert det.times_s[-1] == pytest.approx(4 / 25)
     _write_openpose(tmp_path / "b", ["x", "y"], [0, 1], 1)
-    det2 = read_keypoints_input(tmp_path / "b", rig=_rig(["c0", "c1"]))
+    with caplog.at_level(logging.WARNING):
+        det2 = read_keypoints_input(tmp_path / "b", rig=_rig(["c0", "c1"]))
     assert det2.recording.camera_names == ("c0", "c1")
+    assert "matched by order" in caplog.text  # names that do not match: by order, never silently
     with pytest.raises(ValueError, match="match neither"):
         read_keypoints_input(tmp_path / "b", rig=_rig(["c0", "c1", "c2"]))
 
