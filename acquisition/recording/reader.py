@@ -285,6 +285,10 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
     names = _camera_order(path, per_cam, cameras)
     fids = [f for cam in per_cam.values() for f in cam]
     first, last = min(fids), max(fids)
+    distinct = len(set(fids))
+    if last - first + 1 > 2 * distinct + 10_000:  # a stray frame id would size the arrays, not the data
+        raise ValueError(f"{path}: keypoint frame ids span {first}..{last} but only {distinct} frames have "
+                         "keypoints (a stray frame id?)")
     frame_ids = np.arange(first, last + 1)
     most = max((len(p) for cam in per_cam.values() for _, p in cam.values()), default=0)
     joints = next((len(p[0]) for cam in per_cam.values() for _, p in cam.values() if p), 0)

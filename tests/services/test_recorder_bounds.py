@@ -59,3 +59,21 @@ def test_recorder_refuses_outside_paths_and_rejects_out_of_range_messages(tmp_pa
         rec.close()
         srec.close()
         s.close()
+
+
+def test_a_recording_with_a_stray_keypoint_frame_id_is_refused_not_allocated(tmp_path):
+    from gaitcap.acquisition.recording.reader import read_keypoints
+    from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
+
+    writer = TrialWriter(tmp_path / "t.mcap", WriterSettings())
+    writer.start(metadata={"trial_id": "t"}, time_ns=1)
+    people = [[[1.0, 2.0, 0.5]] * 26]
+    for fid in (*range(10), 2**40):  # what an injected message did before the recorder checked frame ids
+        writer.add_keypoints("cam01", Keypoints("cam01", min(fid, 2**31 - 1), 10**9 + fid, "halpe26",
+                                                people).to_bytes().replace(b"2147483647", str(fid).encode()),
+                             timestamp_ns=10**9 + fid, frame_id=fid)
+    path = writer.finish({})
+    t0 = time.monotonic()
+    with pytest.raises(ValueError, match="stray frame id"):
+        read_keypoints(path)
+    assert time.monotonic() - t0 < 5
