@@ -102,3 +102,20 @@ def test_camera_array_units(session):
     rig = read_camera_array(SESSION / "camera_array.toml")
     assert np.linalg.norm(rig["cam_1"].tvec_mm) < 5  # caliscope's anchor camera, metres -> mm
     assert 1000 < np.linalg.norm(rig["cam_0"].center_mm) < 3000
+
+
+SECOND = SESSION.parent / "caliscope-4cam-2"  # another recording of the same board with 4 webcams
+
+
+@pytest.mark.skipif(not (SECOND / "camera_array.toml").exists(), reason=f"{SECOND} not installed")
+def test_a_second_session_matches_caliscope_and_names_a_degenerate_camera():
+    _, obs, ref, _ = read_session(SECOND)
+    assert obs.views().sum(1).tolist() == [56, 48, 50, 38]
+    known = {c.name: (c.matrix_px, c.dist) for c in ref.cameras}
+    result = calibrate_from_observations(obs, config=CalibrationConfig(known_intrinsics=known))
+    assert result.report.failed_cameras == ()
+    assert max(q.reprojection_rms_px for q in result.report.cameras) < 1.6  # 2D RMS: 0.80-1.43 px measured
+    cmp = compare_similar(ref, result.rig)
+    assert cmp.centre_mm_max < 6.0 and cmp.rotation_deg_max < 0.7, (cmp.centre_mm, cmp.rotation_deg)
+    with pytest.raises(ValueError, match="camera 'cam_3': board views are degenerate for intrinsics"):
+        calibrate_from_observations(obs)  # this clip alone cannot give camera 3 a focal length
