@@ -15,6 +15,7 @@ import logging
 import math
 import time
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -103,6 +104,74 @@ def _coordinate_tasks(ik_xml: Path) -> list[tuple[str, float, str, float]]:
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class IKJob:
+    """Inverse kinematics of some frames: the scaled model, the marker
+    file, the IK setup (its coordinate tasks), marker -> weight, all times (s), the frames' points (n, M, 3)
+    mm and their indices (n,), the marker names (M,)."""
+
+    osim_path: str
+    trc_path: str
+    ik_setup: str
+    weights: dict[str, float]
+    times_s: np.ndarray
+    points_mm: np.ndarray
+    frames: np.ndarray
+    marker_names: tuple[str, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class IKResult:
+    """coordinates (C,) names; values (n, C) degrees / m; distances_m: marker -> its error per frame (m)."""
+
+    coordinates: tuple[str, ...]
+    values: np.ndarray
+    distances_m: dict[str, list[float]]
+
+
+def solve_ik(job: IKJob) -> IKResult:
+    """Track the frames with OpenSim's InverseKinematicsSolver; a new assembly from the patient's pose
+    wherever a frame does not follow the previous one."""
+    osim = _import_opensim()
+    osim.Logger.setLevelString("Error")
+    model = osim.Model(job.osim_path)
+    state = model.initSystem()
+    weights = osim.SetMarkerWeights()
+    for name, w in job.weights.items():
+        if model.getMarkerSet().contains(name):
+            weights.cloneAndAppend(osim.MarkerWeight(name, w))
+    mref = osim.MarkersReference(job.trc_path, weights)
+    coord_refs = osim.SimTKArrayCoordinateReference()
+    cset = model.getCoordinateSet()
+    for name, weight, kind, value in _coordinate_tasks(Path(job.ik_setup)):
+        if weight > 0 and cset.contains(name):
+            target = cset.get(name).getDefaultValue() if kind == "default_value" else value
+            coord_refs.push_back(osim.CoordinateReference(name, osim.Constant(target)))
+            coord_refs.back().setWeight(weight)
+    solver = osim.InverseKinematicsSolver(model, mref, coord_refs, math.inf)
+    solver.setAccuracy(IK_ACCURACY)
+    coords = [cset.get(i) for i in range(cset.getSize())]
+    rot = np.array([c.getMotionType() == 1 for c in coords])  # 1 = Rotational
+    values = np.full((len(job.frames), len(coords)), np.nan)
+    dist_m: dict[str, list[float]] = {}
+    errs = osim.SimTKArrayDouble()
+    previous = -2
+    for k, f in enumerate(job.frames):
+        state.setTime(float(job.times_s[f]))
+        if previous != f - 1:
+            _initial_pose(model, state, job.points_mm[k], job.marker_names)
+            solver.assemble(state)
+        else:
+            solver.track(state)
+        previous = f
+        values[k] = [c.getValue(state) for c in coords]
+        solver.computeCurrentMarkerErrors(errs)
+        for i in range(errs.size()):
+            dist_m.setdefault(solver.getMarkerNameForIndex(i), []).append(errs.getElt(i))
+    values[:, rot] = np.degrees(values[:, rot])
+    return IKResult(tuple(c.getName() for c in coords), values, dist_m)
+
+
 class OpenSimEngine:
     name = "opensim"
 
@@ -175,50 +244,22 @@ class OpenSimEngine:
         return factors
 
     def _ik(self, files, paths, req: FitRequest, times: np.ndarray, pts: np.ndarray):
-        osim = self.osim
-        model = osim.Model(str(paths["osim"]))
-        state = model.initSystem()
         setup_w = _ik_weights(files["ik"])
-        weights = osim.SetMarkerWeights()
-        used = []
-        for name, conf in zip(req.marker_names, np.asarray(req.weights, dtype=float), strict=True):
-            if name in setup_w and model.getMarkerSet().contains(name) and conf > 0 and setup_w[name] > 0:
-                weights.cloneAndAppend(osim.MarkerWeight(name, setup_w[name] * float(conf)))
-                used.append(name)
-        mref = osim.MarkersReference(str(paths["trc"]), weights)
-        coord_refs = osim.SimTKArrayCoordinateReference()
-        for name, weight, kind, value in _coordinate_tasks(files["ik"]):
-            if weight > 0 and model.getCoordinateSet().contains(name):
-                target = model.getCoordinateSet().get(name).getDefaultValue() if kind == "default_value" else value
-                coord_refs.push_back(osim.CoordinateReference(name, osim.Constant(target)))
-                coord_refs.back().setWeight(weight)
-        solver = osim.InverseKinematicsSolver(model, mref, coord_refs, math.inf)
-        solver.setAccuracy(IK_ACCURACY)
-        cset = model.getCoordinateSet()
-        coords = [cset.get(i) for i in range(cset.getSize())]
-        rot = [c.getMotionType() == 1 for c in coords]  # 1 = Rotational
-        values = np.full((len(times), len(coords)), np.nan)
+        weights = {name: setup_w[name] * float(conf)
+                   for name, conf in zip(req.marker_names, np.asarray(req.weights, dtype=float), strict=True)
+                   if setup_w.get(name, 0.0) > 0 and conf > 0}
         legs = [req.marker_names.index(m) for m in LEG_MARKERS if m in req.marker_names]
         ok = np.isfinite(pts[:, legs]).all(axis=(1, 2)) if legs else np.zeros(len(times), bool)
-        dist_m: dict[str, list[float]] = {}
-        errs = osim.SimTKArrayDouble()
-        assembled_at = -2
-        for f in np.nonzero(ok)[0]:
-            state.setTime(float(times[f]))
-            if assembled_at != f - 1:
-                _initial_pose(model, state, pts[f], req.marker_names)
-                solver.assemble(state)
-            else:
-                solver.track(state)
-            assembled_at = f
-            values[f] = [c.getValue(state) for c in coords]
-            solver.computeCurrentMarkerErrors(errs)
-            for i in range(errs.size()):
-                dist_m.setdefault(solver.getMarkerNameForIndex(i), []).append(errs.getElt(i))
-        values[:, rot] = np.degrees(values[:, rot])
-        errors = {m: {"rms": round(1000 * float(np.sqrt(np.mean(np.square(e)))), 2),
-                      "max": round(1000 * float(np.max(e)), 2)} for m, e in dist_m.items() if e}
         if not ok.any():
             raise ValueError("inverse kinematics: no frame has both hips, knees and ankles")
-        log.info("IK: %d of %d frames fitted with %d markers", int(ok.sum()), len(times), len(used))
-        return {c.getName(): values[:, i] for i, c in enumerate(coords)}, errors
+        frames = np.nonzero(ok)[0]
+        # (one process: splitting the frames over two processes was slower on the shared 2-core machine and
+        # each chunk's fresh assembly moved the knee by up to 2 deg at the seams)
+        part = solve_ik(IKJob(str(paths["osim"]), str(paths["trc"]), str(files["ik"]), weights, times,
+                              pts[frames], frames, req.marker_names))
+        values = np.full((len(times), len(part.coordinates)), np.nan)
+        values[frames] = part.values
+        errors = {m: {"rms": round(1000 * float(np.sqrt(np.mean(np.square(e)))), 2),
+                      "max": round(1000 * float(np.max(e)), 2)} for m, e in part.distances_m.items() if e}
+        log.info("IK: %d of %d frames fitted with %d markers", len(frames), len(times), len(weights))
+        return {c: values[:, i] for i, c in enumerate(part.coordinates)}, errors
