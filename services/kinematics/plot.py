@@ -36,7 +36,8 @@ def curves_png(report: KinematicsReport, *, title: str = "Joint kinematics") -> 
         ax.set_xlim(0, 100)
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=7)
-        ax.legend(fontsize=6, loc="best")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=6, loc="best")
     for ax in axes[6:]:
         ax.set_xlabel("% gait cycle", fontsize=8)
     for ax in axes[::3]:
