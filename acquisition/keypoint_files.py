@@ -1,7 +1,7 @@
 """Keypoints from files and other tools' folders -> :class:`KeypointInput` (everyone's 2D keypoints, the
 layout when the input says it, and the calibration when the input carries one).
 
-Supported inputs (:func:`read_keypoints_input` tries each reader of ``READERS`` in turn):
+Supported inputs (:func:`read_keypoints_input` asks each :class:`Reader` in turn whether it accepts the path):
 
 - NPZ: ``keypoints`` (C, T, J, 3) x px, y px, confidence, or (C, T, P, J, 3) with several people;
   ``cameras`` (or ``camera_names``) (C,) names; optional ``times_s`` (T,) and ``skeleton`` (layout name).
@@ -16,8 +16,9 @@ Supported inputs (:func:`read_keypoints_input` tries each reader of ``READERS`` 
   per frame, ``people[i].pose_keypoints_2d`` = J x (x, y, confidence); frames matched across cameras by
   the number in the file name.
 
-Cameras are matched to the calibration by name (the sub-folder or file name equals, starts with or
-contains the camera name); by order only when names do not match, with a logged warning. People are
+Cameras are matched to the calibration by name (the sub-folder or file name equals, starts with, ends with
+or contains the camera name, ignoring case and punctuation); by order only when names do not match, with a
+logged warning. People are
 kept, most confident first in every camera frame; who the patient is is decided downstream
 (:mod:`gaitcap.services.processing.pipeline`).
 """
