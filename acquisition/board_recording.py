@@ -107,6 +107,10 @@ def _mcap_frames(path: Path, wanted: list[set[int]], names: list[str]) -> Iterat
 def _frame_sets(cams: list[_Camera], pairing: PairingConfig) -> tuple[np.ndarray, bool]:
     """(S, C) frame sets and whether they were paired by time (else by order)."""
     timed = all(c.times_ns is not None and len(c.times_ns) == c.n_frames for c in cams)
+    unordered = [c.name for c in cams if timed and np.any(np.diff(c.times_ns) <= 0)]
+    if unordered:  # e.g. a container that gives every frame the same time: the times say nothing
+        log.warning("frame times of cameras %s do not increase: frames paired by order", unordered)
+        timed = False
     if not timed:
         return pair_by_time([np.arange(c.n_frames, dtype=np.int64) for c in cams], 0), False
     times = [c.times_ns for c in cams]

@@ -5,7 +5,8 @@ A recording is a trial MCAP (the recorder's timestamps), or a folder with one su
 come from a ``timestamps.csv`` beside them when there is one (columns: ``camera`` or ``cam_id``, a time
 ``time_s`` / ``frame_time`` in s or ``time_ns`` / ``timestamp_ns`` in ns, optionally ``frame`` /
 ``frame_index``; rows per camera in frame order), else from the video container (each frame's
-presentation time). Image folders without a timestamps file have no times: their frames are matched by
+presentation time; this assumes the videos started together). Image folders without a timestamps file
+have no times, and neither has a camera whose times do not increase: then all frames are matched by
 order.
 """
 

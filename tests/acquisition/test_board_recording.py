@@ -112,3 +112,13 @@ def test_timestamps_file_errors_name_the_problem(recordings, tmp_path):
     (copy / "timestamps.csv").write_text("camera,time_s\ncam09,1.0\n")
     with pytest.raises(ValueError, match="camera 'cam09' is none of"):
         detect_recording(copy)
+
+
+def test_times_that_do_not_increase_fall_back_to_order(recordings, truth, tmp_path):
+    import shutil
+
+    copy = shutil.copytree(recordings[0], tmp_path / "flat")
+    lines = ["camera,time_s"] + [f"{cam},5.0" for cam in ("cam01", "cam02") for _ in (copy / cam).iterdir()]
+    (copy / "timestamps.csv").write_text("\n".join(lines) + "\n")
+    obs = detect_recording(copy, board=BoardConfig.checkerboard(), selection=FrameSelection(max_frames=4))
+    assert np.array_equal(obs.views(), truth.views()[:, : obs.shape[1]]) and obs.times_s.tolist() == [0, 1, 2, 3]
