@@ -89,8 +89,16 @@ class BusLink:
         statuses = self.status_board.snapshot()
         frames = self.previews.latest()
         names = sorted(set(statuses) | set(frames))
-        return [camera_health(n, statuses.get(n), now - frames[n].received_s if n in frames else None, now)
-                for n in names]
+        nodes = self.node_board.snapshot()
+        out = []
+        for n in names:
+            cam = camera_health(n, statuses.get(n), now - frames[n].received_s if n in frames else None, now)
+            node = nodes.get(str((statuses.get(n) or {}).get("node")))
+            if node is not None and not node.alive:  # its process died: known at once, not after STALE_S
+                cam = CameraHealth(n, cam.fps, False, f"no signal (camera node {node.name} down)", cam.age_s,
+                                   cam.details, False)
+            out.append(cam)
+        return out
 
     def nodes(self) -> dict:
         return self.node_board.snapshot()
