@@ -24,7 +24,8 @@ def backup_sqlite(src: Path, backup_dir: Path, *, keep: int) -> Path:
     """One consistent copy of ``src`` into ``backup_dir``; older copies beyond ``keep`` are removed."""
     backup_dir.mkdir(parents=True, exist_ok=True)
     backup_dir.chmod(0o700)
-    dest = backup_dir / f"catalog-{time.strftime('%Y%m%d-%H%M%S')}-{time.monotonic_ns() % 1000:03d}.sqlite"
+    now_ns = time.time_ns()  # names sort by time: the newest last
+    dest = backup_dir / f"catalog-{time.strftime('%Y%m%d-%H%M%S', time.gmtime(now_ns / 1e9))}-{now_ns % 10**9:09d}.sqlite"
     tmp = dest.with_suffix(".part")
     tmp.touch(mode=0o600)
     with sqlite3.connect(f"file:{src}?mode=ro", uri=True) as source, sqlite3.connect(tmp) as target:
