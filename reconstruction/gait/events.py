@@ -321,6 +321,25 @@ def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: n
     return hs_all, to_all
 
 
+def _cut_at_start(tracks: FootTracks, side: str, runs, config: GaitConfig) -> list[tuple[int, int]]:
+    """The end of a stance cut by the start of the recording when the speed test misses it (a toe rolling
+    at the end of stance, a fit's wobble at the first frames): the toe on the floor (within
+    ``max_contact_lift_mm`` / 4 of its stance height) at the first frame and within
+    ``toe_off_distance_mm`` of where it is then for at least 2 frames, before any detected contact."""
+    frames, times = tracks.frames_mm, tracks.times_s
+    t = TOE[side]
+    if runs and times[runs[0][0]] - times[0] < config.min_stance_s:
+        return []
+    z_toe = np.percentile(frames[tracks.valid[:, t], t, 2], 10)
+    if frames[0, t, 2] - z_toe > config.max_contact_lift_mm / 4:
+        return []
+    near = np.linalg.norm(frames[:, t] - frames[0, t], axis=1) < config.toe_off_distance_mm
+    j = int(np.argmin(near)) - 1 if not near.all() else len(times) - 1
+    if j < 2 or (runs and j >= runs[0][0]):
+        return []
+    return [(0, j)]
+
+
 def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
                     config: GaitConfig = GaitConfig()) -> tuple[Contact, ...]:
     """All foot contacts of the trial, both feet, ordered by heel strike (see the module docstring)."""
@@ -332,6 +351,7 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
     for side in SIDES:
         h, t = HEEL[side], TOE[side]
         runs, rest = _contact_runs(tracks, side, speed, v_rest, config)
+        runs = _cut_at_start(tracks, side, runs, config) + runs
         points = [(_rest_point(frames[a:b + 1, h], speed[a:b + 1, h], v_rest),
                    _rest_point(frames[a:b + 1, t], speed[a:b + 1, t], v_rest)[0]) for a, b in runs]
         hs, to = _event_times(tracks, side, runs, speed, rest, v_rest, config,
