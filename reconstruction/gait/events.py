@@ -6,6 +6,9 @@ speed noise at rest)``, and heel or toe is within ``max_contact_lift_mm`` of its
 shorter than ``min_stance_s``, swings shorter than ``min_swing_s`` and "swings" after which the heel
 rests less than ``min_foot_travel_mm`` from where it was are noise and removed. Heel and toe positions at
 a contact are the median of each point over the frames of the contact when that point is at rest.
+Contacts cut by the start or end of the recording are kept (2 frames suffice) for the event that lies
+inside it; the other is NaN. A stance whose end alone is in the recording is also found by the toe
+staying near where it is at the first frame (its speed may not look still: a rolling toe, a fit's edge).
 
 Heel strike (initial contact, the first instant of ground contact): real feet reach the floor still
 moving; the heel rolls 20-40 mm over the heel rocker and comes to rest 60-130 ms later (see
