@@ -185,23 +185,25 @@ def find_board_views(
 
 
 def _assemble(cams, sets, timed, finds, sizes, probes, board, pairing) -> BoardDetections:
+    """Observations of the frame sets where any camera found the board (one empty set when none did)."""
     geometry = make_board(board).geometry
-    hit = np.array([[s[c] != MISSING and finds.get((c, int(s[c]))) is not None
-                     and finds[(c, int(s[c]))].corners is not None for c in range(len(cams))] for s in sets])
-    keep = np.flatnonzero(hit.any(1)) if hit.size else np.zeros(0, dtype=int)
-    keep = keep if keep.size else np.zeros(1, dtype=int)[: len(sets)]
+
+    def corners_of(c: int, i: int) -> np.ndarray | None:
+        found = finds.get((c, i)) if i != MISSING else None
+        return None if found is None else found.corners
+
+    hit = [any(corners_of(c, int(i)) is not None for c, i in enumerate(s)) for s in sets]
+    keep = np.flatnonzero(hit) if any(hit) else np.arange(min(1, len(sets)))
     corners = np.full((len(cams), len(keep), geometry.num_corners, 2), np.nan)
-    cam_t = np.full((len(cams), len(keep)), np.nan)
+    cam_t = np.full((len(cams), len(keep)), np.nan)  # s (timed) or frame index
     for k, s in enumerate(keep):
-        for c in range(len(cams)):
-            i = int(sets[s, c])
-            found = finds.get((c, i)) if i != MISSING else None
-            if found is not None and found.corners is not None:
-                corners[c, k] = found.corners
+        for c, i in enumerate(int(i) for i in sets[s]):
+            found = corners_of(c, i)
+            if found is not None:
+                corners[c, k] = found
             if i != MISSING:
                 cam_t[c, k] = cams[c].times_ns[i] * 1e-9 if timed else float(i)
-    with np.errstate(all="ignore"):
-        set_t = np.nanmedian(cam_t, axis=0) if cam_t.size else np.zeros(0)
+    set_t = np.nanmedian(cam_t, axis=0) if cam_t.size else np.zeros(0)  # every set holds a frame
     moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px) if timed else np.zeros(cam_t.shape, bool)
     corners[moving] = np.nan
     missing = [c.name for i, c in enumerate(cams) if i not in sizes]
