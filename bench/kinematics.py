@@ -92,11 +92,12 @@ def run(*, preset: str, seconds: float, cameras: int, seed: int) -> dict:
             rows[label] = {"angles": compare(ik, truth), "marker_rms_mm_mean": float(np.mean(rms)),
                            "marker_rms_mm_worst": float(np.max(rms)),
                            "worst_marker": max(errors, key=lambda m: errors[m]["rms"]), "seconds": secs}
-    default, speed = rows["default fit"], rows["ground truth"]["seconds"]
+    default = rows["default fit"]
+    speed = default["seconds"]  # the input the worker fits
     targets = {f"{v} RMSE <= {lim:g} deg (default fit)": {"value": default["angles"][v]["rmse_deg"],
                                                           "met": bool(default["angles"][v]["rmse_deg"] <= lim)}
                for v, lim in TARGETS_DEG.items()}
-    targets[f"scale + IK of {seconds:g} s at {trial.fps:g} fps <= {SPEED_TARGET_S:g} s"] = {
+    targets[f"scale + IK of the default fit, {seconds:g} s at {trial.fps:g} fps <= {SPEED_TARGET_S:g} s"] = {
         "value": speed, "met": bool(speed <= SPEED_TARGET_S)}
     return {"setup": {"preset": preset, "seconds": seconds, "cameras": cameras, "seed": seed,
                       "frames": int(trial.num_frames), "fps": trial.fps, "engine": engine.name,
