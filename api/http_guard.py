@@ -3,7 +3,8 @@
 1. a request body larger than ``max_body_bytes`` is refused (413) from its Content-Length, or as soon
    as a streamed body passes the limit;
 2. a request to a non-public route without a valid session or token is refused (401) before its body
-   is read, so nothing unauthenticated is ever parsed;
+   is read, so nothing unauthenticated is ever parsed; wrong API tokens are audited and count as failed
+   sign-ins of the client address (429 past the limit);
 3. expensive routes (files, plots, streams) are rate limited per user (429);
 4. a JSON body with NaN or Infinity is refused (422) before it reaches the routes;
 5. every response carries the security headers (CSP without inline script, frame-ancestors none,
@@ -82,12 +83,25 @@ class HttpGuard:
         path = scope.get("path", "")
         if is_public(path):
             return None
-        principal = principal_of(Request(scope))
+        request = Request(scope)
+        principal = principal_of(request)
         if principal is None:
-            return 401, "not signed in"
+            return self._refuse_unknown(request)
         if EXPENSIVE.match(path) and self.limiter.hit(principal.user):
             return 429, "too many requests for files and plots; wait a minute"
         return None
+
+    @staticmethod
+    def _refuse_unknown(request: Request) -> tuple[int, str]:
+        """401; a wrong API token also counts as a failed sign-in of the client address (429 past the limit)."""
+        if not request.headers.get("authorization"):
+            return 401, "not signed in"
+        state, ip = request.app.state, request.client.host if request.client else ""
+        limiter = state.login_limiters["ip"]
+        if limiter.hit(ip):
+            return 429, "too many failed sign-ins; wait a few minutes"
+        state.audit_chain.record(actor="-", action="token failed", target=request.url.path, ip=ip)
+        return 401, "not signed in"
 
     async def _read_body(self, scope, receive) -> tuple[bytes | None, tuple[int, str] | None]:
         if scope.get("method") in ("GET", "HEAD", "OPTIONS", "DELETE"):

@@ -117,8 +117,13 @@ def test_sign_in_is_throttled_and_every_access_audited_as_the_signed_in_user(srv
     assert r.status_code == 429  # even the right password, until the window has passed
     with signed_in(url, "clinician1", headers={"X-Gaitcap-User": "mallory"}) as c:
         c.get("/trials", params={"limit": 3})
+
+    codes = [httpx.get(f"{url}/trials", headers={"Authorization": f"Bearer guess-{i:04d}-xxxxxxxxxx"}).status_code
+             for i in range(12)]  # the address has 3 failures already; its limit is 4 x 3
+    assert codes == [401] * 9 + [429] * 3
     lines = [json.loads(x) for x in settings.audit_path.read_text().splitlines()]
     assert [x["action"] for x in lines if "researcher1" in x["detail"]][:4] == ["login failed"] * 3 + ["login throttled"]
+    assert sum(x["action"] == "token failed" for x in lines) == 9
     mine = [x for x in lines if x["target"] == "/trials" and x["detail"] == "limit=3"]
     assert mine and mine[-1]["actor"] == "clinician1" and "mallory" not in settings.audit_path.read_text()
     assert verify(settings.audit_path) == (len(lines), None)
