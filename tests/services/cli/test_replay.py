@@ -5,6 +5,7 @@ import time
 from pathlib import Path
 
 import pytest
+from gaitcap.acquisition.encoding import parse_image_message
 from gaitcap.services.bus.session import BusConfig, open_session
 from gaitcap.services.cli.replay import _rate
 from gaitcap.services.nodes.replay import Replayer
@@ -25,6 +26,8 @@ def _replay(path, rate, keypoints=True):
     def on(sample):
         with lock:
             att = json.loads(sample.attachment.to_bytes()) if sample.attachment is not None else None
+            if att is not None:  # the camera timestamp travels once: in the frame's protobuf
+                att["timestamp_ns"] = parse_image_message(sample.payload.to_bytes()).timestamp_ns
             got.append((str(sample.key_expr), att, time.monotonic()))
 
     subs = [ss.declare_subscriber(f"{bus.prefix}/**", on)]
