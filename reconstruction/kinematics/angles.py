@@ -3,7 +3,7 @@
 Conventions (degrees, per side): flexion, adduction, internal rotation and dorsiflexion positive; pelvis
 anterior tilt positive, obliquity positive when this side's hip is up, rotation positive when this side is
 forward; trunk flexion relative to the pelvis positive. The signs of the model's coordinates were read off
-the model (moving one coordinate and watching its markers), see tests/reconstruction/kinematics.
+the model (moving one coordinate and watching its markers); tests/services/test_kinematics.py checks them.
 """
 
 from __future__ import annotations
