@@ -70,10 +70,11 @@ def register(app: typer.Typer) -> None:
             chosen = _stage_with_rrd(files, stage)
             rrd = files.stage_file(chosen, "rerun_rrd")
             results = files.stage_file(chosen, "results_mcap")
-            layout = shipped_layout_path()
+            layout = files.root / "foxglove_layout.json"  # the trial's own, when written before
             if foxglove_layout:
-                layout = files.root / "foxglove_layout.json"
                 layout.write_text(layout_json(_trial_cameras(files.recording)))
+            elif not layout.is_file():
+                layout = shipped_layout_path()
         typer.echo(f"Rerun:    {rrd}")
         typer.echo(f"Foxglove: open {files.recording} and {results} together; layout {layout}")
         if no_open:

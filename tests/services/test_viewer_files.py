@@ -197,6 +197,8 @@ def test_gaitcap_view_lists_the_files_and_says_how_to_open_them(processed, monke
     assert out.exit_code == 0, out.output
     assert str(paths["rerun_rrd"]) in out.output and str(paths["results_mcap"]) in out.output
     assert json.loads((files.root / "foxglove_layout.json").read_text()) == layout_for(trial.rig.names)
+    out = runner.invoke(app, ["view", "t1", "--data-dir", str(data_dir), "--no-open"])
+    assert f"layout {files.root / 'foxglove_layout.json'}" in out.output  # the trial's own layout, once written
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     out = runner.invoke(app, ["view", "t1", "--data-dir", str(data_dir)])
