@@ -51,14 +51,15 @@ class AuditChain:
                   "detail": detail[:500], "ip": ip[:64]}
         with self._lock:
             entry = dict(fields, prev=self._last, hash=_digest(self._last, fields))
+            line = json.dumps(entry, separators=(",", ":"))
             self.path.parent.mkdir(parents=True, exist_ok=True)
             fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o600)
             with os.fdopen(fd, "a") as f:
-                f.write(json.dumps(entry, separators=(",", ":")) + "\n")
+                f.write(line + "\n")
             self._last = entry["hash"]
-        if self._syslog is not None:
+        if self._syslog is not None:  # the same line, so the copy verifies like the file
             self._syslog.emit(logging.LogRecord("gaitcap.audit", logging.INFO, "", 0, "gaitcap-audit %s",
-                                                (json.dumps(entry),), None))
+                                                (line,), None))
 
 
 def verify(path: str | os.PathLike) -> tuple[int, str | None]:

@@ -234,3 +234,18 @@ def test_an_admin_voids_a_trial_with_a_reason_files_and_rows_go_the_audit_stays(
     audit = client.get("/audit", params={"trial_id": tid}).json()
     assert audit[0]["action"] == "void" and audit[0]["detail"] == "consent withdrawn" and audit[0]["actor"] == "alice"
     assert "consent withdrawn" in settings.audit_path.read_text()
+
+
+def test_the_audit_trail_is_copied_to_syslog(tmp_path):
+    import socket
+
+    from gaitcap.api.audit_chain import AuditChain
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as receiver:
+        receiver.bind(("127.0.0.1", 0))
+        receiver.settimeout(5)
+        chain = AuditChain(tmp_path / "audit.log", syslog_address=f"127.0.0.1:{receiver.getsockname()[1]}")
+        chain.record(actor="ann", action="get", target="/trials/T1/gait", ip="10.0.0.7")
+        datagram = receiver.recv(65536).decode()
+    assert "gaitcap-audit" in datagram and '"actor":"ann"' in datagram and '"target":"/trials/T1/gait"' in datagram
+    assert verify(tmp_path / "audit.log") == (1, None)
