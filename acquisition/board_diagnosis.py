@@ -26,7 +26,8 @@ class CameraDetection:
         marker_px: median marker side over the frames with markers, px (NaN without).
         marker_ratio: median measured marker side / square side (NaN when not measurable).
         variants: {how the board was printed, as found: views}.
-        moving: views left out because the board moved between the cameras' exposures.
+        moving: views taken out of their frame sets (kept alone) because the board moved between the
+            cameras' exposures.
         probe: {variant: frames with enough corners} found by trying every printing variant on a sample
             of this camera's frames where the configured one found nothing.
     """
@@ -53,7 +54,8 @@ class CameraDetection:
                    float(np.median(ratios)) if ratios else float("nan"), dict(variants), moving, probe or {})
 
     def usable(self) -> int:
-        return self.with_board - self.moving
+        """Views for this camera's intrinsics (moving views included: they only tie no cameras together)."""
+        return self.with_board
 
     def advice(self, board: BoardConfig, min_views: int) -> list[str]:
         """What to change, most likely cause first (empty when the camera has enough views)."""
@@ -66,8 +68,8 @@ class CameraDetection:
             tips.append(f"no frame showed the whole {board.squares_x}x{board.squares_y}-square checkerboard: a "
                         "checkerboard must be entirely in view (partial views need a ChArUco board)")
         if self.moving:
-            tips.append(f"{self.moving} views left out because the board moved between the cameras' exposures: "
-                        "hold it still in each position (or move it slower)")
+            tips.append(f"{self.moving} views tie no cameras together because the board moved between the "
+                        "cameras' exposures: hold it still in each position (or move it slower)")
         tips.append(f"{self.usable()} usable views, need {min_views}: move the board through this camera's whole "
                     "view, closer and slower, in good light")
         return tips

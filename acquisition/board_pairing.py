@@ -5,7 +5,8 @@ Webcams and USB cameras deliver frames at slightly different times. Frames are p
 lie within a tolerance (default: half the median frame interval). A board seen by two cameras a few ms
 apart while it moves is in two different places: a view whose corner speed (px/s, from the same
 camera's neighbouring views) times its time offset from the pair's median time exceeds ``max_shift_px``
-is left out, so that extrinsics come from still boards.
+is taken out of the pair and kept as a frame of its own (its camera's intrinsics still use it), so that
+extrinsics come from still boards.
 """
 
 from __future__ import annotations
@@ -101,3 +102,25 @@ def moving_views(corners_px: np.ndarray, times_s: np.ndarray, set_times_s: np.nd
         shift = speed * np.abs(times_s[c] - set_times_s)
         out[c] = np.isfinite(shift) & (shift > max_shift_px)
     return out
+
+
+def split_moving(corners_px: np.ndarray, times_s: np.ndarray, moving: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Moving views taken out of their frame sets, each kept as a frame of its own right after it: it
+    still serves its camera's intrinsics but ties no cameras together.
+
+    corners_px: (C, F, N, 2); times_s: (F,); moving: (C, F) -> corners (C, F', N, 2), times (F',).
+    """
+    cols, times = [], []
+    for f in range(corners_px.shape[1]):
+        kept = corners_px[:, f].copy()
+        kept[moving[:, f]] = np.nan
+        cols.append(kept)
+        times.append(times_s[f])
+        for c in np.flatnonzero(moving[:, f]):
+            alone = np.full_like(kept, np.nan)
+            alone[c] = corners_px[c, f]
+            cols.append(alone)
+            times.append(times_s[f])
+    if not cols:
+        return corners_px, times_s
+    return np.stack(cols, axis=1), np.asarray(times)

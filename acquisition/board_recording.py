@@ -26,6 +26,7 @@ from gaitcap.acquisition.board_pairing import (
     default_tolerance_ns,
     moving_views,
     pair_by_time,
+    split_moving,
 )
 from gaitcap.acquisition.board_sources import folder_sources
 from gaitcap.reconstruction.calibration import (
@@ -205,11 +206,11 @@ def _assemble(cams, sets, timed, finds, sizes, probes, board, pairing) -> BoardD
                 cam_t[c, k] = cams[c].times_ns[i] * 1e-9 if timed else float(i)
     set_t = np.nanmedian(cam_t, axis=0) if cam_t.size else np.zeros(0)  # every set holds a frame
     moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px) if timed else np.zeros(cam_t.shape, bool)
-    corners[moving] = np.nan
+    times_s = set_t - np.nanmin(set_t) if timed and set_t.size else np.nanmin(cam_t, axis=0)
+    corners, times_s = split_moving(corners, times_s, moving)
     missing = [c.name for i, c in enumerate(cams) if i not in sizes]
     if missing:
         raise ValueError(f"cameras {missing}: no frame could be read")
-    times_s = set_t - np.nanmin(set_t) if timed and set_t.size else np.nanmin(cam_t, axis=0)
     obs = BoardObservations(tuple(c.name for c in cams), tuple(sizes[c] for c in range(len(cams))), corners,
                             geometry, np.nan_to_num(times_s))
     per_cam = tuple(

@@ -22,6 +22,7 @@ from gaitcap.acquisition.board_pairing import (
     default_tolerance_ns,
     moving_views,
     pair_by_time,
+    split_moving,
 )
 from gaitcap.reconstruction.calibration import BoardObservations
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
@@ -84,8 +85,8 @@ def read_points(
     path: str | os.PathLike, *, board: BoardConfig, image_sizes_px: dict[str, tuple[int, int]],
     pairing: PairingConfig = PairingConfig(),
 ) -> tuple[BoardObservations, int]:
-    """caliscope ChArUco corners as BoardObservations, and how many views were left out because the
-    board moved between the cameras' exposures.
+    """caliscope ChArUco corners as BoardObservations, and how many views were taken out of their frame
+    sets (kept as frames of their own) because the board moved between the cameras' exposures.
 
     image_sizes_px: {camera: (width, height)} (caliscope keeps them in camera_array.toml).
     """
@@ -128,9 +129,9 @@ def read_points(
             cam_t[c, s] = frame["t"]
     set_t = np.nanmedian(cam_t, axis=0)
     moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px) if timed else np.zeros(cam_t.shape, bool)
-    corners[moving] = np.nan
+    corners, times_s = split_moving(corners, set_t - set_t.min(), moving)
     obs = BoardObservations(tuple(names), tuple(tuple(image_sizes_px[n]) for n in names), corners, geometry,
-                            set_t - set_t.min())
+                            times_s)
     return obs, int(moving.sum())
 
 
