@@ -31,9 +31,14 @@ function showLogin(message) {
 
 function enterApp(me) {
   state.user = me.user;
+  const can = new Set(me.permissions);  // what the user's roles allow; the server checks it again
   $("#account-name").textContent = me.user + " (" + me.roles.join(", ") + ")"; $("#account").hidden = false;
+  $("#record").hidden = !can.has("record");
+  $("#calibrate-card").hidden = !can.has("calibrate");
+  $("#cameras-card").hidden = !can.has("live");
   $("#login").hidden = true; $("#app").hidden = false;
-  connectStatus(); connectPreviews();
+  connectStatus();
+  if (can.has("live")) connectPreviews();
 }
 
 async function signIn(user, password) {

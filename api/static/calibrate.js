@@ -73,4 +73,4 @@ async function loadCalibrations() {
 
 document.querySelector("#calibrate").onclick = calibrateStart;
 document.querySelector("#calibrate-stop").onclick = calibrateStop;
-setInterval(() => { if (state.user && !document.querySelector("#app").hidden) loadCalibrations(); }, 3000);
+setInterval(() => { if (state.user && !document.querySelector("#app").hidden && !document.querySelector("#calibrate-card").hidden) loadCalibrations(); }, 3000);

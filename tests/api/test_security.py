@@ -249,3 +249,32 @@ def test_the_audit_trail_is_copied_to_syslog(tmp_path):
         datagram = receiver.recv(65536).decode()
     assert "gaitcap-audit" in datagram and '"actor":"ann"' in datagram and '"target":"/trials/T1/gait"' in datagram
     assert verify(tmp_path / "audit.log") == (1, None)
+
+
+def test_the_page_shows_each_role_only_what_it_may_do(server):
+    from gaitcap.services.access.accounts import AccountStore
+    from playwright.sync_api import sync_playwright
+
+    from .conftest import sign_in_page
+
+    srv, _, _, settings = server
+    store = AccountStore(settings.accounts_path)
+    for name, role in (("rita", "researcher"), ("carl", "clinician"), ("eve", "engineer")):
+        store.set(name, password=PASSWORD, roles=[role])
+    shown = {}
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=["--headless", "--no-sandbox",
+                                                                                "--disable-gpu"])
+        try:
+            for name in ("rita", "carl", "eve"):
+                page = browser.new_page()
+                page.set_default_timeout(20_000)
+                sign_in_page(page, srv.url, name)
+                shown[name] = [c for c in ("#record", "#calibrate-card", "#cameras-card") if page.is_visible(c)]
+                assert name in page.inner_text("#account-name")
+                page.click("#logout")
+                page.wait_for_selector("#login:not([hidden])")
+                page.close()
+        finally:
+            browser.close()
+    assert shown == {"rita": [], "carl": ["#record", "#cameras-card"], "eve": ["#calibrate-card", "#cameras-card"]}
