@@ -137,8 +137,11 @@ function setConnection(ok) {
 
 function onStatus(snap) {
   const wasRecording = state.recording;
-  state.recording = snap.recording;
-  if (!snap.recording && wasRecording && !state.followed) follow(wasRecording.id);
+  // a snapshot taken before our own Start answered must not end the recording on the page
+  const stale = !snap.recording && wasRecording && snap.time < wasRecording.started_at + 0.5
+    && !snap.trials.some((t) => t.id === wasRecording.id && t.state !== "recording");
+  state.recording = stale ? wasRecording : snap.recording;
+  if (!state.recording && wasRecording && !state.followed) follow(wasRecording.id);
   renderRecording();
   renderTrials(snap.trials);
   renderCameras(snap.cameras);
