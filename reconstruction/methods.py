@@ -23,6 +23,7 @@ from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.fits.common import fill_gaps, fit_problem, reject_spikes
 from gaitcap.reconstruction.fits.explicit import ExplicitFit
 from gaitcap.reconstruction.fits.implicit import ImplicitFit
+from gaitcap.reconstruction.fits.memory import check_memory, fit_bytes, triangulation_bytes
 from gaitcap.reconstruction.fits.optim import Progress
 from gaitcap.reconstruction.metrics import compute_metrics, reprojection_errors_px
 from gaitcap.reconstruction.result import Reconstruction
@@ -48,6 +49,10 @@ class DLT:
     min_confidence: float = 0.0
     name = "dlt"
 
+    def memory_bytes(self, detections: Detections) -> int:
+        """Estimated peak memory of the reconstruction, bytes."""
+        return triangulation_bytes(*detections.shape)
+
     def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
         t0 = time.perf_counter()
         tri = dlt_triangulate(detections, rig, min_confidence=self.min_confidence)
@@ -61,6 +66,10 @@ class Robust:
     gamma: float = 0.5
     sigma_mm: float = 150.0
     name = "robust"
+
+    def memory_bytes(self, detections: Detections) -> int:
+        """Estimated peak memory of the reconstruction, bytes."""
+        return triangulation_bytes(*detections.shape)
 
     def triangulate(self, detections: Detections, rig: Rig) -> TriangulationResult:
         return robust_triangulate(detections, rig, gamma=self.gamma, sigma_mm=self.sigma_mm)
@@ -97,6 +106,18 @@ class _FitMethod:
 
     def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
         return _run_fit(self.name, self.fit, self.robust, self.use_confidence, detections, rig, progress)
+
+    def memory_bytes(self, detections: Detections) -> int:
+        """Estimated peak memory of the reconstruction, bytes (the time model's arrays included)."""
+        c, t, j = detections.shape
+        model = getattr(self.fit, "model", None)
+        extra = model.model_bytes(t, _duration_s(detections), j) if model is not None else 0
+        return fit_bytes(c, t, j, extra)
+
+
+def _duration_s(detections: Detections) -> float:
+    times = detections.times_s
+    return float(times[-1] - times[0]) if len(times) > 1 else 0.0
 
 
 @dataclass(frozen=True)
@@ -151,10 +172,18 @@ def reconstruct(
         method: a method config (default :class:`Implicit`).
         truth_mm: optional ground truth (T, J, 3) mm for MPJPE and heel/toe errors.
         progress: optional callback (steps done, steps total) for fits.
+
+    Raises:
+        TrialTooLarge (a ValueError): the method's estimated peak memory for this trial exceeds the
+            memory available, checked before any work starts; the message gives both.
     """
     method = Implicit() if method is None else method
     if not hasattr(method, "run"):
         raise ValueError(f"method: expected one of {sorted(METHODS)} configs, got {method!r}")
+    c, t, j = detections.shape
+    check_memory(method.memory_bytes(detections), what=(
+        f"reconstructing {_duration_s(detections):.0f} s ({t} frames x {c} cameras x {j} joints) with the "
+        f"{method.name} method"))
     rec = method.run(detections, rig, progress)
     metrics = compute_metrics(rec.points_mm, detections, rig, truth_mm=truth_mm)
     log.info("%s: %s", rec.method, {k: v for k, v in metrics.items() if not isinstance(v, dict)})

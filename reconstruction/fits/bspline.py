@@ -61,6 +61,11 @@ class BSplineBasis:
         """Number of knot intervals over a trial of ``duration_s`` s (at least 1)."""
         return max(int(math.ceil(duration_s * self.knots_per_cycle * self.max_freq_hz - 1e-9)), 1)
 
+    def model_bytes(self, frames: int, duration_s: float, joints: int) -> int:
+        """Bytes of the model's own arrays in a fit: per-frame features and the float32 control points
+        with the solver's copies of them (L-BFGS keeps 20), linear in the trial."""
+        return 32 * frames + 4 * 32 * (self.intervals(duration_s) + ORDER - 1) * 3 * joints
+
     def locate(self, times_s: np.ndarray, t0: float, duration: float) -> tuple[np.ndarray, np.ndarray]:
         """(K,) s -> first control point index (K,) int and weights (K, 4) of each time."""
         n = self.intervals(duration)

@@ -46,10 +46,19 @@ class FourierBasis:
     max_freq_hz: float = 6.0
     ridge: float = 1e-3
 
+    def harmonics(self, duration: float) -> int:
+        return max(int(math.floor(self.max_freq_hz * 2 * duration)), 0)
+
+    def model_bytes(self, frames: int, duration_s: float, joints: int) -> int:
+        """Bytes of the features (frames x F, built in float64 with temporaries) and the Gram matrix
+        (F x F): quadratic in the trial, F = 2 + 4 x max_freq_hz x duration."""
+        f = 2 + 2 * self.harmonics(duration_s)
+        return 8 * (5 * frames * f + 3 * f * f + 32 * f * 3 * joints)
+
     def features(self, times_s: np.ndarray, t0: float, duration: float) -> np.ndarray:
         """(K,) s -> (K, F) features."""
         tau = (np.asarray(times_s, dtype=np.float64) - t0) / duration
-        k = np.arange(1, max(int(math.floor(self.max_freq_hz * 2 * duration)), 0) + 1)
+        k = np.arange(1, self.harmonics(duration) + 1)
         ang = np.pi * tau[:, None] * k[None]
         return np.concatenate([np.ones_like(tau)[:, None], tau[:, None], np.cos(ang), np.sin(ang)], 1)
 
@@ -102,6 +111,10 @@ class PaperMLP:
     skip_layers: int = 4
     output_scale_mm: float = 1000.0
     seed: int = 0
+
+    def model_bytes(self, frames: int, duration_s: float, joints: int) -> int:
+        """Bytes of the activations kept for the backward pass (float32, 4 per unit) and the weights."""
+        return 4 * 4 * frames * (sum(self.widths) + 3 * joints) + 4 * 4 * (max(self.widths) ** 2) * len(self.widths)
 
     def encode(self, tin):
         """tin (T, 1) in [0, pi] -> (T, 1 + 2 * octaves)."""
