@@ -256,7 +256,7 @@ def _real_table(r: dict) -> str:
             continue
         lines.append(f"  {s['recording']}, {s['board']}; intrinsics {s['intrinsics']}: {s['seconds']:.1f} s, "
                      f"square {s['square_measured_mm']:.2f} mm, scale vs caliscope {s['scale_vs_reference']:.4f}, "
-                     f"{s['views_moving']} views left out (board moving between exposures)")
+                     f"{s['views_moving']} views taken out of their sets (board moving between exposures)")
         lines.append(f"    {'camera':<8} {'views':>6} {'used':>5} {'RMS px':>7} {'p95 px':>7} {'centre mm':>10} "
                      f"{'rot deg':>8}  status")
         for k, cam in enumerate(s["cameras"]):
