@@ -13,7 +13,7 @@ from gaitcap.services.cli._common import user_errors
 PX_PER_MM = 10.0  # 254 dpi
 SCALE_BAR_MM = 100.0
 
-BOARD_FILE = typer.Option(None, "--board-file", help="Board file (.toml/.json: gaitcap's [board], caliscope's "
+BOARD_FILE = typer.Option(None, "--board-file", help="Board file (.toml/.json: gaitcap's board table, caliscope's "
                           "charuco.toml, anipose's config.toml or Pose2Sim's Config.toml).")
 KIND = typer.Option(None, "--board", help="Board kind: checkerboard | charuco (default checkerboard).")
 SQUARES = typer.Option(None, "--squares", help="Squares COLSxROWS (default 7x5 checkerboard, 5x7 charuco).")
