@@ -13,17 +13,17 @@ deterministic given the arguments. Modules: ``params`` (WalkParams), ``path`` (r
 
 from gaitcap.acquisition.synthetic.noise import PRESETS, NoisePreset
 from gaitcap.acquisition.synthetic.params import WalkParams
-from gaitcap.acquisition.synthetic.trial import MultiPersonDetections, SyntheticTrial, make_trial
+from gaitcap.acquisition.synthetic.trial import SyntheticPeople, SyntheticTrial, make_trial
 from gaitcap.acquisition.synthetic.truth import GaitTruth, StepTable
 
 __all__ = [
-    "PRESETS", "NoisePreset", "WalkParams", "make_trial", "SyntheticTrial", "MultiPersonDetections", "GaitTruth",
+    "PRESETS", "NoisePreset", "WalkParams", "make_trial", "SyntheticTrial", "SyntheticPeople", "GaitTruth",
     "StepTable", "save_trial", "load_trial_files",
 ]
 
 
 def __getattr__(name):  # lazy: files pulls in the calibration writer
-    if name in ("save_trial", "load_trial_files", "TrialFiles"):
+    if name in ("save_trial", "load_trial_files", "SimulationFiles"):
         from gaitcap.acquisition.synthetic import files
 
         return getattr(files, name)

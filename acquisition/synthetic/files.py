@@ -78,7 +78,7 @@ def save_trial(trial, out_dir: str | os.PathLike) -> dict[str, Path]:
 
 
 @dataclass(frozen=True, eq=False)
-class TrialFiles:
+class SimulationFiles:
     """What ``load_trial_files`` reads back: the rig, the patient's detections and the raw arrays."""
 
     rig: Rig
@@ -111,14 +111,14 @@ def load_keypoints(path: str | os.PathLike) -> Detections:
     return Detections(kp["keypoints"], tuple(str(c) for c in kp["cameras"]), kp["times_s"], str(kp["skeleton"]))
 
 
-def load_trial_files(directory: str | os.PathLike, *, ground_truth: bool = True) -> TrialFiles:
+def load_trial_files(directory: str | os.PathLike, *, ground_truth: bool = True) -> SimulationFiles:
     """Read a ``gaitcap simulate`` output folder."""
     d = Path(directory)
     rig = load_rig(d / CALIBRATION)
     kp = _load_npz(d / KEYPOINTS)
     det = load_keypoints(d / KEYPOINTS)
     gt = _load_npz(d / GROUND_TRUTH) if ground_truth and (d / GROUND_TRUTH).exists() else None
-    return TrialFiles(rig=rig, detections=det, keypoints=kp, ground_truth=gt)
+    return SimulationFiles(rig=rig, detections=det, keypoints=kp, ground_truth=gt)
 
 
 def summary_lines(trial) -> list[str]:

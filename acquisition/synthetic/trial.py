@@ -22,8 +22,10 @@ MAX_PEOPLE = 3
 
 
 @dataclass(frozen=True, eq=False)
-class MultiPersonDetections:
-    """Everyone's detections per camera, in arbitrary per-frame slot order (like a real detector).
+class SyntheticPeople:
+    """Everyone's detections per camera, in arbitrary per-frame slot order (like a real detector), with the
+    ground truth of who is who (association's input without the truth is
+    :class:`gaitcap.reconstruction.association.multi.MultiPersonDetections`).
 
     keypoints: (C, T, P, J, 3) x px, y px, confidence (empty slots NaN / 0).
     identity: (C, T, P) int, ground-truth person of each slot (-1 = empty); person 0 is the patient.
@@ -66,7 +68,7 @@ class SyntheticTrial:
     params: WalkParams
     body: Body
     plan: FootPlan
-    multi: MultiPersonDetections | None
+    multi: SyntheticPeople | None
     clock_offsets_ns: np.ndarray  # (C,) int64
     jitter_ns: np.ndarray  # (C, T) int64
     room: Room
@@ -171,7 +173,7 @@ def make_trial(
             det = detected[ci, ti, who]
             keypoints[:, :, slot] = np.where(det[..., None, None], stacked[ci, ti, who], keypoints[:, :, slot])
             identity[:, :, slot] = np.where(det, who, -1)
-        multi = MultiPersonDetections(keypoints, identity, all_pts, tuple(rig.names), times)
+        multi = SyntheticPeople(keypoints, identity, all_pts, tuple(rig.names), times)
 
     return SyntheticTrial(
         preset=noise, seed=seed, fps=float(fps), rig=rig, skeleton=skel, times_s=times, points_mm=points,
