@@ -147,7 +147,7 @@ def camera_killed(drill: Drill) -> FaultResult:
     t0 = time.monotonic()
     drill.stack.supervisor.kill("camera-0")
     detect = _time_until(drill, lambda: not drill.healthy("cameras"), "/health to report the cameras", t0)
-    time.sleep(max(0.0, 3.0 - (time.monotonic() - t0)))
+    time.sleep(max(0.0, 4.0 - (time.monotonic() - t0)))
     drill.client.post(f"/trials/{tid}/stop").raise_for_status()
     return drill.result("camera SIGKILL mid-trial", tid, detect)
 

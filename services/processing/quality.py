@@ -16,7 +16,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 CONFIDENT = 0.3  # a keypoint above this confidence counts as detected
-NO_IMAGES_S = 1.5  # Start to Stop longer than the images by more than this: the cameras stopped early
+TAIL_S = 1.0  # the trial's last second is not judged per camera (keypoints still on their way at Stop)
+NO_IMAGES_S = 2.5  # Start to Stop longer than the images by more than this: the cameras stopped early
 EDGE_S = 0.5  # a camera whose frames end (begin) more than this before the end (after the start) stopped (started late)
 
 
@@ -54,7 +55,7 @@ class QualityCriteria:
 
 @dataclass(frozen=True)
 class CameraQuality:
-    """One camera over the trial: frames expected / received / lost, skips (gaps), fps (Hz, while it
+    """One camera over the trial but its last :data:`TAIL_S`: frames expected / received / lost, skips (gaps), fps (Hz, while it
     delivered: from its first to its last frame), first and last frame times (s from the trial's first frame), reprojection error median (px, None before the
     fit or without detections)."""
 
@@ -137,7 +138,10 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     stamps = np.asarray(timestamps_ns, dtype=np.int64)
     nominal = nominal_fps_of(stamps)
     t0 = float(stamps[stamps >= 0].min()) if (stamps >= 0).any() else 0.0
-    cams = [_camera(n, stamps[c], t0, nominal) for c, n in enumerate(camera_names)]
+    # the last TAIL_S are not judged per camera: keypoints of the frames just before Stop may still have
+    # been on their way (detector latency differs between cameras)
+    window = max(1, stamps.shape[1] - int(round(TAIL_S * nominal)))
+    cams = [_camera(n, stamps[c, :window], t0, nominal) for c, n in enumerate(camera_names)]
     duration = stamps.shape[1] / nominal
     spread = sync_spread_ms(stamps)
     coverage = None
@@ -179,7 +183,8 @@ def judged(q: DataQuality, *, missing_cameras=()) -> DataQuality:
     """``q`` with its warnings (plain words, most important first) and ``serious`` set."""
     cr, warn = q.criteria, []
     late_s = max(EDGE_S, 2.0 / q.nominal_fps)
-    end = q.duration_s - 1.0 / q.nominal_fps - late_s
+    judged_s = max((c.expected for c in q.cameras), default=0) / q.nominal_fps  # the window judged per camera
+    end = judged_s - 1.0 / q.nominal_fps - late_s
     warn += [f"Camera {n} recorded nothing" for n in missing_cameras]
     for c in q.cameras:
         if c.received == 0:
