@@ -214,6 +214,15 @@ class Stack:
         from gaitcap.services.access.client import DEMO_USER, sign_in
 
         with httpx.Client(base_url=self.cfg.url, timeout=timeout_s) as client:
+            deadline = time.monotonic() + 60  # the API may be restarting (supervisor back-off, start-up)
+            while True:
+                try:
+                    client.get("/health").raise_for_status()
+                    break
+                except httpx.HTTPError:
+                    if time.monotonic() > deadline:
+                        raise
+                    time.sleep(0.2)
             yield sign_in(client, DEMO_USER, self.cfg.token)
 
     def _wait_cameras(self, deadline: float) -> None:
