@@ -20,7 +20,7 @@ from gaitcap.services.access.accounts import ROLES
 from .conftest import PASSWORD, RecordingLink, free_port, make_accounts, signed_in
 
 ROLE_USERS = {f"{r}1": (r,) for r in ROLES}
-SAMPLE = {"trial_id": "T1", "cal_id": "C1", "name": "cam0", "camera": "cam0"}
+SAMPLE = {"trial_id": "T1", "cal_id": "C1", "name": "cam0", "camera": "cam0", "subject_id": "P1"}
 
 
 @pytest.fixture(scope="module")
@@ -55,10 +55,10 @@ def test_every_route_needs_sign_in_and_the_right_role(srv):
         clients = {u: stack.enter_context(signed_in(server.url, u)) for u in ROLE_USERS}
         for method, path in routes:
             url = f"{server.url}{_fill(path)}"
-            assert httpx.request(method, url, json={}).status_code == 401, (method, path)
+            assert httpx.request(method, url, json={}, timeout=30).status_code == 401, (method, path)
             for user, (role,) in ROLE_USERS.items():
                 code = clients[user].request(method, _fill(path), json={} if method == "POST" else None,
-                                             timeout=3).status_code if "mjpg" not in path else None
+                                             timeout=30).status_code if "mjpg" not in path else None
                 if code is None:
                     continue
                 allowed = bool(ROUTE_PERMISSIONS[(method, path)] & ROLES[role])
