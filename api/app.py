@@ -19,7 +19,9 @@ from gaitcap.api import (
     routes_calibrations,
     routes_kinematics,
     routes_live,
+    routes_patients,
     routes_people,
+    routes_report,
     routes_results,
     routes_trials,
 )
@@ -86,6 +88,8 @@ def create_app(settings: Settings, link=None) -> FastAPI:
     app.include_router(routes_calibrations.router)
     app.include_router(routes_people.router)
     app.include_router(routes_calibration_runs.router)
+    app.include_router(routes_report.router)
+    app.include_router(routes_patients.router)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
 
     @app.get("/health", tags=["health"], summary="Each component's state (no token needed)")

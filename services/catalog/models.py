@@ -176,3 +176,32 @@ class AuditEntry(Base):
     action: Mapped[str] = mapped_column(String(32))
     trial_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
     detail: Mapped[str] = mapped_column(Text, default="")
+
+
+class PatientDetails(Base):
+    """What the clinic records about a patient besides the pseudonym: sex and birth year (for the
+    normative comparison by age decade and sex; both optional) and free notes."""
+
+    __tablename__ = "patient_details"
+    subject_id: Mapped[str] = mapped_column(ForeignKey("subjects.id"), primary_key=True)
+    sex: Mapped[str] = mapped_column(String(16), default="")  # "female" | "male" | ""
+    birth_year: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    notes: Mapped[str] = mapped_column(Text, default="")
+    updated_at: Mapped[float] = mapped_column(Float)
+
+
+class TrialDetails(Base):
+    """The clinician's fields of a trial (filled at Start or after; corrections are audited) and its
+    void mark: a voided trial stays in the chart with the reason but is left out of the history."""
+
+    __tablename__ = "trial_details"
+    trial_id: Mapped[str] = mapped_column(ForeignKey("trials.id"), primary_key=True)
+    operator: Mapped[str] = mapped_column(String(128), default="")
+    walking_aid: Mapped[str] = mapped_column(String(128), default="")
+    assistance: Mapped[str] = mapped_column(String(128), default="")
+    footwear: Mapped[str] = mapped_column(String(128), default="")
+    notes: Mapped[str] = mapped_column(Text, default="")
+    voided_at: Mapped[float | None] = mapped_column(Float, nullable=True)
+    voided_by: Mapped[str] = mapped_column(String(128), default="")
+    void_reason: Mapped[str] = mapped_column(Text, default="")
+    updated_at: Mapped[float] = mapped_column(Float)

@@ -1,0 +1,65 @@
+"""The clinical report of a trial: the PDF for the chart and the same numbers as JSON for the page
+(both sides, symmetry, the normative range and z-score, flags, the previous visit)."""
+
+from __future__ import annotations
+
+import math
+
+from fastapi import APIRouter, Depends, HTTPException, Request
+from fastapi.responses import Response
+from gaitcap.api.auth import require_user
+from gaitcap.api.deps import catalog_of, checked_trial_id
+from gaitcap.services import catalog as cat
+from gaitcap.services.reports.content import PARAMETERS, ReportConfig, ReportContent, report_content
+
+router = APIRouter(tags=["report"])
+
+
+def _content(request: Request, trial_id: str) -> ReportContent:
+    db = catalog_of(request)
+    try:
+        return report_content(db, request.app.state.settings.data_dir, checked_trial_id(trial_id),
+                              ReportConfig.from_env())
+    except cat.TrialNotFound as exc:
+        raise HTTPException(status_code=404, detail=str(exc)) from None
+    except FileNotFoundError as exc:
+        raise HTTPException(status_code=404, detail=str(exc)) from None
+
+
+def _num(x: float, decimals: int) -> float | None:
+    return round(x, decimals) if math.isfinite(x) else None
+
+
+@router.get("/trials/{trial_id}/report.pdf", summary="The trial's report for the patient's chart (PDF)")
+def report_pdf(trial_id: str, request: Request, user: str = Depends(require_user)) -> Response:
+    c = _content(request, trial_id)
+    from gaitcap.services.reports.pdf import report_pdf as render  # fpdf2 loads on the first report only
+
+    cat.audit(catalog_of(request), actor=user, action="download", trial_id=c.trial.id, detail=f"report pdf {c.stage}")
+    name = f"{c.patient.id}-{c.trial.session}-{c.trial.id}.pdf"
+    return Response(render(c), media_type="application/pdf",
+                    headers={"Content-Disposition": f'inline; filename="{name}"'})
+
+
+@router.get("/trials/{trial_id}/parameters", summary="Every parameter: left, right, mean, SD, CV, symmetry, norms")
+def parameters(trial_id: str, request: Request, user: str = Depends(require_user)) -> dict:
+    """The report's numbers as JSON (units in ``unit``; ``null`` where not measured)."""
+    c = _content(request, trial_id)
+    rows = []
+    for r in c.rows:
+        p = PARAMETERS[r.name]
+        band = r.norm.band() if r.norm is not None else None
+        rows.append({"name": r.name, "label": p.label, "unit": p.unit, "decimals": p.decimals, "help": p.help,
+                     "left": _num(r.left, 4), "right": _num(r.right, 4), "mean": _num(r.mean, 4),
+                     "sd": _num(r.sd, 4), "cv_pct": _num(r.cv_pct, 2), "symmetry_index_pct": _num(r.si_pct, 2),
+                     "n": r.n, "normal_range": [round(band[0], 4), round(band[1], 4)] if band else None,
+                     "z": _num(r.z, 2), "percentile": _num(r.percentile, 1),
+                     "previous": _num(c.previous.values.get(r.name, math.nan), 4) if c.previous else None})
+    return {"trial_id": c.trial.id, "subject_id": c.patient.id, "session": c.trial.session,
+            "started_at": c.trial.started_at, "stage": c.stage, "method": c.method, "age": c.age,
+            "sex": c.patient.sex, "parameters": rows, "flags": list(c.flags), "warnings": list(c.warnings),
+            "analysis_notes": list(c.analysis_notes), "voided": c.details.voided, "void_reason": c.details.void_reason,
+            "previous_trial": c.previous.trial.id if c.previous else None,
+            "footprints": [{"side": f.side, "along_mm": round(f.along_mm, 1), "across_mm": round(f.across_mm, 1)}
+                           for f in c.footprints],
+            "norm_sources": list(c.norm_citations)}

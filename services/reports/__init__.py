@@ -1,0 +1,1 @@
+"""Clinical reports of a trial: normative data, the report's content from the stored results, the PDF."""

@@ -1,0 +1,216 @@
+"""The trial's report as an A4 PDF for the patient's chart (fpdf2: pure Python, small, vector text and
+tables; the heel-trace figure is the stored plot, the step diagram is drawn as vector shapes).
+
+Page 1: clinic, patient, date, session, clinical fields, data quality, the parameter table (left, right,
+mean, SD, CV, symmetry, normal range, z-score and percentile, the previous visit), flags. Page 2: the
+heel-trace figure, the footprints, joint angles (when computed), method, version, sources, signature.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import time
+
+from fpdf import FPDF
+from fpdf.fonts import FontFace
+from gaitcap.services.reports.content import METHOD_TEXT, PARAMETERS, ReportContent, Row
+
+SIDE_COLOURS = {"left": (31, 119, 180), "right": (214, 39, 40)}
+
+
+def _latin1(text: str) -> str:
+    """The core PDF fonts are Latin-1: other characters become their closest plain form."""
+    text = str(text).replace("\u2013", "-").replace("\u2014", "-").replace("\u2212", "-").replace("\u2026", "...")
+    return text.encode("latin-1", "replace").decode("latin-1")
+
+
+def _fmt(x: float, decimals: int) -> str:
+    return f"{x:.{decimals}f}" if math.isfinite(x) else "-"
+
+
+def _when(t_s: float | None) -> str:
+    return time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(t_s)) if t_s else "-"
+
+
+class _Doc(FPDF):
+    def __init__(self, c: ReportContent) -> None:
+        super().__init__(orientation="portrait", unit="mm", format="A4")
+        self.c = c
+        self.set_auto_page_break(auto=True, margin=16)
+        self.set_margins(14, 12, 14)
+        self.set_title(f"Gait report {c.patient.id} {c.trial.id}")
+        self.set_creator(f"gaitcap {c.version}")
+
+    def header(self) -> None:
+        self.set_font("Helvetica", "B", 13)
+        self.cell(0, 7, _latin1(self.c.clinic_name), new_x="LMARGIN", new_y="NEXT")
+        self.set_font("Helvetica", "", 9)
+        self.cell(0, 5, _latin1(f"Gait analysis report - patient {self.c.patient.id} - {_when(self.c.trial.started_at)}"),
+                  new_x="LMARGIN", new_y="NEXT")
+        self.line(self.l_margin, self.get_y() + 1, self.w - self.r_margin, self.get_y() + 1)
+        self.ln(3)
+
+    def footer(self) -> None:
+        self.set_y(-12)
+        self.set_font("Helvetica", "", 8)
+        self.cell(0, 5, _latin1(f"Trial {self.c.trial.id} - gaitcap {self.c.version} - page {self.page_no()}/{{nb}}"),
+                  align="C")
+
+    def heading(self, text: str) -> None:
+        self.ln(1.5)
+        self.set_font("Helvetica", "B", 11)
+        self.cell(0, 6, _latin1(text), new_x="LMARGIN", new_y="NEXT")
+        self.set_font("Helvetica", "", 9)
+
+    def para(self, text: str, size: float = 9, style: str = "") -> None:
+        self.set_font("Helvetica", style, size)
+        self.multi_cell(0, 4.4, _latin1(text), new_x="LMARGIN", new_y="NEXT")
+
+
+def _identity(pdf: _Doc) -> None:
+    c, d = pdf.c, pdf.c.details
+    sex_age = ", ".join(x for x in (c.patient.sex, f"{c.age} years" if c.age is not None else "") if x) or "not recorded"
+    pairs = [("Patient ID", c.patient.id), ("Sex, age", sex_age), ("Date and time", _when(c.trial.started_at)),
+             ("Session", c.trial.session), ("Trial", c.trial.id), ("Operator", d.operator or "-"),
+             ("Walking aid", d.walking_aid or "none recorded"), ("Assistance", d.assistance or "none recorded"),
+             ("Footwear", d.footwear or "not recorded"), ("Results", f"{c.stage} ({c.method})")]
+    pdf.set_font("Helvetica", "", 9)
+    with pdf.table(col_widths=(28, 62, 28, 62), first_row_as_headings=False, line_height=5,
+                   borders_layout="NONE") as table:
+        for i in range(0, len(pairs), 2):
+            row = table.row()
+            for label, value in pairs[i:i + 2]:
+                row.cell(_latin1(label), style=FontFace(emphasis="BOLD"))
+                row.cell(_latin1(value))
+    if d.notes:
+        pdf.para(f"Notes: {d.notes}")
+    if d.voided:
+        pdf.set_text_color(160, 0, 0)
+        pdf.para(f"VOID: {d.void_reason} (by {d.voided_by}, {_when(d.voided_at)}). Not for clinical use.", 11, "B")
+        pdf.set_text_color(0, 0, 0)
+
+
+def _quality(pdf: _Doc) -> None:
+    c = pdf.c
+    pdf.heading("Data quality")
+    if c.warnings:
+        pdf.set_text_color(140, 70, 0)
+        for w in c.warnings:
+            pdf.para(f"- {w}")
+        pdf.set_text_color(0, 0, 0)
+    else:
+        pdf.para("No data-quality warnings: every camera, the synchronisation and the coverage met the criteria.")
+    pdf.para(f"{c.num_steps} steps in {c.num_passes} straight pass(es) analysed."
+             + (" Notes of the analysis: " + "; ".join(c.analysis_notes) + "." if c.analysis_notes else ""))
+
+
+def _norm_cells(r: Row) -> tuple[str, str]:
+    if r.norm is None:
+        return "no reference", "-"
+    p = PARAMETERS[r.name]
+    lo, hi = r.norm.band()
+    z = r.z
+    return (f"{lo:.{p.decimals}f}-{hi:.{p.decimals}f}",
+            f"{z:+.1f} ({r.percentile:.0f}th)" if math.isfinite(z) else "-")
+
+
+def _table(pdf: _Doc) -> None:
+    c = pdf.c
+    pdf.heading("Spatiotemporal parameters (steady steps; left / right / both)")
+    heads = ["Parameter", "Left", "Right", "Mean", "SD", "CV %", "SI %", "Normal (95 %)", "z (pct)"]
+    widths = [40, 15, 15, 15, 13, 12, 12, 26, 20]
+    if c.previous is not None:
+        heads.append("Previous")
+        widths.append(18)
+    pdf.set_font("Helvetica", "", 8.5)
+    with pdf.table(col_widths=tuple(widths), line_height=4.6, text_align=("LEFT",) + ("RIGHT",) * (len(heads) - 1),
+                   headings_style=FontFace(emphasis="BOLD", fill_color=(230, 234, 240))) as table:
+        head = table.row()
+        for h in heads:
+            head.cell(h)
+        for r in c.rows:
+            p = PARAMETERS[r.name]
+            row = table.row()
+            row.cell(_latin1(f"{p.label} ({p.unit})"))
+            for value, dec in ((r.left, p.decimals), (r.right, p.decimals), (r.mean, p.decimals),
+                               (r.sd, p.decimals + 1), (r.cv_pct, 1), (r.si_pct, 1)):
+                row.cell(_fmt(value, dec))
+            for text in _norm_cells(r):
+                row.cell(_latin1(text))
+            if c.previous is not None:
+                row.cell(_fmt(c.previous.values.get(r.name, math.nan), p.decimals))
+    pdf.set_font("Helvetica", "", 7.5)
+    note = ("SI: symmetry index, 100 |L - R| / mean of L and R (0 = symmetric). z: (mean - normative mean) / "
+            "normative SD; pct: its percentile. Normal: normative mean +- 1.96 SD for the patient's age decade "
+            "and sex; 'no reference' where the normative table has no row (or sex or birth year not recorded).")
+    if c.previous is not None:
+        note += f" Previous: trial {c.previous.trial.id}, session {c.previous.trial.session}, {_when(c.previous.trial.started_at)}."
+    pdf.multi_cell(0, 3.6, _latin1(note), new_x="LMARGIN", new_y="NEXT")
+
+
+def _flags(pdf: _Doc) -> None:
+    pdf.heading("Findings to note")
+    for f in pdf.c.flags or ("No parameter outside the normal range and no side difference over 10 %.",):
+        pdf.para(f"- {f}")
+
+
+def _heel_plot(pdf: _Doc) -> None:
+    pdf.heading("Heel traces and detected steps")
+    if pdf.c.heel_plot_png:
+        pdf.image(io.BytesIO(pdf.c.heel_plot_png), w=150)
+    else:
+        pdf.para("The heel-trace figure was not written for this trial.")
+
+
+def _footprints(pdf: _Doc) -> None:
+    c = pdf.c
+    pdf.heading("Footprints of the first straight pass (walking direction to the right)")
+    if not c.footprints:
+        pdf.para("Fewer than two steps in the first pass: no footprint diagram.")
+        return
+    span = max(f.along_mm for f in c.footprints) - min(f.along_mm for f in c.footprints) or 1.0
+    width = pdf.w - pdf.l_margin - pdf.r_margin - 10
+    scale = min(width / span, 0.12)  # mm on paper per mm on the floor
+    x0, y0 = pdf.l_margin + 5, pdf.get_y() + 16
+    pdf.set_draw_color(180, 180, 180)
+    pdf.line(x0, y0, x0 + span * scale, y0)
+    for f in c.footprints:
+        pdf.set_fill_color(*SIDE_COLOURS.get(f.side, (90, 90, 90)))
+        x, y = x0 + f.along_mm * scale, y0 - f.across_mm * scale
+        pdf.ellipse(x - 3.2, y - 1.6, 6.4, 3.2, style="F")
+    pdf.set_draw_color(0, 0, 0)
+    pdf.set_y(y0 + 16)
+    pdf.set_font("Helvetica", "", 8)
+    pdf.cell(0, 4, _latin1(f"Blue: left heel, red: right heel; scale 1:{1 / scale:.0f}; {span / 1000:.2f} m shown."),
+             new_x="LMARGIN", new_y="NEXT")
+
+
+def _closing(pdf: _Doc) -> None:
+    c = pdf.c
+    pdf.heading("Joint angles")
+    pdf.para("Joint kinematics, where computed for this trial, are in its kinematics report "
+             "(GET /trials/{id}/kinematics); they are not part of this page.")
+    pdf.heading("Method and software")
+    pdf.para(f"{METHOD_TEXT} Software: gaitcap {c.version}; results: {c.stage} ({c.method}).", 8)
+    pdf.heading("Normative reference")
+    pdf.para(" ".join(c.norm_citations) or "No normative table.", 8)
+    pdf.ln(10)
+    pdf.set_font("Helvetica", "", 10)
+    pdf.cell(95, 6, "Clinician: ______________________________")
+    pdf.cell(0, 6, "Signature / date: ______________________", new_x="LMARGIN", new_y="NEXT")
+
+
+SECTIONS = (_identity, _quality, _table, _flags, _heel_plot, _footprints, _closing)
+
+
+def report_pdf(content: ReportContent) -> bytes:
+    """The report as PDF bytes."""
+    pdf = _Doc(content)
+    pdf.alias_nb_pages()
+    pdf.add_page()
+    for section in SECTIONS:
+        if section is _heel_plot:
+            pdf.add_page()
+        section(pdf)
+    return bytes(pdf.output())

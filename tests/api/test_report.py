@@ -1,0 +1,109 @@
+"""The clinical report: the PDF's text (patient, date, session, clinical fields, every parameter with
+both sides, normal range and z-score, the previous visit, sources), the parameters JSON, patients with
+their history over visits, trial corrections and voiding (audited)."""
+
+import io
+
+import numpy as np
+import pytest
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.outputs import steps_of, summary_of
+from gaitcap.services.reports.content import PARAMETERS
+
+
+@pytest.fixture(scope="module")
+def gait_reports():
+    """Gait reports of the synthetic walker at three speeds (three visits), 10 s each."""
+    from gaitcap.acquisition.synthetic.params import WalkParams
+    from gaitcap.acquisition.synthetic.path import Room, plan_walk
+    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.skeletons import get_skeleton
+
+    names, times, out = list(get_skeleton("halpe26").joint_names), np.arange(300) / 30.0, []
+    for step_mm in (550.0, 600.0, 650.0):
+        params = WalkParams(step_length_mm=step_mm)
+        out.append(analyze_gait(simulate_body(plan_walk(params, 10.0, Room(), seed=0), params, times), times, names))
+    return out
+
+
+def _trial_with(server, report, *, subject: str, session: str) -> str:
+    _, client, _, settings = server
+    tid = client.post("/trials", json={"subject_id": subject, "session": session}).json()["id"]
+    client.post(f"/trials/{tid}/stop")
+    report.write_json(trial_files(settings.data_dir, tid).stage_file("refined", "gait_json"))
+    db = cat.open_catalog(settings.catalog_url)
+    cat.store_result(db, trial_id=tid, stage="refined", method="implicit_fit", steps=steps_of(report),
+                     summary=summary_of(report), quality={})
+    db.close()
+    return tid
+
+
+def test_report_pdf_text_has_patient_date_both_sides_norms_and_history(server, gait_reports):
+    from pypdf import PdfReader
+
+    _, client, _, _ = server
+    first = _trial_with(server, gait_reports[0], subject="p0042", session="visit-1")
+    tid = _trial_with(server, gait_reports[2], subject="P0042", session="visit-2")
+    assert client.put("/patients/p0042", json={"sex": "female", "birth_year": 1960}).status_code == 200
+    r = client.post(f"/trials/{tid}/correct", json={"operator": "alice", "walking_aid": "cane",
+                                                     "footwear": "own shoes", "reason": "entered after the walk"})
+    assert r.status_code == 200 and r.json()["changed"]["walking_aid"] == {"old": "", "new": "cane"}
+    pdf = client.get(f"/trials/{tid}/report.pdf")
+    assert pdf.status_code == 200 and pdf.headers["content-type"] == "application/pdf"
+    reader = PdfReader(io.BytesIO(pdf.content))
+    assert 1 <= len(reader.pages) <= 3
+    text = " ".join(" ".join(page.extract_text().split()) for page in reader.pages)
+    trial = client.get(f"/trials/{tid}").json()
+    import time
+    day = time.strftime("%Y-%m-%d", time.gmtime(trial["started_at"]))
+    for needle in ("P0042", day, "visit-2", tid, "cane", "own shoes", "alice", "Left", "Right", "SI %",
+                   "Normal (95 %)", "Bohannon", "Signature", f"trial {first}", "Previous"):
+        assert needle in text, needle
+    for p in PARAMETERS.values():
+        assert f"{p.label} ({p.unit})" in text, p.label
+    js = client.get(f"/trials/{tid}/parameters").json()
+    speed = next(p for p in js["parameters"] if p["name"] == "gait_speed_m_s")
+    step = next(p for p in js["parameters"] if p["name"] == "step_length_mm")
+    assert js["age"] == time.gmtime(trial["started_at"]).tm_year - 1960 and speed["normal_range"] is not None
+    assert speed["z"] == pytest.approx((speed["mean"] - (speed["normal_range"][0] + speed["normal_range"][1]) / 2)
+                                       / ((speed["normal_range"][1] - speed["normal_range"][0]) / 3.92), abs=0.01)
+    assert step["left"] == pytest.approx(650.0, abs=5) and step["right"] == pytest.approx(650.0, abs=5)
+    assert step["previous"] == pytest.approx(550.0, abs=5) and js["previous_trial"] == first
+    assert step["normal_range"] is None  # the shipped table has gait speed only
+
+
+def test_history_over_three_visits_shows_the_trend_and_leaves_void_out(server, gait_reports):
+    _, client, _, _ = server
+    ids = [_trial_with(server, rep, subject="P7", session=f"visit-{i + 1}") for i, rep in enumerate(gait_reports)]
+    wrong = _trial_with(server, gait_reports[0], subject="P8", session="visit-1")
+    r = client.post(f"/trials/{wrong}/correct", json={"subject_id": "p7", "session": "visit-3"})
+    assert r.json()["changed"]["subject_id"] == {"old": "P8", "new": "P7"}
+    assert client.post(f"/trials/{wrong}/mark-void", json={"reason": "walked with the wrong shoes"}).status_code == 200
+    assert client.post(f"/trials/{wrong}/mark-void", json={"reason": "again and again"}).status_code == 409
+    h = client.get("/patients/p7").json()
+    assert h["id"] == "P7" and [t["id"] for t in h["history"]] == ids + [wrong]
+    steps = [t["values"]["step_length_mm"] for t in h["history"] if not t["voided"]]
+    assert steps == sorted(steps) and steps[-1] - steps[0] == pytest.approx(100.0, abs=10)
+    assert h["history"][-1]["voided"] and h["history"][-1]["void_reason"] == "walked with the wrong shoes"
+    actions = {e["action"]: e["detail"] for e in client.get("/audit", params={"trial_id": wrong}).json()}
+    assert "P8" in actions["correct"] and actions["mark void"] == "walked with the wrong shoes"
+    pdf = client.get(f"/trials/{wrong}/report.pdf")
+    from pypdf import PdfReader
+
+    assert "VOID: walked with the wrong shoes" in PdfReader(io.BytesIO(pdf.content)).pages[0].extract_text()
+    assert [p["id"] for p in client.get("/patients", params={"prefix": "p"}).json()][0] == "P7"
+
+
+def test_report_refusals_name_what_is_missing(server):
+    _, client, _, _ = server
+    tid = client.post("/trials", json={"subject_id": "P9"}).json()["id"]
+    client.post(f"/trials/{tid}/stop")
+    r = client.get(f"/trials/{tid}/report.pdf")
+    assert r.status_code == 404 and "no results" in r.json()["detail"]
+    assert client.get("/patients/NOBODY").status_code == 404
+    r = client.put("/patients/P9", json={"sex": "other"})
+    assert r.status_code == 422 and "sex" in r.json()["detail"]
+    r = client.post(f"/trials/{tid}/mark-void", json={"reason": "no"})
+    assert r.status_code == 422 and "reason" in r.json()["detail"]
