@@ -22,6 +22,7 @@ STAGE_FILES = {
     "results_mcap": "results.mcap",
     "gait_json": "gait.json",
     "steps_csv": "steps.csv",
+    "summary_csv": "summary.csv",  # per-side statistics and symmetry index of every parameter
     "report_png": "report.png",
     # joint kinematics (gaitcap.services.kinematics.trial.FILES, in a subfolder)
     "kinematics_json": "kinematics/kinematics.json",

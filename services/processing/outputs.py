@@ -91,12 +91,13 @@ def report_png(traj: Trajectory, report, *, title: str) -> bytes:
 
 
 def write_data(files: TrialFiles, stage: str, traj: Trajectory, report) -> None:
-    """The stage's trajectory (npz) and gait report (JSON, CSV): quick, written before the result is
+    """The stage's trajectory (npz) and gait report (JSON, steps CSV, per-side summary CSV): quick, written before the result is
     stored in the catalog."""
     write_npz(files.stage_file(stage, "trajectory_npz"), traj)
     if report is not None:
         report.write_json(files.stage_file(stage, "gait_json"))
         report.write_csv(files.stage_file(stage, "steps_csv"))
+        report.write_summary_csv(files.stage_file(stage, "summary_csv"))
 
 
 def write_views(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str) -> None:
