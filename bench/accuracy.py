@@ -14,14 +14,13 @@ adds the paper's implicit MLP trained N steps on that clip (slow on a CPU).
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
 import sys
 import time
 
 import numpy as np
-from _common import jsonable
+from _common import add_trial_args, emit
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -137,10 +136,7 @@ def print_table(result: dict) -> None:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--preset", default="paper")
-    ap.add_argument("--seconds", type=float, default=30.0)
-    ap.add_argument("--cameras", type=int, default=10)
-    ap.add_argument("--seed", type=int, default=0)
+    add_trial_args(ap)
     ap.add_argument("--no-anipose", action="store_true", help="skip aniposelib (optional bench dependency)")
     ap.add_argument("--paper-steps", type=int, default=0, help="also train the paper's MLP this many steps")
     ap.add_argument("--clip-seconds", type=float, default=3.0, help="clip for aniposelib and --paper-steps")
@@ -149,10 +145,7 @@ def main(argv=None) -> None:
     logging.basicConfig(level=logging.WARNING)
     result = run(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed,
                  anipose=not args.no_anipose, paper_steps=args.paper_steps, clip_seconds=args.clip_seconds)
-    if args.json:
-        print(json.dumps(jsonable(result)))
-    else:
-        print_table(result)
+    emit(result, as_json=args.json, table=print_table)
 
 
 if __name__ == "__main__":

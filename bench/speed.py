@@ -17,7 +17,6 @@ On the synthetic 'paper' trial (10 cameras, 30 fps, default 30 s = 900 frames):
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
 import statistics
@@ -25,7 +24,7 @@ import sys
 import time
 
 import numpy as np
-from _common import jsonable
+from _common import emit
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -142,10 +141,7 @@ def main(argv=None) -> None:
     logging.basicConfig(level=logging.WARNING)
     result = run(seconds=args.seconds, cameras=args.cameras, repeats=args.repeats, anipose=not args.no_anipose,
                  paper_steps=args.paper_steps, clip_seconds=args.clip_seconds)
-    if args.json:
-        print(json.dumps(jsonable(result)))
-    else:
-        print_table(result)
+    emit(result, as_json=args.json, table=print_table)
 
 
 if __name__ == "__main__":
