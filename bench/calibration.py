@@ -22,8 +22,9 @@ simulate-board`` and ``gaitcap calibrate --compare`` do).
 Real recordings (installed by deploy/bootstrap.sh; skipped when absent): caliscope's 4-webcam session of
 a hand-held inverted ChArUco board (its own corner detections, calibrated here with caliscope's
 intrinsics and with intrinsics estimated from the clip, compared with caliscope's calibration after a
-similarity alignment), caliscope's real checkerboard frames and Pose2Sim's demo intrinsics images (how
-many views the detector finds, and how fast).
+similarity alignment), caliscope's real checkerboard frames (how many views the detector finds, and how
+fast) and Pose2Sim's demo intrinsics images (found views, and each camera's focal length against
+Qualisys's calibration of the same cameras).
 """
 
 from __future__ import annotations
@@ -234,6 +235,48 @@ def _real_images(name: str, pattern: str, board) -> dict | None:
             "found": found, "ms_per_image": 1000 * (time.perf_counter() - t0) / len(paths)}
 
 
+def _qualisys_focal_px(qca_text: str) -> dict[str, float]:
+    """{camera serial: focal length px} from a Qualisys .qca.txt (its units are 1/64 px)."""
+    import re
+
+    cams = re.findall(r'<camera [^>]*serial="(\w+)".*?<intrinsic ([^/]*)/>', qca_text, re.S)
+    return {serial: float(re.search(r'focalLengthU="([-\d.]+)"', intr).group(1)) / 64 for serial, intr in cams}
+
+
+def _pose2sim_intrinsics() -> dict | None:
+    """Pose2Sim's demo intrinsics images (real, 4 cameras, a 8 x 5 checkerboard of 60 mm): the board found,
+    each camera's intrinsics (k1) from its views, and the focal length against Qualisys's calibration of
+    the same cameras."""
+    import cv2
+    from gaitcap.acquisition.board import BoardConfig, make_board
+    from gaitcap.reconstruction.calibration import BoardObservations, IntrinsicsConfig
+    from gaitcap.reconstruction.calibration.intrinsics import estimate_intrinsics
+
+    folder = _testdata() / "pose2sim-single"
+    if not (folder / "calibration" / "Calib.qca.txt").exists():
+        return None
+    config = BoardConfig.checkerboard(8, 5, 60.0)
+    board = make_board(config)
+    focal_ref = _qualisys_focal_px((folder / "calibration" / "Calib.qca.txt").read_text())
+    out = {"recording": "Pose2Sim demo intrinsics images (4 cameras, 1088x1920)", "board": config.describe(),
+           "cameras": {}}
+    t0, n_images = time.perf_counter(), 0
+    for cam, ref in sorted(focal_ref.items()):
+        paths = sorted((folder / "calibration" / "intrinsics" / f"int_{cam}_img").glob("*.jpg"))
+        found = [c for c in (board.detect(cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)) for p in paths) if c is not None]
+        n_images += len(paths)
+        h, w = cv2.imread(str(paths[0]), cv2.IMREAD_GRAYSCALE).shape
+        entry = {"images": len(paths), "found": len(found), "qualisys_focal_px": ref}
+        if len(found) >= 3:
+            obs = BoardObservations((cam,), ((w, h),), np.stack(found)[None], board.geometry)
+            intr = estimate_intrinsics(obs, 0, IntrinsicsConfig(min_views=3, min_tilted_views=2))
+            entry.update(focal_px=float(intr.matrix_px[0, 0]), focal_diff_pct=float(100 * (intr.matrix_px[0, 0] / ref - 1)),
+                         rms_px=intr.rms_px)
+        out["cameras"][cam] = entry
+    out["ms_per_image"] = 1000 * (time.perf_counter() - t0) / n_images
+    return out
+
+
 def _real() -> dict:
     from gaitcap.acquisition.board import BoardConfig
 
@@ -242,9 +285,8 @@ def _real() -> dict:
         "images": [r for r in (
             _real_images("caliscope checkerboard frames (webcams 1280x720)", "caliscope-chessboard/*.jpg",
                          BoardConfig.checkerboard(10, 7, 25.0)),
-            _real_images("Pose2Sim demo intrinsics images (4 cameras)", "pose2sim-single/calibration/intrinsics/*/*.jpg",
-                         BoardConfig.checkerboard(8, 5, 60.0)),
         ) if r is not None],
+        "intrinsics": _pose2sim_intrinsics(),
     }
 
 
@@ -270,6 +312,14 @@ def _real_table(r: dict) -> str:
     for i in r["images"]:
         lines.append(f"  {i['recording']}, {i['board']}: found in {i['found']} of {i['images']} images "
                      f"({i['image_px'][0]}x{i['image_px'][1]}), {i['ms_per_image']:.0f} ms/image")
+    if r.get("intrinsics"):
+        p = r["intrinsics"]
+        lines.append(f"  {p['recording']}, {p['board']} ({p['ms_per_image']:.0f} ms/image), intrinsics (k1) vs "
+                     "Qualisys's calibration of the same cameras:")
+        for cam, e in p["cameras"].items():
+            got = (f"focal {e['focal_px']:.1f} px vs {e['qualisys_focal_px']:.1f} px ({e['focal_diff_pct']:+.2f} %), "
+                   f"RMS {e['rms_px']:.3f} px") if "focal_px" in e else "too few views"
+            lines.append(f"    {cam}: board found in {e['found']} of {e['images']} images; {got}")
     if not r["sessions"] and not r["images"]:
         lines.append("  none installed (run deploy/bootstrap.sh)")
     return "\n".join(lines)
