@@ -33,6 +33,7 @@ from gaitcap.services.live.health import health_report
 from gaitcap.services.live.protocols import NoLink
 
 log = logging.getLogger(__name__)
+ID_WORDS = "use letters, digits, '.', '_' or '-' (up to 64), starting with a letter or digit; no spaces"
 STATIC = Path(__file__).parent / "static"
 
 
@@ -42,7 +43,8 @@ def _field_errors(exc: RequestValidationError) -> JSONResponse:
     parts = []
     for err in exc.errors()[:10]:
         loc = [str(p) for p in err.get("loc", ()) if p not in ("body", "query", "path")]
-        parts.append(f"{'.'.join(loc)[:80] or 'body'}: {str(err.get('msg', 'invalid'))[:200]}")
+        msg = ID_WORDS if err.get("type") == "string_pattern_mismatch" else str(err.get("msg", "invalid"))[:200]
+        parts.append(f"{'.'.join(loc)[:80] or 'body'}: {msg}")
     return JSONResponse(status_code=422, content={"detail": "; ".join(parts), "errors": jsonable(exc.errors()[:10])})
 
 

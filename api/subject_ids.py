@@ -15,7 +15,10 @@ _NAME = re.compile(r"[A-Za-z]{3,}[-_. ]+[A-Za-z]{3,}")
 def check_subject_id(value: str, pattern: str = DEFAULT_PATTERN) -> str:
     """The canonical (upper-case) id; ValueError saying why a name-like or malformed id is refused."""
     if not isinstance(value, str) or not re.fullmatch(pattern, value):
-        raise ValueError(f"subject_id: must match {pattern} (a pseudonym such as P0042)")
+        if pattern == DEFAULT_PATTERN:
+            raise ValueError("subject_id: must match the ID rules: 1-32 letters, digits, '.', '_' or '-', starting "
+                             "with a letter or digit (a pseudonym such as P0042)")
+        raise ValueError(f"subject_id: must match the clinic's pattern {pattern} (a pseudonym such as P0042)")
     if _DATE.search(value):
         raise ValueError("subject_id: looks like it contains a date (of birth?); use a pseudonym such as P0042")
     if _NAME.search(value):

@@ -57,13 +57,20 @@ async function signOut() {
 
 // ---------- messages ----------
 function showError(text) { const e = $("#error"); e.textContent = text; e.hidden = !text; }
-function setStatus(text, recording) { const s = $("#record-status"); s.textContent = text; s.classList.toggle("recording", !!recording); }
+function setStatus(text, recording) {
+  // the status is an aria-live region: written only when its words change (the timer beside it is not announced)
+  const s = $("#record-status");
+  if (s.textContent !== text) s.textContent = text;
+  s.parentElement.classList.toggle("recording", !!recording);
+  if (!recording) $("#record-timer").textContent = "";
+}
 
 // ---------- start / stop ----------
 async function startTrial() {
   showError("");
   const subject = $("#subject").value.trim();
   if (!subject) { showError("Please enter the patient ID (a pseudonym such as P0042) before starting."); $("#subject").focus(); return; }
+  if (!checkFields()) return;
   state.busy = true; $("#start").disabled = true;
   setStatus("Starting the recording…");
   try {
@@ -115,7 +122,8 @@ function renderRecording() {
   $("#subject").disabled = !!rec; $("#session").disabled = !!rec;
   if (rec) {
     const secs = Math.max(0, Date.now() / 1000 - rec.started_at);
-    setStatus(`Recording patient ${rec.subject_id} — ${fmtDuration(secs)}. Press Stop when the walk is finished.`, true);
+    setStatus(`Recording patient ${rec.subject_id}. Press Stop when the walk is finished.`, true);
+    $("#record-timer").textContent = fmtDuration(secs);
   }
 }
 
@@ -150,21 +158,39 @@ function onStatus(snap) {
 }
 
 function renderTrials(trials) {
+  // updated in place: a row is rewritten only when its trial changed, so focus and clicks stay where they are
   const body = $("#trials tbody");
-  body.innerHTML = "";
-  if (!trials.length) { body.innerHTML = '<tr><td colspan="6" class="muted">No trials yet.</td></tr>'; return; }
+  if (!trials.length) { if (!body.querySelector(".empty")) body.innerHTML = '<tr class="empty"><td colspan="6" class="muted">No trials yet.</td></tr>'; return; }
+  body.querySelector(".empty")?.remove();
+  const rows = new Map([...body.querySelectorAll("tr[data-trial]")].map((tr) => [tr.dataset.trial, tr]));
+  const wanted = new Set(trials.map((t) => t.id));
+  for (const [id, tr] of rows) if (!wanted.has(id)) tr.remove();
+  let before = body.firstElementChild;
   for (const t of trials) {
-    const tr = document.createElement("tr");
-    tr.dataset.trial = t.id;
-    const progress = t.state === "processing" ? ` <progress max="1" value="${t.progress}"></progress>` : "";
-    tr.innerHTML = `<td>${fmtTime(t.started_at || t.created_at)}</td><td>${esc(t.subject_id)}</td><td>${esc(t.session)}</td>
-      <td>${t.duration_s == null ? "" : fmtDuration(t.duration_s)}</td>
-      <td><span class="state state-${t.state}">${esc(t.state_text)}</span>${progress}${t.error ? `<div class="error">${esc(t.error)}</div>` : ""}${t.warnings.length ? `<div class="warning-count">${t.warnings.length} warning${t.warnings.length > 1 ? "s" : ""}</div>` : ""}</td>
-      <td>${t.results.length ? '<button class="btn view">View results</button>' : ""}</td>`;
-    const btn = tr.querySelector(".view");
-    if (btn) btn.onclick = () => follow(t.id);
-    body.appendChild(tr);
+    let tr = rows.get(t.id);
+    if (!tr) { tr = document.createElement("tr"); tr.dataset.trial = t.id; }
+    const cells = trialCells(t), key = JSON.stringify(cells);
+    if (tr.dataset.key !== key) {
+      tr.dataset.key = key;
+      if (tr.children.length !== 6) { tr.innerHTML = "<td></td>".repeat(6); tr.children[1].className = tr.children[2].className = "id-cell"; }
+      cells.forEach((html, i) => { if (i < 5 && tr.children[i].innerHTML !== html) tr.children[i].innerHTML = html; });
+      const hasButton = !!tr.children[5].querySelector(".view");
+      if (hasButton !== !!cells[5]) {
+        tr.children[5].innerHTML = cells[5];
+        const btn = tr.children[5].querySelector(".view");
+        if (btn) btn.onclick = () => follow(t.id);
+      }
+    }
+    if (tr !== before) body.insertBefore(tr, before); else before = before.nextElementSibling;
   }
+}
+
+function trialCells(t) {
+  const progress = t.state === "processing" ? ` <progress max="1" value="${t.progress}"></progress>` : "";
+  return [fmtTime(t.started_at || t.created_at), esc(t.subject_id), esc(t.session),
+    t.duration_s == null ? "" : fmtDuration(t.duration_s),
+    `<span class="state state-${t.state}">${esc(t.state_text)}</span>${progress}${t.error ? `<div class="error">${esc(t.error)}</div>` : ""}${t.warnings.length ? `<div class="warning-count">${t.warnings.length} warning${t.warnings.length > 1 ? "s" : ""}</div>` : ""}`,
+    t.results.length ? `<button class="btn view" aria-label="View results of ${esc(t.subject_id)}, ${esc(t.session)}">View results</button>` : ""];
 }
 
 // ---------- cameras ----------
@@ -207,7 +233,8 @@ function connectPreviews() {
 function follow(trialId) {
   state.followed = trialId; state.shownResult = null;
   $("#results").hidden = false;
-  $("#results-title").textContent = "trial " + trialId;
+  $("#results-title").textContent = "trial " + trialId; $("#results-patient").textContent = "";
+  resetSides();
   $("#results-stage").textContent = "Computing the results… the first numbers appear a few seconds after Stop.";
   $("#results-stage").className = "stage";
   $("#results-summary").innerHTML = ""; $("#results-summary").dataset.stage = "";
@@ -230,6 +257,7 @@ function renderWarnings(warnings, t) {
 
 function updateFollowed(t) {
   renderWarnings(t.warnings || [], t);
+  $("#results-patient").textContent = `Patient ${t.subject_id} · ${fmtTime(t.started_at || t.created_at)} · session ${t.session}`;
   if (state.rerun === t.id && !rerunFinished(t)) return;
   const best = t.results.includes("refined") ? "refined" : t.results.includes("preliminary") ? "preliminary" : null;
   if (t.state === "failed") {
@@ -267,6 +295,7 @@ async function loadResult(trialId, stage, trialState) {
   if (!summary.children.length) summary.innerHTML = '<p class="muted">No complete steps were found in this walk.</p>';
   summary.dataset.stage = stage;
   renderSteps(g.steps);
+  loadSides(trialId);
   loadPeople(trialId);
   showPlot(withToken(`/trials/${encodeURIComponent(trialId)}/report.png?stage=${stage}`), 30);
   const names = { steps_csv: "Steps (CSV)", trajectory_csv: "3D trajectory (CSV)", trajectory_trc: "3D trajectory (TRC)",

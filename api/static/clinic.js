@@ -1,0 +1,136 @@
+// gaitcap clinic page, part 2: field checks in plain words, both sides against the norms, the report,
+// the patient's history (trend and side-by-side comparison). Uses the helpers of app.js ($, api, esc, fmtTime).
+"use strict";
+
+const ID_RE = /^[A-Za-z0-9][A-Za-z0-9_.-]*$/;
+const ID_MAX = { "Patient ID": 32, "Session": 64 };  // the server's default rules (a clinic may narrow the patient's)
+
+function idProblem(value, what) {
+  // the words a clinician reads instead of a pattern; nothing is cut silently
+  const max = ID_MAX[what];
+  if (!value) return "";
+  if (value.length > max) return `${what}: ${value.length} characters; use at most ${max}.`;
+  if (/\s/.test(value)) return `${what}: no spaces. Use letters, digits, '.', '_' or '-' (up to ${max}), e.g. ${what === "Session" ? "visit-1" : "P0042"}.`;
+  if (!ID_RE.test(value)) return `${what}: use letters, digits, '.', '_' or '-' (up to ${max}), starting with a letter or digit.`;
+  return "";
+}
+
+function showFieldError(id, text) {
+  const e = $(`#${id}-error`), input = $(`#${id}`);
+  e.textContent = text; e.hidden = !text;
+  input.setAttribute("aria-invalid", text ? "true" : "false");
+}
+
+function checkFields() {
+  const subject = idProblem($("#subject").value.trim(), "Patient ID"), session = idProblem($("#session").value.trim(), "Session");
+  showFieldError("subject", subject); showFieldError("session", session);
+  if (subject) $("#subject").focus(); else if (session) $("#session").focus();
+  return !subject && !session;
+}
+
+// ---------- both sides against the norms ----------
+function resetSides() {
+  $("#sides-wrap").hidden = true; $("#results-flags").hidden = true; $("#report-pdf").hidden = true;
+  $("#sides-table tbody").innerHTML = "";
+}
+
+function fmtFixed(x, d) { return x == null ? "–" : Number(x).toFixed(d); }
+
+async function loadSides(trialId) {
+  let r;
+  try { r = await api(`/trials/${encodeURIComponent(trialId)}/parameters`); } catch (e) { return; }
+  if (state.followed !== trialId) return;
+  $("#results-patient").textContent = `Patient ${r.subject_id} · ${fmtTime(r.started_at)} · session ${r.session}`
+    + (r.voided ? ` · VOID: ${r.void_reason}` : "");
+  const body = $("#sides-table tbody");
+  body.innerHTML = r.parameters.map((p) => {
+    const d = p.decimals, out = p.z != null && Math.abs(p.z) > 1.96;
+    const range = p.normal_range ? `${fmtFixed(p.normal_range[0], d)}–${fmtFixed(p.normal_range[1], d)}` : "no reference";
+    return `<tr data-parameter="${esc(p.name)}"><td><abbr title="${esc(p.help)}">${esc(p.label)}</abbr> (${esc(p.unit)})</td>
+      <td>${fmtFixed(p.left, d)}</td><td>${fmtFixed(p.right, d)}</td><td>${fmtFixed(p.mean, d)}</td><td>${fmtFixed(p.sd, d + 1)}</td>
+      <td>${fmtFixed(p.symmetry_index_pct, 1)}</td><td>${range}</td><td class="${out ? "out" : ""}">${p.z == null ? "–" : (p.z > 0 ? "+" : "") + p.z.toFixed(1)}</td></tr>`;
+  }).join("");
+  $("#sides-note").textContent = "Left and right: means over each side's steady steps. Normal range: mean ± 1.96 SD for the patient's age decade and sex"
+    + (r.age == null || !r.sex ? " (record the patient's sex and birth year under Patient history to see it)." : ".");
+  $("#sides-wrap").hidden = false;
+  const flags = $("#results-flags");
+  flags.querySelector("ul").innerHTML = r.flags.map((f) => `<li>${esc(f)}</li>`).join("");
+  flags.hidden = !r.flags.length;
+  const link = $("#report-pdf");
+  link.href = `/trials/${encodeURIComponent(trialId)}/report.pdf`; link.hidden = false;
+}
+
+// ---------- the patient's history ----------
+async function showHistory(subjectId) {
+  const err = $("#patient-error");
+  err.hidden = true;
+  const problem = idProblem(subjectId, "Patient ID");
+  if (problem || !subjectId) { err.textContent = problem || "Enter a patient ID."; err.hidden = false; return; }
+  let h;
+  try { h = await api(`/patients/${encodeURIComponent(subjectId)}`); } catch (e) {
+    err.textContent = e.status === 404 ? `No patient ${subjectId.toUpperCase()} yet.` : "Could not load the history: " + e.message;
+    err.hidden = false; return;
+  }
+  $("#patient-view").hidden = false;
+  const visits = h.history.filter((t) => !t.voided).length;
+  $("#patient-summary").textContent = `Patient ${h.id}, first seen ${fmtTime(h.created_at)}; ${h.history.length} trial(s), ${visits} valid`
+    + (h.sex ? `; ${h.sex}` : "") + (h.birth_year ? `, born ${h.birth_year}` : "") + (h.notes ? `. Notes: ${h.notes}` : "");
+  const body = $("#history-table tbody");
+  body.innerHTML = h.history.map((t) => {
+    const v = t.values;
+    return `<tr data-trial="${esc(t.id)}" class="${t.voided ? "voided" : ""}">
+      <td><input type="checkbox" class="cmp" value="${esc(t.id)}" aria-label="Compare ${esc(t.session)}" ${t.voided || !t.results.length ? "disabled" : ""}></td>
+      <td>${fmtTime(t.started_at || t.created_at)}</td><td class="id-cell">${esc(t.session)}</td>
+      <td>${fmtFixed(v.gait_speed_m_s, 2)}</td><td>${fmtFixed(v.cadence_steps_min, 1)}</td><td>${fmtFixed(v.step_length_mm, 0)}</td>
+      <td>${fmtFixed(v.step_length_symmetry_index_pct, 1)}</td>
+      <td>${esc(t.state_text)}${t.voided ? `<div class="void-note">Void: ${esc(t.void_reason)}</div>` : ""}</td>
+      <td>${t.results.length ? `<a href="/trials/${encodeURIComponent(t.id)}/report.pdf" target="_blank" rel="noopener">Report (PDF)</a>` : ""}</td></tr>`;
+  }).join("");
+  for (const box of body.querySelectorAll(".cmp")) box.onchange = compareChecked;
+  drawTrend(h.history.filter((t) => !t.voided && t.values.gait_speed_m_s != null));
+  $("#compare").hidden = true;
+}
+
+function drawTrend(points) {
+  // gait speed per visit (m/s) on a plain SVG; the normal band comes from the newest trial's parameters
+  const svg = $("#trend"), W = 600, H = 220, L = 50, B = 30;
+  svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
+  if (points.length === 0) { svg.innerHTML = `<text x="${L}" y="40" font-size="14">No results yet.</text>`; return; }
+  const ys = points.map((t) => t.values.gait_speed_m_s), lo = Math.min(0.4, ...ys) - 0.1, hi = Math.max(1.8, ...ys) + 0.1;
+  const x = (i) => L + (points.length === 1 ? (W - L) / 2 : i * (W - L - 20) / (points.length - 1));
+  const y = (v) => H - B - (v - lo) / (hi - lo) * (H - B - 10);
+  const ticks = [0.5, 1.0, 1.5].map((v) => `<line x1="${L}" x2="${W}" y1="${y(v)}" y2="${y(v)}" stroke="#d5dbe3"/><text x="${L - 6}" y="${y(v) + 4}" font-size="12" text-anchor="end">${v.toFixed(1)}</text>`).join("");
+  const path = points.map((t, i) => `${i ? "L" : "M"}${x(i)},${y(t.values.gait_speed_m_s)}`).join(" ");
+  const dots = points.map((t, i) => `<circle cx="${x(i)}" cy="${y(t.values.gait_speed_m_s)}" r="5" fill="#1f3a5f"><title>${esc(t.session)}: ${t.values.gait_speed_m_s.toFixed(2)} m/s</title></circle>
+    <text x="${x(i)}" y="${H - 10}" font-size="12" text-anchor="middle">${esc(t.session.slice(0, 12))}</text>`).join("");
+  svg.innerHTML = `<g id="trend-band"></g>${ticks}<text x="4" y="14" font-size="12">m/s</text><path d="${path}" fill="none" stroke="#1f3a5f" stroke-width="2"/>${dots}`;
+  const newest = points[points.length - 1];
+  api(`/trials/${encodeURIComponent(newest.id)}/parameters`).then((r) => {
+    const p = r.parameters.find((q) => q.name === "gait_speed_m_s");
+    if (!p || !p.normal_range) return;
+    const [a, b] = p.normal_range;
+    $("#trend-band").innerHTML = `<rect x="${L}" width="${W - L}" y="${y(Math.min(b, hi))}" height="${y(Math.max(a, lo)) - y(Math.min(b, hi))}" fill="#d8f3df"><title>Normal range ${a.toFixed(2)}–${b.toFixed(2)} m/s</title></rect>`;
+  }).catch(() => {});
+}
+
+async function compareChecked() {
+  const ids = [...document.querySelectorAll("#history-table .cmp:checked")].map((b) => b.value);
+  const box = $("#compare");
+  if (ids.length !== 2) { box.hidden = true; return; }
+  const [a, b] = await Promise.all(ids.map((id) => api(`/trials/${encodeURIComponent(id)}/parameters`)));
+  $("#compare-table thead").innerHTML = `<tr><th>Parameter</th><th>${esc(a.session)} L</th><th>${esc(a.session)} R</th><th>${esc(a.session)} mean</th>
+    <th>${esc(b.session)} L</th><th>${esc(b.session)} R</th><th>${esc(b.session)} mean</th><th>Change</th></tr>`;
+  $("#compare-table tbody").innerHTML = a.parameters.map((p, i) => {
+    const q = b.parameters[i], d = p.decimals;
+    const change = p.mean != null && q.mean != null ? (q.mean - p.mean >= 0 ? "+" : "") + (q.mean - p.mean).toFixed(d) : "–";
+    return `<tr><td>${esc(p.label)} (${esc(p.unit)})</td><td>${fmtFixed(p.left, d)}</td><td>${fmtFixed(p.right, d)}</td><td>${fmtFixed(p.mean, d)}</td>
+      <td>${fmtFixed(q.left, d)}</td><td>${fmtFixed(q.right, d)}</td><td>${fmtFixed(q.mean, d)}</td><td>${change}</td></tr>`;
+  }).join("");
+  box.hidden = false;
+}
+
+$("#patient-form").onsubmit = (ev) => { ev.preventDefault(); showHistory($("#patient-input").value.trim()); };
+$("#print").onclick = () => window.print();
+for (const id of ["subject", "session"]) {
+  $(`#${id}`).addEventListener("input", () => showFieldError(id, idProblem($(`#${id}`).value.trim(), id === "subject" ? "Patient ID" : "Session")));
+}

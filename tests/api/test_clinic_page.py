@@ -1,0 +1,113 @@
+"""The clinic page in a real browser (Chromium via Playwright) against a real uvicorn and catalog:
+nothing before sign-in, phone / tablet / desktop widths, readable field messages, keyboard-only use of
+the history, both sides against the norms on the results card, the trial list updated in place."""
+
+import numpy as np
+import pytest
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.outputs import steps_of, summary_of
+
+from .conftest import sign_in_page
+
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
+WIDTHS = {"phone": (390, 844), "tablet": (820, 1180), "desktop": (1280, 900)}
+
+
+@pytest.fixture(scope="module")
+def walk_report():
+    from gaitcap.acquisition.synthetic.params import WalkParams
+    from gaitcap.acquisition.synthetic.path import Room, plan_walk
+    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.skeletons import get_skeleton
+
+    params, times = WalkParams(), np.arange(300) / 30.0
+    points = simulate_body(plan_walk(params, 10.0, Room(), seed=0), params, times)
+    return analyze_gait(points, times, list(get_skeleton("halpe26").joint_names))
+
+
+@pytest.fixture
+def visits(server, walk_report):
+    """Three visits of P0042 with refined results, the patient's sex and birth year recorded."""
+    _, client, _, settings = server
+    db, ids = cat.open_catalog(settings.catalog_url), []
+    for i in range(3):
+        tid = client.post("/trials", json={"subject_id": "P0042", "session": f"visit-{i + 1}"}).json()["id"]
+        client.post(f"/trials/{tid}/stop")
+        walk_report.write_json(trial_files(settings.data_dir, tid).stage_file("refined", "gait_json"))
+        cat.store_result(db, trial_id=tid, stage="refined", method="implicit_fit", steps=steps_of(walk_report),
+                         summary=summary_of(walk_report), quality={})
+        ids.append(tid)
+    db.close()
+    client.put("/patients/P0042", json={"sex": "male", "birth_year": 1956})
+    return ids
+
+
+@pytest.fixture
+def browser_page():
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
+        page = browser.new_page(viewport={"width": 390, "height": 844})
+        page.set_default_timeout(15_000)
+        yield page
+        browser.close()
+
+
+def _tab_to(page, selector: str, limit: int = 60) -> None:
+    for _ in range(limit):
+        page.keyboard.press("Tab")
+        if page.evaluate(f"document.activeElement === document.querySelector({selector!r})"):
+            return
+    raise AssertionError(f"{selector} is not reachable with Tab")
+
+
+def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, browser_page):
+    srv, *_ = server
+    page = browser_page
+    page.goto(srv.url + "/")
+    page.wait_for_selector("#login:not([hidden])")
+    assert not page.is_visible("#app") and not page.is_visible("#start")  # nothing before sign-in
+    sign_in_page(page, srv.url)
+    for name, (w, h) in WIDTHS.items():
+        page.set_viewport_size({"width": w, "height": h})
+        assert page.evaluate("document.documentElement.scrollWidth") <= w, name
+        for button in ("#start", "#stop"):
+            box = page.locator(button).bounding_box()
+            assert box["x"] >= 0 and box["x"] + box["width"] <= w, (name, button, box)
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.fill("#subject", "P" * 80)
+    assert "use at most 32" in page.inner_text("#subject-error")
+    assert page.input_value("#subject") == "P" * 80  # never cut silently
+    page.fill("#session", "Visit 1")
+    assert "no spaces" in page.inner_text("#session-error") and "visit-1" in page.inner_text("#session-error")
+    page.fill("#subject", "P" + "0" * 63)
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390
+
+    page.locator("body").focus()
+    _tab_to(page, "#patient-input")
+    page.keyboard.type("p0042")
+    page.keyboard.press("Enter")
+    page.wait_for_selector("#history-table tbody tr:nth-child(3)")
+    assert page.locator("#trend circle").count() == 3
+    assert "Patient P0042" in page.inner_text("#patient-summary")
+
+    page.wait_for_selector("#trials tbody tr[data-trial] .view")
+    first = page.locator("#trials tbody tr[data-trial]").first
+    first.evaluate("row => { window.firstRow = row; }")
+    page.wait_for_timeout(600)  # several status updates later the row is the same element
+    assert first.evaluate("row => row === window.firstRow")
+    _tab_to(page, "#trials tbody tr[data-trial] .view")
+    page.keyboard.press("Enter")
+    page.wait_for_selector("#sides-wrap:not([hidden])")
+    assert "Patient P0042" in page.inner_text("#results-patient") and "visit-3" in page.inner_text("#results-patient")
+    step = page.inner_text("#sides-table tr[data-parameter='step_length_mm']")
+    assert step.split("\t")[1:3] == ["650", "650"], step  # left, right (mm)
+    speed = page.inner_text("#sides-table tr[data-parameter='gait_speed_m_s']")
+    assert "no reference" not in speed  # a 70-year-old man: gait speed has a normal range
+    assert page.get_attribute("#report-pdf", "href").endswith("/report.pdf")
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390
+    assert page.get_attribute("#record-status", "aria-live") == "polite"
+    assert page.locator("#record-timer[aria-live]").count() == 0
