@@ -235,20 +235,13 @@ def _real_images(name: str, pattern: str, board) -> dict | None:
             "found": found, "ms_per_image": 1000 * (time.perf_counter() - t0) / len(paths)}
 
 
-def _qualisys_focal_px(qca_text: str) -> dict[str, float]:
-    """{camera serial: focal length px} from a Qualisys .qca.txt (its units are 1/64 px)."""
-    import re
-
-    cams = re.findall(r'<camera [^>]*serial="(\w+)".*?<intrinsic ([^/]*)/>', qca_text, re.S)
-    return {serial: float(re.search(r'focalLengthU="([-\d.]+)"', intr).group(1)) / 64 for serial, intr in cams}
-
-
 def _pose2sim_intrinsics() -> dict | None:
     """Pose2Sim's demo intrinsics images (real, 4 cameras, a 8 x 5 checkerboard of 60 mm): the board found,
     each camera's intrinsics (k1) from its views, and the focal length against Qualisys's calibration of
     the same cameras."""
     import cv2
     from gaitcap.acquisition.board import BoardConfig, make_board
+    from gaitcap.acquisition.tool_folders import read_qca
     from gaitcap.reconstruction.calibration import BoardObservations, IntrinsicsConfig
     from gaitcap.reconstruction.calibration.intrinsics import estimate_intrinsics
 
@@ -257,7 +250,7 @@ def _pose2sim_intrinsics() -> dict | None:
         return None
     config = BoardConfig.checkerboard(8, 5, 60.0)
     board = make_board(config)
-    focal_ref = _qualisys_focal_px((folder / "calibration" / "Calib.qca.txt").read_text())
+    focal_ref = {c.name: float(c.matrix_px[0, 0]) for c in read_qca(folder / "calibration" / "Calib.qca.txt")}
     out = {"recording": "Pose2Sim demo intrinsics images (4 cameras, 1088x1920)", "board": config.describe(),
            "cameras": {}}
     t0, n_images = time.perf_counter(), 0

@@ -57,11 +57,12 @@ def _similar(cmp) -> str:
 
 
 def _load_calibration(path: Path):
-    """A calibration file: gaitcap's/aniposelib's, or caliscope's camera_array.toml."""
+    """A calibration file: caliscope's camera_array.toml, or any other gaitcap reads (Qualisys .qca.txt,
+    Pose2Sim/aniposelib .toml, gaitcap .json)."""
     from gaitcap.acquisition.caliscope import is_camera_array, read_camera_array
-    from gaitcap.reconstruction.calibration_io import load_rig
+    from gaitcap.acquisition.tool_folders import load_calibration
 
-    return read_camera_array(path) if is_camera_array(path) else load_rig(path)
+    return read_camera_array(path) if is_camera_array(path) else load_calibration(path)
 
 
 def _views(recording: Path, cfg, flags_given: bool, selection, pairing, progress_bar):
@@ -94,7 +95,7 @@ def register(app: typer.Typer) -> None:
         floor_frame: int | None = typer.Option(None, "--floor-frame", help="Index, among the frames where the board was found, of one with the board on the floor (default 0)."),
         report_path: Path | None = typer.Option(None, "--report", help="Quality report JSON (default: OUT with .report.json)."),
         compare: Path | None = typer.Option(None, "--compare", help="A reference calibration (the last one, or a simulation's truth) to compare the new one with."),
-        intrinsics: Path | None = typer.Option(None, "--intrinsics", help="Keep these cameras' intrinsics (a calibration .toml/.json, e.g. from a separate intrinsics session); estimate only the poses."),
+        intrinsics: Path | None = typer.Option(None, "--intrinsics", help="Keep these cameras' intrinsics (a calibration: .toml, .json, .qca.txt or caliscope's camera_array.toml, e.g. from a separate intrinsics session); estimate only the poses."),
         sync_tolerance_ms: float | None = typer.Option(None, "--sync-tolerance-ms", help="Pair frames of different cameras closer than this in time (default: half a frame interval)."),
         accept_failed: bool = typer.Option(False, "--accept-failed", help="Write the calibration even when a camera fails the quality checks."),
     ) -> None:
