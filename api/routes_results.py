@@ -14,6 +14,7 @@ from gaitcap.api.exports import steps_csv, trajectory_csv, trajectory_json
 from gaitcap.api.schemas import GaitOut
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.reports.content import sides_of, stored_gait
 
 router = APIRouter(tags=["results"])
 
@@ -77,7 +78,10 @@ def gait(trial_id: str, request: Request, stage: Stage | None = None, user: str 
                    summary=r.summary, steps=r.steps, quality=r.quality,
                    downloads=_downloads(r.trial_id, r.stage),
                    warnings=cat.warnings_of(cat.get_quality(catalog_of(request), r.trial_id)),
-                   data_quality=r.report.get("data_quality", {}))
+                   data_quality=r.report.get("data_quality", {}),
+                   sides=sides_of((stored_gait(request.app.state.settings.data_dir, r.trial_id, r.stage) or {})
+                                  .get("summary", {})),
+                   analysis_warnings=list(r.report.get("warnings") or []))
 
 
 @router.get("/trials/{trial_id}/steps", summary="Per-step parameters (JSON or CSV)")

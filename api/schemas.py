@@ -67,5 +67,9 @@ class GaitOut(BaseModel):
     quality: dict
     downloads: dict[str, str]
     warnings: list[str] = Field(default_factory=list, description="The trial's data-quality warnings, plain words")
+    sides: dict[str, dict] = Field(default_factory=dict, description="Per parameter (units in the name): left, "
+                                   "right, all ({n, mean, sd, cv_pct}) and symmetry_index_pct, over the steady steps")
+    analysis_warnings: list[str] = Field(default_factory=list, description="The gait analysis's notes (turns, "
+                                         "gaps, steps left out), plain words")
     data_quality: dict = Field(default_factory=dict, description="Per camera frames expected / received / lost, "
                                "fps, sync spread (ms), coverage, reprojection error (px), and the criteria")

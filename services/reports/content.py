@@ -197,6 +197,22 @@ def flags_of(rows: tuple[Row, ...]) -> tuple[str, ...]:
     return tuple(out)
 
 
+def sides_of(summary: dict) -> dict[str, dict]:
+    """Per parameter of a ``gait.json`` summary: ``left``, ``right``, ``all`` ({n, mean, sd, cv_pct}) and
+    ``symmetry_index_pct`` (None where not measured)."""
+    sym = summary.get("asymmetry_pct", {})
+    return {name: {**{side: groups.get(side) for side in ("left", "right", "all")},
+                   "symmetry_index_pct": sym.get(name)} for name, groups in summary.get("parameters", {}).items()}
+
+
+def stored_gait(data_dir: Path, trial_id: str, stage: str) -> dict | None:
+    """The stage's ``gait.json`` as a dict, None when it was not written."""
+    try:
+        return _gait_json(Path(data_dir), trial_id, stage)
+    except FileNotFoundError:
+        return None
+
+
 def _gait_json(data_dir: Path, trial_id: str, stage: str) -> dict:
     path = trial_files(data_dir, trial_id).stage_file(stage, "gait_json")
     if not path.is_file():

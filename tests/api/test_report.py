@@ -35,7 +35,7 @@ def _trial_with(server, report, *, subject: str, session: str) -> str:
     report.write_json(trial_files(settings.data_dir, tid).stage_file("refined", "gait_json"))
     db = cat.open_catalog(settings.catalog_url)
     cat.store_result(db, trial_id=tid, stage="refined", method="implicit_fit", steps=steps_of(report),
-                     summary=summary_of(report), quality={})
+                     summary=summary_of(report), quality={}, report={"warnings": list(report.warnings)})
     db.close()
     return tid
 
@@ -72,6 +72,10 @@ def test_report_pdf_text_has_patient_date_both_sides_norms_and_history(server, g
     assert step["left"] == pytest.approx(650.0, abs=5) and step["right"] == pytest.approx(650.0, abs=5)
     assert step["previous"] == pytest.approx(550.0, abs=5) and js["previous_trial"] == first
     assert step["normal_range"] is None  # the shipped table has gait speed only
+    g = client.get(f"/trials/{tid}/gait").json()
+    assert g["sides"]["step_length_mm"]["left"]["mean"] == pytest.approx(650.0, abs=5)
+    assert g["sides"]["step_time_s"]["right"]["n"] >= 2 and "symmetry_index_pct" in g["sides"]["step_time_s"]
+    assert any("not used as steps" in w for w in g["analysis_warnings"])
 
 
 def test_history_over_three_visits_shows_the_trend_and_leaves_void_out(server, gait_reports):
