@@ -10,6 +10,7 @@ from fastapi.responses import Response
 from gaitcap.api.auth import require_user
 from gaitcap.api.deps import catalog_of, checked_trial_id
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog.patients import DETAIL_FIELDS
 from gaitcap.services.reports.content import PARAMETERS, ReportConfig, ReportContent, report_content
 
 router = APIRouter(tags=["report"])
@@ -59,6 +60,7 @@ def parameters(trial_id: str, request: Request, user: str = Depends(require_user
             "started_at": c.trial.started_at, "stage": c.stage, "method": c.method, "age": c.age,
             "sex": c.patient.sex, "parameters": rows, "flags": list(c.flags), "warnings": list(c.warnings),
             "analysis_notes": list(c.analysis_notes), "voided": c.details.voided, "void_reason": c.details.void_reason,
+            "details": {k: getattr(c.details, k) for k in DETAIL_FIELDS},
             "previous_trial": c.previous.trial.id if c.previous else None,
             "footprints": [{"side": f.side, "along_mm": round(f.along_mm, 1), "across_mm": round(f.across_mm, 1)}
                            for f in c.footprints],

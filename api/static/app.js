@@ -88,6 +88,7 @@ async function startTrial() {
       trial = await api("/trials", { method: "POST", body: Object.assign({ override_rig_check: true }, body) });
     }
     state.recording = trial; state.followed = null; renderRecording();
+    saveClinicalFields(trial.id);
   } catch (e) {
     if (e.status === 409) showError("Another recording is already running: " + e.message);
     else if (e.status === 422) showError("Please check the form: " + e.message);

@@ -56,6 +56,7 @@ async function loadSides(trialId) {
   const flags = $("#results-flags");
   flags.querySelector("ul").innerHTML = r.flags.map((f) => `<li>${esc(f)}</li>`).join("");
   flags.hidden = !r.flags.length;
+  fillCorrection(r);
   const link = $("#report-pdf");
   link.href = `/trials/${encodeURIComponent(trialId)}/report.pdf`; link.hidden = false;
 }
@@ -129,6 +130,55 @@ async function compareChecked() {
   box.hidden = false;
 }
 
+// ---------- clinical fields, corrections, void marks (all audited by the server) ----------
+const FIELD_INPUTS = { walking_aid: "walking-aid", assistance: "assistance", footwear: "footwear", notes: "trial-notes" };
+const FIX_INPUTS = { walking_aid: "fix-aid", assistance: "fix-assistance", footwear: "fix-footwear", notes: "fix-notes" };
+
+function saveClinicalFields(trialId) {
+  const body = { operator: state.user || "" };
+  for (const [key, id] of Object.entries(FIELD_INPUTS)) { const v = $(`#${id}`).value.trim(); if (v) body[key] = v; }
+  api(`/trials/${encodeURIComponent(trialId)}/correct`, { method: "POST", body })
+    .catch((e) => showError("The recording runs, but walking aid, footwear and notes were not saved: " + e.message));
+}
+
+function fillCorrection(r) {
+  const box = $("#correct-box");
+  box.hidden = !$("#record") || $("#record").hidden;  // correcting needs the recording permission
+  box.dataset.trial = r.trial_id;
+  $("#fix-subject").value = r.subject_id; $("#fix-session").value = r.session; $("#fix-reason").value = "";
+  for (const [key, id] of Object.entries(FIX_INPUTS)) $(`#${id}`).value = r.details[key] || "";
+  $("#void-button").disabled = r.voided;
+  $("#correct-status").textContent = r.voided ? `This trial is void: ${r.void_reason}` : "";
+}
+
+async function submitCorrection(ev) {
+  ev.preventDefault();
+  const trialId = $("#correct-box").dataset.trial, status = $("#correct-status");
+  const subject = $("#fix-subject").value.trim(), session = $("#fix-session").value.trim();
+  const problem = idProblem(subject, "Patient ID") || idProblem(session, "Session");
+  if (problem) { status.textContent = problem; return; }
+  const body = { subject_id: subject, session, reason: $("#fix-reason").value.trim() };
+  for (const [key, id] of Object.entries(FIX_INPUTS)) body[key] = $(`#${id}`).value.trim();
+  try {
+    const r = await api(`/trials/${encodeURIComponent(trialId)}/correct`, { method: "POST", body });
+    const changed = Object.keys(r.changed);
+    status.textContent = changed.length ? `Saved: ${changed.join(", ").replace(/_/g, " ")} changed.` : "Nothing was changed.";
+    if (changed.length) loadSides(trialId);
+  } catch (e) { status.textContent = "Not saved: " + e.message; }
+}
+
+async function markVoid() {
+  const trialId = $("#correct-box").dataset.trial, status = $("#correct-status");
+  const reason = (prompt("Why is this trial void? (kept with the trial and in the audit log)") || "").trim();
+  if (!reason) return;
+  try {
+    await api(`/trials/${encodeURIComponent(trialId)}/mark-void`, { method: "POST", body: { reason } });
+    loadSides(trialId);
+  } catch (e) { status.textContent = "Not marked void: " + e.message; }
+}
+
+$("#correct-form").onsubmit = submitCorrection;
+$("#void-button").onclick = markVoid;
 $("#patient-form").onsubmit = (ev) => { ev.preventDefault(); showHistory($("#patient-input").value.trim()); };
 $("#print").onclick = () => window.print();
 for (const id of ["subject", "session"]) {

@@ -111,3 +111,30 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     assert page.evaluate("document.documentElement.scrollWidth") <= 390
     assert page.get_attribute("#record-status", "aria-live") == "polite"
     assert page.locator("#record-timer[aria-live]").count() == 0
+
+    page.click("#correct-box summary")
+    assert page.input_value("#fix-subject") == "P0042"
+    page.fill("#fix-aid", "cane")
+    page.fill("#fix-reason", "entered after the walk")
+    page.click("#correct-form button[type=submit]")
+    page.wait_for_function("() => document.querySelector('#correct-status').textContent.includes('walking aid changed')")
+    page.once("dialog", lambda d: d.accept("walked with the wrong shoes"))
+    page.click("#void-button")
+    page.wait_for_function("() => document.querySelector('#results-patient').textContent.includes('VOID: walked with')")
+
+    page.click("#clinical-fields summary")
+    page.fill("#subject", "p0042")
+    page.fill("#session", "visit-4")
+    page.fill("#walking-aid", "walker")
+    page.once("dialog", lambda d: d.accept())  # the rig check's confirmation (one simulated camera is slow)
+    page.click("#start")
+    page.wait_for_function("() => document.querySelector('#record-status').textContent.includes('Recording patient P0042')")
+    _, client, _, _ = server
+    tid = client.get("/trials").json()[0]["id"]
+    for _ in range(50):
+        entries = [e for e in client.get("/audit", params={"trial_id": tid}).json() if e["action"] == "correct"]
+        if entries:
+            break
+        page.wait_for_timeout(100)
+    assert "'walker'" in entries[0]["detail"] and "operator: '' -> 'alice'" in entries[0]["detail"]
+    client.post(f"/trials/{tid}/stop")
