@@ -150,6 +150,10 @@ function onStatus(snap) {
   const stale = !snap.recording && wasRecording && snap.time < wasRecording.started_at + 0.5
     && !snap.trials.some((t) => t.id === wasRecording.id && t.state !== "recording");
   state.recording = stale ? wasRecording : snap.recording;
+  if (!state.recording && wasRecording && !state.busy) {
+    // stopped elsewhere (another tab, another user, the recorder's guard): no stale "Recording" line
+    setStatus("The recording was stopped (in another tab or by the system). Computing the results…");
+  }
   if (!state.recording && wasRecording && !state.followed) follow(wasRecording.id);
   renderRecording();
   renderTrials(snap.trials);

@@ -56,6 +56,18 @@ def browser_page():
         browser.close()
 
 
+CONTRAST = """([sel, prop]) => {
+  // WCAG contrast ratio of an element's colour against the first opaque background behind it
+  const rgb = (c) => c.match(/[\\d.]+/g).map(Number);
+  const lum = ([r, g, b]) => [r, g, b].map((v) => { v /= 255; return v <= 0.03928 ? v / 12.92 : ((v + 0.055) / 1.055) ** 2.4; })
+    .reduce((a, v, i) => a + v * [0.2126, 0.7152, 0.0722][i], 0);
+  let el = document.querySelector(sel), fg = rgb(getComputedStyle(el)[prop]), bg;
+  while (el) { const c = rgb(getComputedStyle(el).backgroundColor); if (c.length === 3 || c[3] > 0.9) { bg = c; break; } el = el.parentElement; }
+  const [a, b] = [lum(fg), lum(bg || [255, 255, 255])].sort((x, y) => y - x);
+  return (a + 0.05) / (b + 0.05);
+}"""
+
+
 def _tab_to(page, selector: str, limit: int = 60) -> None:
     for _ in range(limit):
         page.keyboard.press("Tab")
@@ -78,6 +90,9 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
             box = page.locator(button).bounding_box()
             assert box["x"] >= 0 and box["x"] + box["width"] <= w, (name, button, box)
     page.set_viewport_size({"width": 390, "height": 844})
+    assert page.evaluate(CONTRAST, ["#subject", "borderTopColor"]) >= 3.0  # WCAG 2.1 non-text contrast
+    for sel in ("#subject-hint", "footer", "h2 small"):
+        assert page.evaluate(CONTRAST, [sel, "color"]) >= 4.5, sel  # WCAG AA text
     page.fill("#subject", "P" * 80)
     assert "use at most 32" in page.inner_text("#subject-error")
     assert page.input_value("#subject") == "P" * 80  # never cut silently
