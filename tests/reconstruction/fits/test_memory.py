@@ -23,7 +23,7 @@ def test_estimates_grow_linearly_for_the_spline_and_quadratically_for_fourier():
     spline = [BSplineBasis().model_bytes(30 * s, s, 26) for s in (60.0, 600.0)]
     fourier = [FourierBasis().model_bytes(30 * s, s, 26) for s in (60.0, 600.0)]
     assert spline[1] / spline[0] == pytest.approx(10, rel=0.05)
-    assert fourier[1] / fourier[0] > 50 and fourier[1] > 10e9  # what made 10-minute trials fail
+    assert fourier[1] / fourier[0] > 50 and fourier[1] > 5e9  # what made 10-minute trials fail
     # the default fit of a 10-minute, 10-camera Halpe-26 trial is expected to fit in 2 GB
     assert fit_bytes(10, 18_000, 26, spline[1]) < 2e9
 
