@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from gaitcap.services.ops.auto_trial import FINISHED, start_when_ready  # noqa: E402
 
 TARGET_PRELIMINARY_S, TARGET_REFINED_S = 3.0, 20.0
 
@@ -30,7 +31,7 @@ def watch_trial(ws_url: str, client, cookie: dict, *, subject: str, seconds: flo
     """Start, record, stop; seconds from Stop until the page's status shows each result stage."""
     from websockets.sync.client import connect
 
-    tid = client.post("/trials", json={"subject_id": subject}).raise_for_status().json()["id"]
+    tid = start_when_ready(client, {"subject_id": subject})
     time.sleep(seconds)
     t_stop = time.monotonic()
     client.post(f"/trials/{tid}/stop").raise_for_status()
@@ -43,7 +44,7 @@ def watch_trial(ws_url: str, client, cookie: dict, *, subject: str, seconds: flo
             trial = next((t for t in snap["trials"] if t["id"] == tid), trial)
             for stage in trial.get("results", []):
                 seen.setdefault(stage, time.monotonic() - t_stop)
-            if trial.get("state") in ("done", "failed"):
+            if trial.get("state") in FINISHED:
                 break
     return {"trial_id": tid, "state": trial.get("state"), "error": trial.get("error", ""),
             "stop_call_s": stop_call_s, "preliminary_s": seen.get("preliminary"), "refined_s": seen.get("refined")}

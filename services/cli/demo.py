@@ -74,9 +74,11 @@ def _one_trial(stack, *, seconds: float, refine: bool) -> bool:
     with stack.client() as c:
         typer.echo(f"recording a {seconds:.0f} s walk ...", err=True)
         t = run_trial(c, subject_id="DEMO001", seconds=seconds)
-        if t.state != "done":
+        if t.state not in ("done", "done_with_warnings"):
             typer.echo(f"trial {t.trial_id} {t.state}: {t.error}", err=True)
             return False
+        for warning in t.warnings:
+            typer.echo(f"warning: {warning}", err=True)
         typer.echo(f"trial {t.trial_id}: results {_after(t.preliminary_s)} (preliminary) and "
                    f"{_after(t.refined_s)} (refined) after Stop")
         for stage in ("preliminary", "refined") if refine else ("preliminary",):

@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 import httpx
 
+# the finished states (gaitcap.services.catalog.states.FINISHED), as the REST API spells them
+FINISHED = ("done", "done_with_warnings", "failed")
+
 
 @dataclass(frozen=True)
 class TrialTimings:
@@ -23,16 +26,29 @@ class TrialTimings:
     refined_s: float | None
     state: str
     error: str
+    warnings: tuple[str, ...] = ()
+
+
+def start_when_ready(client: httpx.Client, body: dict, *, ready_timeout_s: float = 30.0) -> str:
+    """POST /trials, retried while the API refuses with 409 (the rig not ready yet: cameras still starting
+    or below the frame-rate criteria) for up to ``ready_timeout_s``; returns the trial id. Raises
+    RuntimeError with the API's last reason when the rig never becomes ready (the check is never
+    overridden here: a clinician confirms that on the page)."""
+    deadline = time.monotonic() + ready_timeout_s
+    while True:
+        r = client.post("/trials", json=body)
+        if r.status_code == 201:
+            return r.json()["id"]
+        if r.status_code != 409 or time.monotonic() > deadline:
+            raise RuntimeError(f"start failed ({r.status_code}): {r.text}")
+        time.sleep(1.0)
 
 
 def run_trial(client: httpx.Client, *, subject_id: str, seconds: float, timeout_s: float = 120.0,
-              poll_s: float = 0.1, session: str | None = None) -> TrialTimings:
+              poll_s: float = 0.1, session: str | None = None, ready_timeout_s: float = 30.0) -> TrialTimings:
     """Record ``seconds`` of walking and wait for the refined results (or failure / timeout)."""
     body = {"subject_id": subject_id, **({"session": session} if session else {})}
-    r = client.post("/trials", json=body)
-    if r.status_code != 201:
-        raise RuntimeError(f"start failed ({r.status_code}): {r.text}")
-    trial_id = r.json()["id"]
+    trial_id = start_when_ready(client, body, ready_timeout_s=ready_timeout_s)
     t_start = time.monotonic()
     time.sleep(seconds)
     t_stop = time.monotonic()
@@ -49,11 +65,11 @@ def run_trial(client: httpx.Client, *, subject_id: str, seconds: float, timeout_
             prelim = time.monotonic() - t_stopped
         if "refined" in trial["results"]:
             refined = time.monotonic() - t_stopped
-        if trial["state"] in ("done", "failed"):
+        if trial["state"] in FINISHED:
             break
         time.sleep(poll_s)
     return TrialTimings(trial_id, t_stop - t_start, t_stopped - t_stop, prelim, refined, trial["state"],
-                        trial.get("error", ""))
+                        trial.get("error", ""), tuple(str(w) for w in trial.get("warnings") or ()))
 
 
 def format_metrics(gait: dict) -> str:
