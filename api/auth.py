@@ -43,6 +43,7 @@ ROUTE_PERMISSIONS: dict[tuple[str, str], frozenset[str]] = {
     ("POST", "/trials/{trial_id}/void"): frozenset({RETENTION}),
     ("GET", "/trials/{trial_id}/report.pdf"): frozenset({READ}),
     ("GET", "/trials/{trial_id}/parameters"): frozenset({READ}),
+    ("GET", "/trials/{trial_id}/figures"): frozenset({READ}),
     ("POST", "/trials/{trial_id}/correct"): frozenset({RECORD}),
     ("POST", "/trials/{trial_id}/mark-void"): frozenset({RECORD}),
     ("GET", "/patients"): frozenset({READ}),

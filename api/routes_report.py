@@ -11,7 +11,15 @@ from gaitcap.api.auth import require_user
 from gaitcap.api.deps import catalog_of, checked_trial_id
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog.patients import DETAIL_FIELDS
-from gaitcap.services.reports.content import PARAMETERS, ReportConfig, ReportContent, report_content
+from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.reports.content import (
+    PARAMETERS,
+    ReportConfig,
+    ReportContent,
+    report_content,
+    stored_gait,
+)
+from gaitcap.services.reports.figures import heel_traces
 
 router = APIRouter(tags=["report"])
 
@@ -65,3 +73,20 @@ def parameters(trial_id: str, request: Request, user: str = Depends(require_user
             "footprints": [{"side": f.side, "along_mm": round(f.along_mm, 1), "across_mm": round(f.across_mm, 1)}
                            for f in c.footprints],
             "norm_sources": list(c.norm_citations)}
+
+
+@router.get("/trials/{trial_id}/figures", summary="Data of the page's figures: heel heights over time and the events")
+def figures(trial_id: str, request: Request, user: str = Depends(require_user)) -> dict:
+    """Both heels' height (mm) over time (s), at most 1500 samples, with each foot's heel strikes and
+    toe offs (s); the footprints are in ``/parameters``."""
+    db, data_dir = catalog_of(request), request.app.state.settings.data_dir
+    trial_id = checked_trial_id(trial_id)
+    result = cat.get_result(db, trial_id)
+    if result is None:
+        raise HTTPException(status_code=404, detail=f"trial {trial_id} has no results yet")
+    try:
+        traces = heel_traces(trial_files(data_dir, trial_id).stage_file(result.stage, "trajectory_npz"),
+                             stored_gait(data_dir, trial_id, result.stage))
+    except FileNotFoundError as exc:
+        raise HTTPException(status_code=404, detail=f"trial {trial_id}: {exc}") from None
+    return {"trial_id": trial_id, "stage": result.stage, **traces}

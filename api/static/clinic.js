@@ -32,6 +32,8 @@ function checkFields() {
 function resetSides() {
   $("#sides-wrap").hidden = true; $("#results-flags").hidden = true; $("#report-pdf").hidden = true;
   $("#sides-table tbody").innerHTML = "";
+  for (const c of charts.splice(0)) c.destroy();
+  $("#charts").hidden = true; $("#plot-figure").hidden = false;
 }
 
 function fmtFixed(x, d) { return x == null ? "–" : Number(x).toFixed(d); }
@@ -57,9 +59,64 @@ async function loadSides(trialId) {
   flags.querySelector("ul").innerHTML = r.flags.map((f) => `<li>${esc(f)}</li>`).join("");
   flags.hidden = !r.flags.length;
   fillCorrection(r);
+  loadFigures(trialId, r.footprints);
   const link = $("#report-pdf");
   link.href = `/trials/${encodeURIComponent(trialId)}/report.pdf`; link.hidden = false;
 }
+
+// ---------- interactive figures (uPlot, served from the package; MIT licence in uplot.LICENSE) ----------
+const SIDE_COLOURS = { left: "#1f77b4", right: "#d62728" };
+const charts = [];
+
+function atTimes(times, values, events) {
+  // a series that is null except at the samples nearest to the event times (drawn as markers only)
+  const out = new Array(times.length).fill(null);
+  for (const t of events) {
+    let i = times.findIndex((x) => x >= t);
+    if (i < 0) i = times.length - 1;
+    if (i > 0 && t - times[i - 1] < times[i] - t) i -= 1;
+    out[i] = values[i];
+  }
+  return out;
+}
+
+function markers(label, stroke, shape) {
+  return { label, stroke, fill: shape === "triangle" ? stroke : "#fff", width: 0, paths: () => null,
+    points: { show: true, size: 9, stroke, fill: shape === "triangle" ? stroke : "#fff" } };
+}
+
+async function loadFigures(trialId, footprints) {
+  for (const c of charts.splice(0)) c.destroy();
+  let f;
+  try { f = await api(`/trials/${encodeURIComponent(trialId)}/figures`); } catch (e) { $("#charts").hidden = true; return; }
+  if (state.followed !== trialId || typeof uPlot === "undefined") return;
+  $("#charts").hidden = false; $("#plot-figure").hidden = true;
+  const width = () => Math.max(280, $("#charts").clientWidth - 4);
+  const data = [f.times_s], series = [{ label: "time (s)", value: (u, v) => v == null ? "–" : v.toFixed(2) }];
+  for (const side of ["left", "right"]) {
+    const z = f[`${side}_heel_z_mm`];
+    if (!z.length) continue;
+    data.push(z); series.push({ label: `${side} heel (mm)`, stroke: SIDE_COLOURS[side], width: 1.5 });
+    data.push(atTimes(f.times_s, z, f.events[side].heel_strike_s)); series.push(markers(`${side} heel strike`, SIDE_COLOURS[side], "triangle"));
+    data.push(atTimes(f.times_s, z, f.events[side].toe_off_s)); series.push(markers(`${side} toe off`, SIDE_COLOURS[side], "circle"));
+  }
+  charts.push(new uPlot({ width: width(), height: 240, scales: { x: { time: false } }, series,
+    axes: [{ label: "time (s)" }, { label: "heel height (mm)" }] }, data, $("#heel-chart")));
+  const feet = [...footprints].sort((a, b) => a.along_mm - b.along_mm);
+  if (feet.length > 1) {
+    const x = feet.map((p) => p.along_mm), fd = [x];
+    const fs = [{ label: "along (mm)" }];
+    for (const side of ["left", "right"]) {
+      fd.push(feet.map((p) => (p.side === side ? p.across_mm : null)));
+      fs.push(markers(`${side} heel (mm across)`, SIDE_COLOURS[side], "triangle"));
+    }
+    charts.push(new uPlot({ width: width(), height: 180, scales: { x: { time: false } }, series: fs,
+      axes: [{ label: "along the walk (mm)" }, { label: "across (mm)" }] }, fd, $("#foot-chart")));
+  }
+}
+
+new ResizeObserver(() => { for (const c of charts) c.setSize({ width: Math.max(280, $("#charts").clientWidth - 4), height: c.height }); })
+  .observe(document.querySelector("#results"));
 
 // ---------- the patient's history ----------
 async function showHistory(subjectId) {

@@ -23,8 +23,8 @@ def walk_report():
     from gaitcap.reconstruction.skeletons import get_skeleton
 
     params, times = WalkParams(), np.arange(300) / 30.0
-    points = simulate_body(plan_walk(params, 10.0, Room(), seed=0), params, times)
-    return analyze_gait(points, times, list(get_skeleton("halpe26").joint_names))
+    points, names = simulate_body(plan_walk(params, 10.0, Room(), seed=0), params, times), get_skeleton("halpe26").joint_names
+    return points, times, names, analyze_gait(points, times, list(names))
 
 
 @pytest.fixture
@@ -32,12 +32,15 @@ def visits(server, walk_report):
     """Three visits of P0042 with refined results, the patient's sex and birth year recorded."""
     _, client, _, settings = server
     db, ids = cat.open_catalog(settings.catalog_url), []
+    points, times, names, report = walk_report
     for i in range(3):
         tid = client.post("/trials", json={"subject_id": "P0042", "session": f"visit-{i + 1}"}).json()["id"]
         client.post(f"/trials/{tid}/stop")
-        walk_report.write_json(trial_files(settings.data_dir, tid).stage_file("refined", "gait_json"))
-        cat.store_result(db, trial_id=tid, stage="refined", method="implicit_fit", steps=steps_of(walk_report),
-                         summary=summary_of(walk_report), quality={})
+        files = trial_files(settings.data_dir, tid)
+        report.write_json(files.stage_file("refined", "gait_json"))
+        np.savez(files.stage_file("refined", "trajectory_npz"), points_mm=points, times_s=times, joint_names=np.array(names))
+        cat.store_result(db, trial_id=tid, stage="refined", method="implicit_fit", steps=steps_of(report),
+                         summary=summary_of(report), quality={})
         ids.append(tid)
     db.close()
     client.put("/patients/P0042", json={"sex": "male", "birth_year": 1956})
@@ -123,6 +126,10 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     speed = page.inner_text("#sides-table tr[data-parameter='gait_speed_m_s']")
     assert "no reference" not in speed  # a 70-year-old man: gait speed has a normal range
     assert page.get_attribute("#report-pdf", "href").endswith("/report.pdf")
+    page.wait_for_selector("#heel-chart .uplot")  # interactive figures (uPlot from the package)
+    legend = page.inner_text("#heel-chart .u-legend")
+    assert "left heel (mm)" in legend and "right heel strike" in legend and "toe off" in legend
+    assert page.locator("#foot-chart .uplot").count() == 1 and not page.is_visible("#report-plot")
     assert page.evaluate("document.documentElement.scrollWidth") <= 390
     assert page.get_attribute("#record-status", "aria-live") == "polite"
     assert page.locator("#record-timer[aria-live]").count() == 0
