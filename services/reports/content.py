@@ -227,7 +227,7 @@ def _pooled(result: cat.ResultInfo) -> dict[str, float]:
             **{k: _num(v.get("mean")) for k, v in s.items() if k in PARAMETERS}}
 
 
-def previous_visit(db: cat.Catalog, trial: cat.TrialInfo) -> PreviousVisit | None:
+def previous_visit(db: cat.Catalog, trial: cat.TrialInfo, data_dir: Path | None = None) -> PreviousVisit | None:
     """The newest trial with results of an earlier session of the same patient (void ones left out)."""
     earlier = [t for t in cat.list_trials(db, subject_id=trial.subject_id, limit=1000)
                if t.created_at < trial.created_at and t.session != trial.session]
@@ -236,8 +236,13 @@ def previous_visit(db: cat.Catalog, trial: cat.TrialInfo) -> PreviousVisit | Non
         if t.id in voided and voided[t.id].voided:
             continue
         result = cat.get_result(db, t.id)
-        if result is not None:
+        if result is None:
+            continue
+        gait = stored_gait(data_dir, t.id, result.stage) if data_dir is not None else None
+        if gait is None:
             return PreviousVisit(t, _pooled(result))
+        empty = NormTable((), (), "")
+        return PreviousVisit(t, {r.name: r.mean for r in rows_of(gait.get("summary", {}), empty, sex="", age=None)})
     return None
 
 
@@ -273,4 +278,4 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
         norm_citations=norms.citations, version=_version(),
         num_steps=int(gait.get("summary", {}).get("num_steps") or 0),
         num_passes=int(gait.get("summary", {}).get("num_passes") or 0),
-        previous=previous_visit(db, trial), flags=flags_of(rows))
+        previous=previous_visit(db, trial, Path(data_dir)), flags=flags_of(rows))

@@ -80,7 +80,9 @@ def _row(cells: dict, line: int, origin: str) -> NormRow:
 def parse_norms(text: str, origin: str = "norms") -> NormTable:
     """Parse a normative CSV; ValueError naming the line and column of a bad row."""
     lines = text.splitlines()
-    citations = tuple(ln.lstrip("# ").rstrip() for ln in lines if ln.startswith("#"))
+    comments = [ln.lstrip("# ").rstrip() for ln in lines if ln.startswith("#")]
+    first = next((i for i, ln in enumerate(comments) if ln.startswith("Source")), 0)
+    citations = tuple(comments[first:])  # from the first "Source" line: what the report prints
     body = [ln for ln in lines if ln.strip() and not ln.startswith("#")]
     reader = csv.DictReader(io.StringIO("\n".join(body)))
     missing = [c for c in COLUMNS if c not in (reader.fieldnames or ())]

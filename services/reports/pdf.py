@@ -99,8 +99,10 @@ def _quality(pdf: _Doc) -> None:
         for w in c.warnings:
             pdf.para(f"- {w}")
         pdf.set_text_color(0, 0, 0)
-    else:
+    elif c.data_quality:
         pdf.para("No data-quality warnings: every camera, the synchronisation and the coverage met the criteria.")
+    else:
+        pdf.para("The data quality was not measured for this trial (no cameras' record).")
     pdf.para(f"{c.num_steps} steps in {c.num_passes} straight pass(es) analysed."
              + (" Notes of the analysis: " + "; ".join(c.analysis_notes) + "." if c.analysis_notes else ""))
 
