@@ -81,8 +81,9 @@ function atTimes(times, values, events) {
 }
 
 function markers(label, stroke, shape) {
-  return { label, stroke, fill: shape === "triangle" ? stroke : "#fff", width: 0, paths: () => null,
-    points: { show: true, size: 9, stroke, fill: shape === "triangle" ? stroke : "#fff" } };
+  // events as markers only: filled dots (heel strikes, footprints) or open circles (toe offs)
+  const fill = shape === "filled" ? stroke : "#fff";
+  return { label, stroke, fill, width: 0, paths: () => null, points: { show: true, size: 9, stroke, fill } };
 }
 
 async function loadFigures(trialId, footprints) {
@@ -97,8 +98,8 @@ async function loadFigures(trialId, footprints) {
     const z = f[`${side}_heel_z_mm`];
     if (!z.length) continue;
     data.push(z); series.push({ label: `${side} heel (mm)`, stroke: SIDE_COLOURS[side], width: 1.5 });
-    data.push(atTimes(f.times_s, z, f.events[side].heel_strike_s)); series.push(markers(`${side} heel strike`, SIDE_COLOURS[side], "triangle"));
-    data.push(atTimes(f.times_s, z, f.events[side].toe_off_s)); series.push(markers(`${side} toe off`, SIDE_COLOURS[side], "circle"));
+    data.push(atTimes(f.times_s, z, f.events[side].heel_strike_s)); series.push(markers(`${side} heel strike`, SIDE_COLOURS[side], "filled"));
+    data.push(atTimes(f.times_s, z, f.events[side].toe_off_s)); series.push(markers(`${side} toe off`, SIDE_COLOURS[side], "open"));
   }
   charts.push(new uPlot({ width: width(), height: 240, scales: { x: { time: false } }, series,
     axes: [{ label: "time (s)" }, { label: "heel height (mm)" }] }, data, $("#heel-chart")));
@@ -108,7 +109,7 @@ async function loadFigures(trialId, footprints) {
     const fs = [{ label: "along (mm)" }];
     for (const side of ["left", "right"]) {
       fd.push(feet.map((p) => (p.side === side ? p.across_mm : null)));
-      fs.push(markers(`${side} heel (mm across)`, SIDE_COLOURS[side], "triangle"));
+      fs.push(markers(`${side} heel (mm across)`, SIDE_COLOURS[side], "filled"));
     }
     charts.push(new uPlot({ width: width(), height: 180, scales: { x: { time: false } }, series: fs,
       axes: [{ label: "along the walk (mm)" }, { label: "across (mm)" }] }, fd, $("#foot-chart")));
