@@ -4,9 +4,13 @@ elbows) scaled to the patient's segment lengths, then inverse kinematics frame b
 Scaling: for every measurement of the layout's scaling setup (e.g. thigh = hip-knee of both sides), the
 ratio of the median distance between the two keypoints over the trial's frames (robust to outlier frames,
 and valid on walking frames, which averaging marker positions like OpenSim's ScaleTool is not) to the
-same distance on the unscaled model; the ratio scales the measurement's bodies on its axes. Inverse
-kinematics: OpenSim's InverseKinematicsSolver with the setup's marker weights times the reconstruction's
-confidence in each marker; frames without both hips, knees and ankles are not fitted (NaN).
+same distance on the unscaled model; the ratio scales the measurement's bodies on its axes (the pelvis:
+its width only, ``model_setup``). The hip markers sit on the hip joint centres (``model_setup``). Marker
+placement: the ankle markers are moved on the tibias to where the ankle keypoints are in a first fit of
+some frames without them. Inverse kinematics: OpenSim's InverseKinematicsSolver with the setup's marker
+weights times the reconstruction's confidence in each marker, and the coordinate priors of ``PRIORS``
+(pelvis tilt held near neutral; the lumbar joint free); frames without both hips, knees and ankles are not
+fitted (NaN).
 """
 
 from __future__ import annotations
@@ -25,9 +29,14 @@ from gaitcap.reconstruction.kinematics.mot import to_mot
 from gaitcap.reconstruction.trc import to_trc
 from gaitcap.services.kinematics.base import FitRequest, KinematicsUnavailable, ModelFit
 from gaitcap.services.kinematics.files import MODEL_FILE, setup_dir, setup_files
+from gaitcap.services.kinematics.model_setup import model_with_markers, pelvis_width_only
 
 log = logging.getLogger(__name__)
 LEG_MARKERS = ("LHip", "RHip", "LKnee", "RKnee", "LAnkle", "RAnkle")
+# markers whose place on their body differs between keypoint layouts and people: the ankle keypoint lies
+# between the malleoli, at a height above the ankle joint that is not the model's (docs/kinematics.md)
+PLACED_MARKERS = ("LAnkle", "RAnkle")
+PLACEMENT_FRAMES = 60
 IK_ACCURACY = 1e-3  # 1e-4 is 4x slower on noisy markers for the same angles (bench/kinematics.py)
 
 
@@ -104,6 +113,24 @@ def _coordinate_tasks(ik_xml: Path) -> list[tuple[str, float, str, float]]:
     return out
 
 
+@dataclass(frozen=True)
+class CoordinatePrior:
+    """An IK coordinate task added to the setup's: ``coordinate`` held near ``target_deg`` (degrees) with
+    ``weight`` (the setup's weights' scale: marker weights times squared metres, coordinates times squared
+    radians)."""
+
+    coordinate: str
+    weight: float
+    target_deg: float
+
+
+# The keypoints do not determine the pelvis's tilt: its markers (both hip joint centres and their midpoint)
+# lie on one line, and rotating the pelvis about it moves no leg marker. Held near the model's neutral
+# (0 deg: the anatomical standing posture); the trunk's lean goes to the lumbar joint instead of tilting the
+# pelvis (which moved hip flexion by the trunk's lean, 8 deg on the synthetic walker; docs/kinematics.md).
+PRIORS = (CoordinatePrior("pelvis_tilt", 1.0, 0.0), CoordinatePrior("L5_S1_Flex_Ext", 0.0, 0.0))
+
+
 @dataclass(frozen=True, eq=False)
 class IKJob:
     """Inverse kinematics of some frames: the scaled model, the marker
@@ -129,9 +156,10 @@ class IKResult:
     distances_m: dict[str, list[float]]
 
 
-def solve_ik(job: IKJob) -> IKResult:
+def solve_ik(job: IKJob, on_frame=None) -> IKResult:
     """Track the frames with OpenSim's InverseKinematicsSolver; a new assembly from the patient's pose
-    wherever a frame does not follow the previous one."""
+    wherever a frame does not follow the previous one. ``on_frame(model, state, k)`` is called after each
+    frame's solution."""
     osim = _import_opensim()
     osim.Logger.setLevelString("Error")
     model = osim.Model(job.osim_path)
@@ -143,9 +171,11 @@ def solve_ik(job: IKJob) -> IKResult:
     mref = osim.MarkersReference(job.trc_path, weights)
     coord_refs = osim.SimTKArrayCoordinateReference()
     cset = model.getCoordinateSet()
-    for name, weight, kind, value in _coordinate_tasks(Path(job.ik_setup)):
-        if weight > 0 and cset.contains(name):
-            target = cset.get(name).getDefaultValue() if kind == "default_value" else value
+    tasks = {name: (weight, cset.get(name).getDefaultValue() if kind == "default_value" else value)
+             for name, weight, kind, value in _coordinate_tasks(Path(job.ik_setup)) if cset.contains(name)}
+    tasks.update({p.coordinate: (p.weight, math.radians(p.target_deg)) for p in PRIORS if cset.contains(p.coordinate)})
+    for name, (weight, target) in tasks.items():
+        if weight > 0:
             coord_refs.push_back(osim.CoordinateReference(name, osim.Constant(target)))
             coord_refs.back().setWeight(weight)
     solver = osim.InverseKinematicsSolver(model, mref, coord_refs, math.inf)
@@ -165,6 +195,8 @@ def solve_ik(job: IKJob) -> IKResult:
             solver.track(state)
         previous = f
         values[k] = [c.getValue(state) for c in coords]
+        if on_frame is not None:
+            on_frame(model, state, k)
         solver.computeCurrentMarkerErrors(errs)
         for i in range(errs.size()):
             dist_m.setdefault(solver.getMarkerNameForIndex(i), []).append(errs.getElt(i))
@@ -185,8 +217,7 @@ class OpenSimEngine:
     def zero_pose_markers_mm(self, setup: str) -> dict[str, np.ndarray]:
         """marker -> (3,) mm in the room frame (z up) of the unscaled model in its zero pose."""
         files = setup_files(setup)
-        model = self.osim.Model(str(files["model"]))
-        model.set_MarkerSet(self.osim.MarkerSet(str(files["markers"])))
+        model = model_with_markers(self.osim, files)
         state = model.initSystem()
         ms = model.getMarkerSet()
         return {ms.get(i).getName(): opensim_to_room(ms.get(i).getLocationInGround(state).to_numpy()) * 1000.0
@@ -207,6 +238,8 @@ class OpenSimEngine:
         atomic_write_text(paths["trc"], to_trc(pts, times, req.marker_names, filename=paths["trc"].name, units="m"))
         t0 = time.perf_counter()
         factors = self._scale(files, room_to_opensim(pts) / 1000.0, req, paths["osim"])
+        placed = self._place(files, paths, req, times, pts)
+        log.info("markers placed on their bodies (m): %s", placed)
         t1 = time.perf_counter()
         coords, errors = self._ik(files, paths, req, times, pts)
         t2 = time.perf_counter()
@@ -216,13 +249,12 @@ class OpenSimEngine:
 
     def _scale(self, files, markers_m, req: FitRequest, out_path: Path) -> dict:
         osim = self.osim
-        model = osim.Model(str(files["model"]))
-        model.set_MarkerSet(osim.MarkerSet(str(files["markers"])))
+        model = model_with_markers(osim, files)
         state = model.initSystem()
         ms = model.getMarkerSet()
         model_markers = {ms.get(i).getName(): ms.get(i).getLocationInGround(state).to_numpy()
                          for i in range(ms.getSize())}
-        factors = scale_factors(files["scaling"], markers_m, req.marker_names, model_markers)
+        factors = pelvis_width_only(scale_factors(files["scaling"], markers_m, req.marker_names, model_markers))
         if not factors:
             raise ValueError("scaling: no segment could be measured (every keypoint pair is missing)")
         scale_set = osim.ScaleSet()
@@ -243,16 +275,57 @@ class OpenSimEngine:
         tmp.replace(out_path)
         return factors
 
-    def _ik(self, files, paths, req: FitRequest, times: np.ndarray, pts: np.ndarray):
+    def _ik_inputs(self, files, req: FitRequest, pts: np.ndarray) -> tuple[dict[str, float], np.ndarray]:
+        """(marker -> IK weight, the frames with both hips, knees and ankles)."""
         setup_w = _ik_weights(files["ik"])
         weights = {name: setup_w[name] * float(conf)
                    for name, conf in zip(req.marker_names, np.asarray(req.weights, dtype=float), strict=True)
                    if setup_w.get(name, 0.0) > 0 and conf > 0}
         legs = [req.marker_names.index(m) for m in LEG_MARKERS if m in req.marker_names]
-        ok = np.isfinite(pts[:, legs]).all(axis=(1, 2)) if legs else np.zeros(len(times), bool)
+        ok = np.isfinite(pts[:, legs]).all(axis=(1, 2)) if legs else np.zeros(len(pts), bool)
         if not ok.any():
             raise ValueError("inverse kinematics: no frame has both hips, knees and ankles")
-        frames = np.nonzero(ok)[0]
+        return weights, np.nonzero(ok)[0]
+
+    def _place(self, files, paths, req: FitRequest, times: np.ndarray, pts: np.ndarray) -> dict[str, list[float]]:
+        """Marker placement: each marker of :data:`PLACED_MARKERS` moved on its body to where its keypoint
+        is, the median over up to ``PLACEMENT_FRAMES`` frames spread over the trial, fitted without those
+        markers. Rewrites the scaled model; returns marker -> its new location (m, body frame)."""
+        weights, frames = self._ik_inputs(files, req, pts)
+        placed = [m for m in PLACED_MARKERS if m in weights]
+        if not placed:
+            return {}
+        frames = frames[np.unique(np.linspace(0, len(frames) - 1, min(PLACEMENT_FRAMES, len(frames))).astype(int))]
+        job = IKJob(str(paths["osim"]), str(paths["trc"]), str(files["ik"]),
+                    {m: w for m, w in weights.items() if m not in placed}, times, pts[frames], frames,
+                    req.marker_names)
+        observed = room_to_opensim(pts[frames]) / 1000.0
+        col = {m: req.marker_names.index(m) for m in placed}
+        found: dict[str, list[np.ndarray]] = {m: [] for m in placed}
+
+        def on_frame(model, state, k):
+            model.realizePosition(state)
+            for m in placed:
+                p = observed[k, col[m]]
+                if np.all(np.isfinite(p)):
+                    body = model.getMarkerSet().get(m).getParentFrame()
+                    found[m].append(model.getGround().findStationLocationInAnotherFrame(
+                        state, self.osim.Vec3(*p), body).to_numpy())
+
+        solve_ik(job, on_frame)
+        model = self.osim.Model(str(paths["osim"]))
+        out = {}
+        for m, locations in found.items():
+            if len(locations) >= 3:
+                out[m] = np.median(locations, axis=0)
+                model.getMarkerSet().get(m).set_location(self.osim.Vec3(*out[m]))
+        tmp = paths["osim"].with_name(f".{paths['osim'].name}.tmp")
+        model.printToXML(str(tmp))
+        tmp.replace(paths["osim"])
+        return {m: [round(float(v), 4) for v in loc] for m, loc in out.items()}
+
+    def _ik(self, files, paths, req: FitRequest, times: np.ndarray, pts: np.ndarray):
+        weights, frames = self._ik_inputs(files, req, pts)
         # (one process: splitting the frames over two processes was slower on the shared 2-core machine and
         # each chunk's fresh assembly moved the knee by up to 2 deg at the seams)
         part = solve_ik(IKJob(str(paths["osim"]), str(paths["trc"]), str(files["ik"]), weights, times,

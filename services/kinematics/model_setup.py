@@ -1,0 +1,53 @@
+"""The model as the keypoints see it: the marker set with the hip markers on the hip joint centres, and the
+pelvis scaled in width by the hips' distance and otherwise by the patient's overall size."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+# marker -> the joints whose centre (mean) it is, on the joints' parent body. The keypoint layouts' hips
+# are hip joint centres (the synthetic walker's thighs turn about them; a detector's hip estimates the
+# joint), not the skin points below and beside them where the Pose2Sim marker sets put them (15 mm lower,
+# 7 mm forward, 20 mm lateral): there, tilting the pelvis moved the hip markers against the thighs and the fit used the pelvis's
+# tilt to absorb the difference.
+JOINT_CENTRE_MARKERS = {"LHip": ("hip_l",), "RHip": ("hip_r",), "Hip": ("hip_l", "hip_r"), "CHip": ("hip_l", "hip_r")}
+
+
+def markers_at_joint_centres(osim, model) -> None:
+    """Move the markers of :data:`JOINT_CENTRE_MARKERS` onto their joints' centres (the joints' parent
+    frames, on the body the marker is on); a marker on another body is left alone."""
+    markers, joints = model.getMarkerSet(), model.getJointSet()
+    for name, names in JOINT_CENTRE_MARKERS.items():
+        if not markers.contains(name) or not all(joints.contains(j) for j in names):
+            continue
+        marker = markers.get(name)
+        body = marker.getSocket("parent_frame").getConnecteePath().rstrip("/").split("/")[-1]
+        frames = [osim.PhysicalOffsetFrame.safeDownCast(joints.get(j).getParentFrame()) for j in names]
+        if any(f.getSocket("parent").getConnecteePath().rstrip("/").split("/")[-1] != body for f in frames):
+            continue
+        marker.set_location(osim.Vec3(*np.mean([f.get_translation().to_numpy() for f in frames], axis=0)))
+
+
+def model_with_markers(osim, files: dict[str, Path]):
+    """The layout's model with its marker set, hip markers at the hip joint centres."""
+    model = osim.Model(str(files["model"]))
+    model.set_MarkerSet(osim.MarkerSet(str(files["markers"])))
+    markers_at_joint_centres(osim, model)
+    return model
+
+
+PELVIS_BODIES = ("pelvis", "sacrum")
+
+
+def pelvis_width_only(factors: dict[str, tuple[float, float, float]]) -> dict[str, tuple[float, float, float]]:
+    """The hips' distance measures the pelvis's width (its Z axis) only: its depth and height (X, Y) take
+    the median factor of the other bodies (the patient's overall size). Scaling all three by the hips'
+    distance moves the lumbar joint, the trunk and the hip joints as far as the hips are wider than the
+    model's, a wide-hipped patient's trunk ends too high."""
+    others = [f[0] for b, f in factors.items() if b not in PELVIS_BODIES]
+    if not others:
+        return factors
+    size = float(np.median(others))
+    return {b: (size, size, f[2]) if b in PELVIS_BODIES else f for b, f in factors.items()}
