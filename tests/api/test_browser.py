@@ -19,6 +19,7 @@ from pathlib import Path
 import httpx
 import pytest
 from gaitcap.services import catalog as cat
+from gaitcap.services.ops.auto_trial import FINISHED
 from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
 
 from .conftest import sign_in_page
@@ -28,10 +29,11 @@ TOKEN = "stack-test-token-42"
 
 @contextlib.contextmanager
 def running_stack(tmp_path, **overrides):
-    """A small stack: 6 simulated cameras at 160x120, a 240 s walk, 4 s job leases."""
+    """A small stack: 6 simulated cameras at 160x120 and 15 fps (a rate any machine running the tests keeps
+    up with, so the rig check passes on a loaded CI machine too), a 240 s walk, 4 s job leases."""
     base = free_port_range(12)
     values = dict(data_dir=tmp_path / "clinic", token=TOKEN, port=base, bus_base_port=base + 1, cameras=6,
-                  size="160x120", sim_seconds=240.0, lease_s=4.0)
+                  size="160x120", fps=15.0, sim_seconds=240.0, lease_s=4.0)
     values.update(overrides)
     stack = Stack(StackConfig(**values))
     stack.start(timeout_s=240)
@@ -193,8 +195,11 @@ def test_worker_killed_mid_fit_job_is_rerun(stack):
         before = stack.supervisor.restarts("worker-0")
         stack.supervisor.kill("worker-0")
         _wait(lambda: stack.supervisor.restarts("worker-0") == before + 1, 10, "the supervisor to restart the worker")
-        trial = _wait(lambda: (t := _trial(c, tid))["state"] in ("done", "failed") and t, 180, "the re-run")
-    assert trial["state"] == "done", trial["error"]
+        trial = _wait(lambda: (t := _trial(c, tid))["state"] in FINISHED and t, 180,
+                      lambda: f"the re-run: {_trial(c, tid)}")
+    # the walk may end (and its camera node restart) during a long run: then the data-quality warnings say
+    # so and the trial is done_with_warnings; either way the job ran twice and the results are there
+    assert trial["state"] in ("done", "done_with_warnings"), (trial["error"], trial.get("warnings"))
     jobs = cat.jobs_for_trial(db, tid)
     assert [(j.state, j.attempts) for j in jobs] == [("done", 2)]
     assert "refined" in trial["results"]
