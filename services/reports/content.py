@@ -126,6 +126,8 @@ class ReportContent:
     num_passes: int
     previous: PreviousVisit | None = None
     flags: tuple[str, ...] = field(default_factory=tuple)
+    joint_angles: dict[str, dict[str, float]] = field(default_factory=dict)  # key value -> side -> mean (deg)
+    joint_angles_note: str = ""
 
 
 @dataclass(frozen=True)
@@ -246,6 +248,23 @@ def previous_visit(db: cat.Catalog, trial: cat.TrialInfo, data_dir: Path | None 
     return None
 
 
+def joint_angles_of(data_dir: Path, trial_id: str, stage: str) -> tuple[dict[str, dict[str, float]], str]:
+    """Key joint-angle values (name -> side -> mean, degrees) of the stage's ``kinematics.json``, and a
+    note saying why there are none (not computed, or the reason it was unavailable)."""
+    path = trial_files(data_dir, trial_id).stage_file(stage, "kinematics_json")
+    if not path.is_file():
+        return {}, "Joint kinematics were not computed for this trial."
+    data = json.loads(path.read_text(encoding="utf-8"))
+    if data.get("available") is False:
+        return {}, f"Joint kinematics unavailable: {data.get('reason', 'no reason given')}."
+    out: dict[str, dict[str, float]] = {}
+    for side, values in (data.get("key_values") or {}).items():
+        for name, stats in values.items():
+            if isinstance(stats, dict) and isinstance(stats.get("mean"), (int, float)):
+                out.setdefault(name, {})[side] = float(stats["mean"])
+    return out, "" if out else "Joint kinematics have no key values for this trial."
+
+
 def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -269,6 +288,7 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
     norms = norms or load_norms(config.norms_csv)
     rows = rows_of(gait.get("summary", {}), norms, sex=patient.sex, age=age)
     png = trial_files(data_dir, trial.id).stage_file(result.stage, "report_png")
+    angles, angles_note = joint_angles_of(Path(data_dir), trial.id, result.stage)
     return ReportContent(
         clinic_name=config.clinic_name, trial=trial, patient=patient, details=pat.get_details(db, trial.id),
         age=age, stage=result.stage, method=result.method, rows=rows,
@@ -278,4 +298,5 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
         norm_citations=norms.citations, version=_version(),
         num_steps=int(gait.get("summary", {}).get("num_steps") or 0),
         num_passes=int(gait.get("summary", {}).get("num_passes") or 0),
-        previous=previous_visit(db, trial, Path(data_dir)), flags=flags_of(rows))
+        previous=previous_visit(db, trial, Path(data_dir)), flags=flags_of(rows), joint_angles=angles,
+        joint_angles_note=angles_note)

@@ -188,11 +188,29 @@ def _footprints(pdf: _Doc) -> None:
              new_x="LMARGIN", new_y="NEXT")
 
 
+def _angles(pdf: _Doc) -> None:
+    c = pdf.c
+    pdf.heading("Joint angles (key values, degrees; curves in the kinematics report)")
+    if not c.joint_angles:
+        pdf.para(c.joint_angles_note or "No joint kinematics.")
+        return
+    pdf.set_font("Helvetica", "", 8.5)
+    with pdf.table(col_widths=(90, 25, 25), width=140, align="LEFT", line_height=4.6,
+                   text_align=("LEFT", "RIGHT", "RIGHT"),
+                   headings_style=FontFace(emphasis="BOLD", fill_color=(230, 234, 240))) as table:
+        head = table.row()
+        for h in ("Key value", "Left", "Right"):
+            head.cell(h)
+        for name, sides in c.joint_angles.items():
+            row = table.row()
+            row.cell(_latin1(name.removesuffix("_deg").replace("_", " ").capitalize()))
+            for side in ("left", "right"):
+                row.cell(_fmt(sides.get(side, math.nan), 1))
+
+
 def _closing(pdf: _Doc) -> None:
     c = pdf.c
-    pdf.heading("Joint angles")
-    pdf.para("Joint kinematics, where computed for this trial, are in its kinematics report "
-             "(GET /trials/{id}/kinematics); they are not part of this page.")
+    _angles(pdf)
     pdf.heading("Method and software")
     pdf.para(f"{METHOD_TEXT} Software: gaitcap {c.version}; results: {c.stage} ({c.method}).", 8)
     pdf.heading("Normative reference")

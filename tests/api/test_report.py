@@ -3,6 +3,7 @@ both sides, normal range and z-score, the previous visit, sources), the paramete
 their history over visits, trial corrections and voiding (audited)."""
 
 import io
+import json
 
 import numpy as np
 import pytest
@@ -50,6 +51,11 @@ def test_report_pdf_text_has_patient_date_both_sides_norms_and_history(server, g
     r = client.post(f"/trials/{tid}/correct", json={"operator": "alice", "walking_aid": "cane",
                                                      "footwear": "own shoes", "reason": "entered after the walk"})
     assert r.status_code == 200 and r.json()["changed"]["walking_aid"] == {"old": "", "new": "cane"}
+    _, _, _, settings = server
+    kin = trial_files(settings.data_dir, tid).stage_file("refined", "kinematics_json")
+    kin.parent.mkdir(parents=True, exist_ok=True)
+    kin.write_text(json.dumps({"key_values": {side: {"knee_peak_flexion_swing_deg": {"mean": value, "sd": 2.0, "n": 4}}
+                                              for side, value in (("left", 61.25), ("right", 48.5))}}))
     pdf = client.get(f"/trials/{tid}/report.pdf")
     assert pdf.status_code == 200 and pdf.headers["content-type"] == "application/pdf"
     reader = PdfReader(io.BytesIO(pdf.content))
@@ -59,6 +65,7 @@ def test_report_pdf_text_has_patient_date_both_sides_norms_and_history(server, g
     import time
     day = time.strftime("%Y-%m-%d", time.gmtime(trial["started_at"]))
     for needle in ("P0042", day, "visit-2", tid, "cane", "own shoes", "alice", "Left", "Right", "SI %",
+                   "Knee peak flexion swing 61.2 48.5",
                    "Normal (95 %)", "Bohannon", "Signature", f"trial {first}", "Previous"):
         assert needle in text, needle
     for p in PARAMETERS.values():
@@ -96,7 +103,8 @@ def test_history_over_three_visits_shows_the_trend_and_leaves_void_out(server, g
     pdf = client.get(f"/trials/{wrong}/report.pdf")
     from pypdf import PdfReader
 
-    assert "VOID: walked with the wrong shoes" in PdfReader(io.BytesIO(pdf.content)).pages[0].extract_text()
+    text = " ".join(p.extract_text() for p in PdfReader(io.BytesIO(pdf.content)).pages)
+    assert "VOID: walked with the wrong shoes" in text and "Joint kinematics were not computed" in text
     assert [p["id"] for p in client.get("/patients", params={"prefix": "p"}).json()][0] == "P7"
 
 
