@@ -18,7 +18,7 @@ from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
 from gaitcap.services.nodes.recorder import RecorderNode
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def free_bus(names, prefix="gaitcap/rt"):

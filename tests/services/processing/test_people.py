@@ -10,7 +10,7 @@ from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.people import PatientChoice, most_people_in_view, write_choice
 from gaitcap.services.processing.worker import Worker, WorkerConfig
 
-from .conftest import write_multi_trial_mcap
+from ..conftest import write_multi_trial_mcap
 
 
 @pytest.fixture(scope="module")

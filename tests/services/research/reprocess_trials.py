@@ -8,7 +8,7 @@ from pathlib import Path
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import trial_files
 
-from .conftest import write_trial_mcap
+from ..conftest import write_trial_mcap
 
 
 def make_walks(n: int, *, seconds: float = 9.0, cameras: int = 6, preset: str = "paper"):

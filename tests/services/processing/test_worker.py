@@ -10,7 +10,7 @@ from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.worker import Worker, WorkerConfig
 from mcap.reader import make_reader
 
-from .conftest import write_trial_mcap
+from ..conftest import write_trial_mcap
 
 
 @pytest.fixture(scope="module")
