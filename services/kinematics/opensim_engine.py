@@ -26,6 +26,7 @@ import numpy as np
 from gaitcap.reconstruction.fileio import atomic_write_text
 from gaitcap.reconstruction.kinematics.frames import opensim_to_room, room_to_opensim
 from gaitcap.reconstruction.kinematics.mot import to_mot
+from gaitcap.reconstruction.kinematics.outliers import OUTLIER_MM, gross_outliers
 from gaitcap.reconstruction.trc import to_trc
 from gaitcap.services.kinematics.base import FitRequest, KinematicsUnavailable, ModelFit
 from gaitcap.services.kinematics.files import MODEL_FILE, setup_dir, setup_files
@@ -185,6 +186,7 @@ def solve_ik(job: IKJob, on_frame=None) -> IKResult:
     values = np.full((len(job.frames), len(coords)), np.nan)
     dist_m: dict[str, list[float]] = {}
     errs = osim.SimTKArrayDouble()
+    column = {n: i for i, n in enumerate(job.marker_names)}
     previous = -2
     for k, f in enumerate(job.frames):
         state.setTime(float(job.times_s[f]))
@@ -199,7 +201,9 @@ def solve_ik(job: IKJob, on_frame=None) -> IKResult:
             on_frame(model, state, k)
         solver.computeCurrentMarkerErrors(errs)
         for i in range(errs.size()):
-            dist_m.setdefault(solver.getMarkerNameForIndex(i), []).append(errs.getElt(i))
+            name = solver.getMarkerNameForIndex(i)
+            if name in column and np.isfinite(job.points_mm[k, column[name]]).all():  # not a missing marker's 0
+                dist_m.setdefault(name, []).append(errs.getElt(i))
     values[:, rot] = np.degrees(values[:, rot])
     return IKResult(tuple(c.getName() for c in coords), values, dist_m)
 
@@ -232,6 +236,7 @@ class OpenSimEngine:
             files = setup_files(req.setup)
         except FileNotFoundError as exc:
             raise KinematicsUnavailable(str(exc)) from None
+        pts = self._without_outliers(pts, req.marker_names)
         out = Path(req.out_dir)
         paths = {k: out / f"{req.stem}.{k}" for k in ("trc", "osim", "mot")}
         times = np.round(np.asarray(req.times_s, dtype=np.float64), 6)
@@ -246,6 +251,17 @@ class OpenSimEngine:
         atomic_write_text(paths["mot"], to_mot(times, coords, name=req.stem))
         return ModelFit(times, coords, errors, paths, {b: f[0] for b, f in factors.items()},
                         {"scale": round(t1 - t0, 3), "ik": round(t2 - t1, 3)})
+
+    @staticmethod
+    def _without_outliers(pts: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
+        """The markers with gross outliers (``gross_outliers`` from the hips' centre) made missing."""
+        if not {"LHip", "RHip"} <= set(names):
+            return pts
+        bad = gross_outliers(pts, names, centre=("LHip", "RHip"))
+        for m in np.nonzero(bad.any(axis=0))[0]:
+            log.warning("kinematics: %s left out in %d frames, over %.0f mm from where the body puts it",
+                        names[m], int(bad[:, m].sum()), OUTLIER_MM)
+        return np.where(bad[..., None], np.nan, pts)
 
     def _scale(self, files, markers_m, req: FitRequest, out_path: Path) -> dict:
         osim = self.osim
