@@ -34,6 +34,14 @@ function resetSides() {
   $("#sides-table tbody").innerHTML = "";
   for (const c of charts.splice(0)) c.destroy();
   $("#charts").hidden = true; $("#plot-figure").hidden = false;
+  $("#correct-status").textContent = "";
+}
+
+function sideBars(left, right) {
+  // two bars to the same scale (the numbers are in the row; the bars only show the difference at a glance)
+  if (left == null || right == null || Math.max(left, right) <= 0) return "";
+  const top = Math.max(left, right), bar = (v, side) => `<span class="bar bar-${side}" style="width: ${(100 * v / top).toFixed(1)}%"></span>`;
+  return `<span class="bars" aria-hidden="true">${bar(left, "left")}${bar(right, "right")}</span>`;
 }
 
 function fmtFixed(x, d) { return x == null ? "–" : Number(x).toFixed(d); }
@@ -50,7 +58,8 @@ async function loadSides(trialId) {
     const range = p.normal_range ? `${fmtFixed(p.normal_range[0], d)}–${fmtFixed(p.normal_range[1], d)}` : "no reference";
     return `<tr data-parameter="${esc(p.name)}"><td><abbr title="${esc(p.help)}">${esc(p.label)}</abbr> (${esc(p.unit)})</td>
       <td>${fmtFixed(p.left, d)}</td><td>${fmtFixed(p.right, d)}</td><td>${fmtFixed(p.mean, d)}</td><td>${fmtFixed(p.sd, d + 1)}</td>
-      <td>${fmtFixed(p.symmetry_index_pct, 1)}</td><td>${range}</td><td class="${out ? "out" : ""}">${p.z == null ? "–" : (p.z > 0 ? "+" : "") + p.z.toFixed(1)}</td></tr>`;
+      <td>${fmtFixed(p.symmetry_index_pct, 1)}</td><td>${range}</td><td class="${out ? "out" : ""}">${p.z == null ? "–" : (p.z > 0 ? "+" : "") + p.z.toFixed(1)}</td>
+      <td>${sideBars(p.left, p.right)}</td></tr>`;
   }).join("");
   $("#sides-note").textContent = "Left and right: means over each side's steady steps. Normal range: mean ± 1.96 SD for the patient's age decade and sex"
     + (r.age == null || !r.sex ? " (record the patient's sex and birth year under Patient history to see it)." : ".");
@@ -206,7 +215,7 @@ function fillCorrection(r) {
   $("#fix-subject").value = r.subject_id; $("#fix-session").value = r.session; $("#fix-reason").value = "";
   for (const [key, id] of Object.entries(FIX_INPUTS)) $(`#${id}`).value = r.details[key] || "";
   $("#void-button").disabled = r.voided;
-  $("#correct-status").textContent = r.voided ? `This trial is void: ${r.void_reason}` : "";
+  if (r.voided) $("#correct-status").textContent = `This trial is void: ${r.void_reason}`;  // else keep "Saved: ..."
 }
 
 async function submitCorrection(ev) {

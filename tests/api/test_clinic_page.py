@@ -121,6 +121,9 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.keyboard.press("Enter")
     page.wait_for_selector("#sides-wrap:not([hidden])")
     assert "Patient P0042" in page.inner_text("#results-patient") and "visit-3" in page.inner_text("#results-patient")
+    widths = page.eval_on_selector_all("#sides-table tr[data-parameter='step_time_s'] .bar",
+                                       "bars => bars.map(b => b.getBoundingClientRect().width)")
+    assert len(widths) == 2 and max(widths) > 0  # per-side bars to one scale
     step = page.inner_text("#sides-table tr[data-parameter='step_length_mm']")
     assert step.split("\t")[1:3] == ["650", "650"], step  # left, right (mm)
     speed = page.inner_text("#sides-table tr[data-parameter='gait_speed_m_s']")
