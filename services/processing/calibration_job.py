@@ -35,8 +35,8 @@ def _toml_text(rig, rms_px: float) -> str:
 def run_calibration(catalog, run_id: str, *, expected_images: int | None = None, board=None) -> None:
     """Calibrate run ``run_id`` (state ``calibrating``) and store the outcome (never raises ValueError)."""
     from gaitcap.acquisition.board import BoardConfig
-    from gaitcap.acquisition.board_recording import detect_recording
-    from gaitcap.reconstruction.calibration import calibrate_from_observations
+    from gaitcap.acquisition.board_recording import find_board_views
+    from gaitcap.reconstruction.calibration import CalibrationConfig, calibrate_from_observations
 
     run = get_calibration_run(catalog, run_id)
     last = [0.0]
@@ -49,9 +49,11 @@ def run_calibration(catalog, run_id: str, *, expected_images: int | None = None,
 
     try:
         update_calibration_run(catalog, run_id, stage="finding the board", progress=0.0)
-        obs = detect_recording(run.recording_path, board=board or BoardConfig(), progress=progress)
+        found = find_board_views(run.recording_path, board=board or BoardConfig(), progress=progress)
+        config = CalibrationConfig()
+        found.check(config.intrinsics.min_views)  # per camera: what was found and what to change
         update_calibration_run(catalog, run_id, stage="calibrating the cameras", progress=0.8)
-        result = calibrate_from_observations(obs)
+        result = calibrate_from_observations(found.observations, config=config)
     except ValueError as exc:
         log.warning("calibration %s failed: %s", run_id, exc)
         update_calibration_run(catalog, run_id, state=FAILED, stage="", progress=1.0, error=str(exc))
