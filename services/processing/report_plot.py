@@ -62,7 +62,8 @@ def heel_traces_png(report: GaitReport, points_mm: np.ndarray, times_s: np.ndarr
     ax_l.set_ylabel("heel lateral (mm)")
     ax_l.set_xlabel("time (s)")
     ax_f.legend(loc="upper right", fontsize=8)
-    ax_f.set_title(f"{report.summary.num_steps} steps, {report.summary.num_passes} passes; dots: heel strikes")
+    steps, passes = report.summary.num_steps, report.summary.num_passes
+    ax_f.set_title(f"{steps} step{'s' * (steps != 1)}, {passes} pass{'es' * (passes != 1)}; dots: heel strikes")
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png")

@@ -103,7 +103,8 @@ def _quality(pdf: _Doc) -> None:
         pdf.para("No data-quality warnings: every camera, the synchronisation and the coverage met the criteria.")
     else:
         pdf.para("The data quality was not measured for this trial (no cameras' record).")
-    pdf.para(f"{c.num_steps} steps in {c.num_passes} straight pass(es) analysed."
+    pdf.para(f"{c.num_steps} step{'s' * (c.num_steps != 1)} in {c.num_passes} straight "
+             f"pass{'es' * (c.num_passes != 1)} analysed."
              + (" Notes of the analysis: " + "; ".join(c.analysis_notes) + "." if c.analysis_notes else ""))
 
 
