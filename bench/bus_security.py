@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import socket
 import sys
 import tempfile
 import threading
@@ -24,6 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from gaitcap.services.bus.session import free_loopback_ports
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -62,15 +62,6 @@ def parsing(n: int = 3000) -> dict:
     return out
 
 
-def _ports(n: int) -> list[int]:
-    socks = [socket.socket() for _ in range(n)]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return ports
-
 
 def _bus(secure: bool, keys: Path):
     from gaitcap.services.bus.certs import make_bus_keys
@@ -78,7 +69,7 @@ def _bus(secure: bool, keys: Path):
     from gaitcap.services.bus.session import BusConfig
 
     proto = "tls" if secure else "tcp"
-    nodes = {n: f"{proto}/127.0.0.1:{p}" for n, p in zip(("recorder", "camera-0"), _ports(2), strict=True)}
+    nodes = {n: f"{proto}/127.0.0.1:{p}" for n, p in zip(("recorder", "camera-0"), free_loopback_ports(2), strict=True)}
     security = BusSecurity(keys) if secure else None
     bus = BusConfig(nodes, prefix="gaitcap/bench", security=security)
     if secure:

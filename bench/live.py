@@ -21,7 +21,6 @@ import argparse
 import json
 import os
 import signal
-import socket
 import struct
 import subprocess
 import sys
@@ -29,6 +28,8 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+
+from gaitcap.services.bus.session import free_loopback_ports
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -109,15 +110,6 @@ def run_cameras(args) -> None:
 
 
 # -- controller -----------------------------------------------------------------------------------------
-def _free_ports(n: int) -> list[int]:
-    socks = [socket.socket() for _ in range(n)]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return ports
-
 
 def run(*, seconds: float, cameras: int, fps: float, compression: str, out_dir: Path) -> dict:
     from gaitcap.acquisition.recording import layout
@@ -126,7 +118,7 @@ def run(*, seconds: float, cameras: int, fps: float, compression: str, out_dir: 
     from mcap.reader import make_reader
 
     names = ["recorder", "camera-0", "bench"]
-    bus = BusConfig({n: f"tcp/127.0.0.1:{p}" for n, p in zip(names, _free_ports(3), strict=True)},
+    bus = BusConfig({n: f"tcp/127.0.0.1:{p}" for n, p in zip(names, free_loopback_ports(3), strict=True)},
                     prefix="gaitcap/bench")
     bus_file = out_dir / "bus.json"
     bus_file.write_text(json.dumps(bus.to_dict()))

@@ -32,6 +32,7 @@ import json
 import logging
 import os
 import re
+import socket
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -252,3 +253,15 @@ def alive_nodes(session, bus: BusConfig, timeout_s: float = 1.0) -> set[str]:
     keys = bus.keys
     replies = session.liveliness().get(keys.alive(), timeout=timeout_s)
     return {keys.node_of(str(r.ok.key_expr)) for r in replies if r.ok is not None}
+
+
+def free_loopback_ports(n: int) -> list[int]:
+    """``n`` distinct TCP ports free on 127.0.0.1 right now (for test and benchmark buses on loopback)."""
+    socks = [socket.socket() for _ in range(n)]
+    try:
+        for s in socks:
+            s.bind(("127.0.0.1", 0))
+        return [s.getsockname()[1] for s in socks]
+    finally:
+        for s in socks:
+            s.close()

@@ -2,7 +2,6 @@
 ``make_bus_keys``, user/password, and access control by node role."""
 
 import json
-import socket
 import stat
 import time
 
@@ -11,20 +10,17 @@ from gaitcap.services.bus.certs import make_bus_keys
 from gaitcap.services.bus.control import RecorderClient, RecorderError
 from gaitcap.services.bus.messages import ImageFrame
 from gaitcap.services.bus.security import BusSecurity, role_of
-from gaitcap.services.bus.session import BusConfig, alive_nodes, load_bus_config, open_session
+from gaitcap.services.bus.session import (
+    BusConfig,
+    alive_nodes,
+    free_loopback_ports,
+    load_bus_config,
+    open_session,
+)
 from gaitcap.services.nodes.recorder import RecorderNode
 
 JPEG = bytes.fromhex("ffd8ffe000104a464946") + b"\x00" * 20 + bytes.fromhex("ffd9")
 
-
-def _ports(n):
-    socks = [socket.socket() for _ in range(n)]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    ports = [s.getsockname()[1] for s in socks]
-    for s in socks:
-        s.close()
-    return ports
 
 
 def _wait(cond, timeout_s=10.0):
@@ -40,7 +36,7 @@ def _wait(cond, timeout_s=10.0):
 def secured(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("secure")
     names = ["recorder", "api", "camera-0"]
-    nodes = {n: f"tls/127.0.0.1:{p}" for n, p in zip(names, _ports(3), strict=True)}
+    nodes = {n: f"tls/127.0.0.1:{p}" for n, p in zip(names, free_loopback_ports(3), strict=True)}
     bus = BusConfig(nodes, prefix="gaitcap/sec", security=BusSecurity(tmp / "keys", clients=("operator",),
                                                                      cameras={"camera-0": ("cam01",)}))
     made = make_bus_keys({n: bus.nodes.get(n) for n in bus.identities}, tmp / "keys")
