@@ -162,4 +162,7 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
             break
         page.wait_for_timeout(100)
     assert "'walker'" in entries[0]["detail"] and "operator: '' -> 'alice'" in entries[0]["detail"]
-    client.post(f"/trials/{tid}/stop")
+    client.post(f"/trials/{tid}/stop")  # from elsewhere (another tab): the page's Recording line goes at once
+    page.wait_for_function("() => document.querySelector('#record-status').textContent.includes('recording was stopped')",
+                           timeout=3000)
+    assert not page.is_disabled("#start") and page.is_disabled("#stop")
