@@ -15,13 +15,11 @@ def register(app: typer.Typer) -> None:
     def foxglove_live(
         bus: Path | None = typer.Option(None, "--bus", help="Bus file (JSON5); default $GAITCAP_BUS or local."),
         node: str | None = typer.Option(None, "--node", help="Identity on a secured bus (a security.clients entry)."),
-        host: str = typer.Option("127.0.0.1", "--host", help="Address to bind (loopback unless --allow-remote)."),
+        host: str = typer.Option("127.0.0.1", "--host", help="Loopback address to bind (remote: an SSH tunnel)."),
         port: int = typer.Option(8765, "--port", help="WebSocket port."),
         preview_fps: float = typer.Option(5.0, "--preview-fps", help="Frames per second and camera relayed."),
         calibration: Path | None = typer.Option(None, "--calibration",
                                                 help="Rig calibration (TOML/JSON): cameras as CameraCalibration."),
-        allow_remote: bool = typer.Option(False, "--allow-remote",
-                                          help="Bind beyond loopback (the protocol has NO authentication)."),
     ) -> None:
         """Relay the live bus to Foxglove: open ws://HOST:PORT in Foxglove (Open connection)."""
         from gaitcap.reconstruction.calibration_io import load_rig
@@ -29,7 +27,7 @@ def register(app: typer.Typer) -> None:
         from gaitcap.services.nodes.foxglove_live import FoxgloveLiveConfig, FoxgloveRelay
 
         with user_errors():
-            config = FoxgloveLiveConfig(host=host, port=port, preview_fps=preview_fps, allow_remote=allow_remote)
+            config = FoxgloveLiveConfig(host=host, port=port, preview_fps=preview_fps)
             rig = load_rig(calibration) if calibration is not None else None
             cfg = default_bus_config(bus)
             session = open_session(cfg, node)

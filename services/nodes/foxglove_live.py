@@ -10,9 +10,9 @@ serves both):
   ``calibration_interval_s`` (a client that connects later gets it too);
 - ``/camera/<cam>/status`` JSON: the camera status messages.
 
-The server binds to 127.0.0.1 unless ``host`` names another address AND ``allow_remote`` is set: the
-Foxglove WebSocket protocol has no authentication, so the relay refuses to expose itself by mistake.
-Reach it from another machine through an authenticated tunnel (see docs/viewers.md).
+The server binds to loopback only: the Foxglove WebSocket protocol has no authentication, so the relay
+never exposes itself. It is reached from another machine only through an authenticated tunnel (SSH; see
+docs/viewers.md), which puts it behind the lab's own accounts.
 Subscriber callbacks only count, compare and hand bytes to the server (no decoding of images).
 """
 
@@ -38,7 +38,7 @@ RECENT_FRAMES = 64  # per camera: forwarded frame timestamps whose keypoints are
 
 @dataclass(frozen=True)
 class FoxgloveLiveConfig:
-    """host: address to bind (loopback unless allow_remote); port: TCP port (0: any free one);
+    """host: loopback address to bind (127.0.0.1, ::1 or localhost); port: TCP port (0: any free one);
     preview_fps: frames per second and camera forwarded (the bus carries 30);
     calibration_interval_s: how often the rig's calibrations are re-sent, s."""
 
@@ -46,16 +46,15 @@ class FoxgloveLiveConfig:
     port: int = 8765
     preview_fps: float = 5.0
     calibration_interval_s: float = 2.0
-    allow_remote: bool = False
 
     def __post_init__(self) -> None:
         try:
             loopback = self.host == "localhost" or ipaddress.ip_address(self.host).is_loopback
         except ValueError:
             raise ValueError(f"host: {self.host!r} is not an IP address or localhost") from None
-        if not loopback and not self.allow_remote:
+        if not loopback:
             raise ValueError(f"host: {self.host} is not loopback; the Foxglove WebSocket protocol has no "
-                             "authentication: bind to 127.0.0.1 and tunnel, or set allow_remote knowingly")
+                             "authentication: bind to 127.0.0.1 and reach it through an SSH tunnel")
         if not 0 <= self.port <= 65535:
             raise ValueError(f"port: must be 0..65535, got {self.port}")
         if not self.preview_fps > 0:

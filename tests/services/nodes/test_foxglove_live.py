@@ -71,9 +71,12 @@ class FoxgloveClient:
         self.ws.close()
 
 
-def test_relay_refuses_to_expose_itself_without_being_told():
+def test_relay_never_exposes_itself_beyond_loopback():
     with pytest.raises(ValueError, match="not loopback.*no authentication"):
         FoxgloveLiveConfig(host="0.0.0.0")
+    with pytest.raises(ValueError, match="not loopback"):
+        FoxgloveLiveConfig(host="192.168.1.20")
+    assert FoxgloveLiveConfig(host="::1").host == "::1"
     with pytest.raises(ValueError, match="preview_fps"):
         FoxgloveLiveConfig(preview_fps=0)
 
