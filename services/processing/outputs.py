@@ -6,10 +6,12 @@ renamed, so a reader never sees half a file."""
 from __future__ import annotations
 
 import io
+import json
 import logging
 
 import numpy as np
-from gaitcap.reconstruction.jsonable import finite_or_none
+from gaitcap.reconstruction.fileio import atomic_write_text
+from gaitcap.reconstruction.jsonable import finite_or_none, json_ready
 from gaitcap.services.processing.artifacts import TrialFiles, atomic_path, write_bytes_atomic
 from gaitcap.services.processing.pipeline import Trajectory
 
@@ -90,12 +92,15 @@ def report_png(traj: Trajectory, report, *, title: str) -> bytes:
     return buf.getvalue()
 
 
-def write_data(files: TrialFiles, stage: str, traj: Trajectory, report) -> None:
-    """The stage's trajectory (npz) and gait report (JSON, steps CSV, per-side summary CSV): quick, written before the result is
-    stored in the catalog."""
+def write_data(files: TrialFiles, stage: str, traj: Trajectory, report, *, data_quality: dict | None = None) -> None:
+    """The stage's trajectory (npz) and gait report (JSON, steps CSV, per-side summary CSV): quick, written
+    before the result is stored in the catalog. ``data_quality`` (the trial's measures and plain-word
+    warnings, :class:`~gaitcap.services.processing.quality.DataQuality` as a dict) goes into gait.json
+    beside the gait analysis's own warnings, so the file never carries numbers without their quality."""
     write_npz(files.stage_file(stage, "trajectory_npz"), traj)
     if report is not None:
-        report.write_json(files.stage_file(stage, "gait_json"))
+        payload = {**report.to_dict(), **({"data_quality": data_quality} if data_quality is not None else {})}
+        atomic_write_text(files.stage_file(stage, "gait_json"), json.dumps(json_ready(payload), indent=2) + "\n")
         report.write_csv(files.stage_file(stage, "steps_csv"))
         report.write_summary_csv(files.stage_file(stage, "summary_csv"))
 

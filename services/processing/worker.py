@@ -230,7 +230,7 @@ class Worker:
             log.warning("trial %s %s: no gait parameters: %s", trial_id, stage, problem)
         gait_s = time.perf_counter() - t0
         files = trial_files(self.config.data_dir, trial_id)
-        write_data(files, stage, traj, report)
+        write_data(files, stage, traj, report, data_quality=data_quality.to_dict())
         # The plot, TRC and Rerun files follow right after the result is stored (the page retries the plot).
         later = ["trajectory_trc", "report_png"] + (list(VIEWER_FILES) if viewers else [])
         artifacts = {**files.existing(stage), **{k: str(files.stage_file(stage, k)) for k in later}}

@@ -62,8 +62,10 @@ def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path,
         errors = _step_length_errors(r, walk.truth.steps)
         # clean detections: both stages recover every step length to a few mm (measured: <= 1.2 mm)
         assert len(errors) >= 6 and np.abs(errors).max() < 3.0, (stage, errors)
-        for key in ("trajectory_npz", "trajectory_trc", "gait_json", "steps_csv", "report_png"):
+        for key in ("trajectory_npz", "trajectory_trc", "gait_json", "steps_csv", "summary_csv", "report_png"):
             assert files.stage_file(stage, key).stat().st_size > 100, (stage, key)
+        gait = json.loads(files.stage_file(stage, "gait_json").read_text())  # numbers with their quality
+        assert gait["data_quality"]["cameras"] and "warnings" in gait["data_quality"], gait.get("data_quality")
     assert files.stage_file("refined", "rerun_rrd").stat().st_size > 1000
     with open(files.stage_file("refined", "results_mcap"), "rb") as f:  # the viewer files of the final stage
         summary = make_reader(f).get_summary()
