@@ -166,6 +166,7 @@ def run(*, seconds: float, cameras: int, fps: float, compression: str, out_dir: 
         "recorder_cpu_percent": summary["active_cpu_percent"],
         "recorder_cpu_percent_whole_trial": summary["cpu_percent"], "camera_node_cpu_percent": cam_out["cpu_percent"],
         "mcap_mb": size_mb, "mcap_mb_per_s": size_mb / max(summary["active_s"], 1e-9),
+        "mcap_gb_per_minute": size_mb / 1e3 / max(seconds / 60.0, 1e-9),
         "mean_frame_kb": size_mb * 1e3 / max(in_file, 1),
         "targets_met": {"frames_lost_0": published - in_file == 0,
                         "latency_p99_le_20ms": summary["latency_ms_p99"] is not None and summary["latency_ms_p99"] <= 20,
@@ -183,7 +184,8 @@ def _table(r: dict) -> str:
         ("recorder CPU while frames flow (target <= 50 %)", f"{r['recorder_cpu_percent']:.1f} % of a core "
          f"({r['recorder_cpu_percent_whole_trial']:.1f} % over the whole trial)"),
         ("camera node CPU", f"{r['camera_node_cpu_percent']:.1f} %"),
-        ("MCAP", f"{r['mcap_mb']:.0f} MB, {r['mcap_mb_per_s']:.1f} MB/s, {r['mean_frame_kb']:.0f} kB/frame"),
+        ("MCAP", f"{r['mcap_mb']:.0f} MB, {r['mcap_mb_per_s']:.1f} MB/s, {r['mean_frame_kb']:.0f} kB/frame, "
+                 f"{r['mcap_gb_per_minute']:.2f} GB of disk per minute of recording"),
         ("targets met", ", ".join(f"{k}={v}" for k, v in r["targets_met"].items())),
     ]
     w = max(len(k) for k, _ in rows)
