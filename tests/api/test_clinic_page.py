@@ -134,6 +134,10 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     assert "left heel (mm)" in legend and "right heel strike" in legend and "toe off" in legend
     assert page.locator("#foot-chart .uplot").count() == 1 and not page.is_visible("#report-plot")
     assert page.evaluate("document.documentElement.scrollWidth") <= 390
+    page.emulate_media(media="print")  # the print stylesheet: the results only, no cameras, buttons or lists
+    assert page.is_visible("#sides-table") and page.is_visible("#results-patient")
+    assert not any(page.is_visible(s) for s in ("#cameras-card", "#record", "#trials-card", "header", "#print"))
+    page.emulate_media(media="screen")
     assert page.get_attribute("#record-status", "aria-live") == "polite"
     assert page.locator("#record-timer[aria-live]").count() == 0
 
