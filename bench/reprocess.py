@@ -23,10 +23,8 @@ from pathlib import Path
 
 def write_trials(data_dir: Path, trials: list) -> None:
     """The synthetic trials as recorded trials (MCAP of keypoints + calibration, ground_truth.npz)."""
-    import numpy as np
-    from gaitcap.acquisition.recording.writer import TrialWriter
     from gaitcap.acquisition.synthetic import save_trial
-    from gaitcap.reconstruction.calibration_io import rig_to_toml_text
+    from gaitcap.acquisition.synthetic.recording import write_keypoint_recording
     from gaitcap.services import catalog as cat
     from gaitcap.services.processing.artifacts import trial_files
 
@@ -35,19 +33,7 @@ def write_trials(data_dir: Path, trials: list) -> None:
         t = cat.start_trial(db, subject_id="BENCH", session="s1", trial_id=f"bench-{i:03d}",
                             recording_path_for=lambda tid: trial_files(data_dir, tid).recording)
         path = trial_files(data_dir, t.id).recording
-        path.parent.mkdir(parents=True, exist_ok=True)
-        writer = TrialWriter(path)
-        t0_ns = 1_700_000_000_000_000_000
-        writer.start(metadata={"trial_id": t.id}, calibration_toml=rig_to_toml_text(trial.rig), time_ns=t0_ns)
-        kp = trial.detections.keypoints
-        for c, camera in enumerate(trial.detections.camera_names):
-            for f, time_s in enumerate(trial.detections.times_s):
-                ts = t0_ns + int(round(time_s * 1e9))
-                people = [np.nan_to_num(kp[c, f]).round(2).tolist()] if np.isfinite(kp[c, f, :, 2]).any() else []
-                msg = {"camera": camera, "frame_id": f, "timestamp_ns": ts, "skeleton": trial.skeleton.name,
-                       "people": people, "detector_ms": 0.0}
-                writer.add_keypoints(camera, json.dumps(msg).encode(), timestamp_ns=ts, frame_id=f)
-        writer.finish({"frames": int(kp.shape[1])})
+        write_keypoint_recording(trial, path, metadata={"trial_id": t.id})
         with tempfile.TemporaryDirectory() as tmp:
             save_trial(trial, tmp)
             shutil.copy(Path(tmp) / "ground_truth.npz", path.parent / "ground_truth.npz")
