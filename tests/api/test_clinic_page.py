@@ -85,7 +85,11 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.goto(srv.url + "/")
     page.wait_for_selector("#login:not([hidden])")
     assert not page.is_visible("#app") and not page.is_visible("#start")  # nothing before sign-in
+    _, client, _, _ = server
+    long = client.post("/trials", json={"subject_id": "Q" * 32, "session": "s" * 64}).json()["id"]
+    client.post(f"/trials/{long}/stop")
     sign_in_page(page, srv.url)
+    page.wait_for_selector(f"#trials tr[data-trial='{long}']")  # the longest ids in the list
     for name, (w, h) in WIDTHS.items():
         page.set_viewport_size({"width": w, "height": h})
         assert page.evaluate("document.documentElement.scrollWidth") <= w, name
@@ -158,7 +162,6 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.once("dialog", lambda d: d.accept())  # the rig check's confirmation (one simulated camera is slow)
     page.click("#start")
     page.wait_for_function("() => document.querySelector('#record-status').textContent.includes('Recording patient P0042')")
-    _, client, _, _ = server
     tid = client.get("/trials").json()[0]["id"]
     for _ in range(50):
         entries = [e for e in client.get("/audit", params={"trial_id": tid}).json() if e["action"] == "correct"]
