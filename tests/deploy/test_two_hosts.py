@@ -19,6 +19,7 @@ from pathlib import Path
 
 import pytest
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog.states import FINISHED
 
 ROOT = Path(__file__).resolve().parents[2]
 PY = [sys.executable, "-c", "from gaitcap.services.cli import main; main()"]
@@ -154,10 +155,11 @@ def test_trial_recorded_and_processed_across_two_hosts(tmp_path, two_hosts):
         assert summary["keypoints"] == summary["frames"], summary
         db = cat.open_catalog(data / "catalog.sqlite")
         deadline = time.monotonic() + 180
-        while cat.get_trial(db, trial_id).state not in ("done", "failed") and time.monotonic() < deadline:
+        while cat.get_trial(db, trial_id).state not in FINISHED and time.monotonic() < deadline:
             time.sleep(0.5)
         trial = cat.get_trial(db, trial_id)
-        assert trial.state == "done", f"{trial.state} {trial.error}\n{procs.log('worker')}"
+        quality = cat.get_quality(db, trial_id)
+        assert trial.state == "done", f"{trial.state} {trial.error} {quality}\n{procs.log('worker')}"
         result = cat.get_result(db, trial_id, "preliminary")
         assert result.method == "robust triangulation" and result.quality is not None
         assert len(result.steps) >= 3, (result.steps, result.report)
