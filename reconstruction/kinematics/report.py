@@ -7,7 +7,7 @@ import io
 from dataclasses import dataclass, field
 
 import numpy as np
-from gaitcap.reconstruction.kinematics.angles import SIDES, clinical_angles
+from gaitcap.reconstruction.kinematics.angles import SIDES, VARIABLES, clinical_angles
 from gaitcap.reconstruction.kinematics.clinical import key_values
 from gaitcap.reconstruction.kinematics.cycles import (
     CYCLE_POINTS,
@@ -32,6 +32,7 @@ class KinematicsReport:
     norms: dict[str, NormBand] = field(default_factory=dict)
     marker_errors_mm: dict[str, dict[str, float]] = field(default_factory=dict)
     model: dict = field(default_factory=dict)
+    not_measured: dict[str, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         curves = {var: {side: {"n_cycles": cc.n, "mean_deg": _list(cc.mean), "sd_deg": _list(cc.sd)}
@@ -41,7 +42,7 @@ class KinematicsReport:
             "percent": list(range(CYCLE_POINTS)), "curves": curves, "key_values": self.key_values,
             "norms": {"source": SOURCE if self.norms else None,
                       "bands": {k: v.to_dict() for k, v in self.norms.items()}},
-            "marker_errors_mm": self.marker_errors_mm, "model": self.model,
+            "marker_errors_mm": self.marker_errors_mm, "model": self.model, "not_measured": self.not_measured,
         }
 
     def to_csv(self) -> str:
@@ -64,12 +65,17 @@ class KinematicsReport:
 
 def kinematics_report(coordinates_deg: dict[str, np.ndarray], times_s: np.ndarray, steps, *,
                       norms: dict[str, NormBand] | None = None, marker_errors_mm=None,
-                      model: dict | None = None) -> KinematicsReport:
+                      model: dict | None = None, held: dict[str, str] | None = None) -> KinematicsReport:
     """Curves and key values from the model's coordinates (name -> (T,) degrees) and the gait report's
-    steps (objects with foot, heel_strike_s, toe_off_s, pass_index)."""
+    steps (objects with foot, heel_strike_s, toe_off_s, pass_index). ``held``: coordinates the fit held
+    rather than measured (-> why): the variables read from them get no curve and no key value, and
+    ``not_measured`` says why."""
     cycles = cycles_from_steps(steps)
     angles = clinical_angles(coordinates_deg, times_s)
+    not_measured = {var: (held or {})[coord] for var, v in VARIABLES.items() if var in angles
+                    for coord in set(v.coordinate.values()) if coord in (held or {})}
     curves = {var: {side: cycle_curves(vals[side], times_s, cycles, side) for side in SIDES}
-              for var, vals in angles.items()}
+              for var, vals in angles.items() if var not in not_measured}
     keys = {side: key_values({var: curves[var][side] for var in curves}) for side in SIDES}
-    return KinematicsReport(curves, keys, dict(norms or {}), dict(marker_errors_mm or {}), dict(model or {}))
+    return KinematicsReport(curves, keys, dict(norms or {}), dict(marker_errors_mm or {}), dict(model or {}),
+                            not_measured)

@@ -19,7 +19,8 @@ class ModelFit:
     """times_s (T,); coordinates_deg: model coordinate -> (T,) (rotations degrees, translations m; NaN in
     frames that could not be fitted); marker_errors_mm: marker -> {"rms", "max"} over the fitted frames;
     files: "osim" (scaled model), "mot" (coordinates), "trc" (the markers fitted) -> path;
-    scale_factors: body -> factor; seconds: {"scale", "ik"}."""
+    scale_factors: body -> factor; seconds: {"scale", "ik"}; held: coordinate -> why it was held by the
+    fit rather than measured from the markers (its values are the fit's prior, not the patient's)."""
 
     times_s: np.ndarray
     coordinates_deg: dict[str, np.ndarray]
@@ -27,6 +28,7 @@ class ModelFit:
     files: dict[str, Path]
     scale_factors: dict[str, float] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
+    held: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

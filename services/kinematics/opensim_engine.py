@@ -249,8 +249,10 @@ class OpenSimEngine:
         coords, errors = self._ik(files, paths, req, times, pts)
         t2 = time.perf_counter()
         atomic_write_text(paths["mot"], to_mot(times, coords, name=req.stem))
+        held = {p.coordinate: f"held near {p.target_deg:g} deg by the fit: the keypoints do not determine it"
+                for p in PRIORS if p.weight > 0 and p.coordinate in coords}
         return ModelFit(times, coords, errors, paths, {b: f[0] for b, f in factors.items()},
-                        {"scale": round(t1 - t0, 3), "ik": round(t2 - t1, 3)})
+                        {"scale": round(t1 - t0, 3), "ik": round(t2 - t1, 3)}, held)
 
     @staticmethod
     def _without_outliers(pts: np.ndarray, names: tuple[str, ...]) -> np.ndarray:

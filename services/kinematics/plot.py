@@ -23,6 +23,13 @@ def curves_png(report: KinematicsReport, *, title: str = "Joint kinematics") -> 
     axes = fig.subplots(3, 3).ravel()
     pct = np.arange(101)
     for ax, (name, var) in zip(axes, VARIABLES.items(), strict=True):
+        if name in report.not_measured:  # held by the fit: say so instead of drawing its prior
+            ax.set_title(var.label, fontsize=9)
+            ax.text(0.5, 0.5, "not measured:\n" + report.not_measured[name].replace(": ", ":\n"),
+                    ha="center", va="center", fontsize=7, transform=ax.transAxes, wrap=True)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            continue
         band = report.norms.get(name)
         if band is not None:
             ax.fill_between(pct, band.mean - band.sd, band.mean + band.sd, color="0.85", label="norm")

@@ -94,7 +94,7 @@ def trial_kinematics(points_mm: np.ndarray, times_s: np.ndarray, joint_names, *,
              "knee_angle_r" in fit.coordinates_deg else 0, "frames": int(len(fit.times_s)),
              "seconds": {**fit.seconds, "total": round(time.perf_counter() - t0, 3)}}
     report = kinematics_report(fit.coordinates_deg, fit.times_s, steps, norms=norm_bands(),
-                               marker_errors_mm=fit.marker_errors_mm, model=model)
+                               marker_errors_mm=fit.marker_errors_mm, model=model, held=fit.held)
     atomic_write_text(out_dir / FILES["json"], json.dumps({"available": True, **report.to_dict()}) + "\n")
     atomic_write_text(out_dir / FILES["csv"], report.to_csv())
     write_c3d(out_dir / FILES["c3d"], c3d_content(pts, times_s, names, steps))

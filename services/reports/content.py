@@ -262,7 +262,11 @@ def joint_angles_of(data_dir: Path, trial_id: str, stage: str) -> tuple[dict[str
         for name, stats in values.items():
             if isinstance(stats, dict) and isinstance(stats.get("mean"), (int, float)):
                 out.setdefault(name, {})[side] = float(stats["mean"])
-    return out, "" if out else "Joint kinematics have no key values for this trial."
+    held = "; ".join(f"{name.replace('_', ' ')} not measured ({why})"
+                     for name, why in (data.get("not_measured") or {}).items())
+    if not out:
+        return out, " ".join(filter(None, ["Joint kinematics have no key values for this trial.", held]))
+    return out, held + "." if held else ""
 
 
 def _version() -> str:

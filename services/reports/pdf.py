@@ -207,6 +207,8 @@ def _angles(pdf: _Doc) -> None:
             row.cell(_latin1(name.removesuffix("_deg").replace("_", " ").capitalize()))
             for side in ("left", "right"):
                 row.cell(_fmt(sides.get(side, math.nan), 1))
+    if c.joint_angles_note:  # e.g. a coordinate the fit held rather than measured
+        pdf.para(_latin1(c.joint_angles_note))
 
 
 def _closing(pdf: _Doc) -> None:

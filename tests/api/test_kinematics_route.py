@@ -68,7 +68,10 @@ def test_kinematics_json_csv_and_files(trial_with_result, synthetic_walk):
     assert body["marker_errors_mm"]["RKnee"]["rms"] < 30
     csv = client.get(f"/trials/{tid}/kinematics", params={"format": "csv"})
     assert csv.headers["content-type"].startswith("text/csv")
-    assert csv.text.splitlines()[0].startswith("percent,pelvis_tilt_left_mean_deg")
+    header = csv.text.splitlines()[0].split(",")
+    assert header[:2] == ["percent", "pelvis_obliquity_left_mean_deg"] and "knee_flexion_right_mean_deg" in header
+    assert not any(c.startswith("pelvis_tilt") for c in header)  # held by the fit, not measured
+    assert "pelvis_tilt" in body["not_measured"]
     assert len(csv.text.splitlines()) == 102
     png = client.get(f"/trials/{tid}/kinematics", params={"format": "png"})
     assert png.headers["content-type"] == "image/png" and png.content.startswith(b"\x89PNG")

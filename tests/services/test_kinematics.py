@@ -95,6 +95,9 @@ def test_report_files_and_exports(fitted):
     assert d["available"] and d["model"]["frames_fitted"] == len(times)
     assert d["curves"]["knee_flexion"]["left"]["n_cycles"] >= 2
     assert 50 < d["key_values"]["right"]["knee_peak_flexion_swing_deg"]["mean"] < 75
+    # the pelvis's tilt is held by the fit, not measured: no curve, no key value, and the file says why
+    assert "pelvis_tilt" not in d["curves"] and "held" in d["not_measured"]["pelvis_tilt"]
+    assert d["key_values"]["left"]["pelvis_tilt_rom_deg"]["n"] == 0
     assert d["marker_errors_mm"]["LKnee"]["rms"] < 20
     if norms_file().is_file():  # installed by deploy/bootstrap.sh
         assert "Schwartz" in d["norms"]["source"] and len(d["norms"]["bands"]["knee_flexion"]["mean_deg"]) == 101
