@@ -143,6 +143,7 @@ class Recording:
         self.last_write: tuple[float, float] | None = None
         self.dropped: dict[str, int] = {}  # camera -> messages dropped because the queue stayed full
         self.frame_range: tuple[int, int] | None = None  # (first, last) frame id recorded, all cameras
+        self.early_anchor: int | None = None  # the first keypoints' frame id, while no frame is recorded yet
         self.rejected = 0
 
     def reject(self, message: str) -> None:
@@ -162,9 +163,13 @@ class Recording:
         return True
 
     def accept_keypoints(self, camera: str, frame_id: int) -> bool:
-        """Keep keypoints only for frame ids near the frames recorded so far."""
-        lo, hi = self.frame_range or (frame_id + 1, frame_id - 1)
-        if self.frame_range is None or not lo - KEYPOINT_SLACK_FRAMES <= frame_id <= hi + KEYPOINT_SLACK_FRAMES:
+        """Keep keypoints only for frame ids near the frames recorded so far. Keypoints may overtake their
+        image on the bus (the detector answers faster than the recorder takes the frame): before any frame
+        is recorded they are kept within the same slack of the first keypoints' frame id."""
+        if self.frame_range is None and self.early_anchor is None:
+            self.early_anchor = frame_id
+        lo, hi = self.frame_range or (self.early_anchor, self.early_anchor)
+        if not lo - KEYPOINT_SLACK_FRAMES <= frame_id <= hi + KEYPOINT_SLACK_FRAMES:
             self.reject(f"keypoints of camera {camera} for frame id {frame_id}, outside the recorded frames "
                         f"{self.frame_range}")
             return False

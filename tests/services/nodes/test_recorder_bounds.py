@@ -77,3 +77,16 @@ def test_a_recording_with_a_stray_keypoint_frame_id_is_refused_not_allocated(tmp
     with pytest.raises(ValueError, match="stray frame id"):
         read_keypoints(path)
     assert time.monotonic() - t0 < 5
+
+
+def test_keypoints_that_overtake_their_image_are_kept_and_bounded(tmp_path):
+    """The detector may answer before the recorder takes the frame: keypoints before any frame are kept
+    near the first keypoints' frame id; once frames are recorded, near the frames; far ones are rejected."""
+    from gaitcap.services.nodes.recorder import Recording
+
+    rec = Recording("T1", tmp_path / "t.mcap", writer=None, cameras=["cam01"])
+    assert rec.accept_keypoints("cam01", 349) and rec.accept_keypoints("cam01", 350)  # before any frame
+    assert not rec.accept_keypoints("cam01", 2**40) and rec.rejected == 1
+    assert rec.accept_frame("cam01", 351)
+    assert rec.accept_keypoints("cam01", 351 + KEYPOINT_SLACK_FRAMES)
+    assert not rec.accept_keypoints("cam01", 351 + KEYPOINT_SLACK_FRAMES + 1) and rec.rejected == 2
