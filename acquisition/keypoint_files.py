@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +39,6 @@ from gaitcap.acquisition.keypoint_input import (
     provisional_skeleton,
 )
 from gaitcap.acquisition.openpose_json import openpose_people
-from gaitcap.acquisition.recording.reader import KeypointRecording
 from gaitcap.reconstruction.camera import Rig
 
 log = logging.getLogger(__name__)
@@ -134,6 +133,6 @@ def read_keypoints_input(
     if skeleton:
         rec = data.recording
         name = provisional_skeleton(rec.people.shape[-2], skeleton)
-        rec = KeypointRecording(rec.camera_names, rec.frame_ids, rec.times_s, name, rec.people, rec.timestamps_ns)
+        rec = replace(rec, skeleton=name)
         data = KeypointInput(rec, name, data.rig, data.source)
     return data

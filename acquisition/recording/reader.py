@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from gaitcap.acquisition.encoding import parse_image_message
 from gaitcap.acquisition.recording import layout
+from gaitcap.acquisition.recording.frame_slots import SlotReport, align_frame_slots
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
@@ -233,6 +234,8 @@ class KeypointRecording:
         skeleton: skeleton name.
         people: (C, T, P, J, 3) x px, y px, conf; P = most people seen in one frame; missing: NaN, conf 0.
         timestamps_ns: (C, T) camera timestamps, -1 where the frame is missing.
+        restarts: {camera: times its frame counter started again within the recording}; those frames are
+            placed by timestamp.
     """
 
     camera_names: tuple[str, ...]
@@ -241,6 +244,7 @@ class KeypointRecording:
     skeleton: str
     people: np.ndarray
     timestamps_ns: np.ndarray
+    restarts: dict[str, int] = field(default_factory=dict)
 
     def patient(self) -> Detections:
         """people[0] of every frame (the detector's first person) as reconstruction input."""
@@ -270,36 +274,54 @@ def _frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
 
 
 def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) -> KeypointRecording:
-    """All keypoints, frame sets aligned by frame id; cameras in calibration order (else sorted)."""
-    per_cam: dict[str, dict[int, tuple[int, list]]] = {}
+    """All keypoints, frame sets aligned by frame id; cameras in calibration order (else sorted).
+
+    A camera whose frame counter restarted within the recording (a camera or camera node restarted) has
+    its later frames placed by timestamp (:mod:`gaitcap.acquisition.recording.frame_slots`), with a warning."""
+    per_cam: dict[str, list[tuple[int, int, list]]] = {}
     skeletons = set()
     for topic, message in iter_messages(path, layout.is_keypoints_topic):
         msg = json.loads(message.data)
         skeletons.add(msg["skeleton"])
-        per_cam.setdefault(layout.camera_of_topic(topic), {})[int(msg["frame_id"])] = (
-            int(msg["timestamp_ns"]), msg["people"])
+        per_cam.setdefault(layout.camera_of_topic(topic), []).append(
+            (int(msg["frame_id"]), int(msg["timestamp_ns"]), msg["people"]))
     if not per_cam:
         raise ValueError(f"{path}: no keypoints recorded")
     if len(skeletons) != 1:
         raise ValueError(f"{path}: keypoints of several skeletons {sorted(skeletons)}")
-    names = _camera_order(path, per_cam, cameras)
-    fids = [f for cam in per_cam.values() for f in cam]
+    slotted, report = _on_one_grid(per_cam)
+    names = _camera_order(path, slotted, cameras)
+    fids = [f for cam in slotted.values() for f in cam]
     first, last = min(fids), max(fids)
     distinct = len(set(fids))
     if last - first + 1 > 2 * distinct + 10_000:  # a stray frame id would size the arrays, not the data
         raise ValueError(f"{path}: keypoint frame ids span {first}..{last} but only {distinct} frames have "
                          "keypoints (a stray frame id?)")
     frame_ids = np.arange(first, last + 1)
-    most = max((len(p) for cam in per_cam.values() for _, p in cam.values()), default=0)
-    joints = next((len(p[0]) for cam in per_cam.values() for _, p in cam.values() if p), 0)
+    most = max((len(p) for cam in slotted.values() for _, p in cam.values()), default=0)
+    joints = next((len(p[0]) for cam in slotted.values() for _, p in cam.values() if p), 0)
     people = _missing((len(names), frame_ids.size, most, joints))
     stamps = np.full((len(names), frame_ids.size), -1, dtype=np.int64)
     for c, name in enumerate(names):
-        for fid, (ts, ppl) in per_cam.get(name, {}).items():
+        for fid, (ts, ppl) in slotted.get(name, {}).items():
             stamps[c, fid - first] = ts
             if ppl:
                 people[c, fid - first, : len(ppl)] = np.asarray(ppl, dtype=np.float64).reshape(len(ppl), joints, 3)
-    return KeypointRecording(tuple(names), frame_ids, _frame_times_s(stamps), skeletons.pop(), people, stamps)
+    return KeypointRecording(tuple(names), frame_ids, _frame_times_s(stamps), skeletons.pop(), people, stamps,
+                             report.restarts)
+
+
+def _on_one_grid(per_cam: dict[str, list[tuple[int, int, list]]]
+                 ) -> tuple[dict[str, dict[int, tuple[int, list]]], SlotReport]:
+    """{camera: {frame set id: (timestamp ns, people)}} with restarted frame counters placed by time."""
+    series = {cam: (np.array([e[0] for e in rows], dtype=np.int64), np.array([e[1] for e in rows], dtype=np.int64))
+              for cam, rows in per_cam.items()}
+    placed, report = align_frame_slots(series)
+    out = {}
+    for cam, (keep, slots) in placed.items():
+        rows = per_cam[cam]
+        out[cam] = {int(slot): (rows[i][1], rows[i][2]) for i, slot in zip(keep.tolist(), slots.tolist(), strict=True)}
+    return out, report
 
 
 def _camera_order(path, per_cam: dict, cameras: list[str] | None) -> list[str]:

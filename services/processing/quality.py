@@ -81,6 +81,7 @@ class DataQuality:
     spread_ms_p95: float | None
     coverage: float | None
     recorded_s: float | None = None  # wall time from Start to Stop (the recorder's), None when unknown
+    restarts: dict[str, int] = field(default_factory=dict)  # camera -> frame counter restarts within the trial
     warnings: tuple[str, ...] = ()
     serious: bool = False
     criteria: QualityCriteria = field(default_factory=QualityCriteria)
@@ -129,12 +130,13 @@ def sync_spread_ms(stamps_ns: np.ndarray) -> np.ndarray:
 
 
 def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confidence: np.ndarray | None,
-                      expected_cameras=(), recorded_s: float | None = None,
+                      expected_cameras=(), recorded_s: float | None = None, restarts=None,
                       criteria: QualityCriteria = QualityCriteria()) -> DataQuality:
     """Measures and warnings from a recording's (C, T) camera timestamps (-1 where missing) and the
     patient's (C, T, J) detection confidences; ``expected_cameras``: the calibration's cameras (one
     missing from the recording entirely is reported); ``recorded_s``: Start to Stop (s) as the recorder
-    timed it (images ending long before Stop: every camera stopped)."""
+    timed it (images ending long before Stop: every camera stopped); ``restarts``: {camera: times its
+    frame counter started again within the trial} (the reader's, a camera or camera node restarted)."""
     stamps = np.asarray(timestamps_ns, dtype=np.int64)
     nominal = nominal_fps_of(stamps)
     t0 = float(stamps[stamps >= 0].min()) if (stamps >= 0).any() else 0.0
@@ -152,7 +154,8 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
                           spread_ms_max=round(float(spread.max()), 2) if spread.size else None,
                           spread_ms_p95=round(float(np.percentile(spread, 95)), 2) if spread.size else None,
                           coverage=None if coverage is None else round(coverage, 3), criteria=criteria,
-                          recorded_s=None if recorded_s is None else round(float(recorded_s), 3))
+                          recorded_s=None if recorded_s is None else round(float(recorded_s), 3),
+                          restarts=dict(restarts or {}))
     missing = [n for n in expected_cameras if n not in camera_names]
     return judged(quality, missing_cameras=missing)
 
@@ -186,6 +189,8 @@ def judged(q: DataQuality, *, missing_cameras=()) -> DataQuality:
     judged_s = max((c.expected for c in q.cameras), default=0) / q.nominal_fps  # the window judged per camera
     end = judged_s - 1.0 / q.nominal_fps - late_s
     warn += [f"Camera {n} recorded nothing" for n in missing_cameras]
+    warn += [f"Camera {n} restarted during the trial ({k} time{'s' if k > 1 else ''}); its frames around the "
+             "restart are missing" for n, k in sorted(q.restarts.items())]
     for c in q.cameras:
         if c.received == 0:
             warn.append(f"Camera {c.name} recorded nothing")

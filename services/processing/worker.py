@@ -194,7 +194,7 @@ class Worker:
         quality = recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
                                     patient_confidence=det.keypoints[..., 2], expected_cameras=rig.names,
                                     recorded_s=read_summary(files.recording).get("duration_s"),
-                                    criteria=self.config.criteria)
+                                    restarts=recording.restarts, criteria=self.config.criteria)
         rig = seen_rig
         source = (recording, rig, files.recording)  # what the viewer files show besides the results
         self.load_s = time.perf_counter() - t0

@@ -47,7 +47,9 @@ def test_recorder_killed_mid_trial_the_recording_is_recovered_processed_and_flag
 
 def test_camera_killed_mid_trial_the_trial_is_flagged(drill):
     res = camera_killed(drill)
-    assert not res.lost and res.flagged and "No camera images" in res.detail, res
+    # the camera node is restarted within the trial: its frame ids start again, its frames are placed by time
+    assert not res.lost and res.flagged and res.state == "done_with_warnings", res
+    assert "restarted during the trial" in res.detail, res
     assert res.detect_s < DETECT_S, res
 
 

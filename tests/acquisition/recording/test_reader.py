@@ -15,7 +15,8 @@ from gaitcap.acquisition.recording.reader import (
     read_summary,
 )
 from gaitcap.acquisition.recording.recovery import recover
-from recording_helpers import CAMS, FRAMES, J, people_for, tiny_rig, write_trial
+from gaitcap.reconstruction.calibration_io import rig_to_toml_text
+from recording_helpers import CAMS, FRAMES, PERIOD_NS, T0_NS, J, people_for, tiny_rig, write_trial
 
 
 def test_detections_aligned_by_frame_id_with_missing_as_nan(trial_mcap):
@@ -129,3 +130,44 @@ def test_corrupt_chunk_in_a_complete_file_is_a_clear_error_and_recoverable(tmp_p
     assert report.output == tmp_path / "bad.recovered.mcap" and not report.was_complete
     assert report.error and 0 < report.messages[layout.image_topic("cam0")] < FRAMES
     assert read_metadata(report.output)["patient"] == "p01"
+
+
+def _write_restart(path, *, restarted=("cam0", "cam1"), before=40, gap=10, after=30, first_id=500):
+    """Every camera records ids first_id.. for ``before`` frames; the ``restarted`` cameras then go dark for
+    ``gap`` frames and start their counters again at 0 (same clock), the others keep counting."""
+    from gaitcap.acquisition.recording.writer import TrialWriter
+
+    w = TrialWriter(path)
+    w.start(metadata={"trial_id": "restart"}, calibration_toml=rig_to_toml_text(tiny_rig()), time_ns=T0_NS)
+    for c, cam in enumerate(CAMS):
+        for k in range(before + gap + after):
+            again = cam in restarted and k >= before
+            if again and k < before + gap:
+                continue
+            fid = k - before - gap if again else first_id + k
+            ts = T0_NS + k * PERIOD_NS + 1000 * c
+            kp = {"camera": cam, "frame_id": fid, "timestamp_ns": ts, "skeleton": "halpe26",
+                  "people": people_for(c, k).tolist()}
+            w.add_keypoints(cam, json.dumps(kp).encode(), timestamp_ns=ts, frame_id=fid)
+    return w.finish({})
+
+
+def test_a_camera_restart_within_the_trial_is_read_by_time_not_refused(tmp_path, caplog):
+    path = _write_restart(tmp_path / "restart.mcap")
+    kp = read_keypoints(path)
+    assert kp.frame_ids[0] == 500 and kp.frame_ids.size == 80
+    assert np.all(np.diff(kp.times_s) > 0)
+    np.testing.assert_allclose(np.diff(kp.times_s), PERIOD_NS / 1e9, atol=1e-5)
+    for c in range(3):  # frame k of every camera is in frame set k, restarted or not
+        for k in (0, 39, 50, 79):
+            np.testing.assert_allclose(kp.people[c, k, :2], people_for(c, k))
+    assert np.isnan(kp.people[0, 40:50, 0, :, 0]).all() and not np.isnan(kp.people[2, 40:50, 0, :, 0]).any()
+    assert "camera cam0: frame counter restarted 1 time(s)" in caplog.text and "cam2: frame" not in caplog.text
+    assert kp.restarts == {"cam0": 1, "cam1": 1}
+
+
+def test_every_camera_restarted_together_is_placed_after_the_gap(tmp_path):
+    kp = read_keypoints(_write_restart(tmp_path / "all.mcap", restarted=CAMS, first_id=0))
+    assert kp.frame_ids.size == 80 and np.all(np.diff(kp.times_s) > 0)
+    np.testing.assert_allclose(kp.people[1, 60, :2], people_for(1, 60))
+    assert kp.restarts == {"cam0": 1, "cam1": 1, "cam2": 1}

@@ -97,3 +97,12 @@ def test_criteria_are_checked():
     assert QualityCriteria().min_fps_at(30.0) == 28.0 and QualityCriteria().min_fps_at(15.0) == 14.0
     with pytest.raises(ValueError, match="min_coverage"):
         QualityCriteria(min_coverage=2)
+
+
+def test_a_camera_restarted_during_the_trial_is_named():
+    stamps = _stamps()
+    stamps[3, 100:130] = -1  # camera 3's node restarted: a second without images, then its frames again
+    q = recording_quality(camera_names=NAMES, timestamps_ns=stamps, patient_confidence=None, restarts={"cam3": 1})
+    assert q.serious and "Camera cam3 restarted during the trial (1 time)" in summary_sentence(q.warnings)
+    again = with_reprojection(q, {})
+    assert again.restarts == {"cam3": 1} and any("cam3 restarted" in w for w in again.warnings)
