@@ -74,6 +74,7 @@ def recover_orphans(root: Path) -> list[dict[str, Any]]:
 
 
 MAX_TRIAL_FRAMES = 10_000_000  # frame ids of one trial span at most this many frames (3.8 days at 30/s)
+RESTART_BACK_FRAMES = 60  # a frame id this far below the camera's highest so far: its counter started again
 KEYPOINT_SLACK_FRAMES = 600  # keypoints may name frames this far outside the recorded frames' range
 _LOGGED_REJECTIONS = 20  # per trial; the rest are only counted
 
@@ -102,24 +103,45 @@ class CameraTally:
     last_status: dict[str, Any] | None = None
 
     def summary(self, last_frame_id_all: int | None) -> dict[str, Any]:
+        """Counts, gaps and restarts; ``last_frame_id_all``: the last frame id of any camera (judges a camera
+        that stopped early; not applied to a camera whose counter restarted: its ids are another count)."""
+        segments = _counter_segments(self.frame_ids)
+        gaps = [g for seg in segments for g in _gap_ranges(np.unique(seg))]
         ids = np.unique(np.asarray(self.frame_ids, dtype=np.int64))
-        gaps = _gap_ranges(ids)
         missing_inside = int(sum(b - a + 1 for a, b in gaps))
         missing_end = 0
-        if ids.size and last_frame_id_all is not None and last_frame_id_all > ids[-1]:
-            missing_end = int(last_frame_id_all - ids[-1])
-            gaps.append([int(ids[-1]) + 1, int(last_frame_id_all)])
+        last = int(np.max(segments[-1])) if segments else None
+        if last is not None and len(segments) == 1 and last_frame_id_all is not None and last_frame_id_all > last:
+            missing_end = int(last_frame_id_all - last)
+            gaps.append([last + 1, int(last_frame_id_all)])
         return {
             "frames": self.frames,
             "keypoints": self.keypoints,
             "first_frame_id": int(ids[0]) if ids.size else None,
             "last_frame_id": int(ids[-1]) if ids.size else None,
-            "duplicates": int(len(self.frame_ids) - ids.size),
+            "duplicates": int(len(self.frame_ids) - sum(np.unique(seg).size for seg in segments)),
             "missing_frames": missing_inside + missing_end,
             "stopped_early": missing_end > 0,
+            "restarts": len(segments) - 1 if segments else 0,
             "gaps": gaps,
             "health": (self.last_status or {}).get("health"),
         }
+
+
+def _counter_segments(frame_ids: list[int]) -> list[np.ndarray]:
+    """Frame ids in arrival order, cut where the camera's counter started again (an id more than
+    RESTART_BACK_FRAMES below the highest so far: a restarted camera, not frames reordered on the bus)."""
+    ids = np.asarray(frame_ids, dtype=np.int64)
+    if ids.size == 0:
+        return []
+    cuts, high = [0], ids[0]
+    for i in range(1, ids.size):
+        if ids[i] < high - RESTART_BACK_FRAMES:
+            cuts.append(i)
+            high = ids[i]
+        high = max(high, ids[i])
+    cuts.append(ids.size)
+    return [ids[a:b] for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
 
 
 def _gap_ranges(ids: np.ndarray) -> list[list[int]]:
