@@ -180,8 +180,9 @@ def _anipose_calibration(path: Path) -> Path | None:
 
 
 def _dlc_files(path: Path) -> list[Path]:
+    """One DeepLabCut output per camera: the CSVs, else the HDF5 files anipose's pose-2d step writes."""
     folder = path / "pose-2d" if (path / "pose-2d").is_dir() else path
-    return sorted(folder.glob("*.csv"))
+    return sorted(folder.glob("*.csv")) or sorted(folder.glob("*.h5"))
 
 
 def is_anipose_folder(path: Path) -> bool:
@@ -217,10 +218,40 @@ def _read_dlc_csv(path: Path) -> tuple[list[str], np.ndarray]:
     return parts, data.reshape(len(data), len(parts), 3)
 
 
+def _read_dlc_h5(path: Path) -> tuple[list[str], np.ndarray]:
+    """DeepLabCut HDF5 (a pandas table, columns scorer / bodyparts / coords) -> (names, (T, J, 3))."""
+    try:
+        import pandas as pd
+    except ImportError:
+        raise ValueError(f"{path}: reading DeepLabCut .h5 files needs pandas and PyTables "
+                         "(pip install 'gaitcap[anipose]'), or save the 2D poses as CSV") from None
+    try:
+        df = pd.read_hdf(path)
+    except (ImportError, ValueError, KeyError, OSError, TypeError, RuntimeError) as exc:  # HDF5ExtError
+        raise ValueError(f"{path}: not a readable DeepLabCut .h5 ({type(exc).__name__}: "
+                         f"{(str(exc).strip().splitlines() or [''])[0]})") from None
+    cols = df.columns
+    names = list(getattr(cols, "names", []) or [])
+    if "individuals" in names and cols.get_level_values("individuals").nunique() > 1:
+        raise ValueError(f"{path}: a multi-animal DeepLabCut file ({cols.get_level_values('individuals').nunique()} "
+                         "individuals); anipose projects track one: keep one individual per file")
+    if "bodyparts" not in names or "coords" not in names:
+        raise ValueError(f"{path}: not a DeepLabCut table (column levels {names}, expected bodyparts and coords)")
+    parts = list(dict.fromkeys(cols.get_level_values("bodyparts")))
+    coords = [str(c) for c in cols.get_level_values("coords")[:3]]
+    if coords != ["x", "y", "likelihood"]:
+        raise ValueError(f"{path}: coords {coords} per body part, expected x, y, likelihood")
+    data = df.to_numpy(dtype=np.float64)
+    return parts, data[:, : 3 * len(parts)].reshape(len(data), len(parts), 3)
+
+
+_DLC_READERS = {".csv": _read_dlc_csv, ".h5": _read_dlc_h5}
+
+
 def read_anipose_folder(path: Path, *, fps: float, camera_names: list[str] | None = None) -> KeypointInput:
     rig = load_toml_rig(_anipose_calibration(path))
     files = _dlc_files(path)
-    per_cam = [_read_dlc_csv(f) for f in files]
+    per_cam = [_DLC_READERS[f.suffix](f) for f in files]
     parts = {tuple(p) for p, _ in per_cam}
     if len(parts) > 1:
         raise ValueError(f"{path}: the camera files have different body parts")

@@ -143,3 +143,24 @@ def test_pose2sim_folder_config_inherited_and_unknown_model(tmp_path):
     (session / "Config.toml").write_text('[pose]\npose_model = "ANIMAL2D_17"\n')
     with pytest.raises(ValueError, match="pose_model 'ANIMAL2D_17' is not supported"):
         read_keypoints_input(trial)
+
+
+def test_anipose_folder_with_the_deeplabcut_h5_files_anipose_writes(tmp_path):
+    pd = pytest.importorskip("pandas", reason="the anipose extra (pandas, PyTables) is part of the dev install")
+    rig = _rig(["A", "B"])
+    (tmp_path / "calibration.toml").write_text(_toml_in_mm(rig))
+    (tmp_path / "pose-2d").mkdir()
+    skel = get_skeleton("halpe26")
+    kp = _keypoints(2, 6, 26, seed=3)
+    parts = [_openpose_style(n) for n in skel.joint_names]
+    for c, cam in enumerate(["A", "B"]):  # as DeepLabCut saves: df.to_hdf(..., "df_with_missing", format="table")
+        cols = pd.MultiIndex.from_product([["DLC_resnet50"], parts, ["x", "y", "likelihood"]],
+                                          names=["scorer", "bodyparts", "coords"])
+        pd.DataFrame(kp[c].reshape(6, -1), columns=cols).to_hdf(tmp_path / "pose-2d" / f"walk-cam{cam}.h5",
+                                                               key="df_with_missing", format="table", mode="w")
+    data = read_keypoints_input(tmp_path)
+    assert data.source == "anipose folder" and data.layout == "halpe26"
+    np.testing.assert_allclose(data.recording.people[:, :, 0], kp, atol=1e-9)
+    (tmp_path / "pose-2d" / "walk-camB.h5").write_bytes(b"not hdf5")
+    with pytest.raises(ValueError, match="walk-camB.h5: not a readable DeepLabCut .h5"):
+        read_keypoints_input(tmp_path)
