@@ -136,6 +136,41 @@ install_gait_norms() {
   rm -rf "$tmp"
   return $rc
 }
+# Adult normal-gait sagittal kinematics (hip, knee, ankle, pelvic tilt: mean and SD every 4 % of the cycle,
+# 15 healthy adults of the BioCV dataset, Evans et al. 2024, as summarised in the myogait wheel's
+# normative.py, MIT, not installed); read as data (Python literals), never imported. See docs/kinematics.md.
+MYOGAIT_VERSION="0.9.2"
+install_adult_gait_norms() {
+  local dest="$SHARE/normative/BioCV2024_adult.json" tmp
+  [ -f "$dest" ] && return 0
+  echo "[bootstrap] extracting adult normal-gait kinematics (wheel myogait==$MYOGAIT_VERSION, not installed)" >&2
+  tmp="$(mktemp -d)" || return 1
+  fetch_package "$tmp" "myogait==$MYOGAIT_VERSION" \
+    && mkdir -p "$(dirname "$dest")" \
+    && "$VENV/bin/python" - "$tmp" "$dest" "$MYOGAIT_VERSION" <<'PYEOF'
+import ast, glob, json, os, sys, zipfile
+wheel = glob.glob(os.path.join(sys.argv[1], "myogait-*.whl"))[0]
+with zipfile.ZipFile(wheel) as z:
+    tree = ast.parse(z.read("myogait/normative.py").decode("utf-8"))
+    licence = next(z.read(n).decode() for n in z.namelist() if n.endswith("licenses/LICENSE"))
+found = {t.id: ast.literal_eval(node.value) for node in tree.body if isinstance(node, ast.Assign)
+         for t in node.targets if isinstance(t, ast.Name) and t.id.endswith("_KEYPOINTS")}
+names = {"hip_flexion": "_HIP_KEYPOINTS", "knee_flexion": "_KNEE_KEYPOINTS",
+         "ankle_dorsiflexion": "_ANKLE_KEYPOINTS", "pelvis_tilt": "_PELVIS_SAGITTAL_KEYPOINTS"}
+out = {"source": "BioCV dataset (Evans et al. 2024, doi:10.15125/BATH-01258): 15 healthy adults, overground "
+                 "walking, Visual3D joint centres; mean and SD curves computed by the myogait authors "
+                 "(myogait " + sys.argv[3] + ", normative.py, MIT)",
+       "population": "adults", "licence": licence,
+       "variables": {k: {"percent": found[v]["gc"], "mean_deg": found[v]["mean"], "sd_deg": found[v]["sd"]}
+                     for k, v in names.items()}}
+with open(sys.argv[2] + ".tmp", "w") as f:
+    json.dump(out, f, indent=1)
+os.replace(sys.argv[2] + ".tmp", sys.argv[2])
+PYEOF
+  local rc=$?
+  rm -rf "$tmp"
+  return $rc
+}
 GAITKIT_VERSION="1.5.0"
 # Real gait motion capture with annotated events (CC-BY 4.0 / ODC-By 1.0 data, MIT package): the healthy
 # (Fukuchi et al. 2018) and Parkinson (PhysioNet Gait in PD) walks shipped in the gaitkit sdist, for the
@@ -258,6 +293,7 @@ install_mediapipe_models || echo "[bootstrap] WARNING: MediaPipe Pose models not
 install_test_video || echo "[bootstrap] WARNING: detector test video not installed" >&2
 install_opensim_setup || echo "[bootstrap] WARNING: OpenSim model and setups not installed" >&2
 install_gait_norms || echo "[bootstrap] WARNING: normal-gait kinematics not installed" >&2
+install_adult_gait_norms || echo "[bootstrap] WARNING: adult normal-gait kinematics not installed" >&2
 install_gait_mocap || echo "[bootstrap] WARNING: real gait walks not installed (gait tests on them skip)" >&2
 install_pose2sim_demos || echo "[bootstrap] WARNING: Pose2Sim demo recordings not installed (tests on them skip)" >&2
 install_calibration_recordings || echo "[bootstrap] WARNING: real calibration recordings not installed (tests on them skip)" >&2
