@@ -120,28 +120,34 @@ def background(cam: Camera, room_half=(3700.0, 4000.0), height_mm: float = 3000.
     return _background_cached(_cam_key(cam), tuple(float(v) for v in room_half), float(height_mm)).copy()
 
 
-def _shade(color, f):
+_PART_A = np.array([J(a) for a, _, _, _ in _PARTS])
+_PART_B = np.array([J(b) for _, b, _, _ in _PARTS])
+_PART_RADIUS = np.array([rad for _, _, rad, _ in _PARTS])  # fraction of body height
+_PART_KIND = tuple(part for _, _, _, part in _PARTS)
+# shading layers (fraction of the radius, brightness), outer to inner; light from the upper left
+_CAPSULE_LAYERS = np.array([(1.0, 0.55), (0.75, 0.8), (0.45, 1.0), (0.18, 1.2)])
+_SPHERE_LAYERS = np.array([(1.0, 0.6), (0.8, 0.8), (0.5, 1.0), (0.2, 1.25)])
+_LIGHT = {"capsule": -0.25, "sphere": -0.3}  # offset of the highlight, fraction of the radius
+
+
+@functools.lru_cache(maxsize=256)
+def _shade(color: tuple, f: float) -> tuple:
     return tuple(int(min(255, max(0, c * f))) for c in color)
 
 
 def _draw_person(img, cam: Camera, pts: np.ndarray, height_mm: float, outfit) -> list:
-    """Drawing commands (depth, callable) for one person."""
+    """Drawing commands (depth mm, kind, a px, b px, radius px, colour) for one person."""
     depth = cam.depth_mm(pts)
     px = safe_project(cam, pts)
     f = 0.5 * (cam.matrix_px[0, 0] + cam.matrix_px[1, 1])
     top, legs = outfit
     colors = {"top": top, "legs": legs, "skin": _SKIN, "shoe": (40, 40, 40)}
-    cmds = []
-    for a, b, rad, part in _PARTS:
-        ia, ib = J(a), J(b)
-        za, zb = depth[ia], depth[ib]
-        if za < 150 or zb < 150:
-            continue
-        pa, pb = px[ia], px[ib]
-        if not (np.all(np.isfinite(pa)) and np.all(np.isfinite(pb))):
-            continue
-        r_px = f * rad * height_mm / (0.5 * (za + zb))
-        cmds.append((0.5 * (za + zb), "capsule", pa, pb, r_px, colors[part]))
+    za, zb = depth[_PART_A], depth[_PART_B]
+    pa, pb = px[_PART_A], px[_PART_B]
+    ok = ~((za < 150) | (zb < 150)) & np.isfinite(pa).all(-1) & np.isfinite(pb).all(-1)
+    z = 0.5 * (za + zb)
+    r_px = f * _PART_RADIUS * height_mm / z
+    cmds = [(z[i], "capsule", pa[i], pb[i], r_px[i], colors[_PART_KIND[i]]) for i in np.flatnonzero(ok)]
     # head sphere centred between the ears, slightly up
     hc = 0.5 * (pts[J("left_ear")] + pts[J("right_ear")]) + np.array([0, 0, 0.01 * height_mm])
     zc = float(cam.depth_mm(hc))
@@ -150,34 +156,53 @@ def _draw_person(img, cam: Camera, pts: np.ndarray, height_mm: float, outfit) ->
     return cmds
 
 
-def _execute(img, cmds) -> None:
-    h, w = img.shape[:2]
+def _layer_geometry(cmds, w: int, h: int) -> tuple[list, list]:
+    """Per command (in order) and shading layer: the shape's end points shifted towards the light (int px;
+    a sphere's centre twice) and its line thickness / circle radius (px), as lists for OpenCV."""
     lim = 4 * max(w, h)
-    for _, kind, pa, pb, r, color in sorted(cmds, key=lambda c: -c[0]):
-        r = float(min(r, 2 * max(w, h)))
+    capsule = np.array([kind == "capsule" for _, kind, *_ in cmds])
+    ends = np.array([(pa, pa if pb is None else pb) for _, _, pa, pb, _, _ in cmds], dtype=np.float64)  # (N, 2, 2)
+    r = np.minimum(np.array([c[4] for c in cmds], dtype=np.float64), 2 * max(w, h))
+    frac = np.where(capsule[:, None], _CAPSULE_LAYERS[:, 0], _SPHERE_LAYERS[:, 0])  # (N, 4)
+    light = np.where(capsule, _LIGHT["capsule"], _LIGHT["sphere"])
+    o = light[:, None] * r[:, None] * (1 - frac)  # (N, 4) the same shift along x and y
+    shifted = np.rint(np.clip(ends, -lim, lim)[:, :, None, :] + o[:, None, :, None]).astype(np.int64)
+    size = np.where(capsule[:, None], 2 * r[:, None] * frac, r[:, None] * frac)
+    return shifted.tolist(), np.maximum(1, np.rint(size)).astype(np.int64).tolist()
+
+
+def _execute(img, cmds) -> None:
+    """Draw the commands far to near (painter's algorithm), each as layers from dark rim to bright core."""
+    if not cmds:
+        return
+    h, w = img.shape[:2]
+    cmds = sorted(cmds, key=lambda c: -c[0])
+    ends, sizes = _layer_geometry(cmds, w, h)
+    capsule_bright, sphere_bright = _CAPSULE_LAYERS[:, 1].tolist(), _SPHERE_LAYERS[:, 1].tolist()
+    for (_, kind, _, _, _, color), (a, b), size in zip(cmds, ends, sizes, strict=True):
         if kind == "capsule":
-            a = np.clip(pa, -lim, lim)
-            b = np.clip(pb, -lim, lim)
-            layers = ((1.0, 0.55), (0.75, 0.8), (0.45, 1.0), (0.18, 1.2))
-            off = np.array([-0.25, -0.25]) * r  # light from the upper left
-            for frac, bright in layers:
-                th = max(1, int(round(2 * r * frac)))
-                o = off * (1 - frac)
-                p1 = tuple(int(round(v)) for v in (a + o))
-                p2 = tuple(int(round(v)) for v in (b + o))
-                cv2.line(img, p1, p2, _shade(color, bright), th, cv2.LINE_AA)
+            for k, bright in enumerate(capsule_bright):
+                cv2.line(img, a[k], b[k], _shade(color, bright), size[k], cv2.LINE_AA)
         else:
-            c = np.clip(pa, -lim, lim)
-            for frac, bright in ((1.0, 0.6), (0.8, 0.8), (0.5, 1.0), (0.2, 1.25)):
-                o = np.array([-0.3, -0.3]) * r * (1 - frac)
-                cv2.circle(img, tuple(int(round(v)) for v in (c + o)), max(1, int(round(r * frac))),
-                           _shade(color, bright), -1, cv2.LINE_AA)
+            for k, bright in enumerate(sphere_bright):
+                cv2.circle(img, a[k], size[k], _shade(color, bright), -1, cv2.LINE_AA)
 
 
 def _people_at(trial, frame_index: int):
     pts = trial.all_points_mm[:, frame_index]  # (P, J, 3)
     heights = [trial.body.height] + [float(np.ptp(p[..., 2])) + 0.02 * trial.body.height for p in pts[1:]]
     return pts, heights
+
+
+@functools.lru_cache(maxsize=64)
+def _view(cam_key: tuple, size_px: tuple[int, int], room_half: tuple[float, float]) -> tuple[Camera, np.ndarray]:
+    """A rig camera (by :func:`_cam_key`) scaled to ``size_px`` and its empty room (read-only), made once."""
+    full_size, kflat, dist, rvec, tvec = cam_key
+    cam = scaled_camera(Camera("view", full_size, np.array(kflat).reshape(3, 3), np.array(dist), np.array(rvec),
+                               np.array(tvec)), size_px)
+    room = background(cam, room_half, 3000.0)
+    room.flags.writeable = False
+    return cam, room
 
 
 def render_frame(trial, camera_index: int, frame_index: int, size_px: tuple[int, int] = (640, 480)) -> np.ndarray:
@@ -187,8 +212,9 @@ def render_frame(trial, camera_index: int, frame_index: int, size_px: tuple[int,
         raise ValueError(f"frame_index {frame_index} outside the trial's {n_frames} frames")
     if not 0 <= camera_index < len(trial.rig):
         raise ValueError(f"camera_index {camera_index} outside the rig's {len(trial.rig)} cameras")
-    cam = scaled_camera(trial.rig[camera_index], size_px)
-    img = background(cam, tuple(trial.room.half), 3000.0)
+    cam, room = _view(_cam_key(trial.rig[camera_index]), tuple(int(v) for v in size_px),
+                      tuple(float(v) for v in trial.room.half))
+    img = room.copy()
     pts, heights = _people_at(trial, frame_index)
     cmds = []
     for p in range(pts.shape[0]):
