@@ -59,8 +59,11 @@ def kinematics(trial_id: str, request: Request, stage: Stage | None = None,
     cat.audit(catalog_of(request), actor=user, action="download" if format is not KinematicsFormat.json else "view",
               trial_id=r.trial_id, detail=f"kinematics {r.stage} {format.value}")
     status = _status(request, r.trial_id, r.stage)
-    if format is KinematicsFormat.json:
-        return {"trial_id": r.trial_id, "stage": r.stage, **status}
+    if format is KinematicsFormat.json:  # the band by the patient's age now (a birth year may come later)
+        from gaitcap.services.kinematics.shown import patient_age, with_norms
+
+        return {"trial_id": r.trial_id, "stage": r.stage,
+                **with_norms(status, patient_age(catalog_of(request), r.trial_id))}
     if not status.get("available", False):
         raise HTTPException(status_code=404, detail=f"trial {r.trial_id}: no kinematics: {status.get('reason', '')}")
     key, media, suffix = _FILES[format]

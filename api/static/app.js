@@ -239,7 +239,7 @@ function follow(trialId) {
   state.followed = trialId; state.shownResult = null;
   $("#results").hidden = false;
   $("#results-title").textContent = "trial " + trialId; $("#results-patient").textContent = "";
-  resetSides();
+  resetSides(); if (typeof kinReset === "function") kinReset("");
   $("#results-stage").textContent = "Computing the results… the first numbers appear a few seconds after Stop.";
   $("#results-stage").className = "stage";
   $("#results-summary").innerHTML = ""; $("#results-summary").dataset.stage = "";
@@ -302,6 +302,7 @@ async function loadResult(trialId, stage, trialState) {
   renderSteps(g.steps);
   loadSides(trialId);
   loadPeople(trialId);
+  if (typeof loadKinematics === "function") loadKinematics(trialId, stage);
   showPlot(withToken(`/trials/${encodeURIComponent(trialId)}/report.png?stage=${stage}`), 30);
   const names = { steps_csv: "Steps (CSV)", trajectory_csv: "3D trajectory (CSV)", trajectory_trc: "3D trajectory (TRC)",
     report_png: "Report plot (PNG)", rerun_rrd: "3D view for Rerun (.rrd)", results_mcap: "Results for Foxglove (MCAP)",

@@ -8,7 +8,14 @@ import sys
 from functools import lru_cache
 from pathlib import Path
 
-from gaitcap.reconstruction.kinematics.norms import NormBand, bands_from_schwartz
+from gaitcap.reconstruction.kinematics.angles import VARIABLES
+from gaitcap.reconstruction.kinematics.norms import (
+    NormBand,
+    NormSet,
+    bands_from_curves,
+    bands_from_schwartz,
+    choose_norms,
+)
 
 MODEL_FILE = "Model_Pose2Sim_simple.osim"
 
@@ -23,6 +30,12 @@ def norms_file() -> Path:
     """``$GAITCAP_NORMS_FILE`` or ``<venv>/share/gaitcap/normative/Schwartz2008.json``."""
     env = os.environ.get("GAITCAP_NORMS_FILE")
     return Path(env) if env else Path(sys.prefix) / "share" / "gaitcap" / "normative" / "Schwartz2008.json"
+
+
+def adult_norms_file() -> Path:
+    """``$GAITCAP_ADULT_NORMS_FILE`` or ``<venv>/share/gaitcap/normative/BioCV2024_adult.json``."""
+    env = os.environ.get("GAITCAP_ADULT_NORMS_FILE")
+    return Path(env) if env else Path(sys.prefix) / "share" / "gaitcap" / "normative" / "BioCV2024_adult.json"
 
 
 def setup_files(setup: str) -> dict[str, Path]:
@@ -44,3 +57,20 @@ def norm_bands() -> dict[str, NormBand]:
     if not path.is_file():
         return {}
     return bands_from_schwartz(json.loads(path.read_text()))
+
+
+@lru_cache(maxsize=1)
+def _adult() -> tuple[dict[str, NormBand], str]:
+    path = adult_norms_file()
+    if not path.is_file():
+        return {}, ""
+    data = json.loads(path.read_text())
+    return bands_from_curves(data), str(data.get("source", path.name))
+
+
+def norms_for_age(age_years: int | None) -> NormSet:
+    """The normal-gait bands for a patient of that age (years; None when not recorded), see
+    :func:`gaitcap.reconstruction.kinematics.norms.choose_norms`."""
+    adults, source = _adult()
+    return choose_norms(age_years, children=norm_bands(), adults=adults, adult_source=source,
+                        variables=tuple(VARIABLES))

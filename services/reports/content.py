@@ -131,6 +131,7 @@ class ReportContent:
     flags: tuple[str, ...] = field(default_factory=tuple)
     joint_angles: dict[str, dict[str, float]] = field(default_factory=dict)  # key value -> side -> mean (deg)
     joint_angles_note: str = ""
+    kinematics: dict = field(default_factory=dict)  # kinematics.json with the band for the patient's age
 
 
 @dataclass(frozen=True)
@@ -272,6 +273,14 @@ def joint_angles_of(data_dir: Path, trial_id: str, stage: str) -> tuple[dict[str
     return out, held + "." if held else ""
 
 
+def _kinematics(data_dir: Path, trial_id: str, stage: str, age: int | None) -> dict:
+    """The stage's ``kinematics.json`` with the normal band for the patient's age, {} without one."""
+    from gaitcap.services.kinematics.shown import with_norms
+
+    path = trial_files(data_dir, trial_id).stage_file(stage, "kinematics_json")
+    return with_norms(json.loads(path.read_text(encoding="utf-8")), age) if path.is_file() else {}
+
+
 def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -306,4 +315,4 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
         num_steps=int(gait.get("summary", {}).get("num_steps") or 0),
         num_passes=int(gait.get("summary", {}).get("num_passes") or 0),
         previous=previous_visit(db, trial, Path(data_dir)), flags=flags_of(rows), joint_angles=angles,
-        joint_angles_note=angles_note)
+        joint_angles_note=angles_note, kinematics=_kinematics(Path(data_dir), trial.id, result.stage, age))

@@ -3,7 +3,8 @@ tables; the heel-trace figure is the stored plot, the step diagram is drawn as v
 
 Page 1: clinic, patient, date, session, clinical fields, data quality, the parameter table (left, right,
 mean, SD, CV, symmetry, normal range, z-score and percentile, the previous visit), flags. Page 2: the
-heel-trace figure, the footprints, joint angles (when computed), method, version, sources, signature.
+heel-trace figure, the footprints; the joint kinematics (a page of curves and key values when computed,
+services/reports/kinematics_page.py); method, version, sources, signature.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import time
 from fpdf import FPDF
 from fpdf.fonts import FontFace
 from gaitcap.services.reports.content import METHOD_TEXT, PARAMETERS, ReportContent, Row
+from gaitcap.services.reports.kinematics_page import kinematics_section
 
 SIDE_COLOURS = {"left": (31, 119, 180), "right": (214, 39, 40)}
 
@@ -189,31 +191,9 @@ def _footprints(pdf: _Doc) -> None:
              new_x="LMARGIN", new_y="NEXT")
 
 
-def _angles(pdf: _Doc) -> None:
-    c = pdf.c
-    pdf.heading("Joint angles (key values, degrees; curves in the kinematics report)")
-    if not c.joint_angles:
-        pdf.para(c.joint_angles_note or "No joint kinematics.")
-        return
-    pdf.set_font("Helvetica", "", 8.5)
-    with pdf.table(col_widths=(90, 25, 25), width=140, align="LEFT", line_height=4.6,
-                   text_align=("LEFT", "RIGHT", "RIGHT"),
-                   headings_style=FontFace(emphasis="BOLD", fill_color=(230, 234, 240))) as table:
-        head = table.row()
-        for h in ("Key value", "Left", "Right"):
-            head.cell(h)
-        for name, sides in c.joint_angles.items():
-            row = table.row()
-            row.cell(_latin1(name.removesuffix("_deg").replace("_", " ").capitalize()))
-            for side in ("left", "right"):
-                row.cell(_fmt(sides.get(side, math.nan), 1))
-    if c.joint_angles_note:  # e.g. a coordinate the fit held rather than measured
-        pdf.para(_latin1(c.joint_angles_note))
-
-
 def _closing(pdf: _Doc) -> None:
     c = pdf.c
-    _angles(pdf)
+    kinematics_section(pdf)
     pdf.heading("Method and software")
     pdf.para(f"{METHOD_TEXT} Software: gaitcap {c.version}; results: {c.stage} ({c.method}).", 8)
     pdf.heading("Normative reference")

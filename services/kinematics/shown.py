@@ -1,0 +1,28 @@
+"""A stage's kinematics as the page, the REST API and the report show them: the stored
+``kinematics.json`` with the normal-gait band chosen by the patient's age at the trial (the band can change
+after the fit, when the patient's birth year is recorded, so it is chosen when the kinematics are read)."""
+
+from __future__ import annotations
+
+from gaitcap.services import catalog as cat
+from gaitcap.services.catalog import patients as pat
+from gaitcap.services.kinematics.files import norms_for_age
+
+
+def patient_age(db: cat.Catalog, trial_id: str) -> int | None:
+    """The patient's age in years at the trial, None when the birth year is not recorded."""
+    trial = cat.get_trial(db, trial_id)
+    try:
+        patient = pat.get_patient(db, trial.subject_id)
+    except pat.PatientNotFound:
+        return None
+    return patient.age_at(trial.started_at or trial.created_at)
+
+
+def with_norms(data: dict, age_years: int | None) -> dict:
+    """``kinematics.json`` content with ``norms`` replaced by the set for that age (unchanged when the
+    kinematics are unavailable)."""
+    if data.get("available") is False:
+        return data
+    return {**data, "norms": norms_for_age(age_years).to_dict()}
+

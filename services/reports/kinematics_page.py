@@ -1,0 +1,92 @@
+"""The report's joint kinematics: a page with the gait-cycle curves of each side over the normal band
+chosen for the patient's age (with its source), and the key clinical values (mean +- SD per side, and the
+same value read off the band's mean curve); or a line saying why there are none."""
+
+from __future__ import annotations
+
+import io
+import math
+
+import numpy as np
+from fpdf.fonts import FontFace
+from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT, KEY_VALUES
+
+NORMAL_NOTE = (f"Normal: the key value read off the band's mean curve (toe-off taken at {DEFAULT_TOE_OFF_PCT:.0f} % "
+               "of the cycle); the normal spread between people is the band's.")
+
+
+def _latin1(text: str) -> str:
+    return str(text).replace("\u2013", "-").replace("\u2212", "-").encode("latin-1", "replace").decode("latin-1")
+
+
+def _stat(s: dict | None) -> str:
+    if not isinstance(s, dict) or not isinstance(s.get("mean"), (int, float)):
+        return "-"
+    sd = f" \u00b1 {s['sd']:.1f}" if isinstance(s.get("sd"), (int, float)) else ""
+    return f"{s['mean']:.1f}{sd} (n={s.get('n', '?')})"
+
+
+def normal_key_value(name: str, bands: dict) -> float:
+    """A key value (degrees) on the normal band's mean curve, NaN without a band for its variable."""
+    var, fn = KEY_VALUES[name]
+    band = bands.get(var)
+    if band is None:
+        return math.nan
+    return float(fn(np.asarray(band["mean_deg"], dtype=np.float64), int(DEFAULT_TOE_OFF_PCT)))
+
+
+def _key_table(pdf, k: dict) -> None:
+    kv, bands = k.get("key_values") or {}, (k.get("norms") or {}).get("bands") or {}
+    names = [n for n in (kv.get("left") or {}) if any(((kv.get(s) or {}).get(n) or {}).get("n") for s in kv)]
+    if not names:
+        pdf.para("No key values: no complete gait cycle.")
+        return
+    pdf.set_font("Helvetica", "", 8.5)
+    with pdf.table(col_widths=(70, 36, 36, 22), width=164, align="LEFT", line_height=4.6,
+                   text_align=("LEFT", "RIGHT", "RIGHT", "RIGHT"),
+                   headings_style=FontFace(emphasis="BOLD", fill_color=(230, 234, 240))) as table:
+        head = table.row()
+        for h in ("Key value (degrees)", "Left", "Right", "Normal"):
+            head.cell(h)
+        for name in names:
+            row = table.row()
+            row.cell(_latin1(name.removesuffix("_deg").replace("_", " ").capitalize()))
+            for side in ("left", "right"):
+                row.cell(_latin1(_stat((kv.get(side) or {}).get(name))))
+            normal = normal_key_value(name, bands) if name in KEY_VALUES else math.nan
+            row.cell(f"{normal:.1f}" if math.isfinite(normal) else "-")
+    pdf.para(NORMAL_NOTE, 7.5)
+
+
+def _notes(k: dict) -> list[str]:
+    norms = k.get("norms") or {}
+    out = [f"Grey band: normal mean +- 1 SD for {norms.get('population')}. Source: {norms['source']}."
+           if norms.get("source") else "No normal band: no normative data is installed."]
+    out += [f"{name.replace('_', ' ').capitalize()}: no band ({why})." for name, why in (norms.get("missing") or {}).items()
+            if name in (k.get("curves") or {})]
+    out += [f"{name.replace('_', ' ').capitalize()}: not measured ({why})." for name, why in
+            (k.get("not_measured") or {}).items()]
+    return out
+
+
+def kinematics_section(pdf) -> None:
+    """A page of curves, band sources and key values when the trial has curves; else the key values or
+    the reason there are none (``pdf.c``: the report content)."""
+    from gaitcap.services.kinematics.plot import side_curves_png
+
+    c = pdf.c
+    k = c.kinematics or {}
+    if k.get("curves"):
+        pdf.add_page()
+        pdf.heading("Joint kinematics over the gait cycle (mean +- SD per side; left blue, right red)")
+        pdf.image(io.BytesIO(side_curves_png(k)), w=pdf.w - pdf.l_margin - pdf.r_margin)
+        for line in _notes(k):
+            pdf.para(_latin1(line), 7.5)
+    else:
+        pdf.heading("Joint angles")
+    if k.get("key_values"):
+        _key_table(pdf, k)
+    if c.joint_angles_note and not k.get("curves"):
+        pdf.para(_latin1(c.joint_angles_note))
+    elif not k.get("key_values"):
+        pdf.para(_latin1(c.joint_angles_note or "No joint kinematics."))

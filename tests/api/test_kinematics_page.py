@@ -1,0 +1,129 @@
+"""Joint angles where users see them: the page's curves per side over the normal band (a real browser),
+the report's kinematics page (its text), and the band chosen by the patient's age over REST. The
+kinematics.json is the one the worker writes, from the synthetic walker's angles measured on its
+keypoints (no OpenSim needed: the fit itself is tested in tests/services/test_kinematics.py)."""
+
+import io
+import json
+
+import numpy as np
+import pytest
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.outputs import steps_of, summary_of
+
+from .conftest import sign_in_page
+from .test_clinic_page import ARGS
+
+HELD = {"pelvis_tilt": "held near 0 by the fit: no keypoint fixes it"}
+
+
+@pytest.fixture(scope="module")
+def walk():
+    """12 s of the synthetic walker: its gait report and its kinematics.json content."""
+    from gaitcap.acquisition.synthetic.params import WalkParams
+    from gaitcap.acquisition.synthetic.path import Room, plan_walk
+    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.kinematics.geometric import keypoint_angles
+    from gaitcap.reconstruction.kinematics.report import kinematics_report
+    from gaitcap.reconstruction.skeletons import get_skeleton
+    from gaitcap.services.kinematics.files import norm_bands
+
+    params, times = WalkParams(), np.arange(360) / 30.0
+    points, names = simulate_body(plan_walk(params, 12.0, Room(), seed=0), params, times), get_skeleton("halpe26").joint_names
+    gait = analyze_gait(points, times, list(names))
+    a, zero = keypoint_angles(points, names), np.zeros(len(times))
+    coords = {"pelvis_tilt": zero, "pelvis_list": zero, "pelvis_rotation": zero, "L5_S1_Flex_Ext": zero}
+    for model, ours in (("hip_flexion", "hip_flexion"), ("hip_adduction", "hip_adduction"), ("knee_angle", "knee_flexion"),
+                        ("ankle_angle", "ankle_dorsiflexion")):
+        coords |= {f"{model}_{s[0]}": a[ours][s] for s in ("left", "right")}
+    coords |= {f"hip_rotation_{s}": zero for s in "lr"}
+    rep = kinematics_report(coords, times, gait.steps, norms=norm_bands(), held=HELD)
+    return gait, {"available": True, **rep.to_dict()}
+
+
+def _trial(server, walk, *, subject: str, kinematics: dict | None, birth_year: int | None = None) -> str:
+    _, client, _, settings = server
+    gait, _ = walk
+    tid = client.post("/trials", json={"subject_id": subject, "session": "visit-1"}).json()["id"]
+    client.post(f"/trials/{tid}/stop")
+    files = trial_files(settings.data_dir, tid)
+    gait.write_json(files.stage_file("refined", "gait_json"))
+    if kinematics is not None:
+        path = files.stage_file("refined", "kinematics_json")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(kinematics))
+    db = cat.open_catalog(settings.catalog_url)
+    cat.store_result(db, trial_id=tid, stage="refined", method="implicit_fit", steps=steps_of(gait),
+                     summary=summary_of(gait), quality={})
+    db.close()
+    if birth_year:
+        client.put(f"/patients/{subject}", json={"sex": "female", "birth_year": birth_year})
+    return tid
+
+
+def test_rest_band_follows_the_patients_age(server, walk):
+    from gaitcap.services.kinematics.files import norms_for_age
+
+    _, client, _, _ = server
+    _, kin = walk
+    for subject, born in (("A1", 1956), ("C1", None)):
+        tid = _trial(server, walk, subject=subject, kinematics=kin, birth_year=born)
+        body = client.get(f"/trials/{tid}/kinematics").json()
+        age = client.get(f"/trials/{tid}/parameters").json()["age"]
+        expected = norms_for_age(age).to_dict()
+        assert body["norms"]["population"] == expected["population"] and body["norms"]["source"] == expected["source"]
+        assert set(body["norms"]["bands"]) == set(expected["bands"])
+        assert ("years" in body["norms"]["population"]) == (born is not None)  # the age it was chosen for
+    knee = body["curves"]["knee_flexion"]["left"]
+    assert knee["n_cycles"] >= 3 and 40.0 < max(v for v in knee["mean_deg"] if v is not None) < 80.0
+    assert "pelvis_tilt" not in body["curves"] and body["not_measured"] == HELD
+
+
+def test_report_has_a_kinematics_page_with_curves_band_source_and_key_values(server, walk):
+    from gaitcap.services.kinematics.files import norms_for_age
+    from pypdf import PdfReader
+
+    _, client, _, _ = server
+    _, kin = walk
+    tid = _trial(server, walk, subject="A2", kinematics=kin, birth_year=1956)
+    reader = PdfReader(io.BytesIO(client.get(f"/trials/{tid}/report.pdf").content))
+    pages = [" ".join(p.extract_text().split()) for p in reader.pages]
+    page = next(p for p in pages if "Joint kinematics over the gait cycle" in p)
+    norms = norms_for_age(client.get(f"/trials/{tid}/parameters").json()["age"])
+    assert f"normal mean +- 1 SD for {norms.population}" in page and norms.source.split(":")[0] in page
+    assert "Pelvis tilt: not measured (held near 0" in page
+    left = kin["key_values"]["left"]["knee_peak_flexion_swing_deg"]
+    assert f"Knee peak flexion swing {left['mean']:.1f} ± {left['sd']:.1f} (n={left['n']})" in page
+    assert len(reader.pages[pages.index(page)].images) == 1  # the curves figure
+
+
+def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, walk):
+    from gaitcap.services.kinematics.files import norms_for_age
+    from playwright.sync_api import sync_playwright
+
+    srv, client, _, _ = server
+    _, kin = walk
+    tid = _trial(server, walk, subject="A3", kinematics=kin, birth_year=1956)
+    none = _trial(server, walk, subject="A4", kinematics={"available": False,
+                                                          "reason": "the 'opensim' package is not installed"})
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
+        page = browser.new_page(viewport={"width": 1280, "height": 900})
+        page.set_default_timeout(30_000)
+        sign_in_page(page, srv.url)
+        page.click(f"#trials tr[data-trial='{tid}'] .view")
+        page.wait_for_selector("#kinematics-charts figure[data-variable='knee_flexion'][data-side='right'] .uplot")
+        assert page.locator("#kinematics-charts .uplot").count() == 2 * len(kin["curves"])
+        assert page.locator("#kinematics-charts figure[data-variable='pelvis_tilt']").count() == 0
+        notes = page.inner_text("#kinematics-notes")
+        norms = norms_for_age(client.get(f"/trials/{tid}/parameters").json()["age"])
+        assert norms.population in notes and norms.source in notes and "Pelvic tilt (anterior +): not measured" in notes
+        row = page.inner_text("#kinematics-keys tr[data-key='knee_peak_flexion_swing_deg']")
+        assert f"{kin['key_values']['right']['knee_peak_flexion_swing_deg']['mean']:.1f} ±" in row
+        page.click(f"#trials tr[data-trial='{none}'] .view")
+        page.wait_for_function("() => document.querySelector('#kinematics-status').textContent.includes('opensim')")
+        assert "Kinematics unavailable" in page.inner_text("#kinematics-status")
+        assert page.locator("#kinematics-charts .uplot").count() == 0
+        browser.close()
