@@ -1,8 +1,10 @@
 """Data quality of a trial, measured from its recording and its reconstruction, with plain-word warnings.
 
-Measured per camera from the keypoint messages of the recording (one per processed frame, with the
-camera's timestamp): frames expected over the trial, received, lost, skips (gaps), frame rate (Hz),
-when a camera stopped or started late; the sync spread (ms) between cameras per frame; the patient's
+Measured per camera from the images the recorder wrote (its per-camera summary: which frame ids arrived)
+when known, else from the keypoint messages (one per processed frame, with the camera's timestamp): frames
+expected over the trial, received, lost, skips (gaps), frame rate (Hz), when a camera stopped or started
+late. Recorded frames the detector produced no keypoints for are counted apart and reported as the
+detector falling behind, not as the camera stopping. Also: the sync spread (ms) between cameras per frame; the patient's
 detection coverage (share of frames seen by >= 2 cameras); after the fit, the reprojection error per
 camera (px), flagging a camera far above the others (often a bumped camera). Judged against
 :class:`QualityCriteria` (the project's sync criteria: >= 28 fps at 30 fps nominal, 0 skips, spread
@@ -57,7 +59,9 @@ class QualityCriteria:
 class CameraQuality:
     """One camera over the trial but its last :data:`TAIL_S`: frames expected / received / lost, skips (gaps), fps (Hz, while it
     delivered: from its first to its last frame), first and last frame times (s from the trial's first frame), reprojection error median (px, None before the
-    fit or without detections)."""
+    fit or without detections). ``source``: what the frame counts come from, ``"images"`` (the recorder's
+    summary) or ``"keypoints"`` (no summary: a recording cut short, a restarted camera);
+    ``without_keypoints``: recorded frames the detector gave no keypoints for (None when images unknown)."""
 
     name: str
     expected: int
@@ -68,6 +72,8 @@ class CameraQuality:
     first_s: float | None
     last_s: float | None
     reprojection_px: float | None = None
+    source: str = "keypoints"
+    without_keypoints: int | None = None
 
 
 @dataclass(frozen=True)
@@ -82,6 +88,7 @@ class DataQuality:
     coverage: float | None
     recorded_s: float | None = None  # wall time from Start to Stop (the recorder's), None when unknown
     restarts: dict[str, int] = field(default_factory=dict)  # camera -> frame counter restarts within the trial
+    absent: dict[str, int] = field(default_factory=dict)  # expected camera without keypoints -> images recorded
     warnings: tuple[str, ...] = ()
     serious: bool = False
     criteria: QualityCriteria = field(default_factory=QualityCriteria)
@@ -98,15 +105,32 @@ def _gaps(present: np.ndarray) -> int:
     return int(np.count_nonzero(np.diff(idx) > 1))
 
 
-def _camera(name: str, stamps_ns: np.ndarray, t0_ns: float, nominal_fps: float) -> CameraQuality:
-    present = stamps_ns >= 0
-    received, expected = int(present.sum()), int(stamps_ns.size)
+def _camera(name: str, present: np.ndarray, times_s: np.ndarray, nominal_fps: float, **extra) -> CameraQuality:
+    """Measures of one camera from which frames of the judged window it delivered and their times (s)."""
+    received, expected = int(present.sum()), int(present.size)
     idx = np.flatnonzero(present)
-    first = float((stamps_ns[idx[0]] - t0_ns) / 1e9) if idx.size else None
-    last = float((stamps_ns[idx[-1]] - t0_ns) / 1e9) if idx.size else None
+    first = float(times_s[idx[0]]) if idx.size else None
+    last = float(times_s[idx[-1]]) if idx.size else None
     active_s = (idx[-1] - idx[0] + 1) / nominal_fps if idx.size else 0.0  # while it delivered
     return CameraQuality(name, expected, received, expected - received, _gaps(present),
-                         round(received / active_s, 2) if active_s > 0 else 0.0, first, last)
+                         round(received / active_s, 2) if active_s > 0 else 0.0, first, last, **extra)
+
+
+def recorded_frame_ids(summary: dict) -> dict[str, np.ndarray]:
+    """{camera: sorted frame ids of the images the recorder wrote} from its summary
+    (:func:`gaitcap.acquisition.recording.reader.read_summary`): first to last frame id less the gaps; {}
+    without a summary (a recording cut short)."""
+    out = {}
+    for cam, tally in (summary.get("cameras") or {}).items():
+        first, last = tally.get("first_frame_id"), tally.get("last_frame_id")
+        if first is None or last is None:
+            out[cam] = np.zeros(0, dtype=np.int64)
+            continue
+        present = np.ones(int(last) - int(first) + 1, dtype=bool)
+        for a, b in tally.get("gaps") or ():
+            present[max(int(a), first) - first : min(int(b), last) - first + 1] = False
+        out[cam] = int(first) + np.flatnonzero(present)
+    return out
 
 
 def nominal_fps_of(stamps_ns: np.ndarray) -> float:
@@ -130,34 +154,61 @@ def sync_spread_ms(stamps_ns: np.ndarray) -> np.ndarray:
 
 
 def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confidence: np.ndarray | None,
-                      expected_cameras=(), recorded_s: float | None = None, restarts=None,
+                      expected_cameras=(), recorded_s: float | None = None, restarts=None, frame_ids=None,
+                      recorded_frames: dict[str, np.ndarray] | None = None,
                       criteria: QualityCriteria = QualityCriteria()) -> DataQuality:
     """Measures and warnings from a recording's (C, T) camera timestamps (-1 where missing) and the
     patient's (C, T, J) detection confidences; ``expected_cameras``: the calibration's cameras (one
     missing from the recording entirely is reported); ``recorded_s``: Start to Stop (s) as the recorder
     timed it (images ending long before Stop: every camera stopped); ``restarts``: {camera: times its
-    frame counter started again within the trial} (the reader's, a camera or camera node restarted)."""
+    frame counter started again within the trial} (the reader's, a camera or camera node restarted);
+    ``recorded_frames``: {camera: frame ids of its recorded images} (:func:`recorded_frame_ids`) with
+    ``frame_ids`` (T,) the keypoints' frame ids: cameras are then judged by their images (a restarted
+    camera by its keypoints) and keypoints missing for recorded frames are the detector's."""
     stamps = np.asarray(timestamps_ns, dtype=np.int64)
+    restarts = dict(restarts or {})
+    images = {n: np.asarray(ids, dtype=np.int64) for n, ids in (recorded_frames or {}).items() if n not in restarts}
+    if images and frame_ids is None:
+        raise ValueError("recording_quality: recorded_frames needs the keypoints' frame_ids")
     nominal = nominal_fps_of(stamps)
-    t0 = float(stamps[stamps >= 0].min()) if (stamps >= 0).any() else 0.0
+    first_id = int(frame_ids[0]) if frame_ids is not None and len(frame_ids) else 0
+    ids = [first_id, first_id + stamps.shape[1] - 1] + [int(v) for f in images.values() if f.size for v in (f[0], f[-1])]
+    lo, hi = min(ids), max(ids)
+    grid = np.full((stamps.shape[0], hi - lo + 1), -1, dtype=np.int64)  # keypoint stamps on the frame grid
+    grid[:, first_id - lo : first_id - lo + stamps.shape[1]] = stamps
+    t0 = float(stamps[stamps >= 0].min()) - (first_id - lo) * 1e9 / nominal if (stamps >= 0).any() else 0.0
     # the last TAIL_S are not judged per camera: keypoints of the frames just before Stop may still have
     # been on their way (detector latency differs between cameras)
-    window = max(1, stamps.shape[1] - int(round(TAIL_S * nominal)))
-    cams = [_camera(n, stamps[c, :window], t0, nominal) for c, n in enumerate(camera_names)]
-    duration = stamps.shape[1] / nominal
+    window = max(1, grid.shape[1] - int(round(TAIL_S * nominal)))
+    cams = [_judged_camera(n, grid[c], images.get(n), lo, t0, nominal, window) for c, n in enumerate(camera_names)]
     spread = sync_spread_ms(stamps)
     coverage = None
     if patient_confidence is not None and patient_confidence.size:
         seen = (np.nan_to_num(patient_confidence) > CONFIDENT).any(-1)  # (C, T)
         coverage = float(np.mean(seen.sum(0) >= 2))
-    quality = DataQuality(duration_s=round(duration, 3), nominal_fps=round(nominal, 2), cameras=tuple(cams),
+    absent = {n: int((recorded_frames or {}).get(n, np.zeros(0)).size) for n in expected_cameras if n not in camera_names}
+    quality = DataQuality(duration_s=round(grid.shape[1] / nominal, 3), nominal_fps=round(nominal, 2),
+                          cameras=tuple(cams),
                           spread_ms_max=round(float(spread.max()), 2) if spread.size else None,
                           spread_ms_p95=round(float(np.percentile(spread, 95)), 2) if spread.size else None,
                           coverage=None if coverage is None else round(coverage, 3), criteria=criteria,
                           recorded_s=None if recorded_s is None else round(float(recorded_s), 3),
-                          restarts=dict(restarts or {}))
-    missing = [n for n in expected_cameras if n not in camera_names]
-    return judged(quality, missing_cameras=missing)
+                          restarts=restarts, absent=absent)
+    return judged(quality)
+
+
+def _judged_camera(name: str, stamps: np.ndarray, image_ids: np.ndarray | None, lo: int, t0_ns: float,
+                   nominal: float, window: int) -> CameraQuality:
+    """One camera's measures over the judged window of the frame grid (first frame id ``lo``): from its
+    recorded images when known (and the recorded frames without keypoints), else from its keypoints."""
+    with_keypoints = stamps[:window] >= 0
+    if image_ids is None:
+        return _camera(name, with_keypoints, (stamps[:window] - t0_ns) / 1e9, nominal)
+    recorded = np.zeros(stamps.size, dtype=bool)
+    recorded[image_ids - lo] = True
+    recorded = recorded[:window]
+    return _camera(name, recorded, np.arange(window) / nominal, nominal, source="images",
+                   without_keypoints=int(np.count_nonzero(recorded & ~with_keypoints)))
 
 
 def with_reprojection(quality: DataQuality, errors_px: dict[str, float | None]) -> DataQuality:
@@ -182,13 +233,14 @@ def reprojection_px(points_mm: np.ndarray, keypoints: np.ndarray, rig) -> dict[s
     return out
 
 
-def judged(q: DataQuality, *, missing_cameras=()) -> DataQuality:
+def judged(q: DataQuality) -> DataQuality:
     """``q`` with its warnings (plain words, most important first) and ``serious`` set."""
     cr, warn = q.criteria, []
     late_s = max(EDGE_S, 2.0 / q.nominal_fps)
     judged_s = max((c.expected for c in q.cameras), default=0) / q.nominal_fps  # the window judged per camera
     end = judged_s - 1.0 / q.nominal_fps - late_s
-    warn += [f"Camera {n} recorded nothing" for n in missing_cameras]
+    warn += [f"Camera {n} recorded nothing" if not k else f"The detector produced no keypoints for camera {n} "
+             f"(its {k} frames were recorded)" for n, k in sorted(q.absent.items())]
     warn += [f"Camera {n} restarted during the trial ({k} time{'s' if k > 1 else ''}); its frames around the "
              "restart are missing" for n, k in sorted(q.restarts.items())]
     for c in q.cameras:
@@ -211,6 +263,7 @@ def judged(q: DataQuality, *, missing_cameras=()) -> DataQuality:
     if skipping:
         warn.append(f"{len(skipping)} of {len(q.cameras)} cameras skipped frames ("
                     + ", ".join(f"{c.name} {c.skips} gaps" for c in skipping[:4]) + ")")
+    warn += _detector_behind(q.cameras, cr)
     if q.spread_ms_max is not None and q.spread_ms_max > cr.max_spread_ms:
         warn.append(f"Cameras out of sync: up to {q.spread_ms_max:.0f} ms between cameras "
                     f"(limit {cr.max_spread_ms:.0f} ms)")
@@ -224,6 +277,17 @@ def judged(q: DataQuality, *, missing_cameras=()) -> DataQuality:
         warn.append(f"Only {q.duration_s:.1f} s recorded")
     return DataQuality(**{**asdict(q), "cameras": q.cameras, "criteria": cr, "warnings": tuple(warn),
                           "serious": bool(warn)})
+
+
+def _detector_behind(cameras, cr: QualityCriteria) -> list[str]:
+    """Cameras whose recorded frames lack keypoints beyond the lost-frame criterion: the detector's doing."""
+    behind = [c for c in cameras if c.without_keypoints and c.without_keypoints / max(c.received, 1) > cr.max_lost_fraction]
+    if not behind:
+        return []
+    return [f"The detector fell behind on {len(behind)} of {len(cameras)} cameras: no keypoints for frames the "
+            "cameras delivered and the recording holds (" + ", ".join(
+                f"{c.name} {c.without_keypoints} of {c.received} frames" for c in behind[:4])
+            + (", ..." if len(behind) > 4 else "") + ")"]
 
 
 def _bumped(cameras, cr: QualityCriteria) -> list[str]:

@@ -5,6 +5,7 @@ import pytest
 from gaitcap.services.processing.pipeline import ring_rig
 from gaitcap.services.processing.quality import (
     QualityCriteria,
+    recorded_frame_ids,
     recording_quality,
     reprojection_px,
     summary_sentence,
@@ -106,3 +107,78 @@ def test_a_camera_restarted_during_the_trial_is_named():
     assert q.serious and "Camera cam3 restarted during the trial (1 time)" in summary_sentence(q.warnings)
     again = with_reprojection(q, {})
     assert again.restarts == {"cam3": 1} and any("cam3 restarted" in w for w in again.warnings)
+
+
+# -- the recorder's images tell a stopped camera from a detector that fell behind ---------------------
+FIRST_ID = 5000  # frame ids of the keypoint grid: FIRST_ID .. FIRST_ID + T - 1
+
+
+def _summary(frame_ids: dict[str, list[int]]) -> dict:
+    """The recorder's summary for images with these frame ids, as the recorder itself writes it."""
+    from gaitcap.services.nodes.recorder import CameraTally
+
+    last = max(max(ids) for ids in frame_ids.values() if ids)
+    return {"cameras": {c: CameraTally(frames=len(ids), frame_ids=list(ids)).summary(last)
+                        for c, ids in frame_ids.items()}}
+
+
+def _with_images(stamps, images: dict[str, list[int]], **kw):
+    return recording_quality(camera_names=NAMES, timestamps_ns=stamps, patient_confidence=None,
+                             frame_ids=np.arange(FIRST_ID, FIRST_ID + stamps.shape[1]),
+                             recorded_frames=recorded_frame_ids(_summary(images)), **kw)
+
+
+def test_recorded_frame_ids_come_back_from_the_recorder_summary():
+    ids = [3, 4, 5, 9, 10, 20]
+    got = recorded_frame_ids(_summary({"camA": ids, "camB": list(range(3, 31))}))
+    assert got["camA"].tolist() == ids and got["camB"].tolist() == list(range(3, 31))
+    assert recorded_frame_ids({}) == {}
+
+
+def test_keypoints_missing_for_recorded_frames_are_the_detector_falling_behind():
+    stamps = _stamps()
+    stamps[7, 126:] = -1  # no keypoints for camera 7 after 4.2 s, but its images were all recorded
+    stamps[2, 50:54] = -1  # 4 frames of camera 2 without keypoints
+    every = {n: list(range(FIRST_ID, FIRST_ID + T)) for n in NAMES}
+    q = _with_images(stamps, every)
+    judged = T - 30
+    assert not any("stopped" in w for w in q.warnings), q.warnings
+    assert q.warnings == (f"The detector fell behind on 1 of 10 cameras: no keypoints for frames the cameras "
+                          f"delivered and the recording holds (cam7 {judged - 126} of {judged} frames)",)
+    cam7 = q.cameras[7]
+    assert (cam7.source, cam7.received, cam7.lost, cam7.without_keypoints) == ("images", judged, 0, judged - 126)
+    assert q.cameras[2].without_keypoints == 4  # under the 2 % criterion: counted, not a warning
+
+
+def test_a_camera_whose_images_stop_is_still_a_stopped_camera():
+    stamps = _stamps()
+    stamps[7, 126:] = -1
+    images = {n: list(range(FIRST_ID, FIRST_ID + T)) for n in NAMES}
+    images["cam7"] = list(range(FIRST_ID, FIRST_ID + 126))  # the camera itself stopped at 4.2 s
+    q = _with_images(stamps, images)
+    assert q.warnings == ("Camera cam7 stopped at 4.2 s", "1 of 10 cameras lost frames (cam7 144 of 270)")
+    assert q.cameras[7].without_keypoints == 0
+
+
+def test_a_detector_far_behind_at_stop_is_not_missing_camera_images():
+    stamps = _stamps()[:, : T - 90]  # keypoints end 3 s before the images: the detector had not caught up
+    q = _with_images(stamps, {n: list(range(FIRST_ID, FIRST_ID + T)) for n in NAMES}, recorded_s=10.2)
+    assert q.duration_s == pytest.approx(10.0, abs=0.01)
+    assert not any("No camera images" in w or "stopped" in w for w in q.warnings), q.warnings
+    assert any(w.startswith("The detector fell behind on 10 of 10 cameras") and "cam0 60 of 270 frames" in w
+               for w in q.warnings), q.warnings
+
+
+def test_a_camera_with_images_but_no_keypoints_is_named_after_the_fit_too():
+    images = {n: list(range(FIRST_ID, FIRST_ID + T)) for n in (*NAMES, "cam10", "cam11")}
+    images["cam11"] = []
+    q = recording_quality(camera_names=NAMES, timestamps_ns=_stamps(), patient_confidence=None,
+                          expected_cameras=(*NAMES, "cam10", "cam11"),
+                          frame_ids=np.arange(FIRST_ID, FIRST_ID + T), recorded_frames=recorded_frame_ids(_summary(images)))
+    expected = ("The detector produced no keypoints for camera cam10 (its 300 frames were recorded)",
+                "Camera cam11 recorded nothing")
+    assert q.warnings == expected
+    assert with_reprojection(q, {}).warnings == expected
+    with pytest.raises(ValueError, match="frame_ids"):
+        recording_quality(camera_names=NAMES, timestamps_ns=_stamps(), patient_confidence=None,
+                          recorded_frames={"cam0": np.arange(3)})
