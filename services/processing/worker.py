@@ -42,6 +42,7 @@ from gaitcap.services.processing.pipeline import (
 from gaitcap.services.processing.quality import (
     DataQuality,
     QualityCriteria,
+    recorded_frame_ids,
     recording_quality,
     reprojection_px,
     with_reprojection,
@@ -191,9 +192,11 @@ class Worker:
         if most_people_in_view(recording.people) > 1:
             self._report(trial_id, "processing", "finding the patient among the people in view", 0.07, None)
         det, seen_rig, _ = patient_input(recording, rig, files=files)
+        summary = read_summary(files.recording)  # the recorder's: Start to Stop, the images it wrote per camera
         quality = recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
                                     patient_confidence=det.keypoints[..., 2], expected_cameras=rig.names,
-                                    recorded_s=read_summary(files.recording).get("duration_s"),
+                                    recorded_s=summary.get("duration_s"), frame_ids=recording.frame_ids,
+                                    recorded_frames=recorded_frame_ids(summary),
                                     restarts=recording.restarts, criteria=self.config.criteria)
         rig = seen_rig
         source = (recording, rig, files.recording)  # what the viewer files show besides the results
