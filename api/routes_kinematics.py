@@ -7,7 +7,7 @@ import json
 from enum import StrEnum
 
 from fastapi import APIRouter, Depends, HTTPException, Request
-from fastapi.responses import FileResponse, PlainTextResponse
+from fastapi.responses import FileResponse, Response
 from gaitcap.api.auth import require_user
 from gaitcap.api.deps import catalog_of
 from gaitcap.api.routes_results import Stage, _attachment, _result
@@ -38,6 +38,10 @@ _FILES = {
 }
 
 
+# formats made, when asked for, from the JSON with the band chosen for the patient (shown.SHOWN_FORMATS)
+_SHOWN = (KinematicsFormat.json, KinematicsFormat.csv, KinematicsFormat.png)
+
+
 def _status(request: Request, trial_id: str, stage: str) -> dict:
     """The stage's kinematics.json, or 404 saying why there is none (engine missing, not computed yet)."""
     path = trial_files(request.app.state.settings.data_dir, trial_id).stage_file(stage, "kinematics_json")
@@ -58,19 +62,20 @@ def kinematics(trial_id: str, request: Request, stage: Stage | None = None,
     r = _result(request, trial_id, stage)
     cat.audit(catalog_of(request), actor=user, action="download" if format is not KinematicsFormat.json else "view",
               trial_id=r.trial_id, detail=f"kinematics {r.stage} {format.value}")
-    status = _status(request, r.trial_id, r.stage)
-    if format is KinematicsFormat.json:  # the band by the patient's age now (a birth year may come later)
-        from gaitcap.services.kinematics.shown import patient_age, with_norms
+    from gaitcap.services.kinematics.shown import SHOWN_FORMATS, patient_age, with_norms
 
-        return {"trial_id": r.trial_id, "stage": r.stage,
-                **with_norms(status, patient_age(catalog_of(request), r.trial_id))}
+    status = _status(request, r.trial_id, r.stage)
+    if format in _SHOWN:  # the band by the patient's age now (a birth year may be recorded after the fit)
+        status = with_norms(status, patient_age(catalog_of(request), r.trial_id))
+    if format is KinematicsFormat.json:
+        return {"trial_id": r.trial_id, "stage": r.stage, **status}
     if not status.get("available", False):
         raise HTTPException(status_code=404, detail=f"trial {r.trial_id}: no kinematics: {status.get('reason', '')}")
     key, media, suffix = _FILES[format]
+    if format in _SHOWN:
+        return Response(SHOWN_FORMATS[format.value](status), media_type=media,
+                        headers=_attachment(f"{r.trial_id}-{r.stage}-{suffix}"))
     path = trial_files(request.app.state.settings.data_dir, r.trial_id).stage_file(r.stage, key)
     if not path.is_file():
         raise HTTPException(status_code=404, detail=f"trial {r.trial_id}: {r.stage} {key} not available")
-    if format is KinematicsFormat.csv:
-        return PlainTextResponse(path.read_text(), media_type=media,
-                                 headers=_attachment(f"{r.trial_id}-{r.stage}-{suffix}"))
     return FileResponse(path, media_type=media, filename=f"{r.trial_id}-{r.stage}-{suffix}")

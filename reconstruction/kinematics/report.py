@@ -1,5 +1,5 @@
 """The kinematics report of a trial: gait-cycle curves (mean +- SD per side), key clinical values, norms,
-marker errors of the model fit. JSON-ready via :meth:`KinematicsReport.to_dict`, CSV via :meth:`to_csv`."""
+marker errors of the model fit. JSON-ready via :meth:`KinematicsReport.to_dict`, CSV via :func:`curves_csv`."""
 
 from __future__ import annotations
 
@@ -45,23 +45,29 @@ class KinematicsReport:
             "marker_errors_mm": self.marker_errors_mm, "model": self.model, "not_measured": self.not_measured,
         }
 
-    def to_csv(self) -> str:
-        """One row per % of the cycle: mean and SD of every variable and side (degrees), norm mean and SD."""
-        cols, data = ["percent"], [np.arange(CYCLE_POINTS, dtype=float)]
-        for var, by_side in self.curves.items():
-            for side in SIDES:
-                cc = by_side[side]
-                cols += [f"{var}_{side}_mean_deg", f"{var}_{side}_sd_deg"]
-                data += [cc.mean, cc.sd]
-            if var in self.norms:
-                cols += [f"{var}_norm_mean_deg", f"{var}_norm_sd_deg"]
-                data += [self.norms[var].mean, self.norms[var].sd]
-        out = io.StringIO()
-        out.write(",".join(cols) + "\n")
-        for row in np.column_stack(data):
-            out.write(",".join("" if not np.isfinite(v) else f"{v:.3f}" for v in row) + "\n")
-        return out.getvalue()
 
+def _col(values) -> np.ndarray:
+    return np.array([np.nan if v is None else v for v in values], dtype=np.float64)
+
+
+def curves_csv(d: dict) -> str:
+    """The CSV of a report's JSON form (``curves``: variable -> side -> mean_deg / sd_deg; ``norms``:
+    ``bands``: variable -> mean_deg / sd_deg, e.g. the band chosen for the patient): one row per % of the
+    cycle, every variable's mean and SD per side, then its norm's mean and SD where there is a band."""
+    bands = (d.get("norms") or {}).get("bands") or {}
+    cols, data = ["percent"], [np.arange(CYCLE_POINTS, dtype=float)]
+    for var, by_side in d.get("curves", {}).items():
+        for side in SIDES:
+            cols += [f"{var}_{side}_mean_deg", f"{var}_{side}_sd_deg"]
+            data += [_col(by_side[side]["mean_deg"]), _col(by_side[side]["sd_deg"])]
+        if var in bands:
+            cols += [f"{var}_norm_mean_deg", f"{var}_norm_sd_deg"]
+            data += [_col(bands[var]["mean_deg"]), _col(bands[var]["sd_deg"])]
+    out = io.StringIO()
+    out.write(",".join(cols) + "\n")
+    for row in np.column_stack(data):
+        out.write(",".join("" if not np.isfinite(v) else f"{v:.2f}" for v in row) + "\n")
+    return out.getvalue()
 
 def kinematics_report(coordinates_deg: dict[str, np.ndarray], times_s: np.ndarray, steps, *,
                       norms: dict[str, NormBand] | None = None, marker_errors_mm=None,

@@ -1,4 +1,5 @@
-"""The kinematics page of a report: gait-cycle curves per side (mean +- SD) over the normal-gait band."""
+"""The kinematics figure (the report's page, ``kinematics.png``): gait-cycle curves per side (mean +- SD) over
+the normal-gait band."""
 
 from __future__ import annotations
 
@@ -6,60 +7,14 @@ import io
 
 import numpy as np
 from gaitcap.reconstruction.kinematics.angles import VARIABLES
-from gaitcap.reconstruction.kinematics.report import KinematicsReport
 
 COLORS = {"left": "#1f77b4", "right": "#d62728"}
 
 
-def curves_png(report: KinematicsReport, *, title: str = "Joint kinematics") -> bytes:
-    """A 3 x 3 grid, one panel per variable: each side's mean +- SD (n cycles in the legend) and the norm
-    band (mean +- SD, grey) where there is one; degrees over % of the gait cycle."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(11, 9), dpi=90)
-    axes = fig.subplots(3, 3).ravel()
-    pct = np.arange(101)
-    for ax, (name, var) in zip(axes, VARIABLES.items(), strict=True):
-        if name in report.not_measured:  # held by the fit: say so instead of drawing its prior
-            ax.set_title(var.label, fontsize=9)
-            ax.text(0.5, 0.5, "not measured:\n" + report.not_measured[name].replace(": ", ":\n"),
-                    ha="center", va="center", fontsize=7, transform=ax.transAxes, wrap=True)
-            ax.set_xticks([])
-            ax.set_yticks([])
-            continue
-        band = report.norms.get(name)
-        if band is not None:
-            ax.fill_between(pct, band.mean - band.sd, band.mean + band.sd, color="0.85", label="norm")
-        for side, color in COLORS.items():
-            cc = report.curves[name][side]
-            if cc.n:
-                ax.plot(pct, cc.mean, color=color, lw=1.4, label=f"{side} (n={cc.n})")
-                if cc.n > 1:
-                    ax.fill_between(pct, cc.mean - cc.sd, cc.mean + cc.sd, color=color, alpha=0.15)
-        ax.set_title(var.label, fontsize=9)
-        ax.set_xlim(0, 100)
-        ax.grid(alpha=0.3)
-        ax.tick_params(labelsize=7)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=6, loc="best")
-    for ax in axes[6:]:
-        ax.set_xlabel("% gait cycle", fontsize=8)
-    for ax in axes[::3]:
-        ax.set_ylabel("deg", fontsize=8)
-    fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    return buf.getvalue()
-
-
-def side_curves_png(k: dict, *, width_in: float = 10.0) -> bytes:
+def side_curves_png(k: dict, *, width_in: float = 10.0, title: str = "") -> bytes:
     """The report's figure from a ``kinematics.json`` dict (norms chosen for the patient): one panel per
     variable and side, two variables to a row (left, right, left, right), each with the side's mean +- SD
-    (degrees) over the normal band (grey, mean +- 1 SD) where there is one."""
+    (degrees) over the normal band (grey, mean +- 1 SD) where there is one; ``title`` above them."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -88,7 +43,18 @@ def side_curves_png(k: dict, *, width_in: float = 10.0) -> bytes:
     for ax in axes[2 * len(names):]:
         ax.set_axis_off()
     fig.supxlabel("% of the gait cycle; degrees", fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=8)
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     return buf.getvalue()
+
+
+def figure_title(k: dict) -> str:
+    """Whose band the figure shows and what is not drawn, for the standalone PNG."""
+    norms = k.get("norms") or {}
+    band = f"grey: normal mean +- 1 SD, {norms['population']}" if norms.get("population") else "no normal band"
+    held = "; not measured: " + ", ".join(n.replace("_", " ") for n in k.get("not_measured") or {}) \
+        if k.get("not_measured") else ""
+    return f"Joint kinematics ({band}{held})"

@@ -4,6 +4,7 @@ after the fit, when the patient's birth year is recorded, so it is chosen when t
 
 from __future__ import annotations
 
+from gaitcap.reconstruction.kinematics.report import curves_csv
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import patients as pat
 from gaitcap.services.kinematics.files import norms_for_age
@@ -26,3 +27,14 @@ def with_norms(data: dict, age_years: int | None) -> dict:
         return data
     return {**data, "norms": norms_for_age(age_years).to_dict()}
 
+
+
+def curves_png(k: dict) -> bytes:
+    """The figure of the curves per side over the band, titled with whose band it is."""
+    from gaitcap.services.kinematics.plot import figure_title, side_curves_png
+
+    return side_curves_png(k, title=figure_title(k))
+
+
+# format -> how it is made from the JSON form (with the band chosen for the patient)
+SHOWN_FORMATS = {"csv": curves_csv, "png": curves_png}

@@ -19,12 +19,12 @@ import numpy as np
 from gaitcap.reconstruction.fileio import atomic_write_text
 from gaitcap.reconstruction.kinematics.c3d import c3d_content
 from gaitcap.reconstruction.kinematics.markers import guess_skeleton, layout_for
-from gaitcap.reconstruction.kinematics.report import KinematicsReport, kinematics_report
+from gaitcap.reconstruction.kinematics.report import KinematicsReport, curves_csv, kinematics_report
 from gaitcap.services.kinematics.base import FitRequest, KinematicsUnavailable
 from gaitcap.services.kinematics.c3d_file import write_c3d
 from gaitcap.services.kinematics.engine import get_engine
 from gaitcap.services.kinematics.files import norm_bands
-from gaitcap.services.kinematics.plot import curves_png
+from gaitcap.services.kinematics.shown import curves_png, with_norms
 
 log = logging.getLogger(__name__)
 STEM = "kinematics"
@@ -95,10 +95,11 @@ def trial_kinematics(points_mm: np.ndarray, times_s: np.ndarray, joint_names, *,
              "seconds": {**fit.seconds, "total": round(time.perf_counter() - t0, 3)}}
     report = kinematics_report(fit.coordinates_deg, fit.times_s, steps, norms=norm_bands(),
                                marker_errors_mm=fit.marker_errors_mm, model=model, held=fit.held)
-    atomic_write_text(out_dir / FILES["json"], json.dumps({"available": True, **report.to_dict()}) + "\n")
-    atomic_write_text(out_dir / FILES["csv"], report.to_csv())
+    shown = with_norms({"available": True, **report.to_dict()}, None)  # the API re-chooses by the patient's age
+    atomic_write_text(out_dir / FILES["json"], json.dumps(shown) + "\n")
+    atomic_write_text(out_dir / FILES["csv"], curves_csv(shown))
     write_c3d(out_dir / FILES["c3d"], c3d_content(pts, times_s, names, steps))
-    _write_bytes(out_dir / FILES["png"], curves_png(report))
+    _write_bytes(out_dir / FILES["png"], curves_png(shown))
     log.info("kinematics: %d frames, scale %.2f s, IK %.2f s", len(fit.times_s), fit.seconds.get("scale", 0),
              fit.seconds.get("ik", 0))
     return report

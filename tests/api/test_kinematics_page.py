@@ -76,6 +76,18 @@ def test_rest_band_follows_the_patients_age(server, walk):
         assert body["norms"]["population"] == expected["population"] and body["norms"]["source"] == expected["source"]
         assert set(body["norms"]["bands"]) == set(expected["bands"])
         assert ("years" in body["norms"]["population"]) == (born is not None)  # the age it was chosen for
+    adult = _trial(server, walk, subject="A5", kinematics=kin, birth_year=1956)
+    bands = client.get(f"/trials/{adult}/kinematics").json()["norms"]["bands"]
+    csv = client.get(f"/trials/{adult}/kinematics", params={"format": "csv"})
+    rows = [line.split(",") for line in csv.text.splitlines()]
+    assert csv.headers["content-type"].startswith("text/csv") and len(rows) == 102
+    for name in ("knee_flexion", "hip_adduction"):  # the CSV's band columns are the patient's band
+        assert (f"{name}_norm_mean_deg" in rows[0]) == (name in bands)
+        if name in bands:
+            col = rows[0].index(f"{name}_norm_mean_deg")
+            assert [float(r[col]) for r in rows[1:]] == pytest.approx(bands[name]["mean_deg"], abs=0.006)
+    png = client.get(f"/trials/{adult}/kinematics", params={"format": "png"})
+    assert png.headers["content-type"] == "image/png" and png.content[:8] == b"\x89PNG\r\n\x1a\n"
     knee = body["curves"]["knee_flexion"]["left"]
     assert knee["n_cycles"] >= 3 and 40.0 < max(v for v in knee["mean_deg"] if v is not None) < 80.0
     assert "pelvis_tilt" not in body["curves"] and body["not_measured"] == HELD
