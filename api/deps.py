@@ -5,6 +5,7 @@ from __future__ import annotations
 from fastapi import HTTPException, Request
 from gaitcap.api.schemas import STATE_WORDS, TrialOut
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog import patients as pat
 
 
 def catalog_of(request: Request) -> cat.Catalog:
@@ -24,8 +25,9 @@ def checked_trial_id(trial_id: str) -> str:
 
 
 def trial_out(db: cat.Catalog, t: cat.TrialInfo, stages: list[str] | None = None,
-              quality: dict | None = None) -> TrialOut:
+              quality: dict | None = None, details: pat.TrialDetailsInfo | None = None) -> TrialOut:
     text = STATE_WORDS.get(t.state, t.state)
+    details = pat.get_details(db, t.id) if details is None else details
     if t.state == "processing" and t.stage:
         text = f"Processing: {t.stage}"
     return TrialOut(
@@ -34,11 +36,13 @@ def trial_out(db: cat.Catalog, t: cat.TrialInfo, stages: list[str] | None = None
         stage=t.stage, progress=t.progress, error=t.error,
         results=sorted(cat.stages_available(db, t.id) if stages is None else stages),
         warnings=cat.warnings_of(cat.get_quality(db, t.id) if quality is None else quality),
+        voided=details.voided, void_reason=details.void_reason,
     )
 
 
 def trials_out(db: cat.Catalog, trials: list[cat.TrialInfo]) -> list[TrialOut]:
     """Several trials with their result stages (one query for the stages)."""
     ids = [t.id for t in trials]
-    stages, quality = cat.stages_of(db, ids), cat.qualities_of(db, ids)
-    return [trial_out(db, t, stages.get(t.id, []), quality.get(t.id, {})) for t in trials]
+    stages, quality, details = cat.stages_of(db, ids), cat.qualities_of(db, ids), pat.details_of(db, ids)
+    return [trial_out(db, t, stages.get(t.id, []), quality.get(t.id, {}), details.get(t.id, pat.TrialDetailsInfo()))
+            for t in trials]

@@ -12,6 +12,8 @@ from gaitcap.api.subject_ids import check_subject_id
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import patients as pat
 from gaitcap.services.catalog.ids import ID_PATTERN
+from gaitcap.services.reports.content import NORM_UNITS, ReportConfig
+from gaitcap.services.reports.norms import NormsError, NormTable, load_norms
 from pydantic import BaseModel, ConfigDict, Field
 
 router = APIRouter(tags=["patients"])
@@ -67,9 +69,12 @@ def list_patients(request: Request, prefix: str = "", limit: int = 200, user: st
 
 @router.get("/patients/{subject_id}", summary="A patient with every trial by visit and the key values")
 def show_patient(subject_id: str, request: Request, user: str = Depends(require_user)) -> dict:
-    """``trials``: oldest first, each with the trial, its void mark and clinical fields and ``values``
-    (gait speed m/s, cadence steps/min, step length mm, step-length symmetry index %) of its best result."""
+    """``history``: oldest first, each with the trial, its void mark and clinical fields, ``values`` (gait
+    speed m/s, cadence steps/min, step length mm, step-length symmetry index %) of its best result and
+    ``normal_ranges`` (the same names -> [low, high], mean -+ 1.96 SD for the patient's sex and age at that
+    trial; a name without a normative row is left out)."""
     db, p = catalog_of(request), _patient(request, subject_id)
+    norms = _norms()
     trials = list(reversed(cat.list_trials(db, subject_id=p.id, limit=1000)))
     details = pat.details_of(db, [t.id for t in trials])
     out = []
@@ -81,7 +86,8 @@ def show_patient(subject_id: str, request: Request, user: str = Depends(require_
         out.append({**t_out.model_dump(), "voided": d.voided, "void_reason": d.void_reason,
                     "walking_aid": d.walking_aid, "assistance": d.assistance, "footwear": d.footwear,
                     "operator": d.operator, "notes": d.notes,
-                    "values": {k: v for k, v in values.items() if isinstance(v, float) and math.isfinite(v)}})
+                    "values": {k: v for k, v in values.items() if isinstance(v, float) and math.isfinite(v)},
+                    "normal_ranges": _ranges(norms, p, t.started_at or t.created_at)})
     cat.audit(db, actor=user, action="view", detail=f"patient {p.id}")
     return {**_patient_out(p), "history": out}
 
@@ -135,6 +141,18 @@ def mark_void(trial_id: str, body: VoidIn, request: Request, user: str = Depends
         raise HTTPException(status_code=409 if "already" in str(exc) else 422, detail=str(exc)) from None
     cat.audit(db, actor=user, action="mark void", trial_id=trial_id, detail=body.reason)
     return {"trial_id": trial_id, "voided_at": d.voided_at, "voided_by": d.voided_by, "void_reason": d.void_reason}
+
+
+def _norms() -> NormTable:
+    try:
+        return load_norms(ReportConfig.from_env().norms_csv, units=NORM_UNITS)
+    except NormsError as exc:
+        raise HTTPException(status_code=500, detail=f"the normative table (GAITCAP_NORMS_CSV): {exc}") from None
+
+
+def _ranges(norms: NormTable, p: pat.PatientInfo, t_s: float) -> dict[str, list[float]]:
+    rows = {name: norms.find(name, sex=p.sex, age=p.age_at(t_s)) for _, name in TREND}
+    return {name: [round(x, 4) for x in row.band()] for name, row in rows.items() if row is not None}
 
 
 def _changes(changes: dict) -> str:

@@ -20,6 +20,7 @@ from gaitcap.services.reports.content import (
     stored_gait,
 )
 from gaitcap.services.reports.figures import heel_traces
+from gaitcap.services.reports.norms import NormsError
 
 router = APIRouter(tags=["report"])
 
@@ -33,6 +34,8 @@ def _content(request: Request, trial_id: str) -> ReportContent:
         raise HTTPException(status_code=404, detail=str(exc)) from None
     except FileNotFoundError as exc:
         raise HTTPException(status_code=404, detail=str(exc)) from None
+    except NormsError as exc:
+        raise HTTPException(status_code=500, detail=f"the normative table (GAITCAP_NORMS_CSV): {exc}") from None
 
 
 def _num(x: float, decimals: int) -> float | None:

@@ -47,6 +47,8 @@ class TrialOut(BaseModel):
     results: list[str] = Field(default_factory=list, description="Result stages available")
     warnings: list[str] = Field(default_factory=list, description="Data-quality warnings in plain words "
                                 "(recovery, rig override, cameras, sync, coverage, reprojection), most important first")
+    voided: bool = Field(default=False, description="Marked void (kept, left out of trends and comparisons)")
+    void_reason: str = Field(default="", description="Why it was marked void (empty when not void)")
 
 
 class CameraOut(BaseModel):

@@ -177,6 +177,7 @@ function renderTrials(trials) {
     const cells = trialCells(t), key = JSON.stringify(cells);
     if (tr.dataset.key !== key) {
       tr.dataset.key = key;
+      tr.classList.toggle("voided", !!t.voided);
       if (tr.children.length !== 6) { tr.innerHTML = "<td></td>".repeat(6); tr.children[1].className = tr.children[2].className = "id-cell"; }
       cells.forEach((html, i) => { if (i < 5 && tr.children[i].innerHTML !== html) tr.children[i].innerHTML = html; });
       const hasButton = !!tr.children[5].querySelector(".view");
@@ -194,7 +195,7 @@ function trialCells(t) {
   const progress = t.state === "processing" ? ` <progress max="1" value="${t.progress}"></progress>` : "";
   return [fmtTime(t.started_at || t.created_at), esc(t.subject_id), esc(t.session),
     t.duration_s == null ? "" : fmtDuration(t.duration_s),
-    `<span class="state state-${t.state}">${esc(t.state_text)}</span>${progress}${t.error ? `<div class="error">${esc(t.error)}</div>` : ""}${t.warnings.length ? `<div class="warning-count">${t.warnings.length} warning${t.warnings.length > 1 ? "s" : ""}</div>` : ""}`,
+    `<span class="state state-${t.state}">${esc(t.state_text)}</span>${progress}${t.error ? `<div class="error">${esc(t.error)}</div>` : ""}${t.warnings.length ? `<div class="warning-count">${t.warnings.length} warning${t.warnings.length > 1 ? "s" : ""}</div>` : ""}${t.voided ? `<div class="void-note"><strong>Void:</strong> ${esc(t.void_reason)}</div>` : ""}`,
     t.results.length ? `<button class="btn view" aria-label="View results of ${esc(t.subject_id)}, ${esc(t.session)}">View results</button>` : ""];
 }
 

@@ -127,6 +127,8 @@ async function loadFigures(trialId, footprints) {
 
 new ResizeObserver(() => { for (const c of charts) c.setSize({ width: Math.max(280, $("#charts").clientWidth - 4), height: c.height }); })
   .observe(document.querySelector("#results"));
+new ResizeObserver(() => { for (const c of trendCharts) c.setSize({ width: trendWidth(c.root.parentElement), height: c.height }); })
+  .observe(document.querySelector("#patient-card"));
 
 // ---------- the patient's history ----------
 async function showHistory(subjectId) {
@@ -155,30 +157,62 @@ async function showHistory(subjectId) {
       <td>${t.results.length ? `<a href="/trials/${encodeURIComponent(t.id)}/report.pdf" target="_blank" rel="noopener">Report (PDF)</a>` : ""}</td></tr>`;
   }).join("");
   for (const box of body.querySelectorAll(".cmp")) box.onchange = compareChecked;
-  drawTrend(h.history.filter((t) => !t.voided && t.values.gait_speed_m_s != null));
+  drawTrends(h.history);
   $("#compare").hidden = true;
 }
 
-function drawTrend(points) {
-  // gait speed per visit (m/s) on a plain SVG; the normal band comes from the newest trial's parameters
-  const svg = $("#trend"), W = 600, H = 220, L = 50, B = 30;
-  svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
-  if (points.length === 0) { svg.innerHTML = `<text x="${L}" y="40" font-size="14">No results yet.</text>`; return; }
-  const ys = points.map((t) => t.values.gait_speed_m_s), lo = Math.min(0.4, ...ys) - 0.1, hi = Math.max(1.8, ...ys) + 0.1;
-  const x = (i) => L + (points.length === 1 ? (W - L) / 2 : i * (W - L - 20) / (points.length - 1));
-  const y = (v) => H - B - (v - lo) / (hi - lo) * (H - B - 10);
-  const ticks = [0.5, 1.0, 1.5].map((v) => `<line x1="${L}" x2="${W}" y1="${y(v)}" y2="${y(v)}" stroke="#d5dbe3"/><text x="${L - 6}" y="${y(v) + 4}" font-size="12" text-anchor="end">${v.toFixed(1)}</text>`).join("");
-  const path = points.map((t, i) => `${i ? "L" : "M"}${x(i)},${y(t.values.gait_speed_m_s)}`).join(" ");
-  const dots = points.map((t, i) => `<circle cx="${x(i)}" cy="${y(t.values.gait_speed_m_s)}" r="5" fill="#1f3a5f"><title>${esc(t.session)}: ${t.values.gait_speed_m_s.toFixed(2)} m/s</title></circle>
-    <text x="${x(i)}" y="${H - 10}" font-size="12" text-anchor="middle">${esc(t.session.slice(0, 12))}</text>`).join("");
-  svg.innerHTML = `<g id="trend-band"></g>${ticks}<text x="4" y="14" font-size="12">m/s</text><path d="${path}" fill="none" stroke="#1f3a5f" stroke-width="2"/>${dots}`;
-  const newest = points[points.length - 1];
-  api(`/trials/${encodeURIComponent(newest.id)}/parameters`).then((r) => {
-    const p = r.parameters.find((q) => q.name === "gait_speed_m_s");
-    if (!p || !p.normal_range) return;
-    const [a, b] = p.normal_range;
-    $("#trend-band").innerHTML = `<rect x="${L}" width="${W - L}" y="${y(Math.min(b, hi))}" height="${y(Math.max(a, lo)) - y(Math.min(b, hi))}" fill="#d8f3df"><title>Normal range ${a.toFixed(2)}–${b.toFixed(2)} m/s</title></rect>`;
-  }).catch(() => {});
+// ---------- trends over the visits (uPlot), each with its normal band where the norms have one ----------
+const TRENDS = [
+  { name: "gait_speed_m_s", label: "Gait speed", unit: "m/s", decimals: 2 },
+  { name: "step_length_mm", label: "Step length", unit: "mm", decimals: 0 },
+  { name: "cadence_steps_min", label: "Cadence", unit: "steps/min", decimals: 1 },
+  { name: "step_length_symmetry_index_pct", label: "Step length symmetry index", unit: "%", decimals: 1, fromZero: true },
+];
+const trendCharts = [];
+let trendHistory = [];
+
+function trendWidth(fig) { return Math.max(240, fig.clientWidth - 4); }
+
+function trendChart(spec, visits, box) {
+  // one parameter per visit (line and dots), void visits as grey rings, the normal band per visit's age
+  const fmt = (v) => v == null ? "–" : v.toFixed(spec.decimals);
+  const band = visits.map((t) => t.normal_ranges[spec.name] || null);
+  const hasBand = band.some((b) => b);
+  const data = [visits.map((t) => t.started_at || t.created_at), visits.map((t) => t.values[spec.name] ?? null),
+    visits.map((t) => (t.voided ? t.values[spec.name] ?? null : null))];
+  const series = [{ label: "date" },
+    { label: `${spec.label} (${spec.unit})`, stroke: "#1f3a5f", width: 2, spanGaps: true, value: (u, v) => fmt(v), points: { show: true, size: 8, fill: "#1f3a5f" } },
+    { ...markers("void trial", "#5b6675", "open"), value: (u, v) => fmt(v) }];
+  const scales = { x: { time: true }, ...(spec.fromZero ? { y: { range: (u, lo, hi) => [0, Math.max(10, 1.2 * (hi ?? 0))] } } : {}) };
+  const opts = { height: 170, series, scales, legend: { show: false },
+    axes: [{}, { label: spec.unit, size: 56 }] };
+  if (hasBand) {
+    data.push(band.map((b) => (b ? b[1] : null)), band.map((b) => (b ? b[0] : null)));
+    series.push({ label: "normal high", stroke: "#6fbf80", width: 1, dash: [4, 4], value: (u, v) => fmt(v), points: { show: false } },
+      { label: "normal low", stroke: "#6fbf80", width: 1, dash: [4, 4], value: (u, v) => fmt(v), points: { show: false } });
+    opts.bands = [{ series: [3, 4], fill: "rgba(111, 191, 128, 0.22)" }];
+  }
+  const fig = document.createElement("figure");
+  fig.className = "trend"; fig.dataset.parameter = spec.name;
+  const cap = document.createElement("figcaption"), last = band.filter((b) => b).pop();
+  cap.textContent = `${spec.label} (${spec.unit}) per visit; ` + (last
+    ? `shaded: the normal range for age and sex (at the last visit ${fmt(last[0])}–${fmt(last[1])} ${spec.unit}).`
+    : "no reference range.") + (data[2].some((v) => v != null) ? " Grey rings: void trials." : "");
+  fig.append(cap); box.append(fig);
+  trendCharts.push(new uPlot({ ...opts, width: trendWidth(fig) }, data, fig));
+}
+
+function drawTrends(history) {
+  trendHistory = history;
+  for (const c of trendCharts.splice(0)) c.destroy();
+  const box = $("#trends"), withVoid = $("#trend-void").checked;
+  box.innerHTML = "";
+  const visits = history.filter((t) => (withVoid || !t.voided) && Object.keys(t.values).length);
+  const left = history.filter((t) => t.voided).length;
+  $("#trend-note").textContent = left ? (withVoid ? `${left} void trial(s) included.` : `${left} void trial(s) left out.`) : "";
+  if (!visits.length) { box.innerHTML = '<p class="muted">No results yet.</p>'; return; }
+  if (typeof uPlot === "undefined") return;
+  for (const spec of TRENDS) trendChart(spec, visits, box);
 }
 
 async function compareChecked() {
@@ -248,6 +282,7 @@ $("#correct-form").onsubmit = submitCorrection;
 $("#void-button").onclick = markVoid;
 $("#patient-form").onsubmit = (ev) => { ev.preventDefault(); showHistory($("#patient-input").value.trim()); };
 $("#print").onclick = () => window.print();
+$("#trend-void").onchange = () => drawTrends(trendHistory);
 for (const id of ["subject", "session"]) {
   $(`#${id}`).addEventListener("input", () => showFieldError(id, idProblem($(`#${id}`).value.trim(), id === "subject" ? "Patient ID" : "Session")));
 }

@@ -11,6 +11,7 @@ from gaitcap.services.processing.outputs import steps_of, summary_of
 from .conftest import sign_in_page
 
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
+TRENDS = ("gait_speed_m_s", "step_length_mm", "cadence_steps_min", "step_length_symmetry_index_pct")
 WIDTHS = {"phone": (390, 844), "tablet": (820, 1180), "desktop": (1280, 900)}
 
 
@@ -113,7 +114,16 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.keyboard.type("p0042")
     page.keyboard.press("Enter")
     page.wait_for_selector("#history-table tbody tr:nth-child(3)")
-    assert page.locator("#trend circle").count() == 3
+    page.wait_for_selector("#trends .trend .uplot")
+    assert page.eval_on_selector_all("#trends .trend", "f => f.map(x => x.dataset.parameter)") == list(TRENDS)
+    points = page.evaluate("() => trendCharts.map(c => c.data[1].filter(v => v != null).length)")
+    assert points == [3, 3, 3, 3], points
+    # a man of 70 (Hollman 2011, men 70-74): gait speed 1.17 +- 0.16 m/s, step length 690 +- 80 mm, cadence
+    # 102 +- 8 steps/min; the band is mean +- 1.96 SD at each visit; the symmetry index has no reference
+    bands = page.evaluate("() => trendCharts.map(c => c.data.length === 5 ? [c.data[4][0], c.data[3][0]] : null)")
+    for band, (mean, sd) in zip(bands, ((1.17, 0.16), (690, 80), (102, 8)), strict=False):
+        assert band == pytest.approx([mean - 1.96 * sd, mean + 1.96 * sd], rel=1e-3), bands
+    assert bands[3] is None and "no reference" in page.inner_text("#trends [data-parameter$='symmetry_index_pct']")
     assert "Patient P0042" in page.inner_text("#patient-summary")
 
     page.wait_for_selector("#trials tbody tr[data-trial] .view")
@@ -154,6 +164,15 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.once("dialog", lambda d: d.accept("walked with the wrong shoes"))
     page.click("#void-button")
     page.wait_for_function("() => document.querySelector('#results-patient').textContent.includes('VOID: walked with')")
+    voided = page.locator(f"#trials tr.voided[data-trial='{visits[2]}']")  # marked in the trial list
+    voided.wait_for()
+    assert "Void: walked with the wrong shoes" in voided.inner_text()
+    page.click("#patient-form button[type=submit]")  # the history again: the void visit is out of the trends
+    page.wait_for_function("() => document.querySelector('#trend-note').textContent.includes('1 void trial(s) left out')")
+    assert page.evaluate("() => trendCharts.map(c => c.data[1].length)") == [2, 2, 2, 2]
+    assert "Void: walked with the wrong shoes" in page.inner_text(f"#history-table tr.voided[data-trial='{visits[2]}']")
+    page.check("#trend-void")  # unless asked for, then drawn as a grey ring
+    assert page.evaluate("() => trendCharts.map(c => c.data[2].filter(v => v != null).length)") == [1, 1, 1, 1]
 
     page.click("#clinical-fields summary")
     page.fill("#subject", "p0042")

