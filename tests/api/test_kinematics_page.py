@@ -134,6 +134,10 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
         assert norms.population in notes and norms.source in notes and "Pelvic tilt (anterior +): not measured" in notes
         row = page.inner_text("#kinematics-keys tr[data-key='knee_peak_flexion_swing_deg']")
         assert f"{kin['key_values']['right']['knee_peak_flexion_swing_deg']['mean']:.1f} ±" in row
+        page.set_viewport_size({"width": 390, "height": 844})  # a phone: one panel a row, nothing wider than it
+        page.wait_for_timeout(300)
+        assert page.evaluate("document.documentElement.scrollWidth") <= 390
+        assert max(page.eval_on_selector_all("#kinematics-charts .uplot", "els => els.map(e => e.getBoundingClientRect().right)")) <= 390
         page.click(f"#trials tr[data-trial='{none}'] .view")
         page.wait_for_function("() => document.querySelector('#kinematics-status').textContent.includes('opensim')")
         assert "Kinematics unavailable" in page.inner_text("#kinematics-status")
