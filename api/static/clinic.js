@@ -58,7 +58,7 @@ async function loadSides(trialId) {
     const range = p.normal_range ? `${fmtFixed(p.normal_range[0], d)}–${fmtFixed(p.normal_range[1], d)}` : "no reference";
     return `<tr data-parameter="${esc(p.name)}"><td><abbr title="${esc(p.help)}">${esc(p.label)}</abbr> (${esc(p.unit)})</td>
       <td>${fmtFixed(p.left, d)}</td><td>${fmtFixed(p.right, d)}</td><td>${fmtFixed(p.mean, d)}</td><td>${fmtFixed(p.sd, d + 1)}</td>
-      <td>${fmtFixed(p.symmetry_index_pct, 1)}</td><td>${range}</td><td class="${out ? "out" : ""}">${p.z == null ? "–" : (p.z > 0 ? "+" : "") + p.z.toFixed(1)}</td>
+      <td>${fmtFixed(p.symmetry_index_pct, 1)}</td><td${p.norm_source ? ` title="${esc(p.norm_source)}"` : ""}>${range}</td><td class="${out ? "out" : ""}">${p.z == null ? "–" : (p.z > 0 ? "+" : "") + p.z.toFixed(1)}</td>
       <td>${sideBars(p.left, p.right)}</td></tr>`;
   }).join("");
   $("#sides-note").textContent = "Left and right: means over each side's steady steps. Normal range: mean ± 1.96 SD for the patient's age decade and sex"

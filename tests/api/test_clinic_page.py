@@ -124,6 +124,14 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     for band, (mean, sd) in zip(bands, ((1.17, 0.16), (690, 80), (102, 8)), strict=False):
         assert band == pytest.approx([mean - 1.96 * sd, mean + 1.96 * sd], rel=1e-3), bands
     assert bands[3] is None and "no reference" in page.inner_text("#trends [data-parameter$='symmetry_index_pct']")
+    _tab_to(page, "#history-table tbody tr:nth-child(1) .cmp")  # two visits side by side, by keyboard
+    page.keyboard.press("Space")
+    _tab_to(page, "#history-table tbody tr:nth-child(3) .cmp")
+    page.keyboard.press("Space")
+    page.wait_for_selector("#compare:not([hidden])")
+    assert "visit-1 L" in page.inner_text("#compare-table thead") and "visit-3 mean" in page.inner_text("#compare-table thead")
+    step = page.inner_text("#compare-table tbody tr:nth-child(3)").split("\t")
+    assert step[0] == "Step length (mm)" and step[1:3] == ["650", "650"] and step[-1] == "+0", step
     assert "Patient P0042" in page.inner_text("#patient-summary")
 
     page.wait_for_selector("#trials tbody tr[data-trial] .view")
