@@ -212,10 +212,20 @@ def _real_session(name: str, known_intrinsics: bool) -> dict | None:
         "problems": {q.name: list(q.problems) for q in cams if q.problems}, "seconds": seconds,
         "square_measured_mm": res.report.square_measured_mm, "scale_vs_reference": cmp.scale,
         "centre_diff_mm": list(cmp.centre_mm), "rotation_diff_deg": list(cmp.rotation_deg),
+        "pointing_diff_deg": list(cmp.pointing_deg),
+        "reference_pp_off_centre_deg": [_pp_off_centre_deg(ref[n]) for n in cmp.names],
+        "principal_point_held": [bool(np.allclose(c.matrix_px[:2, 2], np.asarray(c.size_px) / 2)) for c in res.rig],
     }
     out["meets_targets"] = bool(max(out["rms_px"]) <= REAL_TARGET_RMS_PX and cmp.centre_mm_max <= REAL_TARGET_CENTRE_MM
                                 and cmp.rotation_deg_max <= REAL_TARGET_ROTATION_DEG)
     return out
+
+
+def _pp_off_centre_deg(cam) -> float:
+    """How far (degrees of view) a camera's principal point lies from its image centre: holding it at the
+    centre turns the camera by about this much."""
+    off = (cam.matrix_px[:2, 2] - np.asarray(cam.size_px) / 2) / np.diag(cam.matrix_px)[:2]
+    return float(np.degrees(np.arctan(np.linalg.norm(off))))
 
 
 def _real_images(name: str, pattern: str, board) -> dict | None:
@@ -293,12 +303,16 @@ def _real_table(r: dict) -> str:
                      f"square {s['square_measured_mm']:.2f} mm, scale vs caliscope {s['scale_vs_reference']:.4f}, "
                      f"{s['views_moving']} views taken out of their sets (board moving between exposures)")
         lines.append(f"    {'camera':<8} {'views':>6} {'used':>5} {'RMS px':>7} {'p95 px':>7} {'centre mm':>10} "
-                     f"{'rot deg':>8}  status")
+                     f"{'rot deg':>8} {'ray deg':>8} {'ref pp deg':>10}  status")
         for k, cam in enumerate(s["cameras"]):
             status = "; ".join(s["problems"].get(cam, [])) or "ok"
+            held = " (principal point held at the image centre)" if s["principal_point_held"][k] else ""
             lines.append(f"    {cam:<8} {s['views_found'][k]:>6} {s['views_used'][k]:>5} {s['rms_px'][k]:>7.3f} "
-                         f"{s['p95_px'][k]:>7.3f} {s['centre_diff_mm'][k]:>10.2f} {s['rotation_diff_deg'][k]:>8.3f}  "
-                         f"{status}")
+                         f"{s['p95_px'][k]:>7.3f} {s['centre_diff_mm'][k]:>10.2f} {s['rotation_diff_deg'][k]:>8.3f} "
+                         f"{s['pointing_diff_deg'][k]:>8.3f} {s['reference_pp_off_centre_deg'][k]:>10.2f}  "
+                         f"{status}{held}")
+        lines.append("    (ray deg: the two calibrations' rays through the image centre; ref pp deg: caliscope's "
+                     "principal point off the image centre)")
         lines.append(f"    targets (RMS <= {REAL_TARGET_RMS_PX} px, centres <= {REAL_TARGET_CENTRE_MM} mm, rotations <= "
                      f"{REAL_TARGET_ROTATION_DEG} deg vs caliscope after a similarity alignment): "
                      f"{'met' if s['meets_targets'] else 'NOT met'}")

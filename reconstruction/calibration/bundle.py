@@ -57,7 +57,8 @@ class BundleProblem:
     Attributes:
         cam: (P,) camera index; frame: (P,) frame index; corner: (P,) corner id (true order);
         uv_px: (P, 2) observed px; object_points_mm: (N, 3) board corners; root: fixed camera;
-        free_dist: indices into (k1, k2, p1, p2, k3) that are adjusted.
+        free_dist: indices into (k1, k2, p1, p2, k3) that are adjusted;
+        held_principal_point: (C,) cameras whose principal point stays where it starts (None: none).
     """
 
     cam: np.ndarray
@@ -69,6 +70,7 @@ class BundleProblem:
     num_frames: int
     root: int
     free_dist: tuple[int, ...]
+    held_principal_point: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,7 +160,11 @@ class _Layout:
         root = (self.prob.cam[rows] == self.prob.root)[:, None, None]
         blocks = [proj.d_frame, np.where(root, 0.0, proj.d_cam)]
         if self.refine:
-            blocks.append(proj.d_intr[:, :, list(range(4)) + [4 + i for i in self.prob.free_dist]])
+            d_intr = proj.d_intr[:, :, list(range(4)) + [4 + i for i in self.prob.free_dist]]
+            if self.prob.held_principal_point is not None:  # a zero column: LM never moves it
+                held = self.prob.held_principal_point[self.prob.cam[rows]]
+                d_intr[held, :, 2:4] = 0.0
+            blocks.append(d_intr)
         vals = np.concatenate(blocks, axis=-1)  # (P, 2, K)
         r = np.arange(len(rows))
         row_idx = np.stack([2 * r, 2 * r + 1], 1)[:, :, None].repeat(cols.shape[1], 2)

@@ -80,7 +80,7 @@ def _check_cameras(obs: BoardObservations, config: IntrinsicsConfig) -> None:
         )
 
 
-def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, ...]):
+def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, ...], held_pp: np.ndarray):
     """Flatten the usable views into a BundleProblem (frames compacted); returns it and the frame map."""
     syms = np.asarray(obs.board.symmetries)
     c_idx, f_idx = np.nonzero(init.symmetry >= 0)
@@ -97,7 +97,7 @@ def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, .
         uv.append(obs.corners_px[c, f][seen])
     prob = BundleProblem(
         np.concatenate(cams), np.concatenate(frs), np.concatenate(corners), np.concatenate(uv),
-        obs.board.object_points_mm, obs.shape[0], len(frames), init.root, free_dist,
+        obs.board.object_points_mm, obs.shape[0], len(frames), init.root, free_dist, held_pp,
     )
     return prob, frames
 
@@ -201,7 +201,8 @@ def calibrate_from_observations(
     if no_pose:
         raise ValueError(f"cameras {no_pose}: no board view gave a consistent pose; check the board definition")
     init = initial_poses(poses, obs.camera_names)
-    prob, frames = _problem(obs, init, config.intrinsics.distortion.free)
+    held_pp = np.array([i.principal_point_held for i in intr])
+    prob, frames = _problem(obs, init, config.intrinsics.distortion.free, held_pp)
     res = bundle_adjust(prob, _initial_state(intr, init, frames), config.bundle)
     used = np.zeros(obs.shape[1], dtype=bool)
     used[frames] = True
