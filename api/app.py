@@ -15,7 +15,6 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from gaitcap.api import (
-    routes_calibration_runs,
     routes_calibrations,
     routes_kinematics,
     routes_live,
@@ -89,7 +88,6 @@ def create_app(settings: Settings, link=None) -> FastAPI:
     app.include_router(routes_live.router)
     app.include_router(routes_calibrations.router)
     app.include_router(routes_people.router)
-    app.include_router(routes_calibration_runs.router)
     app.include_router(routes_report.router)
     app.include_router(routes_patients.router)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")

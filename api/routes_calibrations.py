@@ -1,20 +1,32 @@
-"""Calibrations: upload one (made with ``gaitcap calibrate``) for the next trials, list them."""
+"""Calibrations, one router for every kind: upload one (made with ``gaitcap calibrate``), or record a
+board sequence from the clinic (a worker computes it as a ``calibrate`` job); list them, show one with
+its quality report, download it. One recording (trial or board) at a time: 409 otherwise."""
 
 from __future__ import annotations
 
+import logging
+import time
 import tomllib
 from dataclasses import replace
+from pathlib import Path
 
 from fastapi import APIRouter, Depends, HTTPException, Request
+from fastapi.responses import PlainTextResponse
 from gaitcap.api.auth import require_user
-from gaitcap.api.deps import catalog_of
+from gaitcap.api.deps import catalog_of, checked_id
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text, rig_to_toml_text
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog import calibrations as cals
+from gaitcap.services.live.protocols import RecorderUnavailable
 from gaitcap.services.live.rig_check import calibration_problems
 from pydantic import BaseModel, ConfigDict, Field
 
+log = logging.getLogger(__name__)
 router = APIRouter(tags=["calibrations"])
+SCENE_LEAD_S = 0.3  # the board appears this long after the recorder started: its floor frames are recorded
+STATE_WORDS = {"recording": "Recording the board", "calibrating": "Calibrating", "done": "Done: active",
+               "failed": "Failed"}
 
 
 class CalibrationIn(BaseModel):
@@ -23,6 +35,27 @@ class CalibrationIn(BaseModel):
     source: str = Field(default="", max_length=200, description="Where it came from (free text)")
     camera_map: dict[str, str] = Field(default_factory=dict, description="Calibration camera name -> the "
                                        "name of the camera in service, for calibrations made under other names")
+
+
+def _out(c: cals.CalibrationInfo, active_id: str | None) -> dict:
+    state_text = STATE_WORDS.get(c.state, c.state)
+    if c.state == "done" and c.id != active_id:
+        state_text = "Done (a newer calibration is active)"
+    return {"id": c.id, "kind": c.kind, "state": c.state, "state_text": state_text, "created_at": c.created_at,
+            "source": c.source, "started_at": c.started_at, "stopped_at": c.stopped_at, "started_by": c.started_by,
+            "stage": c.stage, "progress": c.progress, "error": c.error, "active": c.id == active_id,
+            "report": c.report, "has_toml": c.has_toml}
+
+
+def _show_scene(link, scene: str, start_ns: int) -> None:
+    show = getattr(link, "show_scene", None)  # only the bus link can switch the simulated cameras
+    if show is not None:
+        show(scene, start_ns=start_ns)
+
+
+def _active_id(db) -> str | None:
+    latest = cat.latest_calibration(db)
+    return latest[0] if latest else None
 
 
 def _load(text: str, camera_map: dict[str, str]) -> tuple[Rig, dict, str]:
@@ -65,3 +98,82 @@ def latest(request: Request, user: str = Depends(require_user)) -> dict:
     if found is None:
         raise HTTPException(status_code=404, detail="no calibration stored yet")
     return {"id": found[0], "toml": found[1]}
+
+
+@router.post("/calibrations/record/start", status_code=201, summary="Start recording a board sequence")
+def record_start(request: Request, user: str = Depends(require_user)) -> dict:
+    db, settings, link = catalog_of(request), request.app.state.settings, request.app.state.link
+    if not getattr(link, "connected", True):
+        raise HTTPException(status_code=503, detail="recorder: this server runs without the cameras and "
+                                                    "recorder (started with --no-bus)")
+    folder = Path(settings.data_dir) / "calibrations"
+    try:
+        c = cals.start_board_recording(db, recording_path_for=lambda cid: folder / cid / "board.mcap", started_by=user)
+    except cals.CalibrationBusy as exc:
+        raise HTTPException(status_code=409, detail=str(exc)) from None
+    cat.audit(db, actor=user, action="calibrate start", detail=c.id)
+    try:
+        Path(c.recording_path).parent.mkdir(parents=True, exist_ok=True)
+        link.start(trial_id=c.id, path=c.recording_path,
+                   metadata={"kind": "calibration", "calibration_id": c.id, "started_by": user})
+    except RecorderUnavailable as exc:
+        cals.update_calibration(db, c.id, state="failed", stage="", error=f"recorder: {exc}")
+        raise HTTPException(status_code=503, detail=f"recorder: {exc}") from None
+    _show_scene(link, "board", time.time_ns() + int(SCENE_LEAD_S * 1e9))
+    return _out(cals.get_calibration(db, c.id), _active_id(db))
+
+
+@router.post("/calibrations/record/stop", summary="Stop the board recording; a worker computes the calibration")
+def record_stop(request: Request, user: str = Depends(require_user)) -> dict:
+    db, link = catalog_of(request), request.app.state.link
+    c = cals.current_board_recording(db)
+    if c is None:
+        raise HTTPException(status_code=409, detail="no board recording is under way")
+    _show_scene(link, "walker", time.time_ns())
+    cat.audit(db, actor=user, action="calibrate stop", detail=c.id)
+    try:
+        summary = link.stop(c.id)
+    except RecorderUnavailable as exc:
+        cals.update_calibration(db, c.id, state="failed", stage="", stopped_at=time.time(), error=f"recorder: {exc}")
+        raise HTTPException(status_code=503, detail=f"recorder: {exc}") from None
+    try:
+        c = cals.queue_calibration(db, c.id, frames=(summary or {}).get("frames"))
+    except ValueError as exc:  # stopped by another request in the meantime
+        raise HTTPException(status_code=409, detail=str(exc)) from None
+    log.info("board recording %s stopped (%s); calibration job queued", c.id, summary)
+    return _out(c, _active_id(db))
+
+
+@router.get("/calibrations", summary="Calibrations, newest first (board recordings and uploads)")
+def list_all(request: Request, limit: int = 50, user: str = Depends(require_user)) -> list[dict]:
+    if not 1 <= limit <= 1000:
+        raise HTTPException(status_code=422, detail="limit: must be between 1 and 1000")
+    db = catalog_of(request)
+    active = _active_id(db)
+    return [_out(c, active) for c in cals.list_calibrations(db, limit=limit)]
+
+
+def _found(db, cal_id: str) -> cals.CalibrationInfo:
+    try:
+        return cals.get_calibration(db, checked_id(cal_id, field="calibration_id"))
+    except cals.CalibrationNotFound:
+        raise HTTPException(status_code=404, detail=f"calibration {cal_id} not found") from None
+
+
+@router.get("/calibrations/{cal_id}", summary="One calibration with its quality report")
+def show(cal_id: str, request: Request, user: str = Depends(require_user)) -> dict:
+    db = catalog_of(request)
+    return _out(_found(db, cal_id), _active_id(db))
+
+
+@router.get("/calibrations/{cal_id}/toml", response_class=PlainTextResponse,
+            summary="Download the calibration (aniposelib/Pose2Sim TOML, metres)")
+def download(cal_id: str, request: Request, user: str = Depends(require_user)) -> PlainTextResponse:
+    db = catalog_of(request)
+    cal_id = _found(db, cal_id).id
+    toml = cat.calibration_toml(db, cal_id)
+    if not toml:
+        raise HTTPException(status_code=404, detail=f"calibration {cal_id} has no result (yet)")
+    cat.audit(db, actor=user, action="download", detail=f"calibration {cal_id}")
+    return PlainTextResponse(toml, media_type="application/toml",
+                             headers={"Content-Disposition": f'attachment; filename="{cal_id}.toml"'})

@@ -12,7 +12,7 @@ from gaitcap.api.schemas import StartTrial, TrialOut
 from gaitcap.api.subject_ids import check_subject_id
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.services import catalog as cat
-from gaitcap.services.catalog.calibration_runs import current_board_recording
+from gaitcap.services.catalog.calibrations import current_board_recording
 from gaitcap.services.live.protocols import RecorderUnavailable
 from gaitcap.services.live.rig_check import recorder_warnings, rig_problems
 from gaitcap.services.processing.artifacts import trial_files

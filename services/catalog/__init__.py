@@ -9,7 +9,14 @@ Typical use::
 
 from gaitcap.services.catalog.audit import entries as audit_entries
 from gaitcap.services.catalog.audit import record as audit
-from gaitcap.services.catalog.calibrations import add_calibration, get_calibration, latest_calibration
+from gaitcap.services.catalog.calibrations import (
+    CalibrationInfo,
+    CalibrationNotFound,
+    add_calibration,
+    calibration_toml,
+    get_calibration,
+    latest_calibration,
+)
 from gaitcap.services.catalog.db import Catalog, SchemaMismatch, database_url, open_catalog, schema_version
 from gaitcap.services.catalog.ids import new_trial_id, validate_id
 from gaitcap.services.catalog.jobs import (
@@ -17,6 +24,7 @@ from gaitcap.services.catalog.jobs import (
     complete_job,
     enqueue_job,
     fail_job,
+    jobs_for_calibration,
     jobs_for_trial,
     lease_job,
     renew_lease,
@@ -48,8 +56,10 @@ __all__ = [
     "TrialState", "IllegalTransition", "RecordingBusy", "TrialInfo", "TrialNotFound",
     "start_trial", "get_trial", "list_trials", "set_state", "set_progress", "current_recording",
     "JobInfo", "enqueue_job", "lease_job", "renew_lease", "complete_job", "fail_job", "jobs_for_trial",
+    "jobs_for_calibration",
     "ResultInfo", "clear_results", "store_result", "get_result", "stages_available", "stages_of",
-    "add_calibration", "get_calibration", "latest_calibration",
+    "CalibrationInfo", "CalibrationNotFound", "add_calibration", "calibration_toml", "get_calibration",
+    "latest_calibration",
     "get_quality", "qualities_of", "set_quality", "warnings_of", "FINISHED", "PROCESSABLE",
     "audit", "audit_entries", "new_trial_id", "validate_id",
 ]

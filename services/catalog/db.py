@@ -2,7 +2,8 @@
 
 SQLite is opened in WAL mode with a busy timeout and every transaction starts with ``BEGIN IMMEDIATE``,
 so several processes (API, workers) can write without "database is locked" surprises and a lease is
-taken atomically. The schema version is checked on open.
+taken atomically. The schema version is checked on open; an older SQLite catalog is upgraded
+(:mod:`gaitcap.services.catalog.migrations`).
 """
 
 from __future__ import annotations
@@ -14,8 +15,9 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+from gaitcap.services.catalog.migrations import STEPS, migration_problem
 from gaitcap.services.catalog.models import SCHEMA_VERSION, Base, SchemaInfo
-from sqlalchemy import Engine, create_engine, event, select
+from sqlalchemy import Engine, create_engine, event, select, update
 from sqlalchemy.orm import Session, sessionmaker
 
 log = logging.getLogger(__name__)
@@ -84,7 +86,8 @@ class Catalog:
 def open_catalog(path_or_url: str | Path, *, create: bool = True) -> Catalog:
     """Open (and by default create) the catalog at a SQLite path or a SQLAlchemy URL.
 
-    Raises SchemaMismatch when the stored schema version differs from :data:`SCHEMA_VERSION`.
+    An older SQLite catalog is upgraded first; raises SchemaMismatch when the stored schema version
+    differs from :data:`SCHEMA_VERSION` and cannot be upgraded here.
     """
     url = database_url(path_or_url)
     engine = _sqlite_engine(url) if url.startswith("sqlite") else create_engine(url, pool_pre_ping=True)
@@ -104,10 +107,20 @@ def _check_version(catalog: Catalog) -> None:
             s.add(SchemaInfo(key="version", value=str(SCHEMA_VERSION)))
             s.add(SchemaInfo(key="created_at", value=f"{time.time():.3f}"))
             return
-        if row.value != str(SCHEMA_VERSION):
-            raise SchemaMismatch(
-                f"catalog {catalog.url}: schema version {row.value}, this gaitcap expects {SCHEMA_VERSION}"
-            )
+        version = int(row.value)
+    if version != SCHEMA_VERSION:
+        _upgrade(catalog, version)
+
+
+def _upgrade(catalog: Catalog, version: int) -> None:
+    problem = migration_problem(catalog.engine.dialect.name, version, SCHEMA_VERSION)
+    if problem:
+        raise SchemaMismatch(f"catalog {catalog.url}: {problem}")
+    for step in range(version, SCHEMA_VERSION):
+        with catalog.engine.begin() as conn:  # one transaction per step
+            STEPS[step](conn)
+            conn.execute(update(SchemaInfo).where(SchemaInfo.key == "version").values(value=str(step + 1)))
+        log.info("catalog %s: upgraded from schema version %d to %d", catalog.url, step, step + 1)
 
 
 def schema_version(catalog: Catalog) -> int:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from sqlalchemy import Float, ForeignKey, Index, Integer, String, Text, UniqueConstraint
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: one calibration table; jobs of kind "process" (a trial) or "calibrate"
 
 
 class Base(DeclarativeBase):
@@ -41,7 +41,11 @@ class SessionRow(Base):
 
 
 class Calibration(Base):
-    """A camera calibration (aniposelib TOML text, translation in metres)."""
+    """A camera calibration, the one record of every calibration: ``uploaded`` (TOML stored as it came)
+    or a ``board recording`` (``recording`` -> ``calibrating`` -> ``done`` | ``failed``; the worker computes
+    it as a leased job). ``toml``: aniposelib TOML text (translation in metres), empty until computed;
+    ``recording_slot`` is 1 while the board records (one recording at a time); ``done_at``: when it became
+    usable (the newest ``done`` one is the active calibration); ``frames``: images in the board recording."""
 
     __tablename__ = "calibrations"
     id: Mapped[str] = mapped_column(String(64), primary_key=True)
@@ -49,29 +53,19 @@ class Calibration(Base):
     source: Mapped[str] = mapped_column(String(256), default="")
     toml: Mapped[str] = mapped_column(Text)
     report_json: Mapped[str] = mapped_column(Text, default="{}")
-
-
-
-class CalibrationRun(Base):
-    """A board recording and the calibration computed from it (``recording`` -> ``calibrating`` ->
-    ``done`` | ``failed``). ``recording_slot`` is 1 while recording (one board recording at a time);
-    a passing run's calibration is stored in ``calibrations`` under the same id and becomes active."""
-
-    __tablename__ = "calibration_runs"
-    id: Mapped[str] = mapped_column(String(64), primary_key=True)
-    state: Mapped[str] = mapped_column(String(16), index=True)
+    kind: Mapped[str] = mapped_column(String(32), default="uploaded")  # uploaded | board recording
+    state: Mapped[str] = mapped_column(String(16), default="done", index=True)
     recording_slot: Mapped[int | None] = mapped_column(Integer, unique=True, nullable=True)
-    created_at: Mapped[float] = mapped_column(Float)
+    done_at: Mapped[float | None] = mapped_column(Float, nullable=True)
     started_at: Mapped[float | None] = mapped_column(Float, nullable=True)
     stopped_at: Mapped[float | None] = mapped_column(Float, nullable=True)
     started_by: Mapped[str] = mapped_column(String(128), default="")
     recording_path: Mapped[str] = mapped_column(String(1024), default="")
+    frames: Mapped[int | None] = mapped_column(Integer, nullable=True)
     stage: Mapped[str] = mapped_column(String(64), default="")
     progress: Mapped[float] = mapped_column(Float, default=0.0)
     error: Mapped[str] = mapped_column(Text, default="")
-    toml: Mapped[str] = mapped_column(Text, default="")
-    report_json: Mapped[str] = mapped_column(Text, default="{}")
-    calibration_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
+
 
 class Trial(Base):
     """One walking trial. ``recording_slot`` is 1 while recording and NULL otherwise: the unique
@@ -108,11 +102,13 @@ class TrialQuality(Base):
 
 class Job(Base):
     """Work for a worker, held under a lease: a worker that dies stops renewing and, once
-    ``lease_expires_at`` has passed, another worker takes the job over."""
+    ``lease_expires_at`` has passed, another worker takes the job over. ``kind`` says what it works on:
+    ``process`` a trial (``trial_id``), ``calibrate`` a board recording (``calibration_id``)."""
 
     __tablename__ = "jobs"
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    trial_id: Mapped[str] = mapped_column(ForeignKey("trials.id"), index=True)
+    trial_id: Mapped[str | None] = mapped_column(ForeignKey("trials.id"), index=True, nullable=True)
+    calibration_id: Mapped[str | None] = mapped_column(ForeignKey("calibrations.id"), index=True, nullable=True)
     kind: Mapped[str] = mapped_column(String(32), default="process")
     state: Mapped[str] = mapped_column(String(16), index=True)  # queued | running | done | failed
     attempts: Mapped[int] = mapped_column(Integer, default=0)

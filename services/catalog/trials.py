@@ -7,7 +7,8 @@ from dataclasses import dataclass
 
 from gaitcap.services.catalog.db import Catalog
 from gaitcap.services.catalog.ids import new_trial_id, validate_id
-from gaitcap.services.catalog.models import Job, SessionRow, Subject, Trial
+from gaitcap.services.catalog.jobs import new_job
+from gaitcap.services.catalog.models import SessionRow, Subject, Trial
 from gaitcap.services.catalog.states import HOLDS_SLOT, IllegalTransition, TrialState, sources_of
 from sqlalchemy import select, update
 from sqlalchemy.exc import IntegrityError
@@ -174,8 +175,7 @@ def set_state(
                 raise IllegalTransition(f"trial {trial_id}: is {trial.state}, expected {expect}")
             raise IllegalTransition(f"trial {trial_id}: cannot go from {trial.state} to {new.value}")
         if enqueue:
-            s.add(Job(trial_id=trial_id, kind="process", state="queued", attempts=0, max_attempts=3, worker_id="",
-                      lease_expires_at=0.0, created_at=now, error=""))
+            s.add(new_job("process", trial_id=trial_id))
         return _info(trial, session_label(trial.session_id))
 
 

@@ -1,7 +1,8 @@
-"""The reconstruction worker: takes recorded trials from the catalog's job table (under a lease), reads
-the MCAP (with several people in view it finds the patient first: :mod:`gaitcap.services.processing.people`), stores
-PRELIMINARY gait metrics (robust triangulation) first, then the REFINED ones (implicit fit), writes the
-files and reports progress on the bus.
+"""The worker: takes jobs from the catalog's job table under a lease. A ``process`` job: reads the
+trial's MCAP where the catalog records it (with several people in view it finds the patient first:
+:mod:`gaitcap.services.processing.people`), stores PRELIMINARY gait metrics (robust triangulation) first,
+then the REFINED ones (implicit fit), writes the files and reports progress on the bus. A ``calibrate`` job: computes the calibration of a stopped board
+recording (:mod:`gaitcap.services.processing.calibration_job`).
 
 Several workers may run; each renews its lease while it works. A worker that dies stops renewing and
 its job is taken over by another once the lease has expired (the trial stays ``processing``). The
@@ -18,6 +19,7 @@ import os
 import socket
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -25,6 +27,7 @@ from typing import Protocol
 from gaitcap.acquisition.recording.reader import read_summary
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.calibration_job import fail_calibration, run_calibration
 from gaitcap.services.processing.kinematics_step import kinematics_step
 from gaitcap.services.processing.outputs import steps_of, summary_of, write_data, write_views
 from gaitcap.services.processing.people import most_people_in_view
@@ -116,7 +119,26 @@ class LeaseKeeper:
 
     def check(self) -> None:
         if self.lost.is_set():
-            raise LeaseLost(f"job {self.job.id} of trial {self.job.trial_id} was taken over")
+            raise LeaseLost(f"job {self.job.id} of {self.job.subject} was taken over")
+
+
+@dataclass(frozen=True)
+class JobKind:
+    """What a worker does with a job of one kind: ``run(job, lease)`` does the work; ``fail(job, exc)``
+    marks the job's subject failed with the reason."""
+
+    run: Callable[[cat.JobInfo, LeaseKeeper], None]
+    fail: Callable[[cat.JobInfo, Exception], None]
+
+
+def recording_of(trial: cat.TrialInfo) -> Path:
+    """The trial's MCAP where the catalog records it; ValueError naming the trial and the path otherwise."""
+    if not trial.recording_path:
+        raise ValueError(f"trial {trial.id}: the catalog records no recording path")
+    path = Path(trial.recording_path)
+    if not path.is_file():
+        raise ValueError(f"trial {trial.id}: its recording {path} does not exist")
+    return path
 
 
 class Worker:
@@ -126,6 +148,12 @@ class Worker:
         self.db = db or cat.open_catalog(config.catalog_url)
         self.progress = progress or NoProgress()
         self.busy = False  # a job is being processed
+        self.kinds = {  # job kind -> what this worker does with it
+            "process": JobKind(run=lambda job, lease: self.process(job.trial_id, lease),
+                               fail=lambda job, exc: self._fail_trial(job.trial_id, exc)),
+            "calibrate": JobKind(run=lambda job, lease: run_calibration(self.db, job.calibration_id, check=lease.check),
+                                 fail=lambda job, exc: fail_calibration(self.db, job.calibration_id, exc)),
+        }
 
     # ------------------------------------------------------------------ loop
     def run(self, stop: threading.Event) -> None:
@@ -137,10 +165,10 @@ class Worker:
 
     def run_once(self) -> bool:
         """Take and process one job; False when there was none."""
-        job = cat.lease_job(self.db, self.config.worker_id, lease_s=self.config.lease_s)
+        job = cat.lease_job(self.db, self.config.worker_id, lease_s=self.config.lease_s, kinds=tuple(self.kinds))
         if job is None:
             return False
-        log.info("job %s: trial %s (attempt %s)", job.id, job.trial_id, job.attempts)
+        log.info("job %s: %s %s (attempt %s)", job.id, job.kind, job.subject, job.attempts)
         self.busy = True
         try:
             return self._run_job(job)
@@ -150,14 +178,14 @@ class Worker:
     def _run_job(self, job: cat.JobInfo) -> bool:
         with LeaseKeeper(self.db, job, self.config.worker_id, self.config.lease_s) as lease:
             try:
-                self.process(job.trial_id, lease)
+                self.kinds[job.kind].run(job, lease)
             except LeaseLost as exc:
                 log.warning("%s; leaving it to the other worker", exc)
                 return True
-            except Exception as exc:  # any failure ends the trial as failed, with the reason
-                log.exception("trial %s failed", job.trial_id)
+            except Exception as exc:  # any failure ends the job's subject as failed, with the reason
+                log.exception("%s failed", job.subject)
                 if not lease.lost.is_set() and cat.fail_job(self.db, job.id, self.config.worker_id, str(exc)):
-                    self._fail_trial(job.trial_id, exc)
+                    self.kinds[job.kind].fail(job, exc)
                 return True
             if not cat.complete_job(self.db, job.id, self.config.worker_id):
                 log.warning("job %s: lease lost before completion", job.id)
@@ -185,21 +213,21 @@ class Worker:
         elif trial.state != "processing":  # done or failed meanwhile: nothing to do
             log.info("trial %s is %s; skipping", trial_id, trial.state)
             return
-        files = trial_files(self.config.data_dir, trial_id)
+        files, mcap = trial_files(self.config.data_dir, trial_id), recording_of(trial)
         self._report(trial_id, "processing", "reading the recording", 0.05, None)
         t0 = time.perf_counter()
-        recording, rig = load_keypoints(files.recording, fallback_calibration=self.config.fallback_calibration)
+        recording, rig = load_keypoints(mcap, fallback_calibration=self.config.fallback_calibration)
         if most_people_in_view(recording.people) > 1:
             self._report(trial_id, "processing", "finding the patient among the people in view", 0.07, None)
         det, seen_rig, _ = patient_input(recording, rig, files=files)
-        summary = read_summary(files.recording)  # the recorder's: Start to Stop, the images it wrote per camera
+        summary = read_summary(mcap)  # the recorder's: Start to Stop, the images it wrote per camera
         quality = recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
                                     patient_confidence=det.keypoints[..., 2], expected_cameras=rig.names,
                                     recorded_s=summary.get("duration_s"), frame_ids=recording.frame_ids,
                                     recorded_frames=recorded_frame_ids(summary),
                                     restarts=recording.restarts, criteria=self.config.criteria)
         rig = seen_rig
-        source = (recording, rig, files.recording)  # what the viewer files show besides the results
+        source = (recording, rig, mcap)  # what the viewer files show besides the results
         self.load_s = time.perf_counter() - t0
         self._report(trial_id, "processing", "first 3D reconstruction", 0.1, None)
         traj = preliminary(det, rig)

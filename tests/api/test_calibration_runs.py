@@ -111,20 +111,27 @@ def test_unknown_calibration_and_auth(client, stack):
 
 
 def test_a_failed_calibration_is_kept_with_its_reason_and_not_used(server):
-    """Real uvicorn + catalog + calibration job process; the recorder is the in-test link (it writes no
-    file), so the job fails naming the missing recording, and the previous calibration stays in use."""
-    _, c, link, _ = server
+    """Real uvicorn + catalog; Stop queues a calibrate job that a worker (here in the test) takes; the
+    recorder is the in-test link (it writes no file), so the job fails naming the missing recording, and
+    the previous calibration stays in use. The API starts no process of its own."""
+    from gaitcap.services import catalog as cat
+    from gaitcap.services.processing.worker import Worker, WorkerConfig
+
+    _, c, link, settings = server
     assert c.get("/calibrations/record/stop").status_code == 405
     assert c.post("/calibrations/record/stop").status_code == 409  # nothing records
     run = c.post("/calibrations/record/start").json()
     assert link.calls[-1][0] == "start" and link.calls[-1][3]["kind"] == "calibration"
     assert c.post("/trials", json={"subject_id": "P3"}).status_code == 409
     assert c.post("/calibrations/record/stop").json()["state"] == "calibrating"
-    deadline = time.monotonic() + 60
-    while (got := c.get(f"/calibrations/{run['id']}").json())["state"] == "calibrating":
-        assert time.monotonic() < deadline, got
-        time.sleep(0.3)
-    assert got["state"] == "failed" and "does not exist" in got["error"] and not got["active"]
+    db = cat.open_catalog(settings.catalog_url)
+    assert [(j.kind, j.state) for j in cat.jobs_for_calibration(db, run["id"])] == [("calibrate", "queued")]
+    time.sleep(0.5)
+    assert c.get(f"/calibrations/{run['id']}").json()["state"] == "calibrating"  # nobody but a worker computes it
+    assert Worker(WorkerConfig(catalog_url=settings.catalog_url, data_dir=settings.data_dir, refine=False), db=db).run_once()
+    got = c.get(f"/calibrations/{run['id']}").json()
+    assert got["state"] == "failed" and "does not exist" in got["error"] and not got["active"], got
+    assert got["kind"] == "board recording" and got["started_by"] == "alice"
     assert c.get("/calibrations/latest").status_code == 404
     assert c.get(f"/calibrations/{run['id']}/toml").status_code == 404
     assert c.post("/trials", json={"subject_id": "P3"}).status_code == 201  # the slot is free again

@@ -1,5 +1,13 @@
-"""The calibration job on a board recording written like the recorder's: a passing run is stored and
-becomes the active calibration; a camera that never sees the board fails the run, named, not activated."""
+"""The calibration job on a board recording written like the recorder's, taken by a worker from the job
+table: a passing recording is stored and becomes the active calibration; a camera that never sees the
+board fails it, named with the per-camera diagnosis, not activated; a worker killed mid-calibration
+(SIGKILL, a real process) loses its lease and another worker calibrates it."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
@@ -14,10 +22,11 @@ from gaitcap.acquisition.synthetic.board import (
 from gaitcap.acquisition.synthetic.room import build_rig
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.services import catalog as cat
-from gaitcap.services.catalog import calibration_runs as runs
-from gaitcap.services.processing.calibration_job import run_calibration
+from gaitcap.services.catalog import calibrations as cals
+from gaitcap.services.processing.worker import Worker, WorkerConfig
 
 SCALE = 0.3
+WORKER = (sys.executable, "-c", "from gaitcap.services.cli import main; main()", "worker", "--no-bus", "--no-warm-up")
 
 
 @pytest.fixture(scope="module")
@@ -28,13 +37,21 @@ def images():
     return render_board_images(rig, board, rot, tvec, scale=SCALE), scaled_rig(rig, SCALE)
 
 
-def _run(tmp_path, frames):
+def _queued(tmp_path, frames) -> tuple[cat.Catalog, str]:
+    """A stopped board recording of ``frames`` with its calibrate job queued (what Stop leaves)."""
     db = cat.open_catalog(tmp_path / "catalog.sqlite")
     mcap = write_board_mcap(tmp_path / "board.mcap", frames)
-    run = runs.start_calibration_run(db, recording_path_for=lambda _id: mcap, started_by="alice")
-    runs.update_calibration_run(db, run.id, state=runs.CALIBRATING)
-    run_calibration(db, run.id, expected_images=64)
-    return db, runs.get_calibration_run(db, run.id)
+    c = cals.start_board_recording(db, recording_path_for=lambda _id: mcap, started_by="alice")
+    cals.queue_calibration(db, c.id, frames=sum(len(f) for f in frames.values()))
+    return db, c.id
+
+
+def _run(tmp_path, frames):
+    db, cal_id = _queued(tmp_path, frames)
+    worker = Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db)
+    assert worker.run_once() and not worker.run_once()
+    assert [j.state for j in cat.jobs_for_calibration(db, cal_id)] == ["done"]
+    return db, cals.get_calibration(db, cal_id)
 
 
 def test_a_good_recording_becomes_the_active_calibration(images, tmp_path):
@@ -43,58 +60,77 @@ def test_a_good_recording_becomes_the_active_calibration(images, tmp_path):
     frames, truth = images
     db, run = _run(tmp_path, frames)
     assert run.state == "done", run.error
-    assert cat.latest_calibration(db)[0] == run.id == run.calibration_id
+    assert cat.latest_calibration(db)[0] == run.id and run.kind == "board recording"
     assert [c["name"] for c in run.report["cameras"]] == ["cam01", "cam02"]
-    (tmp_path / "got.toml").write_text(runs.calibration_run_toml(db, run.id))
+    (tmp_path / "got.toml").write_text(cat.calibration_toml(db, run.id))
     got = load_rig(tmp_path / "got.toml")
     for true, cam in zip(truth, got, strict=True):  # the CLI test's bounds for a short low-resolution clip
         assert np.linalg.norm(true.center_mm - cam.center_mm) < 100, true.name
         assert rotation_angle_deg(true.rotation, cam.rotation) < 1.0, true.name
-    assert runs.current_board_recording(db) is None
+    assert cals.current_board_recording(db) is None
 
 
-def test_a_camera_without_the_board_fails_the_run_naming_it(images, tmp_path):
+def test_a_camera_without_the_board_fails_naming_it_and_the_cause(images, tmp_path):
     frames, _ = images
     frames = {**frames, "cam03": np.full_like(frames["cam01"], 110)}
     db, run = _run(tmp_path, frames)
-    assert run.state == "failed" and "cam03" in run.error
+    assert run.state == "failed" and "cam03" in run.error, run.error
+    assert "camera 'cam03': no frame showed the whole" in run.error  # that camera's diagnosis, not a generic message
+    assert "camera 'cam01':" not in run.error and "camera 'cam02':" not in run.error  # the others are not blamed
     assert cat.latest_calibration(db) is None  # never activated
 
 
 def test_one_recording_at_a_time(tmp_path):
     db = cat.open_catalog(tmp_path / "catalog.sqlite")
-    run = runs.start_calibration_run(db, recording_path_for=lambda i: tmp_path / f"{i}.mcap")
-    with pytest.raises(runs.CalibrationBusy, match=run.id):
-        runs.start_calibration_run(db, recording_path_for=lambda i: tmp_path / f"{i}.mcap")
-    runs.update_calibration_run(db, run.id, state=runs.FAILED, error="stopped")
+    run = cals.start_board_recording(db, recording_path_for=lambda i: tmp_path / f"{i}.mcap")
+    with pytest.raises(cals.CalibrationBusy, match=run.id):
+        cals.start_board_recording(db, recording_path_for=lambda i: tmp_path / f"{i}.mcap")
+    cals.update_calibration(db, run.id, state=cals.FAILED, error="stopped")
     trial = cat.start_trial(db, subject_id="P1", session="s1")
-    with pytest.raises(runs.CalibrationBusy, match=trial.id):
-        runs.start_calibration_run(db, recording_path_for=lambda i: tmp_path / f"{i}.mcap")
+    with pytest.raises(cals.CalibrationBusy, match=trial.id):
+        cals.start_board_recording(db, recording_path_for=lambda i: tmp_path / f"{i}.mcap")
+    with pytest.raises(ValueError, match="recording_path"):
+        cals.update_calibration(db, run.id, recording_path="/elsewhere.mcap")
 
 
-def test_a_killed_job_fails_its_run(images, tmp_path):
-    """SIGKILL (what the OOM killer sends) mid-detection: the run must not stay 'calibrating'."""
-    import os
-    import signal
-    import time
+def _worker(db, tmp_path, name: str) -> subprocess.Popen:
+    return subprocess.Popen([*WORKER, "--catalog", db.url, "--data-dir", str(tmp_path), "--id", name, "--lease", "2"],
+                            stdin=subprocess.DEVNULL)
 
-    from gaitcap.services.processing.calibration_job import launch
 
+def _wait(what: str, ok, deadline: float, *procs) -> None:
+    while not ok():
+        assert time.monotonic() < deadline, what
+        assert all(p.poll() is None for p in procs), f"a worker exited while waiting for: {what}"
+        time.sleep(0.1)
+
+
+def test_a_worker_killed_mid_calibration_loses_the_job_to_another(images, tmp_path):
+    """SIGKILL (what the OOM killer sends) mid-detection: the lease expires, a second worker takes the
+    job again (attempt 2) and the calibration ends done, not stuck ``calibrating``."""
     frames, _ = images
-    long = {cam: np.concatenate([f] * 20) for cam, f in frames.items()}  # about a minute of detection
-    db = cat.open_catalog(tmp_path / "catalog.sqlite")
-    mcap = write_board_mcap(tmp_path / "board.mcap", long)
-    run = runs.start_calibration_run(db, recording_path_for=lambda _id: mcap)
-    runs.update_calibration_run(db, run.id, state=runs.CALIBRATING)
-    proc = launch(str(tmp_path / "catalog.sqlite"), run.id, expected_images=2 * len(long["cam01"]))
+    db, cal_id = _queued(tmp_path, frames)
+    first = _worker(db, tmp_path, "w1")
     deadline = time.monotonic() + 60
-    while runs.get_calibration_run(db, run.id).stage.startswith("finding") is False:
-        assert time.monotonic() < deadline, "the job never started finding the board"
-        time.sleep(0.2)
-    os.kill(proc.pid, signal.SIGKILL)
-    while runs.get_calibration_run(db, run.id).state == runs.CALIBRATING:
-        assert time.monotonic() < deadline, "the run stayed calibrating after its job was killed"
-        time.sleep(0.2)
-    failed = runs.get_calibration_run(db, run.id)
-    assert failed.state == "failed" and "killed by signal 9" in failed.error
-    assert cat.latest_calibration(db) is None
+    try:
+        _wait("w1 finding the board", lambda: cals.get_calibration(db, cal_id).stage.startswith("finding the board ("),
+              deadline, first)
+        os.kill(first.pid, signal.SIGKILL)
+        first.wait(10)
+        job = cat.jobs_for_calibration(db, cal_id)[0]
+        assert (job.state, job.worker_id, job.attempts) == ("running", "w1", 1)
+        assert cals.get_calibration(db, cal_id).state == "calibrating"
+        second = _worker(db, tmp_path, "w2")
+        try:
+            _wait("w2 finishing the job", lambda: cat.jobs_for_calibration(db, cal_id)[0].state != "running",
+                  deadline + 60, second)
+        finally:
+            second.send_signal(signal.SIGTERM)
+            second.wait(10)
+    finally:
+        if first.poll() is None:
+            first.kill()
+    job = cat.jobs_for_calibration(db, cal_id)[0]
+    assert (job.state, job.worker_id, job.attempts) == ("done", "w2", 2)
+    done = cals.get_calibration(db, cal_id)
+    assert done.state == "done" and cat.latest_calibration(db)[0] == cal_id, done.error

@@ -1,6 +1,7 @@
 """The worker on a real catalog and a real trial MCAP of a synthetic walk: results against ground truth."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,10 +22,11 @@ def walk():
 
 
 def _recorded_trial(tmp_path, walk):
+    """A recorded trial whose MCAP lies outside the worker's data folder: the worker opens it where the
+    catalog says (the one source of truth of a trial's files)."""
     db = cat.open_catalog(tmp_path / "catalog.sqlite")
-    t = cat.start_trial(db, subject_id="P1", session="s1",
-                        recording_path_for=lambda tid: trial_files(tmp_path, tid).recording)
-    write_trial_mcap(walk, trial_files(tmp_path, t.id).recording)
+    t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / "moved" / f"{tid}.mcap")
+    write_trial_mcap(walk, Path(t.recording_path))
     cat.set_state(db, t.id, "recorded")
     cat.enqueue_job(db, t.id)
     return db, t.id
@@ -86,9 +88,19 @@ def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path,
 
 def test_a_bad_recording_fails_the_trial_with_the_reason(tmp_path, walk):
     db, tid = _recorded_trial(tmp_path, walk)
-    trial_files(tmp_path, tid).recording.write_bytes(b"not an mcap file")
+    Path(cat.get_trial(db, tid).recording_path).write_bytes(b"not an mcap file")
     w = Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db)
     assert w.run_once()
     trial = cat.get_trial(db, tid)
     assert trial.state == "failed" and trial.error
     assert cat.jobs_for_trial(db, tid)[0].state == "failed"
+
+
+
+def test_a_missing_recording_fails_the_trial_naming_it_and_the_path(tmp_path):
+    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+    t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
+    cat.set_state(db, t.id, "recorded", enqueue=True)
+    assert Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db).run_once()
+    trial = cat.get_trial(db, t.id)
+    assert trial.state == "failed" and trial.error == f"trial {t.id}: its recording {tmp_path / t.id}.mcap does not exist"

@@ -1,0 +1,81 @@
+"""Bringing a catalog written by an older gaitcap up to :data:`SCHEMA_VERSION` when it is opened.
+
+Each step moves one version up in one transaction (a failure leaves the file as it was). SQLite only:
+another database refuses to open with the step named (run it by hand, or start a new catalog).
+"""
+
+from __future__ import annotations
+
+import logging
+
+from gaitcap.services.catalog.models import Job
+from sqlalchemy import Connection, text
+
+log = logging.getLogger(__name__)
+
+_CALIBRATION_COLUMNS = (  # columns the one calibration record gained in version 2
+    "kind VARCHAR(32) NOT NULL DEFAULT 'uploaded'", "state VARCHAR(16) NOT NULL DEFAULT 'done'",
+    "recording_slot INTEGER", "done_at FLOAT", "started_at FLOAT", "stopped_at FLOAT",
+    "started_by VARCHAR(128) NOT NULL DEFAULT ''", "recording_path VARCHAR(1024) NOT NULL DEFAULT ''",
+    "frames INTEGER", "stage VARCHAR(64) NOT NULL DEFAULT ''", "progress FLOAT NOT NULL DEFAULT 0",
+    "error TEXT NOT NULL DEFAULT ''",
+)
+_RUN_FIELDS = ("state", "recording_slot", "started_at", "stopped_at", "started_by", "recording_path", "stage",
+               "progress", "error")
+
+
+def _one_calibration_table(conn: Connection) -> None:
+    """calibration_runs folded into calibrations: a run that passed updates its calibration (same id), a
+    failed or unfinished one becomes a calibration of its own; ``done_at`` is when it became usable."""
+    for column in _CALIBRATION_COLUMNS:
+        conn.exec_driver_sql(f"ALTER TABLE calibrations ADD COLUMN {column}")
+    conn.exec_driver_sql("UPDATE calibrations SET done_at = created_at")
+    conn.exec_driver_sql("CREATE UNIQUE INDEX ix_calibrations_recording_slot ON calibrations (recording_slot)")
+    conn.exec_driver_sql("CREATE INDEX ix_calibrations_state ON calibrations (state)")
+    runs = conn.execute(text("SELECT * FROM calibration_runs")).mappings().all()
+    for run in runs:
+        values = {k: run[k] for k in _RUN_FIELDS} | {"id": run["id"], "created_at": run["created_at"],
+                                                     "toml": run["toml"], "report_json": run["report_json"]}
+        exists = conn.execute(text("SELECT 1 FROM calibrations WHERE id = :id"), {"id": run["id"]}).first()
+        columns = ("created_at", "toml", "report_json", *_RUN_FIELDS)
+        if exists:
+            sets = ", ".join(f"{c} = :{c}" for c in columns)
+            conn.execute(text(f"UPDATE calibrations SET kind = 'board recording', {sets} WHERE id = :id"), values)
+        else:
+            names = ", ".join(("id", *columns))
+            conn.execute(text(f"INSERT INTO calibrations (kind, source, done_at, {names}) VALUES ('board recording', "
+                              f"'board recording by ' || :started_by, NULL, {', '.join(':' + c for c in ('id', *columns))})"),
+                         values)
+    conn.exec_driver_sql("DROP TABLE calibration_runs")
+    log.info("catalog: %d board recordings moved into calibrations", len(runs))
+
+
+def _jobs_of_any_kind(conn: Connection) -> None:
+    """jobs.trial_id nullable and jobs.calibration_id added: the table is rebuilt (SQLite cannot drop NOT NULL)."""
+    conn.exec_driver_sql("ALTER TABLE jobs RENAME TO jobs_v1")
+    for index in ("ix_jobs_trial_id", "ix_jobs_state"):
+        conn.exec_driver_sql(f"DROP INDEX IF EXISTS {index}")
+    Job.__table__.create(conn)
+    names = ("id, trial_id, kind, state, attempts, max_attempts, worker_id, lease_expires_at, created_at, "
+             "started_at, finished_at, error")
+    conn.exec_driver_sql(f"INSERT INTO jobs ({names}) SELECT {names} FROM jobs_v1")
+    conn.exec_driver_sql("DROP TABLE jobs_v1")
+
+
+def _v1_to_v2(conn: Connection) -> None:
+    _one_calibration_table(conn)
+    _jobs_of_any_kind(conn)
+
+
+STEPS = {1: _v1_to_v2}  # from version -> the step to the next
+
+
+def migration_problem(dialect: str, version: int, target: int) -> str | None:
+    """Why a catalog of ``version`` cannot be brought to ``target`` here, or None when it can."""
+    missing = [v for v in range(version, target) if v not in STEPS]
+    if version > target or missing:
+        return f"schema version {version}, this gaitcap expects {target} and knows no way from one to the other"
+    if dialect != "sqlite":
+        return (f"schema version {version}, this gaitcap expects {target}: the upgrade runs on SQLite only "
+                f"(steps {list(range(version, target))} in gaitcap.services.catalog.migrations)")
+    return None

@@ -1,0 +1,92 @@
+"""A catalog written by schema version 1 (two calibration tables, jobs only for trials) opens upgraded:
+every calibration and board recording kept as one record, the active one unchanged, the jobs kept and
+takeable, calibration jobs possible; opening again changes nothing."""
+
+import sqlite3
+
+import pytest
+from gaitcap.services import catalog as cat
+from gaitcap.services.catalog import calibrations as cals
+
+V1_TABLES = """
+DROP TABLE jobs; DROP TABLE calibrations;
+CREATE TABLE calibrations (id VARCHAR(64) NOT NULL, created_at FLOAT NOT NULL, source VARCHAR(256) NOT NULL,
+    toml TEXT NOT NULL, report_json TEXT NOT NULL, PRIMARY KEY (id));
+CREATE TABLE calibration_runs (id VARCHAR(64) NOT NULL, state VARCHAR(16) NOT NULL, recording_slot INTEGER,
+    created_at FLOAT NOT NULL, started_at FLOAT, stopped_at FLOAT, started_by VARCHAR(128) NOT NULL,
+    recording_path VARCHAR(1024) NOT NULL, stage VARCHAR(64) NOT NULL, progress FLOAT NOT NULL, error TEXT NOT NULL,
+    toml TEXT NOT NULL, report_json TEXT NOT NULL, calibration_id VARCHAR(64), PRIMARY KEY (id), UNIQUE (recording_slot));
+CREATE INDEX ix_calibration_runs_state ON calibration_runs (state);
+CREATE TABLE jobs (id INTEGER NOT NULL, trial_id VARCHAR(64) NOT NULL, kind VARCHAR(32) NOT NULL,
+    state VARCHAR(16) NOT NULL, attempts INTEGER NOT NULL, max_attempts INTEGER NOT NULL, worker_id VARCHAR(128) NOT NULL,
+    lease_expires_at FLOAT NOT NULL, created_at FLOAT NOT NULL, started_at FLOAT, finished_at FLOAT, error TEXT NOT NULL,
+    PRIMARY KEY (id), FOREIGN KEY(trial_id) REFERENCES trials (id));
+CREATE INDEX ix_jobs_state ON jobs (state);
+CREATE INDEX ix_jobs_trial_id ON jobs (trial_id);
+UPDATE schema_info SET value = '1' WHERE key = 'version';
+"""
+RUN = ("INSERT INTO calibration_runs VALUES (?, ?, NULL, ?, ?, ?, 'bob', ?, '', 1.0, ?, ?, '{\"rms_px\": 0.4}', ?)")
+
+
+@pytest.fixture
+def v1(tmp_path):
+    """A version 1 catalog: an upload (t=100 s), a passing board recording (started 200 s, its calibration
+    stored at 300 s: the active one), a failed one (400 s), a trial with a queued job."""
+    path = tmp_path / "v1.sqlite"
+    db = cat.open_catalog(path)
+    trial = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda t: f"/d/{t}.mcap")
+    cat.set_state(db, trial.id, "recorded")
+    db.close()
+    con = sqlite3.connect(path)
+    con.executescript(V1_TABLES)
+    con.execute("INSERT INTO calibrations VALUES ('C1-up', 100.0, 'uploaded by alice', '[up]', '{}')")
+    con.execute("INSERT INTO calibrations VALUES ('C2-board', 300.0, 'board recording by bob', '[board]', '{}')")
+    con.execute(RUN, ("C2-board", "done", 200.0, 200.0, 250.0, "/d/c2.mcap", "", "[board]", "C2-board"))
+    con.execute(RUN, ("C3-bad", "failed", 400.0, 400.0, 450.0, "/d/c3.mcap", "cameras cam02 failed", "[bad]", None))
+    con.execute("INSERT INTO jobs VALUES (1, ?, 'process', 'queued', 0, 3, '', 0.0, 500.0, NULL, NULL, '')",
+                (trial.id,))
+    con.commit()
+    con.close()
+    return path, trial.id
+
+
+def test_a_version_1_catalog_opens_upgraded_with_everything_kept(v1):
+    path, tid = v1
+    db = cat.open_catalog(path)
+    assert cat.schema_version(db) == 2
+    assert cat.latest_calibration(db) == ("C2-board", "[board]")  # still the active one
+    got = {c.id: c for c in cals.list_calibrations(db)}
+    assert [c.id for c in cals.list_calibrations(db)] == ["C3-bad", "C2-board", "C1-up"]
+    assert (got["C1-up"].kind, got["C1-up"].state, got["C1-up"].source) == ("uploaded", "done", "uploaded by alice")
+    board = got["C2-board"]
+    assert (board.kind, board.state, board.started_by, board.recording_path) == ("board recording", "done", "bob",
+                                                                                "/d/c2.mcap")
+    assert (board.created_at, board.done_at, board.report) == (200.0, 300.0, {"rms_px": 0.4})
+    bad = got["C3-bad"]
+    assert bad.state == "failed" and bad.error == "cameras cam02 failed" and bad.done_at is None
+    assert cat.calibration_toml(db, "C3-bad") == "[bad]"
+    job = cat.lease_job(db, "w1")
+    assert job is not None and job.id == 1 and job.trial_id == tid and job.calibration_id is None
+    started = cals.start_board_recording(db, recording_path_for=lambda c: f"/d/{c}.mcap")
+    cals.queue_calibration(db, started.id, frames=40)
+    assert cat.lease_job(db, "w2", kinds=("calibrate",)).calibration_id == started.id
+    recording = cals.start_board_recording(db, recording_path_for=lambda c: f"/d/{c}.mcap")
+    with pytest.raises(cals.CalibrationBusy, match=recording.id):  # one recording at a time still
+        cals.start_board_recording(db, recording_path_for=lambda c: f"/d/{c}.mcap")
+    db.close()
+    again = cat.open_catalog(path)
+    assert cat.schema_version(again) == 2 and len(cals.list_calibrations(again)) == 5
+    with sqlite3.connect(path) as con:
+        tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    assert "calibration_runs" not in tables and "jobs_v1" not in tables
+
+
+def test_a_failed_upgrade_leaves_the_file_as_it_was(v1):
+    path, _ = v1
+    with sqlite3.connect(path) as con:
+        con.execute("CREATE TABLE jobs_v1 (x INTEGER)")  # the upgrade's own scratch name is taken
+    with pytest.raises(Exception, match="jobs_v1"):
+        cat.open_catalog(path)
+    with sqlite3.connect(path) as con:
+        assert con.execute("SELECT value FROM schema_info WHERE key = 'version'").fetchone() == ("1",)
+        assert con.execute("SELECT COUNT(*) FROM calibration_runs").fetchone() == (2,)
