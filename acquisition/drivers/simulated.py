@@ -5,6 +5,10 @@ renders frame ``i`` at the chosen resolution and frame rate and stamps it with t
 
     timestamp_ns = start_ns + i * period_ns + clock_offsets_ns[c] + jitter_ns[c, i]
 
+A realtime camera started at a time already past joins a rig that has been running since then: frame
+ids still count from that start, and the frames due before it was started are not delivered (several
+camera processes, or one restarted, keep one frame count; :func:`cycle_start_ns`).
+
 Optional faults: dropped frame ids (the id is skipped, as a real camera's counter would) and a camera that
 stops after a given frame id (the iterator ends and the status says ``error``). The ground truth of a
 frame stays with the simulator: :meth:`SimulatedCamera.trial_index` maps a frame id to the trial's frame.
@@ -88,6 +92,7 @@ class SimulatedCamera:
         self._settings = CaptureSettings(fps=trial_fps(trial), exposure_us=None)
         self._status = DriverStatus(camera=self.name)
         self._start_ns: int | None = None
+        self._first_id = 0  # the first frame id delivered (> 0: joined a rig running since _start_ns)
         self._stopped = False
         # (SceneSwitch, BoardScene) of gaitcap.acquisition.synthetic.board_scene: show a calibration board instead
         self.scene: tuple[Any, Any] | None = None
@@ -118,7 +123,10 @@ class SimulatedCamera:
     def start(self, at_ns: int | None = None) -> None:
         if self._status.state not in ("configured", "open"):
             raise ValueError(f"camera {self.name}: start() in state {self._status.state}")
-        self._start_ns = time.time_ns() if at_ns is None else int(at_ns)
+        now = time.time_ns()
+        self._start_ns = now if at_ns is None else int(at_ns)
+        late_ns = now - self._start_ns if self.realtime else 0
+        self._first_id = max(0, late_ns // self._settings.period_ns)  # frames due before now are not delivered
         self._stopped = False
         self._status.state = "running"
         self._status.started_wall_s = self._start_ns / 1e9 if self.realtime else time.time()
@@ -144,7 +152,7 @@ class SimulatedCamera:
         period = self._settings.period_ns
         last_ts: int | None = None
         last_id: int | None = None
-        for frame_id in range(self.num_frames()):
+        for frame_id in range(self._first_id, self.num_frames()):
             if self._stopped:
                 break
             if frame_id in self.faults.drop_frame_ids:
@@ -222,6 +230,18 @@ def simulated_rig(
         cam.configure(CaptureSettings(fps=fps or trial_fps(trial), exposure_us=None, size_px=size_px))
         drivers.append(cam)
     return drivers
+
+
+def cycle_start_ns(*, epoch_ns: int, cycle_ns: int, now_ns: int) -> int:
+    """The start (wall clock ns) of the simulated world's current play-through on the grid
+    ``epoch_ns + k * cycle_ns`` (k >= 0; ``cycle_ns``: the walk's length): the latest at or before
+    ``now_ns``, or ``epoch_ns`` while that is ahead. Camera processes that start (or restart) at different
+    times thus share one synchronised start and frame count."""
+    if cycle_ns <= 0:
+        raise ValueError(f"cycle_ns: the simulated walk's length must be > 0 ns, got {cycle_ns}")
+    if now_ns <= epoch_ns:
+        return int(epoch_ns)
+    return int(epoch_ns + (now_ns - epoch_ns) // cycle_ns * cycle_ns)
 
 
 @dataclass(frozen=True)
