@@ -129,7 +129,8 @@ class SimulatedCamera:
         self._first_id = max(0, late_ns // self._settings.period_ns)  # frames due before now are not delivered
         self._stopped = False
         self._status.state = "running"
-        self._status.started_wall_s = self._start_ns / 1e9 if self.realtime else time.time()
+        joined_ns = self._start_ns + self._first_id * self._settings.period_ns
+        self._status.started_wall_s = joined_ns / 1e9 if self.realtime else time.time()  # the rate counts from here
 
     def trial_index(self, frame_id: int) -> int:
         """The index into the synthetic trial (its ``times_s``, ground truth) of frame ``frame_id``."""

@@ -36,6 +36,7 @@ def test_a_camera_started_late_joins_the_running_rig_on_its_frame_count(trial):
     assert abs(joined.timestamp_ns - time.time_ns()) < 1_000_000_000  # not the frames of 1.2 s ago
     rest = [f.frame_id for f in frames]
     assert rest == list(range(joined.frame_id + 1, 75)) and late.status().drops == 0
+    assert 20 < late.status().fps() < 40  # its rate counts from when it joined, not from the rig's start
 
 
 def test_cycle_start_is_shared_by_processes_started_at_different_times():
