@@ -146,8 +146,8 @@ def recording(trial_id: str, request: Request, user: str = Depends(require_user)
         raise HTTPException(status_code=404, detail=str(exc)) from None
     if trial.state == "recording":
         raise HTTPException(status_code=409, detail=f"trial {trial_id} is still recording")
-    path = trial_files(request.app.state.settings.data_dir, trial_id).recording
-    if not path.is_file():
+    path = Path(trial.recording_path)  # where the catalog records it (the one source of a trial's files)
+    if not trial.recording_path or not path.is_file():
         raise HTTPException(status_code=404, detail=f"trial {trial_id}: recording file not found")
     cat.audit(db, actor=user, action="download", trial_id=trial_id, detail="recording")
     return FileResponse(path, media_type="application/octet-stream", filename=f"{trial_id}.mcap")
