@@ -58,3 +58,30 @@ def test_fail_job_stores_the_error(db):
     assert cat.jobs_for_trial(c, tid)[0].error == "calibration: camera cam3 missing"
     with pytest.raises(ValueError, match="lease_s"):
         cat.lease_job(c, "w1", lease_s=0)
+
+
+def test_a_calibration_job_is_taken_only_by_workers_of_its_kind_and_fails_its_calibration_on_give_up(db):
+    from gaitcap.services.catalog import calibrations as cals
+
+    c, _ = db
+    board = cals.start_board_recording(c, recording_path_for=lambda i: f"/d/{i}.mcap")
+    cals.queue_calibration(c, board.id, frames=60)
+    assert cat.lease_job(c, "trials-only", kinds=("process",)) is None
+    for worker in ("w1", "w2", "w3"):  # three takes, each lease lost (the worker died)
+        job = cat.lease_job(c, worker, lease_s=0.05, kinds=("calibrate",))
+        assert (job.kind, job.calibration_id, job.trial_id, job.worker_id) == ("calibrate", board.id, None, worker)
+        time.sleep(0.1)
+    assert cat.lease_job(c, "w4", kinds=("calibrate",)) is None
+    assert cat.jobs_for_calibration(c, board.id)[0].state == "failed"
+    gave_up = cals.get_calibration(c, board.id)
+    assert gave_up.state == "failed" and "stopped 3 times (worker lost); gave up" in gave_up.error
+
+
+
+def test_a_job_names_its_kind_and_subject():
+    from gaitcap.services.catalog.jobs import new_job
+
+    with pytest.raises(ValueError, match="job kind"):
+        new_job("reprocess", trial_id="T1")
+    with pytest.raises(ValueError, match="calibration_id"):
+        new_job("calibrate", trial_id="T1")
