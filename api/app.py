@@ -29,7 +29,7 @@ from gaitcap.api.settings import Settings
 from gaitcap.services import catalog as cat
 from gaitcap.services.live.guard import TrialGuard
 from gaitcap.services.live.health import health_report
-from gaitcap.services.live.protocols import NoLink
+from gaitcap.services.live.protocols import NoLink, NoScene
 
 log = logging.getLogger(__name__)
 ID_WORDS = "use letters, digits, '.', '_' or '-' (up to 64), starting with a letter or digit; no spaces"
@@ -53,8 +53,9 @@ def jsonable(errors) -> list[dict]:
              for k, v in e.items() if k in ("type", "loc", "msg")} for e in errors]
 
 
-def create_app(settings: Settings, link=None) -> FastAPI:
-    """Build the app; the catalog opens (and its schema is checked) at start-up."""
+def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
+    """Build the app; the catalog opens (and its schema is checked) at start-up. ``scene``: a
+    :class:`gaitcap.services.live.protocols.SceneControl` for simulated cameras (None: nothing to switch)."""
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -79,6 +80,7 @@ def create_app(settings: Settings, link=None) -> FastAPI:
     app.state.settings = settings
     install_security(app, settings)
     app.state.link = link if link is not None else NoLink()
+    app.state.scene = scene if scene is not None else NoScene()
     app.add_exception_handler(RequestValidationError, lambda _r, exc: _field_errors(exc))
     app.add_exception_handler(ValueError, lambda _r, exc: JSONResponse(status_code=422,
                                                                        content={"detail": str(exc)[:300]}))

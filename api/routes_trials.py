@@ -79,10 +79,10 @@ def _calibrated_cameras(calibration: tuple[str, str] | None) -> list[str] | None
 def _start_recorder(db: cat.Catalog, link, trial: cat.TrialInfo, calibration, user: str) -> None:
     """Ask the recorder to start; on any failure the trial ends ``failed`` (never a phantom recording)."""
     metadata = {"trial_id": trial.id, "subject_id": trial.subject_id, "session": trial.session,
-                "calibration_id": trial.calibration_id or "", "started_by": user,
-                "calibration_toml": calibration[1] if calibration else ""}
+                "calibration_id": trial.calibration_id or "", "started_by": user}
     try:
-        link.start(trial_id=trial.id, path=trial.recording_path, metadata=metadata)
+        link.start(trial_id=trial.id, path=trial.recording_path, metadata=metadata,
+                   calibration_toml=calibration[1] if calibration else None)
     except RecorderUnavailable as exc:
         _fail_start(db, trial, f"recorder: {exc}")
         raise HTTPException(status_code=503, detail=f"recorder: {exc}") from None

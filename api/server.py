@@ -12,18 +12,18 @@ from gaitcap.api.app import create_app
 from gaitcap.api.settings import Settings
 
 
-def uvicorn_config(settings: Settings, link=None, *, log_level: str = "warning") -> uvicorn.Config:
+def uvicorn_config(settings: Settings, link=None, *, scene=None, log_level: str = "warning") -> uvicorn.Config:
     tls = {}
     if settings.tls_enabled:
         tls = {"ssl_certfile": str(settings.tls_cert), "ssl_keyfile": str(settings.tls_key)}
-    return uvicorn.Config(create_app(settings, link), host=settings.host, port=settings.port,
+    return uvicorn.Config(create_app(settings, link, scene=scene), host=settings.host, port=settings.port,
                           log_level=log_level, ws="websockets-sansio", lifespan="on", access_log=False,
                           server_header=False, **tls)
 
 
-def serve(settings: Settings, link=None, *, log_level: str = "info") -> None:
+def serve(settings: Settings, link=None, *, scene=None, log_level: str = "info") -> None:
     """Serve until interrupted (SIGINT/SIGTERM)."""
-    uvicorn.Server(uvicorn_config(settings, link, log_level=log_level)).run()
+    uvicorn.Server(uvicorn_config(settings, link, scene=scene, log_level=log_level)).run()
 
 
 @dataclass

@@ -40,6 +40,7 @@ def _walk(step_mm: float):
 
 
 def _trial(db, data_dir: Path, session: str, step_mm: float) -> str:
+    from gaitcap.acquisition.fileio import atomic_write_text
     from gaitcap.services import catalog as cat
     from gaitcap.services.processing.artifacts import trial_files
     from gaitcap.services.processing.outputs import steps_of, summary_of
@@ -50,7 +51,7 @@ def _trial(db, data_dir: Path, session: str, step_mm: float) -> str:
     cat.set_state(db, trial.id, "stopping")
     cat.set_state(db, trial.id, "recorded")
     files = trial_files(data_dir, trial.id)
-    report.write_json(files.stage_file("refined", "gait_json"))
+    atomic_write_text(files.stage_file("refined", "gait_json"), report.to_json(indent=2))
     files.stage_file("refined", "report_png").write_bytes(heel_traces_png(report, points, times, names))
     cat.store_result(db, trial_id=trial.id, stage="refined", method="implicit_fit", steps=steps_of(report),
                      summary=summary_of(report), quality={}, report={"warnings": list(report.warnings)})

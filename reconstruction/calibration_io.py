@@ -34,7 +34,6 @@ from typing import Any
 import numpy as np
 import tomli_w
 from gaitcap.reconstruction.camera import Camera, Rig, check_rotation, matrix_to_rodrigues
-from gaitcap.reconstruction.fileio import atomic_write_text
 
 JSON_FORMAT = "gaitcap-calibration"
 JSON_VERSION = 1
@@ -192,13 +191,14 @@ def load_rig(path: str | os.PathLike) -> Rig:
     raise ValueError(f"{path}: unknown calibration format {path.suffix!r} (expected .toml or .json)")
 
 
-def save_rig(rig: Rig, path: str | os.PathLike, *, metadata: dict[str, Any] | None = None) -> Path:
-    """Write a calibration atomically; the format follows the suffix (.toml or .json)."""
-    path = Path(path)
-    if path.suffix.lower() == ".json":
-        atomic_write_text(path, json.dumps(rig_to_json_dict(rig), indent=2))
-    elif path.suffix.lower() == ".toml":
-        atomic_write_text(path, rig_to_toml_text(rig, metadata=metadata))
-    else:
-        raise ValueError(f"{path}: unknown calibration format {path.suffix!r} (expected .toml or .json)")
-    return path
+_TEXT_FORMATS = {".json": lambda rig, metadata: json.dumps(rig_to_json_dict(rig), indent=2),
+                 ".toml": lambda rig, metadata: rig_to_toml_text(rig, metadata=metadata)}
+
+
+def rig_to_text(rig: Rig, *, suffix: str, metadata: dict[str, Any] | None = None, where: str = "calibration") -> str:
+    """The calibration file's text for a file name ending in ``suffix`` (.toml or .json; ``metadata``: TOML
+    only). Written by :func:`gaitcap.acquisition.writers.save_rig`."""
+    to_text = _TEXT_FORMATS.get(suffix.lower())
+    if to_text is None:
+        raise ValueError(f"{where}: unknown calibration format {suffix!r} (expected .toml or .json)")
+    return to_text(rig, metadata)

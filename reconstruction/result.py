@@ -7,7 +7,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from gaitcap.reconstruction.fileio import atomic_path
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,19 +56,10 @@ class Reconstruction:
         a = ((t - self.times_s[idx]) / span)[:, None, None]
         return (1 - a) * self.points_mm[idx] + a * self.points_mm[nxt]
 
-    def save_npz(self, path: str | os.PathLike) -> None:
-        """Write ``points_mm``, ``times_s``, ``joint_names``, ``camera_names``, ``camera_weights``,
-        ``quality`` atomically (temp file + rename)."""
-        with atomic_path(path) as tmp, open(tmp, "wb") as f:
-            np.savez(
-                f, points_mm=self.points_mm, times_s=self.times_s, joint_names=np.array(self.joint_names),
-                camera_names=np.array(self.camera_names), camera_weights=self.camera_weights,
-                quality=self.quality, method=np.array(self.method),
-            )
-
 
 def load_npz(path: str | os.PathLike) -> Reconstruction:
-    """Read a file written by :meth:`Reconstruction.save_npz` (ValueError naming a missing array)."""
+    """Read a file written by :func:`gaitcap.acquisition.writers.save_reconstruction_npz` (ValueError naming
+    a missing array)."""
     with np.load(path, allow_pickle=False) as data:
         missing = [k for k in ("points_mm", "times_s", "joint_names", "camera_weights") if k not in data.files]
         if missing:

@@ -1,7 +1,8 @@
 """The architecture's import rules, every one of them, checked on the source tree.
 
 Layers (the repository's folders, installed as ``gaitcap.<layer>``):
-- ``reconstruction`` is pure computation: it imports no other gaitcap layer.
+- ``reconstruction`` is pure computation: it imports no other gaitcap layer, no plotting or I/O library,
+  and writes no file (the writers of what it computes are ``acquisition.fileio`` / ``acquisition.writers``).
 - ``acquisition`` (drivers, sync, encoding, detectors, recording) may use ``reconstruction`` only.
 - ``services`` wires them to the bus and never imports ``api``, except ``services.cli``: the one
   composition root that starts the API server.
@@ -9,6 +10,9 @@ Layers (the repository's folders, installed as ``gaitcap.<layer>``):
   trial's files, never to ``acquisition`` (cameras) or to the nodes, research or ops subsystems.
 - Inside ``services``: the live nodes know nothing of trial processing, research or operations; the
   catalog knows no other subsystem; trial processing knows neither research nor operations.
+- Production code (the live nodes, the API's link to them, the API) never reaches the simulator
+  (``acquisition.synthetic``, the simulated camera driver), not even through another module: the
+  simulator's hooks live with it (``services.nodes.sim_scene``, wired in by the simulated stack only).
 - Nothing imports a layer under a generic top-level name (``import services``): always ``gaitcap.``.
 - No import cycles between modules (lazy and type-checking imports included).
 """
@@ -49,6 +53,11 @@ RULES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("gaitcap.services.bus", "gaitcap.services.nodes", ()),
     ("gaitcap.services.bus", "gaitcap.services.processing", ()),
 )
+
+
+SIMULATOR = ("gaitcap.acquisition.synthetic", "gaitcap.acquisition.drivers.simulated")
+PRODUCTION = ("gaitcap.services.nodes", "gaitcap.services.live", "gaitcap.api")
+SIMULATOR_HOOKS = ("gaitcap.services.nodes.sim_scene",)
 
 
 def _module_name(path: Path, root: Path) -> str:
@@ -105,6 +114,28 @@ def _violations(graph: dict[str, set[str]]) -> list[str]:
             if not _within(importer, src) or any(_within(importer, e) for e in exceptions):
                 continue
             found += [f"{importer} -> {d}" for d in sorted(deps) if _within(d, forbidden)]
+    return found
+
+
+def _reached(graph: dict[str, set[str]], start: str) -> set[str]:
+    """Every module ``start`` imports, directly or through others."""
+    seen: set[str] = set()
+    todo = [start]
+    while todo:
+        for dep in graph.get(todo.pop(), ()):
+            if dep not in seen:
+                seen.add(dep)
+                todo.append(dep)
+    return seen
+
+
+def _simulator_reached(graph: dict[str, set[str]]) -> list[str]:
+    """``production module -> simulator module`` for each production module that reaches the simulator."""
+    found = []
+    for name in sorted(graph):
+        if not any(_within(name, p) for p in PRODUCTION) or any(_within(name, h) for h in SIMULATOR_HOOKS):
+            continue
+        found += [f"{name} -> {d}" for d in sorted(_reached(graph, name)) if any(_within(d, s) for s in SIMULATOR)]
     return found
 
 
@@ -177,6 +208,14 @@ def test_no_import_cycles():
     assert not cycles, f"import cycles: {cycles}"
 
 
+def test_production_code_never_reaches_the_simulator():
+    graph = _graph(_modules())
+    assert "gaitcap.services.nodes.camera" in graph and "gaitcap.services.nodes.sim_scene" in graph
+    assert any(_within(d, SIMULATOR[0]) for d in graph["gaitcap.services.nodes.sim_scene"])
+    reached = _simulator_reached(graph)
+    assert not reached, "the simulator is reached from production code:\n" + "\n".join(reached)
+
+
 def test_nothing_imports_a_generic_top_level_name():
     files = [p for d in (*LAYERS, "tests", "bench") for p in sorted((ROOT / d).rglob("*.py"))]
     offenders = {str(p.relative_to(ROOT)): sorted(_generic_imports(p)) for p in files}
@@ -194,10 +233,67 @@ def test_checks_detect_violations_and_cycles(tmp_path):
     assert _violations(graph) == ["gaitcap.reconstruction.a -> gaitcap.services.bus"]
     assert _cycles(graph) == [["gaitcap.services.bus", "gaitcap.services.worker"]]
     assert _generic_imports(tmp_path / "services" / "worker.py") == {"api"}
+    for folder in ("services/nodes", "services/live", "acquisition/synthetic"):
+        (tmp_path / folder).mkdir(parents=True, exist_ok=True)
+    (tmp_path / "acquisition" / "synthetic" / "board_scene.py").write_text("")
+    (tmp_path / "services" / "live" / "helper.py").write_text("import gaitcap.acquisition.synthetic.board_scene\n")
+    (tmp_path / "services" / "nodes" / "camera.py").write_text("from gaitcap.services.live import helper\n")
+    (tmp_path / "services" / "nodes" / "sim_scene.py").write_text("import gaitcap.acquisition.synthetic.board_scene\n")
+    assert _simulator_reached(_graph(_modules(tmp_path))) == [
+        "gaitcap.services.live.helper -> gaitcap.acquisition.synthetic.board_scene",
+        "gaitcap.services.nodes.camera -> gaitcap.acquisition.synthetic.board_scene"]
 
 
 IO_LIBRARIES = {"matplotlib", "zenoh", "mcap", "mcap_protobuf", "fastapi", "starlette", "sqlalchemy", "uvicorn",
-                "rerun", "opensim", "PIL"}
+                "rerun", "opensim", "PIL", "tempfile", "shutil"}
+# method calls that write, move or delete files (np.savez, Path.write_text, fig.savefig, json.dump, ...)
+WRITING_CALLS = {"savez", "savez_compressed", "save", "savetxt", "savefig", "write_text", "write_bytes", "mkdir",
+                 "makedirs", "dump", "mkstemp", "NamedTemporaryFile", "touch", "unlink", "rmdir"}
+OS_WRITING_CALLS = {"replace", "rename", "remove", "unlink", "makedirs", "mkdir", "rmdir"}
+
+
+def _opens_for_writing(call: ast.Call) -> bool:
+    """``open(path, "w")``, ``Path.open("wb")``, ``open(path, mode="a")``: a mode with w, a, x or +."""
+    func = call.func
+    if isinstance(func, ast.Name) and func.id == "open":
+        mode = call.args[1] if len(call.args) > 1 else None
+    elif isinstance(func, ast.Attribute) and func.attr == "open":
+        mode = call.args[0] if call.args else None
+    else:
+        return False
+    mode = next((k.value for k in call.keywords if k.arg == "mode"), mode)
+    return isinstance(mode, ast.Constant) and isinstance(mode.value, str) and bool(set(mode.value) & set("wax+"))
+
+
+def _file_writes(path: Path) -> list[str]:
+    """``file:line call`` of every call in the file that writes, moves or deletes a file."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if not isinstance(node, ast.Call):
+            continue
+        func = node.func
+        name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+        on_os = isinstance(func, ast.Attribute) and isinstance(func.value, ast.Name) and func.value.id == "os"
+        if (name in WRITING_CALLS or (on_os and name in OS_WRITING_CALLS) or _opens_for_writing(node)):
+            found.append(f"{path.name}:{node.lineno} {name}()")
+    return found
+
+
+def test_reconstruction_writes_no_file():
+    files = sorted((ROOT / "reconstruction").rglob("*.py"))
+    assert len(files) > 50
+    writes = [w for p in files for w in _file_writes(p)]
+    assert not writes, f"reconstruction must stay pure: write files in acquisition/ or services/: {writes}"
+    assert not (ROOT / "reconstruction" / "fileio.py").exists()
+
+
+def test_file_writes_are_found(tmp_path):
+    source = tmp_path / "m.py"
+    source.write_text("import os, json\nimport numpy as np\n"
+                      "np.savez(f, a=1)\nopen(p, 'wb')\nopen(p)\nopen(p, mode='a')\np.write_text('x')\n"
+                      "os.replace(a, b)\ns.replace('a', 'b')\njson.dump(d, f)\njson.dumps(d)\np.open('w')\n")
+    assert _file_writes(source) == ["m.py:3 savez()", "m.py:4 open()", "m.py:6 open()", "m.py:7 write_text()",
+                                    "m.py:8 replace()", "m.py:10 dump()", "m.py:12 open()"]
 
 
 def test_reconstruction_uses_no_io_library():

@@ -7,8 +7,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gaitcap.acquisition.fileio import atomic_path
 from gaitcap.acquisition.recording import layout
-from gaitcap.reconstruction.fileio import atomic_path
 from mcap.records import Message
 from mcap.writer import CompressionType, Writer
 

@@ -21,10 +21,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from gaitcap.reconstruction.calibration_io import load_rig, save_rig
+from gaitcap.acquisition.fileio import atomic_path
+from gaitcap.acquisition.writers import save_rig
+from gaitcap.reconstruction.calibration_io import load_rig
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
-from gaitcap.reconstruction.fileio import atomic_path
 
 CALIBRATION = "calibration.toml"
 KEYPOINTS = "keypoints.npz"

@@ -1,4 +1,5 @@
-"""NPZ files of keypoints: several people per camera and frame in, one chosen person out.
+"""NPZ files of keypoints: several people per camera and frame in, one chosen person out. Read here;
+written by :mod:`gaitcap.acquisition.writers` (``reconstruction/`` writes no files).
 
 Multi-person file keys: ``keypoints`` (C, T, P, J, 3) x px, y px, confidence; ``camera_names`` (C,)
 str; ``times_s`` (T,); ``skeleton`` (str). A single-person file has ``keypoints`` (C, T, J, 3) and
@@ -12,9 +13,8 @@ from pathlib import Path
 import numpy as np
 from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.detections import Detections
-from gaitcap.reconstruction.fileio import atomic_path
 
-_KEYS = ("keypoints", "camera_names", "times_s", "skeleton")
+KEYS = ("keypoints", "camera_names", "times_s", "skeleton")
 
 
 def _read(path: str | Path) -> tuple[np.ndarray, tuple[str, ...], np.ndarray, str]:
@@ -23,7 +23,7 @@ def _read(path: str | Path) -> tuple[np.ndarray, tuple[str, ...], np.ndarray, st
     if not path.is_file():
         raise FileNotFoundError(f"keypoint file {path} does not exist")
     with np.load(path, allow_pickle=False) as data:
-        missing = [k for k in _KEYS if k not in data.files]
+        missing = [k for k in KEYS if k not in data.files]
         if missing:
             raise ValueError(f"{path}: missing arrays {missing} (has {sorted(data.files)})")
         return (data["keypoints"], tuple(str(n) for n in data["camera_names"]), data["times_s"],
@@ -38,27 +38,8 @@ def load_multi_npz(path: str | Path) -> MultiPersonDetections:
     return MultiPersonDetections(keypoints=kp, camera_names=names, times_s=times, skeleton=skeleton)
 
 
-def save_multi_npz(multi: MultiPersonDetections, path: str | Path) -> None:
-    """Write a multi-person keypoint file atomically."""
-    _write(path, keypoints=multi.keypoints, camera_names=np.array(multi.camera_names),
-           times_s=multi.times_s, skeleton=np.array(multi.skeleton.name))
-
-
-def save_detections_npz(detections: Detections, path: str | Path, **extra: np.ndarray) -> None:
-    """Write one person's detections (plus extra arrays) atomically."""
-    clash = sorted(set(extra) & set(_KEYS))
-    if clash:
-        raise ValueError(f"extra arrays may not be named {clash}")
-    _write(path, keypoints=detections.keypoints, camera_names=np.array(detections.camera_names),
-           times_s=detections.times_s, skeleton=np.array(detections.skeleton.name), **extra)
-
-
 def load_detections_npz(path: str | Path) -> Detections:
-    """Read a single-person keypoint file written by :func:`save_detections_npz`."""
+    """Read a single-person keypoint file written by :func:`gaitcap.acquisition.writers.save_detections_npz`."""
     kp, names, times, skeleton = _read(path)
     return Detections(keypoints=kp, camera_names=names, times_s=times, skeleton=skeleton)
 
-
-def _write(path: str | Path, **arrays: np.ndarray) -> None:
-    with atomic_path(path) as tmp, open(tmp, "wb") as f:
-        np.savez(f, **arrays)

@@ -3,14 +3,10 @@ board's square size measured back by triangulation (the scale check)."""
 
 from __future__ import annotations
 
-import json
-import os
 from dataclasses import asdict, dataclass
-from pathlib import Path
 
 import cv2
 import numpy as np
-from gaitcap.reconstruction.fileio import atomic_write_text
 
 
 @dataclass(frozen=True)
@@ -78,10 +74,6 @@ class QualityReport:
 
     def to_dict(self) -> dict:
         return asdict(self)
-
-    def save_json(self, path: str | os.PathLike) -> Path:
-        """Write the report as JSON atomically (temp file + rename)."""
-        return atomic_write_text(path, json.dumps(self.to_dict(), indent=2))
 
 
 def error_stats(err_px: np.ndarray) -> tuple[float, float, float]:

@@ -8,10 +8,8 @@ import io
 import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
-from gaitcap.reconstruction.fileio import atomic_write_text
 from gaitcap.reconstruction.gait.bouts import Pass, Segment
 from gaitcap.reconstruction.gait.events import Contact
 from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS, GaitSummary, Step
@@ -81,15 +79,6 @@ class GaitReport:
                 writer.writerow(_cells([name, side, st.n, st.mean, st.sd, st.cv_pct,
                                         self.summary.asymmetry_pct.get(name, float("nan"))]))
         return buf.getvalue()
-
-    def write_json(self, path: str | Path) -> None:
-        atomic_write_text(path, self.to_json(indent=2) + "\n")
-
-    def write_csv(self, path: str | Path) -> None:
-        atomic_write_text(path, self.to_csv())
-
-    def write_summary_csv(self, path: str | Path) -> None:
-        atomic_write_text(path, self.to_summary_csv())
 
 
 def _cells(row: list) -> list:

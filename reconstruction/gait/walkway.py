@@ -27,6 +27,7 @@ support) come from the heel points of both systems at the walkway's contacts, wi
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -112,18 +113,16 @@ def _trial(name: str, rows: list[tuple]) -> WalkwayTrial:
     return WalkwayTrial(name, tuple(r[0] for r in rows), a[:, 0], a[:, 1], a[:, 2:4], a[:, 4:6])
 
 
-def write_walkway_csv(trials: Sequence[WalkwayTrial], path: str | Path) -> None:
-    """Write trials in the walkway CSV format (temp file + rename)."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "w", newline="") as f:
-        writer = csv.writer(f, lineterminator="\n")
-        writer.writerow(WALKWAY_COLUMNS)
-        for t in trials:
-            for i, foot in enumerate(t.feet):
-                writer.writerow([t.name, foot, f"{t.first_contact_s[i]:.4f}", f"{t.last_contact_s[i]:.4f}",
-                                 *(f"{v:.2f}" for v in (*t.heel_xy_mm[i], *t.toe_xy_mm[i]))])
-    tmp.replace(path)
+def walkway_csv_text(trials: Sequence[WalkwayTrial]) -> str:
+    """Trials in the walkway CSV format (written by :func:`gaitcap.acquisition.writers.write_walkway_csv`)."""
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(WALKWAY_COLUMNS)
+    for t in trials:
+        for i, foot in enumerate(t.feet):
+            writer.writerow([t.name, foot, f"{t.first_contact_s[i]:.4f}", f"{t.last_contact_s[i]:.4f}",
+                             *(f"{v:.2f}" for v in (*t.heel_xy_mm[i], *t.toe_xy_mm[i]))])
+    return buf.getvalue()
 
 
 @dataclass(frozen=True)

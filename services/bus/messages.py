@@ -17,6 +17,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 from gaitcap.acquisition.encoding import decode_jpeg, image_message, parse_image_message
+from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 
 #: Frame ids count frames from a camera's synchronised start: 2**31 frames is 2 years at 30 frames/s.
 MAX_FRAME_ID = 2**31 - 1
@@ -26,6 +27,7 @@ MAX_PEOPLE = 32
 MAX_JOINTS = 256
 MAX_IMAGE_PX = 100_000  # a keypoint coordinate beyond this (px) is not from a camera image
 MAX_JSON_BYTES = 4 * 2**20  # a calibration TOML and trial metadata fit easily
+MAX_CALIBRATION_BYTES = 2**20  # a calibration TOML of 64 cameras is about 40 kB
 MAX_JPEG_BYTES = 64 * 2**20
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.\-]{0,63}$")
 
@@ -86,6 +88,20 @@ def _dict(value: Any, what: str, *, optional: bool = True) -> dict[str, Any]:
         return {}
     if not isinstance(value, dict):
         raise ValueError(f"{what}: must be a JSON object")
+    return value
+
+
+def _calibration(value: Any, what: str) -> str | None:
+    """None, or a calibration TOML (aniposelib format) of at most :data:`MAX_CALIBRATION_BYTES` that loads."""
+    if value is None:
+        return None
+    if not isinstance(value, str) or not value.strip() or len(value.encode()) > MAX_CALIBRATION_BYTES:
+        raise ValueError(f"{what}: must be a calibration TOML of 1 to {MAX_CALIBRATION_BYTES} bytes (or absent)")
+    try:
+        rig_from_toml_text(value, source=what)
+    except (ValueError, KeyError, TypeError) as exc:
+        words = str(exc)[:300]
+        raise ValueError(words if words.startswith(what) else f"{what}: {words}") from None
     return value
 
 
@@ -307,7 +323,7 @@ class RecorderStart(_Json):
         if "\x00" in self.path:
             raise ValueError(f"{self.what}.path: contains a NUL byte")
         _dict(self.metadata, f"{self.what}.metadata", optional=False)
-        _str(self.calibration_toml, f"{self.what}.calibration_toml", 2**20, optional=True)
+        _calibration(self.calibration_toml, f"{self.what}.calibration_toml")
         if self.cameras is not None:
             if not isinstance(self.cameras, list) or len(self.cameras) > 256:
                 raise ValueError(f"{self.what}.cameras: must be a list of at most 256 camera names")

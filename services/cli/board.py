@@ -107,7 +107,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Draw a calibration board at true scale, and write its board file (OUT with .toml) beside it."""
         from gaitcap.acquisition.board_file import board_to_toml
-        from gaitcap.reconstruction.fileio import atomic_write_text
+        from gaitcap.acquisition.fileio import atomic_write_text
 
         with user_errors():
             config = board_from_options(board_file, kind, squares, square_mm, marker_mm, dictionary, inverted,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import typer
@@ -102,6 +103,8 @@ def register(app: typer.Typer) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
         from gaitcap.acquisition.board_pairing import PairingConfig
         from gaitcap.acquisition.board_recording import FrameSelection
+        from gaitcap.acquisition.fileio import atomic_write_text
+        from gaitcap.acquisition.writers import save_rig
         from gaitcap.reconstruction.calibration import (
             CalibrationConfig,
             DistortionModel,
@@ -110,7 +113,6 @@ def register(app: typer.Typer) -> None:
             calibrate_from_observations,
         )
         from gaitcap.reconstruction.calibration.compare import compare_rigs, compare_similar
-        from gaitcap.reconstruction.calibration_io import save_rig
 
         with user_errors():
             reference = _load_calibration(compare) if compare is not None else None
@@ -140,7 +142,7 @@ def register(app: typer.Typer) -> None:
             target = out.with_name(out.stem + ".refused" + out.suffix) if refused else out
             save_rig(result.rig, target, metadata={"error": result.report.reprojection_rms_px})
             report_file = report_path or out.with_suffix(".report.json")
-            result.report.save_json(report_file)
+            atomic_write_text(report_file, json.dumps(result.report.to_dict(), indent=2))
             comparison = compare_rigs(reference, result.rig) if reference is not None else None
             similar = compare_similar(reference, result.rig) if reference is not None and len(reference) >= 3 else None
         typer.echo(_summary(result.report))

@@ -68,8 +68,8 @@ def register(app: typer.Typer) -> None:
         """2D keypoints of everyone in existing multi-view videos -> NPZ for `gaitcap reconstruct` / `process`."""
         import numpy as np
         from gaitcap.acquisition.video_detect import detect_videos, find_videos
+        from gaitcap.acquisition.writers import save_multi_npz
         from gaitcap.reconstruction.association.multi import MultiPersonDetections
-        from gaitcap.reconstruction.association.npz_io import save_multi_npz
 
         with user_errors():
             files = find_videos(videos)

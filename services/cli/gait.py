@@ -75,6 +75,7 @@ def register(app: typer.Typer) -> None:
         plot_path: Path | None = typer.Option(None, "--plot", help="Write a PNG of the heel traces to FILE."),
     ) -> None:
         """Gait events, bouts and spatiotemporal parameters of a reconstructed trial."""
+        from gaitcap.acquisition.fileio import atomic_write_bytes, atomic_write_text
         from gaitcap.reconstruction.gait import GaitConfig, compare_with_walkway, read_walkway_csv
         from gaitcap.services.processing.pipeline import gait_of
         from gaitcap.services.processing.report_plot import heel_traces_png
@@ -91,12 +92,9 @@ def register(app: typer.Typer) -> None:
                 report = report.with_walkway(
                     compare_with_walkway([(points, times, names)], [trial], config=config))
             if csv_path is not None:
-                report.write_csv(csv_path)
+                atomic_write_text(csv_path, report.to_csv())
             if plot_path is not None:
-                png = heel_traces_png(report, points, times, names, config=config)
-                tmp = plot_path.with_name(f".{plot_path.name}.tmp")
-                tmp.write_bytes(png)
-                tmp.replace(plot_path)
+                atomic_write_bytes(plot_path, heel_traces_png(report, points, times, names, config=config))
         if as_json:
             typer.echo(report.to_json())
         else:

@@ -82,7 +82,8 @@ def camera_cmd(
     """Publish the frames and status of one host's cameras."""
     from gaitcap.acquisition.drivers.sources import FlirSource, SimulatedSource, VideoSource
     from gaitcap.services.bus.session import default_bus_config, open_session
-    from gaitcap.services.nodes.camera import CameraNode, attach_board_scene
+    from gaitcap.services.nodes.camera import CameraNode
+    from gaitcap.services.nodes.sim_scene import attach_board_scene
 
     with user_errors():
         names = [c for c in (cameras or "").split(",") if c] or None

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 import typer
-from gaitcap.reconstruction.fileio import atomic_write_text
+from gaitcap.acquisition.fileio import atomic_write_text
 from gaitcap.reconstruction.jsonable import json_ready
 from gaitcap.services.cli._common import progress, user_errors
 
@@ -74,6 +74,7 @@ def reconstruct_command(
     import numpy as np
 
     with user_errors():
+        from gaitcap.acquisition.writers import save_reconstruction_npz
         from gaitcap.reconstruction.methods import reconstruct
         from gaitcap.reconstruction.trc import to_trc
         from gaitcap.services.processing.offline import OfflineOptions, load_input
@@ -101,7 +102,7 @@ def reconstruct_command(
             rec = reconstruct(det, rig, method=config, progress=report)
         if not np.isfinite(rec.points_mm).any():
             raise ValueError("no joint could be reconstructed in any frame (nothing written)")
-        rec.save_npz(out)
+        save_reconstruction_npz(rec, out)
         if trc is not None:
             atomic_write_text(trc, to_trc(rec.points_mm, rec.times_s, rec.joint_names, filename=trc.name))
     missing = ~np.isfinite(rec.points_mm).all(-1)

@@ -26,6 +26,8 @@ def register(app: typer.Typer) -> None:
         bus: Path | None = typer.Option(None, "--bus", envvar="GAITCAP_BUS", help="Bus file (JSON5)."),
         no_bus: bool = typer.Option(False, "--no-bus", help="Serve the catalog only (no recorder, cameras)."),
         node: str = typer.Option("api", "--node", help="Bus node name of the API."),
+        sim_scene: bool = typer.Option(False, "--sim-scene",
+                                       help="Calibrate switches simulated cameras to the board (the demo stack)."),
     ) -> None:
         """Serve the clinic page and the REST API (docs at /docs). Accounts: gaitcap user add."""
         from gaitcap.api.server import serve as run
@@ -41,11 +43,15 @@ def register(app: typer.Typer) -> None:
             settings = Settings.from_env(data_dir=data_dir, host=host, port=port, tls_cert=tls_cert, tls_key=tls_key,
                                          plain_http_beyond_loopback=plain_http,
                                          catalog_url=catalog or str(data_dir / "catalog.sqlite"))
-            link = None
+            if sim_scene and no_bus:
+                raise ValueError("--sim-scene: the simulated cameras are reached over the bus (drop --no-bus)")
+            link, scene = None, None
             if not no_bus:
                 from gaitcap.services.bus.session import default_bus_config
                 from gaitcap.services.live.bus_link import BusLink
+                from gaitcap.services.live.sim_scene import BusSceneControl
 
                 link = BusLink(default_bus_config(bus), node=node)
+                scene = BusSceneControl(link.session, link.bus) if sim_scene else None
             typer.echo(f"gaitcap clinic page: {settings.scheme}://{host}:{port}/")
-        run(settings, link)
+        run(settings, link, scene=scene)

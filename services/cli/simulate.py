@@ -50,7 +50,7 @@ def register(app: typer.Typer) -> None:
         recording (then: gaitcap calibrate OUT/board.mcap --out calib.toml --compare OUT/true_calibration.toml)."""
         from gaitcap.acquisition.board import BoardConfig
         from gaitcap.acquisition.synthetic.board_clip import BoardClipConfig, write_board_clip
-        from gaitcap.reconstruction.calibration_io import save_rig
+        from gaitcap.acquisition.writers import save_rig
 
         with user_errors():
             make = {"checkerboard": BoardConfig.checkerboard, "charuco": BoardConfig.charuco}

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from gaitcap.reconstruction.fileio import atomic_write_text
+from gaitcap.acquisition.fileio import atomic_write_text
 from gaitcap.reconstruction.kinematics.frames import opensim_to_room, room_to_opensim
 from gaitcap.reconstruction.kinematics.mot import to_mot
 from gaitcap.reconstruction.kinematics.outliers import OUTLIER_MM, gross_outliers

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from gaitcap.reconstruction.fileio import atomic_write_text
+from gaitcap.acquisition.fileio import atomic_write_text
 from gaitcap.reconstruction.kinematics.c3d import c3d_content
 from gaitcap.reconstruction.kinematics.markers import guess_skeleton, layout_for
 from gaitcap.reconstruction.kinematics.report import KinematicsReport, curves_csv, kinematics_report

@@ -60,13 +60,11 @@ class BusLink:
         self.previews = PreviewFrames(self.session, bus.keys)
         self.node_board = NodeBoard(self.session, bus)
 
-    def start(self, *, trial_id: str, path: str, metadata: dict) -> None:
+    def start(self, *, trial_id: str, path: str, metadata: dict, calibration_toml: str | None = None) -> None:
         from gaitcap.services.bus.control import RecorderError
 
-        meta = dict(metadata)
-        calibration = meta.pop("calibration_toml", "") or None
         try:
-            self.recorder.start(trial_id=trial_id, path=path, metadata=meta, calibration_toml=calibration)
+            self.recorder.start(trial_id=trial_id, path=path, metadata=metadata, calibration_toml=calibration_toml)
         except RecorderError as exc:
             raise RecorderUnavailable(str(exc)) from None
 
@@ -77,12 +75,6 @@ class BusLink:
             return self.recorder.stop(trial_id).summary or {}
         except RecorderError as exc:
             raise RecorderUnavailable(str(exc)) from None
-
-    def show_scene(self, scene: str, *, start_ns: int) -> None:
-        """Simulated cameras show ``scene`` (walker | board) from ``start_ns`` (wall clock, ns)."""
-        from gaitcap.services.bus.messages import CameraScene
-
-        self.session.put(self.bus.keys.camera_scene, CameraScene(scene, int(start_ns)).to_bytes())
 
     def cameras(self) -> list[CameraHealth]:
         now = time.time()

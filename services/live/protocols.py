@@ -34,8 +34,9 @@ class CameraHealth:
 
 
 class TrialRecorder(Protocol):
-    def start(self, *, trial_id: str, path: str, metadata: dict) -> None:
-        """Begin recording ``trial_id`` into the MCAP at ``path``; RecorderUnavailable on failure."""
+    def start(self, *, trial_id: str, path: str, metadata: dict, calibration_toml: str | None = None) -> None:
+        """Begin recording ``trial_id`` into the MCAP at ``path`` with the trial's calibration (TOML text,
+        None: none in use; its own field, never inside ``metadata``); RecorderUnavailable on failure."""
 
     def stop(self, trial_id: str) -> dict:
         """Stop and close the MCAP; returns the recorder's summary (frames, drops, ...)."""
@@ -63,12 +64,28 @@ class Link(TrialRecorder, LiveView, Components, Protocol):
     def close(self) -> None: ...
 
 
+class SceneControl(Protocol):
+    """What simulated cameras show (the demo's Calibrate switches them to a board). Only a simulated stack
+    wires one in (``gaitcap serve --sim-scene``: :class:`gaitcap.services.live.sim_scene.BusSceneControl`);
+    real cameras have nothing to switch (:class:`NoScene`)."""
+
+    def show(self, scene: str, *, start_ns: int) -> None:
+        """Show ``scene`` (walker | board) from ``start_ns`` (wall clock, ns)."""
+
+
+class NoScene:
+    """No simulated cameras: nothing to switch."""
+
+    def show(self, scene: str, *, start_ns: int) -> None:
+        return None
+
+
 class NoLink:
     """No live system attached (the API serves the catalog only; Start answers 503)."""
 
     connected = False
 
-    def start(self, *, trial_id: str, path: str, metadata: dict) -> None:
+    def start(self, *, trial_id: str, path: str, metadata: dict, calibration_toml: str | None = None) -> None:
         raise RecorderUnavailable("no recorder is connected to this server (started without the bus)")
 
     def stop(self, trial_id: str) -> dict:

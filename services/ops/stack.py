@@ -128,7 +128,8 @@ def process_specs(cfg: StackConfig) -> list[ProcessSpec]:
                 "--lease", str(cfg.lease_s)]
         specs.append(ProcessSpec(name, tuple(argv + ([] if cfg.refine else ["--no-refine"])), ready_text="ready"))
     specs.append(ProcessSpec("api", (*CLI, "serve", "--node", "api", "--data-dir", data, "--catalog", cfg.catalog,
-                                     "--host", cfg.host, "--port", str(cfg.port)), ready_text="Uvicorn running"))
+                                     "--host", cfg.host, "--port", str(cfg.port), "--sim-scene"),
+                              ready_text="Uvicorn running"))
     return specs
 
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from gaitcap.reconstruction.fileio import atomic_path, atomic_write_bytes
 from gaitcap.services.catalog.ids import validate_id
 
 STAGES = ("preliminary", "refined")
@@ -78,6 +77,3 @@ def trial_files(data_dir: str | Path, trial_id: str) -> TrialFiles:
     return TrialFiles(Path(data_dir) / "trials" / trial_id)
 
 
-# the one atomic writer (gaitcap.reconstruction.fileio), under the names this layer has used
-write_bytes_atomic = atomic_write_bytes
-__all__ = ["TrialFiles", "atomic_path", "trial_files", "write_bytes_atomic"]

@@ -10,9 +10,9 @@ import json
 import logging
 
 import numpy as np
-from gaitcap.reconstruction.fileio import atomic_write_text
+from gaitcap.acquisition.fileio import atomic_savez, atomic_write_bytes, atomic_write_text
 from gaitcap.reconstruction.jsonable import finite_or_none, json_ready
-from gaitcap.services.processing.artifacts import TrialFiles, atomic_path, write_bytes_atomic
+from gaitcap.services.processing.artifacts import TrialFiles
 from gaitcap.services.processing.pipeline import Trajectory
 
 log = logging.getLogger(__name__)
@@ -46,8 +46,7 @@ def summary_of(report) -> dict[str, dict]:
 
 
 def write_npz(path, traj: Trajectory) -> None:
-    with atomic_path(path) as tmp, open(tmp, "wb") as f:
-        np.savez(f, points_mm=traj.points_mm, times_s=traj.times_s, joint_names=np.array(traj.joint_names),
+    atomic_savez(path, points_mm=traj.points_mm, times_s=traj.times_s, joint_names=np.array(traj.joint_names),
                  num_views=traj.num_views if traj.num_views is not None else np.zeros(0))
 
 
@@ -101,8 +100,8 @@ def write_data(files: TrialFiles, stage: str, traj: Trajectory, report, *, data_
     if report is not None:
         payload = {**report.to_dict(), **({"data_quality": data_quality} if data_quality is not None else {})}
         atomic_write_text(files.stage_file(stage, "gait_json"), json.dumps(json_ready(payload), indent=2) + "\n")
-        report.write_csv(files.stage_file(stage, "steps_csv"))
-        report.write_summary_csv(files.stage_file(stage, "summary_csv"))
+        atomic_write_text(files.stage_file(stage, "steps_csv"), report.to_csv())
+        atomic_write_text(files.stage_file(stage, "summary_csv"), report.to_summary_csv())
 
 
 def write_views(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str) -> None:
@@ -110,6 +109,6 @@ def write_views(files: TrialFiles, stage: str, traj: Trajectory, report, *, tria
     from gaitcap.reconstruction.trc import to_trc
 
     trc = to_trc(traj.points_mm, traj.times_s, traj.joint_names, filename=f"{trial_id}-{stage}.trc")
-    write_bytes_atomic(files.stage_file(stage, "trajectory_trc"), trc.encode())
+    atomic_write_bytes(files.stage_file(stage, "trajectory_trc"), trc.encode())
     title = f"Trial {trial_id}: {stage} ({traj.method})"
-    write_bytes_atomic(files.stage_file(stage, "report_png"), report_png(traj, report, title=title))
+    atomic_write_bytes(files.stage_file(stage, "report_png"), report_png(traj, report, title=title))

@@ -24,10 +24,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from gaitcap.acquisition.fileio import atomic_savez, atomic_write_bytes
 from gaitcap.reconstruction.association import ManualTrack, MultiPersonDetections, PatientSelection, Tracks
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
-from gaitcap.services.processing.artifacts import TrialFiles, atomic_path, write_bytes_atomic
+from gaitcap.services.processing.artifacts import TrialFiles
 
 log = logging.getLogger(__name__)
 IN_VIEW_CONFIDENCE = 0.3  # a slot with a joint above this confidence is a person in view
@@ -152,7 +153,7 @@ def write_people(files: TrialFiles, selection: PatientSelection, **summary) -> N
     """``people.json`` and ``tracks.npz``; ``summary``: the keyword arguments of :func:`people_summary`."""
     save_tracks(selection.tracks, files.tracks_npz)
     body = json.dumps(people_summary(selection, **summary), indent=1)
-    write_bytes_atomic(files.people_json, body.encode())
+    atomic_write_bytes(files.people_json, body.encode())
 
 
 def read_people(files: TrialFiles) -> dict | None:
@@ -172,15 +173,14 @@ def read_choice(files: TrialFiles) -> PatientChoice | None:
 
 def write_choice(files: TrialFiles, choice: PatientChoice) -> None:
     body = json.dumps({"track_id": choice.track_id, "chosen_by": choice.chosen_by, "how": choice.how})
-    write_bytes_atomic(files.patient_choice_json, body.encode())
+    atomic_write_bytes(files.patient_choice_json, body.encode())
 
 
 _TRACK_ARRAYS = ("detection_track", "root_mm", "points_mm", "views", "joint_indices", "camera_names", "times_s")
 
 
 def save_tracks(tracks: Tracks, path: Path) -> None:
-    with atomic_path(path) as tmp, open(tmp, "wb") as f:
-        np.savez(f, **{k: np.asarray(getattr(tracks, k)) for k in _TRACK_ARRAYS})
+    atomic_savez(path, **{k: np.asarray(getattr(tracks, k)) for k in _TRACK_ARRAYS})
 
 
 def load_tracks(path: Path) -> Tracks:

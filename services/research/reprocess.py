@@ -34,9 +34,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from gaitcap.acquisition.fileio import atomic_savez, atomic_write_bytes
 from gaitcap.reconstruction.jsonable import finite_or_none, json_ready
 from gaitcap.services import catalog as cat
-from gaitcap.services.processing.artifacts import atomic_path, trial_files, write_bytes_atomic
+from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.research.method_specs import MethodSpec, canonical
 from gaitcap.services.research.store import MethodResult, delete_failed, done_keys, get_result, put_result
 
@@ -330,9 +331,8 @@ def _residuals(trial: TrialRef, points, times, names, sample) -> dict:
 def _write_files(task: ReprocessTask, result: MethodResult, points, times, names) -> dict[str, str]:
     folder = task.trial.folder / REPROCESS_DIR / f"{task.spec.method}-{task.spec.key}"
     npz = folder / "trajectory.npz"
-    with atomic_path(npz) as tmp, open(tmp, "wb") as f:
-        np.savez(f, points_mm=points, times_s=times, joint_names=np.array(names))
+    atomic_savez(npz, points_mm=points, times_s=times, joint_names=np.array(names))
     summary = folder / "result.json"
-    write_bytes_atomic(summary, json.dumps({**result.comparable(), "spec": result.spec}, indent=1,
+    atomic_write_bytes(summary, json.dumps({**result.comparable(), "spec": result.spec}, indent=1,
                                            default=float).encode())
     return {"trajectory_npz": str(npz), "result_json": str(summary)}

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from gaitcap.services.processing.artifacts import write_bytes_atomic
+from gaitcap.acquisition.fileio import atomic_write_bytes
 from gaitcap.services.research.method_specs import NONE_WORDS, MethodSpec
 
 #: (column, header, unit) of the paper's appendix table, then our extra columns.
@@ -192,8 +192,8 @@ def write_tables(table: SweepTable, out: str | Path) -> list[Path]:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "sweep.csv", out / "sweep.md", out / "sweep.json"]
-    write_bytes_atomic(paths[0], table.csv_text().encode())
-    write_bytes_atomic(paths[1], table.markdown().encode())
-    write_bytes_atomic(paths[2], json.dumps({"columns": [c for c, _, _ in COLUMNS], "rows": list(table.rows)},
+    atomic_write_bytes(paths[0], table.csv_text().encode())
+    atomic_write_bytes(paths[1], table.markdown().encode())
+    atomic_write_bytes(paths[2], json.dumps({"columns": [c for c, _, _ in COLUMNS], "rows": list(table.rows)},
                                             indent=1).encode())
     return paths

@@ -27,16 +27,17 @@ class RecordingLink:
     connected = True
 
     def __init__(self):
-        self.calls, self.fail, self.recording = [], False, None
+        self.calls, self.fail, self.recording, self.calibration_toml = [], False, None, None
         self.camera_list = [CameraHealth("cam0", 30.0, True, "ok", 0.01),
                             CameraHealth("cam1", 12.0, False, "low frame rate", 0.5)]
         self.up = {n: NodeState(n, True, time.time(), False) for n in ("recorder", "detector", "worker-0")}
         self.jpeg = bytes.fromhex("ffd8ffe000104a464946") + b"\x00" * 20 + bytes.fromhex("ffd9")
 
-    def start(self, *, trial_id, path, metadata):
+    def start(self, *, trial_id, path, metadata, calibration_toml=None):
         if self.fail:
             raise RecorderUnavailable("recorder did not answer within 2 s")
         self.calls.append(("start", trial_id, path, metadata))
+        self.calibration_toml = calibration_toml
         self.recording = trial_id
 
     def stop(self, trial_id):

@@ -4,6 +4,7 @@ the history, both sides against the norms on the results card, the trial list up
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.fileio import atomic_write_text
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.outputs import steps_of, summary_of
@@ -38,7 +39,7 @@ def visits(server, walk_report):
         tid = client.post("/trials", json={"subject_id": "P0042", "session": f"visit-{i + 1}"}).json()["id"]
         client.post(f"/trials/{tid}/stop")
         files = trial_files(settings.data_dir, tid)
-        report.write_json(files.stage_file("refined", "gait_json"))
+        atomic_write_text(files.stage_file("refined", "gait_json"), report.to_json(indent=2))
         np.savez(files.stage_file("refined", "trajectory_npz"), points_mm=points, times_s=times, joint_names=np.array(names))
         cat.store_result(db, trial_id=tid, stage="refined", method="implicit_fit", steps=steps_of(report),
                          summary=summary_of(report), quality={})

@@ -8,6 +8,7 @@ import json
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.fileio import atomic_write_text
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.outputs import steps_of, summary_of
@@ -49,7 +50,7 @@ def _trial(server, walk, *, subject: str, kinematics: dict | None, birth_year: i
     tid = client.post("/trials", json={"subject_id": subject, "session": "visit-1"}).json()["id"]
     client.post(f"/trials/{tid}/stop")
     files = trial_files(settings.data_dir, tid)
-    gait.write_json(files.stage_file("refined", "gait_json"))
+    atomic_write_text(files.stage_file("refined", "gait_json"), gait.to_json(indent=2))
     if kinematics is not None:
         path = files.stage_file("refined", "kinematics_json")
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.fileio import atomic_write_text
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.outputs import steps_of, summary_of
@@ -34,7 +35,7 @@ def _trial_with(server, report, *, subject: str, session: str) -> str:
     _, client, _, settings = server
     tid = client.post("/trials", json={"subject_id": subject, "session": session}).json()["id"]
     client.post(f"/trials/{tid}/stop")
-    report.write_json(trial_files(settings.data_dir, tid).stage_file("refined", "gait_json"))
+    atomic_write_text(trial_files(settings.data_dir, tid).stage_file("refined", "gait_json"), report.to_json(indent=2))
     db = cat.open_catalog(settings.catalog_url)
     cat.store_result(db, trial_id=tid, stage="refined", method="implicit_fit", steps=steps_of(report),
                      summary=summary_of(report), quality={}, report={"warnings": list(report.warnings)})

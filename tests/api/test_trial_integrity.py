@@ -6,7 +6,7 @@ import concurrent.futures
 import os
 
 import httpx
-from gaitcap.reconstruction.calibration_io import save_rig
+from gaitcap.acquisition.writers import save_rig
 from gaitcap.services import catalog as cat
 from gaitcap.services.live.nodes import NodeState
 from gaitcap.services.live.protocols import CameraHealth, RecorderUnavailable

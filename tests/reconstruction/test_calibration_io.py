@@ -2,7 +2,8 @@ import json
 
 import numpy as np
 import pytest
-from gaitcap.reconstruction.calibration_io import load_rig, rig_from_toml_text, save_rig
+from gaitcap.acquisition.writers import save_rig
+from gaitcap.reconstruction.calibration_io import load_rig, rig_from_toml_text
 from gaitcap.reconstruction.camera import Camera, Rig
 
 

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from gaitcap.acquisition.writers import save_reconstruction_npz
 from gaitcap.reconstruction.fits.implicit import FourierBasis, ImplicitFit
 from gaitcap.reconstruction.fits.optim import LBFGS
 from gaitcap.reconstruction.methods import DLT, METHODS, Explicit, Implicit, Robust, reconstruct
@@ -36,7 +37,7 @@ def test_all_methods_end_to_end(scene, tmp_path):
     assert np.allclose(rob.sample(t)[0], 0.5 * (rob.points_mm[3] + rob.points_mm[4]))
     with pytest.raises(ValueError, match="outside"):
         rob.sample([det.times_s[-1] + 1])
-    imp.save_npz(tmp_path / "r.npz")
+    save_reconstruction_npz(imp, tmp_path / "r.npz")
     back = load_npz(tmp_path / "r.npz")
     assert np.allclose(back.points_mm, imp.points_mm) and back.joint_names == imp.joint_names
     assert back.camera_weights.shape == det.shape and back.method == "implicit"

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from gaitcap.services.processing.artifacts import atomic_path
+from gaitcap.acquisition.fileio import atomic_path
 from gaitcap.services.processing.viewers.results_mcap import gait_logs
 from gaitcap.services.processing.viewers.trial_view import TrialView
 

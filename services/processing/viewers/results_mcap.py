@@ -31,6 +31,7 @@ from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
 from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
 from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+from gaitcap.acquisition.fileio import atomic_path
 from gaitcap.acquisition.recording.foxglove_messages import (
     camera_calibration,
     confidence_rgba,
@@ -39,7 +40,6 @@ from gaitcap.acquisition.recording.foxglove_messages import (
 )
 from gaitcap.reconstruction.camera import Camera
 from gaitcap.reconstruction.jsonable import finite_or_none
-from gaitcap.services.processing.artifacts import atomic_path
 from gaitcap.services.processing.viewers.trial_view import TrialView
 from mcap.writer import CompressionType, Writer
 from scipy.spatial.transform import Rotation

@@ -1,11 +1,7 @@
 import numpy as np
 import pytest
-from gaitcap.reconstruction.association.npz_io import (
-    load_detections_npz,
-    load_multi_npz,
-    save_detections_npz,
-    save_multi_npz,
-)
+from gaitcap.acquisition.writers import save_detections_npz, save_multi_npz
+from gaitcap.reconstruction.association.npz_io import load_detections_npz, load_multi_npz
 from gaitcap.reconstruction.detections import Detections
 
 

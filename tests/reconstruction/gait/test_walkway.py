@@ -2,6 +2,7 @@ import math
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.writers import write_walkway_csv
 from gaitcap.reconstruction.gait import compare_with_walkway, read_walkway_csv
 from gaitcap.reconstruction.gait.walkway import (
     ResidualStats,
@@ -9,7 +10,6 @@ from gaitcap.reconstruction.gait.walkway import (
     WalkwayTrial,
     fit_similarity,
     walkway_passes,
-    write_walkway_csv,
 )
 
 

@@ -4,7 +4,9 @@ import json
 import os
 
 import pytest
+from gaitcap.reconstruction.calibration_io import rig_from_toml_text, rig_to_toml_text
 from gaitcap.services.bus.messages import (
+    MAX_CALIBRATION_BYTES,
     MAX_FRAME_ID,
     MAX_JSON_BYTES,
     MAX_PEOPLE,
@@ -20,7 +22,9 @@ from gaitcap.services.bus.messages import (
     WorkerProgress,
 )
 from gaitcap.services.nodes.recorder import confined_path
+from gaitcap.services.processing.pipeline import ring_rig
 
+CALIBRATION = rig_to_toml_text(ring_rig(2))
 JPEG = bytes.fromhex("ffd8ffe000104a464946") + b"\x00" * 20 + bytes.fromhex("ffd9")
 
 
@@ -35,7 +39,7 @@ def _kp(**over):
     Keypoints("cam01", 3, 10**18, "halpe26", [[[1.0, 2.0, 0.5]] * 26, [[3.0, 4.0, 1.0]] * 26], 2.0),
     CameraStatus("cam01", "camera-0", "running", "ok", fps=29.9, frames=3, last_frame_id=2, time_ns=5,
                  extra={"serial": "123"}),
-    RecorderStart("t-1", "t-1/recording.mcap", {"patient": "P1"}, "[cam]", ["cam01"]),
+    RecorderStart("t-1", "t-1/recording.mcap", {"patient": "P1"}, CALIBRATION, ["cam0", "cam1"]),
     RecorderStop("t-1"),
     RecorderReply(ok=False, error="no"),
     RecorderEvent("stopped", "t-1", "/d/t.mcap", 7, summary={"frames": 3}),
@@ -95,6 +99,27 @@ def test_control_messages_are_bounded():
     with pytest.raises(ValueError, match="worker progress.progress"):
         WorkerProgress("t1", "processing", "fit", 1.5, "w", 1)
     assert MAX_FRAME_ID == 2**31 - 1
+
+
+def test_the_calibration_travels_as_its_own_field():
+    start = RecorderStart("t-1", "t-1/recording.mcap", {"patient": "P1"}, calibration_toml=CALIBRATION)
+    back = RecorderStart.from_bytes(start.to_bytes())
+    assert back.calibration_toml == CALIBRATION and back.metadata == {"patient": "P1"}
+    assert rig_from_toml_text(back.calibration_toml).names == ["cam0", "cam1"]
+    assert RecorderStart("t-1", "t-1.mcap").calibration_toml is None
+
+
+@pytest.mark.parametrize("value,match", [
+    ("", "must be a calibration TOML of 1 to"),
+    (42, "must be a calibration TOML of 1 to"),
+    ("#" * (MAX_CALIBRATION_BYTES + 1), "must be a calibration TOML of 1 to"),
+    ("[cam_0\n", "not valid TOML"),
+    ("title = 'no cameras'\n", "no camera sections"),
+])
+def test_a_bad_calibration_is_refused_naming_the_field(value, match):
+    payload = json.dumps({"trial_id": "t1", "path": "t1.mcap", "calibration_toml": value}).encode()
+    with pytest.raises(ValueError, match=f"recorder start.calibration_toml.*{match}"):
+        RecorderStart.from_bytes(payload)
 
 
 def test_recorder_paths_are_confined_to_the_data_folder(tmp_path):

@@ -40,7 +40,8 @@ def test_gait_command_bad_input(tmp_path):
 
 
 def test_gait_command_with_walkway(tmp_path):
-    from gaitcap.reconstruction.gait.walkway import Similarity2D, WalkwayTrial, write_walkway_csv
+    from gaitcap.acquisition.writers import write_walkway_csv
+    from gaitcap.reconstruction.gait.walkway import Similarity2D, WalkwayTrial
 
     walk = make_walk(segments=(("line", 5000), ("arc", 500, 180), ("line", 3200)))
     npz = tmp_path / "t1.npz"

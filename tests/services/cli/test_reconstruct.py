@@ -1,7 +1,7 @@
 import json
 
 import numpy as np
-from gaitcap.reconstruction.calibration_io import save_rig
+from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.services.cli import app

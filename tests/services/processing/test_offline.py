@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from gaitcap.acquisition.keypoint_files import read_keypoints_input
-from gaitcap.reconstruction.calibration_io import save_rig
+from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.services.cli import app
 from gaitcap.services.processing.pipeline import patient_input, preliminary, resolve_layout

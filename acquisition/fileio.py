@@ -1,7 +1,9 @@
 """Writing files so that a crash never leaves a half-written one: the one atomic writer of gaitcap.
 
 Everything that writes a result, calibration, export or recording copy goes through :func:`atomic_path`
-(a temporary name in the same folder, renamed onto the target on success, removed on failure).
+(a temporary name in the same folder, renamed onto the target on success, removed on failure). It lives in
+``acquisition/``, the lowest layer that does I/O, so the recorder, the synthetic world and every service use
+the same one; ``reconstruction/`` writes no files.
 """
 
 from __future__ import annotations
@@ -11,6 +13,8 @@ import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+
+import numpy as np
 
 
 @contextlib.contextmanager
@@ -45,4 +49,11 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     with atomic_path(path) as tmp:
         with open(tmp, "w", newline="") as f:
             f.write(text)
+    return Path(path)
+
+
+def atomic_savez(path: str | os.PathLike, **arrays: np.ndarray) -> Path:
+    """Write ``arrays`` as an uncompressed NPZ file at ``path`` atomically; returns the path."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, **arrays)
     return Path(path)

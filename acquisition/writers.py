@@ -1,0 +1,56 @@
+"""Writing the files that ``reconstruction/`` computes and reads: calibrations, reconstructions, keypoints,
+walkway exports. ``reconstruction/`` stays pure (it builds the text or arrays and parses files, never
+writes one); every writer here goes through the one atomic writer, :mod:`gaitcap.acquisition.fileio`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gaitcap.acquisition.fileio import atomic_savez, atomic_write_text
+from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.association.npz_io import KEYS
+from gaitcap.reconstruction.calibration_io import rig_to_text
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.gait.walkway import WalkwayTrial, walkway_csv_text
+from gaitcap.reconstruction.result import Reconstruction
+
+
+def save_rig(rig: Rig, path: str | os.PathLike, *, metadata: dict[str, Any] | None = None) -> Path:
+    """Write a calibration; the format follows the suffix (.toml: aniposelib, metres; .json: gaitcap, mm)."""
+    path = Path(path)
+    return atomic_write_text(path, rig_to_text(rig, suffix=path.suffix, metadata=metadata, where=str(path)))
+
+
+def save_reconstruction_npz(rec: Reconstruction, path: str | os.PathLike) -> Path:
+    """Write ``points_mm``, ``times_s``, ``joint_names``, ``camera_names``, ``camera_weights``, ``quality`` and
+    ``method`` (read back by :func:`gaitcap.reconstruction.result.load_npz`)."""
+    return atomic_savez(path, points_mm=rec.points_mm, times_s=rec.times_s, joint_names=np.array(rec.joint_names),
+                        camera_names=np.array(rec.camera_names), camera_weights=rec.camera_weights,
+                        quality=rec.quality, method=np.array(rec.method))
+
+
+def save_multi_npz(multi: MultiPersonDetections, path: str | os.PathLike) -> Path:
+    """Write a multi-person keypoint file (read by :func:`gaitcap.reconstruction.association.npz_io.load_multi_npz`)."""
+    return atomic_savez(path, keypoints=multi.keypoints, camera_names=np.array(multi.camera_names),
+                        times_s=multi.times_s, skeleton=np.array(multi.skeleton.name))
+
+
+def save_detections_npz(detections: Detections, path: str | os.PathLike, **extra: np.ndarray) -> Path:
+    """Write one person's detections plus ``extra`` arrays (e.g. ``track_id``; read by
+    :func:`gaitcap.reconstruction.association.npz_io.load_detections_npz`)."""
+    clash = sorted(set(extra) & set(KEYS))
+    if clash:
+        raise ValueError(f"extra arrays may not be named {clash}")
+    return atomic_savez(path, keypoints=detections.keypoints, camera_names=np.array(detections.camera_names),
+                        times_s=detections.times_s, skeleton=np.array(detections.skeleton.name), **extra)
+
+
+def write_walkway_csv(trials: Sequence[WalkwayTrial], path: str | os.PathLike) -> Path:
+    """Write trials in the walkway CSV format (read by :func:`gaitcap.reconstruction.gait.walkway.read_walkway_csv`)."""
+    return atomic_write_text(path, walkway_csv_text(trials))
