@@ -68,7 +68,6 @@ class Settings:
     backup_interval_s: float = 6 * 3600  # SQLite catalog backups (0: none) into DATA_DIR/backups ...
     backup_keep: int = 28  # ... the newest this many kept
     subject_id_pattern: str = DEFAULT_PATTERN  # a patient id must match it (and look like no name or date)
-    extra: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for token in self.tokens:

@@ -12,7 +12,6 @@ topic                         encoding   schema                            log_t
 ``/keypoints/<cam>``          json       ``gaitcap.Keypoints2D``           camera timestamp ns / frame id
 ``/trial/metadata``           json       ``gaitcap.TrialMetadata``         trial start
 ``/trial/calibration``        json       ``gaitcap.Calibration``           trial start
-``/recorder/events``          json       ``gaitcap.RecorderEvent``         event time
 ============================  =========  ================================  =========================
 
 The annotations (keypoints drawn: points coloured by confidence, bones, person labels) and the camera
@@ -41,7 +40,6 @@ PROFILE = "gaitcap"
 
 TRIAL_METADATA_TOPIC = "/trial/metadata"
 CALIBRATION_TOPIC = "/trial/calibration"
-EVENTS_TOPIC = "/recorder/events"
 CALIBRATION_ATTACHMENT = "calibration.toml"
 TRIAL_METADATA_RECORD = "trial"
 SUMMARY_RECORD = "summary"
@@ -120,7 +118,6 @@ _JSON_SCHEMAS = {
         "type": "object",
         "properties": {"format": {"type": "string"}, "toml": {"type": "string"}},
     },
-    "gaitcap.RecorderEvent": {"type": "object", "properties": {"event": {"type": "string"}}},
 }
 
 
@@ -154,7 +151,6 @@ def schema_of_topic(topic: str) -> str:
     fixed = {
         TRIAL_METADATA_TOPIC: "gaitcap.TrialMetadata",
         CALIBRATION_TOPIC: "gaitcap.Calibration",
-        EVENTS_TOPIC: "gaitcap.RecorderEvent",
     }
     if topic not in fixed:
         raise ValueError(f"topic {topic!r} is not part of the trial layout")

@@ -150,9 +150,6 @@ class TrialWriter:
     def add_status(self, camera: str, status: dict[str, Any] | bytes, *, time_ns: int) -> None:
         self._json(layout.status_topic(camera), status, time_ns)
 
-    def add_event(self, event: dict[str, Any], *, time_ns: int) -> None:
-        self._json(layout.EVENTS_TOPIC, event, time_ns)
-
     # -- flushing -------------------------------------------------------------------------------
     def maybe_flush(self, now_s: float | None = None) -> None:
         """Flush when ``flush_interval_s`` has passed since the last flush."""

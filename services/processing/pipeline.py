@@ -51,19 +51,9 @@ class Trajectory:
     elapsed_s: float = 0.0
 
 
-def load_recording(mcap_path: Path, *, fallback_calibration: Path | None = None) -> tuple[Detections, Rig]:
-    """The patient's 2D detections and the rig's calibration from a trial MCAP.
-
-    The calibration recorded in the MCAP is used; ``fallback_calibration`` (TOML/JSON) when it has none.
-    """
-    from gaitcap.acquisition.recording.reader import read_detections
-
-    return read_detections(mcap_path), recorded_rig(mcap_path, fallback_calibration=fallback_calibration)
-
-
 def load_keypoints(mcap_path: Path, *, fallback_calibration: Path | None = None):
     """Everyone's 2D keypoints (a ``KeypointRecording``, (C, T, P, J, 3)) and the rig from a trial MCAP;
-    ``.patient()`` of it is what :func:`load_recording` returns."""
+    ``.patient()`` of it: the patient's detections."""
     from gaitcap.acquisition.recording.reader import read_keypoints
 
     return read_keypoints(mcap_path), recorded_rig(mcap_path, fallback_calibration=fallback_calibration)
