@@ -205,7 +205,8 @@ def _assemble(cams, sets, timed, finds, sizes, probes, board, pairing) -> BoardD
             if i != MISSING:
                 cam_t[c, k] = cams[c].times_ns[i] * 1e-9 if timed else float(i)
     set_t = np.nanmedian(cam_t, axis=0) if cam_t.size else np.zeros(0)  # every set holds a frame
-    moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px) if timed else np.zeros(cam_t.shape, bool)
+    moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px, readout_s=pairing.readout_ms / 1000,
+                          max_fraction=pairing.max_moving_fraction) if timed else np.zeros(cam_t.shape, bool)
     times_s = set_t - np.nanmin(set_t) if timed and set_t.size else np.nanmin(cam_t, axis=0)
     corners, times_s = split_moving(corners, times_s, moving)
     missing = [c.name for i, c in enumerate(cams) if i not in sizes]

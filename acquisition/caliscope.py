@@ -128,7 +128,8 @@ def read_points(
                 corners[c, s, pid] = uv
             cam_t[c, s] = frame["t"]
     set_t = np.nanmedian(cam_t, axis=0)
-    moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px) if timed else np.zeros(cam_t.shape, bool)
+    moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px, readout_s=pairing.readout_ms / 1000,
+                          max_fraction=pairing.max_moving_fraction) if timed else np.zeros(cam_t.shape, bool)
     corners, times_s = split_moving(corners, set_t - set_t.min(), moving)
     obs = BoardObservations(tuple(names), tuple(tuple(image_sizes_px[n]) for n in names), corners, geometry,
                             times_s)

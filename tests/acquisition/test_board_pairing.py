@@ -42,3 +42,28 @@ def test_speed_and_moving_views():
     assert not moving_views(cams, times, t + 0.002, max_shift_px=1.0).any()
     times = np.stack([t, t + 0.02])  # 20 ms: 2 px each side
     assert moving_views(cams, times, t + 0.01, max_shift_px=1.0)[:, [0, 1, 3, 4]].all()
+
+
+def test_readout_marks_moving_views_of_synchronised_cameras_but_never_most_of_a_camera():
+    t = np.arange(7) * 0.1
+    corners = np.zeros((7, 4, 2))
+    step = np.array([0.0, 1.0, 2.0, 30.0, 60.0, 90.0, 91.0])  # px: a view's speed: to its slower neighbour
+    corners[:, :, 0] = step[:, None]
+    cams = np.stack([corners, corners])
+    times = np.stack([t, t])  # synchronised: no offset at all
+    assert not moving_views(cams, times, t, max_shift_px=1.0).any()
+    # a 20 ms rolling-shutter readout: views faster than 50 px/s (1 px in 20 ms) are taken out
+    moving = moving_views(cams, times, t, max_shift_px=1.0, readout_s=0.02)
+    assert moving[0].tolist() == [False, False, False, True, True, False, False]  # 280 and 300 px/s
+    capped = moving_views(cams, times, t, max_shift_px=1.0, readout_s=0.02, max_fraction=0.2)
+    assert capped.sum(1).tolist() == [1, 1] and capped[0, 4]  # one of 7 views at most: the fastest
+
+
+def test_pairing_config_names_bad_values():
+    import pytest
+    from gaitcap.acquisition.board_pairing import PairingConfig
+
+    with pytest.raises(ValueError, match="readout_ms"):
+        PairingConfig(readout_ms=-1)
+    with pytest.raises(ValueError, match="max_moving_fraction"):
+        PairingConfig(max_moving_fraction=1.5)
