@@ -90,7 +90,7 @@ def register(app: typer.Typer) -> None:
         board_file: Path | None = BOARD_FILE, board: str | None = KIND, squares: str | None = SQUARES,
         square_mm: float | None = SQUARE_MM, marker_mm: float | None = MARKER_MM,
         dictionary: str | None = DICTIONARY, inverted: bool | None = INVERTED, legacy: bool | None = LEGACY,
-        distortion: str = typer.Option("k1", "--distortion", help="Distortion terms: k1 (the paper's) | k1k2p1p2k3."),
+        distortion: str = typer.Option("k1", "--distortion", help="Distortion terms: k1 (the paper's) | k1k2 | k1k2p1p2k3."),
         every: int = typer.Option(1, "--every", help="Use every N-th frame."),
         max_frames: int | None = typer.Option(None, "--max-frames", help="Use at most this many frames."),
         floor_frame: int | None = typer.Option(None, "--floor-frame", help="Index, among the frames where the board was found, of one with the board on the floor (default 0)."),
@@ -98,6 +98,7 @@ def register(app: typer.Typer) -> None:
         compare: Path | None = typer.Option(None, "--compare", help="A reference calibration (the last one, or a simulation's truth) to compare the new one with."),
         intrinsics: Path | None = typer.Option(None, "--intrinsics", help="Keep these cameras' intrinsics (a calibration: .toml, .json, .qca.txt or caliscope's camera_array.toml, e.g. from a separate intrinsics session); estimate only the poses."),
         sync_tolerance_ms: float | None = typer.Option(None, "--sync-tolerance-ms", help="Pair frames of different cameras closer than this in time (default: half a frame interval)."),
+        readout_ms: float = typer.Option(0.0, "--readout-ms", help="Rolling-shutter readout of the cameras, ms (webcams: about 20): views whose board moved more than 1 px meanwhile tie no cameras together."),
         accept_failed: bool = typer.Option(False, "--accept-failed", help="Write the calibration even when a camera fails the quality checks."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
@@ -132,7 +133,7 @@ def register(app: typer.Typer) -> None:
             )
             with progress(desc="finding the board", unit="img") as bar:
                 cfg, obs, found, what = _views(recording, cfg, flags_given, FrameSelection(every, max_frames),
-                                               PairingConfig(tolerance_ms=sync_tolerance_ms),
+                                               PairingConfig(tolerance_ms=sync_tolerance_ms, readout_ms=readout_ms),
                                                lambda done, total: bar.update(1))
             typer.echo(f"board {cfg.describe()}: {what}", err=True)
             if found is not None:
