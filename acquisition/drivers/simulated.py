@@ -5,9 +5,10 @@ renders frame ``i`` at the chosen resolution and frame rate and stamps it with t
 
     timestamp_ns = start_ns + i * period_ns + clock_offsets_ns[c] + jitter_ns[c, i]
 
-A realtime camera started at a time already past joins a rig that has been running since then: frame
-ids still count from that start, and the frames due before it was started are not delivered (several
-camera processes, or one restarted, keep one frame count; :func:`cycle_start_ns`).
+A realtime camera with :attr:`SimulatedCamera.join_running` set and started at a time already past joins
+a rig that has been running since then: frame ids still count from that start, and the frames due before
+it was started are not delivered (several camera processes, or one restarted, keep one frame count;
+:func:`cycle_start_ns`). Without it every frame from the start is delivered, late ones at once.
 
 Optional faults: dropped frame ids (the id is skipped, as a real camera's counter would) and a camera that
 stops after a given frame id (the iterator ends and the status says ``error``). The ground truth of a
@@ -93,6 +94,7 @@ class SimulatedCamera:
         self._status = DriverStatus(camera=self.name)
         self._start_ns: int | None = None
         self._first_id = 0  # the first frame id delivered (> 0: joined a rig running since _start_ns)
+        self.join_running = False  # a start already past: skip the frames due before now (see the module)
         self._stopped = False
         # (SceneSwitch, BoardScene) of gaitcap.acquisition.synthetic.board_scene: show a calibration board instead
         self.scene: tuple[Any, Any] | None = None
@@ -125,7 +127,7 @@ class SimulatedCamera:
             raise ValueError(f"camera {self.name}: start() in state {self._status.state}")
         now = time.time_ns()
         self._start_ns = now if at_ns is None else int(at_ns)
-        late_ns = now - self._start_ns if self.realtime else 0
+        late_ns = now - self._start_ns if self.realtime and self.join_running else 0
         self._first_id = max(0, late_ns // self._settings.period_ns)  # frames due before now are not delivered
         self._stopped = False
         self._status.state = "running"

@@ -21,7 +21,9 @@ def _flat(trial, camera_index, frame_index, size_px):
 
 
 def test_a_camera_started_late_joins_the_running_rig_on_its_frame_count(trial):
-    early, late = simulated_rig(trial, size_px=(32, 24), render=_flat, max_frames=75, cameras=["cam01", "cam02"])
+    early, late, behind = simulated_rig(trial, size_px=(32, 24), render=_flat, max_frames=75,
+                                        cameras=["cam01", "cam02", "cam03"])
+    late.join_running = True
     start = time.time_ns() + 100_000_000
     early.start(start)
     first = next(early.frames())
@@ -37,6 +39,8 @@ def test_a_camera_started_late_joins_the_running_rig_on_its_frame_count(trial):
     rest = [f.frame_id for f in frames]
     assert rest == list(range(joined.frame_id + 1, 75)) and late.status().drops == 0
     assert 20 < late.status().fps() < 40  # its rate counts from when it joined, not from the rig's start
+    behind.start(start)  # not joining: every frame from the start, the late ones at once
+    assert next(behind.frames()).frame_id == 0
 
 
 def test_cycle_start_is_shared_by_processes_started_at_different_times():
