@@ -18,6 +18,7 @@ Layers (the repository's folders, installed as ``gaitcap.<layer>``):
 """
 
 import ast
+import functools
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -101,6 +102,12 @@ def _graph(modules: dict[str, Path]) -> dict[str, set[str]]:
                 deps.add(imported)
         graph[name] = deps
     return graph
+
+
+@functools.lru_cache(maxsize=1)
+def _tree_graph() -> dict[str, set[str]]:
+    """The repository's import graph, built once for the tests that read it."""
+    return _graph(_modules())
 
 
 def _within(name: str, prefix: str) -> bool:
@@ -197,19 +204,19 @@ def _generic_imports(path: Path) -> set[str]:
 
 
 def test_every_layer_rule_holds():
-    graph = _graph(_modules())
+    graph = _tree_graph()
     assert len(graph) > 100, "the layer folders were not found"
     violations = _violations(graph)
     assert not violations, "layer rules broken:\n" + "\n".join(violations)
 
 
 def test_no_import_cycles():
-    cycles = _cycles(_graph(_modules()))
+    cycles = _cycles(_tree_graph())
     assert not cycles, f"import cycles: {cycles}"
 
 
 def test_production_code_never_reaches_the_simulator():
-    graph = _graph(_modules())
+    graph = _tree_graph()
     assert "gaitcap.services.nodes.camera" in graph and "gaitcap.services.nodes.sim_scene" in graph
     assert any(_within(d, SIMULATOR[0]) for d in graph["gaitcap.services.nodes.sim_scene"])
     reached = _simulator_reached(graph)
