@@ -47,12 +47,6 @@ def _out(c: cals.CalibrationInfo, active_id: str | None) -> dict:
             "report": c.report, "has_toml": c.has_toml}
 
 
-def _show_scene(link, scene: str, start_ns: int) -> None:
-    show = getattr(link, "show_scene", None)  # only the bus link can switch the simulated cameras
-    if show is not None:
-        show(scene, start_ns=start_ns)
-
-
 def _active_id(db) -> str | None:
     latest = cat.latest_calibration(db)
     return latest[0] if latest else None
@@ -119,7 +113,7 @@ def record_start(request: Request, user: str = Depends(require_user)) -> dict:
     except RecorderUnavailable as exc:
         cals.update_calibration(db, c.id, state="failed", stage="", error=f"recorder: {exc}")
         raise HTTPException(status_code=503, detail=f"recorder: {exc}") from None
-    _show_scene(link, "board", time.time_ns() + int(SCENE_LEAD_S * 1e9))
+    request.app.state.scene.show("board", start_ns=time.time_ns() + int(SCENE_LEAD_S * 1e9))
     return _out(cals.get_calibration(db, c.id), _active_id(db))
 
 
@@ -129,7 +123,7 @@ def record_stop(request: Request, user: str = Depends(require_user)) -> dict:
     c = cals.current_board_recording(db)
     if c is None:
         raise HTTPException(status_code=409, detail="no board recording is under way")
-    _show_scene(link, "walker", time.time_ns())
+    request.app.state.scene.show("walker", start_ns=time.time_ns())
     cat.audit(db, actor=user, action="calibrate stop", detail=c.id)
     try:
         summary = link.stop(c.id)
