@@ -22,6 +22,8 @@ def register(app: typer.Typer) -> None:
         port: int = typer.Option(8000, "--port", help="Web page / API port on 127.0.0.1."),
         bus_port: int = typer.Option(7447, "--bus-port", help="First bus port (one per node, on 127.0.0.1)."),
         cameras: int = typer.Option(10, "--cameras", help="Simulated cameras."),
+        camera_nodes: int = typer.Option(1, "--camera-nodes", help="Processes the simulated cameras are dealt to "
+                                         "(more: headroom on a busy machine; one synchronised frame count)."),
         size: str = typer.Option("240x180", "--size", help="Simulated image size WIDTHxHEIGHT (px)."),
         workers: int = typer.Option(1, "--workers", help="Reconstruction workers."),
         board_clip: str = typer.Option("short", "--board-clip", help="Board shown on Calibrate: short (6 s) | full (60 s; "
@@ -41,8 +43,8 @@ def register(app: typer.Typer) -> None:
 
         with user_errors():
             cfg = StackConfig(data_dir=data_dir, token=new_token(), port=port, bus_base_port=bus_port,
-                              cameras=cameras, size=size, workers=workers, refine=refine, sim_people=people,
-                              board_clip=board_clip)
+                              cameras=cameras, camera_nodes=camera_nodes, size=size, workers=workers, refine=refine,
+                              sim_people=people, board_clip=board_clip)
         logging.getLogger("httpx").setLevel(logging.WARNING)
         stack = Stack(cfg)
         stop = threading.Event()

@@ -61,6 +61,9 @@ def camera_cmd(
     fps: float = typer.Option(30.0, "--fps", help="Frame rate, frames/s."),
     jpeg_quality: int = typer.Option(90, "--jpeg-quality"),
     start_at_ns: int | None = typer.Option(None, "--start-at-ns", help="Synchronised start, wall clock ns."),
+    cycle_epoch_ns: int | None = typer.Option(
+        None, "--cycle-epoch-ns", help="Simulated: start on the walk's grid EPOCH + k x its length (wall clock ns), "
+        "joining the current play-through, so several camera processes share one frame count."),
     sim_preset: str = typer.Option("paper", "--sim-preset", help="Synthetic noise preset."),
     sim_seconds: float = typer.Option(6.0, "--sim-seconds", help="Synthetic trial length, s (>= 5)."),
     sim_cameras: int = typer.Option(10, "--sim-cameras"),
@@ -104,6 +107,8 @@ def camera_cmd(
 
         board_scene_config(board_clip)  # a wrong name fails here, cleanly
         drivers = builders[source]().build()
+        if cycle_epoch_ns is not None:
+            start_at_ns = _join_walk(source, drivers, cycle_epoch_ns)
         cfg = default_bus_config(bus)
         session = open_session(cfg, node)
     stopper = _stop_event()
@@ -118,6 +123,22 @@ def camera_cmd(
         if scene_sub is not None:
             scene_sub.undeclare()
         session.close()
+
+
+def _join_walk(source: str, drivers, epoch_ns: int) -> int:
+    """Set the simulated cameras to join the walk where it is; returns the start (wall clock ns) of its
+    current play-through on its grid from ``epoch_ns``."""
+    import time
+
+    from gaitcap.acquisition.drivers.simulated import cycle_start_ns
+
+    if source != "simulated":
+        raise ValueError(f"--cycle-epoch-ns: only for --source simulated, not {source}")
+    for d in drivers:
+        d.join_running = True  # the walk may have been playing for a while: join it where it is
+    first = drivers[0]
+    return cycle_start_ns(epoch_ns=epoch_ns, cycle_ns=first.num_frames() * first.settings.period_ns,
+                          now_ns=time.time_ns())
 
 
 def _param(text: str) -> tuple[str, object]:

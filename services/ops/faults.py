@@ -140,13 +140,18 @@ def recorder_killed(drill: Drill) -> FaultResult:
     return drill.result("recorder SIGKILL mid-trial", tid, detect, saw_recovery=bool(saw))
 
 
+def _kill_cameras(drill: Drill) -> None:
+    for node in drill.stack.cfg.camera_node_names():
+        drill.stack.supervisor.kill(node)
+
+
 def camera_killed(drill: Drill) -> FaultResult:
-    """SIGKILL the camera node mid-trial (every simulated camera): /health says so; the supervisor restarts
-    it and its frames resume within the trial, counters started again; the trial is kept and flagged."""
+    """SIGKILL the camera nodes mid-trial (every simulated camera): /health says so; the supervisor restarts
+    them and their frames resume within the trial, counters started again; the trial is kept and flagged."""
     tid = drill.start("P0903")
     time.sleep(4)
     t0 = time.monotonic()
-    drill.stack.supervisor.kill("camera-0")
+    _kill_cameras(drill)
     detect = _time_until(drill, lambda: not drill.healthy("cameras"), "/health to report the cameras", t0)
     drill.wait(lambda: drill.healthy("cameras"), "the cameras to come back", 120)
     time.sleep(3)
@@ -158,7 +163,7 @@ def cameras_down_at_start(drill: Drill) -> FaultResult:
     """Every camera down: Start is refused with the reason (no trial), until the cameras are back."""
     drill.wait(lambda: drill.healthy("cameras"), "the cameras", 90)
     t0 = time.monotonic()
-    drill.stack.supervisor.kill("camera-0")
+    _kill_cameras(drill)
     detect = _time_until(drill, lambda: not drill.healthy("cameras"), "/health to report the cameras", t0)
     r = drill.client.post("/trials", json={"subject_id": "P0904"})
     refused = r.status_code == 409 and "Start refused" in r.json().get("detail", "")

@@ -1,13 +1,15 @@
 """The whole gaitcap stack as real processes on one machine, on embedded defaults.
 
-Simulated camera rig (one camera node for all cameras), simulated detector, recorder, worker(s) and the
-API, all Zenoh peers on 127.0.0.1 with explicit endpoints (a bus file written into the data folder), the
-catalog in ``<data_dir>/catalog.sqlite``, each process's log in ``<data_dir>/logs/``. :class:`Stack`
-starts them, waits until cameras, keypoints, worker and API are ready, restarts a process that dies
-(a supervising thread), and stops everything on exit.
+Simulated camera rig (``camera_nodes`` camera processes, each rendering a share of the cameras),
+simulated detector, recorder, worker(s) and the API, all Zenoh peers on 127.0.0.1 with explicit endpoints
+(a bus file written into the data folder), the catalog in ``<data_dir>/catalog.sqlite``, each process's
+log in ``<data_dir>/logs/``. :class:`Stack` starts them, waits until cameras, keypoints, worker and API
+are ready, restarts a process that dies (a supervising thread), and stops everything on exit.
 
-The simulated world is a ``sim_seconds`` long walk in the paper's room; the camera node plays it once
-and is restarted when it ends (the world starts over).
+The simulated world is a ``sim_seconds`` long walk in the paper's room; a camera process plays it once
+and is restarted when it ends (the world starts over). Several camera processes start on the walk's grid
+from the stack's start (``--cycle-epoch-ns``), so they, also a restarted one joining mid-walk, count frame
+ids from one synchronised start.
 """
 
 from __future__ import annotations
@@ -33,7 +35,9 @@ CLI = (sys.executable, "-c", "from gaitcap.services.cli import main; main()")
 @dataclass(frozen=True)
 class StackConfig:
     """Where and how the stack runs. Ports: API ``port``; bus nodes ``bus_base_port`` and up. ``token`` is
-    the password of the stack's ``demo`` account (every role), made in ``data_dir/accounts.json``."""
+    the password of the stack's ``demo`` account (every role), made in ``data_dir/accounts.json``.
+    ``camera_nodes``: processes the simulated cameras are dealt to (one holds 10 x 30 fps at 240x180 px on
+    a loaded 2-core machine; more give it headroom)."""
 
     data_dir: Path = DEMO_DATA_DIR
     token: str = ""
@@ -41,6 +45,7 @@ class StackConfig:
     port: int = 8000
     bus_base_port: int = 7447
     cameras: int = 10
+    camera_nodes: int = 1
     size: str = "240x180"
     fps: float = 30.0
     sim_preset: str = "paper"
@@ -60,6 +65,8 @@ class StackConfig:
             raise ValueError("token: the demo account's password needs at least 12 characters")
         if not 2 <= self.cameras <= 64:
             raise ValueError(f"cameras: need 2..64 cameras, got {self.cameras}")
+        if not 1 <= self.camera_nodes <= self.cameras:
+            raise ValueError(f"camera_nodes: need 1..{self.cameras} camera processes, got {self.camera_nodes}")
         if not 1 <= self.workers <= 8:
             raise ValueError(f"workers: need 1..8 workers, got {self.workers}")
         from gaitcap.acquisition.synthetic.board_scene import board_scene_config
@@ -80,6 +87,16 @@ class StackConfig:
 
     def worker_names(self) -> list[str]:
         return [f"worker-{i}" for i in range(self.workers)]
+
+    def camera_node_names(self) -> list[str]:
+        return [f"camera-{i}" for i in range(self.camera_nodes)]
+
+    def camera_shares(self) -> dict[str, list[str]]:
+        """Camera process -> the simulated cameras it runs (cam01.. dealt in turn)."""
+        from gaitcap.acquisition.synthetic.room import build_rig
+
+        names = build_rig(self.cameras).names
+        return {node: list(names[i :: self.camera_nodes]) for i, node in enumerate(self.camera_node_names())}
 
 
 def free_port_range(n: int, *, low: int = 20000, high: int = 60000) -> int:
@@ -103,7 +120,7 @@ def free_port_range(n: int, *, low: int = 20000, high: int = 60000) -> int:
 def bus_config(cfg: StackConfig):
     from gaitcap.services.bus.session import BusConfig
 
-    nodes = ("recorder", "detector", "api", "camera-0", *cfg.worker_names())
+    nodes = ("recorder", "detector", "api", *cfg.camera_node_names(), *cfg.worker_names())
     return BusConfig.local(cfg.bus_base_port, nodes=nodes)
 
 
@@ -112,17 +129,23 @@ def _sim_args(cfg: StackConfig) -> list[str]:
             str(cfg.cameras), "--sim-seed", str(cfg.seed), "--fps", str(cfg.fps), "--sim-people", str(cfg.sim_people)]
 
 
-def process_specs(cfg: StackConfig) -> list[ProcessSpec]:
-    """The processes of the stack, in start order."""
+def process_specs(cfg: StackConfig, *, epoch_ns: int | None = None) -> list[ProcessSpec]:
+    """The processes of the stack, in start order; ``epoch_ns``: the camera processes' synchronised start
+    (wall clock ns; None: each its own)."""
     data = str(Path(cfg.data_dir).resolve())
     specs = [
         ProcessSpec("recorder", (*CLI, "node", "recorder", "--node", "recorder"), ready_text="ready"),
         ProcessSpec("detector", (*CLI, "node", "detector", "--node", "detector", "--detector", "simulated",
                                  *_sim_args(cfg))),
-        # The simulated cameras stand in for camera hardware: rendering them must not slow processing.
-        ProcessSpec("camera-0", (*CLI, "node", "camera", "--node", "camera-0", "--source", "simulated",
-                                 "--size", cfg.size, "--board-clip", cfg.board_clip, *_sim_args(cfg)), nice=cfg.camera_nice),
     ]
+    # several camera processes share one frame count on the walk's grid (one process: its own start, and a
+    # restarted one starts its counter again, as camera hardware does)
+    epoch = ["--cycle-epoch-ns", str(int(epoch_ns))] if epoch_ns is not None and cfg.camera_nodes > 1 else []
+    for node, cameras in cfg.camera_shares().items():
+        # The simulated cameras stand in for camera hardware: rendering them must not slow processing.
+        specs.append(ProcessSpec(node, (*CLI, "node", "camera", "--node", node, "--source", "simulated", "--cameras",
+                                        ",".join(cameras), "--size", cfg.size, "--board-clip", cfg.board_clip,
+                                        *_sim_args(cfg), *epoch), nice=cfg.camera_nice))
     for name in cfg.worker_names():
         argv = [*CLI, "worker", "--node", name, "--id", name, "--data-dir", data, "--catalog", cfg.catalog,
                 "--lease", str(cfg.lease_s)]
@@ -159,6 +182,7 @@ class Stack:
         self.data_dir = Path(cfg.data_dir).resolve()
         self.bus = bus_config(cfg)
         self.bus_file = self.data_dir / "bus.json"
+        self.epoch_ns = time.time_ns()  # the camera processes' synchronised start
         self.supervisor = Supervisor(self.data_dir / "logs")
         self._stop_supervising = threading.Event()
         self._supervising: threading.Thread | None = None
@@ -189,7 +213,7 @@ class Stack:
                "GAITCAP_DATA_DIR": str(self.data_dir), "GAITCAP_CATALOG": self.cfg.catalog, **self.cfg.extra_env}
         self.supervisor.base_env.update(env)
         try:
-            for spec in process_specs(self.cfg):
+            for spec in process_specs(self.cfg, epoch_ns=self.epoch_ns):
                 self.supervisor.start(spec)
             self.wait_ready(timeout_s=timeout_s)
         except BaseException:
