@@ -172,10 +172,14 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
         raise ValueError("recording_quality: recorded_frames needs the keypoints' frame_ids")
     nominal = nominal_fps_of(stamps)
     first_id = int(frame_ids[0]) if frame_ids is not None and len(frame_ids) else 0
-    ids = [first_id, first_id + stamps.shape[1] - 1] + [int(v) for f in images.values() if f.size for v in (f[0], f[-1])]
-    lo, hi = min(ids), max(ids)
-    grid = np.full((stamps.shape[0], hi - lo + 1), -1, dtype=np.int64)  # keypoint stamps on the frame grid
-    grid[:, first_id - lo : first_id - lo + stamps.shape[1]] = stamps
+    bounds = [(int(f[0]), int(f[-1])) for f in images.values() if f.size]
+    # the recording's frames: from the first recorded image (keypoints of frames before Start do not count)
+    lo = min(b[0] for b in bounds) if bounds else first_id
+    hi = max([first_id + stamps.shape[1] - 1] + [b[1] for b in bounds])
+    grid = np.full((stamps.shape[0], max(1, hi - lo + 1)), -1, dtype=np.int64)  # keypoint stamps on the grid
+    kept = stamps[:, max(0, lo - first_id) :]
+    at = max(0, first_id - lo)
+    grid[:, at : at + kept.shape[1]] = kept[:, : grid.shape[1] - at]
     t0 = float(stamps[stamps >= 0].min()) - (first_id - lo) * 1e9 / nominal if (stamps >= 0).any() else 0.0
     # the last TAIL_S are not judged per camera: keypoints of the frames just before Stop may still have
     # been on their way (detector latency differs between cameras)

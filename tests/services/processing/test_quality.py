@@ -182,3 +182,10 @@ def test_a_camera_with_images_but_no_keypoints_is_named_after_the_fit_too():
     with pytest.raises(ValueError, match="frame_ids"):
         recording_quality(camera_names=NAMES, timestamps_ns=_stamps(), patient_confidence=None,
                           recorded_frames={"cam0": np.arange(3)})
+
+
+def test_keypoints_of_frames_before_the_first_image_do_not_count():
+    stamps = _stamps()  # keypoints from FIRST_ID; the recorder's images only from FIRST_ID + 5 (Start)
+    q = _with_images(stamps, {n: list(range(FIRST_ID + 5, FIRST_ID + T)) for n in NAMES})
+    assert q.warnings == () and q.duration_s == pytest.approx((T - 5) / FPS, abs=0.01)
+    assert all(c.lost == 0 and c.without_keypoints == 0 and c.first_s == 0.0 for c in q.cameras)
