@@ -1,4 +1,5 @@
-"""``gaitcap worker``: the reconstruction worker (takes recorded trials from the catalog's job table)."""
+"""``gaitcap worker``: the worker (takes jobs from the catalog's job table: recorded trials to process,
+board recordings to calibrate)."""
 
 from __future__ import annotations
 
@@ -27,7 +28,8 @@ def register(app: typer.Typer) -> None:
         rerun_images_hz: float = typer.Option(5.0, "--rerun-images-hz",
                                               help="Images per second and camera in the trial's .rrd (0: none)."),
     ) -> None:
-        """Process recorded trials: preliminary then refined gait metrics, files, progress on the bus."""
+        """Process recorded trials (preliminary then refined gait metrics, files, progress on the bus) and
+        compute the calibrations of stopped board recordings, as jobs taken from the catalog under a lease."""
         from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
         from gaitcap.services.processing.worker import Worker, WorkerConfig, warm_worker
 
