@@ -10,12 +10,10 @@ extrinsics come from still boards.
 
 A webcam also takes time to expose one frame: its rolling shutter reads the rows out one after another
 over several ms, so a moving board comes out skewed and smeared even in a perfectly synchronised pair.
-``readout_ms`` (0 by default: the synthetic cameras and global-shutter cameras need none) adds that time
-to every view's offset. On caliscope's second real session the views tying the cameras together
-reprojected to 1.36 / 1.41 px RMS (cameras 1 and 2) with every view kept, 1.13 / 1.12 px with views that
-moved more than 1 px within 10 ms taken out, 0.74 / 0.82 px within 20 ms: the excess error is the
-board's motion. A camera never loses more than ``max_moving_fraction`` of its views this way (the
-fastest go first), so that a mostly moving clip still ties every camera in.
+With ``readout_ms`` (0 by default: rendered boards and global-shutter cameras need none) a view whose
+board moved more than ``max_shift_px`` within the readout is left out altogether (skewed, it would
+mislead the intrinsics too); a camera never loses more than ``max_moving_fraction`` of its views this
+way (the fastest go first), so that a mostly moving clip still ties every camera in.
 """
 
 from __future__ import annotations
@@ -31,9 +29,9 @@ MOTION_WINDOW_S = 0.5  # neighbouring views further apart than this say nothing 
 @dataclass(frozen=True)
 class PairingConfig:
     """tolerance_ms: frames closer than this pair (None: half the median frame interval);
-    max_shift_px: largest board shift (speed x (time offset + readout)) accepted in a paired view, px;
-    readout_ms: time one frame takes to expose and read out (rolling shutter), ms;
-    max_moving_fraction: at most this fraction of a camera's views is taken out as moving."""
+    max_shift_px: largest board shift (speed x time offset, or speed x readout) accepted in a view, px;
+    readout_ms: time one frame takes to be read out (rolling shutter), ms;
+    max_moving_fraction: at most this fraction of a camera's views is left out as smeared."""
 
     tolerance_ms: float | None = None
     max_shift_px: float = 1.0
@@ -104,24 +102,42 @@ def board_speed_px_s(corners_px: np.ndarray, times_s: np.ndarray) -> np.ndarray:
     return speed
 
 
-def moving_views(corners_px: np.ndarray, times_s: np.ndarray, set_times_s: np.ndarray, max_shift_px: float,
-                 *, readout_s: float = 0.0, max_fraction: float = 1.0) -> np.ndarray:
-    """(C, F) views whose board shift over their time offset from the set's time plus ``readout_s``
-    exceeds ``max_shift_px``; per camera at most ``max_fraction`` of its views, the fastest first.
+def _speeds(corners_px: np.ndarray, times_s: np.ndarray) -> np.ndarray:
+    """(C, F) board speed px/s of every camera's views (NaN where unknown); times_s (C, F), NaN = no frame."""
+    speed = np.full(corners_px.shape[:2], np.nan)
+    for c in range(corners_px.shape[0]):
+        ok = np.isfinite(times_s[c])
+        speed[c, ok] = board_speed_px_s(corners_px[c, ok], times_s[c, ok])
+    return speed
+
+
+def moving_views(corners_px: np.ndarray, times_s: np.ndarray, set_times_s: np.ndarray,
+                 max_shift_px: float) -> np.ndarray:
+    """(C, F) views whose board shift over their time offset from the set's time exceeds ``max_shift_px``.
 
     corners_px: (C, F, N, 2); times_s: (C, F) each camera's frame time (NaN where it has no frame);
     set_times_s: (F,) the set's time (median over its cameras).
     """
+    shift = _speeds(corners_px, times_s) * np.abs(times_s - set_times_s)
+    return np.isfinite(shift) & (shift > max_shift_px)
+
+
+def smeared_views(corners_px: np.ndarray, times_s: np.ndarray, max_shift_px: float, *, readout_s: float,
+                  max_fraction: float = 0.5) -> np.ndarray:
+    """(C, F) views whose board moved more than ``max_shift_px`` while the frame was read out
+    (``readout_s``): skewed by a rolling shutter, they are wrong for intrinsics and extrinsics alike. Per
+    camera at most ``max_fraction`` of its views, the fastest first.
+
+    corners_px: (C, F, N, 2); times_s: (C, F) each camera's frame time (NaN where it has no frame).
+    """
     out = np.zeros(corners_px.shape[:2], dtype=bool)
+    if readout_s <= 0:
+        return out
+    shift = _speeds(corners_px, times_s) * readout_s
     for c in range(corners_px.shape[0]):
-        ok = np.isfinite(times_s[c])
-        speed = np.full(corners_px.shape[1], np.nan)
-        speed[ok] = board_speed_px_s(corners_px[c, ok], times_s[c, ok])
-        shift = speed * (np.abs(times_s[c] - set_times_s) + readout_s)
-        over = np.flatnonzero(np.isfinite(shift) & (shift > max_shift_px))
+        over = np.flatnonzero(np.isfinite(shift[c]) & (shift[c] > max_shift_px))
         views = int(np.any(np.isfinite(corners_px[c, ..., 0]), axis=-1).sum())
-        keep = int(np.floor(max_fraction * views))
-        out[c, over[np.argsort(-shift[over])][:keep]] = True
+        out[c, over[np.argsort(-shift[c, over])][: int(np.floor(max_fraction * views))]] = True
     return out
 
 

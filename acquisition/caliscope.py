@@ -22,6 +22,7 @@ from gaitcap.acquisition.board_pairing import (
     default_tolerance_ns,
     moving_views,
     pair_by_time,
+    smeared_views,
     split_moving,
 )
 from gaitcap.reconstruction.calibration import BoardObservations
@@ -86,7 +87,8 @@ def read_points(
     pairing: PairingConfig = PairingConfig(),
 ) -> tuple[BoardObservations, int]:
     """caliscope ChArUco corners as BoardObservations, and how many views were taken out of their frame
-    sets (kept as frames of their own) because the board moved between the cameras' exposures.
+    sets (kept as frames of their own) because the board moved between the cameras' exposures, plus
+    those left out because it moved during the readout (``pairing.readout_ms``).
 
     image_sizes_px: {camera: (width, height)} (caliscope keeps them in camera_array.toml).
     """
@@ -128,12 +130,14 @@ def read_points(
                 corners[c, s, pid] = uv
             cam_t[c, s] = frame["t"]
     set_t = np.nanmedian(cam_t, axis=0)
-    moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px, readout_s=pairing.readout_ms / 1000,
-                          max_fraction=pairing.max_moving_fraction) if timed else np.zeros(cam_t.shape, bool)
+    smeared = smeared_views(corners, cam_t, pairing.max_shift_px, readout_s=pairing.readout_ms / 1000,
+                            max_fraction=pairing.max_moving_fraction) if timed else np.zeros(cam_t.shape, bool)
+    corners[smeared] = np.nan  # skewed by the rolling shutter: no use for intrinsics or extrinsics
+    moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px) if timed else np.zeros(cam_t.shape, bool)
     corners, times_s = split_moving(corners, set_t - set_t.min(), moving)
     obs = BoardObservations(tuple(names), tuple(tuple(image_sizes_px[n]) for n in names), corners, geometry,
                             times_s)
-    return obs, int(moving.sum())
+    return obs, int(moving.sum() + smeared.sum())
 
 
 def _half_gap_ns(per_cam: list[list]) -> int:

@@ -309,7 +309,7 @@ def _real_table(r: dict) -> str:
         readout = f"; moving over a {s['readout_ms']:.0f} ms readout" if s["readout_ms"] else ""
         lines.append(f"  {s['recording']}, {s['board']}; intrinsics {s['intrinsics']}{readout}: {s['seconds']:.1f} s, "
                      f"square {s['square_measured_mm']:.2f} mm, scale vs caliscope {s['scale_vs_reference']:.4f}, "
-                     f"{s['views_moving']} views taken out of their sets (board moving between or during exposures)")
+                     f"{s['views_moving']} views taken out (board moving between the exposures, or during the readout)")
         lines.append(f"    {'camera':<8} {'views':>6} {'used':>5} {'RMS px':>7} {'p95 px':>7} {'centre mm':>10} "
                      f"{'rot deg':>8} {'ray deg':>8} {'ref pp deg':>10}  status")
         for k, cam in enumerate(s["cameras"]):

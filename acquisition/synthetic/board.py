@@ -175,10 +175,14 @@ def _visible_views(rig: Rig, geometry: BoardGeometry, rot: np.ndarray, tvec: np.
 def observe_board(
     rig: Rig, geometry: BoardGeometry, rot: np.ndarray, tvec: np.ndarray, *, noise_px: float = 0.5,
     max_angle_deg: float = 70.0, margin_px: float = 5.0, scramble: bool = False, fps: float = 10.0, seed: int = 0,
-    still_floor: bool = False,
+    still_floor: bool = False, readout_s: float = 0.0,
 ) -> BoardObservations:
     """Project the board's corners into every camera with Gaussian pixel noise (per axis, px).
 
+    ``readout_s``: a rolling shutter reads the image's rows out one after another over this time (s), so
+    a corner in row y is seen ``readout_s * y / height`` after the frame's time, where the moving board
+    has gone on (the corners between two frames are interpolated linearly): a moving board comes out
+    skewed, as webcams show it.
     Views that show the board's back or too obliquely are dropped; a board that needs all its corners
     (plain checkerboard) is dropped when any corner leaves the image. ``scramble`` reports each view's
     corners in a random order among the board's symmetries (as an orientation-blind detector would),
@@ -192,7 +196,7 @@ def observe_board(
     syms = np.asarray(geometry.symmetries)
     floor = np.isclose(rot[:, 2, 2], -1.0) & np.isclose(tvec[:, 2], 0.0)  # lying face up on the floor
     for c, cam in enumerate(rig):
-        px, ok = lens_visible(cam, world, margin_px=-margin_px)
+        px, ok = _rolling_shutter(cam, world, readout_s * fps, margin_px)
         noise = rng.normal(0, noise_px, px.shape)
         for f in np.flatnonzero(floor) if still_floor else ():  # one still scene per floor spot
             same = np.flatnonzero(floor & np.all(np.isclose(tvec, tvec[f]), axis=1))
@@ -208,6 +212,19 @@ def observe_board(
                 corners[c, f] = corners[c, f][syms[rng.integers(len(syms))]]
     times = np.arange(len(rot)) / fps
     return BoardObservations(tuple(rig.names), tuple(c.size_px for c in rig), corners, geometry, times)
+
+
+def _rolling_shutter(cam, world: np.ndarray, readout_frames: float, margin_px: float):
+    """Corners (F, N, 2) px as a rolling shutter sees world points (F, N, 3) mm moving from frame to frame
+    (``readout_frames``: the readout time in frame intervals), and which are visible."""
+    px, ok = lens_visible(cam, world, margin_px=-margin_px)
+    if readout_frames <= 0:
+        return px, ok
+    step = np.concatenate([np.diff(world, axis=0), np.zeros_like(world[:1])])  # to the next frame, mm
+    for _ in range(2):  # a corner's row sets its time, its time sets its row: two passes converge
+        lag = readout_frames * np.clip(np.nan_to_num(px[..., 1:2]) / cam.size_px[1], 0.0, 1.0)
+        px, ok = lens_visible(cam, world + lag * step, margin_px=-margin_px)
+    return px, ok
 
 
 def scaled_rig(rig: Rig, scale: float) -> Rig:

@@ -7,6 +7,7 @@ from gaitcap.acquisition.board_pairing import (
     default_tolerance_ns,
     moving_views,
     pair_by_time,
+    smeared_views,
 )
 
 MS = 1_000_000  # ns
@@ -44,7 +45,7 @@ def test_speed_and_moving_views():
     assert moving_views(cams, times, t + 0.01, max_shift_px=1.0)[:, [0, 1, 3, 4]].all()
 
 
-def test_readout_marks_moving_views_of_synchronised_cameras_but_never_most_of_a_camera():
+def test_readout_marks_smeared_views_of_synchronised_cameras_but_never_most_of_a_camera():
     t = np.arange(7) * 0.1
     corners = np.zeros((7, 4, 2))
     step = np.array([0.0, 1.0, 2.0, 30.0, 60.0, 90.0, 91.0])  # px: a view's speed: to its slower neighbour
@@ -52,10 +53,11 @@ def test_readout_marks_moving_views_of_synchronised_cameras_but_never_most_of_a_
     cams = np.stack([corners, corners])
     times = np.stack([t, t])  # synchronised: no offset at all
     assert not moving_views(cams, times, t, max_shift_px=1.0).any()
-    # a 20 ms rolling-shutter readout: views faster than 50 px/s (1 px in 20 ms) are taken out
-    moving = moving_views(cams, times, t, max_shift_px=1.0, readout_s=0.02)
-    assert moving[0].tolist() == [False, False, False, True, True, False, False]  # 280 and 300 px/s
-    capped = moving_views(cams, times, t, max_shift_px=1.0, readout_s=0.02, max_fraction=0.2)
+    assert not smeared_views(cams, times, 1.0, readout_s=0.0).any()
+    # a 20 ms rolling-shutter readout: views faster than 50 px/s (1 px in 20 ms) are smeared
+    smeared = smeared_views(cams, times, 1.0, readout_s=0.02, max_fraction=1.0)
+    assert smeared[0].tolist() == [False, False, False, True, True, False, False]  # 280 and 300 px/s
+    capped = smeared_views(cams, times, 1.0, readout_s=0.02, max_fraction=0.2)
     assert capped.sum(1).tolist() == [1, 1] and capped[0, 4]  # one of 7 views at most: the fastest
 
 
