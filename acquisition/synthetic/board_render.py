@@ -1,8 +1,11 @@
 """Images of a calibration board seen by one synthetic camera: every pixel's ray meets the board's
 plane, where the printed texture (or the blank back of an opaque board) is sampled; the board's box is
-rendered at ``supersample`` x and averaged down, and Gaussian grey-level noise is added."""
+rendered at ``supersample`` x and averaged down, and Gaussian grey-level noise is added. A board moving
+during the exposure is smeared (:class:`Exposure`: the image averaged over poses spread across it)."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -11,6 +14,31 @@ from gaitcap.acquisition.synthetic.room import safe_project
 from gaitcap.reconstruction.camera import Camera
 
 PX_PER_MM = 2.0  # texture resolution
+
+
+@dataclass(frozen=True)
+class Exposure:
+    """A board moving while the shutter is open: motion blur.
+
+    velocity_mm_s: (3,) world velocity of the board, mm/s; exposure_s: open time, s; samples: poses
+    averaged across it (the frame's pose sits in the middle of the exposure).
+    """
+
+    velocity_mm_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    exposure_s: float = 0.0
+    samples: int = 9
+
+    def __post_init__(self) -> None:
+        if self.exposure_s < 0 or self.samples < 1:
+            raise ValueError(f"exposure: exposure_s must be >= 0 and samples >= 1, got {self.exposure_s}, "
+                             f"{self.samples}")
+
+    def offsets_mm(self) -> np.ndarray:
+        """(S, 3) board shifts, mm, at the sampled instants of the exposure."""
+        if self.exposure_s == 0:
+            return np.zeros((1, 3))
+        times = (np.arange(self.samples) + 0.5) / self.samples - 0.5
+        return np.outer(times * self.exposure_s, self.velocity_mm_s)
 
 
 def camera_at(cam: Camera, scale: float) -> Camera:
@@ -73,8 +101,20 @@ class BoardRenderer:
         outline = np.array([[0, 0], [tw, 0], [tw, th], [0, th]]) - 0.5 - self.corner0_px
         self.outline_mm = np.column_stack([outline / PX_PER_MM, np.zeros(4)])
 
-    def render(self, r_b: np.ndarray, t_b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Grey image (H, W) uint8 of the board at pose board -> world (r_b (3, 3), t_b (3,) mm)."""
+    def render(self, r_b: np.ndarray, t_b: np.ndarray, rng: np.random.Generator,
+               exposure: Exposure | None = None) -> np.ndarray:
+        """Grey image (H, W) uint8 of the board at pose board -> world (r_b (3, 3), t_b (3,) mm), smeared
+        over ``exposure`` when given."""
+        w, h = self.size_px
+        shifts = (exposure or Exposure()).offsets_mm()
+        img = np.zeros((h, w), dtype=np.float32)
+        for shift in shifts:
+            img += self._sharp(r_b, t_b + shift)
+        img = img / len(shifts) + self.noise_gray * rng.standard_normal((h, w), dtype=np.float32)
+        return np.clip(img, 0, 255).astype(np.uint8)
+
+    def _sharp(self, r_b: np.ndarray, t_b: np.ndarray) -> np.ndarray:
+        """Noise-free grey image (H, W) float32 of the board at one pose."""
         w, h = self.size_px
         img = np.full((h, w), float(self.background), dtype=np.float32)
         box = _board_box(self.cam, self.outline_mm, r_b, t_b)
@@ -83,8 +123,7 @@ class BoardRenderer:
             x1, y1 = min(-(-box[2] // self.ss), w), min(-(-box[3] // self.ss), h)
             patch = self._patch((x0, y0, x1, y1), r_b, t_b)
             img[y0:y1, x0:x1] = cv2.resize(patch, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA)
-        img += self.noise_gray * rng.standard_normal((h, w), dtype=np.float32)
-        return np.clip(img, 0, 255).astype(np.uint8)
+        return img
 
     def _patch(self, box: tuple[int, int, int, int], r_b: np.ndarray, t_b: np.ndarray) -> np.ndarray:
         """The supersampled pixels (uint8) of the output box (x0, y0, x1, y1)."""

@@ -1,11 +1,13 @@
-"""A rolling shutter on the synthetic board: rows read out one after another skew a moving board; the
-calibration degrades gracefully, and views smeared during the readout are found by their speed."""
+"""A moving synthetic board: motion blur (the image averaged over the exposure) and a rolling shutter
+(rows read out one after another skew it). Detection and calibration degrade gracefully, and views
+smeared during the readout are found by their speed."""
 
 import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
 from gaitcap.acquisition.board_pairing import smeared_views
-from gaitcap.acquisition.synthetic.board import BoardMotion, board_trajectory, observe_board
+from gaitcap.acquisition.synthetic.board import BoardMotion, board_trajectory, observe_board, scaled_rig
+from gaitcap.acquisition.synthetic.board_render import BoardRenderer, Exposure, camera_at
 from gaitcap.acquisition.synthetic.room import build_rig
 from gaitcap.reconstruction.calibration import calibrate_from_observations
 from gaitcap.reconstruction.calibration.compare import compare_rigs
@@ -50,3 +52,30 @@ def test_calibration_degrades_gracefully_and_smeared_views_are_found(scene):
     views = obs.views().sum(1)
     assert np.all(smeared.sum(1) <= views // 2) and smeared.sum() > 0.3 * views.sum()
     assert not smeared[:, :9].any()  # the still floor board
+
+
+def test_motion_blur_loses_views_but_never_misplaces_corners():
+    rig = build_rig(10, seed=0).subset(["cam01"])
+    board = make_board(BoardConfig.charuco())
+    rot, tvec = board_trajectory(board.geometry, BoardMotion(n_frames=120, floor_frames=3, seed=2), rig)
+    truth = observe_board(scaled_rig(rig, 0.5), board.geometry, rot, tvec, noise_px=0.0)
+    frames = np.flatnonzero(truth.views()[0])[3:7]  # after the floor frames (the board far away)
+    renderer = BoardRenderer(rig[0], board, size_px=camera_at(rig[0], 0.5).size_px)
+
+    def detect(exposure_s: float) -> list[float]:
+        """Each found view's largest corner error, px, with the board moving 1 m/s sideways."""
+        errors = []
+        for f in frames:
+            image = renderer.render(rot[f], tvec[f], np.random.default_rng(0),
+                                    Exposure((1000.0, 0.0, 0.0), exposure_s, samples=5))
+            found = board.detect(image)
+            if found is not None:
+                errors.append(min(np.nanmax(np.linalg.norm(found - truth.corners_px[0, f][list(p)], axis=-1))
+                                  for p in board.geometry.symmetries))
+        return errors
+
+    sharp, smeared, lost = detect(0.0), detect(0.016), detect(0.064)  # 0, 16 and 64 mm of smear
+    assert len(sharp) >= 3 and max(sharp) < 1.0, sharp
+    # measured: the same views found at 16 mm of smear (errors 0.2-0.5 px), none at 64 mm; never a wrong one
+    assert len(smeared) >= len(sharp) - 1 and max(smeared) < 1.0, smeared
+    assert len(lost) <= len(smeared) and all(e < 1.5 for e in lost), lost
