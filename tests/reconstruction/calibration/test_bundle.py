@@ -1,6 +1,6 @@
 import numpy as np
 from gaitcap.reconstruction.calibration import bundle as B
-from gaitcap.reconstruction.calibration.geometry import rodrigues_batch
+from gaitcap.reconstruction.calibration.geometry import rodrigues_batch, rotation_angle_deg
 
 
 def _problem(rng, free=(0, 1, 2, 3, 4), cams=3, frames=12):
@@ -81,3 +81,23 @@ def test_bundle_rejects_outliers_and_fits_to_the_noise_level():
     # a plain least-squares fit is dragged by the outliers
     plain = B.bundle_adjust(_with_uv(prob, uv), _perturbed(rng, truth), B.BundleConfig(loss="linear", max_rounds=1))
     assert np.abs(plain.state.cam_tvec_mm - truth.cam_tvec_mm).max() > np.abs(res.state.cam_tvec_mm - truth.cam_tvec_mm).max()
+
+
+def test_a_held_principal_point_stays_and_the_rest_still_converges():
+    rng = np.random.default_rng(4)
+    prob, truth = _problem(rng, free=(0, 1, 2, 3))
+    held = np.array([False, True, False])
+    prob = B.BundleProblem(prob.cam, prob.frame, prob.corner, prob.uv_px, prob.object_points_mm, prob.num_cameras,
+                           prob.num_frames, prob.root, prob.free_dist, held)
+    start = _perturbed(rng, truth)
+    start.matrix_px[1, :2, 2] = truth.matrix_px[1, :2, 2]  # held at its true place: everything else converges
+    res = B.bundle_adjust(prob, start, B.BundleConfig(loss="linear"))
+    assert np.array_equal(res.state.matrix_px[1, :2, 2], truth.matrix_px[1, :2, 2])
+    assert np.abs(res.state.matrix_px - truth.matrix_px).max() < 1e-3 and np.abs(res.residual_px).max() < 1e-5
+    start.matrix_px[1, :2, 2] += (6.0, -4.0)  # held 7.2 px off: it stays there ...
+    res = B.bundle_adjust(prob, start, B.BundleConfig(loss="linear"))
+    assert np.array_equal(res.state.matrix_px[1, :2, 2], start.matrix_px[1, :2, 2])
+    # ... and the camera turns by about as much (atan(7.2 / 1000) = 0.41 deg) to fit nearly as well: the
+    # principal point and the rotation are told apart only by the image's edges
+    turn = rotation_angle_deg(res.state.cam_rotation[1], truth.cam_rotation[1])
+    assert 0.3 < turn < 0.5 and np.abs(res.residual_px).max() < 0.1, (turn, np.abs(res.residual_px).max())
