@@ -120,3 +120,17 @@ def too_few_views_error(cameras: tuple[CameraDetection, ...], board: BoardConfig
     for c in bad:
         lines.append(f"camera {c.name!r}: " + "; ".join(c.advice(board, min_views)))
     return ValueError("\n".join(lines + ["", detection_table(cameras)]))
+
+
+def too_few_positions_error(cameras: tuple[CameraDetection, ...], positions: tuple[int, ...], board: BoardConfig,
+                            min_views: int) -> ValueError | None:
+    """A ValueError naming every camera with enough frames of the board but fewer than ``min_views``
+    distinct board positions (``positions``, per camera, in the order of ``cameras``), or None."""
+    bad = [(c, p) for c, p in zip(cameras, positions, strict=True) if c.usable() >= min_views and p < min_views]
+    if not bad:
+        return None
+    lines = [f"too few distinct positions of {board.describe()} (need {min_views} per camera):"]
+    lines += [f"camera {c.name!r}: {c.usable()} frames showed the board but only {p} distinct positions remain "
+              "(frames of a board held still count once; frames that could not be paired are left out): move "
+              "the board to more places in this camera's view" for c, p in bad]
+    return ValueError("\n".join(lines + ["", detection_table(cameras)]))

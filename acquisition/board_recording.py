@@ -19,7 +19,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 from gaitcap.acquisition.board import BoardConfig, BoardFind, make_board
-from gaitcap.acquisition.board_diagnosis import CameraDetection, detection_table, too_few_views_error
+from gaitcap.acquisition.board_diagnosis import (
+    CameraDetection,
+    detection_table,
+    too_few_positions_error,
+    too_few_views_error,
+)
 from gaitcap.acquisition.board_pairing import (
     MISSING,
     PairingConfig,
@@ -36,6 +41,7 @@ from gaitcap.reconstruction.calibration import (
     CalibrationResult,
     calibrate_from_observations,
 )
+from gaitcap.reconstruction.calibration.still import merge_still_frames
 
 log = logging.getLogger(__name__)
 
@@ -68,9 +74,17 @@ class BoardDetections:
     def table(self) -> str:
         return detection_table(self.cameras)
 
+    def positions(self) -> tuple[int, ...]:
+        """Per camera: distinct board positions the calibration gets (a still board's frames merged)."""
+        merged, _ = merge_still_frames(self.observations)
+        return tuple(int(n) for n in merged.views().sum(1))
+
     def check(self, min_views: int) -> None:
-        """ValueError naming each camera with fewer than ``min_views`` usable views and what to change."""
+        """ValueError naming each camera with fewer than ``min_views`` usable views, or distinct board
+        positions, and what to change."""
         err = too_few_views_error(self.cameras, self.board, min_views)
+        if err is None:
+            err = too_few_positions_error(self.cameras, self.positions(), self.board, min_views)
         if err is not None:
             raise err
 

@@ -80,6 +80,17 @@ def test_a_camera_without_the_board_fails_naming_it_and_the_cause(images, tmp_pa
     assert cat.latest_calibration(db) is None  # never activated
 
 
+def test_a_board_held_still_fails_naming_the_distinct_positions(images, tmp_path):
+    """Every frame shows the board, but always in the same place: enough frames, one position; the error
+    says so per camera instead of the maths' generic 'too rarely'."""
+    frames, _ = images
+    held = {cam: np.repeat(f[5:6], 12, axis=0) for cam, f in frames.items()}  # both cameras see frame 5
+    db, run = _run(tmp_path, held)
+    assert run.state == "failed", run.error
+    for cam in held:
+        assert f"camera '{cam}': 12 frames showed the board but only 1 distinct positions remain" in run.error
+
+
 def test_one_recording_at_a_time(tmp_path):
     db = cat.open_catalog(tmp_path / "catalog.sqlite")
     run = cals.start_board_recording(db, recording_path_for=lambda i: tmp_path / f"{i}.mcap")
