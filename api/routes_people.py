@@ -55,7 +55,7 @@ def _files(request: Request, trial_id: str) -> tuple[cat.TrialInfo, TrialFiles]:
         trial = cat.get_trial(catalog_of(request), trial_id)
     except cat.TrialNotFound as exc:
         raise HTTPException(status_code=404, detail=str(exc)) from None
-    return trial, trial_files(request.app.state.settings.data_dir, trial_id)
+    return trial, trial_files(request.app.state.settings.data_dir, trial_id, trial.recording_path)
 
 
 def _people_out(trial: cat.TrialInfo, files: TrialFiles) -> dict:

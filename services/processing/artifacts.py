@@ -36,14 +36,16 @@ STAGE_FILES = {
 
 @dataclass(frozen=True)
 class TrialFiles:
-    """The files of one trial."""
+    """The files of one trial; ``recording_path``: where the catalog records its MCAP (None: the default
+    place in the trial's folder, where the API puts new trials)."""
 
     root: Path
+    recording_path: Path | None = None
 
     @property
     def recording(self) -> Path:
         """The trial's MCAP (frames, keypoints, calibration, metadata)."""
-        return self.root / "recording.mcap"
+        return self.recording_path or self.root / "recording.mcap"
 
     @property
     def people_json(self) -> Path:
@@ -72,8 +74,9 @@ class TrialFiles:
         return {k: str(self.stage_file(stage, k)) for k in STAGE_FILES if self.stage_file(stage, k).exists()}
 
 
-def trial_files(data_dir: str | Path, trial_id: str) -> TrialFiles:
+def trial_files(data_dir: str | Path, trial_id: str, recording_path: str | Path | None = None) -> TrialFiles:
+    """The trial's files; pass the catalog's ``recording_path`` wherever the trial's record is at hand."""
     validate_id(trial_id, field="trial_id")
-    return TrialFiles(Path(data_dir) / "trials" / trial_id)
+    return TrialFiles(Path(data_dir) / "trials" / trial_id, Path(recording_path) if recording_path else None)
 
 

@@ -213,7 +213,8 @@ class Worker:
         elif trial.state != "processing":  # done or failed meanwhile: nothing to do
             log.info("trial %s is %s; skipping", trial_id, trial.state)
             return
-        files, mcap = trial_files(self.config.data_dir, trial_id), recording_of(trial)
+        files = trial_files(self.config.data_dir, trial_id, recording_of(trial))
+        mcap = files.recording
         self._report(trial_id, "processing", "reading the recording", 0.05, None)
         t0 = time.perf_counter()
         recording, rig = load_keypoints(mcap, fallback_calibration=self.config.fallback_calibration)
