@@ -1,11 +1,13 @@
-"""Helpers shared by CLI commands: clean error exits and progress bars."""
+"""Helpers shared by CLI commands: clean error exits, progress bars, stopping on SIGTERM / SIGINT."""
 
 from __future__ import annotations
 
 import contextlib
 import logging
+import signal
 import sys
-from collections.abc import Iterator
+import threading
+from collections.abc import Callable, Iterator
 
 import typer
 
@@ -27,3 +29,34 @@ def progress(total: int | None = None, desc: str = "", unit: str = "it"):
     from tqdm import tqdm
 
     return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, disable=None, leave=False)
+
+
+SIGNAL_POLL_S = 0.2  # how often a process waiting to be stopped looks at its signals
+
+
+class SignalStop(threading.Event):
+    """An event set by SIGTERM / SIGINT. Its :meth:`wait` without a timeout polls: a process-directed signal
+    may be delivered to another thread (the bus library runs many), which would not wake a main thread blocked
+    in a plain wait, and the signal handler would never run (the process then hangs until SIGKILL)."""
+
+    def wait(self, timeout: float | None = None) -> bool:
+        if timeout is not None:
+            return super().wait(timeout)
+        while not super().wait(SIGNAL_POLL_S):
+            pass
+        return True
+
+
+def stop_on_signals(on_signal: Callable[[int], None] | None = None) -> SignalStop:
+    """A :class:`SignalStop` set by SIGTERM and SIGINT (then ``on_signal(signum)`` runs, if given)."""
+    stop = SignalStop()
+
+    def _handler(signum, _frame) -> None:
+        log.info("signal %s: stopping", signum)
+        stop.set()
+        if on_signal is not None:
+            on_signal(signum)
+
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, _handler)
+    return stop

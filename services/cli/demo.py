@@ -4,13 +4,11 @@ until Ctrl-C; ``--auto`` records one trial without a browser, prints the metrics
 
 from __future__ import annotations
 
-import signal
-import threading
 from pathlib import Path
 
 import typer
 from gaitcap.services.catalog.paths import DEMO_DATA_DIR
-from gaitcap.services.cli._common import user_errors
+from gaitcap.services.cli._common import stop_on_signals, user_errors
 
 
 def register(app: typer.Typer) -> None:
@@ -47,9 +45,7 @@ def register(app: typer.Typer) -> None:
                               sim_people=people, board_clip=board_clip)
         logging.getLogger("httpx").setLevel(logging.WARNING)
         stack = Stack(cfg)
-        stop = threading.Event()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, lambda *_: stop.set())
+        stop = stop_on_signals()
         typer.echo(f"starting gaitcap ({cameras} simulated cameras, detector, recorder, {workers} worker(s), "
                    f"API); logs in {stack.supervisor.log_dir}", err=True)
         try:

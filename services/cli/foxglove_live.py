@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import signal
-import threading
 from pathlib import Path
 
 import typer
-from gaitcap.services.cli._common import user_errors
+from gaitcap.services.cli._common import stop_on_signals, user_errors
 
 
 def register(app: typer.Typer) -> None:
@@ -32,9 +30,7 @@ def register(app: typer.Typer) -> None:
             cfg = default_bus_config(bus)
             session = open_session(cfg, node)
             relay = FoxgloveRelay(session, cfg, config, rig=rig)
-        stop = threading.Event()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, lambda *_: stop.set())
+        stop = stop_on_signals()
         typer.echo(f"Foxglove live view: ws://{host}:{relay.port} (Ctrl-C stops)")
         stop.wait()
         relay.close()

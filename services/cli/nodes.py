@@ -9,32 +9,18 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import signal
 import threading
 from pathlib import Path
 
 import typer
 from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR
-from gaitcap.services.cli._common import user_errors
+from gaitcap.services.cli._common import stop_on_signals, user_errors
 
 log = logging.getLogger("gaitcap.node")
 
 node_app = typer.Typer(help="Run a bus node (camera, detector, recorder) as a process.", no_args_is_help=True)
 
 BUS_OPT = typer.Option(None, "--bus", help="Bus file (JSON5); default $GAITCAP_BUS or local 127.0.0.1:7447+.")
-
-
-def _stop_event() -> threading.Event:
-    """An event set by SIGTERM / SIGINT (so nodes finish cleanly)."""
-    event = threading.Event()
-
-    def _handler(signum, _frame):
-        log.info("signal %s: stopping", signum)
-        event.set()
-
-    signal.signal(signal.SIGTERM, _handler)
-    signal.signal(signal.SIGINT, _handler)
-    return event
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -111,7 +97,7 @@ def camera_cmd(
             start_at_ns = _join_walk(source, drivers, cycle_epoch_ns)
         cfg = default_bus_config(bus)
         session = open_session(cfg, node)
-    stopper = _stop_event()
+    stopper = stop_on_signals()
     cam_node = CameraNode(session, cfg, node, drivers, jpeg_quality=jpeg_quality)
     scene_sub = attach_board_scene(session, cfg, drivers, board_clip)
     threading.Thread(target=lambda: (stopper.wait(), cam_node.stop()), daemon=True).start()
@@ -181,7 +167,7 @@ def detector_cmd(
         det = cls(**params).build()
         cfg = default_bus_config(bus)
         session = open_session(cfg, node)
-    stopper = _stop_event()
+    stopper = stop_on_signals()
     det_node = DetectorNode(session, cfg, node, det, workers=workers)
     typer.echo(f"detector node {node} ready on {cfg.prefix} ({detector}, {det.skeleton.name})")
     stopper.wait()
@@ -213,7 +199,7 @@ def recorder_cmd(
         policy = QueuePolicy(max_items=queue_max, block_s=queue_block_s)
         cfg = default_bus_config(bus)
         session = open_session(cfg, node)
-    stopper = _stop_event()
+    stopper = stop_on_signals()
     rec = RecorderNode(session, cfg, node, data_root=data_dir, settings=settings, policy=policy)
     typer.echo(f"recorder node {node} ready on {cfg.prefix}")
     stopper.wait()

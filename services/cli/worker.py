@@ -3,13 +3,11 @@ board recordings to calibrate)."""
 
 from __future__ import annotations
 
-import signal
-import threading
 from pathlib import Path
 
 import typer
 from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR, catalog_url
-from gaitcap.services.cli._common import user_errors
+from gaitcap.services.cli._common import stop_on_signals, user_errors
 
 
 def register(app: typer.Typer) -> None:
@@ -47,15 +45,11 @@ def register(app: typer.Typer) -> None:
                 _token = declare_alive(session, bus_cfg, node)  # noqa: F841  (held while running)
                 progress = BusProgress(session, bus_cfg)
             w = Worker(cfg, progress=progress)
-        stop = threading.Event()
-
-        def _stop(signum, _frame):
-            stop.set()
+        def _abandon(signum: int) -> None:
             if w.busy:  # do not finish a long fit: the job's lease expires and another worker redoes it
                 raise SystemExit(128 + signum)
 
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, _stop)
+        stop = stop_on_signals(_abandon)
         if warm_up:
             typer.echo(f"worker {cfg.worker_id}: warming up (compiling) ...", err=True)
             typer.echo(f"worker {cfg.worker_id}: warm in {warm_worker(cache_dir=data_dir / '.jax-cache'):.1f} s", err=True)
