@@ -1,4 +1,4 @@
-"""Writing the files that ``reconstruction/`` computes and reads: calibrations, reconstructions, keypoints,
+"""Writing the files that ``reconstruction/`` computes and reads: calibrations, keypoints,
 walkway exports. ``reconstruction/`` stays pure (it builds the text or arrays and parses files, never
 writes one); every writer here goes through the one atomic writer, :mod:`gaitcap.acquisition.fileio`.
 """
@@ -18,21 +18,12 @@ from gaitcap.reconstruction.calibration_io import rig_to_text
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.gait.walkway import WalkwayTrial, walkway_csv_text
-from gaitcap.reconstruction.result import Reconstruction
 
 
 def save_rig(rig: Rig, path: str | os.PathLike, *, metadata: dict[str, Any] | None = None) -> Path:
     """Write a calibration; the format follows the suffix (.toml: aniposelib, metres; .json: gaitcap, mm)."""
     path = Path(path)
     return atomic_write_text(path, rig_to_text(rig, suffix=path.suffix, metadata=metadata, where=str(path)))
-
-
-def save_reconstruction_npz(rec: Reconstruction, path: str | os.PathLike) -> Path:
-    """Write ``points_mm``, ``times_s``, ``joint_names``, ``camera_names``, ``camera_weights``, ``quality`` and
-    ``method`` (read back by :func:`gaitcap.reconstruction.result.load_npz`)."""
-    return atomic_savez(path, points_mm=rec.points_mm, times_s=rec.times_s, joint_names=np.array(rec.joint_names),
-                        camera_names=np.array(rec.camera_names), camera_weights=rec.camera_weights,
-                        quality=rec.quality, method=np.array(rec.method))
 
 
 def save_multi_npz(multi: MultiPersonDetections, path: str | os.PathLike) -> Path:

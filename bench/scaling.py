@@ -77,10 +77,10 @@ def reconstruct(folder: Path, method: str) -> dict:
 
 def mpjpe_mm(result: Path, truth: Path) -> float:
     from gaitcap.reconstruction.metrics import ground_truth_errors
-    from gaitcap.reconstruction.result import load_npz
+    from gaitcap.services.processing.outputs import read_npz
 
-    rec = load_npz(result)
-    return ground_truth_errors(rec.points_mm, np.load(truth)["points_mm"], rec.joint_names)["MPJPE"]
+    traj, _ = read_npz(result)
+    return ground_truth_errors(traj.points_mm, np.load(truth)["points_mm"], list(traj.joint_names))["MPJPE"]
 
 
 def add_ratios(rows: dict) -> None:

@@ -1,8 +1,7 @@
-"""The result of a reconstruction, and its NPZ file."""
+"""The result of a reconstruction (its file: :func:`gaitcap.services.processing.outputs.write_npz`)."""
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -55,20 +54,3 @@ class Reconstruction:
         span = np.where(nxt > idx, self.times_s[nxt] - self.times_s[idx], 1.0)
         a = ((t - self.times_s[idx]) / span)[:, None, None]
         return (1 - a) * self.points_mm[idx] + a * self.points_mm[nxt]
-
-
-def load_npz(path: str | os.PathLike) -> Reconstruction:
-    """Read a file written by :func:`gaitcap.acquisition.writers.save_reconstruction_npz` (ValueError naming
-    a missing array)."""
-    with np.load(path, allow_pickle=False) as data:
-        missing = [k for k in ("points_mm", "times_s", "joint_names", "camera_weights") if k not in data.files]
-        if missing:
-            raise ValueError(f"{path}: missing arrays {missing}")
-        names = tuple(str(n) for n in data["camera_names"]) if "camera_names" in data.files else ()
-        return Reconstruction(
-            method=str(data["method"]) if "method" in data.files else "",
-            points_mm=data["points_mm"], times_s=data["times_s"],
-            joint_names=tuple(str(n) for n in data["joint_names"]), camera_names=names,
-            camera_weights=data["camera_weights"],
-            quality=data["quality"] if "quality" in data.files else np.zeros(data["points_mm"].shape[:2]),
-        )

@@ -12,25 +12,6 @@ _TABLE = ("step_length_mm", "stride_length_mm", "step_width_mm", "step_time_s", 
           "stance_pct", "swing_pct", "double_support_pct")
 
 
-def _load(path: Path):
-    import numpy as np
-    from gaitcap.services.processing.pipeline import Trajectory
-
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file")
-    with np.load(path, allow_pickle=False) as data:
-        missing = [k for k in ("points_mm", "times_s", "joint_names") if k not in data.files]
-        if missing:
-            raise ValueError(f"{path}: missing array(s) {', '.join(missing)} (need points_mm, times_s, "
-                             "joint_names)")
-        points, times = data["points_mm"], data["times_s"]
-        names = tuple(str(n) for n in data["joint_names"])
-        views = next((data[k] for k in ("num_views", "quality")  # "quality": effective agreeing views
-                      if k in data.files and data[k].shape == points.shape[:2]), None)
-        reproj = data["reprojection_px"] if views is not None and "reprojection_px" in data.files else None
-    return Trajectory(str(path.name), points, times, names, num_views=views), reproj
-
-
 def _pick_trial(trials, result: Path):
     if len(trials) == 1:
         return trials[0]
@@ -68,7 +49,8 @@ def _echo_summary(report) -> None:
 def register(app: typer.Typer) -> None:
     @app.command("gait")
     def gait(
-        result: Path = typer.Argument(..., help="NPZ with points_mm (T,J,3), times_s (T,), joint_names (J,)."),
+        result: Path = typer.Argument(..., help="Result NPZ (reconstruct, process, the worker's "
+                                     "trajectory.npz) or any NPZ with points_mm, times_s, joint_names."),
         walkway: Path | None = typer.Option(None, "--walkway", help="Walkway export CSV to compare with."),
         as_json: bool = typer.Option(False, "--json", help="Print the report as one JSON object."),
         csv_path: Path | None = typer.Option(None, "--csv", help="Write one CSV row per step to FILE."),
@@ -77,11 +59,12 @@ def register(app: typer.Typer) -> None:
         """Gait events, bouts and spatiotemporal parameters of a reconstructed trial."""
         from gaitcap.acquisition.fileio import atomic_write_bytes, atomic_write_text
         from gaitcap.reconstruction.gait import GaitConfig, compare_with_walkway, read_walkway_csv
+        from gaitcap.services.processing.outputs import read_npz
         from gaitcap.services.processing.pipeline import gait_of
         from gaitcap.services.processing.report_plot import heel_traces_png
 
         with user_errors():
-            traj, reproj = _load(result)
+            traj, reproj = read_npz(result)
             points, times, names = traj.points_mm, traj.times_s, list(traj.joint_names)
             config = GaitConfig()
             report, problem = gait_of(traj, reprojection_px=reproj)  # the worker's gait analysis

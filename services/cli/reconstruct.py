@@ -58,7 +58,7 @@ def reconstruct_command(
     keypoints: Path = typer.Option(..., "--keypoints", help="NPZ, trial MCAP, OpenPose/MMPose JSON, or a Pose2Sim, "
                                    "anipose or FreeMoCap folder."),
     method: MethodName = typer.Option(MethodName.implicit, "--method", help="Reconstruction method."),
-    out: Path = typer.Option(..., "--out", help="Result NPZ (points_mm, times_s, joint_names, camera_weights)."),
+    out: Path = typer.Option(..., "--out", help="Result NPZ, the worker's format (points_mm, times_s, joint_names, method, ...)."),
     trc: Path | None = typer.Option(None, "--trc", help="Also write an OpenSim TRC file."),
     as_json: bool = typer.Option(False, "--json", help="Print the metrics as one JSON object."),
     paper: bool = typer.Option(False, "--paper", help="The paper's configuration (explicit/implicit; slow)."),
@@ -74,11 +74,16 @@ def reconstruct_command(
     import numpy as np
 
     with user_errors():
-        from gaitcap.acquisition.writers import save_reconstruction_npz
         from gaitcap.reconstruction.methods import reconstruct
         from gaitcap.reconstruction.trc import to_trc
         from gaitcap.services.processing.offline import OfflineOptions, load_input
-        from gaitcap.services.processing.pipeline import check_usable, patient_input, resolve_layout
+        from gaitcap.services.processing.outputs import write_npz
+        from gaitcap.services.processing.pipeline import (
+            check_usable,
+            patient_input,
+            resolve_layout,
+            trajectory_of,
+        )
 
         options = OfflineOptions(skeleton=skeleton, fps=fps, patient=patient_request(person, patient_near))
         data, rig = load_input(keypoints, calibration=calibration, options=options)
@@ -102,7 +107,7 @@ def reconstruct_command(
             rec = reconstruct(det, rig, method=config, progress=report)
         if not np.isfinite(rec.points_mm).any():
             raise ValueError("no joint could be reconstructed in any frame (nothing written)")
-        save_reconstruction_npz(rec, out)
+        write_npz(out, trajectory_of(rec))  # the worker's result file (dense samples of a fit included)
         if trc is not None:
             atomic_write_text(trc, to_trc(rec.points_mm, rec.times_s, rec.joint_names, filename=trc.name))
     missing = ~np.isfinite(rec.points_mm).all(-1)

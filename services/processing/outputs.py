@@ -8,12 +8,13 @@ from __future__ import annotations
 import io
 import json
 import logging
+from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.fileio import atomic_savez, atomic_write_bytes, atomic_write_text
 from gaitcap.reconstruction.jsonable import finite_or_none, json_ready
 from gaitcap.services.processing.artifacts import TrialFiles
-from gaitcap.services.processing.pipeline import Trajectory
+from gaitcap.services.processing.pipeline import Trajectory, dense_grid, spline_sampler
 
 log = logging.getLogger(__name__)
 
@@ -46,8 +47,49 @@ def summary_of(report) -> dict[str, dict]:
 
 
 def write_npz(path, traj: Trajectory) -> None:
+    """The one result file of the worker, ``gaitcap process`` and ``gaitcap reconstruct``: ``points_mm``
+    (T, J, 3), ``times_s`` (T,), ``joint_names``, ``num_views`` (T, J; empty for a continuous fit),
+    ``method``, ``camera_names`` and, for a continuous fit, its dense samples ``dense_times_s`` (G,) and
+    ``dense_points_mm`` (G, J, 3) on which the gait events are found (read back by :func:`read_npz`)."""
+    dense = {}
+    if traj.sample is not None:
+        grid = dense_grid(traj.times_s)
+        dense = {"dense_times_s": grid, "dense_points_mm": np.asarray(traj.sample(grid))}
     atomic_savez(path, points_mm=traj.points_mm, times_s=traj.times_s, joint_names=np.array(traj.joint_names),
-                 num_views=traj.num_views if traj.num_views is not None else np.zeros(0))
+                 num_views=traj.num_views if traj.num_views is not None else np.zeros(0),
+                 method=np.array(traj.method), camera_names=np.array(traj.camera_names, dtype=str), **dense)
+
+
+def read_npz(path: Path) -> tuple[Trajectory, np.ndarray | None]:
+    """A result file as a :class:`Trajectory` (sampled as it was computed when it holds dense samples) and
+    its per-point reprojection error (T, J) px, or None. Also reads the older files: the worker's (no
+    method, cameras or dense samples) and ``gaitcap reconstruct``'s (``quality`` for the agreeing views)."""
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
+    with np.load(path, allow_pickle=False) as data:
+        missing = [k for k in ("points_mm", "times_s", "joint_names") if k not in data.files]
+        if missing:
+            raise ValueError(f"{path}: missing array(s) {', '.join(missing)} (need points_mm, times_s, "
+                             "joint_names)")
+        points, times = data["points_mm"], data["times_s"]
+        names = tuple(str(n) for n in data["joint_names"])
+        views = next((data[k] for k in ("num_views", "quality")  # "quality": effective agreeing views
+                      if k in data.files and data[k].shape == points.shape[:2]), None)
+        reproj = data["reprojection_px"] if views is not None and "reprojection_px" in data.files else None
+        sample = _dense_sampler_of(path, data, num_joints=len(names))
+        method = str(data["method"]) if "method" in data.files else path.name
+        cameras = tuple(str(n) for n in data["camera_names"]) if "camera_names" in data.files else ()
+    return Trajectory(method, points, times, names, num_views=views, camera_names=cameras, sample=sample), reproj
+
+
+def _dense_sampler_of(path: Path, data, *, num_joints: int):
+    if "dense_times_s" not in data.files or "dense_points_mm" not in data.files:
+        return None
+    grid, dense = data["dense_times_s"], data["dense_points_mm"]
+    if grid.ndim != 1 or len(grid) < 2 or dense.shape != (len(grid), num_joints, 3):
+        raise ValueError(f"{path}: dense_points_mm {dense.shape} does not match dense_times_s {grid.shape} "
+                         f"and {num_joints} joints (expected ({len(grid)}, {num_joints}, 3))")
+    return spline_sampler(grid, dense)
 
 
 def report_png(traj: Trajectory, report, *, title: str) -> bytes:

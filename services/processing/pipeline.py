@@ -36,6 +36,7 @@ class Trajectory:
         times_s: (T,) s.
         joint_names: (J,) names.
         num_views: (T, J) views that agreed (0 where NaN), or None.
+        camera_names: the cameras it was reconstructed from (empty when unknown).
         sample: continuous trajectory ``sample(times_s (N,)) -> (N, J, 3)`` mm, or None.
         metrics: method's quality metrics (GC_d, losses, ...), JSON-ready.
         elapsed_s: compute time s.
@@ -46,6 +47,7 @@ class Trajectory:
     times_s: np.ndarray
     joint_names: tuple[str, ...]
     num_views: np.ndarray | None = None
+    camera_names: tuple[str, ...] = ()
     sample: Callable[[np.ndarray], np.ndarray] | None = None
     metrics: dict | None = None
     elapsed_s: float = 0.0
@@ -105,7 +107,7 @@ def preliminary(det: Detections, rig: Rig) -> Trajectory:
         points[start:start + n] = np.asarray(result.points_mm)[:n]
         views[start:start + n] = np.asarray(result.quality)[:n]
     return Trajectory("robust triangulation", points, det.times_s, det.skeleton.joint_names,
-                      num_views=views, metrics={}, elapsed_s=time.perf_counter() - t0)
+                      num_views=views, camera_names=tuple(det.camera_names), metrics={}, elapsed_s=time.perf_counter() - t0)
 
 
 def refined(det: Detections, rig: Rig, *, progress=None) -> Trajectory:
@@ -124,6 +126,7 @@ def trajectory_of(rec, *, method: str | None = None, elapsed_s: float = 0.0) -> 
     continuous = rec.trajectory is not None
     return Trajectory(method or rec.method, points, times, tuple(rec.joint_names),
                       num_views=None if continuous else np.asarray(rec.quality),
+                      camera_names=tuple(str(n) for n in rec.camera_names),
                       sample=dense_sampler(rec.sample, times) if continuous else None,
                       metrics=_plain_metrics(rec.metrics), elapsed_s=elapsed_s)
 
@@ -223,20 +226,32 @@ def patient_input(recording, rig: Rig, *, files=None, choice=None, selector=None
     return det, rig, selection
 
 
+def dense_grid(times_s: np.ndarray, *, oversample: int = 4) -> np.ndarray:
+    """Times (s) ``oversample`` times finer than the frames, from the first frame to the last."""
+    return np.linspace(float(times_s[0]), float(times_s[-1]), oversample * (len(times_s) - 1) + 1)
+
+
 def dense_sampler(sample: Callable[[np.ndarray], np.ndarray], times_s: np.ndarray, *, oversample: int = 4):
-    """Evaluate a continuous trajectory once on a grid ``oversample`` times finer than the frames and
-    return a cubic-spline sampler over it (times clipped to the trial): one call to the fitted function
-    instead of one per event search, same values to well under a millimetre for a band-limited fit."""
+    """Evaluate a continuous trajectory once on the :func:`dense_grid` and return a cubic-spline sampler
+    over it (times clipped to the trial): one call to the fitted function instead of one per event
+    search, same values to well under a millimetre for a band-limited fit."""
+    grid = dense_grid(times_s, oversample=oversample)
+    return spline_sampler(grid, np.asarray(sample(grid)))
+
+
+def spline_sampler(grid_s: np.ndarray, dense_mm: np.ndarray):
+    """``sample(times_s (N,)) -> (N, J, 3)`` mm: the cubic spline through ``dense_mm`` (G, J, 3) at
+    ``grid_s`` (G,) s, times clipped to the grid. It passes through its samples, so the samples of a
+    sampler (a result file's ``dense_points_mm``) rebuild the same sampler."""
     from scipy.interpolate import CubicSpline
 
-    lo, hi = float(times_s[0]), float(times_s[-1])
-    grid = np.linspace(lo, hi, oversample * (len(times_s) - 1) + 1)
-    dense = np.asarray(sample(grid))
-    spline = CubicSpline(grid, dense.reshape(len(grid), -1), axis=0)
+    grid_s, dense_mm = np.asarray(grid_s, dtype=np.float64), np.asarray(dense_mm)
+    lo, hi = float(grid_s[0]), float(grid_s[-1])
+    spline = CubicSpline(grid_s, dense_mm.reshape(len(grid_s), -1), axis=0)
 
     def sampled(t: np.ndarray) -> np.ndarray:
         t = np.clip(np.asarray(t, dtype=np.float64), lo, hi)
-        return spline(t).reshape(*t.shape, *dense.shape[1:])
+        return spline(t).reshape(*t.shape, *dense_mm.shape[1:])
 
     return sampled
 

@@ -42,7 +42,8 @@ def test_reconstruct_command(tmp_path):
     assert "NaN" not in res.stdout
     with np.load(tmp_path / "out.npz") as out:
         assert out["points_mm"].shape == gt.shape and list(out["joint_names"])[0] == "nose"
-        assert out["camera_weights"].shape == det.keypoints.shape[:3]
+        assert str(out["method"]) == "robust" and list(out["camera_names"]) == list(det.camera_names)
+        assert out["num_views"].shape == gt.shape[:2] and "dense_points_mm" not in out.files  # not a fit
         assert np.nanmean(np.linalg.norm(out["points_mm"] - gt, axis=-1)) < 10
     assert (tmp_path / "out.trc").read_text().startswith("PathFileType")
     bad = runner.invoke(app, args[:-1] + ["--paper"])
