@@ -62,3 +62,41 @@ def test_gait_command_with_walkway(tmp_path):
     report = json.loads(res.stdout.strip().splitlines()[-1])
     assert abs(report["walkway"]["offsets_s"]["t1"] - 0.7) < 0.05
     assert report["walkway"]["residuals"]["heel_lateral_mm"]["n"] == int(keep.sum())
+
+
+def _gait_json(npz: Path) -> dict:
+    res = CliRunner().invoke(app, ["gait", str(npz), "--json"])
+    assert res.exit_code == 0, res.output
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def test_gait_reads_an_older_worker_trajectory_npz(tmp_path):
+    """The worker's file before method, cameras and dense samples (a fit's num_views empty)."""
+    from gaitcap.services.processing.outputs import read_npz
+
+    walk = make_walk(segments=(("line", 5000),))
+    npz = tmp_path / "trajectory.npz"
+    np.savez(npz, points_mm=walk.points_mm, times_s=walk.times_s, joint_names=np.array(walk.joint_names),
+             num_views=np.zeros(0))
+    traj, reproj = read_npz(npz)
+    assert traj.num_views is None and traj.sample is None and reproj is None
+    assert traj.method == "trajectory.npz" and traj.camera_names == ()
+    report = _gait_json(npz)
+    assert len(report["steps"]) >= 5 and abs(report["steps"][0]["step_length_mm"] - 650.0) < 1.0
+
+
+def test_gait_reads_an_older_reconstruct_npz(tmp_path):
+    """``gaitcap reconstruct``'s former file: ``quality`` (agreeing views), camera weights, method."""
+    from gaitcap.services.processing.outputs import read_npz
+
+    walk = make_walk(segments=(("line", 5000),))
+    t, j = walk.points_mm.shape[:2]
+    npz = tmp_path / "old.npz"
+    np.savez(npz, points_mm=walk.points_mm, times_s=walk.times_s, joint_names=np.array(walk.joint_names),
+             camera_names=np.array(["cam0", "cam1", "cam2"]), camera_weights=np.ones((3, t, j)),
+             quality=np.full((t, j), 3.0), method=np.array("robust"))
+    traj, _ = read_npz(npz)
+    assert traj.method == "robust" and traj.camera_names == ("cam0", "cam1", "cam2") and traj.sample is None
+    assert traj.num_views.shape == (t, j) and np.all(traj.num_views == 3.0)
+    report = _gait_json(npz)
+    assert len(report["steps"]) >= 5 and abs(report["steps"][0]["step_length_mm"] - 650.0) < 1.0
