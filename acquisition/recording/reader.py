@@ -197,6 +197,49 @@ def read_status(path: str | os.PathLike) -> dict[str, list[dict[str, Any]]]:
     return out
 
 
+def read_image_times(path: str | os.PathLike, cameras=None) -> dict[str, np.ndarray]:
+    """{camera: camera timestamps ns (N,) of its images, sorted}: what a recording without the recorder's
+    summary (recovered after a crash) holds. A complete file is read through its message index (the image
+    chunks are neither read nor decompressed); a file without one is scanned (message headers, no JPEG
+    decoded). ``cameras``: only these (None: all)."""
+
+    def wanted(topic: str) -> bool:
+        return layout.is_image_topic(topic) and (cameras is None or layout.camera_of_topic(topic) in cameras)
+
+    p = resolve_recording(path)
+    indexed = _indexed_log_times(p, wanted) if is_complete(p) else None
+    if indexed is not None:
+        return {c: np.sort(np.concatenate(t)) for c, t in indexed.items()}
+    out: dict[str, list[int]] = {}
+    for topic, message in iter_messages(p, wanted):
+        out.setdefault(layout.camera_of_topic(topic), []).append(message.log_time)
+    return {c: np.sort(np.asarray(t, dtype=np.int64)) for c, t in out.items()}
+
+
+_INDEX_HEAD = 1 + 8 + 2 + 4  # opcode, record length, channel id, entries length
+
+
+def _indexed_log_times(p: Path, wanted: TopicFilter) -> dict[str, list[np.ndarray]] | None:
+    """Log times per camera from the chunks' message index records; None when the index does not hold
+    every message of the wanted channels (written without one)."""
+    with open(p, "rb") as f:
+        summary = _seeking(f, p.stat().st_size).get_summary()
+        channels = {cid: layout.camera_of_topic(c.topic) for cid, c in summary.channels.items() if wanted(c.topic)}
+        out: dict[str, list[np.ndarray]] = {cam: [] for cam in channels.values()}
+        for chunk in summary.chunk_indexes:
+            for cid, offset in chunk.message_index_offsets.items():
+                if cid in channels:
+                    f.seek(offset)
+                    head = f.read(_INDEX_HEAD)
+                    length = int.from_bytes(head[11:15], "little")
+                    entries = np.frombuffer(f.read(length), dtype="<u8").reshape(-1, 2)
+                    out[channels[cid]].append(entries[:, 0].astype(np.int64))
+    counts = summary.statistics.channel_message_counts if summary.statistics else {}
+    if any(sum(t.size for t in out[cam]) != counts.get(cid, -1) for cid, cam in channels.items()):
+        return None
+    return {cam: t for cam, t in out.items() if t}
+
+
 @dataclass(frozen=True)
 class RecordedFrame:
     """One recorded frame (JPEG still compressed)."""

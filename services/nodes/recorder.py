@@ -5,7 +5,7 @@ Control through queryables (``<prefix>/recorder/start|stop|status``, see :mod:`g
 the caller gets an acknowledgement. Subscriber callbacks only enqueue; one writer thread writes the MCAP.
 The queue is bounded (:class:`QueuePolicy`): when the disk is slower than the cameras a subscriber waits
 at most ``block_s`` for room, then the message is dropped and counted per camera (``dropped_frames`` in
-the trial's summary), so a slow disk cannot eat the machine's memory. On a write error (disk full, file
+the trial's summary, its images also in ``dropped_images``), so a slow disk cannot eat the machine's memory. On a write error (disk full, file
 size limit) the recording stops cleanly: the ``.part`` file is closed, an ``error`` event is published
 and the stop reply carries the error. Events go to ``<prefix>/recorder/events``.
 
@@ -164,6 +164,7 @@ class Recording:
         self.first_write: tuple[float, float] | None = None  # (wall s, process cpu s) at the first frame
         self.last_write: tuple[float, float] | None = None
         self.dropped: dict[str, int] = {}  # camera -> messages dropped because the queue stayed full
+        self.dropped_images: dict[str, int] = {}  # camera -> of those, its images
         self.frame_range: tuple[int, int] | None = None  # (first, last) frame id recorded, all cameras
         self.early_anchor: int | None = None  # the first keypoints' frame id, while no frame is recorded yet
         self.rejected = 0
@@ -228,6 +229,7 @@ class Recording:
             "active_cpu_percent": 100.0 * active_cpu / active_s if active_s > 0 else None,
             "rejected": self.rejected,
             "dropped_frames": dict(sorted(self.dropped.items())),
+            "dropped_images": dict(sorted(self.dropped_images.items())),
             "error": self.error,
         }
 
@@ -281,6 +283,8 @@ class RecorderNode:
                 camera = self.bus.keys.camera_of(item[1])
                 with self._lock_drops:
                     rec.dropped[camera] = rec.dropped.get(camera, 0) + 1
+                    if item[0] == "image":
+                        rec.dropped_images[camera] = rec.dropped_images.get(camera, 0) + 1
 
     def _on_image(self, sample) -> None:
         if self._accepting:

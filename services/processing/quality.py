@@ -3,8 +3,11 @@
 Measured per camera from the images the recorder wrote (its per-camera summary: which frame ids arrived)
 when known, else from the keypoint messages (one per processed frame, with the camera's timestamp): frames
 expected over the trial, received, lost, skips (gaps), frame rate (Hz), when a camera stopped or started
-late. Recorded frames the detector produced no keypoints for are counted apart and reported as the
-detector falling behind, not as the camera stopping. Also: the sync spread (ms) between cameras per frame; the patient's
+late. A recording without the recorder's summary (recovered after a crash) is judged by the images the
+file holds (their timestamps from the MCAP index, placed on the keypoints' frame grid by time, as are the
+images of a camera whose counter restarted). Recorded frames the detector produced no keypoints for are
+counted apart and reported as the detector falling behind, not as the camera stopping; images the recorder
+itself dropped (its queue full) are named as the recorder's, not as the camera losing frames. Also: the sync spread (ms) between cameras per frame; the patient's
 detection coverage (share of frames seen by >= 2 cameras); after the fit, the reprojection error per
 camera (px), flagging a camera far above the others (often a bumped camera). Judged against
 :class:`QualityCriteria` (the project's sync criteria: >= 28 fps at 30 fps nominal, 0 skips, spread
@@ -61,7 +64,9 @@ class CameraQuality:
     delivered: from its first to its last frame), first and last frame times (s from the trial's first frame), reprojection error median (px, None before the
     fit or without detections). ``source``: what the frame counts come from, ``"images"`` (the recorder's
     summary) or ``"keypoints"`` (no summary: a recording cut short, a restarted camera);
-    ``without_keypoints``: recorded frames the detector gave no keypoints for (None when images unknown)."""
+    ``without_keypoints``: recorded frames the detector gave no keypoints for (None when images unknown);
+    ``recorder_dropped``: images of this camera the recorder dropped (queue full: disk or CPU too slow),
+    among ``lost`` when judged by images."""
 
     name: str
     expected: int
@@ -74,6 +79,12 @@ class CameraQuality:
     reprojection_px: float | None = None
     source: str = "keypoints"
     without_keypoints: int | None = None
+    recorder_dropped: int = 0
+
+    @property
+    def camera_lost(self) -> int:
+        """Frames the camera itself lost (the lost ones less those the recorder dropped)."""
+        return max(0, self.lost - self.recorder_dropped)
 
 
 @dataclass(frozen=True)
@@ -89,6 +100,7 @@ class DataQuality:
     recorded_s: float | None = None  # wall time from Start to Stop (the recorder's), None when unknown
     restarts: dict[str, int] = field(default_factory=dict)  # camera -> frame counter restarts within the trial
     absent: dict[str, int] = field(default_factory=dict)  # expected camera without keypoints -> images recorded
+    recovered: bool = False  # the recording was cut by a recorder crash and recovered (no recorder summary)
     warnings: tuple[str, ...] = ()
     serious: bool = False
     criteria: QualityCriteria = field(default_factory=QualityCriteria)
@@ -119,9 +131,12 @@ def _camera(name: str, present: np.ndarray, times_s: np.ndarray, nominal_fps: fl
 def recorded_frame_ids(summary: dict) -> dict[str, np.ndarray]:
     """{camera: sorted frame ids of the images the recorder wrote} from its summary
     (:func:`gaitcap.acquisition.recording.reader.read_summary`): first to last frame id less the gaps; {}
-    without a summary (a recording cut short)."""
+    without a summary (a recording cut short). A camera whose counter restarted is left out: its ids are
+    another count (place its images by time, :func:`images_on_grid`)."""
     out = {}
     for cam, tally in (summary.get("cameras") or {}).items():
+        if tally.get("restarts"):
+            continue
         first, last = tally.get("first_frame_id"), tally.get("last_frame_id")
         if first is None or last is None:
             out[cam] = np.zeros(0, dtype=np.int64)
@@ -130,6 +145,29 @@ def recorded_frame_ids(summary: dict) -> dict[str, np.ndarray]:
         for a, b in tally.get("gaps") or ():
             present[max(int(a), first) - first : min(int(b), last) - first + 1] = False
         out[cam] = int(first) + np.flatnonzero(present)
+    return out
+
+
+def images_on_grid(image_times_ns: dict[str, np.ndarray], *, camera_names, timestamps_ns: np.ndarray,
+                   frame_ids: np.ndarray) -> dict[str, np.ndarray]:
+    """{camera: sorted frame ids of its recorded images} from their camera timestamps (ns), on the keypoints'
+    frame grid (``timestamps_ns`` (C, T), -1 where missing, ``frame_ids`` (T,)): frame id = round((t -
+    offset) / period), the camera's offset from its own keypoints (the other cameras' median for a camera
+    without any), the period from the cameras' frame rate. A restarted camera's images land where the
+    reader placed its keypoints; images falling on one frame id count once."""
+    stamps = np.asarray(timestamps_ns, dtype=np.int64)
+    fids = np.asarray(frame_ids, dtype=np.int64)
+    if not (stamps >= 0).any():
+        raise ValueError("images_on_grid: the keypoints carry no timestamps to place the images by")
+    period = 1e9 / nominal_fps_of(stamps)
+    ref = int(stamps[stamps >= 0].min())
+    offsets = {n: float(np.median((row[row >= 0] - ref) - fids[row >= 0] * period))
+               for n, row in zip(camera_names, stamps, strict=True) if (row >= 0).any()}
+    typical = float(np.median(list(offsets.values())))
+    out = {}
+    for cam, times in image_times_ns.items():
+        rel = np.asarray(times, dtype=np.int64) - ref
+        out[cam] = np.unique(np.round((rel - offsets.get(cam, typical)) / period).astype(np.int64))
     return out
 
 
@@ -155,7 +193,8 @@ def sync_spread_ms(stamps_ns: np.ndarray) -> np.ndarray:
 
 def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confidence: np.ndarray | None,
                       expected_cameras=(), recorded_s: float | None = None, restarts=None, frame_ids=None,
-                      recorded_frames: dict[str, np.ndarray] | None = None,
+                      recorded_frames: dict[str, np.ndarray] | None = None, recovered: bool = False,
+                      recorder_dropped: dict[str, int] | None = None,
                       criteria: QualityCriteria = QualityCriteria()) -> DataQuality:
     """Measures and warnings from a recording's (C, T) camera timestamps (-1 where missing) and the
     patient's (C, T, J) detection confidences; ``expected_cameras``: the calibration's cameras (one
@@ -163,11 +202,12 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     timed it (images ending long before Stop: every camera stopped); ``restarts``: {camera: times its
     frame counter started again within the trial} (the reader's, a camera or camera node restarted);
     ``recorded_frames``: {camera: frame ids of its recorded images} (:func:`recorded_frame_ids`) with
-    ``frame_ids`` (T,) the keypoints' frame ids: cameras are then judged by their images (a restarted
-    camera by its keypoints) and keypoints missing for recorded frames are the detector's."""
+    ``frame_ids`` (T,) the keypoints' frame ids: cameras are then judged by their images and keypoints
+    missing for recorded frames are the detector's; ``recovered``: the recording was recovered after a
+    recorder crash; ``recorder_dropped``: {camera: images the recorder dropped, its queue full}."""
     stamps = np.asarray(timestamps_ns, dtype=np.int64)
     restarts = dict(restarts or {})
-    images = {n: np.asarray(ids, dtype=np.int64) for n, ids in (recorded_frames or {}).items() if n not in restarts}
+    images = {n: np.asarray(ids, dtype=np.int64) for n, ids in (recorded_frames or {}).items()}
     if images and frame_ids is None:
         raise ValueError("recording_quality: recorded_frames needs the keypoints' frame_ids")
     nominal = nominal_fps_of(stamps)
@@ -184,7 +224,9 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     # the last TAIL_S are not judged per camera: keypoints of the frames just before Stop may still have
     # been on their way (detector latency differs between cameras)
     window = max(1, grid.shape[1] - int(round(TAIL_S * nominal)))
-    cams = [_judged_camera(n, grid[c], images.get(n), lo, t0, nominal, window) for c, n in enumerate(camera_names)]
+    dropped = {n: int(k) for n, k in (recorder_dropped or {}).items() if k}
+    cams = [_judged_camera(n, grid[c], images.get(n), lo, t0, nominal, window, dropped.get(n, 0))
+            for c, n in enumerate(camera_names)]
     spread = sync_spread_ms(stamps)
     coverage = None
     if patient_confidence is not None and patient_confidence.size:
@@ -197,22 +239,24 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
                           spread_ms_p95=round(float(np.percentile(spread, 95)), 2) if spread.size else None,
                           coverage=None if coverage is None else round(coverage, 3), criteria=criteria,
                           recorded_s=None if recorded_s is None else round(float(recorded_s), 3),
-                          restarts=restarts, absent=absent)
+                          restarts=restarts, absent=absent, recovered=recovered)
     return judged(quality)
 
 
 def _judged_camera(name: str, stamps: np.ndarray, image_ids: np.ndarray | None, lo: int, t0_ns: float,
-                   nominal: float, window: int) -> CameraQuality:
+                   nominal: float, window: int, recorder_dropped: int) -> CameraQuality:
     """One camera's measures over the judged window of the frame grid (first frame id ``lo``): from its
     recorded images when known (and the recorded frames without keypoints), else from its keypoints."""
     with_keypoints = stamps[:window] >= 0
     if image_ids is None:
-        return _camera(name, with_keypoints, (stamps[:window] - t0_ns) / 1e9, nominal)
+        return _camera(name, with_keypoints, (stamps[:window] - t0_ns) / 1e9, nominal,
+                       recorder_dropped=recorder_dropped)
     recorded = np.zeros(stamps.size, dtype=bool)
-    recorded[image_ids - lo] = True
+    recorded[image_ids[(image_ids >= lo) & (image_ids < lo + stamps.size)] - lo] = True
     recorded = recorded[:window]
     return _camera(name, recorded, np.arange(window) / nominal, nominal, source="images",
-                   without_keypoints=int(np.count_nonzero(recorded & ~with_keypoints)))
+                   without_keypoints=int(np.count_nonzero(recorded & ~with_keypoints)),
+                   recorder_dropped=recorder_dropped)
 
 
 def with_reprojection(quality: DataQuality, errors_px: dict[str, float | None]) -> DataQuality:
@@ -245,8 +289,11 @@ def judged(q: DataQuality) -> DataQuality:
     end = judged_s - 1.0 / q.nominal_fps - late_s
     warn += [f"Camera {n} recorded nothing" if not k else f"The detector produced no keypoints for camera {n} "
              f"(its {k} frames were recorded)" for n, k in sorted(q.absent.items())]
-    warn += [f"Camera {n} restarted during the trial ({k} time{'s' if k > 1 else ''}); its frames around the "
-             "restart are missing" for n, k in sorted(q.restarts.items())]
+    if q.recovered:
+        warn.append("The recording was recovered after the recorder stopped unexpectedly: the cameras are "
+                    "judged by the images the file holds, up to the cut")
+    warn += [f"Camera {n} restarted during the trial ({k} time{'s' if k > 1 else ''}); its frames after the "
+             "restart are placed by their timestamps" for n, k in sorted(q.restarts.items())]
     for c in q.cameras:
         if c.received == 0:
             warn.append(f"Camera {c.name} recorded nothing")
@@ -259,11 +306,13 @@ def judged(q: DataQuality) -> DataQuality:
     if slow:
         names = ", ".join(f"{c.name} {c.fps:.0f} fps" for c in slow[:4]) + (", ..." if len(slow) > 4 else "")
         warn.append(f"{len(slow)} of {len(q.cameras)} cameras below {min_fps:.0f} fps ({names})")
-    lossy = [c for c in q.cameras if c.received and c.lost / max(c.expected, 1) > cr.max_lost_fraction]
+    lossy = [c for c in q.cameras if c.received and c.camera_lost / max(c.expected, 1) > cr.max_lost_fraction]
     if lossy:
         warn.append(f"{len(lossy)} of {len(q.cameras)} cameras lost frames ("
-                    + ", ".join(f"{c.name} {c.lost} of {c.expected}" for c in lossy[:4]) + ")")
-    skipping = [c for c in q.cameras if c.skips > cr.max_skips and c not in lossy]
+                    + ", ".join(f"{c.name} {c.camera_lost} of {c.expected}" for c in lossy[:4]) + ")")
+    warn += [f"The recorder dropped {c.recorder_dropped} images of camera {c.name} (disk or CPU too slow)"
+             for c in q.cameras if c.recorder_dropped]
+    skipping = [c for c in q.cameras if c.skips > cr.max_skips and c not in lossy and c.camera_lost]
     if skipping:
         warn.append(f"{len(skipping)} of {len(q.cameras)} cameras skipped frames ("
                     + ", ".join(f"{c.name} {c.skips} gaps" for c in skipping[:4]) + ")")

@@ -45,11 +45,11 @@ from gaitcap.services.processing.pipeline import (
 from gaitcap.services.processing.quality import (
     DataQuality,
     QualityCriteria,
-    recorded_frame_ids,
     recording_quality,
     reprojection_px,
     with_reprojection,
 )
+from gaitcap.services.processing.recorded_images import recorded_images
 from gaitcap.services.processing.viewers.files import VIEWER_FILES, trial_view, write_viewer_files
 from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
 
@@ -222,10 +222,12 @@ class Worker:
             self._report(trial_id, "processing", "finding the patient among the people in view", 0.07, None)
         det, seen_rig, _ = patient_input(recording, rig, files=files)
         summary = read_summary(mcap)  # the recorder's: Start to Stop, the images it wrote per camera
+        images = recorded_images(mcap, summary, recording)  # from the file when recovered or restarted
         quality = recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
                                     patient_confidence=det.keypoints[..., 2], expected_cameras=rig.names,
                                     recorded_s=summary.get("duration_s"), frame_ids=recording.frame_ids,
-                                    recorded_frames=recorded_frame_ids(summary),
+                                    recorded_frames=images.frames, recovered=images.recovered,
+                                    recorder_dropped=images.dropped,
                                     restarts=recording.restarts, criteria=self.config.criteria)
         rig = seen_rig
         source = (recording, rig, mcap)  # what the viewer files show besides the results

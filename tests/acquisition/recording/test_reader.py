@@ -9,6 +9,7 @@ from gaitcap.acquisition.recording.reader import (
     iter_frames,
     read_calibration,
     read_detections,
+    read_image_times,
     read_keypoints,
     read_metadata,
     read_status,
@@ -171,3 +172,16 @@ def test_every_camera_restarted_together_is_placed_after_the_gap(tmp_path):
     assert kp.frame_ids.size == 80 and np.all(np.diff(kp.times_s) > 0)
     np.testing.assert_allclose(kp.people[1, 60, :2], people_for(1, 60))
     assert kp.restarts == {"cam0": 1, "cam1": 1, "cam2": 1}
+
+
+def test_image_times_from_the_index_match_a_scan_of_the_cut_file(tmp_path):
+    part = write_trial(tmp_path / "crash.mcap", finish=False, flush_every=5, missing={"cam1": {3, 4}})
+    scanned = read_image_times(part)  # no index in a cut file: its records are scanned
+    report = recover(part)
+    indexed = read_image_times(report.output)  # through the message index
+    assert sorted(indexed) == sorted(scanned) == list(CAMS)
+    for cam in CAMS:
+        np.testing.assert_array_equal(indexed[cam], scanned[cam])
+    kept = [f for f in range(FRAMES) if f not in (3, 4)]
+    np.testing.assert_array_equal(indexed["cam1"], T0_NS + np.array(kept) * PERIOD_NS + 1000)
+    assert list(read_image_times(report.output, cameras=["cam2"])) == ["cam2"]

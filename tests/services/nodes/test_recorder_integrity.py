@@ -58,6 +58,10 @@ def test_a_stalled_disk_keeps_the_queue_bounded_and_counts_dropped_frames(tmp_pa
         dropped = summary["dropped_frames"]
         assert sum(dropped.values()) > 0 and set(dropped) <= set(trial.rig.names), dropped
         assert summary["frames"] + sum(dropped.values()) >= 3 * 60 - 5  # kept or counted (status messages too)
+        images = summary["dropped_images"]  # the images among the dropped messages, per camera
+        assert 0 < sum(images.values()) <= sum(dropped.values()), (images, dropped)
+        written = {c: summary["cameras"][c]["frames"] for c in trial.rig.names}
+        assert all(written[c] + images.get(c, 0) <= 60 for c in trial.rig.names), (written, images)
         assert is_complete(tmp_path / "t1.mcap")
         node.close()
     finally:

@@ -5,6 +5,7 @@ import pytest
 from gaitcap.services.processing.pipeline import ring_rig
 from gaitcap.services.processing.quality import (
     QualityCriteria,
+    images_on_grid,
     recorded_frame_ids,
     recording_quality,
     reprojection_px,
@@ -189,3 +190,58 @@ def test_keypoints_of_frames_before_the_first_image_do_not_count():
     q = _with_images(stamps, {n: list(range(FIRST_ID + 5, FIRST_ID + T)) for n in NAMES})
     assert q.warnings == () and q.duration_s == pytest.approx((T - 5) / FPS, abs=0.01)
     assert all(c.lost == 0 and c.without_keypoints == 0 and c.first_s == 0.0 for c in q.cameras)
+
+
+# -- recovered recordings, restarted cameras and the recorder's own drops ------------------------------
+def _image_times(stamps, frames=None) -> dict[str, np.ndarray]:
+    """Camera timestamps (ns) of the images of these grid columns (all by default) per camera."""
+    cols = np.arange(stamps.shape[1]) if frames is None else np.asarray(frames)
+    return {n: _stamps()[c, cols] for c, n in enumerate(NAMES)}
+
+
+def test_images_counted_from_a_recovered_file_are_placed_on_the_keypoint_grid():
+    stamps = _stamps(jitter_ms=4.0)
+    stamps[5, 200:] = -1  # the detector fell behind on camera 5; its images are all in the file
+    times = {n: t + (2_000_000 if n == "cam5" else 0) for n, t in _image_times(stamps).items()}  # 2 ms late
+    images = images_on_grid(times, camera_names=NAMES, timestamps_ns=stamps,
+                            frame_ids=np.arange(FIRST_ID, FIRST_ID + T))
+    assert all(ids.tolist() == list(range(FIRST_ID, FIRST_ID + T)) for ids in images.values())
+    q = recording_quality(camera_names=NAMES, timestamps_ns=stamps, patient_confidence=None,
+                          frame_ids=np.arange(FIRST_ID, FIRST_ID + T), recorded_frames=images, recovered=True)
+    assert q.recovered and q.cameras[5].source == "images" and q.cameras[5].lost == 0
+    assert q.warnings[0].startswith("The recording was recovered after the recorder stopped unexpectedly")
+    assert any(w.startswith("The detector fell behind on 1 of 10 cameras") for w in q.warnings), q.warnings
+    with pytest.raises(ValueError, match="no timestamps"):
+        images_on_grid(times, camera_names=NAMES, timestamps_ns=np.full((C, T), -1), frame_ids=np.arange(T))
+
+
+def test_a_restarted_camera_is_judged_by_its_images_placed_by_time():
+    stamps = _stamps()
+    stamps[3, 100:130] = -1  # camera 3 restarted: a second without images, then its counter from 0 again
+    ids = {n: list(range(FIRST_ID, FIRST_ID + T)) for n in NAMES}
+    ids["cam3"] = list(range(FIRST_ID, FIRST_ID + 100)) + list(range(170))  # what its recorder summary holds
+    summary_ids = recorded_frame_ids(_summary(ids))
+    assert "cam3" not in summary_ids  # its ids are another count: not taken as frames 0..169 nor duplicates
+    placed = images_on_grid({"cam3": _stamps()[3, np.r_[0:100, 130:T]]}, camera_names=NAMES,
+                            timestamps_ns=stamps, frame_ids=np.arange(FIRST_ID, FIRST_ID + T))
+    q = recording_quality(camera_names=NAMES, timestamps_ns=stamps, patient_confidence=None,
+                          frame_ids=np.arange(FIRST_ID, FIRST_ID + T), recorded_frames={**summary_ids, **placed},
+                          restarts={"cam3": 1})
+    cam3 = q.cameras[3]
+    assert (cam3.source, cam3.received, cam3.lost, cam3.skips, cam3.without_keypoints) == ("images", 240, 30, 1, 0)
+    assert q.warnings == ("Camera cam3 restarted during the trial (1 time); its frames after the restart are "
+                          "placed by their timestamps", "1 of 10 cameras below 28 fps (cam3 27 fps)",
+                          "1 of 10 cameras lost frames (cam3 30 of 270)")
+
+
+def test_images_the_recorder_dropped_are_the_recorders_not_the_cameras():
+    stamps = _stamps()
+    stamps[4, 200:212] = -1  # 12 images of camera 4 never written (the recorder's queue was full)
+    images = {n: list(range(FIRST_ID, FIRST_ID + T)) for n in NAMES}
+    images["cam4"] = [i for i in images["cam4"] if not FIRST_ID + 200 <= i < FIRST_ID + 212]
+    q = _with_images(stamps, images, recorder_dropped={"cam4": 12, "cam1": 0})
+    assert q.warnings == ("The recorder dropped 12 images of camera cam4 (disk or CPU too slow)",)
+    assert (q.cameras[4].lost, q.cameras[4].recorder_dropped, q.cameras[4].camera_lost) == (12, 12, 0)
+    assert with_reprojection(q, {}).warnings == q.warnings
+    blamed = _with_images(stamps, images)  # without the recorder's count, the camera lost them
+    assert blamed.warnings == ("1 of 10 cameras lost frames (cam4 12 of 270)",)
