@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.fileio import atomic_savez, atomic_write_bytes
+from gaitcap.acquisition.fileio import atomic_write_bytes
 from gaitcap.reconstruction.jsonable import finite_or_none, json_ready
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import trial_files
@@ -256,7 +256,7 @@ def compute_result(task: ReprocessTask) -> MethodResult:
     result = MethodResult(task.trial.trial_id, task.spec.method, task.spec.key, task.spec.to_dict(), "ok",
                           skeleton=det.skeleton.name, metrics=json_ready(metrics), gait=gait, residuals=residuals)
     if task.write_files:
-        result = MethodResult(**{**result.__dict__, "artifacts": _write_files(task, result, points, times, names)})
+        result = MethodResult(**{**result.__dict__, "artifacts": _write_files(task, result, traj)})
     return result
 
 
@@ -328,10 +328,12 @@ def _residuals(trial: TrialRef, points, times, names, sample) -> dict:
             "forward_bias_mm": finite_or_none(cmp.forward_bias_mm), "offset_s": finite_or_none(next(iter(cmp.offsets_s.values()), None))}
 
 
-def _write_files(task: ReprocessTask, result: MethodResult, points, times, names) -> dict[str, str]:
+def _write_files(task: ReprocessTask, result: MethodResult, traj) -> dict[str, str]:
+    from gaitcap.services.processing.outputs import write_npz
+
     folder = task.trial.folder / REPROCESS_DIR / f"{task.spec.method}-{task.spec.key}"
-    npz = folder / "trajectory.npz"
-    atomic_savez(npz, points_mm=points, times_s=times, joint_names=np.array(names))
+    npz = folder / "trajectory.npz"  # the worker's result file
+    write_npz(npz, traj)
     summary = folder / "result.json"
     atomic_write_bytes(summary, json.dumps({**result.comparable(), "spec": result.spec}, indent=1,
                                            default=float).encode())
