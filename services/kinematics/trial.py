@@ -66,8 +66,11 @@ def write_unavailable(out_dir: Path, reason: str) -> None:
 
 
 def trial_kinematics(points_mm: np.ndarray, times_s: np.ndarray, joint_names, *, steps=(), quality=None,
-                     out_dir: Path, config: KinematicsConfig = KinematicsConfig()) -> KinematicsReport:
+                     out_dir: Path, age_years: int | None = None,
+                     config: KinematicsConfig = KinematicsConfig()) -> KinematicsReport:
     """Fit, report and export one trial into ``out_dir`` (see the module docstring); returns the report.
+    ``age_years``: the patient's age at the trial (years; None when not recorded): the files carry the
+    normal-gait band the page shows for that age.
 
     KinematicsUnavailable when the engine cannot run (``kinematics.json`` then says so); ValueError naming
     the problem for unusable input (no hips, knees or ankles; unknown skeleton)."""
@@ -95,7 +98,7 @@ def trial_kinematics(points_mm: np.ndarray, times_s: np.ndarray, joint_names, *,
              "seconds": {**fit.seconds, "total": round(time.perf_counter() - t0, 3)}}
     report = kinematics_report(fit.coordinates_deg, fit.times_s, steps, norms=norm_bands(),
                                marker_errors_mm=fit.marker_errors_mm, model=model, held=fit.held)
-    shown = with_norms({"available": True, **report.to_dict()}, None)  # the API re-chooses by the patient's age
+    shown = with_norms({"available": True, **report.to_dict()}, age_years)  # the API re-chooses on reading
     atomic_write_text(out_dir / FILES["json"], json.dumps(shown) + "\n")
     atomic_write_text(out_dir / FILES["csv"], curves_csv(shown))
     write_c3d(out_dir / FILES["c3d"], c3d_content(pts, times_s, names, steps))

@@ -21,15 +21,16 @@ def _steps(files: TrialFiles, stage: str) -> list[dict]:
     return json.loads(path.read_text()).get("steps", []) if path.is_file() else []
 
 
-def kinematics_step(files: TrialFiles, stage: str, traj: Trajectory) -> bool:
-    """Fit, report and export the stage's joint kinematics; True when they were computed."""
+def kinematics_step(files: TrialFiles, stage: str, traj: Trajectory, *, age_years: int | None = None) -> bool:
+    """Fit, report and export the stage's joint kinematics; True when they were computed. ``age_years``:
+    the patient's age at the trial (None when not recorded) picks the normal-gait band of the files."""
     from gaitcap.services.kinematics import KinematicsUnavailable
     from gaitcap.services.kinematics.trial import trial_kinematics, write_unavailable
 
     out = files.stage_file(stage, "kinematics_json").parent
     try:
         trial_kinematics(traj.points_mm, traj.times_s, traj.joint_names, steps=_steps(files, stage),
-                         quality=traj.num_views, out_dir=out)
+                         quality=traj.num_views, out_dir=out, age_years=age_years)
     except KinematicsUnavailable as exc:
         log.warning("%s %s: kinematics are unavailable: %s", files.root.name, stage, exc)
         return False

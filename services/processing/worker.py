@@ -26,6 +26,7 @@ from typing import Protocol
 
 from gaitcap.acquisition.recording.reader import read_summary
 from gaitcap.services import catalog as cat
+from gaitcap.services.kinematics.shown import patient_age
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.calibration_job import fail_calibration, run_calibration
 from gaitcap.services.processing.kinematics_step import kinematics_step
@@ -243,7 +244,8 @@ class Worker:
             lease.check()
             self._store(trial_id, "refined", traj, det, viewers=source, data_quality=quality)
         # joint kinematics follow the stored result (separate step, never fails the trial)
-        kinematics_step(files, "refined" if self.config.refine else "preliminary", traj)
+        kinematics_step(files, "refined" if self.config.refine else "preliminary", traj,
+                        age_years=patient_age(self.db, trial_id))  # the band the page shows, in the files
         self._finish(trial_id, quality)
 
     def _finish(self, trial_id: str, quality: DataQuality) -> None:

@@ -1,12 +1,16 @@
 """The worker on a real catalog and a real trial MCAP of a synthetic walk: results against ground truth."""
 
 import json
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from gaitcap.reconstruction.kinematics.report import curves_csv
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog.patients import update_patient
 from gaitcap.services.kinematics import availability
+from gaitcap.services.kinematics.files import norms_for_age
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.worker import Worker, WorkerConfig
 from mcap.reader import make_reader
@@ -47,6 +51,7 @@ def _step_length_errors(result, truth) -> list[float]:
 
 def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path, walk):
     db, tid = _recorded_trial(tmp_path, walk)
+    update_patient(db, "P1", birth_year=time.gmtime().tm_year - 40)  # the files carry the adults' band
     published = []
 
     class Sink:
@@ -79,6 +84,9 @@ def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path,
     assert kin["available"] is availability()[0], kin
     if kin["available"]:
         assert kin["curves"]["knee_flexion"]["left"]["n_cycles"] >= 1
+        assert kin["norms"] == norms_for_age(40).to_dict() != norms_for_age(None).to_dict()  # as the page shows
+        kin_dir = files.stage_file("refined", "kinematics_json").parent
+        assert (kin_dir / "kinematics.csv").read_text() == curves_csv(kin)
     assert cat.get_result(db, tid, "refined").quality["GC_10"] > 0.9
     results = [p["result"] for p in published if p["result"]]
     assert sorted(set(results), key=results.index) == ["preliminary", "refined"]
