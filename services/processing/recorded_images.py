@@ -17,8 +17,8 @@ from gaitcap.services.processing.quality import images_on_grid, recorded_frame_i
 
 @dataclass(frozen=True)
 class RecordedImages:
-    """``frames``: {camera: sorted frame ids of its recorded images}; ``recovered``: the recording has no
-    summary of the recorder's (cut by a crash and recovered): its images are counted from the file; ``dropped``: {camera: images the recorder dropped,
+    """``frames``: {camera: sorted frame ids of its recorded images} (counted from the file when the
+    recorder's summary has no cameras); ``recovered``: the file was recovered after a recorder crash; ``dropped``: {camera: images the recorder dropped,
     its queue full} (the summary's; empty without one)."""
 
     frames: dict[str, np.ndarray]
@@ -36,4 +36,4 @@ def recorded_images(path: str | os.PathLike, summary: dict, recording: KeypointR
         frames.update(images_on_grid(times, camera_names=recording.camera_names,
                                      timestamps_ns=recording.timestamps_ns, frame_ids=recording.frame_ids))
     dropped = {c: int(k) for c, k in (summary.get("dropped_images") or {}).items() if k}
-    return RecordedImages(frames, recovered=bool(summary.get("recovered")) or not summary, dropped=dropped)
+    return RecordedImages(frames, recovered=summary.get("recovered") is True, dropped=dropped)
