@@ -119,11 +119,11 @@ def real(npz: Path) -> dict:
     and the largest knee flexion of each side over the whole trial (the swing peak when a swing is in it)."""
     from gaitcap.reconstruction.kinematics.angles import clinical_angles
     from gaitcap.reconstruction.kinematics.mot import parse_mot
-    from gaitcap.services.cli.gait import _load
     from gaitcap.services.kinematics.trial import FILES, trial_kinematics
+    from gaitcap.services.processing.outputs import read_npz
     from gaitcap.services.processing.pipeline import gait_of
 
-    traj, reproj = _load(npz)
+    traj, reproj = read_npz(npz)
     times = traj.times_s
     gait, note = gait_of(traj, reprojection_px=reproj)
     with tempfile.TemporaryDirectory() as tmp:

@@ -51,16 +51,16 @@ def register(app: typer.Typer) -> None:
         as_json: bool = typer.Option(False, "--json", help="Print the kinematics report as one JSON object."),
     ) -> None:
         """Scale an OpenSim model to the trial, inverse kinematics, gait-cycle joint angles with norms."""
-        from gaitcap.services.cli.gait import _load
         from gaitcap.services.kinematics import KinematicsUnavailable
         from gaitcap.services.kinematics.trial import KinematicsConfig, trial_kinematics
+        from gaitcap.services.processing.outputs import read_npz
         from gaitcap.services.processing.pipeline import gait_of
 
         folder = out or result.with_name(f"{result.stem}-kinematics")
         with user_errors():
             if not math.isfinite(mass_kg) or not 20.0 <= mass_kg <= 300.0:
                 raise ValueError(f"--mass-kg: must be in [20, 300], got {mass_kg}")
-            traj, reproj = _load(result)
+            traj, reproj = read_npz(result)
             gait, problem = gait_of(traj, reprojection_px=reproj)  # the worker's gait analysis
             if gait is None:
                 typer.echo(f"note: no gait cycles ({problem}); joint angles only", err=True)
