@@ -4,9 +4,9 @@ The cameras' frame ids count from one synchronised start (FLIR and simulated dri
 frame set. A camera (or the camera node) that restarts within a trial starts its counter again; its new
 frame ids repeat ids already recorded, with later timestamps. Such a recording must not be refused (a
 recording is never lost) nor read with the ids as they are (frames of two moments in one set). Here each
-camera's frames, in time order, are cut into *segments* wherever the frame id does not increase, and every
-later segment is placed on the reference grid by its timestamps (camera clocks are PTP-synchronised, and survive a
-restart):
+camera's frames, in time order, are cut into *segments* wherever the frame id goes back (an id repeated with a
+later stamp is a duplicate, dropped and counted, not a restart), and every later segment is placed on the
+reference grid by its timestamps (camera clocks are PTP-synchronised, and survive a restart):
 
     slot = frame_id + offset,   offset = median(round((timestamp_ns - anchor_ns) / period_ns) - frame_id)
 
@@ -55,8 +55,8 @@ class SlotReport:
 
 
 def _segments(ids: np.ndarray) -> list[slice]:
-    """Slices of ``ids`` (in time order) between the places where the id does not increase."""
-    cuts = np.flatnonzero(np.diff(ids) <= 0) + 1
+    """Slices of ``ids`` (in time order) between the places where the id goes back (the counter restarted)."""
+    cuts = np.flatnonzero(np.diff(ids) < 0) + 1
     bounds = [0, *cuts.tolist(), ids.size]
     return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if b > a]
 

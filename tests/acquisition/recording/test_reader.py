@@ -185,3 +185,15 @@ def test_image_times_from_the_index_match_a_scan_of_the_cut_file(tmp_path):
     kept = [f for f in range(FRAMES) if f not in (3, 4)]
     np.testing.assert_array_equal(indexed["cam1"], T0_NS + np.array(kept) * PERIOD_NS + 1000)
     assert list(read_image_times(report.output, cameras=["cam2"])) == ["cam2"]
+
+
+def test_a_repeated_frame_id_is_a_duplicate_not_a_restart(caplog):
+    from gaitcap.acquisition.recording.frame_slots import align_frame_slots
+
+    ids = np.array([10, 11, 12, 12, 13])
+    ts = T0_NS + np.array([0, 1, 2, 2, 3]) * PERIOD_NS + np.array([0, 0, 0, 5, 0])
+    placed, report = align_frame_slots({"cam0": (ids, ts), "cam1": (ids[[0, 1, 2, 4]], ts[[0, 1, 2, 4]])})
+    assert report.restarts == {} and report.dropped == {"cam0": 1}
+    keep, slots = placed["cam0"]
+    assert slots.tolist() == [10, 11, 12, 13] and keep.tolist() == [0, 1, 2, 4]
+    assert "cam0: 1 frames repeat a frame already recorded" in caplog.text
