@@ -29,10 +29,8 @@ from gaitcap.acquisition.board_pairing import (
     MISSING,
     PairingConfig,
     default_tolerance_ns,
-    moving_views,
     pair_by_time,
-    smeared_views,
-    split_moving,
+    separate_moving,
 )
 from gaitcap.acquisition.board_sources import folder_sources
 from gaitcap.reconstruction.calibration import (
@@ -220,12 +218,8 @@ def _assemble(cams, sets, timed, finds, sizes, probes, board, pairing) -> BoardD
             if i != MISSING:
                 cam_t[c, k] = cams[c].times_ns[i] * 1e-9 if timed else float(i)
     set_t = np.nanmedian(cam_t, axis=0) if cam_t.size else np.zeros(0)  # every set holds a frame
-    smeared = smeared_views(corners, cam_t, pairing.max_shift_px, readout_s=pairing.readout_ms / 1000,
-                            max_fraction=pairing.max_moving_fraction) if timed else np.zeros(cam_t.shape, bool)
-    corners[smeared] = np.nan  # skewed by the rolling shutter: no use for intrinsics or extrinsics
-    moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px) if timed else np.zeros(cam_t.shape, bool)
     times_s = set_t - np.nanmin(set_t) if timed and set_t.size else np.nanmin(cam_t, axis=0)
-    corners, times_s = split_moving(corners, times_s, moving)
+    corners, times_s, moving = separate_moving(corners, cam_t, times_s, pairing, timed=timed)
     missing = [c.name for i, c in enumerate(cams) if i not in sizes]
     if missing:
         raise ValueError(f"cameras {missing}: no frame could be read")
@@ -234,7 +228,7 @@ def _assemble(cams, sets, timed, finds, sizes, probes, board, pairing) -> BoardD
     per_cam = tuple(
         CameraDetection.from_finds(cam.name, [f for (c, _), f in finds.items() if c == ci],
                                    min_corners=geometry.min_corners,
-                                   moving=int(moving[ci].sum() + smeared[ci].sum()),
+                                   moving=int(moving[ci]),
                                    probe=probes.get(ci))
         for ci, cam in enumerate(cams)
     )

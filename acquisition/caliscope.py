@@ -20,10 +20,8 @@ from gaitcap.acquisition.board_pairing import (
     MISSING,
     PairingConfig,
     default_tolerance_ns,
-    moving_views,
     pair_by_time,
-    smeared_views,
-    split_moving,
+    separate_moving,
 )
 from gaitcap.reconstruction.calibration import BoardObservations
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
@@ -130,14 +128,10 @@ def read_points(
                 corners[c, s, pid] = uv
             cam_t[c, s] = frame["t"]
     set_t = np.nanmedian(cam_t, axis=0)
-    smeared = smeared_views(corners, cam_t, pairing.max_shift_px, readout_s=pairing.readout_ms / 1000,
-                            max_fraction=pairing.max_moving_fraction) if timed else np.zeros(cam_t.shape, bool)
-    corners[smeared] = np.nan  # skewed by the rolling shutter: no use for intrinsics or extrinsics
-    moving = moving_views(corners, cam_t, set_t, pairing.max_shift_px) if timed else np.zeros(cam_t.shape, bool)
-    corners, times_s = split_moving(corners, set_t - set_t.min(), moving)
+    corners, times_s, moving = separate_moving(corners, cam_t, set_t - set_t.min(), pairing, timed=timed)
     obs = BoardObservations(tuple(names), tuple(tuple(image_sizes_px[n]) for n in names), corners, geometry,
                             times_s)
-    return obs, int(moving.sum() + smeared.sum())
+    return obs, int(moving.sum())
 
 
 def _half_gap_ns(per_cam: list[list]) -> int:
