@@ -7,7 +7,6 @@ import threading
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
 from gaitcap.acquisition.drivers.simulated import parse_faults, simulated_rig
 from gaitcap.acquisition.recording.reader import is_complete, iter_frames, read_metadata, read_status
@@ -18,25 +17,13 @@ from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
 from gaitcap.services.nodes.recorder import RecorderNode
 
+from .conftest import noise_render, wait_for
+
 ROOT = Path(__file__).resolve().parents[3]
 
 
 def free_bus(names, prefix="gaitcap/rt"):
     return BusConfig.free_local(names, prefix=prefix)
-
-
-def noise_render(trial, camera_index, frame_index, size_px):
-    rng = np.random.default_rng(camera_index * 10_000 + frame_index)
-    return rng.integers(0, 255, (size_px[1], size_px[0], 3), dtype=np.uint8)
-
-
-def wait_for(cond, timeout_s=20.0, what="condition"):
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if cond():
-            return
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 @pytest.fixture(scope="module")

@@ -12,15 +12,9 @@ from gaitcap.services.bus.messages import ImageFrame, Keypoints
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.recorder import KEYPOINT_SLACK_FRAMES, RecorderNode
 
+from .conftest import wait_for
+
 JPEG = bytes.fromhex("ffd8ffe000104a464946") + b"\x00" * 20 + bytes.fromhex("ffd9")
-
-
-def _wait(cond, what, timeout_s=10.0):
-    end = time.monotonic() + timeout_s
-    while not cond():
-        if time.monotonic() > end:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.05)
 
 
 def test_recorder_refuses_outside_paths_and_rejects_out_of_range_messages(tmp_path):
@@ -30,7 +24,7 @@ def test_recorder_refuses_outside_paths_and_rejects_out_of_range_messages(tmp_pa
     srec, s = open_session(bus, "recorder"), open_session(bus, "camera-0")
     rec = RecorderNode(srec, bus, data_root=data)
     try:
-        _wait(lambda: "recorder" in alive_nodes(s, bus), "recorder alive")
+        wait_for(lambda: "recorder" in alive_nodes(s, bus), 10.0, "recorder alive")
         client = RecorderClient(s, bus.keys, timeout_s=5)
         for bad in (str(tmp_path / "evil.mcap"), "../evil.mcap"):
             with pytest.raises(RecorderError, match="outside the recorder's data folder"):
@@ -47,7 +41,7 @@ def test_recorder_refuses_outside_paths_and_rejects_out_of_range_messages(tmp_pa
             s.put(bus.keys.keypoints("cam01"), Keypoints("cam01", fid, 10**18 + fid, "halpe26", people).to_bytes())
         s.put(bus.keys.keypoints("cam01"), json.dumps({"camera": "cam01", "frame_id": 2**40}).encode())
         s.put(bus.keys.keypoints("cam02"), Keypoints("cam01", 103, 1, "halpe26", people).to_bytes())
-        _wait(lambda: rec.status().queued == 0, "queue drained")
+        wait_for(lambda: rec.status().queued == 0, 10.0, "queue drained")
         time.sleep(0.3)
         summary = client.stop("t1").summary
         assert summary["frames"] == 5 and summary["keypoints"] == 1

@@ -5,7 +5,6 @@ crash finalises the recording the dead one left."""
 import threading
 import time
 
-import numpy as np
 import pytest
 from gaitcap.acquisition.drivers.simulated import simulated_rig
 from gaitcap.acquisition.recording.reader import is_complete, read_summary
@@ -16,19 +15,7 @@ from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
 from gaitcap.services.nodes.recorder import QueuePolicy, RecorderNode
 
-
-def _noise(trial, camera_index, frame_index, size_px):
-    rng = np.random.default_rng(camera_index * 10_000 + frame_index)
-    return rng.integers(0, 255, (size_px[1], size_px[0], 3), dtype=np.uint8)
-
-
-def _wait(cond, timeout_s=20.0, what="condition"):
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if cond():
-            return
-        time.sleep(0.02)
-    raise AssertionError(f"timed out waiting for {what}")
+from .conftest import noise_render, wait_for
 
 
 @pytest.fixture(scope="module")
@@ -43,16 +30,16 @@ def test_a_stalled_disk_keeps_the_queue_bounded_and_counts_dropped_frames(tmp_pa
     rec = RecorderNode(srec, bus, data_root=tmp_path, policy=policy)
     gate = threading.Event()
     try:
-        _wait(lambda: "recorder" in alive_nodes(scam, bus), what="recorder alive")
+        wait_for(lambda: "recorder" in alive_nodes(scam, bus), what="recorder alive")
         client = RecorderClient(scam, bus.keys)
         client.start(trial_id="t1", path=str(tmp_path / "t1.mcap"))
         rec._queue.put(("control", gate.wait))  # the disk stalls: the writer thread is stuck on it
-        drivers = simulated_rig(trial, size_px=(32, 24), realtime=False, render=_noise, max_frames=60)
+        drivers = simulated_rig(trial, size_px=(32, 24), realtime=False, render=noise_render, max_frames=60)
         node = CameraNode(scam, bus, "camera-0", drivers, status_interval_s=0.2)
         node.run(start_at_ns=time.time_ns())
         assert rec.status().queued <= policy.max_items
         gate.set()  # the disk is back
-        _wait(lambda: sum(rec._current.tally(c).frames for c in trial.rig.names)
+        wait_for(lambda: sum(rec._current.tally(c).frames for c in trial.rig.names)
               + sum(rec._current.dropped.values()) >= 3 * 60 - 5, what="every frame written or counted")
         summary = client.stop("t1").summary
         dropped = summary["dropped_frames"]
