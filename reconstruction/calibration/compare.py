@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from gaitcap.reconstruction.calibration.geometry import mean_rotation, rotation_angle_deg
 from gaitcap.reconstruction.camera import Camera, Rig
@@ -141,10 +140,10 @@ def compare_similar(reference: Rig, other: Rig) -> SimilarityComparison:
 
 def _centre_ray(cam: Camera) -> np.ndarray:
     """Unit viewing ray (3,) through the image's centre pixel, in the camera's world frame."""
-    centre = np.array([[[cam.size_px[0] / 2, cam.size_px[1] / 2]]], dtype=np.float64)
-    xy = cv2.undistortPoints(centre, cam.matrix_px, cam.dist).reshape(2)
-    ray = cam.rotation.T @ np.r_[xy, 1.0]
-    return ray / np.linalg.norm(ray)
+    from gaitcap.reconstruction.association.geometry import pixel_rays  # here: the package is heavy to import
+
+    _, rays = pixel_rays(Rig((cam,)), np.array([[cam.size_px[0] / 2, cam.size_px[1] / 2]], dtype=np.float64))
+    return rays[0]
 
 
 def _ray_angle_deg(reference: Camera, other: Camera, turn: np.ndarray) -> float:
