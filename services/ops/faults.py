@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import httpx
+from gaitcap.services.ops.auto_trial import FINISHED
 
 log = logging.getLogger(__name__)
-FINAL = ("done", "done_with_warnings", "failed")
 
 
 @dataclass(frozen=True)
@@ -87,7 +87,7 @@ class Drill:
         return r.json()["id"]
 
     def finished(self, tid: str) -> dict:
-        return self.wait(lambda: (t := self.trial(tid))["state"] in FINAL and t, f"trial {tid} to finish")
+        return self.wait(lambda: (t := self.trial(tid))["state"] in FINISHED and t, f"trial {tid} to finish")
 
     def result(self, fault: str, tid: str, detect_s: float | None, *, saw_recovery: bool = False) -> FaultResult:
         t = self.finished(tid)
@@ -136,7 +136,7 @@ def recorder_killed(drill: Drill) -> FaultResult:
     t0 = time.monotonic()
     drill.stack.supervisor.kill("recorder")
     detect = _time_until(drill, lambda: drill.trial(tid)["state"] != "recording", "the trial to leave recording", t0)
-    saw = drill.wait(lambda: drill.trial(tid)["state"] in ("recovered", "processing", *FINAL), "recovery", 60)
+    saw = drill.wait(lambda: drill.trial(tid)["state"] in ("recovered", "processing", *FINISHED), "recovery", 60)
     return drill.result("recorder SIGKILL mid-trial", tid, detect, saw_recovery=bool(saw))
 
 
@@ -184,7 +184,7 @@ def repeated_crashes(drill: Drill, crashes: int = 4) -> FaultResult:
     tid = drill.start("P0905")
     time.sleep(5)
     drill.client.post(f"/trials/{tid}/stop").raise_for_status()
-    res = drill.result("recorder crashed 4 times", tid, max(detects))
+    res = drill.result(f"recorder crashed {crashes} times", tid, max(detects))
     restarted = drill.stack.supervisor.restarts("recorder")
     return FaultResult(res.fault, tid, res.state, res.lost, restarted >= crashes, False, max(detects),
                        f"supervisor restarted the recorder {restarted} times")
