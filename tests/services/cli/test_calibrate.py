@@ -4,30 +4,21 @@ import json
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.synthetic.board import (
-    BoardMotion,
-    board_trajectory,
-    render_board_images,
-    scaled_rig,
-    write_board_mcap,
-)
-from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.acquisition.synthetic.board import write_board_mcap
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.reconstruction.calibration_io import load_rig
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
+
+from ..conftest import board_images
 
 SCALE = 0.3
 
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
-    rig = build_rig(10, seed=0).subset(["cam01", "cam02"])
-    board = make_board(BoardConfig.checkerboard())
-    rot, tvec = board_trajectory(board.geometry, BoardMotion(n_frames=32, floor_frames=3, seed=3), rig)
-    images = render_board_images(rig, board, rot, tvec, scale=SCALE)
-    return write_board_mcap(tmp_path_factory.mktemp("cal") / "board.mcap", images), scaled_rig(rig, SCALE)
+    images, truth = board_images(SCALE)
+    return write_board_mcap(tmp_path_factory.mktemp("cal") / "board.mcap", images), truth
 
 
 def test_calibrate_writes_calibration_and_report(recording, tmp_path):

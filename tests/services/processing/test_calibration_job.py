@@ -11,19 +11,13 @@ import time
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.synthetic.board import (
-    BoardMotion,
-    board_trajectory,
-    render_board_images,
-    scaled_rig,
-    write_board_mcap,
-)
-from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.acquisition.synthetic.board import write_board_mcap
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
 from gaitcap.services.processing.worker import Worker, WorkerConfig
+
+from ..conftest import board_images
 
 SCALE = 0.3
 WORKER = (sys.executable, "-c", "from gaitcap.services.cli import main; main()", "worker", "--no-bus", "--no-warm-up")
@@ -31,10 +25,7 @@ WORKER = (sys.executable, "-c", "from gaitcap.services.cli import main; main()",
 
 @pytest.fixture(scope="module")
 def images():
-    rig = build_rig(10, seed=0).subset(["cam01", "cam02"])
-    board = make_board(BoardConfig.checkerboard())
-    rot, tvec = board_trajectory(board.geometry, BoardMotion(n_frames=32, floor_frames=3, seed=3), rig)
-    return render_board_images(rig, board, rot, tvec, scale=SCALE), scaled_rig(rig, SCALE)
+    return board_images(SCALE)
 
 
 def _queued(tmp_path, frames) -> tuple[cat.Catalog, str]:
