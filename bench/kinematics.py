@@ -20,7 +20,6 @@ plausibility (a healthy walker's peak knee flexion in swing is 50-70 deg).
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import sys
 import tempfile
@@ -30,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import jsonable  # noqa: E402
+from _common import add_trial_args, emit  # noqa: E402
 
 VARIABLES = ("hip_flexion", "hip_adduction", "knee_flexion", "ankle_dorsiflexion")
 # reported beside them: the thigh's inclination in the progression plane (model: hip flexion minus anterior
@@ -169,10 +168,7 @@ def print_table(result: dict) -> None:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--preset", default="paper")
-    ap.add_argument("--seconds", type=float, default=30.0)
-    ap.add_argument("--cameras", type=int, default=10)
-    ap.add_argument("--seed", type=int, default=0)
+    add_trial_args(ap)
     ap.add_argument("--real", type=Path, default=None, help="also check a reconstructed real walk (NPZ)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
@@ -180,10 +176,7 @@ def main(argv=None) -> None:
     result = run(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed)
     if args.real is not None:
         result["real"] = real(args.real)
-    if args.json:
-        print(json.dumps(jsonable(result)))
-    else:
-        print_table(result)
+    emit(result, as_json=args.json, table=print_table)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _common import emit
+from _common import add_trial_args, emit
 
 
 def run(*, seconds: float, cameras: int, preset: str, seed: int) -> dict:
@@ -86,10 +86,7 @@ def table(r: dict) -> str:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--seconds", type=float, default=600.0)
-    ap.add_argument("--cameras", type=int, default=10)
-    ap.add_argument("--preset", default="paper", choices=["clean", "paper", "hard"])
-    ap.add_argument("--seed", type=int, default=0)
+    add_trial_args(ap, seconds=600.0)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)

@@ -19,7 +19,6 @@ Targets (issue: long sessions), for the default implicit fit: the 360 s trial ta
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
 import subprocess
@@ -29,7 +28,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _common import jsonable
+from _common import emit
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -169,10 +168,7 @@ def main(argv=None) -> None:
         workdir = args.workdir or Path(tmp)
         result = run(seconds=sorted(args.seconds), methods=args.methods, cameras=args.cameras, seed=args.seed,
                      workdir=workdir)
-    if args.json:
-        print(json.dumps(jsonable(result)))
-    else:
-        print_table(result)
+    emit(result, as_json=args.json, table=print_table)
 
 
 if __name__ == "__main__":
