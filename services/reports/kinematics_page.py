@@ -15,10 +15,6 @@ NORMAL_NOTE = (f"Normal: the key value read off the band's mean curve (toe-off t
                "of the cycle); the normal spread between people is the band's.")
 
 
-def _latin1(text: str) -> str:
-    return str(text).replace("\u2013", "-").replace("\u2212", "-").encode("latin-1", "replace").decode("latin-1")
-
-
 def _stat(s: dict | None) -> str:
     if not isinstance(s, dict) or not isinstance(s.get("mean"), (int, float)):
         return "-"
@@ -50,9 +46,9 @@ def _key_table(pdf, k: dict) -> None:
             head.cell(h)
         for name in names:
             row = table.row()
-            row.cell(_latin1(name.removesuffix("_deg").replace("_", " ").capitalize()))
+            row.cell(pdf.latin1(name.removesuffix("_deg").replace("_", " ").capitalize()))
             for side in ("left", "right"):
-                row.cell(_latin1(_stat((kv.get(side) or {}).get(name))))
+                row.cell(pdf.latin1(_stat((kv.get(side) or {}).get(name))))
             normal = normal_key_value(name, bands) if name in KEY_VALUES else math.nan
             row.cell(f"{normal:.1f}" if math.isfinite(normal) else "-")
     pdf.para(NORMAL_NOTE, 7.5)
@@ -81,12 +77,12 @@ def kinematics_section(pdf) -> None:
         pdf.heading("Joint kinematics over the gait cycle (mean +- SD per side; left blue, right red)")
         pdf.image(io.BytesIO(side_curves_png(k)), w=pdf.w - pdf.l_margin - pdf.r_margin)
         for line in _notes(k):
-            pdf.para(_latin1(line), 7.5)
+            pdf.para(line, 7.5)
     else:
         pdf.heading("Joint angles")
     if k.get("key_values"):
         _key_table(pdf, k)
     if c.joint_angles_note and not k.get("curves"):
-        pdf.para(_latin1(c.joint_angles_note))
+        pdf.para(c.joint_angles_note)
     elif not k.get("key_values"):
-        pdf.para(_latin1(c.joint_angles_note or "No joint kinematics."))
+        pdf.para(c.joint_angles_note or "No joint kinematics.")

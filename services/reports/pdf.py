@@ -36,6 +36,8 @@ def _when(t_s: float | None) -> str:
 
 
 class _Doc(FPDF):
+    latin1 = staticmethod(_latin1)
+
     def __init__(self, c: ReportContent) -> None:
         super().__init__(orientation="portrait", unit="mm", format="A4")
         self.c = c
