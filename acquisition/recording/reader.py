@@ -25,6 +25,7 @@ from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 from mcap.exceptions import McapError
+from mcap.opcode import Opcode
 from mcap.reader import SeekingReader
 from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
@@ -231,6 +232,9 @@ def _indexed_log_times(p: Path, wanted: TopicFilter) -> dict[str, list[np.ndarra
                 if cid in channels:
                     f.seek(offset)
                     head = f.read(_INDEX_HEAD)
+                    if (len(head) < _INDEX_HEAD or head[0] != Opcode.MESSAGE_INDEX
+                            or int.from_bytes(head[9:11], "little") != cid):
+                        return None  # the summary points at something else: scan the file instead
                     length = int.from_bytes(head[11:15], "little")
                     entries = np.frombuffer(f.read(length), dtype="<u8").reshape(-1, 2)
                     out[channels[cid]].append(entries[:, 0].astype(np.int64))

@@ -197,3 +197,28 @@ def test_a_repeated_frame_id_is_a_duplicate_not_a_restart(caplog):
     keep, slots = placed["cam0"]
     assert slots.tolist() == [10, 11, 12, 13] and keep.tolist() == [0, 1, 2, 4]
     assert "cam0: 1 frames repeat a frame already recorded" in caplog.text
+
+
+def test_image_times_scan_the_file_when_the_index_points_at_something_else(tmp_path):
+    from mcap.reader import make_reader
+
+    path = write_trial(tmp_path / "t.mcap")
+    good = read_image_times(path)
+    with open(path, "rb") as f:
+        summary = make_reader(f).get_summary()
+    a, b = [c for c, ch in summary.channels.items() if layout.is_image_topic(ch.topic)][:2]
+    data = bytearray(path.read_bytes())
+    start = summary.chunk_indexes[0].chunk_start_offset + 1  # past the data section's first chunk
+    swapped = 0
+    for ci in summary.chunk_indexes:  # the summary's chunk indexes send camera a to camera b's index records
+        if a in ci.message_index_offsets and b in ci.message_index_offsets:
+            pa, pb = (cid.to_bytes(2, "little") + ci.message_index_offsets[cid].to_bytes(8, "little") for cid in (a, b))
+            at, bt = data.index(pa, start), data.index(pb, start)
+            data[at + 2: at + 10], data[bt + 2: bt + 10] = pb[2:], pa[2:]
+            swapped += 1
+    assert swapped
+    path.write_bytes(bytes(data))
+    times = read_image_times(path)  # the index records name other channels: the file is scanned instead
+    assert sorted(times) == sorted(good)
+    for cam in good:
+        np.testing.assert_array_equal(times[cam], good[cam])
