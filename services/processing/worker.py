@@ -27,7 +27,7 @@ from typing import Protocol
 from gaitcap.acquisition.recording.reader import read_summary
 from gaitcap.services import catalog as cat
 from gaitcap.services.kinematics.shown import patient_age
-from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.artifacts import TrialFiles, trial_files
 from gaitcap.services.processing.calibration_job import fail_calibration, run_calibration
 from gaitcap.services.processing.kinematics_step import kinematics_step
 from gaitcap.services.processing.outputs import steps_of, summary_of, write_data, write_views
@@ -237,12 +237,13 @@ class Worker:
         traj = preliminary(det, rig)
         quality = with_reprojection(quality, reprojection_px(traj.points_mm, det.keypoints, rig))
         lease.check()
-        self._store(trial_id, "preliminary", traj, det, viewers=None if self.config.refine else source, data_quality=quality)
+        self._store(files, "preliminary", traj, det, viewers=None if self.config.refine else source,
+                    data_quality=quality)
         if self.config.refine:
             self._report(trial_id, "processing", "refining the 3D reconstruction", 0.4, "preliminary")
             traj = refined(det, rig)
             lease.check()
-            self._store(trial_id, "refined", traj, det, viewers=source, data_quality=quality)
+            self._store(files, "refined", traj, det, viewers=source, data_quality=quality)
         # joint kinematics follow the stored result (separate step, never fails the trial)
         kinematics_step(files, "refined" if self.config.refine else "preliminary", traj,
                         age_years=patient_age(self.db, trial_id))  # the band the page shows, in the files
@@ -256,16 +257,17 @@ class Worker:
         cat.set_state(self.db, trial_id, final, expect="processing", stage="done", progress=1.0)
         self._report(trial_id, final, "done", 1.0, "refined" if self.config.refine else "preliminary")
 
-    def _store(self, trial_id: str, stage: str, traj: Trajectory, det, *, viewers: tuple | None,
+    def _store(self, files: TrialFiles, stage: str, traj: Trajectory, det, *, viewers: tuple | None,
                data_quality: DataQuality) -> None:
-        """Gait analysis, the catalog result and the stage's files; ``viewers``: (keypoint recording, rig,
-        trial MCAP) to write the viewer files (.rrd, results MCAP) from, None for none."""
+        """Gait analysis, the catalog result and the stage's files (``files``: the trial's, as the job found
+        them); ``viewers``: (keypoint recording, rig, trial MCAP) to write the viewer files (.rrd, results
+        MCAP) from, None for none."""
+        trial_id = files.root.name
         t0 = time.perf_counter()
         report, problem = gait_of(traj)
         if problem:
             log.warning("trial %s %s: no gait parameters: %s", trial_id, stage, problem)
         gait_s = time.perf_counter() - t0
-        files = trial_files(self.config.data_dir, trial_id)
         write_data(files, stage, traj, report, data_quality=data_quality.to_dict())
         # The plot, TRC and Rerun files follow right after the result is stored (the page retries the plot).
         later = ["trajectory_trc", "report_png"] + (list(VIEWER_FILES) if viewers else [])
