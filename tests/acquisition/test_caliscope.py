@@ -146,5 +146,6 @@ def test_the_second_sessions_excess_error_is_the_moving_board():
     # a whole (every corner an outlier): its RMS over all its corners stands out and the report says so
     assert set(result.report.failed_cameras) <= {"cam_1"}, result.report.failed_cameras
     assert all("x the other cameras' median" in p for q in result.report.cameras for p in q.problems)
+    assert [q.name for q in result.report.cameras if q.problems] == ["cam_1"]  # the report does say so
     cmp = compare_similar(ref, result.rig)
     assert cmp.centre_mm_max < 10.0 and cmp.rotation_deg_max < 1.5, (cmp.centre_mm, cmp.rotation_deg)
