@@ -129,7 +129,6 @@ class ReportContent:
     num_passes: int
     previous: PreviousVisit | None = None
     flags: tuple[str, ...] = field(default_factory=tuple)
-    joint_angles: dict[str, dict[str, float]] = field(default_factory=dict)  # key value -> side -> mean (deg)
     joint_angles_note: str = ""
     kinematics: dict = field(default_factory=dict)  # kinematics.json with the band for the patient's age
 
@@ -252,33 +251,26 @@ def previous_visit(db: cat.Catalog, trial: cat.TrialInfo, data_dir: Path | None 
     return None
 
 
-def joint_angles_of(data_dir: Path, trial_id: str, stage: str) -> tuple[dict[str, dict[str, float]], str]:
-    """Key joint-angle values (name -> side -> mean, degrees) of the stage's ``kinematics.json``, and a
-    note saying why there are none (not computed, or the reason it was unavailable)."""
+def stored_kinematics(data_dir: Path, trial_id: str, stage: str) -> dict | None:
+    """The stage's ``kinematics.json`` as a dict, None when it was not written."""
     path = trial_files(data_dir, trial_id).stage_file(stage, "kinematics_json")
-    if not path.is_file():
-        return {}, "Joint kinematics were not computed for this trial."
-    data = json.loads(path.read_text(encoding="utf-8"))
+    return json.loads(path.read_text(encoding="utf-8")) if path.is_file() else None
+
+
+def joint_angles_note(data: dict | None) -> str:
+    """Why a stage's ``kinematics.json`` (``data``, None when not written) has no key joint-angle values,
+    or which values were not measured; "" when there is nothing to say."""
+    if data is None:
+        return "Joint kinematics were not computed for this trial."
     if data.get("available") is False:
-        return {}, f"Joint kinematics unavailable: {data.get('reason', 'no reason given')}."
-    out: dict[str, dict[str, float]] = {}
-    for side, values in (data.get("key_values") or {}).items():
-        for name, stats in values.items():
-            if isinstance(stats, dict) and isinstance(stats.get("mean"), (int, float)):
-                out.setdefault(name, {})[side] = float(stats["mean"])
+        return f"Joint kinematics unavailable: {data.get('reason', 'no reason given')}."
+    measured = any(isinstance(stats, dict) and isinstance(stats.get("mean"), (int, float))
+                   for values in (data.get("key_values") or {}).values() for stats in values.values())
     held = "; ".join(f"{name.replace('_', ' ')} not measured ({why})"
                      for name, why in (data.get("not_measured") or {}).items())
-    if not out:
-        return out, " ".join(filter(None, ["Joint kinematics have no key values for this trial.", held]))
-    return out, held + "." if held else ""
-
-
-def _kinematics(data_dir: Path, trial_id: str, stage: str, age: int | None) -> dict:
-    """The stage's ``kinematics.json`` with the normal band for the patient's age, {} without one."""
-    from gaitcap.services.kinematics.shown import with_norms
-
-    path = trial_files(data_dir, trial_id).stage_file(stage, "kinematics_json")
-    return with_norms(json.loads(path.read_text(encoding="utf-8")), age) if path.is_file() else {}
+    if not measured:
+        return " ".join(filter(None, ["Joint kinematics have no key values for this trial.", held]))
+    return held + "." if held else ""
 
 
 def _version() -> str:
@@ -294,6 +286,8 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
                    *, norms: NormTable | None = None) -> ReportContent:
     """Gather a trial's report. LookupError (TrialNotFound) for an unknown trial, FileNotFoundError when
     the trial has no results or its gait file is missing."""
+    from gaitcap.services.kinematics.shown import with_norms
+
     trial = cat.get_trial(db, trial_id)
     result = cat.get_result(db, trial.id)
     if result is None:
@@ -304,7 +298,7 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
     norms = norms or load_norms(config.norms_csv, units=NORM_UNITS)
     rows = rows_of(gait.get("summary", {}), norms, sex=patient.sex, age=age)
     png = trial_files(data_dir, trial.id).stage_file(result.stage, "report_png")
-    angles, angles_note = joint_angles_of(Path(data_dir), trial.id, result.stage)
+    kinematics = stored_kinematics(Path(data_dir), trial.id, result.stage)
     return ReportContent(
         clinic_name=config.clinic_name, trial=trial, patient=patient, details=pat.get_details(db, trial.id),
         age=age, stage=result.stage, method=result.method, rows=rows,
@@ -314,5 +308,6 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
         norm_citations=norms.citations, version=_version(),
         num_steps=int(gait.get("summary", {}).get("num_steps") or 0),
         num_passes=int(gait.get("summary", {}).get("num_passes") or 0),
-        previous=previous_visit(db, trial, Path(data_dir)), flags=flags_of(rows), joint_angles=angles,
-        joint_angles_note=angles_note, kinematics=_kinematics(Path(data_dir), trial.id, result.stage, age))
+        previous=previous_visit(db, trial, Path(data_dir)), flags=flags_of(rows),
+        joint_angles_note=joint_angles_note(kinematics),
+        kinematics=with_norms(kinematics, age) if kinematics is not None else {})
