@@ -114,16 +114,8 @@ class BusConfig:
     @classmethod
     def free_local(cls, nodes, *, prefix: str = DEFAULT_PREFIX) -> BusConfig:
         """All ``nodes`` on 127.0.0.1 at ports the OS reports free now (tests, throw-away stacks)."""
-        import socket
-
-        socks = [socket.socket() for _ in nodes]
-        try:
-            for s in socks:
-                s.bind(("127.0.0.1", 0))
-            ports = [s.getsockname()[1] for s in socks]
-        finally:
-            for s in socks:
-                s.close()
+        nodes = tuple(nodes)
+        ports = free_loopback_ports(len(nodes))
         return cls({n: f"tcp/127.0.0.1:{p}" for n, p in zip(nodes, ports, strict=True)}, prefix=prefix)
 
     def listen_for(self, node: str | None) -> list[str]:
