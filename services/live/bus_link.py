@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import os
 import time
+from dataclasses import replace
 
 from gaitcap.services.live.nodes import NodeBoard
 from gaitcap.services.live.protocols import CameraHealth, RecorderUnavailable
@@ -87,8 +88,7 @@ class BusLink:
             cam = camera_health(n, statuses.get(n), now - frames[n].received_s if n in frames else None, now)
             node = nodes.get(str((statuses.get(n) or {}).get("node")))
             if node is not None and not node.alive:  # its process died: known at once, not after STALE_S
-                cam = CameraHealth(n, cam.fps, False, f"no signal (camera node {node.name} down)", cam.age_s,
-                                   cam.details, False)
+                cam = replace(cam, healthy=False, status=f"no signal (camera node {node.name} down)", delivering=False)
             out.append(cam)
         return out
 
