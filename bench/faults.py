@@ -14,7 +14,6 @@ API within 5 s.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
 import sys
@@ -23,6 +22,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from _common import emit  # noqa: E402
 
 TARGET_DETECT_S = 5.0
 
@@ -82,7 +82,7 @@ def main() -> None:
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING if args.json else logging.INFO, stream=sys.stderr)
     report = run(args.runs, args.cameras, args.fps, args.only)
-    print(json.dumps(report) if args.json else table(report))
+    emit(report, as_json=args.json, table=table)
 
 
 if __name__ == "__main__":
