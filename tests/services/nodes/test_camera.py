@@ -11,6 +11,8 @@ from gaitcap.services.bus.control import CameraStatusBoard, PreviewFrames
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
 
+from .conftest import wait_for
+
 
 def free_bus(names, prefix="gaitcap/cn"):
     return BusConfig.free_local(names, prefix=prefix)
@@ -57,9 +59,7 @@ def test_frames_status_preview_and_a_failing_camera():
                                 render=lambda t, c, f, s: np.full((s[1], s[0], 3), 40 * c, np.uint8))
         drivers[2] = Broken(drivers[2])
         node = CameraNode(sc, bus, "camera-0", drivers, status_interval_s=0.1)
-        deadline = time.monotonic() + 10
-        while "camera-0" not in alive_nodes(sv, bus) and time.monotonic() < deadline:
-            time.sleep(0.05)
+        wait_for(lambda: "camera-0" in alive_nodes(sv, bus), 10, "camera-0 alive")
         time.sleep(0.2)
         published = node.run(start_at_ns=time.time_ns() + 100_000_000)
         assert published == {"cam01": 12, "cam02": 12, "cam03": 2}

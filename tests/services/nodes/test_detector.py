@@ -11,6 +11,8 @@ from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
 from gaitcap.services.nodes.detector import DetectorNode
 
+from .conftest import wait_for
+
 
 def free_bus(names, prefix="gaitcap/dn"):
     return BusConfig.free_local(names, prefix=prefix)
@@ -39,9 +41,7 @@ def _run(detector, trial, frames=8):
     sub = ss.declare_subscriber(bus.keys.keypoints(), lambda s: (lock.acquire(), got.append(json.loads(s.payload.to_bytes())), lock.release()))
     det = DetectorNode(sd, bus, "detector", detector, workers=2)
     try:
-        deadline = time.monotonic() + 10
-        while not {"detector"} <= alive_nodes(ss, bus) and time.monotonic() < deadline:
-            time.sleep(0.05)
+        wait_for(lambda: {"detector"} <= alive_nodes(ss, bus), 10, "detector alive")
         drivers = simulated_rig(trial, size_px=(32, 24), realtime=False, max_frames=frames,
                                 render=lambda t, c, f, s: np.zeros((s[1], s[0], 3), np.uint8))
         node = CameraNode(sc, bus, "camera-0", drivers)

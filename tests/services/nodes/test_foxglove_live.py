@@ -23,6 +23,8 @@ from gaitcap.services.nodes.foxglove_live import FoxgloveLiveConfig, FoxgloveRel
 pytest.importorskip("foxglove", reason="foxglove-sdk is installed by deploy/bootstrap.sh (gaitcap[dev])")
 from websockets.sync.client import connect  # noqa: E402
 
+from .conftest import wait_for
+
 DECODERS = {"foxglove.CompressedImage": CompressedImage, "foxglove.ImageAnnotations": ImageAnnotations,
             "foxglove.CameraCalibration": CameraCalibration}
 
@@ -91,11 +93,9 @@ def test_live_rig_is_watched_in_foxglove():
     client = FoxgloveClient(relay.port)
     node = None
     try:
-        deadline = time.monotonic() + 10
-        while "detector" not in alive_nodes(sr, bus) and time.monotonic() < deadline:
-            time.sleep(0.05)
-        while len(client.subscriptions) < 4 * len(trial.rig) and time.monotonic() < deadline:
-            time.sleep(0.05)  # the rig's channels are advertised at start, and subscribed
+        wait_for(lambda: "detector" in alive_nodes(sr, bus), 10, "detector alive")
+        # the rig's channels are advertised at start, and subscribed
+        wait_for(lambda: len(client.subscriptions) >= 4 * len(trial.rig), 10, "the client's subscriptions")
         time.sleep(0.3)
         drivers = simulated_rig(trial, size_px=(32, 24), realtime=True, max_frames=60,
                                 render=lambda t, c, f, s: np.full((s[1], s[0], 3), f, np.uint8))
@@ -151,9 +151,7 @@ def test_a_live_recorded_trial_opens_in_foxglove_with_overlays(tmp_path):
     recorder = RecorderNode(sr, bus, data_root=tmp_path)
     node = None
     try:
-        deadline = time.monotonic() + 10
-        while not {"detector", "recorder"} <= alive_nodes(sc, bus) and time.monotonic() < deadline:
-            time.sleep(0.05)
+        wait_for(lambda: {"detector", "recorder"} <= alive_nodes(sc, bus), 10, "detector and recorder alive")
         client = RecorderClient(sc, bus.keys)
         client.start(trial_id="t1", path=str(tmp_path / "t1.mcap"), calibration_toml=rig_to_toml_text(trial.rig),
                      cameras=trial.rig.names)
