@@ -28,6 +28,7 @@ class CameraDetection:
         variants: {how the board was printed, as found: views}.
         moving: views taken out of their frame sets (kept alone) because the board moved between the
             cameras' exposures.
+        smeared: views left out because the board moved during the rolling shutter's readout (skewed).
         probe: {variant: frames with enough corners} found by trying every printing variant on a sample
             of this camera's frames where the configured one found nothing.
     """
@@ -41,21 +42,23 @@ class CameraDetection:
     variants: dict[str, int] = field(default_factory=dict)
     moving: int = 0
     probe: dict[str, int] = field(default_factory=dict)
+    smeared: int = 0
 
     @classmethod
     def from_finds(cls, name: str, finds: list[BoardFind], *, min_corners: int, moving: int = 0,
-                   probe: dict[str, int] | None = None) -> CameraDetection:
+                   probe: dict[str, int] | None = None, smeared: int = 0) -> CameraDetection:
         marked = [f for f in finds if f.n_markers > 0]
         good = [f for f in finds if f.corners is not None and f.n_corners >= min_corners]
         ratios = [f.marker_ratio for f in marked if np.isfinite(f.marker_ratio)]
         variants = Counter(f.variant.describe() for f in good if f.variant is not None)
         return cls(name, len(finds), len(marked), len(good),
                    float(np.median([f.marker_px for f in marked])) if marked else float("nan"),
-                   float(np.median(ratios)) if ratios else float("nan"), dict(variants), moving, probe or {})
+                   float(np.median(ratios)) if ratios else float("nan"), dict(variants), moving, probe or {}, smeared)
 
     def usable(self) -> int:
-        """Views for this camera's intrinsics (moving views included: they only tie no cameras together)."""
-        return self.with_board
+        """Views for this camera's intrinsics (moving views included: they only tie no cameras together;
+        smeared ones are left out)."""
+        return self.with_board - self.smeared
 
     def advice(self, board: BoardConfig, min_views: int) -> list[str]:
         """What to change, most likely cause first (empty when the camera has enough views)."""
@@ -70,6 +73,9 @@ class CameraDetection:
         if self.moving:
             tips.append(f"{self.moving} views tie no cameras together because the board moved between the "
                         "cameras' exposures: hold it still in each position (or move it slower)")
+        if self.smeared:
+            tips.append(f"{self.smeared} views left out because the board moved during the image's readout "
+                        "(rolling shutter): move it slower")
         tips.append(f"{self.usable()} usable views, need {min_views}: move the board through this camera's whole "
                     "view, closer and slower, in good light")
         return tips

@@ -142,24 +142,25 @@ def smeared_views(corners_px: np.ndarray, times_s: np.ndarray, max_shift_px: flo
 
 
 def separate_moving(corners_px: np.ndarray, cam_t: np.ndarray, times_s: np.ndarray, pairing: PairingConfig,
-                    *, timed: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    *, timed: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Frame sets with the views of a moving board dealt with: those smeared during the readout left out,
     those that moved between the cameras' exposures split off (:func:`split_moving`). Nothing when the
     frames have no times (``timed`` False: ``cam_t`` holds frame indices).
 
     corners_px: (C, F, N, 2), changed in place; cam_t: (C, F) each camera's frame time, s (NaN: no frame);
     times_s: (F,) the sets' times -> corners (C, F', N, 2), times (F',), and per camera (C,) the views
-    left out or split off.
+    split off (moving) and those left out (smeared).
     """
     if not timed:
-        return corners_px, times_s, np.zeros(corners_px.shape[0], dtype=int)
+        none = np.zeros(corners_px.shape[0], dtype=int)
+        return corners_px, times_s, none, none
     smeared = smeared_views(corners_px, cam_t, pairing.max_shift_px, readout_s=pairing.readout_ms / 1000,
                             max_fraction=pairing.max_moving_fraction)
     corners_px[smeared] = np.nan  # skewed by the rolling shutter: no use for intrinsics or extrinsics
     set_t = np.nanmedian(cam_t, axis=0) if cam_t.size else np.zeros(0)  # every set holds a frame
     moving = moving_views(corners_px, cam_t, set_t, pairing.max_shift_px)
     corners_px, times_s = split_moving(corners_px, times_s, moving)
-    return corners_px, times_s, moving.sum(1) + smeared.sum(1)
+    return corners_px, times_s, moving.sum(1), smeared.sum(1)
 
 
 def split_moving(corners_px: np.ndarray, times_s: np.ndarray, moving: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

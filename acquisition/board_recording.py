@@ -219,7 +219,7 @@ def _assemble(cams, sets, timed, finds, sizes, probes, board, pairing) -> BoardD
                 cam_t[c, k] = cams[c].times_ns[i] * 1e-9 if timed else float(i)
     set_t = np.nanmedian(cam_t, axis=0) if cam_t.size else np.zeros(0)  # every set holds a frame
     times_s = set_t - np.nanmin(set_t) if timed and set_t.size else np.nanmin(cam_t, axis=0)
-    corners, times_s, moving = separate_moving(corners, cam_t, times_s, pairing, timed=timed)
+    corners, times_s, moving, smeared = separate_moving(corners, cam_t, times_s, pairing, timed=timed)
     missing = [c.name for i, c in enumerate(cams) if i not in sizes]
     if missing:
         raise ValueError(f"cameras {missing}: no frame could be read")
@@ -228,7 +228,7 @@ def _assemble(cams, sets, timed, finds, sizes, probes, board, pairing) -> BoardD
     per_cam = tuple(
         CameraDetection.from_finds(cam.name, [f for (c, _), f in finds.items() if c == ci],
                                    min_corners=geometry.min_corners,
-                                   moving=int(moving[ci]),
+                                   moving=int(moving[ci]), smeared=int(smeared[ci]),
                                    probe=probes.get(ci))
         for ci, cam in enumerate(cams)
     )

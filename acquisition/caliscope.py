@@ -128,10 +128,10 @@ def read_points(
                 corners[c, s, pid] = uv
             cam_t[c, s] = frame["t"]
     set_t = np.nanmedian(cam_t, axis=0)
-    corners, times_s, moving = separate_moving(corners, cam_t, set_t - set_t.min(), pairing, timed=timed)
+    corners, times_s, moving, smeared = separate_moving(corners, cam_t, set_t - set_t.min(), pairing, timed=timed)
     obs = BoardObservations(tuple(names), tuple(tuple(image_sizes_px[n]) for n in names), corners, geometry,
                             times_s)
-    return obs, int(moving.sum())
+    return obs, int(moving.sum() + smeared.sum())
 
 
 def _half_gap_ns(per_cam: list[list]) -> int:

@@ -93,6 +93,15 @@ def test_diagnosis_without_markers_names_the_dictionary_and_small_markers():
     assert "enough corners in only 3" in tips and "size" not in tips
 
 
+def test_views_smeared_by_the_readout_do_not_count_for_the_intrinsics():
+    config = BoardConfig.checkerboard()
+    cam = CameraDetection("cam01", frames=30, with_markers=0, with_board=20, marker_px=float("nan"),
+                          marker_ratio=float("nan"), moving=4, smeared=8)
+    assert cam.usable() == 12  # moving views still serve the intrinsics; smeared ones were left out
+    err = str(too_few_views_error((cam,), config, min_views=15))
+    assert "12 usable views, need 15" in err and "8 views left out because the board moved during" in err
+
+
 def test_a_fixed_variant_that_finds_nothing_is_probed():
     from gaitcap.acquisition.board_recording import _detect
 
