@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+from gaitcap.acquisition.fileio import atomic_path
 from gaitcap.reconstruction.kinematics.c3d import C3DContent
 
 
@@ -28,13 +27,6 @@ def write_c3d(path: Path, content: C3DContent) -> Path:
     if content.events:
         for context, label, time in content.events:
             c.add_event(time=[0.0, float(time) - content.first_time_s], context=context, label=label)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".c3d")
-    os.close(fd)
-    try:
-        c.write(tmp)
-        os.replace(tmp, path)
-    finally:
-        Path(tmp).unlink(missing_ok=True)
-    return path
+    with atomic_path(path) as tmp:
+        c.write(str(tmp))
+    return Path(path)

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.fileio import atomic_write_text
+from gaitcap.acquisition.fileio import atomic_path, atomic_write_text
 from gaitcap.reconstruction.kinematics.frames import opensim_to_room, room_to_opensim
 from gaitcap.reconstruction.kinematics.mot import to_mot
 from gaitcap.reconstruction.kinematics.outliers import OUTLIER_MM, gross_outliers
@@ -288,9 +288,8 @@ class OpenSimEngine:
         model.scale(state, scale_set, True, float(req.mass_kg))
         model.setName(req.stem)
         out_path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = out_path.with_name(f".{out_path.name}.tmp")
-        model.printToXML(str(tmp))
-        tmp.replace(out_path)
+        with atomic_path(out_path) as tmp:
+            model.printToXML(str(tmp))
         return factors
 
     def _ik_inputs(self, files, req: FitRequest, pts: np.ndarray) -> tuple[dict[str, float], np.ndarray]:
@@ -337,9 +336,8 @@ class OpenSimEngine:
             if len(locations) >= 3:
                 out[m] = np.median(locations, axis=0)
                 model.getMarkerSet().get(m).set_location(self.osim.Vec3(*out[m]))
-        tmp = paths["osim"].with_name(f".{paths['osim'].name}.tmp")
-        model.printToXML(str(tmp))
-        tmp.replace(paths["osim"])
+        with atomic_path(paths["osim"]) as tmp:
+            model.printToXML(str(tmp))
         return {m: [round(float(v), 4) for v in loc] for m, loc in out.items()}
 
     def _ik(self, files, paths, req: FitRequest, times: np.ndarray, pts: np.ndarray):

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.fileio import atomic_write_text
+from gaitcap.acquisition.fileio import atomic_write_bytes, atomic_write_text
 from gaitcap.reconstruction.kinematics.c3d import c3d_content
 from gaitcap.reconstruction.kinematics.markers import guess_skeleton, layout_for
 from gaitcap.reconstruction.kinematics.report import KinematicsReport, curves_csv, kinematics_report
@@ -53,12 +53,6 @@ def marker_weights(quality: np.ndarray | None, points_mm: np.ndarray) -> np.ndar
     med = np.median(q, axis=0)
     rel = med / med.max() if med.max() > 0 else np.ones_like(med)
     return np.clip(rel * present, MIN_WEIGHT, 1.0)
-
-
-def _write_bytes(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_bytes(data)
-    tmp.replace(path)
 
 
 def write_unavailable(out_dir: Path, reason: str) -> None:
@@ -102,7 +96,7 @@ def trial_kinematics(points_mm: np.ndarray, times_s: np.ndarray, joint_names, *,
     atomic_write_text(out_dir / FILES["json"], json.dumps(shown) + "\n")
     atomic_write_text(out_dir / FILES["csv"], curves_csv(shown))
     write_c3d(out_dir / FILES["c3d"], c3d_content(pts, times_s, names, steps))
-    _write_bytes(out_dir / FILES["png"], curves_png(shown))
+    atomic_write_bytes(out_dir / FILES["png"], curves_png(shown))
     log.info("kinematics: %d frames, scale %.2f s, IK %.2f s", len(fit.times_s), fit.seconds.get("scale", 0),
              fit.seconds.get("ik", 0))
     return report
