@@ -105,12 +105,12 @@ class CameraTally:
     def summary(self, last_frame_id_all: int | None) -> dict[str, Any]:
         """Counts, gaps and restarts; ``last_frame_id_all``: the last frame id of any camera (judges a camera
         that stopped early; not applied to a camera whose counter restarted: its ids are another count)."""
-        segments = _counter_segments(self.frame_ids)
-        gaps = [g for seg in segments for g in _gap_ranges(np.unique(seg))]
+        segments = [np.unique(seg) for seg in _counter_segments(self.frame_ids)]  # each count's ids, sorted
+        gaps = [g for seg in segments for g in _gap_ranges(seg)]
         ids = np.unique(np.asarray(self.frame_ids, dtype=np.int64))
         missing_inside = int(sum(b - a + 1 for a, b in gaps))
         missing_end = 0
-        last = int(np.max(segments[-1])) if segments else None
+        last = int(segments[-1][-1]) if segments else None
         if last is not None and len(segments) == 1 and last_frame_id_all is not None and last_frame_id_all > last:
             missing_end = int(last_frame_id_all - last)
             gaps.append([last + 1, int(last_frame_id_all)])
@@ -119,7 +119,7 @@ class CameraTally:
             "keypoints": self.keypoints,
             "first_frame_id": int(ids[0]) if ids.size else None,
             "last_frame_id": int(ids[-1]) if ids.size else None,
-            "duplicates": int(len(self.frame_ids) - sum(np.unique(seg).size for seg in segments)),
+            "duplicates": int(len(self.frame_ids) - sum(seg.size for seg in segments)),
             "missing_frames": missing_inside + missing_end,
             "stopped_early": missing_end > 0,
             "restarts": len(segments) - 1 if segments else 0,
