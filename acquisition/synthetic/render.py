@@ -200,7 +200,7 @@ def _view(cam_key: tuple, size_px: tuple[int, int], room_half: tuple[float, floa
     full_size, kflat, dist, rvec, tvec = cam_key
     cam = scaled_camera(Camera("view", full_size, np.array(kflat).reshape(3, 3), np.array(dist), np.array(rvec),
                                np.array(tvec)), size_px)
-    room = background(cam, room_half, 3000.0)
+    room = _background_cached(_cam_key(cam), room_half, 3000.0)  # the cached room itself, not a second copy
     room.flags.writeable = False
     return cam, room
 

@@ -25,6 +25,15 @@ def test_render_frame_draws_people_over_the_room(trial):
             assert hits.mean() > 0.8
 
 
+def test_drawing_a_frame_leaves_the_cached_room_empty(trial):
+    cam = scaled_camera(trial.rig[1], (320, 200))
+    room = background(cam)
+    first = render_frame(trial, 1, 120, size_px=(320, 200))
+    assert np.any(first != room) and first.flags.writeable
+    assert np.array_equal(background(cam), room)  # the people were drawn on a copy
+    assert np.array_equal(render_frame(trial, 1, 120, size_px=(320, 200)), first)
+
+
 def test_render_size_and_errors(trial):
     assert render_frame(trial, 0, 0, size_px=(320, 200)).shape == (200, 320, 3)
     with pytest.raises(ValueError, match="frame_index"):
