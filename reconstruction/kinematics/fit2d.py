@@ -137,13 +137,13 @@ def fit_angles_2d(keypoints: np.ndarray, joint_names, rig: Rig, camera_names, in
     import time
 
     names = [str(n) for n in joint_names]
+    params = initial_params(init_points_mm, names)  # first: names the joints the chain lacks
     idx = [names.index(j) for j in JOINTS]
     kp = np.asarray(keypoints, dtype=np.float64)[:, :, idx]
     conf = np.nan_to_num(kp[..., 2])
     w = conf if weights is None else np.nan_to_num(np.asarray(weights, dtype=np.float64)[:, :, idx])
     obs: Observations = make_observations(kp, np.where(conf > config.gamma, w, 0.0))
     cams: CameraArrays = camera_arrays(rig.subset(tuple(camera_names)))
-    params = initial_params(init_points_mm, names)
     t0 = time.perf_counter()
     lr = WarmupHoldDecay(init=config.learning_rate, peak=config.learning_rate, warmup_steps=1,
                          decay_start=config.steps // 2, end=config.final_learning_rate, total_steps=config.steps)

@@ -37,6 +37,9 @@ def test_chain_started_from_exact_keypoints_has_their_angles(trial):
     assert np.abs(pts[:, knees] - true_knees).max() < 10.0  # mm (the adduction is started from its angle)
     with pytest.raises(ValueError, match="left_heel"):
         initial_params(trial.points_mm[:, :20], names[:20])
+    with pytest.raises(ValueError, match=r"the chain needs \['left_heel'"):
+        fit_angles_2d(trial.detections.keypoints[:, :, :20], names[:20], trial.rig, trial.detections.camera_names,
+                      trial.points_mm[:, :20])
 
 
 def test_fit_to_2d_keypoints_recovers_the_angles_from_a_noisy_start(trial):
