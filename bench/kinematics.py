@@ -1,6 +1,6 @@
 """Joint kinematics: accuracy of the OpenSim model fit on the synthetic walker, and its speed.
 
-    python bench/kinematics.py [--preset paper] [--seconds 30] [--cameras 10] [--json] [--real DIR]
+    python bench/kinematics.py [--preset paper] [--seconds 30] [--cameras 10] [--json] [--real NPZ]
 
 The synthetic walker's true joint angles are measured on its exact keypoints (rigid thigh, shank and foot;
 ``reconstruction.kinematics.geometric``), with the model's zero pose measured the same way subtracted, and
