@@ -33,10 +33,25 @@ def _gait(npz: Path) -> dict:
     return json.loads(_run(["gait", str(npz), "--json"]).strip().splitlines()[-1])
 
 
+def _matched_steps(worker: list[dict], other: list[dict], *, within_s: float = 0.3) -> list[tuple[dict, dict]]:
+    """Each worker step with the other file's step of the same foot whose heel strike is nearest, if within
+    ``within_s`` (pairing by position would compare different steps as soon as one side finds one more)."""
+    pairs = []
+    for a in worker:
+        same = [b for b in other if b["foot"] == a["foot"] and b["heel_strike_s"] is not None]
+        if a["heel_strike_s"] is None or not same:
+            continue
+        b = min(same, key=lambda b: abs(b["heel_strike_s"] - a["heel_strike_s"]))
+        if abs(b["heel_strike_s"] - a["heel_strike_s"]) <= within_s:
+            pairs.append((a, b))
+    return pairs
+
+
 def _differences(worker: dict, other: dict) -> dict:
     """Largest differences (file minus worker) over matching steps, and of the summary figures."""
     out = {"steps_worker": len(worker["steps"]), "steps_file": len(other["steps"])}
-    pairs = list(zip(worker["steps"], other["steps"], strict=False))
+    pairs = _matched_steps(worker["steps"], other["steps"])
+    out["steps_matched"] = len(pairs)
     for key, scale, name in (("heel_strike_s", 1000, "heel_strike_ms"), ("toe_off_s", 1000, "toe_off_ms"),
                              ("step_length_mm", 1, "step_length_mm"), ("stance_pct", 1, "stance_pct")):
         d = [scale * (b[key] - a[key]) for a, b in pairs if a[key] is not None and b[key] is not None]
@@ -67,7 +82,7 @@ def measure(args) -> dict:
 
 
 def table(result: dict) -> str:
-    rows = ["steps_worker", "steps_file", "max_abs_d_heel_strike_ms", "max_abs_d_toe_off_ms",
+    rows = ["steps_worker", "steps_file", "steps_matched", "max_abs_d_heel_strike_ms", "max_abs_d_toe_off_ms",
             "max_abs_d_step_length_mm", "max_abs_d_stance_pct", "d_cadence_steps_min", "d_gait_speed_m_s"]
     lines = [f"reconstruct + gait vs the worker's gait.json ({result['trial']})",
              f"{'':<28}{'dense samples':>15}{'frames only':>15}"]
