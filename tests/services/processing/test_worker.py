@@ -96,11 +96,12 @@ def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path,
 
 def test_a_bad_recording_fails_the_trial_with_the_reason(tmp_path, walk):
     db, tid = _recorded_trial(tmp_path, walk)
-    Path(cat.get_trial(db, tid).recording_path).write_bytes(b"not an mcap file")
+    bad = Path(cat.get_trial(db, tid).recording_path)
+    bad.write_bytes(b"not an mcap file")
     w = Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db)
     assert w.run_once()
     trial = cat.get_trial(db, tid)
-    assert trial.state == "failed" and trial.error
+    assert trial.state == "failed" and trial.error.startswith(f"{bad}: not an MCAP file"), trial.error
     assert cat.jobs_for_trial(db, tid)[0].state == "failed"
 
 
