@@ -41,8 +41,9 @@ TARGET_EXTRA_PERCENT = 10.0
 JPEG_BYTES = 200_000
 
 
-def keypoint_payloads(cameras: int, frames: int, people: int) -> list[list[bytes]]:
-    """[frame][camera] -> keypoint JSON as the detector publishes it (``frame_id`` filled in later)."""
+def keypoint_payloads(cameras: int, frames: int, people: int) -> tuple[list[list[dict]], list[str]]:
+    """[frame][camera] -> keypoint message as the detector publishes it (``frame_id`` filled in later), and
+    the camera names."""
     from gaitcap.acquisition.synthetic import make_trial
 
     trial = make_trial("paper", seconds=max(frames / 30.0, 5.0), cameras=cameras, people=1, seed=3, fps=30.0)
