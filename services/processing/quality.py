@@ -158,7 +158,8 @@ def images_on_grid(image_times_ns: dict[str, np.ndarray], *, camera_names, times
     stamps = np.asarray(timestamps_ns, dtype=np.int64)
     fids = np.asarray(frame_ids, dtype=np.int64)
     if not (stamps >= 0).any():
-        raise ValueError("images_on_grid: the keypoints carry no timestamps to place the images by")
+        raise ValueError("the recording holds no detections with camera timestamps (no keypoints were recorded), "
+                         "so its images cannot be placed on the frame grid")
     period = 1e9 / nominal_fps_of(stamps)
     ref = int(stamps[stamps >= 0].min())
     offsets = {n: float(np.median((row[row >= 0] - ref) - fids[row >= 0] * period))

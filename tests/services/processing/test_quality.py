@@ -211,7 +211,7 @@ def test_images_counted_from_a_recovered_file_are_placed_on_the_keypoint_grid():
     assert q.recovered and q.cameras[5].source == "images" and q.cameras[5].lost == 0
     assert q.warnings[0].startswith("The recording was recovered after the recorder stopped unexpectedly")
     assert any(w.startswith("The detector fell behind on 1 of 10 cameras") for w in q.warnings), q.warnings
-    with pytest.raises(ValueError, match="no timestamps"):
+    with pytest.raises(ValueError, match="no detections with camera timestamps"):
         images_on_grid(times, camera_names=NAMES, timestamps_ns=np.full((C, T), -1), frame_ids=np.arange(T))
 
 
