@@ -28,7 +28,7 @@ from gaitcap.services.bus.session import free_loopback_ports
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench._common import jsonable  # noqa: E402
+from bench._common import emit  # noqa: E402
 
 JPEG_BYTES = 200_000
 TARGET_FPS = 300.0
@@ -125,6 +125,21 @@ def bus_run(secure: bool, seconds: float, keys: Path) -> dict:
         cam.close()
 
 
+def _table(result: dict) -> str:
+    ps = result["parsing"]
+    lines = ["parsing (us/message)        typed   bare",
+             f"  keypoints (halpe26, 1p)  {ps['keypoints_typed_us']:6.1f} {ps['keypoints_json_us']:6.1f}",
+             f"  frame (200 kB JPEG)      {ps['frame_typed_us']:6.1f} {ps['frame_protobuf_json_us']:6.1f}",
+             f"  extra at 300 frames + 300 keypoints/s: {ps['extra_core_percent_at_300_per_s']:.2f} % of a core",
+             "bus (200 kB frames, loopback)  frames/s    MB/s   query p50 ms  p99 ms"]
+    for name in ("plain", "secured"):
+        r = result[name]
+        lines.append(f"  {name:8s}                   {r['frames_per_s']:8.0f} {r['mb_per_s']:7.0f}   "
+                     f"{r['query_ms_p50']:10.2f}  {r['query_ms_p99']:6.2f}")
+    lines.append(f"secured bus >= {TARGET_FPS:.0f} frames/s: {result['meets_target']}")
+    return "\n".join(lines)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seconds", type=float, default=4.0, help="Seconds of frames per bus.")
@@ -138,21 +153,7 @@ def main() -> None:
         result["plain"] = bus_run(False, args.seconds, Path(tmp) / "keys")
         result["secured"] = bus_run(True, args.seconds, Path(tmp) / "keys")
     result["meets_target"] = result["secured"]["frames_per_s"] >= TARGET_FPS
-    if args.json:
-        print(json.dumps(jsonable(result)))
-        return
-    ps = result["parsing"]
-    print("parsing (us/message)        typed   bare")
-    print(f"  keypoints (halpe26, 1p)  {ps['keypoints_typed_us']:6.1f} {ps['keypoints_json_us']:6.1f}")
-    print(f"  frame (200 kB JPEG)      {ps['frame_typed_us']:6.1f} {ps['frame_protobuf_json_us']:6.1f}")
-    print(f"  extra at 300 frames + 300 keypoints/s: {ps['extra_core_percent_at_300_per_s']:.2f} % of a core")
-    print("bus (200 kB frames, loopback)  frames/s    MB/s   query p50 ms  p99 ms")
-    for name in ("plain", "secured"):
-        r = result[name]
-        print(f"  {name:8s}                   {r['frames_per_s']:8.0f} {r['mb_per_s']:7.0f}   {r['query_ms_p50']:10.2f}"
-              f"  {r['query_ms_p99']:6.2f}")
-    print(f"secured bus >= {TARGET_FPS:.0f} frames/s: {result['meets_target']}")
-
+    emit(result, as_json=args.json, table=_table)
 
 if __name__ == "__main__":
     main()
