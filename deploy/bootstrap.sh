@@ -137,7 +137,7 @@ install_gait_norms() (
 MYOGAIT_VERSION="0.9.2"
 install_adult_gait_norms() (
   local dest="$SHARE/normative/BioCV2024_adult.json" tmp
-  [ -f "$dest" ] && return 0
+  grep -qs "(myogait $MYOGAIT_VERSION, normative.py" "$dest" && return 0  # written from this version
   echo "[bootstrap] extracting adult normal-gait kinematics (wheel myogait==$MYOGAIT_VERSION, not installed)" >&2
   scratch_dir || return 1
   fetch_package "$tmp" "myogait==$MYOGAIT_VERSION" \
