@@ -91,19 +91,13 @@ def latest_calibration(catalog: Catalog) -> tuple[str, str] | None:
 
 def get_calibration(catalog: Catalog, cal_id: str) -> CalibrationInfo:
     with catalog.reading() as s:
-        row = s.get(Calibration, cal_id)
-        if row is None:
-            raise CalibrationNotFound(f"calibration {cal_id} not found")
-        return _info(row)
+        return _info(_row(s, cal_id, expect=None))
 
 
 def calibration_toml(catalog: Catalog, cal_id: str) -> str:
     """The TOML text ('' while it is not computed yet); CalibrationNotFound for an unknown id."""
     with catalog.reading() as s:
-        row = s.get(Calibration, cal_id)
-        if row is None:
-            raise CalibrationNotFound(f"calibration {cal_id} not found")
-        return row.toml
+        return _row(s, cal_id, expect=None).toml
 
 
 def list_calibrations(catalog: Catalog, *, limit: int = 50) -> list[CalibrationInfo]:
