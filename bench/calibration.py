@@ -221,7 +221,9 @@ def _real_session(name: str, known_intrinsics: bool, readout_ms: float = 0.0) ->
         "reference_pp_off_centre_deg": [_pp_off_centre_deg(ref[n]) for n in cmp.names],
         "principal_point_held": [bool(np.allclose(c.matrix_px[:2, 2], np.asarray(c.size_px) / 2)) for c in res.rig],
     }
-    out["meets_targets"] = bool(max(out["rms_px"]) <= REAL_TARGET_RMS_PX and cmp.centre_mm_max <= REAL_TARGET_CENTRE_MM
+    # a failed camera (or a NaN RMS) misses the targets: max() would pass over a NaN after a finite value
+    rms_ok = bool(np.all(np.isfinite(out["rms_px"])) and max(out["rms_px"]) <= REAL_TARGET_RMS_PX)
+    out["meets_targets"] = bool(rms_ok and not out["failed"] and cmp.centre_mm_max <= REAL_TARGET_CENTRE_MM
                                 and cmp.rotation_deg_max <= REAL_TARGET_ROTATION_DEG)
     return out
 
