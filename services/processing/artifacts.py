@@ -6,6 +6,7 @@ never reach outside the trial's folder. Files are written to a temporary name an
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -80,3 +81,16 @@ def trial_files(data_dir: str | Path, trial_id: str, recording_path: str | Path 
     return TrialFiles(Path(data_dir) / "trials" / trial_id, Path(recording_path) if recording_path else None)
 
 
+
+
+def remove_trial_files(files: TrialFiles) -> list[Path]:
+    """Delete the trial's folder and its recording (wherever the catalog put it, with a ``.part`` left by a
+    crash); returns what could not be removed (empty when everything is gone)."""
+    shutil.rmtree(files.root, ignore_errors=True)
+    recording = files.recording
+    for path in (recording, recording.with_name(recording.name + ".part")):
+        try:
+            path.unlink(missing_ok=True)
+        except OSError:
+            pass
+    return [p for p in (files.root, recording, recording.with_name(recording.name + ".part")) if p.exists()]
