@@ -91,8 +91,8 @@ def select_trials(db: cat.Catalog, data_dir: Path, selection: TrialSelection) ->
     for trial in sorted(cat.list_trials(db, limit=10_000_000), key=lambda t: t.id):
         if not selection.matches(trial):
             continue
-        path = Path(trial.recording_path) if trial.recording_path else trial_files(data_dir, trial.id).recording
-        if not path.is_file():
+        path = trial_files(data_dir, trial.id, trial.recording_path).recording
+        if not path.is_file():  # a data folder moved since: the trial's default place in it
             path = trial_files(data_dir, trial.id).recording
         (found.append(TrialRef(trial.id, path.resolve())) if path.is_file() else missing.append(trial.id))
     return found, missing
