@@ -129,6 +129,23 @@ class Fit2DResult:
     seconds: float
 
 
+def _check_shapes(kp_shape: tuple, camera_names: tuple, init_shape: tuple, joints: int) -> None:
+    """ValueError naming the argument whose shape does not match: keypoints (C, T, J, 3) against the
+    C ``camera_names``, the J ``joint_names`` and the T frames of ``init_points_mm`` (T, J, 3)."""
+    if len(kp_shape) != 4 or kp_shape[3] != 3:
+        raise ValueError(f"keypoints: expected (cameras, frames, joints, 3), got shape {kp_shape}")
+    if kp_shape[0] != len(camera_names):
+        raise ValueError(f"keypoints: {kp_shape[0]} cameras but camera_names has {len(camera_names)} "
+                         f"({list(camera_names)})")
+    if len(set(camera_names)) != len(camera_names):
+        raise ValueError(f"camera_names: a camera is named twice ({list(camera_names)})")
+    if kp_shape[2] != joints:
+        raise ValueError(f"keypoints: {kp_shape[2]} joints but joint_names has {joints}")
+    if init_shape[:2] != (kp_shape[1], joints):
+        raise ValueError(f"init_points_mm: shape {init_shape} does not match the keypoints' {kp_shape[1]} frames "
+                         f"x {joints} joints")
+
+
 def fit_angles_2d(keypoints: np.ndarray, joint_names, rig: Rig, camera_names, init_points_mm: np.ndarray, *,
                   weights: np.ndarray | None = None, config: Fit2DConfig = Fit2DConfig()) -> Fit2DResult:
     """Fit the chain to 2D keypoints (C, T, J, 3: px, px, confidence) of the cameras ``camera_names`` of
@@ -139,6 +156,7 @@ def fit_angles_2d(keypoints: np.ndarray, joint_names, rig: Rig, camera_names, in
     names = [str(n) for n in joint_names]
     params = initial_params(init_points_mm, names)  # first: names the joints the chain lacks
     idx = [names.index(j) for j in JOINTS]
+    _check_shapes(np.shape(keypoints), tuple(camera_names), np.shape(init_points_mm), len(names))
     kp = np.asarray(keypoints, dtype=np.float64)[:, :, idx]
     conf = np.nan_to_num(kp[..., 2])
     w = conf if weights is None else np.nan_to_num(np.asarray(weights, dtype=np.float64)[:, :, idx])

@@ -51,3 +51,17 @@ def test_fit_to_2d_keypoints_recovers_the_angles_from_a_noisy_start(trial):
     start = keypoint_angles(noisy, names)
     for var, limit in (("knee_flexion", 3.0), ("hip_flexion", 2.5), ("ankle_dorsiflexion", 3.5)):
         assert _rmse(fit.angles_deg, truth, var) < limit < _rmse(start, truth, var), var
+
+
+def test_mismatched_cameras_frames_or_joints_are_named_before_the_fit(trial):
+    names = list(trial.skeleton.joint_names)
+    det = trial.detections
+    cams = list(det.camera_names)
+    with pytest.raises(ValueError, match=r"3 cameras but camera_names has 2"):
+        fit_angles_2d(det.keypoints, names, trial.rig, cams[:2], trial.points_mm)
+    with pytest.raises(ValueError, match="named twice"):
+        fit_angles_2d(det.keypoints, names, trial.rig, [cams[0], cams[0], cams[1]], trial.points_mm)
+    with pytest.raises(ValueError, match=r"init_points_mm: shape \(10, "):
+        fit_angles_2d(det.keypoints, names, trial.rig, cams, trial.points_mm[:10])
+    with pytest.raises(ValueError, match=r"not in the calibration"):
+        fit_angles_2d(det.keypoints, names, trial.rig, ["cam_x", *cams[1:]], trial.points_mm)
