@@ -66,9 +66,13 @@ def recorder_warnings(summary: dict) -> list[str]:
     """Plain-word warnings from the recorder's summary at Stop (frames dropped on a slow disk, a write
     error)."""
     out = []
-    dropped = sum((summary.get("dropped_frames") or {}).values())
-    if dropped:
-        out.append(f"The recorder dropped {dropped} messages because the disk was too slow")
+    messages = {c: int(n) for c, n in (summary.get("dropped_frames") or {}).items() if n}
+    images = {c: int(n) for c, n in (summary.get("dropped_images") or {}).items() if n}
+    if messages:
+        keypoints = sum(messages.values()) - sum(images.values())
+        per_camera = _names([f"{c} {images.get(c, 0)}" for c in sorted(messages)])
+        out.append(f"The recorder dropped {sum(images.values())} camera images ({per_camera}) and {keypoints} "
+                   "keypoint messages because the disk or CPU was too slow")
     if summary.get("error"):
         out.append(f"Recording error: {summary['error']}")
     return out
