@@ -9,9 +9,10 @@ message also becomes a ``foxglove.ImageAnnotations``), in alternating order:
    paced in real time. CPU = this process's CPU time (Zenoh receive, callbacks, writer thread) from the
    first to the last frame written (the recorder's own ``active`` figures) per second of recording, in %
    of one core; frames and keypoints recorded are counted against those sent.
-2. The writer path alone: what the recorder's writer thread does per camera and frame (parse the
-   attachment, write the frame, parse and write the keypoints, build and write the annotation), paced
-   in real time in one thread; CPU = that thread's own CPU time per second of recording.
+2. The writer path alone: what the recorder's writer thread does per camera and frame
+   (``Recording.write``: parse the attachment, write the frame, parse and write the keypoints, build and
+   write the annotation), paced in real time in one thread; CPU = that thread's own CPU time per second of
+   recording.
 
 Cross-check: the CPU of building one annotation x 300 per second. Target: annotations add <= 10 % of a
 core; the headline is the writer path's extra (the recorder node's includes Zenoh and the publisher's
@@ -66,13 +67,14 @@ def jpeg_pool(count: int) -> list[bytes]:
 
 
 def run(*, annotations: bool, seconds: float, fps: float, payloads, cameras: list[str], folder: Path) -> dict:
-    from gaitcap.acquisition.encoding import image_message
-    from gaitcap.acquisition.recording.foxglove_messages import image_annotations
+    """The recorder's writer path (``Recording.write``, as its writer thread calls it) paced in real time."""
     from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
+    from gaitcap.services.bus.messages import ImageFrame
+    from gaitcap.services.nodes.recorder import Recording
 
-    settings = WriterSettings(annotations=annotations)
-    writer = TrialWriter(folder / f"annotations-{annotations}.mcap", settings)
+    writer = TrialWriter(folder / f"annotations-{annotations}.mcap", WriterSettings(annotations=annotations))
     writer.start(metadata={"trial_id": "bench"}, time_ns=time.time_ns())
+    rec = Recording("bench", writer.path, writer, cameras)
     pool = jpeg_pool(16)
     frames = int(seconds * fps)
     t0_ns, period_ns = time.time_ns(), int(1e9 / fps)
@@ -86,24 +88,17 @@ def run(*, annotations: bool, seconds: float, fps: float, payloads, cameras: lis
             late += 1
         for c, cam in enumerate(cameras):
             ts = due + 1000 * c
-            att = json.dumps({"frame_id": f, "timestamp_ns": ts, "sent_ns": ts}).encode()
-            meta = json.loads(att)
-            writer.add_frame(cam, image_message(pool[(f + c) % len(pool)], camera=cam, timestamp_ns=ts),
-                             timestamp_ns=int(meta["timestamp_ns"]), frame_id=int(meta["frame_id"]),
-                             receive_ns=time.time_ns())
+            frame = ImageFrame.build(pool[(f + c) % len(pool)], camera=cam, timestamp_ns=ts, frame_id=f, sent_ns=ts)
+            rec.write("image", cam, frame.payload, frame.meta.to_bytes(), time.time_ns())
             payload = json.dumps({**payloads[f % len(payloads)][c], "frame_id": f, "timestamp_ns": ts}).encode()
-            msg = json.loads(payload)
-            writer.add_keypoints(cam, payload, timestamp_ns=int(msg["timestamp_ns"]), frame_id=int(msg["frame_id"]))
-            if settings.annotations:
-                writer.add_annotations(cam, image_annotations(msg), timestamp_ns=int(msg["timestamp_ns"]),
-                                       frame_id=int(msg["frame_id"]))
+            rec.write("keypoints", cam, payload, None, time.time_ns())
     writer.finish({})
     wall, cpu = time.perf_counter() - wall0, time.thread_time() - cpu0
     size = writer.path.stat().st_size
     writer.path.unlink()
     return {"annotations": annotations, "frames_per_camera": frames, "wall_s": round(wall, 3),
             "cpu_s": round(cpu, 3), "cpu_percent_of_core": round(100 * cpu / (frames / fps), 2),
-            "late_frame_sets": late, "mcap_mb": round(size / 1e6, 1)}
+            "late_frame_sets": late, "mcap_mb": round(size / 1e6, 1), "rejected": rec.rejected}
 
 
 def annotation_us(payloads) -> float:

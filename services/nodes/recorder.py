@@ -201,6 +201,46 @@ class Recording:
     def tally(self, camera: str) -> CameraTally:
         return self.tallies.setdefault(camera, CameraTally())
 
+    def write(self, kind: str, camera: str, payload: bytes, att: bytes | None, recv_ns: int) -> None:
+        """Write one bus message of ``kind`` (image | keypoints | status) from ``camera``, as received at
+        ``recv_ns`` (ns); ValueError for a message that contradicts its key or cannot be parsed."""
+        _WRITERS[kind](self, camera, payload, att, recv_ns)
+
+    def write_image(self, camera: str, payload: bytes, att: bytes | None, recv_ns: int) -> None:
+        frame = ImageFrame.from_bytes(payload, att, camera=camera)
+        fid, ts = frame.frame_id, frame.timestamp_ns
+        if not self.accept_frame(camera, fid):
+            return
+        tally = self.tally(camera)
+        self.writer.add_frame(camera, payload, timestamp_ns=ts, frame_id=fid, receive_ns=recv_ns)
+        tally.frames += 1
+        tally.frame_ids.append(fid)
+        self.last_write = (time.time(), time.process_time())
+        self.first_write = self.first_write or self.last_write
+        tally.last_timestamp_ns = ts
+        tally.latencies_ns.append(recv_ns - frame.meta.sent_ns)
+
+    def write_keypoints(self, camera: str, payload: bytes, att: bytes | None, recv_ns: int) -> None:
+        del att, recv_ns  # keypoints carry their own frame id and timestamp
+        kp = Keypoints.from_bytes(payload)
+        if kp.camera != camera:
+            raise ValueError(f"keypoints on camera {camera}'s key name camera {kp.camera}")
+        if not self.accept_keypoints(camera, kp.frame_id):
+            return
+        self.writer.add_keypoints(camera, payload, timestamp_ns=kp.timestamp_ns, frame_id=kp.frame_id)
+        if self.writer.settings.annotations:  # the overlay Foxglove draws on this frame's image
+            self.writer.add_annotations(camera, image_annotations(kp), timestamp_ns=kp.timestamp_ns,
+                                        frame_id=kp.frame_id)
+        self.tally(camera).keypoints += 1
+
+    def write_status(self, camera: str, payload: bytes, att: bytes | None, recv_ns: int) -> None:
+        del att
+        status = CameraStatus.from_bytes(payload)
+        if status.camera != camera:
+            raise ValueError(f"status on camera {camera}'s key names camera {status.camera}")
+        self.tally(camera).last_status = status.to_dict()
+        self.writer.add_status(camera, payload, time_ns=recv_ns)
+
     def summary(self) -> dict[str, Any]:
         last = max((max(t.frame_ids) for t in self.tallies.values() if t.frame_ids), default=None)
         lat = np.concatenate([np.asarray(t.latencies_ns, dtype=np.float64) for t in self.tallies.values()]
@@ -233,6 +273,9 @@ class Recording:
             "error": self.error,
         }
 
+
+
+_WRITERS = {"image": Recording.write_image, "keypoints": Recording.write_keypoints, "status": Recording.write_status}
 
 class _NoRequest:
     """The status query carries no payload."""
@@ -318,37 +361,7 @@ class RecorderNode:
                 rec.reject(f"a bad message on {item[1]}: {exc}")
 
     def _write(self, rec: Recording, kind: str, key: str, payload: bytes, att: bytes | None, recv_ns: int) -> None:
-        camera = self.bus.keys.camera_of(key)
-        if kind == "image":
-            frame = ImageFrame.from_bytes(payload, att, camera=camera)
-            fid, ts = frame.frame_id, frame.timestamp_ns
-            if not rec.accept_frame(camera, fid):
-                return
-            tally = rec.tally(camera)
-            rec.writer.add_frame(camera, payload, timestamp_ns=ts, frame_id=fid, receive_ns=recv_ns)
-            tally.frames += 1
-            tally.frame_ids.append(fid)
-            rec.last_write = (time.time(), time.process_time())
-            rec.first_write = rec.first_write or rec.last_write
-            tally.last_timestamp_ns = ts
-            tally.latencies_ns.append(recv_ns - frame.meta.sent_ns)
-        elif kind == "keypoints":
-            kp = Keypoints.from_bytes(payload)
-            if kp.camera != camera:
-                raise ValueError(f"keypoints on camera {camera}'s key name camera {kp.camera}")
-            if not rec.accept_keypoints(camera, kp.frame_id):
-                return
-            rec.writer.add_keypoints(camera, payload, timestamp_ns=kp.timestamp_ns, frame_id=kp.frame_id)
-            if self.settings.annotations:  # the overlay Foxglove draws on this frame's image
-                rec.writer.add_annotations(camera, image_annotations(kp), timestamp_ns=kp.timestamp_ns,
-                                           frame_id=kp.frame_id)
-            rec.tally(camera).keypoints += 1
-        else:
-            status = CameraStatus.from_bytes(payload)
-            if status.camera != camera:
-                raise ValueError(f"status on camera {camera}'s key names camera {status.camera}")
-            rec.tally(camera).last_status = status.to_dict()
-            rec.writer.add_status(camera, payload, time_ns=recv_ns)
+        rec.write(kind, self.bus.keys.camera_of(key), payload, att, recv_ns)
 
     def _fail(self, rec: Recording, message: str) -> None:
         log.error("trial %s: %s", rec.trial_id, message)
