@@ -36,7 +36,8 @@ class CalibrationNotFound(KeyError):
 @dataclass(frozen=True)
 class CalibrationInfo:
     """A detached snapshot of a calibration (times UNIX s); ``report``: the quality report (dict);
-    ``frames``: images in the board recording (None: unknown or uploaded)."""
+    ``frames``: images in the board recording (None: unknown or uploaded); ``board``: the board filmed,
+    the fields of a board file's ``[board]`` table (None: not given, the default board)."""
 
     id: str
     kind: str
@@ -54,6 +55,7 @@ class CalibrationInfo:
     error: str
     report: dict
     has_toml: bool
+    board: dict | None = None
 
 
 def _info(row: Calibration) -> CalibrationInfo:
@@ -62,6 +64,7 @@ def _info(row: Calibration) -> CalibrationInfo:
         source=row.source, started_at=row.started_at, stopped_at=row.stopped_at, started_by=row.started_by,
         recording_path=row.recording_path, frames=row.frames, stage=row.stage, progress=row.progress,
         error=row.error, report=json.loads(row.report_json or "{}"), has_toml=bool(row.toml),
+        board=json.loads(row.board) if row.board else None,
     )
 
 
@@ -113,9 +116,11 @@ def current_board_recording(catalog: Catalog) -> CalibrationInfo | None:
         return None if row is None else _info(row)
 
 
-def start_board_recording(catalog: Catalog, *, recording_path_for, started_by: str = "") -> CalibrationInfo:
+def start_board_recording(catalog: Catalog, *, recording_path_for, started_by: str = "",
+                          board: dict | None = None) -> CalibrationInfo:
     """A new board recording in state ``recording``; CalibrationBusy naming what records when a trial
-    or another board recording is under way. ``recording_path_for(cal_id) -> str``: where the MCAP goes."""
+    or another board recording is under way. ``recording_path_for(cal_id) -> str``: where the MCAP goes;
+    ``board``: the board filmed (a board file's ``[board]`` fields; None: the default board)."""
     cal_id, now = new_calibration_id(), time.time()
     try:
         with catalog.session() as s:
@@ -128,7 +133,8 @@ def start_board_recording(catalog: Catalog, *, recording_path_for, started_by: s
             row = Calibration(id=cal_id, kind=BOARD_RECORDING, state=RECORDING, recording_slot=1, created_at=now,
                               started_at=now, started_by=started_by, source=f"board recording by {started_by or 'unknown'}",
                               recording_path=str(recording_path_for(cal_id)), stage="recording the board",
-                              progress=0.0, error="", toml="", report_json="{}")
+                              progress=0.0, error="", toml="", report_json="{}",
+                              board=json.dumps(board) if board else "")
             s.add(row)
             s.flush()
             return _info(row)

@@ -67,7 +67,12 @@ def _v1_to_v2(conn: Connection) -> None:
     _jobs_of_any_kind(conn)
 
 
-STEPS = {1: _v1_to_v2}  # from version -> the step to the next
+def _v2_to_v3(conn: Connection) -> None:
+    """calibrations.board: the board filmed (JSON); '' on older records (they used the default board)."""
+    conn.exec_driver_sql("ALTER TABLE calibrations ADD COLUMN board TEXT NOT NULL DEFAULT ''")
+
+
+STEPS = {1: _v1_to_v2, 2: _v2_to_v3}  # from version -> the step to the next
 
 
 def migration_problem(dialect: str, version: int, target: int) -> str | None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from sqlalchemy import Float, ForeignKey, Index, Integer, String, Text, UniqueConstraint
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-SCHEMA_VERSION = 2  # 2: one calibration table; jobs of kind "process" (a trial) or "calibrate"
+SCHEMA_VERSION = 3  # 2: one calibration table; jobs of kind "process" (a trial) or "calibrate"; 3: calibrations.board
 
 
 class Base(DeclarativeBase):
@@ -45,7 +45,9 @@ class Calibration(Base):
     or a ``board recording`` (``recording`` -> ``calibrating`` -> ``done`` | ``failed``; the worker computes
     it as a leased job). ``toml``: aniposelib TOML text (translation in metres), empty until computed;
     ``recording_slot`` is 1 while the board records (one recording at a time); ``done_at``: when it became
-    usable (the newest ``done`` one is the active calibration); ``frames``: images in the board recording."""
+    usable (the newest ``done`` one is the active calibration); ``frames``: images in the board recording;
+    ``board``: the board filmed, as JSON (the fields of a board file's ``[board]`` table), recorded at the
+    start of a board recording; '' when none was given (the default board)."""
 
     __tablename__ = "calibrations"
     id: Mapped[str] = mapped_column(String(64), primary_key=True)
@@ -65,6 +67,7 @@ class Calibration(Base):
     stage: Mapped[str] = mapped_column(String(64), default="")
     progress: Mapped[float] = mapped_column(Float, default=0.0)
     error: Mapped[str] = mapped_column(Text, default="")
+    board: Mapped[str] = mapped_column(Text, default="")
 
 
 class Trial(Base):
