@@ -20,6 +20,11 @@ def sqlite_path(catalog_url: str) -> Path | None:
     return None if "://" in catalog_url else Path(catalog_url)
 
 
+def _read_only_uri(path: Path) -> str:
+    """A read-only SQLite URI of ``path``, quoted (a folder named with ``?``, ``#`` or ``%`` opens that file)."""
+    return f"{Path(path).resolve().as_uri()}?mode=ro"
+
+
 def backup_sqlite(src: Path, backup_dir: Path, *, keep: int) -> Path:
     """One consistent copy of ``src`` into ``backup_dir``; older copies beyond ``keep`` are removed."""
     backup_dir.mkdir(parents=True, exist_ok=True)
@@ -28,7 +33,7 @@ def backup_sqlite(src: Path, backup_dir: Path, *, keep: int) -> Path:
     dest = backup_dir / f"catalog-{time.strftime('%Y%m%d-%H%M%S', time.gmtime(now_ns / 1e9))}-{now_ns % 10**9:09d}.sqlite"
     tmp = dest.with_suffix(".part")
     tmp.touch(mode=0o600)
-    with sqlite3.connect(f"file:{src}?mode=ro", uri=True) as source, sqlite3.connect(tmp) as target:
+    with sqlite3.connect(_read_only_uri(src), uri=True) as source, sqlite3.connect(tmp) as target:
         source.backup(target)
     source.close()
     target.close()
