@@ -28,14 +28,17 @@ def test_a_camera_started_late_joins_the_running_rig_on_its_frame_count(trial):
     early.start(start)
     first = next(early.frames())
     time.sleep(1.2)  # the second process comes up a second later with the same synchronised start
+    before_ns = time.time_ns()
     late.start(start)
     frames = late.frames()
     joined = next(frames)
+    after_ns = time.time_ns()
     assert first.frame_id == 0
-    assert 30 <= joined.frame_id <= 40, joined.frame_id  # the frame due now, not a burst of past frames
+    # the frame due when it joined, not a burst of past frames (bounds from the measured times: load-proof)
+    due_first, due_last = (before_ns - start) // PERIOD_NS, (after_ns - start) // PERIOD_NS + 1
+    assert due_first >= 30 and due_first <= joined.frame_id <= due_last, (due_first, joined.frame_id, due_last)
     want = start + joined.frame_id * PERIOD_NS + trial.clock_offsets_ns[1] + trial.jitter_ns[1, joined.frame_id]
     assert joined.timestamp_ns == want
-    assert abs(joined.timestamp_ns - time.time_ns()) < 1_000_000_000  # not the frames of 1.2 s ago
     rest = [f.frame_id for f in frames]
     assert rest == list(range(joined.frame_id + 1, 75)) and late.status().drops == 0
     assert 20 < late.status().fps() < 40  # its rate counts from when it joined, not from the rig's start
