@@ -66,6 +66,12 @@ def test_images_ending_long_before_stop_are_flagged():
                           "(the cameras stopped or fell behind)",)
     assert not recording_quality(camera_names=NAMES, timestamps_ns=_stamps(), patient_confidence=None,
                                  recorded_s=12.4).warnings
+    # the limit itself (NO_IMAGES_S = 2.5 s past the images): 2.45 s is within it, 2.55 s is not
+    duration = recording_quality(camera_names=NAMES, timestamps_ns=_stamps(), patient_confidence=None).duration_s
+    for gap_s, flagged in ((2.45, False), (2.55, True)):
+        q = recording_quality(camera_names=NAMES, timestamps_ns=_stamps(), patient_confidence=None,
+                              recorded_s=duration + gap_s)
+        assert bool(q.warnings) is flagged, (gap_s, q.warnings)
 
 
 def test_short_recording_and_poor_coverage_are_flagged():
