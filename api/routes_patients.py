@@ -137,8 +137,10 @@ def mark_void(trial_id: str, body: VoidIn, request: Request, user: str = Depends
         d = pat.void_trial(db, trial_id, by=user, reason=body.reason)
     except cat.TrialNotFound as exc:
         raise HTTPException(status_code=404, detail=str(exc)) from None
-    except ValueError as exc:
-        raise HTTPException(status_code=409 if "already" in str(exc) else 422, detail=str(exc)) from None
+    except pat.TrialAlreadyVoid as exc:
+        raise HTTPException(status_code=409, detail=str(exc)) from None
+    except pat.VoidReasonMissing as exc:
+        raise HTTPException(status_code=422, detail=str(exc)) from None
     cat.audit(db, actor=user, action="mark void", trial_id=trial_id, detail=body.reason)
     return {"trial_id": trial_id, "voided_at": d.voided_at, "voided_by": d.voided_by, "void_reason": d.void_reason}
 

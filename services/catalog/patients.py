@@ -23,6 +23,14 @@ class PatientNotFound(KeyError):
         return str(self.args[0]) if self.args else "patient not found"
 
 
+class TrialAlreadyVoid(ValueError):
+    """The trial is already marked void (marking it again is a conflict, not bad input)."""
+
+
+class VoidReasonMissing(ValueError):
+    """A void mark without a reason (at least 5 characters)."""
+
+
 @dataclass(frozen=True)
 class PatientInfo:
     """A patient: id (upper case), when first seen (UNIX s), sex, birth year, notes, number of trials."""
@@ -184,14 +192,14 @@ def correct_trial(catalog: Catalog, trial_id: str, *, subject_id: str | None = N
 
 
 def void_trial(catalog: Catalog, trial_id: str, *, by: str, reason: str) -> TrialDetailsInfo:
-    """Mark the trial void (kept, with who, when and why; left out of the history). ValueError when the
-    reason is too short or the trial is already void."""
+    """Mark the trial void (kept, with who, when and why; left out of the history). VoidReasonMissing when
+    the reason is too short, TrialAlreadyVoid when the trial is already void (both ValueErrors)."""
     reason = reason.strip()
     if len(reason) < 5:
-        raise ValueError("reason: say why the trial is void (at least 5 characters)")
+        raise VoidReasonMissing("reason: say why the trial is void (at least 5 characters)")
     with catalog.session() as s:
         row = _details_row(s, trial_id)
         if row.voided_at is not None:
-            raise ValueError(f"trial {trial_id} is already void ({row.void_reason})")
+            raise TrialAlreadyVoid(f"trial {trial_id} is already void ({row.void_reason})")
         row.voided_at, row.voided_by, row.void_reason, row.updated_at = time.time(), by[:128], reason[:2000], time.time()
     return get_details(catalog, trial_id)

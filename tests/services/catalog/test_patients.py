@@ -1,0 +1,29 @@
+"""Patients and a trial's void mark in a real SQLite catalog: typed refusals, the age at a trial."""
+
+import pytest
+from gaitcap.services import catalog as cat
+from gaitcap.services.catalog import patients as pat
+
+
+@pytest.fixture
+def db(tmp_path):
+    c = cat.open_catalog(tmp_path / "catalog.sqlite")
+    yield c
+    c.close()
+
+
+def _trial(db, subject="P001"):
+    t = cat.start_trial(db, subject_id=subject, session="visit1", recording_path_for=lambda t: f"/d/{t}.mcap")
+    return cat.set_state(db, t.id, "recorded")
+
+
+def test_void_refusals_are_typed_not_worded(db):
+    tid = _trial(db).id
+    with pytest.raises(pat.VoidReasonMissing, match="reason"):
+        pat.void_trial(db, tid, by="alice", reason=" no ")
+    assert pat.void_trial(db, tid, by="alice", reason="wrong shoes").voided
+    with pytest.raises(pat.TrialAlreadyVoid, match=f"trial {tid} is already void \\(wrong shoes\\)"):
+        pat.void_trial(db, tid, by="bob", reason="another reason")
+    assert pat.get_details(db, tid).voided_by == "alice"  # the first mark stays
+    with pytest.raises(cat.TrialNotFound):
+        pat.void_trial(db, "T-NOPE", by="alice", reason="wrong shoes")
