@@ -36,6 +36,7 @@ import time
 
 import numpy as np
 from _common import jsonable
+from gaitcap.acquisition.installed import share_path
 
 TARGET_CENTRE_MM = 5.0
 TARGET_ROTATION_DEG = 0.2
@@ -173,10 +174,7 @@ def _walk_mpjpe(rig, seed: int) -> float:
 
 
 def _testdata():
-    import sys
-    from pathlib import Path
-
-    return Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "calibration"
+    return share_path("testdata", "calibration")
 
 
 REAL_SESSIONS = {"caliscope-4cam": "caliscope 4_cam_recording (4 webcams 1280x720)",

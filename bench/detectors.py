@@ -16,15 +16,15 @@ import argparse
 import json
 import logging
 import os
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import cv2
 import numpy as np
+from gaitcap.acquisition.installed import share_path
 
-VIDEO = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "sports2d-demo.mp4"
+VIDEO = share_path("testdata", "sports2d-demo.mp4")
 SIZE = (640, 480)
 
 

@@ -27,11 +27,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+from gaitcap.acquisition.installed import share_path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import jsonable  # noqa: E402
 
-DEMOS = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "pose2sim"
+DEMOS = share_path("testdata", "pose2sim")
 SESSION = DEMOS / "S00_Demo_BatchSession"
 REAL = {"pose2sim one person (BODY_25B)": SESSION / "S00_P00_SingleParticipant" / "S00_P00_T01_BalancingTrial",
         "pose2sim two people (BODY_25B)": SESSION / "S00_P01_MultiParticipants" / "S00_P01_T02_Participants1-2"}

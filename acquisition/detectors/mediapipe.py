@@ -18,8 +18,6 @@ Confidence = min(visibility, presence), both sigmoid outputs of the landmark mod
 from __future__ import annotations
 
 import logging
-import os
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +25,7 @@ import cv2
 import numpy as np
 from gaitcap.acquisition.detectors.base import DetectorConfig, check_image, empty_keypoints, register_detector
 from gaitcap.acquisition.detectors.crops import Crop, square_crop
+from gaitcap.acquisition.installed import share_path
 from gaitcap.reconstruction.skeletons import get_skeleton
 
 log = logging.getLogger(__name__)
@@ -42,8 +41,7 @@ ROI_SCALE = 1.25
 
 def default_model_dir() -> Path:
     """``$GAITCAP_MEDIAPIPE_DIR`` or ``<venv>/share/gaitcap/mediapipe-pose`` (where bootstrap puts them)."""
-    env = os.environ.get(MODELS_ENV)
-    return Path(env) if env else Path(sys.prefix) / "share" / "gaitcap" / "mediapipe-pose"
+    return share_path("mediapipe-pose", env=MODELS_ENV)
 
 
 @register_detector

@@ -26,11 +26,11 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from gaitcap.acquisition.installed import share_path
 from gaitcap.acquisition.synthetic.noise import detect, get_preset
 from gaitcap.acquisition.synthetic.path import Room
 from gaitcap.acquisition.synthetic.room import build_rig
@@ -38,7 +38,7 @@ from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.skeletons import get_skeleton
 
-MOCAP_DIR = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "gait-mocap"
+MOCAP_DIR = share_path("testdata", "gait-mocap")
 MOCAP_WALKS = {"healthy": "example_healthy.json", "parkinson": "example_parkinson.json"}
 MIN_STANCE_S = 0.4
 MIN_SWING_S = 0.25

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import json
-import os
-import sys
 from functools import lru_cache
 from pathlib import Path
 
+from gaitcap.acquisition.installed import share_path
 from gaitcap.reconstruction.kinematics.angles import VARIABLES
 from gaitcap.reconstruction.kinematics.norms import (
     NormBand,
@@ -22,20 +21,17 @@ MODEL_FILE = "Model_Pose2Sim_simple.osim"
 
 def setup_dir() -> Path:
     """``$GAITCAP_OPENSIM_DIR`` or ``<venv>/share/gaitcap/opensim``."""
-    env = os.environ.get("GAITCAP_OPENSIM_DIR")
-    return Path(env) if env else Path(sys.prefix) / "share" / "gaitcap" / "opensim"
+    return share_path("opensim", env="GAITCAP_OPENSIM_DIR")
 
 
 def norms_file() -> Path:
     """``$GAITCAP_NORMS_FILE`` or ``<venv>/share/gaitcap/normative/Schwartz2008.json``."""
-    env = os.environ.get("GAITCAP_NORMS_FILE")
-    return Path(env) if env else Path(sys.prefix) / "share" / "gaitcap" / "normative" / "Schwartz2008.json"
+    return share_path("normative", "Schwartz2008.json", env="GAITCAP_NORMS_FILE")
 
 
 def adult_norms_file() -> Path:
     """``$GAITCAP_ADULT_NORMS_FILE`` or ``<venv>/share/gaitcap/normative/BioCV2024_adult.json``."""
-    env = os.environ.get("GAITCAP_ADULT_NORMS_FILE")
-    return Path(env) if env else Path(sys.prefix) / "share" / "gaitcap" / "normative" / "BioCV2024_adult.json"
+    return share_path("normative", "BioCV2024_adult.json", env="GAITCAP_ADULT_NORMS_FILE")
 
 
 def setup_files(setup: str) -> dict[str, Path]:

@@ -1,14 +1,13 @@
 """Board files: gaitcap's own (TOML and JSON), caliscope's charuco.toml, anipose's and Pose2Sim's configs."""
 
 import json
-import sys
-from pathlib import Path
 
 import pytest
 from gaitcap.acquisition.board import BoardConfig
 from gaitcap.acquisition.board_file import board_to_toml, read_board_file
+from gaitcap.acquisition.installed import share_path
 
-REAL = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "calibration"
+REAL = share_path("testdata", "calibration")
 
 
 def test_own_format_round_trips_in_toml_and_json(tmp_path):

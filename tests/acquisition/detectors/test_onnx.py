@@ -12,6 +12,7 @@ import pytest
 from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, Detector
 from gaitcap.acquisition.detectors.crops import box_crop
 from gaitcap.acquisition.detectors.onnx import OnnxConfig, SimccDecoder
+from gaitcap.acquisition.installed import share_path
 from onnx import TensorProto, helper
 
 H, W = 128, 96  # network input (RTMPose's 256x192 halved)
@@ -223,12 +224,9 @@ def test_rgb_order_and_normalisation(tmp_path):
 
 
 def test_person_detector_places_the_crop_on_the_person(tmp_path):
-    import sys
-    from pathlib import Path
-
     from gaitcap.acquisition.detectors.mediapipe import DETECTOR_FILE, MediaPipeConfig, default_model_dir
 
-    video = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "sports2d-demo.mp4"
+    video = share_path("testdata", "sports2d-demo.mp4")
     if not (default_model_dir() / DETECTOR_FILE).is_file() or not video.is_file():
         pytest.skip("MediaPipe models / test video not installed (run deploy/bootstrap.sh)")
     cap = cv2.VideoCapture(str(video))

@@ -2,15 +2,14 @@
 (its corner detections; installed by deploy/bootstrap.sh), compared with caliscope's calibration."""
 
 import re
-import sys
-from pathlib import Path
 
 import pytest
+from gaitcap.acquisition.installed import share_path
 from gaitcap.reconstruction.calibration_io import load_rig
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
 
-SESSION = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "calibration" / "caliscope-4cam"
+SESSION = share_path("testdata", "calibration", "caliscope-4cam")
 pytestmark = pytest.mark.skipif(not (SESSION / "camera_array.toml").exists(),
                                 reason=f"caliscope session not installed in {SESSION} (run deploy/bootstrap.sh)")
 

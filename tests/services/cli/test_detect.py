@@ -6,6 +6,7 @@ import cv2
 import numpy as np
 import pytest
 from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, DetectorConfig
+from gaitcap.acquisition.installed import share_path
 from gaitcap.acquisition.video_detect import detect_videos, find_videos
 from gaitcap.reconstruction.association.npz_io import load_multi_npz
 from gaitcap.reconstruction.detections import Detections
@@ -98,10 +99,7 @@ def test_bad_folders_and_rates(tmp_path):
 
 def _demo_clips(folder, first=100, count=12, size=(640, 360)):
     """Two 'cameras' from the real walking video: the clip and its mirror image."""
-    import sys
-    from pathlib import Path
-
-    video = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "sports2d-demo.mp4"
+    video = share_path("testdata", "sports2d-demo.mp4")
     if not video.is_file():
         pytest.skip("test video not installed (run deploy/bootstrap.sh)")
     cap = cv2.VideoCapture(str(video))

@@ -2,18 +2,16 @@
 checkerboard; frames from the caliscope 0.7.5 sdist, installed by deploy/bootstrap.sh): one view per camera
 is too few, and the failed calibration says so per camera, from what the board finder saw in real images."""
 
-import sys
-from pathlib import Path
-
 import cv2
 import pytest
 from gaitcap.acquisition.board import BoardConfig
+from gaitcap.acquisition.installed import share_path
 from gaitcap.acquisition.synthetic.board import write_board_mcap
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
 from gaitcap.services.processing.calibration_job import run_calibration
 
-FRAMES = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "calibration" / "caliscope-chessboard"
+FRAMES = share_path("testdata", "calibration", "caliscope-chessboard")
 pytestmark = pytest.mark.skipif(not (FRAMES / "cam_0_frame_1070.jpg").exists(),
                                 reason=f"caliscope checkerboard frames not installed in {FRAMES} (run deploy/bootstrap.sh)")
 

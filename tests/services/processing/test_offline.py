@@ -3,11 +3,11 @@ two people, 4 cameras, BODY_25B), layouts recognised, the patient kept across fr
 
 import json
 import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.installed import share_path
 from gaitcap.acquisition.keypoint_files import read_keypoints_input
 from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.skeletons import get_skeleton
@@ -15,7 +15,7 @@ from gaitcap.services.cli import app
 from gaitcap.services.processing.pipeline import patient_input, preliminary, resolve_layout
 from typer.testing import CliRunner
 
-DEMOS = Path(sys.prefix) / "share" / "gaitcap" / "testdata" / "pose2sim"
+DEMOS = share_path("testdata", "pose2sim")
 SESSION = DEMOS / "S00_Demo_BatchSession"
 TWO_PEOPLE = SESSION / "S00_P01_MultiParticipants" / "S00_P01_T02_Participants1-2"
 ONE_PERSON = SESSION / "S00_P00_SingleParticipant" / "S00_P00_T01_BalancingTrial"
