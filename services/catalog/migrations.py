@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import logging
 
-from gaitcap.services.catalog.models import Job
 from sqlalchemy import Connection, text
 
 log = logging.getLogger(__name__)
@@ -50,12 +49,39 @@ def _one_calibration_table(conn: Connection) -> None:
     log.info("catalog: %d board recordings moved into calibrations", len(runs))
 
 
+JOBS_V2_DDL = """
+CREATE TABLE jobs (
+    id INTEGER NOT NULL,
+    trial_id VARCHAR(64),
+    calibration_id VARCHAR(64),
+    kind VARCHAR(32) NOT NULL,
+    state VARCHAR(16) NOT NULL,
+    attempts INTEGER NOT NULL,
+    max_attempts INTEGER NOT NULL,
+    worker_id VARCHAR(128) NOT NULL,
+    lease_expires_at FLOAT NOT NULL,
+    created_at FLOAT NOT NULL,
+    started_at FLOAT,
+    finished_at FLOAT,
+    error TEXT NOT NULL,
+    PRIMARY KEY (id),
+    FOREIGN KEY(trial_id) REFERENCES trials (id),
+    FOREIGN KEY(calibration_id) REFERENCES calibrations (id)
+);
+CREATE INDEX ix_jobs_calibration_id ON jobs (calibration_id);
+CREATE INDEX ix_jobs_trial_id ON jobs (trial_id);
+CREATE INDEX ix_jobs_state ON jobs (state);
+"""  # the jobs table of schema version 2, frozen: a later model change never alters what v1 migrates to
+
+
 def _jobs_of_any_kind(conn: Connection) -> None:
     """jobs.trial_id nullable and jobs.calibration_id added: the table is rebuilt (SQLite cannot drop NOT NULL)."""
     conn.exec_driver_sql("ALTER TABLE jobs RENAME TO jobs_v1")
     for index in ("ix_jobs_trial_id", "ix_jobs_state"):
         conn.exec_driver_sql(f"DROP INDEX IF EXISTS {index}")
-    Job.__table__.create(conn)
+    for statement in JOBS_V2_DDL.split(";"):
+        if statement.strip():
+            conn.exec_driver_sql(statement)
     names = ("id, trial_id, kind, state, attempts, max_attempts, worker_id, lease_expires_at, created_at, "
              "started_at, finished_at, error")
     conn.exec_driver_sql(f"INSERT INTO jobs ({names}) SELECT {names} FROM jobs_v1")

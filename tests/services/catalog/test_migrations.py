@@ -90,3 +90,42 @@ def test_a_failed_upgrade_leaves_the_file_as_it_was(v1):
     with sqlite3.connect(path) as con:
         assert con.execute("SELECT value FROM schema_info WHERE key = 'version'").fetchone() == ("1",)
         assert con.execute("SELECT COUNT(*) FROM calibration_runs").fetchone() == (2,)
+
+
+def _shape(con: sqlite3.Connection, table: str) -> tuple[list, list]:
+    """(columns as (name, type, not null, default, primary key), indexes as (name, columns)) of ``table``."""
+    columns = [tuple(r[1:]) for r in con.execute(f"PRAGMA table_info({table})")]
+    indexes = sorted((name, [r[2] for r in con.execute(f"PRAGMA index_info({name})")])
+                     for _, name, *_ in con.execute(f"PRAGMA index_list({table})"))
+    return columns, indexes
+
+
+def test_the_version_2_step_builds_the_frozen_jobs_table_whatever_the_model_says_today(v1):
+    """The v1 -> v2 step makes exactly the jobs table its own DDL names; a column added to the ORM model
+    later does not leak into what an old catalog migrates to."""
+    from gaitcap.services.catalog import migrations
+    from gaitcap.services.catalog.models import Job
+    from sqlalchemy import Column, Integer, create_engine
+
+    path, tid = v1
+    later = Column("priority", Integer, nullable=False, server_default="0")  # a model change after v2
+    Job.__table__.append_column(later)
+    engine = create_engine(f"sqlite:///{path}")
+    try:
+        with engine.begin() as conn:
+            migrations.STEPS[1](conn)
+    finally:
+        Job.__table__._columns.remove(later)
+        engine.dispose()
+    frozen = sqlite3.connect(":memory:")
+    frozen.executescript("CREATE TABLE trials (id VARCHAR(64) PRIMARY KEY); "
+                         "CREATE TABLE calibrations (id VARCHAR(64) PRIMARY KEY);" + migrations.JOBS_V2_DDL)
+    with sqlite3.connect(path) as con:
+        got = _shape(con, "jobs")
+        rows = con.execute("SELECT id, trial_id, calibration_id, kind, state FROM jobs").fetchall()
+    assert got == _shape(frozen, "jobs")
+    assert "priority" not in [c[0] for c in got[0]]
+    assert [c[0] for c in got[0]] == ["id", "trial_id", "calibration_id", "kind", "state", "attempts", "max_attempts",
+                                       "worker_id", "lease_expires_at", "created_at", "started_at", "finished_at",
+                                       "error"]
+    assert rows == [(1, tid, None, "process", "queued")]
