@@ -74,22 +74,27 @@ def show_patient(subject_id: str, request: Request, user: str = Depends(require_
     ``normal_ranges`` (the same names -> [low, high], mean -+ 1.96 SD for the patient's sex and age at that
     trial; a name without a normative row is left out)."""
     db, p = catalog_of(request), _patient(request, subject_id)
-    norms = _norms()
+    out = history_of(db, p, _norms())
+    cat.audit(db, actor=user, action="view", detail=f"patient {p.id}")
+    return {**_patient_out(p), "history": out}
+
+
+def history_of(db: cat.Catalog, p: pat.PatientInfo, norms: NormTable) -> list[dict]:
+    """The patient's trials oldest first as ``show_patient`` returns them; a fixed number of queries
+    (the trials, then their stages, quality, clinical fields and best results each in one)."""
     trials = list(reversed(cat.list_trials(db, subject_id=p.id, limit=1000)))
-    details = pat.details_of(db, [t.id for t in trials])
+    ids = [t.id for t in trials]
+    details, means = pat.details_of(db, ids), cat.best_means_of(db, ids)
     out = []
     for t, t_out in zip(trials, trials_out(db, trials), strict=True):
-        result = cat.get_result(db, t.id)
-        summary = result.summary if result is not None else {}
-        values = {name: (summary.get(key) or {}).get("mean") for key, name in TREND}
+        values = {name: means.get(t.id, {}).get(key) for key, name in TREND}
         d = details.get(t.id, pat.TrialDetailsInfo())
         out.append({**t_out.model_dump(), "voided": d.voided, "void_reason": d.void_reason,
                     "walking_aid": d.walking_aid, "assistance": d.assistance, "footwear": d.footwear,
                     "operator": d.operator, "notes": d.notes,
                     "values": {k: v for k, v in values.items() if isinstance(v, float) and math.isfinite(v)},
                     "normal_ranges": _ranges(norms, p, t.started_at or t.created_at)})
-    cat.audit(db, actor=user, action="view", detail=f"patient {p.id}")
-    return {**_patient_out(p), "history": out}
+    return out
 
 
 @router.put("/patients/{subject_id}", summary="Set a patient's sex, birth year or notes (audited)")

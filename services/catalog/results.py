@@ -87,6 +87,22 @@ def get_result(catalog: Catalog, trial_id: str, stage: str | None = None) -> Res
     return None
 
 
+def best_means_of(catalog: Catalog, trial_ids: list[str]) -> dict[str, dict[str, float | None]]:
+    """trial id -> summary name -> mean of its best result (refined, else preliminary), as
+    :func:`get_result` chooses; one query for many trials. Trials without results are left out."""
+    out: dict[str, tuple[str, dict[str, float | None]]] = {}
+    q = (select(Result.trial_id, Result.stage, Summary.name, Summary.value)
+         .outerjoin(Summary, Summary.result_id == Result.id).where(Result.trial_id.in_(trial_ids)).order_by(Summary.id))
+    with catalog.reading() as s:
+        for tid, stage, name, value in s.execute(q):
+            best = out.get(tid)
+            if best is None or (best[0] == "preliminary" and stage == "refined"):
+                out[tid] = best = (stage, {})
+            if best[0] == stage and name is not None:  # a result without summary rows is still the best
+                best[1][name] = value
+    return {tid: means for tid, (_, means) in out.items()}
+
+
 def stages_available(catalog: Catalog, trial_id: str) -> list[str]:
     return stages_of(catalog, [trial_id]).get(trial_id, [])
 
