@@ -15,6 +15,7 @@ comments. A bad row is refused with its line and column named.
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import math
 from collections.abc import Mapping
@@ -135,8 +136,23 @@ def parse_norms(text: str, origin: str = "norms", *, units: Mapping[str, str] | 
 
 
 def load_norms(path: str | Path | None = None, *, units: Mapping[str, str] | None = None) -> NormTable:
-    """The clinic's CSV at ``path``, else the shipped table."""
+    """The clinic's CSV at ``path``, else the shipped table. The parsed table is kept per file, its
+    modification time (ns) and size: a changed file is read and checked again, a bad one is refused
+    each time (NormsError) and never kept."""
+    units_key = None if units is None else tuple(sorted(units.items()))
     if path:
-        return parse_norms(Path(path).read_text(encoding="utf-8"), str(path), units=units)
-    text = resources.files("gaitcap.services.reports").joinpath("norms.csv").read_text(encoding="utf-8")
-    return parse_norms(text, "shipped norms.csv", units=units)
+        stat = Path(path).stat()
+        return _parsed(Path(path), str(path), stat.st_mtime_ns, stat.st_size, units_key)
+    shipped = resources.files("gaitcap.services.reports").joinpath("norms.csv")
+    if not isinstance(shipped, Path):  # inside a zip: it does not change
+        return _parsed(shipped, "shipped norms.csv", None, None, units_key)
+    stat = shipped.stat()
+    return _parsed(shipped, "shipped norms.csv", stat.st_mtime_ns, stat.st_size, units_key)
+
+
+@functools.lru_cache(maxsize=8)
+def _parsed(source, origin: str, mtime_ns: int | None, size: int | None,
+            units_key: tuple[tuple[str, str], ...] | None) -> NormTable:
+    """``source``'s table (a Path or the package's file); the other arguments only tell versions apart."""
+    units = None if units_key is None else dict(units_key)
+    return parse_norms(source.read_text(encoding="utf-8"), origin, units=units)

@@ -73,3 +73,23 @@ def test_history_queries_do_not_grow_with_the_trials(db):
         assert [h["voided"] for h in history] == [i % 3 == 0 for i in range(n)]
         assert history[-1]["normal_ranges"]["gait_speed_m_s"][0] < 1.0 < history[-1]["normal_ranges"]["gait_speed_m_s"][1]
     assert counts[3] == counts[30], counts  # (before: 3 to 4 more per trial, its result, steps and summary)
+
+
+def test_a_clinic_table_changed_while_serving_is_read_again(server, tmp_path, monkeypatch):
+    _, client, _, settings = server
+    path = tmp_path / "clinic-norms.csv"
+    head = "# Source: the clinic\nparameter,sex,age_min,age_max,mean,sd,unit,source\n"
+    path.write_text(head + "gait_speed_m_s,male,60,89,1.00,0.10,m/s,clinic\n")
+    monkeypatch.setenv("GAITCAP_NORMS_CSV", str(path))
+    tid = client.post("/trials", json={"subject_id": "P5", "session": "v1"}).json()["id"]
+    client.post(f"/trials/{tid}/stop")
+    client.put("/patients/P5", json={"sex": "male", "birth_year": 1950})
+    band = client.get("/patients/P5").json()["history"][0]["normal_ranges"]["gait_speed_m_s"]
+    assert band == pytest.approx([1.00 - 0.196, 1.00 + 0.196])
+    path.write_text(head + "gait_speed_m_s,male,60,89,1.00,-1,m/s,clinic\n")
+    r = client.get("/patients/P5")
+    assert r.status_code == 500 and r.json()["detail"] == (
+        f"the normative table (GAITCAP_NORMS_CSV): {path} line 3, column sd: gait_speed_m_s needs sd > 0")
+    path.write_text(head + "gait_speed_m_s,male,60,89,1.10,0.10,m/s,clinic\n")
+    band = client.get("/patients/P5").json()["history"][0]["normal_ranges"]["gait_speed_m_s"]
+    assert band == pytest.approx([1.10 - 0.196, 1.10 + 0.196])
