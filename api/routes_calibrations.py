@@ -14,6 +14,7 @@ from fastapi import APIRouter, Depends, HTTPException, Request
 from fastapi.responses import PlainTextResponse
 from gaitcap.api.auth import require_user
 from gaitcap.api.deps import catalog_of, checked_id
+from gaitcap.api.schemas import BoardRecordingIn
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text, rig_to_toml_text
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.services import catalog as cat
@@ -44,7 +45,7 @@ def _out(c: cals.CalibrationInfo, active_id: str | None) -> dict:
     return {"id": c.id, "kind": c.kind, "state": c.state, "state_text": state_text, "created_at": c.created_at,
             "source": c.source, "started_at": c.started_at, "stopped_at": c.stopped_at, "started_by": c.started_by,
             "stage": c.stage, "progress": c.progress, "error": c.error, "active": c.id == active_id,
-            "report": c.report, "has_toml": c.has_toml}
+            "report": c.report, "has_toml": c.has_toml, "board": c.board}
 
 
 def _active_id(db) -> str | None:
@@ -95,14 +96,18 @@ def latest(request: Request, user: str = Depends(require_user)) -> dict:
 
 
 @router.post("/calibrations/record/start", status_code=201, summary="Start recording a board sequence")
-def record_start(request: Request, user: str = Depends(require_user)) -> dict:
+def record_start(request: Request, body: BoardRecordingIn | None = None, user: str = Depends(require_user)) -> dict:
+    """The board filmed is recorded with it: ``board`` in the body, else the clinic's board (``gaitcap
+    serve --board-file``), else none (the default board)."""
     db, settings, link = catalog_of(request), request.app.state.settings, request.app.state.link
+    board = body.board.model_dump(mode="json", exclude_none=True) if body and body.board else settings.board
     if not getattr(link, "connected", True):
         raise HTTPException(status_code=503, detail="recorder: this server runs without the cameras and "
                                                     "recorder (started with --no-bus)")
     folder = Path(settings.data_dir) / "calibrations"
     try:
-        c = cals.start_board_recording(db, recording_path_for=lambda cid: folder / cid / "board.mcap", started_by=user)
+        c = cals.start_board_recording(db, recording_path_for=lambda cid: folder / cid / "board.mcap", started_by=user,
+                                       board=board)
     except cals.CalibrationBusy as exc:
         raise HTTPException(status_code=409, detail=str(exc)) from None
     cat.audit(db, actor=user, action="calibrate start", detail=c.id)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+from typing import Annotated, Literal
 
 from gaitcap.services.catalog.ids import ID_PATTERN
 from pydantic import BaseModel, ConfigDict, Field
@@ -75,3 +76,25 @@ class GaitOut(BaseModel):
                                          "gaps, steps left out), plain words")
     data_quality: dict = Field(default_factory=dict, description="Per camera frames expected / received / lost, "
                                "fps, sync spread (ms), coverage, reprojection error (px), and the criteria")
+
+
+class BoardIn(BaseModel):
+    """A calibration board, the fields of a board file's ``[board]`` table (docs/calibration.md)."""
+
+    model_config = ConfigDict(extra="forbid")
+    kind: Literal["checkerboard", "charuco"]
+    squares: tuple[Annotated[int, Field(ge=2, le=100)], Annotated[int, Field(ge=2, le=100)]] = Field(
+        description="Squares along x (columns) and y (rows)")
+    square_mm: float = Field(gt=0, le=1000, description="Side of a square, mm")
+    marker_mm: float | None = Field(default=None, gt=0, le=1000, description="ChArUco marker side, mm "
+                                    "(default 0.75 x square)")
+    dictionary: str = Field(default="DICT_4X4_50", pattern=r"^DICT_[A-Z0-9_]+$", description="ChArUco ArUco dictionary")
+    inverted: bool | None = Field(default=None, description="ChArUco printed white markers on black (None: try both)")
+    legacy_layout: bool | None = Field(default=None, description="ChArUco in OpenCV's pre-4.6 layout (None: try both)")
+
+
+class BoardRecordingIn(BaseModel):
+    """Start a board recording; ``board`` overrides the clinic's board (``gaitcap serve --board-file``)."""
+
+    model_config = ConfigDict(extra="forbid")
+    board: BoardIn | None = None

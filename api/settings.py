@@ -68,6 +68,7 @@ class Settings:
     backup_interval_s: float = 6 * 3600  # SQLite catalog backups (0: none) into DATA_DIR/backups ...
     backup_keep: int = 28  # ... the newest this many kept
     subject_id_pattern: str = DEFAULT_PATTERN  # a patient id must match it (and look like no name or date)
+    board: dict | None = None  # the clinic's calibration board (a board file's [board] fields; None: the default)
 
     def __post_init__(self) -> None:
         for token in self.tokens:

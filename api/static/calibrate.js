@@ -56,7 +56,8 @@ function showCalibration(run) {
   const link = run.has_toml ? ` <a href="${withToken("/calibrations/" + encodeURIComponent(run.id) + "/toml")}">Download calibration (TOML)</a>` : "";
   const square = rep.square_mm ? `Board square ${calNum(rep.square_measured_mm)} mm measured vs ${fmtNum(rep.square_mm)} mm `
     + `(${rep.square_residual_pct >= 0 ? "+" : ""}${calNum(rep.square_residual_pct)} %); ` : "";
-  document.querySelector("#calibration-summary").innerHTML = esc(`${run.id}: ${square}`
+  const board = rep.board_used ? `Board used: ${rep.board_used}. ` : "";
+  document.querySelector("#calibration-summary").innerHTML = esc(`${run.id}: ${board}${square}`
     + (rep.reprojection_rms_px !== undefined && rep.reprojection_rms_px !== null ? `reprojection RMS ${calNum(rep.reprojection_rms_px)} px.` : "")) + link;
   document.querySelector("#calibration-report").hidden = !rows.length && !run.has_toml;
 }

@@ -8,6 +8,16 @@ import typer
 from gaitcap.services.cli._common import user_errors
 
 
+def board_fields(path: Path) -> dict:
+    """The board of a board file (any format it reads) as a gaitcap board file's ``[board]`` fields;
+    ValueError naming the file and field when it is not a board."""
+    import tomllib
+
+    from gaitcap.acquisition.board_file import board_to_toml, read_board_file
+
+    return tomllib.loads(board_to_toml(read_board_file(path)))["board"]
+
+
 def register(app: typer.Typer) -> None:
     @app.command()
     def serve(
@@ -28,6 +38,10 @@ def register(app: typer.Typer) -> None:
         node: str = typer.Option("api", "--node", help="Bus node name of the API."),
         sim_scene: bool = typer.Option(False, "--sim-scene",
                                        help="Calibrate switches simulated cameras to the board (the demo stack)."),
+        board_file: Path | None = typer.Option(None, "--board-file", envvar="GAITCAP_BOARD_FILE",
+                                               help="The clinic's calibration board (TOML/JSON board file; "
+                                                    "caliscope, anipose, Pose2Sim files too). Default: 7 x 5 "
+                                                    "checkerboard of 110 mm."),
     ) -> None:
         """Serve the clinic page and the REST API (docs at /docs). Accounts: gaitcap user add."""
         from gaitcap.api.server import serve as run
@@ -42,7 +56,8 @@ def register(app: typer.Typer) -> None:
                 typer.echo(f"HTTPS certificate {tls_cert} (trust {data_dir / 'tls' / 'ca.pem'} in the browsers)")
             settings = Settings.from_env(data_dir=data_dir, host=host, port=port, tls_cert=tls_cert, tls_key=tls_key,
                                          plain_http_beyond_loopback=plain_http,
-                                         catalog_url=catalog or str(data_dir / "catalog.sqlite"))
+                                         catalog_url=catalog or str(data_dir / "catalog.sqlite"),
+                                         board=board_fields(board_file) if board_file else None)
             if sim_scene and no_bus:
                 raise ValueError("--sim-scene: the simulated cameras are reached over the bus (drop --no-bus)")
             link, scene = None, None

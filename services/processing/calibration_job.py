@@ -4,8 +4,10 @@ Finds the board in the recording's MCAP, calibrates every camera and stores the 
 quality report in the catalog (:mod:`gaitcap.services.catalog.calibrations`); progress goes to the
 calibration's ``stage`` / ``progress``. Too few board views: the error names, per camera, what was found
 and the likely cause (:mod:`gaitcap.acquisition.board_diagnosis`); any other recording the maths refuses
-(a camera that failed the quality checks, ...) fails naming the reason. A worker that dies mid-way stops
-renewing the job's lease and another worker calibrates again from the start.
+(a camera that failed the quality checks, ...) fails naming the reason. The board searched for is the
+one recorded on the calibration when its recording started (the clinic's board file, or the board given
+to Start); a record without one uses the default board. The report and every failure name the board used.
+A worker that dies mid-way stops renewing the job's lease and another worker calibrates again from the start.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from gaitcap.services.catalog import Catalog
 from gaitcap.services.catalog.calibrations import (
     CALIBRATING,
     FAILED,
+    CalibrationInfo,
     finish_calibration,
     get_calibration,
     update_calibration,
@@ -45,12 +48,25 @@ def _progress(catalog: Catalog, cal_id: str, expected_images: int | None, check:
     return progress
 
 
+def board_used(cal: CalibrationInfo):
+    """(BoardConfig, words naming it) of a calibration: its recorded board, else the default board.
+    ValueError naming the field when the recorded description is not a board."""
+    from gaitcap.acquisition.board import BoardConfig
+    from gaitcap.acquisition.board_file import board_from_dict
+
+    if cal.board is None:
+        board = BoardConfig()
+        return board, f"{board.describe()} (the default board: none was given)"
+    board = board_from_dict({"board": cal.board}, source=f"calibration {cal.id} board")
+    return board, board.describe()
+
+
 def run_calibration(catalog: Catalog, cal_id: str, *, board=None, check: Callable[[], None] = lambda: None) -> None:
     """Calibrate ``cal_id`` (state ``calibrating``; another state: nothing to do) and store the outcome.
 
-    A recording the maths refuses fails the calibration naming why (never raises ValueError);
+    ``board``: a BoardConfig overriding the calibration's recorded board (:func:`board_used`). A recording
+    the maths refuses fails the calibration naming why and the board used (never raises ValueError);
     ``check()`` is called as images are read (the worker's lease check: raises when the job was lost)."""
-    from gaitcap.acquisition.board import BoardConfig
     from gaitcap.acquisition.board_recording import find_board_views
     from gaitcap.reconstruction.calibration import CalibrationConfig, calibrate_from_observations
 
@@ -58,9 +74,11 @@ def run_calibration(catalog: Catalog, cal_id: str, *, board=None, check: Callabl
     if cal.state != CALIBRATING:
         log.info("calibration %s is %s; nothing to do", cal_id, cal.state)
         return
+    words = "?"
     try:
+        board, words = (board, board.describe()) if board is not None else board_used(cal)
         update_calibration(catalog, cal_id, stage="finding the board", progress=0.0)
-        found = find_board_views(cal.recording_path, board=board or BoardConfig(),
+        found = find_board_views(cal.recording_path, board=board,
                                  progress=_progress(catalog, cal_id, cal.frames, check))
         config = CalibrationConfig()
         found.check(config.intrinsics.min_views)  # per camera: what was found and what to change
@@ -68,14 +86,16 @@ def run_calibration(catalog: Catalog, cal_id: str, *, board=None, check: Callabl
         update_calibration(catalog, cal_id, stage="calibrating the cameras", progress=0.8)
         result = calibrate_from_observations(found.observations, config=config)
     except ValueError as exc:
-        log.warning("calibration %s failed: %s", cal_id, exc)
-        update_calibration(catalog, cal_id, state=FAILED, stage="", progress=1.0, error=str(exc))
+        log.warning("calibration %s failed (board used: %s): %s", cal_id, words, exc)
+        update_calibration(catalog, cal_id, state=FAILED, stage="", progress=1.0,
+                           error=f"{exc} (board used: {words})")
         return
     check()
     report = result.report
     problems = "; ".join(f"{q.name}: {', '.join(q.problems)}" for q in report.cameras if not q.ok)
     finish_calibration(catalog, cal_id, toml=_toml_text(result.rig, report.reprojection_rms_px),
-                       report=report.to_dict(), failed=list(report.failed_cameras), problems=problems)
+                       report=report.to_dict() | {"board_used": words}, failed=list(report.failed_cameras),
+                       problems=problems)
     log.info("calibration %s: RMS %.3f px, failed cameras %s", cal_id, report.reprojection_rms_px,
              list(report.failed_cameras))
 
@@ -89,4 +109,4 @@ def fail_calibration(catalog: Catalog, cal_id: str, exc: Exception) -> None:
         log.warning("calibration %s could not be marked failed", cal_id)
 
 
-__all__ = ["fail_calibration", "run_calibration"]
+__all__ = ["board_used", "fail_calibration", "run_calibration"]
