@@ -93,7 +93,7 @@ def history_of(db: cat.Catalog, p: pat.PatientInfo, norms: NormTable) -> list[di
                     "walking_aid": d.walking_aid, "assistance": d.assistance, "footwear": d.footwear,
                     "operator": d.operator, "notes": d.notes,
                     "values": {k: v for k, v in values.items() if isinstance(v, float) and math.isfinite(v)},
-                    "normal_ranges": _ranges(norms, p, t.started_at or t.created_at)})
+                    "normal_ranges": _ranges(norms, p, t)})
     return out
 
 
@@ -157,8 +157,9 @@ def _norms() -> NormTable:
         raise HTTPException(status_code=500, detail=f"the normative table (GAITCAP_NORMS_CSV): {exc}") from None
 
 
-def _ranges(norms: NormTable, p: pat.PatientInfo, t_s: float) -> dict[str, list[float]]:
-    rows = {name: norms.find(name, sex=p.sex, age=p.age_at(t_s)) for _, name in TREND}
+def _ranges(norms: NormTable, p: pat.PatientInfo, trial: cat.TrialInfo) -> dict[str, list[float]]:
+    age = pat.age_at_trial(p, trial)
+    rows = {name: norms.find(name, sex=p.sex, age=age) for _, name in TREND}
     return {name: [round(x, 4) for x in row.band()] for name, row in rows.items() if row is not None}
 
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass, fields
 from gaitcap.services.catalog.db import Catalog
 from gaitcap.services.catalog.ids import validate_id
 from gaitcap.services.catalog.models import PatientDetails, SessionRow, Subject, Trial, TrialDetails
-from gaitcap.services.catalog.trials import TrialNotFound, session_label
+from gaitcap.services.catalog.trials import TrialInfo, TrialNotFound, session_label
 from sqlalchemy import func, select
 
 SEXES = ("", "female", "male")
@@ -42,9 +42,14 @@ class PatientInfo:
     notes: str = ""
     trials: int = 0
 
-    def age_at(self, t_s: float) -> int | None:
-        """Age in whole years at UNIX time ``t_s`` (by calendar year; None without a birth year)."""
-        return None if self.birth_year is None else time.gmtime(t_s).tm_year - self.birth_year
+
+def age_at_trial(patient: PatientInfo, trial: TrialInfo) -> int | None:
+    """The patient's age in whole years at the trial (when it started, else when it was created; by
+    calendar year, UTC, as only the birth year is recorded); None without a birth year. The one age of a
+    patient at a trial: the norms, the kinematics' band, the report and the history all use it."""
+    if patient.birth_year is None:
+        return None
+    return time.gmtime(trial.started_at or trial.created_at).tm_year - patient.birth_year
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ def patient_age(db: cat.Catalog, trial_id: str) -> int | None:
         patient = pat.get_patient(db, trial.subject_id)
     except pat.PatientNotFound:
         return None
-    return patient.age_at(trial.started_at or trial.created_at)
+    return pat.age_at_trial(patient, trial)
 
 
 def with_norms(data: dict, age_years: int | None) -> dict:

@@ -294,7 +294,7 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
         raise FileNotFoundError(f"trial {trial.id} has no results yet")
     gait = _gait_json(Path(data_dir), trial.id, result.stage)
     patient = pat.ensure_patient(db, trial.subject_id)
-    age = patient.age_at(trial.started_at or trial.created_at)
+    age = pat.age_at_trial(patient, trial)
     norms = norms or load_norms(config.norms_csv, units=NORM_UNITS)
     rows = rows_of(gait.get("summary", {}), norms, sex=patient.sex, age=age)
     png = trial_files(data_dir, trial.id).stage_file(result.stage, "report_png")
