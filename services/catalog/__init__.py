@@ -32,6 +32,7 @@ from gaitcap.services.catalog.jobs import (
 from gaitcap.services.catalog.quality import get_quality, qualities_of, set_quality, warnings_of
 from gaitcap.services.catalog.results import (
     ResultInfo,
+    add_artifacts,
     best_means_of,
     clear_results,
     get_result,
@@ -58,7 +59,8 @@ __all__ = [
     "start_trial", "get_trial", "list_trials", "set_state", "set_progress", "current_recording",
     "JobInfo", "enqueue_job", "lease_job", "renew_lease", "complete_job", "fail_job", "jobs_for_trial",
     "jobs_for_calibration",
-    "ResultInfo", "best_means_of", "clear_results", "store_result", "get_result", "stages_available", "stages_of",
+    "ResultInfo", "add_artifacts", "best_means_of", "clear_results", "store_result", "get_result",
+    "stages_available", "stages_of",
     "CalibrationInfo", "CalibrationNotFound", "add_calibration", "calibration_toml", "get_calibration",
     "latest_calibration",
     "get_quality", "qualities_of", "set_quality", "warnings_of", "FINISHED", "PROCESSABLE",

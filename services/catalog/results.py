@@ -69,6 +69,17 @@ def store_result(
             s.add(row)
 
 
+def add_artifacts(catalog: Catalog, trial_id: str, stage: str, artifacts: dict[str, str]) -> None:
+    """List files of a stored result (artifact key -> path) once they are written whole: a file is listed
+    only after it is in place, so a crash while writing never leaves the catalog naming a missing or half
+    file. Raises LookupError when the stage has no result."""
+    with catalog.session() as s:
+        res = s.scalars(select(Result).where(Result.trial_id == trial_id, Result.stage == stage)).first()
+        if res is None:
+            raise LookupError(f"trial {trial_id}: no {stage} result to list files on")
+        res.artifacts_json = json.dumps({**json.loads(res.artifacts_json), **artifacts})
+
+
 def get_result(catalog: Catalog, trial_id: str, stage: str | None = None) -> ResultInfo | None:
     """The given stage, or the best available (refined, else preliminary). None if none yet."""
     stages = [stage] if stage else ["refined", "preliminary"]

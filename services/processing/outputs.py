@@ -133,24 +133,31 @@ def report_png(traj: Trajectory, report, *, title: str) -> bytes:
     return buf.getvalue()
 
 
-def write_data(files: TrialFiles, stage: str, traj: Trajectory, report, *, data_quality: dict | None = None) -> None:
+def write_data(files: TrialFiles, stage: str, traj: Trajectory, report, *,
+               data_quality: dict | None = None) -> dict[str, str]:
     """The stage's trajectory (npz) and gait report (JSON, steps CSV, per-side summary CSV): quick, written
-    before the result is stored in the catalog. ``data_quality`` (the trial's measures and plain-word
-    warnings, :class:`~gaitcap.services.processing.quality.DataQuality` as a dict) goes into gait.json
-    beside the gait analysis's own warnings, so the file never carries numbers without their quality."""
+    before the result is stored in the catalog; artifact key -> path of each file written. ``data_quality``
+    (the trial's measures and plain-word warnings, :class:`~gaitcap.services.processing.quality.DataQuality`
+    as a dict) goes into gait.json beside the gait analysis's own warnings, so the file never carries
+    numbers without their quality."""
     write_npz(files.stage_file(stage, "trajectory_npz"), traj)
+    written = ["trajectory_npz"]
     if report is not None:
         payload = {**report.to_dict(), **({"data_quality": data_quality} if data_quality is not None else {})}
         atomic_write_text(files.stage_file(stage, "gait_json"), json.dumps(json_ready(payload), indent=2) + "\n")
         atomic_write_text(files.stage_file(stage, "steps_csv"), report.to_csv())
         atomic_write_text(files.stage_file(stage, "summary_csv"), report.to_summary_csv())
+        written += ["gait_json", "steps_csv", "summary_csv"]
+    return {k: str(files.stage_file(stage, k)) for k in written}
 
 
-def write_views(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str) -> None:
-    """The TRC export and the report plot (slower; written right after the result is stored)."""
+def write_views(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str) -> dict[str, str]:
+    """The TRC export and the report plot (slower; written right after the result is stored); artifact
+    key -> path of each."""
     from gaitcap.reconstruction.trc import to_trc
 
     trc = to_trc(traj.points_mm, traj.times_s, traj.joint_names, filename=f"{trial_id}-{stage}.trc")
     atomic_write_bytes(files.stage_file(stage, "trajectory_trc"), trc.encode())
     title = f"Trial {trial_id}: {stage} ({traj.method})"
     atomic_write_bytes(files.stage_file(stage, "report_png"), report_png(traj, report, title=title))
+    return {k: str(files.stage_file(stage, k)) for k in ("trajectory_trc", "report_png")}

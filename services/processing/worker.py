@@ -51,7 +51,7 @@ from gaitcap.services.processing.quality import (
     with_reprojection,
 )
 from gaitcap.services.processing.recorded_images import recorded_images
-from gaitcap.services.processing.viewers.files import VIEWER_FILES, trial_view, write_viewer_files
+from gaitcap.services.processing.viewers.files import trial_view, write_viewer_files
 from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
 
 log = logging.getLogger(__name__)
@@ -268,10 +268,9 @@ class Worker:
         if problem:
             log.warning("trial %s %s: no gait parameters: %s", trial_id, stage, problem)
         gait_s = time.perf_counter() - t0
-        write_data(files, stage, traj, report, data_quality=data_quality.to_dict())
-        # The plot, TRC and Rerun files follow right after the result is stored (the page retries the plot).
-        later = ["trajectory_trc", "report_png"] + (list(VIEWER_FILES) if viewers else [])
-        artifacts = {**files.existing(stage), **{k: str(files.stage_file(stage, k)) for k in later}}
+        written = write_data(files, stage, traj, report, data_quality=data_quality.to_dict())
+        # The plot, TRC and viewer files follow right after the result is stored (the page retries the plot);
+        # each is listed in the catalog only once written (renamed into place): never a row for a half file.
         gait_warnings = list(report.warnings) if report else []
         cat.set_quality(self.db, trial_id, "processing", {**data_quality.to_dict(), "gait_warnings": gait_warnings,
                                                           "stage": stage})
@@ -280,17 +279,18 @@ class Worker:
                  "gait_s": round(gait_s, 3), "gait_and_files_s": round(time.perf_counter() - t0, 3)}
         cat.store_result(self.db, trial_id=trial_id, stage=stage, method=traj.method,
                          steps=steps_of(report) if report else [], summary=summary_of(report) if report else {},
-                         report=extra, quality=traj.metrics or {}, artifacts=artifacts,
+                         report=extra, quality=traj.metrics or {}, artifacts=written,
                          elapsed_s=traj.elapsed_s + time.perf_counter() - t0)
         log.info("trial %s: %s results stored (%s)", trial_id, stage, extra)
         self._report(trial_id, "processing", f"saving the {stage} files", 0.35 if stage == "preliminary" else 0.95,
                      stage)
-        write_views(files, stage, traj, report, trial_id=trial_id)
+        cat.add_artifacts(self.db, trial_id, stage, write_views(files, stage, traj, report, trial_id=trial_id))
         if viewers:
             keypoints, rig, mcap = viewers
-            write_viewer_files(files, stage, trial_view(trial_id, traj, detections=det, keypoints=keypoints, rig=rig,
-                                                        report=report, recording=mcap, bones=det.skeleton.bone_indices),
-                               self.config.rerun)
+            view = trial_view(trial_id, traj, detections=det, keypoints=keypoints, rig=rig, report=report,
+                              recording=mcap, bones=det.skeleton.bone_indices)
+            shown = write_viewer_files(files, stage, view, self.config.rerun)
+            cat.add_artifacts(self.db, trial_id, stage, {k: str(p) for k, p in shown.items()})
 
 
 def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:

@@ -74,6 +74,9 @@ def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path,
         gait = json.loads(files.stage_file(stage, "gait_json").read_text())  # numbers with their quality
         assert gait["data_quality"]["cameras"] and "warnings" in gait["data_quality"], gait.get("data_quality")
     assert files.stage_file("refined", "rerun_rrd").stat().st_size > 1000
+    listed = cat.get_result(db, tid, "refined").artifacts  # each file listed once written
+    assert {"rerun_rrd", "results_mcap", "trajectory_trc", "report_png"} <= set(listed)
+    assert all(Path(p).is_file() for p in listed.values())
     with open(files.stage_file("refined", "results_mcap"), "rb") as f:  # the viewer files of the final stage
         summary = make_reader(f).get_summary()
     counts = {c.topic: summary.statistics.channel_message_counts[i] for i, c in summary.channels.items()}
@@ -113,3 +116,30 @@ def test_a_missing_recording_fails_the_trial_naming_it_and_the_path(tmp_path):
     assert Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db).run_once()
     trial = cat.get_trial(db, t.id)
     assert trial.state == "failed" and trial.error == f"trial {t.id}: its recording {tmp_path / t.id}.mcap does not exist"
+
+
+class _Killed(BaseException):
+    """The worker process dying (not an error it handles)."""
+
+
+def test_viewer_files_are_listed_in_the_catalog_only_once_written(tmp_path, walk, monkeypatch):
+    """The .rrd fails half-way (a full disk: logged, the trial stays processed), then the worker dies while
+    writing the results MCAP: the catalog lists neither, and every file it lists is there, whole."""
+    from gaitcap.services.processing.viewers import rerun_trial, results_mcap
+
+    def disk_full(*_a, **_k):
+        raise OSError(28, "No space left on device")
+
+    def killed(*_a, **_k):
+        raise _Killed()
+
+    monkeypatch.setattr(rerun_trial, "_log_rig", disk_full)  # after the .rrd's temporary file is open
+    monkeypatch.setattr(results_mcap, "_write_gait", killed)  # after the skeleton messages are written
+    db, tid = _recorded_trial(tmp_path, walk)
+    with pytest.raises(_Killed):
+        Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db).run_once()
+    listed = cat.get_result(db, tid, "preliminary").artifacts
+    assert set(listed) == {"trajectory_npz", "gait_json", "steps_csv", "summary_csv", "trajectory_trc", "report_png"}
+    assert all(Path(p).stat().st_size > 100 for p in listed.values())
+    folder = trial_files(tmp_path, tid).stage_file("preliminary", "rerun_rrd").parent
+    assert not [p.name for p in folder.iterdir() if p.name.startswith(".") or p.suffix in (".rrd", ".mcap")]
