@@ -42,12 +42,8 @@ def _from_triangulation(name: str, det: Detections, tri: TriangulationResult, se
     )
 
 
-@dataclass(frozen=True)
-class DLT:
-    """Confidence-weighted DLT; views with confidence <= ``min_confidence`` are unused."""
-
-    min_confidence: float = 0.0
-    name = "dlt"
+class _TriangulationMethod:
+    """Shared by the per-frame methods: ``self.triangulate``, timed, as a Reconstruction."""
 
     def memory_bytes(self, detections: Detections) -> int:
         """Estimated peak memory of the reconstruction, bytes."""
@@ -55,29 +51,31 @@ class DLT:
 
     def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
         t0 = time.perf_counter()
-        tri = dlt_triangulate(detections, rig, min_confidence=self.min_confidence)
+        tri = self.triangulate(detections, rig)
         return _from_triangulation(self.name, detections, tri, time.perf_counter() - t0)
 
 
 @dataclass(frozen=True)
-class Robust:
+class DLT(_TriangulationMethod):
+    """Confidence-weighted DLT; views with confidence <= ``min_confidence`` are unused."""
+
+    min_confidence: float = 0.0
+    name = "dlt"
+
+    def triangulate(self, detections: Detections, rig: Rig) -> TriangulationResult:
+        return dlt_triangulate(detections, rig, min_confidence=self.min_confidence)
+
+
+@dataclass(frozen=True)
+class Robust(_TriangulationMethod):
     """The paper's robust triangulation (gamma: confidence threshold; sigma_mm: pair-weight scale)."""
 
     gamma: float = 0.5
     sigma_mm: float = 150.0
     name = "robust"
 
-    def memory_bytes(self, detections: Detections) -> int:
-        """Estimated peak memory of the reconstruction, bytes."""
-        return triangulation_bytes(*detections.shape)
-
     def triangulate(self, detections: Detections, rig: Rig) -> TriangulationResult:
         return robust_triangulate(detections, rig, gamma=self.gamma, sigma_mm=self.sigma_mm)
-
-    def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
-        t0 = time.perf_counter()
-        tri = self.triangulate(detections, rig)
-        return _from_triangulation(self.name, detections, tri, time.perf_counter() - t0)
 
 
 def _run_fit(name, fit, robust: Robust, use_confidence: bool, det: Detections, rig: Rig, progress):
