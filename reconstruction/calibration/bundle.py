@@ -38,6 +38,8 @@ class BundleConfig:
         max_iterations: Levenberg-Marquardt iterations per solve.
         tolerance: stop when the robust cost falls by less than this fraction.
         refine_intrinsics: also adjust K and the free distortion terms.
+        refine_cameras: also adjust the camera poses (False: only the board poses are fitted, the rig
+            held as given: how well a given calibration explains the corners).
     """
 
     loss: Literal["soft_l1", "huber", "cauchy", "linear"] = "soft_l1"
@@ -48,6 +50,7 @@ class BundleConfig:
     max_iterations: int = 100
     tolerance: float = 1e-10
     refine_intrinsics: bool = True
+    refine_cameras: bool = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,10 +103,10 @@ class BundleResult:
 class _Layout:
     """Maps parameters to/from the flat vector: [intrinsics C*(4+D) | extrinsics (C-1)*6 | frames F*6]."""
 
-    def __init__(self, prob: BundleProblem, refine_intrinsics: bool):
+    def __init__(self, prob: BundleProblem, refine_intrinsics: bool, refine_cameras: bool = True):
         self.prob, self.refine = prob, refine_intrinsics
         self.n_intr = (4 + len(prob.free_dist)) if refine_intrinsics else 0
-        self.cams_free = [c for c in range(prob.num_cameras) if c != prob.root]
+        self.cams_free = [c for c in range(prob.num_cameras) if c != prob.root] if refine_cameras else []
         self.o_ext = prob.num_cameras * self.n_intr
         self.o_frame = self.o_ext + 6 * len(self.cams_free)
         self.size = self.o_frame + 6 * prob.num_frames
@@ -157,8 +160,8 @@ class _Layout:
 
     def jacobian(self, proj: _Projection, rows: np.ndarray, cols: np.ndarray) -> csr_matrix:
         """Sparse Jacobian (2 len(rows), size) from the projection's derivative blocks."""
-        root = (self.prob.cam[rows] == self.prob.root)[:, None, None]
-        blocks = [proj.d_frame, np.where(root, 0.0, proj.d_cam)]
+        held = ~np.isin(self.prob.cam[rows], self.cams_free)[:, None, None]  # the root, or every camera
+        blocks = [proj.d_frame, np.where(held, 0.0, proj.d_cam)]
         if self.refine:
             d_intr = proj.d_intr[:, :, list(range(4)) + [4 + i for i in self.prob.free_dist]]
             if self.prob.held_principal_point is not None:  # a zero column: LM never moves it
@@ -308,7 +311,7 @@ def _solve(layout: _Layout, state: BundleState, rows: np.ndarray, config: Bundle
 def bundle_adjust(prob: BundleProblem, initial: BundleState, config: BundleConfig) -> BundleResult:
     """Robust bundle adjustment with rounds of outlier rejection."""
     t0 = time.perf_counter()
-    layout = _Layout(prob, config.refine_intrinsics)
+    layout = _Layout(prob, config.refine_intrinsics, config.refine_cameras)
     inlier = np.ones(len(prob.cam), dtype=bool)
     state, rounds = initial, 0
     for rounds in range(1, config.max_rounds + 1):  # noqa: B007
