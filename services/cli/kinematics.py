@@ -21,8 +21,7 @@ def _fmt(stats: dict) -> str:
     return f"{m:.1f}" + (f" +- {sd:.1f}" if sd is not None else "")
 
 
-def _echo_summary(report, out: Path) -> None:
-    d = report.to_dict()
+def _echo_summary(d: dict, out: Path) -> None:
     n = {side: d["curves"]["knee_flexion"][side]["n_cycles"] for side in ("left", "right")}
     typer.echo(f"gait cycles: left {n['left']}, right {n['right']}; model {d['model']['setup']} "
                f"({d['model']['frames_fitted']} of {d['model']['frames']} frames fitted, scale "
@@ -36,7 +35,9 @@ def _echo_summary(report, out: Path) -> None:
         mean_rms = sum(e["rms"] for e in errs.values()) / len(errs)
         typer.echo(f"marker error RMS: mean {mean_rms:.1f} mm over {len(errs)} markers, worst {worst} "
                    f"{errs[worst]['rms']:.1f} mm (max {errs[worst]['max']:.1f} mm)")
-    if not d["norms"]["bands"]:
+    if d["norms"]["bands"]:
+        typer.echo(f"normal-gait band: {d['norms']['population']}")
+    else:
         typer.echo("note: normal-gait bands not installed (run deploy/bootstrap.sh)", err=True)
     typer.echo(f"files: {out}/ (kinematics.mot, .osim, .trc, .json, .csv, trajectory.c3d)")
 
@@ -48,10 +49,14 @@ def register(app: typer.Typer) -> None:
         out: Path | None = typer.Option(None, "--out", help="Output folder (default: RESULT's folder / "
                                         "<name>-kinematics)."),
         mass_kg: float = typer.Option(70.0, "--mass-kg", help="The patient's mass (inertia only)."),
+        age: int | None = typer.Option(None, "--age", metavar="YEARS", help="The patient's age at the trial "
+                                       "(years): chooses the normal-gait band (adults from 18); without it "
+                                       "the children's band."),
         as_json: bool = typer.Option(False, "--json", help="Print the kinematics report as one JSON object."),
     ) -> None:
         """Scale an OpenSim model to the trial, inverse kinematics, gait-cycle joint angles with norms."""
         from gaitcap.services.kinematics import KinematicsUnavailable
+        from gaitcap.services.kinematics.shown import with_norms
         from gaitcap.services.kinematics.trial import KinematicsConfig, trial_kinematics
         from gaitcap.services.processing.outputs import read_npz
         from gaitcap.services.processing.pipeline import gait_of
@@ -60,6 +65,8 @@ def register(app: typer.Typer) -> None:
         with user_errors():
             if not math.isfinite(mass_kg) or not 20.0 <= mass_kg <= 300.0:
                 raise ValueError(f"--mass-kg: must be in [20, 300], got {mass_kg}")
+            if age is not None and not 0 <= age <= 120:
+                raise ValueError(f"--age: must be in [0, 120] years, got {age}")
             traj, reproj = read_npz(result)
             gait, problem = gait_of(traj, reprojection_px=reproj)  # the worker's gait analysis
             if gait is None:
@@ -67,11 +74,12 @@ def register(app: typer.Typer) -> None:
             try:
                 report = trial_kinematics(traj.points_mm, traj.times_s, traj.joint_names,
                                           steps=gait.steps if gait is not None else (), quality=traj.num_views,
-                                          out_dir=folder, config=KinematicsConfig(mass_kg=mass_kg))
+                                          out_dir=folder, age_years=age, config=KinematicsConfig(mass_kg=mass_kg))
             except KinematicsUnavailable as exc:
                 typer.echo(f"error: kinematics are unavailable: {exc}", err=True)
                 raise typer.Exit(code=3) from None
+        shown = with_norms({"available": True, **report.to_dict()}, age)  # as written to kinematics.json
         if as_json:
-            typer.echo(json.dumps({"available": True, **report.to_dict()}))
+            typer.echo(json.dumps(shown))
         else:
-            _echo_summary(report, folder)
+            _echo_summary(shown, folder)
