@@ -54,11 +54,12 @@ def run(cameras: int, size: tuple[int, int], record_s: float, timeout_s: float) 
     from gaitcap.reconstruction.calibration.compare import compare_rigs
     from gaitcap.reconstruction.calibration_io import load_rig
     from gaitcap.reconstruction.camera import Rig
-    from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
+    from gaitcap.services.bus.session import free_loopback_ports
+    from gaitcap.services.ops.stack import Stack, StackConfig
 
     fps = 10.0
     with tempfile.TemporaryDirectory() as tmp:
-        base = free_port_range(16)
+        base = free_loopback_ports(16)[0]
         # sim_seconds: the simulated walk must not end during the recording (its camera node restarts)
         cfg = StackConfig(data_dir=Path(tmp), token=TOKEN, port=base, bus_base_port=base + 1, cameras=cameras,
                           size=f"{size[0]}x{size[1]}", fps=fps, sim_seconds=600.0, refine=False, board_clip="full")

@@ -105,10 +105,10 @@ def _recording_path(catalog_url: str, trial_id: str) -> str:
 
 def run(*, seconds: float, cameras: int, size: str, camera_nodes: int, burn: int, timeout_s: float) -> dict:
     from gaitcap.acquisition.recording.reader import read_summary
-    from gaitcap.services.bus.session import open_session
-    from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
+    from gaitcap.services.bus.session import free_loopback_ports, open_session
+    from gaitcap.services.ops.stack import Stack, StackConfig
 
-    base = free_port_range(24)
+    base = free_loopback_ports(24)[0]
     stop_burn = multiprocessing.Event()
     burners = [multiprocessing.Process(target=_burn, args=(stop_burn,), daemon=True) for _ in range(burn)]
     with tempfile.TemporaryDirectory(prefix="gaitcap-democams-") as tmp:

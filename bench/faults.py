@@ -28,10 +28,11 @@ TARGET_DETECT_S = 5.0
 
 
 def run(runs: int, cameras: int, fps: float, only: list[str] | None) -> dict:
+    from gaitcap.services.bus.session import free_loopback_ports
     from gaitcap.services.ops.faults import DRILLS, Drill
-    from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
+    from gaitcap.services.ops.stack import Stack, StackConfig
 
-    base = free_port_range(12)
+    base = free_loopback_ports(12)[0]
     with tempfile.TemporaryDirectory() as tmp:
         cfg = StackConfig(data_dir=Path(tmp) / "clinic", token="bench-faults-password-42", port=base,
                           bus_base_port=base + 1, cameras=cameras, size="160x120", fps=fps, sim_seconds=240.0,

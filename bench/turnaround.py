@@ -83,9 +83,10 @@ def main() -> None:
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
 
-    from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
+    from gaitcap.services.bus.session import free_loopback_ports
+    from gaitcap.services.ops.stack import Stack, StackConfig
 
-    base = free_port_range(16)
+    base = free_loopback_ports(16)[0]
     with tempfile.TemporaryDirectory(prefix="gaitcap-turnaround-") as tmp:
         cfg = StackConfig(data_dir=Path(tmp), token="turnaround-bench-token", port=base, bus_base_port=base + 1,
                           cameras=args.cameras, size=args.size, sim_seconds=max(300.0, 3 * args.seconds))

@@ -31,6 +31,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import random
 import re
 import socket
 from collections.abc import Callable
@@ -247,13 +248,20 @@ def alive_nodes(session, bus: BusConfig, timeout_s: float = 1.0) -> set[str]:
     return {keys.node_of(str(r.ok.key_expr)) for r in replies if r.ok is not None}
 
 
-def free_loopback_ports(n: int) -> list[int]:
-    """``n`` distinct TCP ports free on 127.0.0.1 right now (for test and benchmark buses on loopback)."""
-    socks = [socket.socket() for _ in range(n)]
-    try:
-        for s in socks:
-            s.bind(("127.0.0.1", 0))
-        return [s.getsockname()[1] for s in socks]
-    finally:
-        for s in socks:
-            s.close()
+def free_loopback_ports(n: int, *, low: int = 20000, high: int = 60000) -> list[int]:
+    """``n`` consecutive TCP ports free on 127.0.0.1 right now, ``base, base + 1, ...`` between ``low`` and
+    ``high`` (test, benchmark and demo stacks on loopback: a bus's nodes, an API port and the bus after it)."""
+    for _ in range(200):
+        base = random.randrange(low, high - n)
+        if all(_port_free(base + i) for i in range(n)):
+            return list(range(base, base + n))
+    raise RuntimeError(f"no {n} consecutive free ports on 127.0.0.1 between {low} and {high}")
+
+
+def _port_free(port: int) -> bool:
+    with socket.socket() as s:
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError:
+            return False
+    return True

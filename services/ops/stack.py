@@ -17,8 +17,6 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
-import random
-import socket
 import sys
 import threading
 import time
@@ -97,24 +95,6 @@ class StackConfig:
 
         names = build_rig(self.cameras).names
         return {node: list(names[i :: self.camera_nodes]) for i, node in enumerate(self.camera_node_names())}
-
-
-def free_port_range(n: int, *, low: int = 20000, high: int = 60000) -> int:
-    """A base port with ``n`` consecutive ports free on 127.0.0.1 now (tests, benchmarks)."""
-
-    def free(port: int) -> bool:
-        with socket.socket() as s:
-            try:
-                s.bind(("127.0.0.1", port))
-            except OSError:
-                return False
-        return True
-
-    for _ in range(200):
-        base = random.randrange(low, high - n)
-        if all(free(base + i) for i in range(n)):
-            return base
-    raise RuntimeError(f"no {n} consecutive free ports between {low} and {high}")
 
 
 def bus_config(cfg: StackConfig):

@@ -2,23 +2,17 @@
 in-test link that records the recorder calls (the full stack runs in the browser and fault tests)."""
 
 import contextlib
-import socket
 import time
 
 import httpx
 import pytest
 from gaitcap.api.server import serve_in_thread
 from gaitcap.api.settings import Settings
+from gaitcap.services.bus.session import free_loopback_ports
 from gaitcap.services.live.nodes import NodeState
 from gaitcap.services.live.protocols import CameraHealth, RecorderUnavailable
 
 TOKEN = "test-api-token-123456"  # an API token of alice (scripts)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class RecordingLink:
@@ -97,7 +91,7 @@ def sign_in_page(page, url: str, user: str = "alice", password: str = PASSWORD) 
 def server(tmp_path):
     make_accounts(tmp_path / "data", alice=ALL_ROLES)
     settings = Settings(tokens={TOKEN: "alice"}, catalog_url=str(tmp_path / "catalog.sqlite"),
-                        data_dir=tmp_path / "data", port=free_port(), status_period_s=0.1)
+                        data_dir=tmp_path / "data", port=free_loopback_ports(1)[0], status_period_s=0.1)
     link = RecordingLink()
     srv = serve_in_thread(settings, link)
     client = httpx.Client(base_url=srv.url, headers={"Authorization": f"Bearer {TOKEN}"}, timeout=10)

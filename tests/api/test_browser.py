@@ -19,8 +19,9 @@ from pathlib import Path
 import httpx
 import pytest
 from gaitcap.services import catalog as cat
+from gaitcap.services.bus.session import free_loopback_ports
 from gaitcap.services.ops.auto_trial import FINISHED
-from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
+from gaitcap.services.ops.stack import Stack, StackConfig
 
 from .conftest import sign_in_page
 
@@ -31,7 +32,7 @@ TOKEN = "stack-test-token-42"
 def running_stack(tmp_path, **overrides):
     """A small stack: 6 simulated cameras at 160x120 and 15 fps (a rate any machine running the tests keeps
     up with, so the rig check passes on a loaded CI machine too), a 240 s walk, 4 s job leases."""
-    base = free_port_range(12)
+    base = free_loopback_ports(12)[0]
     values = dict(data_dir=tmp_path / "clinic", token=TOKEN, port=base, bus_base_port=base + 1, cameras=6,
                   size="160x120", fps=15.0, sim_seconds=240.0, lease_s=4.0)
     values.update(overrides)

@@ -17,7 +17,8 @@ from gaitcap.acquisition.drivers.simulated import SimTrialSpec
 from gaitcap.acquisition.synthetic.board import scaled_rig
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.reconstruction.calibration_io import load_rig
-from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
+from gaitcap.services.bus.session import free_loopback_ports
+from gaitcap.services.ops.stack import Stack, StackConfig
 
 from .conftest import sign_in_page
 
@@ -29,7 +30,7 @@ CAMERAS, FPS, SIZE = 6, 10.0, (576, 360)
 
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory):
-    base = free_port_range(12)
+    base = free_loopback_ports(12)[0]
     cfg = StackConfig(data_dir=tmp_path_factory.mktemp("clinic"), token=TOKEN, port=base, bus_base_port=base + 1,
                       cameras=CAMERAS, size=f"{SIZE[0]}x{SIZE[1]}", fps=FPS, sim_seconds=120.0, refine=False)
     s = Stack(cfg)

@@ -16,8 +16,9 @@ from gaitcap.api.auth import PUBLIC_PATHS, ROUTE_PERMISSIONS
 from gaitcap.api.server import serve_in_thread
 from gaitcap.api.settings import Settings
 from gaitcap.services.access.accounts import ROLES
+from gaitcap.services.bus.session import free_loopback_ports
 
-from .conftest import PASSWORD, RecordingLink, free_port, make_accounts, signed_in
+from .conftest import PASSWORD, RecordingLink, make_accounts, signed_in
 
 ROLE_USERS = {f"{r}1": (r,) for r in ROLES}
 SAMPLE = {"trial_id": "T1", "cal_id": "C1", "name": "cam0", "camera": "cam0", "subject_id": "P1"}
@@ -27,8 +28,9 @@ SAMPLE = {"trial_id": "T1", "cal_id": "C1", "name": "cam0", "camera": "cam0", "s
 def srv(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("sec")
     make_accounts(tmp / "data", **ROLE_USERS)
-    settings = Settings(catalog_url=str(tmp / "data" / "catalog.sqlite"), data_dir=tmp / "data", port=free_port(),
-                        max_body_bytes=100_000, login_failures=3, login_window_s=60)
+    settings = Settings(catalog_url=str(tmp / "data" / "catalog.sqlite"), data_dir=tmp / "data",
+                        port=free_loopback_ports(1)[0], max_body_bytes=100_000, login_failures=3,
+                        login_window_s=60)
     server = serve_in_thread(settings, RecordingLink())
     yield server, settings
     server.stop()
@@ -137,7 +139,8 @@ def test_sign_in_is_throttled_and_every_access_audited_as_the_signed_in_user(srv
 
 def test_sessions_end_when_idle_and_on_sign_out(tmp_path):
     make_accounts(tmp_path, ann=("clinician",))
-    settings = Settings(catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path, port=free_port(), session_idle_s=1.0)
+    settings = Settings(catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path,
+                        port=free_loopback_ports(1)[0], session_idle_s=1.0)
     server = serve_in_thread(settings)
     try:
         with signed_in(server.url, "ann") as c:
@@ -157,8 +160,8 @@ def test_https_with_the_lab_certificate_and_no_plain_http_beyond_loopback(tmp_pa
         Settings(catalog_url="x", data_dir=tmp_path, host="0.0.0.0")
     cert, key = web_certificate("127.0.0.1", tmp_path / "tls")
     make_accounts(tmp_path, ann=("clinician",))
-    settings = Settings(catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path, port=free_port(),
-                        tls_cert=cert, tls_key=key)
+    settings = Settings(catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path,
+                        port=free_loopback_ports(1)[0], tls_cert=cert, tls_key=key)
     server = serve_in_thread(settings)
     try:
         assert server.url.startswith("https://")
@@ -202,8 +205,8 @@ def test_the_catalog_is_backed_up_online_on_a_schedule(tmp_path):
     import sqlite3
 
     make_accounts(tmp_path, ann=("clinician",))
-    settings = Settings(catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path, port=free_port(),
-                        backup_interval_s=0.4, backup_keep=2)
+    settings = Settings(catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path,
+                        port=free_loopback_ports(1)[0], backup_interval_s=0.4, backup_keep=2)
     server = serve_in_thread(settings, RecordingLink())
     try:
         with signed_in(server.url, "ann") as c:

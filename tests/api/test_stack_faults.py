@@ -6,6 +6,7 @@ and the API reports each fault within 5 s. One stack serves the module (15 fps c
 the criteria scale with the rate; the refined fit is not what is tested here)."""
 
 import pytest
+from gaitcap.services.bus.session import free_loopback_ports
 from gaitcap.services.ops.faults import (
     Drill,
     camera_killed,
@@ -14,14 +15,14 @@ from gaitcap.services.ops.faults import (
     recorder_killed,
     repeated_crashes,
 )
-from gaitcap.services.ops.stack import Stack, StackConfig, free_port_range
+from gaitcap.services.ops.stack import Stack, StackConfig
 
 DETECT_S = 5.0
 
 
 @pytest.fixture(scope="module")
 def drill(tmp_path_factory):
-    base = free_port_range(12)
+    base = free_loopback_ports(12)[0]
     cfg = StackConfig(data_dir=tmp_path_factory.mktemp("faults") / "clinic", token="fault-test-password-42",
                       port=base, bus_base_port=base + 1, cameras=4, size="160x120", fps=15.0, sim_seconds=240.0,
                       lease_s=4.0, refine=False)

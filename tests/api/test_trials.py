@@ -98,12 +98,13 @@ def test_recorder_down_fails_the_trial_with_503(server):
 def test_without_the_bus_start_is_refused_before_a_trial_exists(tmp_path):
     from gaitcap.api.server import serve_in_thread
     from gaitcap.api.settings import Settings
+    from gaitcap.services.bus.session import free_loopback_ports
 
-    from .conftest import free_port, make_accounts
+    from .conftest import make_accounts
 
     make_accounts(tmp_path, bob=("clinician",))
     settings = Settings(tokens={TOKEN: "bob"}, catalog_url=str(tmp_path / "c.sqlite"), data_dir=tmp_path,
-                        port=free_port())
+                        port=free_loopback_ports(1)[0])
     srv = serve_in_thread(settings)  # no link: catalog only
     try:
         h = {"Authorization": f"Bearer {TOKEN}"}

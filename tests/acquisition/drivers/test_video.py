@@ -1,4 +1,3 @@
-import socket
 import time
 
 import cv2
@@ -52,13 +51,7 @@ def test_bad_video_sources(tmp_path):
 def test_video_files_feed_the_live_pipeline_into_an_mcap(tmp_path):
     files = [write_video(tmp_path / f"cam{i}.avi", frames=10) for i in range(2)]
     drivers = VideoSource(files=tuple(str(f) for f in files), fps=25, realtime=False).build()
-    socks = [socket.socket() for _ in range(2)]
-    for s in socks:
-        s.bind(("127.0.0.1", 0))
-    bus = BusConfig({n: f"tcp/127.0.0.1:{s.getsockname()[1]}" for n, s in zip(["recorder", "camera-0"], socks,
-                                                                            strict=True)}, prefix="gaitcap/vid")
-    for s in socks:
-        s.close()
+    bus = BusConfig.free_local(["recorder", "camera-0"], prefix="gaitcap/vid")
     srec, scam = open_session(bus, "recorder"), open_session(bus, "camera-0")
     rec = RecorderNode(srec, bus, data_root=tmp_path)
     try:
