@@ -110,7 +110,9 @@ def reconstruct_command(
         write_npz(out, trajectory_of(rec))  # the worker's result file (dense samples of a fit included)
         if trc is not None:
             atomic_write_text(trc, to_trc(rec.points_mm, rec.times_s, rec.joint_names, filename=trc.name))
-    missing = ~np.isfinite(rec.points_mm).all(-1)
+    from gaitcap.services.processing.offline import frame_ranges, missing_by_joint
+
+    missing = missing_by_joint(rec.points_mm, rec.joint_names)
     if as_json:
         typer.echo(json.dumps(json_ready({"method": rec.method, **rec.metrics, "losses": rec.losses,
                                           "layout": layout.skeleton, "layout_evidence": layout.evidence()})))
@@ -123,12 +125,9 @@ def reconstruct_command(
             f"L_reproj {figure(m['L_reproj'], '.2f')} L_smooth {figure(m['L_smooth'], '.2f')} mm "
             f"L_skeleton {figure(m['L_skeleton'], '.2f')} mm"
         )
-    if missing.any():
-        from gaitcap.services.processing.offline import frame_ranges
-
+    if missing:
         typer.echo("note: joints missing in some frames (NaN in the file): " + "; ".join(
-            f"{n} frames {frame_ranges(np.flatnonzero(missing[:, j]))}"
-            for j, n in enumerate(rec.joint_names) if missing[:, j].any()), err=True)
+            f"{n} frames {frame_ranges(frames)}" for n, frames in missing.items()), err=True)
 
 
 def register(app: typer.Typer) -> None:

@@ -28,7 +28,6 @@ from gaitcap.services.processing.pipeline import (
     Trajectory,
     check_usable,
     gait_of,
-    missing_joints,
     patient_input,
     preliminary,
     refined,
@@ -144,10 +143,15 @@ def frame_ranges(frames: np.ndarray) -> str:
     return ", ".join(f"{a}" if a == b else f"{a}-{b}" for a, b in zip(starts, ends, strict=True))
 
 
+def missing_by_joint(points_mm: np.ndarray, joint_names) -> dict[str, np.ndarray]:
+    """Joint name -> the frame indices where ``points_mm`` (T, J, 3) has no point, for joints with some."""
+    gone = ~np.isfinite(points_mm).all(-1)  # (T, J)
+    return {n: np.flatnonzero(gone[:, j]) for j, n in enumerate(joint_names) if gone[:, j].any()}
+
+
 def missing_frames(traj: Trajectory) -> dict[str, str]:
     """Joint name -> the frames (ranges) where the trajectory has no point, for joints with some."""
-    gone = ~np.isfinite(traj.points_mm).all(-1)  # (T, J)
-    return {n: frame_ranges(np.flatnonzero(gone[:, j])) for j, n in enumerate(traj.joint_names) if gone[:, j].any()}
+    return {n: frame_ranges(f) for n, f in missing_by_joint(traj.points_mm, traj.joint_names).items()}
 
 
 # ---------------------------------------------------------------------------------------------- input
@@ -198,7 +202,7 @@ def _stage(files: TrialFiles, name: str, traj: Trajectory, det, *, recording, ri
     report, problem = gait_of(traj)
     if problem:
         log.warning("%s: no gait parameters: %s", name, problem)
-    missing = missing_joints(traj)
+    missing = {n: int(f.size) for n, f in missing_by_joint(traj.points_mm, traj.joint_names).items()}
     if missing:
         log.warning("%s: joints missing in some frames: %s", name,
                     ", ".join(f"{j} ({n} of {traj.points_mm.shape[0]})" for j, n in missing.items()))

@@ -169,12 +169,6 @@ def check_usable(det: Detections, *, min_confidence: float = USABLE_CONFIDENCE) 
                                    f"confidence > {min_confidence} ({per_cam}; cameras with none: {empty or 'none'})")
 
 
-def missing_joints(traj: Trajectory) -> dict[str, int]:
-    """Joint name -> number of frames where the trajectory has no point (only joints with some)."""
-    gone = ~np.isfinite(traj.points_mm).all(-1)  # (T, J)
-    return {n: int(c) for n, c in zip(traj.joint_names, gone.sum(0), strict=True) if c}
-
-
 def resolve_layout(recording, rig: Rig, *, named: str | None):
     """The recording in its keypoint layout, and the :class:`~gaitcap.reconstruction.layout_guess.LayoutChoice`.
 
