@@ -272,6 +272,41 @@ with zipfile.ZipFile(glob.glob(os.path.join(tmp, f"pose2sim-{p2s_version}-*.whl"
 PYEOF
   [ $? -eq 0 ] && touch "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION-$CALIBRATION_DATA_REVISION"
 )
+# OpenCV's own sample recordings (Apache-2.0 AND BSD-3-Clause, the copyright file kept beside them), from
+# Debian's opencv-doc package (downloaded with apt-get download, not installed; the opencv-python sdist
+# carries the same files but pip cannot fetch it without building it): the stereo_calib pair (two cameras,
+# 13 synchronised 640x480 views of a 9 x 6 inner-corner checkerboard) with OpenCV's calibration of the left
+# camera, and the ChArUco tutorial's photo of a printed 5 x 7 board with the calibration of its camera.
+# The files are checked against their hash, not the package version (Ubuntu's build ships the same ones).
+OPENCV_SAMPLES_SHA256="faff6cbac9276cc519bde5edf01119546026013fbd2bc723445376ff917ccc93"
+install_opencv_samples() (
+  local dest="$SHARE/testdata/calibration" tmp doc sudo=""
+  [ -f "$dest/opencv-stereo/.version-${OPENCV_SAMPLES_SHA256:0:12}" ] && return 0
+  echo "[bootstrap] fetching OpenCV's sample calibration images (Debian package opencv-doc, not installed)" >&2
+  scratch_dir || return 1
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  (cd "$tmp" && { apt-get download -q opencv-doc >/dev/null 2>&1 || { [ "${GAITCAP_APT:-1}" != "0" ] \
+    && $sudo apt-get update -q >/dev/null && apt-get download -q opencv-doc >/dev/null; }; }) || return 1
+  doc="./usr/share/doc/opencv-doc"
+  mkdir -p "$tmp/x" && dpkg-deb --fsys-tarfile "$tmp"/opencv-doc_*.deb | tar -x -C "$tmp/x" --wildcards \
+    "$doc/copyright" "$doc/examples/data/left*" "$doc/examples/data/right*" "$doc/opencv4/html/choriginal.jpg" \
+    "$doc/examples/aruco/tutorial_camera_charuco.yml" || return 1
+  doc="$tmp/x/usr/share/doc/opencv-doc"
+  [ "$( (ls "$doc"/examples/data/{left,right}??.jpg; echo "$doc/examples/data/left_intrinsics.yml" \
+    "$doc/opencv4/html/choriginal.jpg" "$doc/examples/aruco/tutorial_camera_charuco.yml") | xargs cat \
+    | sha256sum | cut -d' ' -f1)" = "$OPENCV_SAMPLES_SHA256" ] \
+    || { echo "[bootstrap] opencv-doc: the sample images differ from the ones the tests were measured on" >&2; return 1; }
+  rm -rf "$dest/opencv-stereo" "$dest/opencv-charuco"
+  mkdir -p "$dest/opencv-stereo/left" "$dest/opencv-stereo/right" "$dest/opencv-charuco" \
+    && install -m 644 "$doc"/examples/data/left??.jpg "$dest/opencv-stereo/left/" \
+    && install -m 644 "$doc"/examples/data/right??.jpg "$dest/opencv-stereo/right/" \
+    && install -m 644 "$doc/examples/data/left_intrinsics.yml" "$dest/opencv-stereo/" \
+    && install -m 644 "$doc/opencv4/html/choriginal.jpg" "$doc/examples/aruco/tutorial_camera_charuco.yml" \
+      "$dest/opencv-charuco/" \
+    && install -m 644 "$doc/copyright" "$dest/opencv-stereo/LICENSE" \
+    && install -m 644 "$doc/copyright" "$dest/opencv-charuco/LICENSE" \
+    && touch "$dest/opencv-stereo/.version-${OPENCV_SAMPLES_SHA256:0:12}"
+)
 install_mediapipe_models || echo "[bootstrap] WARNING: MediaPipe Pose models not installed (needs npm)" >&2
 install_test_video || echo "[bootstrap] WARNING: detector test video not installed" >&2
 install_opensim_setup || echo "[bootstrap] WARNING: OpenSim model and setups not installed" >&2
@@ -280,3 +315,4 @@ install_adult_gait_norms || echo "[bootstrap] WARNING: adult normal-gait kinemat
 install_gait_mocap || echo "[bootstrap] WARNING: real gait walks not installed (gait tests on them skip)" >&2
 install_pose2sim_demos || echo "[bootstrap] WARNING: Pose2Sim demo recordings not installed (tests on them skip)" >&2
 install_calibration_recordings || echo "[bootstrap] WARNING: real calibration recordings not installed (tests on them skip)" >&2
+install_opencv_samples || echo "[bootstrap] WARNING: OpenCV's sample calibration images not installed (tests on them skip)" >&2
