@@ -127,7 +127,9 @@ async function loadFigures(trialId, footprints) {
 
 new ResizeObserver(() => { for (const c of charts) c.setSize({ width: Math.max(280, $("#charts").clientWidth - 4), height: c.height }); })
   .observe(document.querySelector("#results"));
-new ResizeObserver(() => { for (const c of trendCharts) c.setSize({ width: trendWidth(c.root.parentElement), height: c.height }); })
+new ResizeObserver(() => {
+  for (const c of trendCharts) { c.setSize({ width: trendWidth(c.root.parentElement), height: c.height }); c.setData(c.data); }  // room for the dates again
+})
   .observe(document.querySelector("#patient-card"));
 
 // ---------- the patient's history ----------
@@ -173,6 +175,46 @@ let trendHistory = [];
 
 function trendWidth(fig) { return Math.max(240, fig.clientWidth - 4); }
 
+// ---------- the visits' date axis: a tick per visit (as many as fit), "24 Nov 2026", with the time of day
+// ("24 Nov 2026 14:05") only where two of the drawn visits share a day; the page's local time ----------
+const MONTHS = ["Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"];
+const Y_AXIS_PX = 56;
+const AXIS_FONT = '12px system-ui, -apple-system, "Segoe UI", Roboto, "Helvetica Neue", Arial, sans-serif';  // uPlot's
+const measure = document.createElement("canvas").getContext("2d");
+
+function dayOf(t_s) { const d = new Date(t_s * 1000); return `${d.getFullYear()}-${d.getMonth()}-${d.getDate()}`; }
+
+function visitLabel(t_s, shared) {
+  const d = new Date(t_s * 1000), date = `${d.getDate()} ${MONTHS[d.getMonth()]} ${d.getFullYear()}`;
+  return shared.has(dayOf(t_s)) ? `${date} ${String(d.getHours()).padStart(2, "0")}:${String(d.getMinutes()).padStart(2, "0")}` : date;
+}
+
+function visitAxis(times_s) {
+  // the x scale and axis of a trend: ticks at the visits, the newest kept, older ones where their labels fit
+  const perDay = new Map();
+  for (const t of times_s) perDay.set(dayOf(t), (perDay.get(dayOf(t)) || 0) + 1);
+  const shared = new Set([...perDay].filter(([, n]) => n > 1).map(([day]) => day));
+  measure.font = AXIS_FONT;
+  const labelPx = (t) => measure.measureText(visitLabel(t, shared)).width + 16;  // with a gap (px)
+  const range = (u, lo, hi) => {
+    // the newest visit's label inside the chart on the right (the axis has ~20 px beyond the plot there),
+    // a little room on the left (its label may reach under the y axis); one day around a single visit
+    if (!(hi > lo)) return [lo - 86400, hi + 86400];
+    const plotPx = u.bbox && u.bbox.width ? u.bbox.width / uPlot.pxRatio : u.width - Y_AXIS_PX - 40;
+    const rightPx = Math.max(8, labelPx(hi) / 2 - 20), leftPx = 8, dataPx = Math.max(40, plotPx - rightPx - leftPx);
+    return [lo - (hi - lo) * leftPx / dataPx, hi + (hi - lo) * rightPx / dataPx];
+  };
+  const splits = (u) => {
+    const kept = [];
+    for (const t of [...new Set(u.data[0])].sort((a, b) => b - a)) {
+      const last = kept[kept.length - 1];
+      if (last == null || u.valToPos(last, "x") - u.valToPos(t, "x") >= (labelPx(last) + labelPx(t)) / 2) kept.push(t);
+    }
+    return kept.reverse();
+  };
+  return { scale: { time: true, range }, axis: { label: "visit date", font: AXIS_FONT, splits, values: (u, ticks) => ticks.map((t) => visitLabel(t, shared)) } };
+}
+
 function trendChart(spec, visits, box) {
   // one parameter per visit (line and dots), void visits as grey rings, the normal band per visit's age
   const fmt = (v) => v == null ? "–" : v.toFixed(spec.decimals);
@@ -183,9 +225,10 @@ function trendChart(spec, visits, box) {
   const series = [{ label: "date" },
     { label: `${spec.label} (${spec.unit})`, stroke: "#1f3a5f", width: 2, spanGaps: true, value: (u, v) => fmt(v), points: { show: true, size: 8, fill: "#1f3a5f" } },
     { ...markers("void trial", "#5b6675", "open"), value: (u, v) => fmt(v) }];
-  const scales = { x: { time: true }, ...(spec.fromZero ? { y: { range: (u, lo, hi) => [0, Math.max(10, 1.2 * (hi ?? 0))] } } : {}) };
-  const opts = { height: 170, series, scales, legend: { show: false },
-    axes: [{}, { label: spec.unit, size: 56 }] };
+  const dates = visitAxis(data[0]);
+  const scales = { x: dates.scale, ...(spec.fromZero ? { y: { range: (u, lo, hi) => [0, Math.max(10, 1.2 * (hi ?? 0))] } } : {}) };
+  const opts = { height: 190, series, scales, legend: { show: false },
+    axes: [dates.axis, { label: spec.unit, size: Y_AXIS_PX }] };
   if (hasBand) {
     data.push(band.map((b) => (b ? b[1] : null)), band.map((b) => (b ? b[0] : null)));
     series.push({ label: "normal high", stroke: "#6fbf80", width: 1, dash: [4, 4], value: (u, v) => fmt(v), points: { show: false } },
@@ -195,7 +238,7 @@ function trendChart(spec, visits, box) {
   const fig = document.createElement("figure");
   fig.className = "trend"; fig.dataset.parameter = spec.name;
   const cap = document.createElement("figcaption"), last = band.filter((b) => b).pop();
-  cap.textContent = `${spec.label} (${spec.unit}) per visit; ` + (last
+  cap.textContent = `${spec.label} (${spec.unit}) per visit, by visit date; ` + (last
     ? `shaded: the normal range for age and sex (at the last visit ${fmt(last[0])}–${fmt(last[1])} ${spec.unit}).`
     : "no reference range.") + (data[2].some((v) => v != null) ? " Grey rings: void trials." : "");
   fig.append(cap); box.append(fig);

@@ -2,18 +2,24 @@
 nothing before sign-in, phone / tablet / desktop widths, readable field messages, keyboard-only use of
 the history, both sides against the norms on the results card, the trial list updated in place."""
 
+import calendar
+
 import numpy as np
 import pytest
 from gaitcap.acquisition.fileio import atomic_write_text
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog.models import Trial
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.outputs import steps_of, summary_of
+from sqlalchemy import update
 
 from .conftest import sign_in_page
 
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
 TRENDS = ("gait_speed_m_s", "step_length_mm", "cadence_steps_min", "step_length_symmetry_index_pct")
 WIDTHS = {"phone": (390, 844), "tablet": (820, 1180), "desktop": (1280, 900)}
+# when the three visits took place (UTC, the browser's time zone here): two weeks apart, then twice on one day
+VISIT_TIMES = ((2026, 11, 10, 9, 30), (2026, 11, 24, 10, 0), (2026, 11, 24, 14, 30))
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +37,7 @@ def walk_report():
 
 @pytest.fixture
 def visits(server, walk_report):
-    """Three visits of P0042 with refined results, the patient's sex and birth year recorded."""
+    """Three visits of P0042 (at VISIT_TIMES) with refined results, the patient's sex and birth year recorded."""
     _, client, _, settings = server
     db, ids = cat.open_catalog(settings.catalog_url), []
     points, times, names, report = walk_report
@@ -43,6 +49,9 @@ def visits(server, walk_report):
         np.savez(files.stage_file("refined", "trajectory_npz"), points_mm=points, times_s=times, joint_names=np.array(names))
         cat.store_result(db, trial_id=tid, stage="refined", method="implicit_fit", steps=steps_of(report),
                          summary=summary_of(report), quality={})
+        started_s = calendar.timegm((*VISIT_TIMES[i], 0, 0, 0, 0))
+        with db.session() as s:
+            s.execute(update(Trial).where(Trial.id == tid).values(started_at=started_s, stopped_at=started_s + 20))
         ids.append(tid)
     db.close()
     client.put("/patients/P0042", json={"sex": "male", "birth_year": 1956})
@@ -55,7 +64,7 @@ def browser_page():
 
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
-        page = browser.new_page(viewport={"width": 390, "height": 844})
+        page = browser.new_page(viewport={"width": 390, "height": 844}, timezone_id="UTC")
         page.set_default_timeout(30_000)  # a loaded 2-core machine answers slowly
         yield page
         browser.close()
@@ -70,6 +79,18 @@ CONTRAST = """([sel, prop]) => {
   while (el) { const c = rgb(getComputedStyle(el).backgroundColor); if (c.length === 3 || c[3] > 0.9) { bg = c; break; } el = el.parentElement; }
   const [a, b] = [lum(fg), lum(bg || [255, 255, 255])].sort((x, y) => y - x);
   return (a + 0.05) / (b + 0.05);
+}"""
+
+
+TICKS = "() => trendCharts.map(c => c.axes[0]._values)"  # the x tick labels uPlot drew
+AXIS_OF = """async (times) => {  // the tick labels of a trend-sized chart of visits at these UNIX times (s)
+  const box = document.createElement("div"), axis = visitAxis(times);
+  box.style.width = "400px"; document.body.append(box);
+  const u = new uPlot({ width: 400, height: 190, series: [{}, {}], scales: { x: axis.scale }, axes: [axis.axis, {}] },
+                      [times, times.map(() => 1)], box);
+  await new Promise((drawn) => requestAnimationFrame(() => requestAnimationFrame(drawn)));
+  const labels = u.axes[0]._values; u.destroy(); box.remove();
+  return labels;
 }"""
 
 
@@ -119,6 +140,16 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     assert page.eval_on_selector_all("#trends .trend", "f => f.map(x => x.dataset.parameter)") == list(TRENDS)
     points = page.evaluate("() => trendCharts.map(c => c.data[1].filter(v => v != null).length)")
     assert points == [3, 3, 3, 3], points
+    # the date axis: a date per visit as far as they fit (the newest first), the time only on a shared day
+    assert page.evaluate(TICKS) == [["10 Nov 2026", "24 Nov 2026 14:30"]] * 4
+    for visits_at, labels in (  # any spacing: minutes, days, years apart
+            (((2026, 11, 24, 10, 0), (2026, 11, 24, 10, 5)), ["24 Nov 2026 10:00", "24 Nov 2026 10:05"]),
+            (((2026, 11, 23, 10, 0), (2026, 11, 24, 10, 0)), ["23 Nov 2026", "24 Nov 2026"]),
+            (((2024, 11, 10, 8, 0), (2025, 11, 3, 8, 0), (2026, 11, 24, 23, 59)), ["10 Nov 2024", "3 Nov 2025", "24 Nov 2026"])):
+        times = [calendar.timegm((*t, 0, 0, 0, 0)) for t in visits_at]
+        assert page.evaluate(AXIS_OF, times) == labels
+    for cap in page.eval_on_selector_all("#trends figcaption", "c => c.map(x => x.textContent)"):
+        assert "by visit date" in cap and cap.count("(") >= 1, cap
     # a man of 70 (Hollman 2011, men 70-74): gait speed 1.17 +- 0.16 m/s, step length 690 +- 80 mm, cadence
     # 102 +- 8 steps/min; the band is mean +- 1.96 SD at each visit; the symmetry index has no reference
     bands = page.evaluate("() => trendCharts.map(c => c.data.length === 5 ? [c.data[4][0], c.data[3][0]] : null)")
@@ -179,6 +210,7 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.click("#patient-form button[type=submit]")  # the history again: the void visit is out of the trends
     page.wait_for_function("() => document.querySelector('#trend-note').textContent.includes('1 void trial(s) left out')")
     assert page.evaluate("() => trendCharts.map(c => c.data[1].length)") == [2, 2, 2, 2]
+    assert page.evaluate(TICKS) == [["10 Nov 2026", "24 Nov 2026"]] * 4  # one visit a day: dates only
     assert "Void: walked with the wrong shoes" in page.inner_text(f"#history-table tr.voided[data-trial='{visits[2]}']")
     page.check("#trend-void")  # unless asked for, then drawn as a grey ring
     assert page.evaluate("() => trendCharts.map(c => c.data[2].filter(v => v != null).length)") == [1, 1, 1, 1]
