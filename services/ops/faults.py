@@ -9,6 +9,7 @@ until the API reported the fault (``detect_s``: the trial's state, ``/health`` o
 from __future__ import annotations
 
 import concurrent.futures
+import contextlib
 import logging
 import time
 from collections.abc import Callable
@@ -37,22 +38,16 @@ class FaultResult:
     detail: str = ""
 
 
-def signed_in(stack) -> httpx.Client:
-    """A client of the stack's API signed in as the demo account (close it after use)."""
-    from gaitcap.services.access.client import DEMO_USER, sign_in
-
-    return sign_in(httpx.Client(base_url=stack.cfg.url, timeout=30), DEMO_USER, stack.cfg.token)
-
-
 class Drill:
     """A stack, a REST client with its token, and the waiting helpers the drills share."""
 
     def __init__(self, stack, *, timeout_s: float = 180.0) -> None:
         self.stack, self.timeout_s = stack, timeout_s
-        self.client = signed_in(stack)
+        self._open = contextlib.ExitStack()
+        self.client = self._open.enter_context(stack.client())
 
     def close(self) -> None:
-        self.client.close()
+        self._open.close()
 
     def wait(self, predicate: Callable[[], object], what: str, timeout_s: float | None = None, poll_s: float = 0.1):
         deadline = time.monotonic() + (timeout_s or self.timeout_s)
@@ -108,13 +103,11 @@ def concurrent_stops(drill: Drill, n: int = 6) -> FaultResult:
     tid = drill.start("P0901")
     time.sleep(5)
 
-    clients = [signed_in(drill.stack) for _ in range(n)]  # signed in first: the Stops then go out at once
-    try:
+    with contextlib.ExitStack() as open_clients:
+        # signed in first: the Stops then go out at once
+        clients = [open_clients.enter_context(drill.stack.client()) for _ in range(n)]
         with concurrent.futures.ThreadPoolExecutor(n) as pool:
             codes = list(pool.map(lambda c: c.post(f"/trials/{tid}/stop").status_code, clients))
-    finally:
-        for c in clients:
-            c.close()
     res = drill.result("concurrent stops", tid, None)
     from gaitcap.services import catalog as cat
 
