@@ -178,7 +178,7 @@ function renderTrials(trials) {
     if (tr.dataset.key !== key) {
       tr.dataset.key = key;
       tr.classList.toggle("voided", !!t.voided);
-      if (tr.children.length !== 6) { tr.innerHTML = "<td></td>".repeat(6); tr.children[1].className = tr.children[2].className = "id-cell"; }
+      if (tr.children.length !== 6) tr.innerHTML = TRIAL_COLUMNS.map(([label, cls]) => `<td data-label="${label}" class="${cls}"></td>`).join("");
       cells.forEach((html, i) => { if (i < 5 && tr.children[i].innerHTML !== html) tr.children[i].innerHTML = html; });
       const hasButton = !!tr.children[5].querySelector(".view");
       if (hasButton !== !!cells[5]) {
@@ -190,6 +190,9 @@ function renderTrials(trials) {
     if (tr !== before) body.insertBefore(tr, before); else before = before.nextElementSibling;
   }
 }
+
+// the trial list's columns: the label each cell carries when a narrow screen stacks a row's cells
+const TRIAL_COLUMNS = [["Started", ""], ["Patient", "id-cell"], ["Session", "id-cell"], ["Length", ""], ["State", "wide"], ["", "wide"]];
 
 function trialCells(t) {
   const progress = t.state === "processing" ? ` <progress max="1" value="${t.progress}"></progress>` : "";

@@ -212,6 +212,16 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     assert page.evaluate("() => trendCharts.map(c => c.data[1].length)") == [2, 2, 2, 2]
     assert page.evaluate(TICKS) == [["10 Nov 2026", "24 Nov 2026"]] * 4  # one visit a day: dates only
     assert "Void: walked with the wrong shoes" in page.inner_text(f"#history-table tr.voided[data-trial='{visits[2]}']")
+    for w, h in ((390, 844), (768, 1024), (1280, 900)):  # both lists fit; their void notes are on screen
+        page.set_viewport_size({"width": w, "height": h})
+        assert page.evaluate("document.documentElement.scrollWidth") <= w, w
+        for table in ("#trials", "#history-table"):
+            assert page.eval_on_selector(table, "t => t.parentElement.scrollWidth <= t.parentElement.clientWidth"), (w, table)
+            note = page.locator(f"{table} tr.voided .void-note").first
+            note.scroll_into_view_if_needed()
+            box = note.bounding_box()
+            assert box["x"] >= 0 and box["x"] + box["width"] <= w and 0 <= box["y"] <= h - box["height"], (w, table, box)
+    page.set_viewport_size({"width": 390, "height": 844})
     page.check("#trend-void")  # unless asked for, then drawn as a grey ring
     assert page.evaluate("() => trendCharts.map(c => c.data[2].filter(v => v != null).length)") == [1, 1, 1, 1]
 
