@@ -270,6 +270,10 @@ def iter_frames(path: str | os.PathLike, camera: str | None = None) -> Iterator[
         yield RecordedFrame(layout.camera_of_topic(topic), int(message.sequence), img.timestamp_ns, img.jpeg)
 
 
+STRAY_EXAMPLES = 3  # stray frame ids a KeypointRecording keeps per camera to name them
+_MAX_FRAME_ID = 2**53  # a frame id this large (either sign) is stray without placing it (exact in float64)
+
+
 @dataclass(frozen=True, eq=False)
 class KeypointRecording:
     """Every person's keypoints from a recording.
@@ -283,6 +287,10 @@ class KeypointRecording:
         timestamps_ns: (C, T) camera timestamps, -1 where the frame is missing.
         restarts: {camera: times its frame counter started again within the recording}; those frames are
             placed by timestamp.
+        strays: {camera: keypoint messages with a frame id far outside the recording, ignored}; a camera
+            whose every message was such is not in ``camera_names``.
+        stray_frame_ids: {camera: the first (in time) of those frame ids, at most
+            :data:`STRAY_EXAMPLES`}.
     """
 
     camera_names: tuple[str, ...]
@@ -292,6 +300,8 @@ class KeypointRecording:
     people: np.ndarray
     timestamps_ns: np.ndarray
     restarts: dict[str, int] = field(default_factory=dict)
+    strays: dict[str, int] = field(default_factory=dict)
+    stray_frame_ids: dict[str, tuple[int, ...]] = field(default_factory=dict)
 
     def patient(self) -> Detections:
         """people[0] of every frame (the detector's first person) as reconstruction input."""
@@ -324,26 +334,29 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
     """All keypoints, frame sets aligned by frame id; cameras in calibration order (else sorted).
 
     A camera whose frame counter restarted within the recording (a camera or camera node restarted) has
-    its later frames placed by timestamp (:mod:`gaitcap.acquisition.recording.frame_slots`), with a warning."""
-    per_cam: dict[str, list[tuple[int, int, list]]] = {}
-    skeletons = set()
+    its later frames placed by timestamp (:mod:`gaitcap.acquisition.recording.frame_slots`), with a warning.
+    Keypoint messages with a frame id far outside the recording are ignored and counted (``strays``):
+    nothing is allocated for them."""
+    per_cam: dict[str, list[tuple[int, int, list, str]]] = {}
+    unplaceable: dict[str, list[int]] = {}  # frame ids or stamps no frame grid can hold: stray at once
     for topic, message in iter_messages(path, layout.is_keypoints_topic):
         msg = json.loads(message.data)
-        skeletons.add(msg["skeleton"])
-        per_cam.setdefault(layout.camera_of_topic(topic), []).append(
-            (int(msg["frame_id"]), int(msg["timestamp_ns"]), msg["people"]))
+        camera, fid, ts = layout.camera_of_topic(topic), int(msg["frame_id"]), int(msg["timestamp_ns"])
+        if abs(fid) >= _MAX_FRAME_ID or not 0 <= ts < 2**63:
+            unplaceable.setdefault(camera, []).append(fid)
+            continue
+        per_cam.setdefault(camera, []).append((fid, ts, msg["people"], msg["skeleton"]))
     if not per_cam:
-        raise ValueError(f"{path}: no keypoints recorded")
+        raise ValueError(f"{path}: no keypoints recorded" + (
+            f" with a usable frame id and timestamp ({sum(map(len, unplaceable.values()))} messages have a "
+            "frame id beyond +-2**53 or a timestamp outside 0..2**63 ns)" if unplaceable else ""))
+    slotted, report, skeletons = _on_one_grid(per_cam)
     if len(skeletons) != 1:
         raise ValueError(f"{path}: keypoints of several skeletons {sorted(skeletons)}")
-    slotted, report = _on_one_grid(per_cam)
-    names = _camera_order(path, slotted, cameras)
+    strays = {c: report.strays.get(c, ()) + tuple(unplaceable.get(c, ())) for c in {*report.strays, *unplaceable}}
+    names = _camera_order(path, slotted, cameras, strays)
     fids = [f for cam in slotted.values() for f in cam]
-    first, last = min(fids), max(fids)
-    distinct = len(set(fids))
-    if last - first + 1 > 2 * distinct + 10_000:  # a stray frame id would size the arrays, not the data
-        raise ValueError(f"{path}: keypoint frame ids span {first}..{last} but only {distinct} frames have "
-                         "keypoints (a stray frame id?)")
+    first, last = min(fids), max(fids)  # at most 2 x the frame sets + SLACK_FRAMES apart (frame_slots)
     frame_ids = np.arange(first, last + 1)
     most = max((len(p) for cam in slotted.values() for _, p in cam.values()), default=0)
     joints = next((len(p[0]) for cam in slotted.values() for _, p in cam.values() if p), 0)
@@ -355,27 +368,33 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
             if ppl:
                 people[c, fid - first, : len(ppl)] = np.asarray(ppl, dtype=np.float64).reshape(len(ppl), joints, 3)
     return KeypointRecording(tuple(names), frame_ids, _frame_times_s(stamps), skeletons.pop(), people, stamps,
-                             report.restarts)
+                             report.restarts, {c: len(ids) for c, ids in strays.items()},
+                             {c: ids[:STRAY_EXAMPLES] for c, ids in strays.items()})
 
 
-def _on_one_grid(per_cam: dict[str, list[tuple[int, int, list]]]
-                 ) -> tuple[dict[str, dict[int, tuple[int, list]]], SlotReport]:
-    """{camera: {frame set id: (timestamp ns, people)}} with restarted frame counters placed by time."""
+def _on_one_grid(per_cam: dict[str, list[tuple[int, int, list, str]]]
+                 ) -> tuple[dict[str, dict[int, tuple[int, list]]], SlotReport, set[str]]:
+    """{camera: {frame set id: (timestamp ns, people)}} with restarted frame counters placed by time and
+    frame ids far outside the recording left out; and the skeletons of the messages kept."""
     series = {cam: (np.array([e[0] for e in rows], dtype=np.int64), np.array([e[1] for e in rows], dtype=np.int64))
               for cam, rows in per_cam.items()}
     placed, report = align_frame_slots(series)
-    out = {}
+    out, skeletons = {}, set()
     for cam, (keep, slots) in placed.items():
         rows = per_cam[cam]
-        out[cam] = {int(slot): (rows[i][1], rows[i][2]) for i, slot in zip(keep.tolist(), slots.tolist(), strict=True)}
-    return out, report
+        if keep.size:  # a camera whose every frame id is far outside the recording has none
+            out[cam] = {int(slot): (rows[i][1], rows[i][2]) for i, slot in zip(keep.tolist(), slots.tolist(), strict=True)}
+            skeletons.update(rows[i][3] for i in keep.tolist())
+    return out, report, skeletons
 
 
-def _camera_order(path, per_cam: dict, cameras: list[str] | None) -> list[str]:
+def _camera_order(path, per_cam: dict, cameras: list[str] | None, strays: dict[str, tuple[int, ...]]) -> list[str]:
     if cameras is not None:
         unknown = sorted(set(cameras) - set(per_cam))
         if unknown:
-            raise ValueError(f"{path}: no keypoints recorded for cameras {unknown}")
+            far = [c for c in unknown if c in strays]
+            raise ValueError(f"{path}: no keypoints recorded for cameras {unknown}"
+                             + (f" (those of {far} all have frame ids far outside the recording)" if far else ""))
         return list(cameras)
     try:
         order = [n for n in read_calibration(path).names if n in per_cam]

@@ -100,6 +100,8 @@ class DataQuality:
     recorded_s: float | None = None  # wall time from Start to Stop (the recorder's), None when unknown
     restarts: dict[str, int] = field(default_factory=dict)  # camera -> frame counter restarts within the trial
     absent: dict[str, int] = field(default_factory=dict)  # expected camera without keypoints -> images recorded
+    strays: dict[str, int] = field(default_factory=dict)  # camera -> keypoint messages with a frame id far outside, ignored
+    stray_frame_ids: dict[str, list[int]] = field(default_factory=dict)  # camera -> the first of those frame ids
     recovered: bool = False  # the recording was cut by a recorder crash and recovered (no recorder summary)
     warnings: tuple[str, ...] = ()
     serious: bool = False
@@ -195,7 +197,8 @@ def sync_spread_ms(stamps_ns: np.ndarray) -> np.ndarray:
 def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confidence: np.ndarray | None,
                       expected_cameras=(), recorded_s: float | None = None, restarts=None, frame_ids=None,
                       recorded_frames: dict[str, np.ndarray] | None = None, recovered: bool = False,
-                      recorder_dropped: dict[str, int] | None = None,
+                      recorder_dropped: dict[str, int] | None = None, strays: dict[str, int] | None = None,
+                      stray_frame_ids: dict[str, tuple[int, ...]] | None = None,
                       criteria: QualityCriteria = QualityCriteria()) -> DataQuality:
     """Measures and warnings from a recording's (C, T) camera timestamps (-1 where missing) and the
     patient's (C, T, J) detection confidences; ``expected_cameras``: the calibration's cameras (one
@@ -205,7 +208,10 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     ``recorded_frames``: {camera: frame ids of its recorded images} (:func:`recorded_frame_ids`) with
     ``frame_ids`` (T,) the keypoints' frame ids: cameras are then judged by their images and keypoints
     missing for recorded frames are the detector's; ``recovered``: the recording was recovered after a
-    recorder crash; ``recorder_dropped``: {camera: images the recorder dropped, its queue full}."""
+    recorder crash; ``recorder_dropped``: {camera: images the recorder dropped, its queue full};
+    ``strays`` / ``stray_frame_ids``: {camera: keypoint messages the reader ignored, their frame ids far
+    outside the recording} / {camera: the first of those ids} (a camera with only such messages is not in
+    ``camera_names`` and is named for that, not as absent)."""
     stamps = np.asarray(timestamps_ns, dtype=np.int64)
     restarts = dict(restarts or {})
     images = {n: np.asarray(ids, dtype=np.int64) for n, ids in (recorded_frames or {}).items()}
@@ -233,14 +239,17 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     if patient_confidence is not None and patient_confidence.size:
         seen = (np.nan_to_num(patient_confidence) > CONFIDENT).any(-1)  # (C, T)
         coverage = float(np.mean(seen.sum(0) >= 2))
-    absent = {n: int((recorded_frames or {}).get(n, np.zeros(0)).size) for n in expected_cameras if n not in camera_names}
+    strays = {n: int(k) for n, k in (strays or {}).items() if k}
+    absent = {n: int((recorded_frames or {}).get(n, np.zeros(0)).size) for n in expected_cameras
+              if n not in camera_names and n not in strays}
     quality = DataQuality(duration_s=round(grid.shape[1] / nominal, 3), nominal_fps=round(nominal, 2),
                           cameras=tuple(cams),
                           spread_ms_max=round(float(spread.max()), 2) if spread.size else None,
                           spread_ms_p95=round(float(np.percentile(spread, 95)), 2) if spread.size else None,
                           coverage=None if coverage is None else round(coverage, 3), criteria=criteria,
                           recorded_s=None if recorded_s is None else round(float(recorded_s), 3),
-                          restarts=restarts, absent=absent, recovered=recovered)
+                          restarts=restarts, absent=absent, recovered=recovered, strays=strays,
+                          stray_frame_ids={n: [int(f) for f in ids] for n, ids in (stray_frame_ids or {}).items()})
     return judged(quality)
 
 
@@ -295,6 +304,7 @@ def judged(q: DataQuality) -> DataQuality:
                     "judged by the images the file holds, up to the cut")
     warn += [f"Camera {n} restarted during the trial ({k} time{'s' if k > 1 else ''}); its frames after the "
              "restart are placed by their timestamps" for n, k in sorted(q.restarts.items())]
+    warn += _strays(q)
     for c in q.cameras:
         if c.received == 0:
             warn.append(f"Camera {c.name} recorded nothing")
@@ -331,6 +341,26 @@ def judged(q: DataQuality) -> DataQuality:
         warn.append(f"Only {q.duration_s:.1f} s recorded")
     return DataQuality(**{**asdict(q), "cameras": q.cameras, "criteria": cr, "warnings": tuple(warn),
                           "serious": bool(warn)})
+
+
+def _strays(q: DataQuality) -> list[str]:
+    """Keypoint messages ignored for a frame id far outside the recording, per camera, with their ids."""
+    out, judged_cameras = [], {c.name for c in q.cameras}
+    for name, count in sorted(q.strays.items()):
+        ids = q.stray_frame_ids.get(name, [])
+        named = f" ({', '.join(map(str, ids))}{', ...' if count > len(ids) else ''})" if ids else ""
+        if name not in judged_cameras:
+            which = f"all its {count} keypoint messages had frame ids" if count > 1 else \
+                "its only keypoint message had a frame id"
+            out.append(f"Camera {name}: {which} far outside the recording{named} and {'were' if count > 1 else 'was'} "
+                       "ignored: the camera has no keypoints")
+        elif count == 1:
+            out.append(f"Camera {name}: 1 keypoint message with a frame id far outside the recording{named} "
+                       "was ignored")
+        else:
+            out.append(f"Camera {name}: {count} keypoint messages with frame ids far outside the recording{named} "
+                       "were ignored")
+    return out
 
 
 def _detector_behind(cameras, cr: QualityCriteria) -> list[str]:

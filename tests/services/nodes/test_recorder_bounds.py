@@ -4,6 +4,7 @@ malformed messages rejected with a count (never written, never allocating by fra
 import json
 import time
 
+import numpy as np
 import pytest
 from gaitcap.acquisition.recording import layout
 from gaitcap.acquisition.recording.reader import iter_messages
@@ -55,22 +56,65 @@ def test_recorder_refuses_outside_paths_and_rejects_out_of_range_messages(tmp_pa
         s.close()
 
 
-def test_a_recording_with_a_stray_keypoint_frame_id_is_refused_not_allocated(tmp_path):
+def _write_with_strays(path, ids_of: dict[str, list[int]], *, period_ns: int = 33_333_333):
+    """A trial MCAP with keypoints of these frame ids per camera, stamped ``period_ns`` apart by frame id:
+    what an injected or corrupt message left before the recorder checked frame ids."""
+    from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
+
+    writer = TrialWriter(path, WriterSettings())
+    writer.start(metadata={"trial_id": "t"}, time_ns=1)
+    people = [[[1.0, 2.0, 0.5]] * 26]
+    for cam, ids in ids_of.items():
+        for fid in ids:
+            ts = 10**18 + fid * period_ns if fid < 2**31 else 10**18 + 3 * period_ns  # a stray keeps a sane stamp
+            msg = Keypoints(cam, min(fid, 2**31 - 1), ts, "halpe26", people).to_bytes()
+            writer.add_keypoints(cam, msg.replace(b"2147483647", str(fid).encode()), timestamp_ns=ts, frame_id=fid)
+    return writer.finish({})
+
+
+def test_a_stray_keypoint_frame_id_is_ignored_and_counted_not_allocated(tmp_path):
+    from gaitcap.acquisition.recording.reader import read_keypoints
+
+    path = _write_with_strays(tmp_path / "t.mcap", {"cam01": [*range(10), 2**40], "cam02": list(range(10))})
+    t0 = time.monotonic()
+    kp = read_keypoints(path)
+    assert time.monotonic() - t0 < 5
+    assert kp.frame_ids.tolist() == list(range(10)) and kp.camera_names == ("cam01", "cam02")
+    assert (kp.timestamps_ns >= 0).all() and not np.isnan(kp.people[..., 0]).any()
+    assert kp.strays == {"cam01": 1} and kp.stray_frame_ids == {"cam01": (2**40,)}
+    assert kp.restarts == {}  # the stray in the camera's series is not taken for a counter restart
+
+
+def test_stray_frame_ids_around_a_restart_leave_the_restarted_frames_in_place(tmp_path):
+    """cam01 restarts (its ids count again from 0, placed by time) with stray ids amid its first counter,
+    at its end and amid the restarted one; cam02 has only stray frame ids: it is left out and named, not
+    allocated for."""
     from gaitcap.acquisition.recording.reader import read_keypoints
     from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
 
-    writer = TrialWriter(tmp_path / "t.mcap", WriterSettings())
+    period = 33_333_333
+    writer = TrialWriter(tmp_path / "r.mcap", WriterSettings())
     writer.start(metadata={"trial_id": "t"}, time_ns=1)
     people = [[[1.0, 2.0, 0.5]] * 26]
-    for fid in (*range(10), 2**40):  # what an injected message did before the recorder checked frame ids
-        writer.add_keypoints("cam01", Keypoints("cam01", min(fid, 2**31 - 1), 10**9 + fid, "halpe26",
-                                                people).to_bytes().replace(b"2147483647", str(fid).encode()),
-                             timestamp_ns=10**9 + fid, frame_id=fid)
-    path = writer.finish({})
-    t0 = time.monotonic()
-    with pytest.raises(ValueError, match="stray frame id"):
-        read_keypoints(path)
-    assert time.monotonic() - t0 < 5
+    frames = [(k, k) for k in range(100, 130)]  # (frame set, frame id): the first counter
+    frames += [(k, k - 140) for k in range(140, 170)]  # restarted at frame set 140, ids from 0 again
+    frames += [(105, -(2**40)), (130, 7 * 10**9), (150, 3 * 10**9)]  # stray ids amid both counters
+    for slot, fid in sorted(frames):
+        ts = 10**18 + slot * period
+        writer.add_keypoints("cam01", json.dumps({"camera": "cam01", "frame_id": fid, "timestamp_ns": ts,
+                                                  "skeleton": "halpe26", "people": people}).encode(),
+                             timestamp_ns=ts, frame_id=fid)
+    for fid in (2**40, 2**70):  # 2**70: beyond any frame grid (not even an int64)
+        writer.add_keypoints("cam02", json.dumps({"camera": "cam02", "frame_id": fid, "timestamp_ns": 10**18 + 120 * period,
+                                                  "skeleton": "halpe26", "people": people}).encode(),
+                             timestamp_ns=10**18 + 120 * period, frame_id=fid)
+    kp = read_keypoints(writer.finish({}))
+    assert kp.camera_names == ("cam01",) and kp.frame_ids.tolist() == list(range(100, 170))
+    have = kp.timestamps_ns[0] >= 0
+    assert have[:30].all() and not have[30:40].any() and have[40:].all()  # the restarted frames by time
+    assert kp.restarts == {"cam01": 1}
+    assert kp.strays == {"cam01": 3, "cam02": 2}
+    assert kp.stray_frame_ids == {"cam01": (-(2**40), 7 * 10**9, 3 * 10**9), "cam02": (2**40, 2**70)}
 
 
 def test_keypoints_that_overtake_their_image_are_kept_and_bounded(tmp_path):

@@ -251,3 +251,16 @@ def test_images_the_recorder_dropped_are_the_recorders_not_the_cameras():
     assert with_reprojection(q, {}).warnings == q.warnings
     blamed = _with_images(stamps, images)  # without the recorder's count, the camera lost them
     assert blamed.warnings == ("1 of 10 cameras lost frames (cam4 12 of 270)",)
+
+
+def test_keypoint_messages_with_stray_frame_ids_are_named_and_a_camera_with_only_those_is_said_so():
+    q = recording_quality(camera_names=NAMES[:9], timestamps_ns=_stamps()[:9], patient_confidence=None,
+                          expected_cameras=NAMES, strays={"cam1": 4, "cam9": 1},
+                          stray_frame_ids={"cam1": (2**40, 2**40 + 1, 2**40 + 2), "cam9": (7,)})
+    assert q.serious and q.absent == {} and q.strays == {"cam1": 4, "cam9": 1}
+    assert q.warnings == (
+        "Camera cam1: 4 keypoint messages with frame ids far outside the recording (1099511627776, 1099511627777, "
+        "1099511627778, ...) were ignored",
+        "Camera cam9: its only keypoint message had a frame id far outside the recording (7) and was ignored: the "
+        "camera has no keypoints")
+    assert with_reprojection(q, {}).stray_frame_ids == {"cam1": [2**40, 2**40 + 1, 2**40 + 2], "cam9": [7]}

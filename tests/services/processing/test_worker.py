@@ -143,3 +143,31 @@ def test_viewer_files_are_listed_in_the_catalog_only_once_written(tmp_path, walk
     assert all(Path(p).stat().st_size > 100 for p in listed.values())
     folder = trial_files(tmp_path, tid).stage_file("preliminary", "rerun_rrd").parent
     assert not [p.name for p in folder.iterdir() if p.name.startswith(".") or p.suffix in (".rrd", ".mcap")]
+
+
+def test_a_stray_keypoint_frame_id_is_ignored_and_named_in_the_trials_quality(tmp_path, walk, monkeypatch):
+    """A recording holding one keypoint message with a frame id of 2**40 (a corrupt message, or one from
+    before the recorder bounded frame ids) is processed; the trial's quality names the ignored message."""
+    from gaitcap.acquisition.recording.writer import TrialWriter
+    from gaitcap.acquisition.synthetic.recording import write_keypoint_recording
+
+    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+    t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
+    cam = walk.rig.names[0]
+    stray = {"camera": cam, "frame_id": 2**40, "timestamp_ns": 1, "skeleton": walk.skeleton.name, "people": []}
+    original = TrialWriter.finish
+
+    def with_a_stray(writer, summary):
+        writer.add_keypoints(cam, json.dumps(stray).encode(), timestamp_ns=1, frame_id=2**40)
+        return original(writer, summary)
+
+    monkeypatch.setattr(TrialWriter, "finish", with_a_stray)
+    write_keypoint_recording(walk, Path(t.recording_path))
+    monkeypatch.undo()
+    cat.set_state(db, t.id, "recorded", enqueue=True)
+    assert Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db).run_once()
+    assert cat.get_trial(db, t.id).state == "done_with_warnings"
+    quality = cat.get_quality(db, t.id)["processing"]
+    assert quality["warnings"] == [f"Camera {cam}: 1 keypoint message with a frame id far outside the recording "
+                                   "(1099511627776) was ignored"]
+    assert quality["strays"] == {cam: 1} and cat.get_result(db, t.id, "preliminary").steps
