@@ -24,7 +24,8 @@ a hand-held inverted ChArUco board (its own corner detections, calibrated here w
 intrinsics and with intrinsics estimated from the clip, compared with caliscope's calibration after a
 similarity alignment), caliscope's real checkerboard frames (how many views the detector finds, and how
 fast) and Pose2Sim's demo intrinsics images (found views, and each camera's focal length against
-Qualisys's calibration of the same cameras).
+Qualisys's calibration of the same cameras); OpenCV's own samples (a real stereo pair calibrated from its
+images and compared with OpenCV's calibration, a real ChArUco photo: see bench/_real_opencv.py).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ import time
 
 import numpy as np
 from _common import jsonable
+from _real_opencv import opencv_lines, opencv_samples
 from gaitcap.acquisition.installed import share_path
 
 TARGET_CENTRE_MM = 5.0
@@ -296,6 +298,7 @@ def _real() -> dict:
                          BoardConfig.checkerboard(10, 7, 25.0)),
         ) if r is not None],
         "intrinsics": _pose2sim_intrinsics(),
+        "opencv": opencv_samples(),
     }
 
 
@@ -335,7 +338,10 @@ def _real_table(r: dict) -> str:
             got = (f"focal {e['focal_px']:.1f} px vs {e['qualisys_focal_px']:.1f} px ({e['focal_diff_pct']:+.2f} %), "
                    f"RMS {e['rms_px']:.3f} px") if "focal_px" in e else "too few views"
             lines.append(f"    {cam}: board found in {e['found']} of {e['images']} images; {got}")
-    if not r["sessions"] and not r["images"]:
+    if r.get("opencv"):
+        lines += opencv_lines(r["opencv"], rms_target_px=REAL_TARGET_RMS_PX, centre_target_mm=REAL_TARGET_CENTRE_MM,
+                              rotation_target_deg=REAL_TARGET_ROTATION_DEG)
+    if not r["sessions"] and not r["images"] and not (r.get("opencv") or {}).get("stereo"):
         lines.append("  none installed (run deploy/bootstrap.sh)")
     return "\n".join(lines)
 
