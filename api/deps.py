@@ -40,9 +40,12 @@ def trial_out(db: cat.Catalog, t: cat.TrialInfo, stages: list[str] | None = None
     )
 
 
-def trials_out(db: cat.Catalog, trials: list[cat.TrialInfo]) -> list[TrialOut]:
-    """Several trials with their result stages (one query for the stages)."""
+def trials_out(db: cat.Catalog, trials: list[cat.TrialInfo],
+               details: dict[str, pat.TrialDetailsInfo] | None = None) -> list[TrialOut]:
+    """Several trials with their result stages, quality and void marks (one query each; ``details``:
+    the trials' clinical fields when the caller has them, from :func:`pat.details_of`)."""
     ids = [t.id for t in trials]
-    stages, quality, details = cat.stages_of(db, ids), cat.qualities_of(db, ids), pat.details_of(db, ids)
+    stages, quality = cat.stages_of(db, ids), cat.qualities_of(db, ids)
+    details = pat.details_of(db, ids) if details is None else details
     return [trial_out(db, t, stages.get(t.id, []), quality.get(t.id, {}), details.get(t.id, pat.TrialDetailsInfo()))
             for t in trials]

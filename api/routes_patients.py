@@ -86,7 +86,7 @@ def history_of(db: cat.Catalog, p: pat.PatientInfo, norms: NormTable) -> list[di
     ids = [t.id for t in trials]
     details, means = pat.details_of(db, ids), cat.best_means_of(db, ids)
     out = []
-    for t, t_out in zip(trials, trials_out(db, trials), strict=True):
+    for t, t_out in zip(trials, trials_out(db, trials, details), strict=True):
         values = {name: means.get(t.id, {}).get(key) for key, name in TREND}
         d = details.get(t.id, pat.TrialDetailsInfo())
         out.append({**t_out.model_dump(), "voided": d.voided, "void_reason": d.void_reason,
