@@ -4,12 +4,16 @@ calibration (``camera_array.toml``), read into gaitcap's types.
 This lets a rig calibrated with caliscope be calibrated again here from the same detections, and
 gaitcap's calibration be compared with caliscope's on a real recording. The detections' cameras are
 paired by their frame times (``frame_time``, s) like any other unsynchronised recording; a file without
-frame times is paired by caliscope's ``sync_index``.
+usable frame times (no column, empty, or not increasing within a camera, e.g. all 0.0) is paired by
+caliscope's ``sync_index``. Two layouts: ``calibration/extrinsic/xy.csv`` and the tracker-named
+``calibration/extrinsic/<TRACKER>/xy_<TRACKER>.csv`` (``CHARUCO``); cameras in a ``cam_id`` column (older
+files: ``port``).
 """
 
 from __future__ import annotations
 
 import csv
+import logging
 import os
 import tomllib
 from pathlib import Path
@@ -26,14 +30,24 @@ from gaitcap.acquisition.board_pairing import (
 from gaitcap.reconstruction.calibration import BoardObservations
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 
+log = logging.getLogger(__name__)
+
 CAMERA_PREFIX = "cam_"
-SESSION_POINTS = "calibration/extrinsic/xy.csv"
+SESSION_POINTS = ("calibration/extrinsic/xy.csv", "calibration/extrinsic/CHARUCO/xy_CHARUCO.csv")
+CAMERA_COLUMNS = ("cam_id", "port")  # caliscope's camera column, and its older name
+
+
+def session_points(folder: str | os.PathLike) -> Path | None:
+    """The session's extrinsic ChArUco detections (the first of :data:`SESSION_POINTS` there), or None."""
+    found = [Path(folder) / p for p in SESSION_POINTS if (Path(folder) / p).is_file()]
+    return found[0] if found else None
 
 
 def is_session(folder: str | os.PathLike) -> bool:
     """A caliscope session folder with a board, a calibration and extrinsic corner detections."""
     folder = Path(folder)
-    return all((folder / f).is_file() for f in ("charuco.toml", "camera_array.toml", SESSION_POINTS))
+    return all((folder / f).is_file() for f in ("charuco.toml", "camera_array.toml")) and \
+        session_points(folder) is not None
 
 
 def is_camera_array(path: str | os.PathLike) -> bool:
@@ -71,45 +85,120 @@ def read_camera_array(path: str | os.PathLike) -> Rig:
     return Rig(tuple(out))
 
 
-def _rows(path: Path) -> list[dict[str, str]]:
+def _columns(path: Path, header: list[str]) -> dict[str, str | None]:
+    """The file's column for each field gaitcap reads (None: optional and absent)."""
+    camera = next((c for c in CAMERA_COLUMNS if c in header), None)
+    need = ["sync_index", "point_id", "img_loc_x", "img_loc_y"]
+    missing = [c for c in need if c not in header] + ([" or ".join(CAMERA_COLUMNS)] if camera is None else [])
+    if missing:
+        raise ValueError(f"{path}: not a caliscope points file: no column {', '.join(missing)} (has {header})")
+    board_loc = next((p for p in ("obj_loc", "board_loc") if f"{p}_x" in header and f"{p}_y" in header), None)
+    return {**{c: c for c in need}, "cam": camera, "frame": "frame_index" if "frame_index" in header else None,
+            "time": "frame_time" if "frame_time" in header else None, "board_loc": board_loc}
+
+
+def _number(path: Path, line: int, column: str, text: str | None, kind: type) -> float | int | None:
+    try:
+        return kind(text)
+    except (TypeError, ValueError):
+        raise ValueError(f"{path} line {line}, column {column}: {text!r} is not a number") from None
+
+
+def _rows(path: Path, sync_every: int = 1) -> tuple[list[tuple], bool, dict[int, tuple[float, float]]]:
+    """The detections as (camera, frame, sync_index, time s or None, point_id, x px, y px) rows of the
+    sync indices kept (every ``sync_every``-th), whether their frame times are present, and each corner's
+    position on the board (from ``obj_loc_x/y`` or ``board_loc_x/y``, m -> mm) where the file has it."""
     with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    need = {"sync_index", "cam_id", "point_id", "img_loc_x", "img_loc_y"}
-    if not rows or not need <= rows[0].keys():
-        raise ValueError(f"{path}: not a caliscope points file (needs columns {sorted(need)})")
-    return rows
+        reader = csv.reader(f)
+        header = next(reader, [])
+        cols = _columns(path, header)
+        at = {k: header.index(v) for k, v in cols.items() if v is not None and k != "board_loc"}
+        loc = cols["board_loc"]
+        loc_at = (header.index(f"{loc}_x"), header.index(f"{loc}_y")) if loc else None
+        out, board_mm = [], {}
+        for line, r in enumerate(reader, start=2):
+            sync = _number(path, line, cols["sync_index"], r[at["sync_index"]], int)
+            if sync % sync_every:
+                continue
+            frame = _number(path, line, cols["frame"], r[at["frame"]], int) if "frame" in at else sync
+            text = r[at["time"]] if "time" in at else ""
+            t = _number(path, line, cols["time"], text, float) if text.strip() else None
+            pid = _number(path, line, "point_id", r[at["point_id"]], int)
+            out.append((_number(path, line, cols["cam"], r[at["cam"]], int), frame, sync, t, pid,
+                        _number(path, line, "img_loc_x", r[at["img_loc_x"]], float),
+                        _number(path, line, "img_loc_y", r[at["img_loc_y"]], float)))
+            if loc_at and pid not in board_mm:
+                board_mm[pid] = tuple(1000.0 * _number(path, line, f"{loc}_{a}", r[i], float)
+                                      for a, i in zip("xy", loc_at, strict=True))
+    if not out:
+        raise ValueError(f"{path}: no detections in it" + (f" (every {sync_every}th sync_index)" if sync_every > 1 else ""))
+    timed = all(r[3] is not None for r in out)
+    return out, timed, board_mm
+
+
+def _check_board(path: Path, board_mm: dict[int, tuple[float, float]], geometry, tol_mm: float = 0.5) -> None:
+    """The board the detections were made with (its corners' positions in the file) must be the board
+    described: the same distances between corners, within ``tol_mm``."""
+    ids = sorted(board_mm)
+    if len(ids) < 2:
+        return
+    if ids[-1] >= geometry.num_corners:
+        raise ValueError(f"{path}: point_id {ids[-1]} is not a corner of {geometry.name}")
+    theirs = np.array([board_mm[i] for i in ids])
+    ours = geometry.object_points_mm[ids, :2]
+    d_theirs = np.linalg.norm(theirs[:, None] - theirs[None], axis=-1)
+    d_ours = np.linalg.norm(ours[:, None] - ours[None], axis=-1)
+    worst = float(np.abs(d_theirs - d_ours).max())
+    if worst > tol_mm:
+        ratio = float(np.median(d_theirs[d_ours > 0] / d_ours[d_ours > 0]))
+        raise ValueError(f"{path}: the corners' board positions (columns *_loc_x, *_loc_y) are not those of "
+                         f"{geometry.name}: distances differ by up to {worst:.1f} mm (theirs {ratio:.3f} x "
+                         "ours): the board description does not match the board detected")
+
+
+def _times_usable(rows: list[tuple]) -> bool:
+    """Frame times that pair cameras: present, and increasing with each camera's frame index."""
+    by_frame = {(r[0], r[1]): r[3] for r in rows}
+    for cam in {k[0] for k in by_frame}:
+        t = np.array([by_frame[k] for k in sorted(k for k in by_frame if k[0] == cam)])
+        if t.size > 1 and not np.all(np.diff(t) > 0):
+            return False
+    return True
 
 
 def read_points(
     path: str | os.PathLike, *, board: BoardConfig, image_sizes_px: dict[str, tuple[int, int]],
-    pairing: PairingConfig = PairingConfig(),
+    pairing: PairingConfig = PairingConfig(), sync_every: int = 1,
 ) -> tuple[BoardObservations, int]:
     """caliscope ChArUco corners as BoardObservations, and how many views were taken out of their frame
     sets (kept as frames of their own) because the board moved between the cameras' exposures, plus
     those left out because it moved during the readout (``pairing.readout_ms``).
 
     image_sizes_px: {camera: (width, height)} (caliscope keeps them in camera_array.toml).
+    sync_every: keep only every N-th ``sync_index`` (0, N, 2N, ...), as caliscope's own tests thin it.
     """
     path = Path(path)
-    rows = _rows(path)
+    if sync_every < 1:
+        raise ValueError(f"sync_every must be >= 1, got {sync_every}")
+    rows, timed, board_mm = _rows(path, sync_every)
     geometry = make_board(board).geometry
-    cams = sorted({int(r["cam_id"]) for r in rows})
+    _check_board(path, board_mm, geometry)
+    timed = timed and _times_usable(rows)
+    if not timed:
+        log.info("%s: no usable frame_time: cameras paired by sync_index", path)
+    cams = sorted({r[0] for r in rows})
     names = [camera_name(c) for c in cams]
     missing = [n for n in names if n not in image_sizes_px]
     if missing:
         raise ValueError(f"{path}: no image size given for cameras {missing}")
-    timed = "frame_time" in rows[0]
+    index = {c: i for i, c in enumerate(cams)}
     # one frame per (camera, caliscope frame): its time and its corners
     frames: dict[tuple[int, int], dict] = {}
-    for r in rows:
-        c = cams.index(int(r["cam_id"]))
-        key = (c, int(r.get("frame_index") or r["sync_index"]))
-        frame = frames.setdefault(key, {"t": float(r["frame_time"]) if timed else float(r["sync_index"]),
-                                        "sync": int(r["sync_index"]), "uv": {}})
-        pid = int(r["point_id"])
+    for cam, frame_index, sync, t, pid, x, y in rows:
+        frame = frames.setdefault((index[cam], frame_index), {"t": t if timed else float(sync), "sync": sync, "uv": {}})
         if not 0 <= pid < geometry.num_corners:
             raise ValueError(f"{path}: point_id {pid} is not a corner of {geometry.name}")
-        frame["uv"][pid] = (float(r["img_loc_x"]), float(r["img_loc_y"]))
+        frame["uv"][pid] = (x, y)
     per_cam = [sorted((k[1], v) for k, v in frames.items() if k[0] == c) for c in range(len(cams))]
     if timed:
         times = [np.rint(np.array([v["t"] for _, v in fr]) * 1e9).astype(np.int64) for fr in per_cam]
@@ -143,17 +232,21 @@ def _half_gap_ns(per_cam: list[list]) -> int:
     return max(1, int(gaps.min() * 1e9 // 2)) if gaps.size else 1
 
 
-def read_session(folder: str | os.PathLike, points: str = SESSION_POINTS,
+def read_session(folder: str | os.PathLike, points: str | None = None,
                  pairing: PairingConfig = PairingConfig(), board: BoardConfig | None = None,
-                 ) -> tuple[BoardConfig, BoardObservations, Rig, int]:
+                 sync_every: int = 1) -> tuple[BoardConfig, BoardObservations, Rig, int]:
     """A caliscope session folder: (board, observations, caliscope's calibration, views left out moving);
-    the board from its ``charuco.toml`` unless given."""
+    the board from its ``charuco.toml`` unless given; the detections from ``points`` (a path in the
+    folder; default: the one of :data:`SESSION_POINTS` it has), every ``sync_every``-th sync index."""
     from gaitcap.acquisition.board_file import read_board_file
 
     folder = Path(folder)
+    path = folder / points if points is not None else session_points(folder)
+    if path is None:
+        raise ValueError(f"{folder}: no caliscope corner detections in it (looked for {', '.join(SESSION_POINTS)})")
     board = board or read_board_file(folder / "charuco.toml")
     rig = read_camera_array(folder / "camera_array.toml")
-    obs, moving = read_points(folder / points, board=board, pairing=pairing,
+    obs, moving = read_points(path, board=board, pairing=pairing, sync_every=sync_every,
                               image_sizes_px={c.name: c.size_px for c in rig.cameras})
     return board, obs, rig, moving
 

@@ -219,10 +219,14 @@ PYEOF
 )
 # Real calibration recordings for the calibration tests (BSD licences, kept beside them): caliscope's
 # two 4-webcam ChArUco sessions (their corner detections, board files and calibrations) and real checkerboard
-# frames from the caliscope 0.7.5 sdist; the Pose2Sim wheel's single-person demo calibration folder
-# (checkerboard intrinsics images, its Config.toml and the Qualisys calibration of the same cameras).
+# frames from the caliscope 0.7.5 sdist; its 11-camera 1080p ChArUco session (caliscope-11cam: the detections
+# of larger_calibration_post_monocal, whole, 14 MB; tests keep every 20th sync index; and the bundle-adjusted
+# camera_array.toml of point_estimate_creation/fully_linked, the same detections: the post_monocal one holds
+# the stereo-pair initial poses caliscope's tests start its bundle adjustment from); the Pose2Sim wheel's
+# single-person demo calibration folder (checkerboard intrinsics images, its Config.toml and the Qualisys
+# calibration of the same cameras).
 CALISCOPE_VERSION="0.7.5"
-CALIBRATION_DATA_REVISION="2"
+CALIBRATION_DATA_REVISION="3"
 install_calibration_recordings() (
   local dest="$SHARE/testdata/calibration" tmp
   [ -f "$dest/.version-$CALISCOPE_VERSION-$POSE2SIM_VERSION-$CALIBRATION_DATA_REVISION" ] && return 0
@@ -246,6 +250,10 @@ keep = {  # path in the sdist -> path under dest
     "tests/sessions/post_optimization/charuco.toml": "caliscope-4cam-2/charuco.toml",
     "tests/sessions/post_optimization/camera_array.toml": "caliscope-4cam-2/camera_array.toml",
     "tests/sessions/post_optimization/calibration/extrinsic/xy.csv": "caliscope-4cam-2/calibration/extrinsic/xy.csv",
+    "tests/sessions/larger_calibration_post_monocal/charuco.toml": "caliscope-11cam/charuco.toml",
+    "tests/sessions/larger_calibration_post_monocal/calibration/extrinsic/CHARUCO/xy_CHARUCO.csv":
+        "caliscope-11cam/calibration/extrinsic/CHARUCO/xy_CHARUCO.csv",
+    "tests/sessions/point_estimate_creation/fully_linked/camera_array.toml": "caliscope-11cam/camera_array.toml",
 }
 with tarfile.open(glob.glob(os.path.join(tmp, f"caliscope-{cs_version}.tar.gz"))[0]) as tar:
     for member in tar.getmembers():
@@ -259,7 +267,7 @@ with tarfile.open(glob.glob(os.path.join(tmp, f"caliscope-{cs_version}.tar.gz"))
         os.makedirs(os.path.dirname(path), exist_ok=True)
         with open(path, "wb") as f:
             f.write(tar.extractfile(member).read())
-for other in ("caliscope-chessboard", "caliscope-4cam-2"):
+for other in ("caliscope-chessboard", "caliscope-4cam-2", "caliscope-11cam"):
     shutil.copy(os.path.join(dest, "caliscope-4cam/LICENSE"), os.path.join(dest, other, "LICENSE"))
 prefix = "Pose2Sim/Demo_SinglePerson/"
 with zipfile.ZipFile(glob.glob(os.path.join(tmp, f"pose2sim-{p2s_version}-*.whl"))[0]) as z:
