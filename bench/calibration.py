@@ -18,6 +18,8 @@ simulate-board`` and ``gaitcap calibrate --compare`` do).
     python bench/calibration.py --board charuco --frames 900 --noise-px 1.0
     python bench/calibration.py --images 600         # + end to end from images (about 30 min on 2 cores)
     python bench/calibration.py --real-only          # only the real recordings (below), about a minute
+                                                     # + caliscope's 11-camera session: about 15 min more
+    python bench/calibration.py --real-only --sync-every 20   # that session thinned as in the tests: a minute
 
 Real recordings (installed by deploy/bootstrap.sh; skipped when absent): caliscope's 4-webcam session of
 a hand-held inverted ChArUco board (its own corner detections, calibrated here with caliscope's
@@ -26,6 +28,8 @@ similarity alignment), caliscope's real checkerboard frames (how many views the 
 fast) and Pose2Sim's demo intrinsics images (found views, and each camera's focal length against
 Qualisys's calibration of the same cameras); OpenCV's own samples (a real stereo pair calibrated from its
 images and compared with OpenCV's calibration, a real ChArUco photo: see bench/_real_opencv.py).
+caliscope's 11-camera 1920x1080 session (10028 views of a 4 x 6 ChArUco board, whole unless --sync-every)
+is calibrated the same two ways and compared with caliscope's bundle-adjusted calibration of it.
 """
 
 from __future__ import annotations
@@ -184,9 +188,12 @@ REAL_SESSIONS = {"caliscope-4cam": "caliscope 4_cam_recording (4 webcams 1280x72
 
 
 REAL_VARIANTS = ((True, 0.0), (False, 0.0), (True, 20.0), (False, 20.0))  # (known intrinsics, readout ms)
+# frame times there are nominal (frame_index / 30 s, the same in every camera): no readout variants
+LARGE_SESSIONS = {"caliscope-11cam": "caliscope larger_calibration_post_monocal (11 cameras 1920x1080) vs its "
+                                     "bundle-adjusted calibration (point_estimate_creation/fully_linked)"}
 
 
-def _real_session(name: str, known_intrinsics: bool, readout_ms: float = 0.0) -> dict | None:
+def _real_session(name: str, known_intrinsics: bool, readout_ms: float = 0.0, sync_every: int = 1) -> dict | None:
     """A caliscope 4-webcam ChArUco session, calibrated here and compared with caliscope's calibration
     (readout_ms: views whose board moved more than 1 px within this rolling-shutter readout tie no cameras)."""
     from gaitcap.acquisition.board_pairing import PairingConfig
@@ -198,9 +205,10 @@ def _real_session(name: str, known_intrinsics: bool, readout_ms: float = 0.0) ->
     if not (folder / "camera_array.toml").exists():
         return None
     t0 = time.perf_counter()
-    board, obs, ref, moving = read_session(folder, pairing=PairingConfig(readout_ms=readout_ms))
+    board, obs, ref, moving = read_session(folder, pairing=PairingConfig(readout_ms=readout_ms), sync_every=sync_every)
     known = {c.name: (c.matrix_px, c.dist) for c in ref.cameras} if known_intrinsics else None
-    what = {"recording": REAL_SESSIONS[name], "board": board.describe(), "readout_ms": readout_ms,
+    what = {"recording": {**REAL_SESSIONS, **LARGE_SESSIONS}[name], "board": board.describe(), "readout_ms": readout_ms,
+            "sync_every": sync_every,
             "intrinsics": "caliscope's (held fixed)" if known_intrinsics else "estimated from this clip (k1)"}
     try:
         res = calibrate_from_observations(obs, config=CalibrationConfig(known_intrinsics=known))
@@ -219,6 +227,7 @@ def _real_session(name: str, known_intrinsics: bool, readout_ms: float = 0.0) ->
         "centre_diff_mm": list(cmp.centre_mm), "rotation_diff_deg": list(cmp.rotation_deg),
         "pointing_diff_deg": list(cmp.pointing_deg),
         "reference_pp_off_centre_deg": [_pp_off_centre_deg(ref[n]) for n in cmp.names],
+        "principal_points_apart_deg": [_pp_apart_deg(res.rig[n], ref[n]) for n in cmp.names],
         "principal_point_held": [bool(np.allclose(c.matrix_px[:2, 2], np.asarray(c.size_px) / 2)) for c in res.rig],
     }
     # a failed camera (or a NaN RMS) misses the targets: max() would pass over a NaN after a finite value
@@ -226,6 +235,12 @@ def _real_session(name: str, known_intrinsics: bool, readout_ms: float = 0.0) ->
     out["meets_targets"] = bool(rms_ok and not out["failed"] and cmp.centre_mm_max <= REAL_TARGET_CENTRE_MM
                                 and cmp.rotation_deg_max <= REAL_TARGET_ROTATION_DEG)
     return out
+
+
+def _pp_apart_deg(cam, ref) -> float:
+    """How far (degrees of view) two calibrations of a camera put its principal point apart."""
+    return float(np.degrees(np.arctan(np.linalg.norm((cam.matrix_px[:2, 2] - ref.matrix_px[:2, 2])
+                                                     / np.diag(ref.matrix_px)[:2]))))
 
 
 def _pp_off_centre_deg(cam) -> float:
@@ -287,12 +302,14 @@ def _pose2sim_intrinsics() -> dict | None:
     return out
 
 
-def _real() -> dict:
+def _real(sync_every: int = 1) -> dict:
     from gaitcap.acquisition.board import BoardConfig
 
     return {
         "sessions": [r for r in (_real_session(n, k, ro) for n in REAL_SESSIONS for k, ro in REAL_VARIANTS)
-                     if r is not None],
+                     if r is not None]
+        + [r for r in (_real_session(n, k, 0.0, sync_every) for n in LARGE_SESSIONS for k in (True, False))
+           if r is not None],
         "images": [r for r in (
             _real_images("caliscope checkerboard frames (webcams 1280x720)", "caliscope-chessboard/*.jpg",
                          BoardConfig.checkerboard(10, 7, 25.0)),
@@ -322,6 +339,11 @@ def _real_table(r: dict) -> str:
                          f"{s['p95_px'][k]:>7.3f} {s['centre_diff_mm'][k]:>10.2f} {s['rotation_diff_deg'][k]:>8.3f} "
                          f"{s['pointing_diff_deg'][k]:>8.3f} {s['reference_pp_off_centre_deg'][k]:>10.2f}  "
                          f"{status}{held}")
+        if s["sync_every"] > 1:
+            lines.append(f"    (every {s['sync_every']}th sync index)")
+        if not s["intrinsics"].startswith("caliscope"):
+            lines.append("    principal points apart (deg of view), ours vs caliscope's: "
+                         + " ".join(f"{d:.2f}" for d in s["principal_points_apart_deg"]))
         lines.append("    (ray deg: the two calibrations' rays through the image centre; ref pp deg: caliscope's "
                      "principal point off the image centre)")
         lines.append(f"    targets (RMS <= {REAL_TARGET_RMS_PX} px, centres <= {REAL_TARGET_CENTRE_MM} mm, rotations <= "
@@ -407,10 +429,12 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     ap.add_argument("--real-only", action="store_true", help="only the real recordings")
+    ap.add_argument("--sync-every", type=int, default=1,
+                    help="caliscope's 11-camera session: keep every N-th sync index (1 = all)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     if args.real_only:
-        real = _real()
+        real = _real(args.sync_every)
         print(json.dumps(jsonable({"real": real})) if args.json else _real_table(real))
         return
     result = {
@@ -419,7 +443,7 @@ def main(argv: list[str] | None = None) -> None:
                                     still_floor=True),
         "detector": _detector(args.board, args.detector_frames, args.scale, args.seed) if args.detector_frames > 1 else None,
         "end_to_end": _end_to_end(args.board, args.images, args.image_scale, args.seed) if args.images else None,
-        "real": _real(),
+        "real": _real(args.sync_every),
     }
     print(json.dumps(jsonable(result)) if args.json else _table(result) + "\n" + _real_table(result["real"]))
 
