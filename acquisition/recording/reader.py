@@ -291,6 +291,9 @@ class KeypointRecording:
             whose every message was such is not in ``camera_names``.
         stray_frame_ids: {camera: the first (in time) of those frame ids, at most
             :data:`STRAY_EXAMPLES`}.
+        unreadable: {camera: {why: keypoint messages that could not be read for that reason, ignored}}
+            (not JSON, a field missing or of the wrong kind); a camera with none left is not in
+            ``camera_names``.
     """
 
     camera_names: tuple[str, ...]
@@ -302,6 +305,7 @@ class KeypointRecording:
     restarts: dict[str, int] = field(default_factory=dict)
     strays: dict[str, int] = field(default_factory=dict)
     stray_frame_ids: dict[str, tuple[int, ...]] = field(default_factory=dict)
+    unreadable: dict[str, dict[str, int]] = field(default_factory=dict)
 
     def patient(self) -> Detections:
         """people[0] of every frame (the detector's first person) as reconstruction input."""
@@ -330,50 +334,115 @@ def _frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
     return (filled - filled[0]) / 1e9
 
 
+_KEYPOINT_FIELDS = ("frame_id", "timestamp_ns", "skeleton", "people")
+
+
+def _keypoint_message(data: bytes) -> tuple[int, int, str, np.ndarray] | str:
+    """(frame id, timestamp ns, skeleton, people (P, J, 3)) of one recorded keypoint message, or in a few
+    words why it cannot be read."""
+    try:
+        msg = json.loads(data)
+    except ValueError:  # bad JSON or bad UTF-8
+        return "not JSON"
+    if not isinstance(msg, dict):
+        return "not a JSON object"
+    missing = [k for k in _KEYPOINT_FIELDS if k not in msg]
+    if missing:
+        return "missing " + ", ".join(f"'{k}'" for k in missing)
+    for key in ("frame_id", "timestamp_ns"):
+        if isinstance(msg[key], bool) or not isinstance(msg[key], int):
+            return f"'{key}' not an integer"
+    if not isinstance(msg["skeleton"], str):
+        return "'skeleton' not a name"
+    people = msg["people"]
+    try:
+        arr = np.asarray(people, dtype=np.float64) if people else np.zeros((0, 0, 3))
+    except (ValueError, TypeError):
+        arr = None
+    if not isinstance(people, list) or arr is None or arr.ndim != 3 or arr.shape[2] != 3:
+        return "'people' not lists of [x, y, confidence] per joint"
+    return msg["frame_id"], msg["timestamp_ns"], msg["skeleton"], arr
+
+
 def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) -> KeypointRecording:
     """All keypoints, frame sets aligned by frame id; cameras in calibration order (else sorted).
 
     A camera whose frame counter restarted within the recording (a camera or camera node restarted) has
     its later frames placed by timestamp (:mod:`gaitcap.acquisition.recording.frame_slots`), with a warning.
     Keypoint messages with a frame id far outside the recording are ignored and counted (``strays``):
-    nothing is allocated for them."""
-    per_cam: dict[str, list[tuple[int, int, list, str]]] = {}
+    nothing is allocated for them. Keypoint messages that cannot be read (not JSON, a field missing or of
+    the wrong kind, people with another number of joints than the others) are ignored and counted with
+    why (``unreadable``), never refusing the recording."""
+    per_cam: dict[str, list[tuple[int, int, np.ndarray, str]]] = {}
     unplaceable: dict[str, list[int]] = {}  # frame ids or stamps no frame grid can hold: stray at once
+    unreadable: dict[str, dict[str, int]] = {}
     for topic, message in iter_messages(path, layout.is_keypoints_topic):
-        msg = json.loads(message.data)
-        camera, fid, ts = layout.camera_of_topic(topic), int(msg["frame_id"]), int(msg["timestamp_ns"])
+        camera, parsed = layout.camera_of_topic(topic), _keypoint_message(message.data)
+        if isinstance(parsed, str):
+            unreadable.setdefault(camera, {}).setdefault(parsed, 0)
+            unreadable[camera][parsed] += 1
+            continue
+        fid, ts, skeleton, ppl = parsed
         if abs(fid) >= _MAX_FRAME_ID or not 0 <= ts < 2**63:
             unplaceable.setdefault(camera, []).append(fid)
             continue
-        per_cam.setdefault(camera, []).append((fid, ts, msg["people"], msg["skeleton"]))
+        per_cam.setdefault(camera, []).append((fid, ts, ppl, skeleton))
+    per_cam = _one_joint_count(per_cam, unreadable)
     if not per_cam:
         raise ValueError(f"{path}: no keypoints recorded" + (
             f" with a usable frame id and timestamp ({sum(map(len, unplaceable.values()))} messages have a "
-            "frame id beyond +-2**53 or a timestamp outside 0..2**63 ns)" if unplaceable else ""))
+            "frame id beyond +-2**53 or a timestamp outside 0..2**63 ns)" if unplaceable else "") + (
+            f"; keypoint messages that could not be read: {unreadable}" if unreadable else ""))
     slotted, report, skeletons = _on_one_grid(per_cam)
     if len(skeletons) != 1:
         raise ValueError(f"{path}: keypoints of several skeletons {sorted(skeletons)}")
     strays = {c: report.strays.get(c, ()) + tuple(unplaceable.get(c, ())) for c in {*report.strays, *unplaceable}}
-    names = _camera_order(path, slotted, cameras, strays)
+    names = _camera_order(path, slotted, cameras, strays, unreadable)
     fids = [f for cam in slotted.values() for f in cam]
     first, last = min(fids), max(fids)  # at most 2 x the frame sets + SLACK_FRAMES apart (frame_slots)
     frame_ids = np.arange(first, last + 1)
     most = max((len(p) for cam in slotted.values() for _, p in cam.values()), default=0)
-    joints = next((len(p[0]) for cam in slotted.values() for _, p in cam.values() if p), 0)
+    joints = next((p.shape[1] for cam in slotted.values() for _, p in cam.values() if len(p)), 0)
     people = _missing((len(names), frame_ids.size, most, joints))
     stamps = np.full((len(names), frame_ids.size), -1, dtype=np.int64)
     for c, name in enumerate(names):
         for fid, (ts, ppl) in slotted.get(name, {}).items():
             stamps[c, fid - first] = ts
-            if ppl:
-                people[c, fid - first, : len(ppl)] = np.asarray(ppl, dtype=np.float64).reshape(len(ppl), joints, 3)
+            if len(ppl):
+                people[c, fid - first, : len(ppl)] = ppl
     return KeypointRecording(tuple(names), frame_ids, _frame_times_s(stamps), skeletons.pop(), people, stamps,
                              report.restarts, {c: len(ids) for c, ids in strays.items()},
-                             {c: ids[:STRAY_EXAMPLES] for c, ids in strays.items()})
+                             {c: ids[:STRAY_EXAMPLES] for c, ids in strays.items()}, unreadable)
 
 
-def _on_one_grid(per_cam: dict[str, list[tuple[int, int, list, str]]]
-                 ) -> tuple[dict[str, dict[int, tuple[int, list]]], SlotReport, set[str]]:
+def _one_joint_count(per_cam: dict[str, list[tuple[int, int, np.ndarray, str]]],
+                     unreadable: dict[str, dict[str, int]]) -> dict[str, list[tuple[int, int, np.ndarray, str]]]:
+    """The messages whose people have the joint count most messages have; the others counted in
+    ``unreadable`` (one malformed message must not refuse the recording). Cameras left without any are
+    dropped."""
+    counts: dict[int, int] = {}
+    for rows in per_cam.values():
+        for row in rows:
+            if len(row[2]):
+                counts[row[2].shape[1]] = counts.get(row[2].shape[1], 0) + 1
+    if len(counts) < 2:
+        return per_cam
+    joints = max(counts, key=lambda j: (counts[j], -j))
+    out = {}
+    for cam, rows in per_cam.items():
+        keep = [row for row in rows if not len(row[2]) or row[2].shape[1] == joints]
+        for row in rows:
+            if len(row[2]) and row[2].shape[1] != joints:
+                why = f"people with {row[2].shape[1]} joints where the others have {joints}"
+                unreadable.setdefault(cam, {}).setdefault(why, 0)
+                unreadable[cam][why] += 1
+        if keep:
+            out[cam] = keep
+    return out
+
+
+def _on_one_grid(per_cam: dict[str, list[tuple[int, int, np.ndarray, str]]]
+                 ) -> tuple[dict[str, dict[int, tuple[int, np.ndarray]]], SlotReport, set[str]]:
     """{camera: {frame set id: (timestamp ns, people)}} with restarted frame counters placed by time and
     frame ids far outside the recording left out; and the skeletons of the messages kept."""
     series = {cam: (np.array([e[0] for e in rows], dtype=np.int64), np.array([e[1] for e in rows], dtype=np.int64))
@@ -388,13 +457,16 @@ def _on_one_grid(per_cam: dict[str, list[tuple[int, int, list, str]]]
     return out, report, skeletons
 
 
-def _camera_order(path, per_cam: dict, cameras: list[str] | None, strays: dict[str, tuple[int, ...]]) -> list[str]:
+def _camera_order(path, per_cam: dict, cameras: list[str] | None, strays: dict[str, tuple[int, ...]],
+                  unreadable: dict[str, dict[str, int]]) -> list[str]:
     if cameras is not None:
         unknown = sorted(set(cameras) - set(per_cam))
         if unknown:
             far = [c for c in unknown if c in strays]
+            bad = {c: unreadable[c] for c in unknown if c in unreadable}
             raise ValueError(f"{path}: no keypoints recorded for cameras {unknown}"
-                             + (f" (those of {far} all have frame ids far outside the recording)" if far else ""))
+                             + (f" (those of {far} all have frame ids far outside the recording)" if far else "")
+                             + (f" (keypoint messages that could not be read: {bad})" if bad else ""))
         return list(cameras)
     try:
         order = [n for n in read_calibration(path).names if n in per_cam]

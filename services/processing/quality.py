@@ -102,6 +102,7 @@ class DataQuality:
     absent: dict[str, int] = field(default_factory=dict)  # expected camera without keypoints -> images recorded
     strays: dict[str, int] = field(default_factory=dict)  # camera -> keypoint messages with a frame id far outside, ignored
     stray_frame_ids: dict[str, list[int]] = field(default_factory=dict)  # camera -> the first of those frame ids
+    unreadable: dict[str, dict[str, int]] = field(default_factory=dict)  # camera -> {why: keypoint messages ignored}
     recovered: bool = False  # the recording was cut by a recorder crash and recovered (no recorder summary)
     warnings: tuple[str, ...] = ()
     serious: bool = False
@@ -199,6 +200,7 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
                       recorded_frames: dict[str, np.ndarray] | None = None, recovered: bool = False,
                       recorder_dropped: dict[str, int] | None = None, strays: dict[str, int] | None = None,
                       stray_frame_ids: dict[str, tuple[int, ...]] | None = None,
+                      unreadable: dict[str, dict[str, int]] | None = None,
                       criteria: QualityCriteria = QualityCriteria()) -> DataQuality:
     """Measures and warnings from a recording's (C, T) camera timestamps (-1 where missing) and the
     patient's (C, T, J) detection confidences; ``expected_cameras``: the calibration's cameras (one
@@ -211,7 +213,8 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     recorder crash; ``recorder_dropped``: {camera: images the recorder dropped, its queue full};
     ``strays`` / ``stray_frame_ids``: {camera: keypoint messages the reader ignored, their frame ids far
     outside the recording} / {camera: the first of those ids} (a camera with only such messages is not in
-    ``camera_names`` and is named for that, not as absent)."""
+    ``camera_names`` and is named for that, not as absent); ``unreadable``: {camera: {why: keypoint
+    messages the reader could not read and ignored}} (likewise)."""
     stamps = np.asarray(timestamps_ns, dtype=np.int64)
     restarts = dict(restarts or {})
     images = {n: np.asarray(ids, dtype=np.int64) for n, ids in (recorded_frames or {}).items()}
@@ -240,15 +243,16 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
         seen = (np.nan_to_num(patient_confidence) > CONFIDENT).any(-1)  # (C, T)
         coverage = float(np.mean(seen.sum(0) >= 2))
     strays = {n: int(k) for n, k in (strays or {}).items() if k}
+    unreadable = {n: {why: int(k) for why, k in whys.items()} for n, whys in (unreadable or {}).items() if whys}
     absent = {n: int((recorded_frames or {}).get(n, np.zeros(0)).size) for n in expected_cameras
-              if n not in camera_names and n not in strays}
+              if n not in camera_names and n not in strays and n not in unreadable}
     quality = DataQuality(duration_s=round(grid.shape[1] / nominal, 3), nominal_fps=round(nominal, 2),
                           cameras=tuple(cams),
                           spread_ms_max=round(float(spread.max()), 2) if spread.size else None,
                           spread_ms_p95=round(float(np.percentile(spread, 95)), 2) if spread.size else None,
                           coverage=None if coverage is None else round(coverage, 3), criteria=criteria,
                           recorded_s=None if recorded_s is None else round(float(recorded_s), 3),
-                          restarts=restarts, absent=absent, recovered=recovered, strays=strays,
+                          restarts=restarts, absent=absent, recovered=recovered, strays=strays, unreadable=unreadable,
                           stray_frame_ids={n: [int(f) for f in ids] for n, ids in (stray_frame_ids or {}).items()})
     return judged(quality)
 
@@ -304,7 +308,7 @@ def judged(q: DataQuality) -> DataQuality:
                     "judged by the images the file holds, up to the cut")
     warn += [f"Camera {n} restarted during the trial ({k} time{'s' if k > 1 else ''}); its frames after the "
              "restart are placed by their timestamps" for n, k in sorted(q.restarts.items())]
-    warn += _strays(q)
+    warn += _strays(q) + _unreadable(q)
     for c in q.cameras:
         if c.received == 0:
             warn.append(f"Camera {c.name} recorded nothing")
@@ -349,6 +353,8 @@ def _strays(q: DataQuality) -> list[str]:
     for name, count in sorted(q.strays.items()):
         ids = q.stray_frame_ids.get(name, [])
         named = f" ({', '.join(map(str, ids))}{', ...' if count > len(ids) else ''})" if ids else ""
+        if name in q.unreadable and name not in judged_cameras:
+            continue  # said with the messages that could not be read (:func:`_unreadable`)
         if name not in judged_cameras:
             which = f"all its {count} keypoint messages had frame ids" if count > 1 else \
                 "its only keypoint message had a frame id"
@@ -360,6 +366,27 @@ def _strays(q: DataQuality) -> list[str]:
         else:
             out.append(f"Camera {name}: {count} keypoint messages with frame ids far outside the recording{named} "
                        "were ignored")
+    return out
+
+
+def _unreadable(q: DataQuality) -> list[str]:
+    """Keypoint messages the reader could not read and ignored, per camera, with why; a camera left with
+    no keypoints says so (with its stray frame ids, if it had those too)."""
+    out, judged_cameras = [], {c.name for c in q.cameras}
+    for name, whys in sorted(q.unreadable.items()):
+        count = sum(whys.values())
+        why = next(iter(whys)) if len(whys) == 1 else ", ".join(f"{k} {w}" for w, k in sorted(whys.items()))
+        if name in judged_cameras:
+            out.append(f"Camera {name}: {count} keypoint message{'s' if count > 1 else ''} could not be read and "
+                       f"{'were' if count > 1 else 'was'} ignored ({why})")
+            continue
+        unread, tail = (f"all its {count} keypoint messages" if count > 1 else "its only keypoint message"), ""
+        if q.strays.get(name):
+            far, ids = q.strays[name], q.stray_frame_ids.get(name, [])
+            named = f" ({', '.join(map(str, ids))}{', ...' if far > len(ids) else ''})" if ids else ""
+            unread = f"{count} keypoint message{'s' if count > 1 else ''}"
+            tail = f", and the other {far} had frame ids far outside the recording{named}"
+        out.append(f"Camera {name}: {unread} could not be read ({why}){tail}: the camera has no keypoints")
     return out
 
 

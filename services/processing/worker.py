@@ -230,7 +230,8 @@ class Worker:
                                     recorded_frames=images.frames, recovered=images.recovered,
                                     recorder_dropped=images.dropped,
                                     restarts=recording.restarts, strays=recording.strays,
-                                    stray_frame_ids=recording.stray_frame_ids, criteria=self.config.criteria)
+                                    stray_frame_ids=recording.stray_frame_ids, unreadable=recording.unreadable,
+                                    criteria=self.config.criteria)
         rig = seen_rig
         source = (recording, rig, mcap)  # what the viewer files show besides the results
         self.load_s = time.perf_counter() - t0

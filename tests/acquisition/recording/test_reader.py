@@ -222,3 +222,42 @@ def test_image_times_scan_the_file_when_the_index_points_at_something_else(tmp_p
     assert sorted(times) == sorted(good)
     for cam in good:
         np.testing.assert_array_equal(times[cam], good[cam])
+
+
+def test_malformed_keypoint_messages_are_ignored_and_counted_with_why(tmp_path):
+    """Keypoint messages that cannot be read (bad JSON, a field missing, people of another joint count)
+    are left out and counted per camera with why; the recording is read, not refused. A camera with only
+    such messages has no keypoints (not in camera_names), and is counted all the same."""
+    from gaitcap.acquisition.recording.writer import TrialWriter
+
+    w = TrialWriter(tmp_path / "bad.mcap")
+    w.start(metadata={"trial_id": "bad"}, calibration_toml=rig_to_toml_text(tiny_rig()), time_ns=T0_NS)
+    good = {}
+    for c, cam in enumerate(CAMS[:2]):
+        for k in range(FRAMES):
+            ts = T0_NS + k * PERIOD_NS + 1000 * c
+            good[cam, k] = {"camera": cam, "frame_id": k, "timestamp_ns": ts, "skeleton": "halpe26",
+                            "people": people_for(c, k).tolist()}
+            data = json.dumps(good[cam, k]).encode()
+            if cam == "cam1" and k in (3, 7):
+                data = json.dumps({f: v for f, v in good[cam, k].items() if f != "skeleton"}).encode()
+            elif cam == "cam1" and k == 9:
+                data = data[: len(data) // 2]  # cut JSON
+            elif cam == "cam0" and k == 5:
+                data = json.dumps({**good[cam, k], "people": [[[1.0, 2.0, 0.5]] * 17]}).encode()
+            w.add_keypoints(cam, data, timestamp_ns=ts, frame_id=k)
+    for k in range(2):  # cam2: every message lacks its timestamp
+        w.add_keypoints("cam2", json.dumps({"camera": "cam2", "frame_id": k, "skeleton": "halpe26",
+                                            "people": []}).encode(), timestamp_ns=T0_NS + k, frame_id=k)
+    kp = read_keypoints(w.finish({}))
+    assert kp.camera_names == ("cam0", "cam1") and kp.frame_ids.tolist() == list(range(FRAMES))
+    assert kp.unreadable == {"cam0": {"people with 17 joints where the others have 26": 1},
+                             "cam1": {"missing 'skeleton'": 2, "not JSON": 1},
+                             "cam2": {"missing 'timestamp_ns'": 2}}
+    assert kp.strays == {}
+    have = kp.timestamps_ns >= 0
+    assert have[0].tolist() == [k != 5 for k in range(FRAMES)]
+    assert have[1].tolist() == [k not in (3, 7, 9) for k in range(FRAMES)]
+    np.testing.assert_allclose(kp.people[1, 8, :2], people_for(1, 8))
+    with pytest.raises(ValueError, match=r"cameras \['cam2'\].*missing 'timestamp_ns'"):
+        read_keypoints(tmp_path / "bad.mcap", cameras=["cam0", "cam2"])

@@ -264,3 +264,20 @@ def test_keypoint_messages_with_stray_frame_ids_are_named_and_a_camera_with_only
         "Camera cam9: its only keypoint message had a frame id far outside the recording (7) and was ignored: the "
         "camera has no keypoints")
     assert with_reprojection(q, {}).stray_frame_ids == {"cam1": [2**40, 2**40 + 1, 2**40 + 2], "cam9": [7]}
+
+
+def test_keypoint_messages_that_could_not_be_read_are_named_and_a_camera_left_with_none_is_said_so():
+    q = recording_quality(camera_names=NAMES[:8], timestamps_ns=_stamps()[:8], patient_confidence=None,
+                          expected_cameras=NAMES, strays={"cam9": 3}, stray_frame_ids={"cam9": (2**40,)},
+                          unreadable={"cam3": {"missing 'skeleton'": 2}, "cam5": {"not JSON": 1, "missing 'people'": 2},
+                                      "cam8": {"missing 'timestamp_ns'": 1}, "cam9": {"not JSON": 4}})
+    assert q.serious and q.absent == {}
+    assert q.unreadable["cam5"] == {"not JSON": 1, "missing 'people'": 2}
+    assert q.warnings == (
+        "Camera cam3: 2 keypoint messages could not be read and were ignored (missing 'skeleton')",
+        "Camera cam5: 3 keypoint messages could not be read and were ignored (2 missing 'people', 1 not JSON)",
+        "Camera cam8: its only keypoint message could not be read (missing 'timestamp_ns'): the camera has no "
+        "keypoints",
+        "Camera cam9: 4 keypoint messages could not be read (not JSON), and the other 3 had frame ids far outside "
+        "the recording (1099511627776, ...): the camera has no keypoints")
+    assert with_reprojection(q, {}).unreadable == q.unreadable

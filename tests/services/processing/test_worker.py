@@ -171,3 +171,34 @@ def test_a_stray_keypoint_frame_id_is_ignored_and_named_in_the_trials_quality(tm
     assert quality["warnings"] == [f"Camera {cam}: 1 keypoint message with a frame id far outside the recording "
                                    "(1099511627776) was ignored"]
     assert quality["strays"] == {cam: 1} and cat.get_result(db, t.id, "preliminary").steps
+
+
+def test_unreadable_keypoint_messages_are_ignored_and_named_in_the_trials_quality(tmp_path, walk, monkeypatch):
+    """A recording holding two keypoint messages without a skeleton and one that is not JSON is processed,
+    not refused; the trial's quality says how many of which camera's messages were ignored and why."""
+    from gaitcap.acquisition.recording.writer import TrialWriter
+    from gaitcap.acquisition.synthetic.recording import write_keypoint_recording
+
+    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+    t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
+    cam = walk.rig.names[2]
+    original = TrialWriter.finish
+
+    def with_bad_messages(writer, summary):
+        for fid in (3, 4):
+            writer.add_keypoints(cam, json.dumps({"camera": cam, "frame_id": fid, "timestamp_ns": 1,
+                                                  "people": []}).encode(), timestamp_ns=1, frame_id=fid)
+        writer.add_keypoints(cam, b'{"camera": "', timestamp_ns=1, frame_id=5)
+        return original(writer, summary)
+
+    monkeypatch.setattr(TrialWriter, "finish", with_bad_messages)
+    write_keypoint_recording(walk, Path(t.recording_path))
+    monkeypatch.undo()
+    cat.set_state(db, t.id, "recorded", enqueue=True)
+    assert Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db).run_once()
+    assert cat.get_trial(db, t.id).state == "done_with_warnings"
+    quality = cat.get_quality(db, t.id)["processing"]
+    assert quality["warnings"] == [f"Camera {cam}: 3 keypoint messages could not be read and were ignored "
+                                   "(2 missing 'skeleton', 1 not JSON)"]
+    assert quality["unreadable"] == {cam: {"missing 'skeleton'": 2, "not JSON": 1}}
+    assert cat.get_result(db, t.id, "preliminary").steps
