@@ -192,7 +192,7 @@ function renderTrials(trials) {
 }
 
 // the trial list's columns: the label each cell carries when a narrow screen stacks a row's cells
-const TRIAL_COLUMNS = [["Started", ""], ["Patient", "id-cell"], ["Session", "id-cell"], ["Length", ""], ["State", "wide"], ["", "wide"]];
+const TRIAL_COLUMNS = [["Started", "when"], ["Patient", "id-cell"], ["Session", "id-cell"], ["Length", ""], ["State", "wide"], ["", "wide"]];
 
 function trialCells(t) {
   const progress = t.state === "processing" ? ` <progress max="1" value="${t.progress}"></progress>` : "";

@@ -152,7 +152,7 @@ async function showHistory(subjectId) {
     const v = t.values;
     return `<tr data-trial="${esc(t.id)}" class="${t.voided ? "voided" : ""}">
       <td data-label="Compare"><input type="checkbox" class="cmp" value="${esc(t.id)}" aria-label="Compare ${esc(t.session)}" ${t.voided || !t.results.length ? "disabled" : ""}></td>
-      <td data-label="Date">${fmtTime(t.started_at || t.created_at)}</td><td data-label="Session" class="id-cell">${esc(t.session)}</td>
+      <td data-label="Date" class="when">${fmtTime(t.started_at || t.created_at)}</td><td data-label="Session" class="id-cell">${esc(t.session)}</td>
       <td data-label="Gait speed (m/s)">${fmtFixed(v.gait_speed_m_s, 2)}</td><td data-label="Cadence (steps/min)">${fmtFixed(v.cadence_steps_min, 1)}</td>
       <td data-label="Step length (mm)">${fmtFixed(v.step_length_mm, 0)}</td><td data-label="Step length SI (%)">${fmtFixed(v.step_length_symmetry_index_pct, 1)}</td>
       <td data-label="State" class="wide">${esc(t.state_text)}${t.voided ? `<div class="void-note">Void: ${esc(t.void_reason)}</div>` : ""}</td>

@@ -212,7 +212,8 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     assert page.evaluate("() => trendCharts.map(c => c.data[1].length)") == [2, 2, 2, 2]
     assert page.evaluate(TICKS) == [["10 Nov 2026", "24 Nov 2026"]] * 4  # one visit a day: dates only
     assert "Void: walked with the wrong shoes" in page.inner_text(f"#history-table tr.voided[data-trial='{visits[2]}']")
-    for w, h in ((390, 844), (768, 1024), (1280, 900)):  # both lists fit; their void notes are on screen
+    for w, h in ((390, 844), (768, 1024), (901, 900), (1280, 900)):  # both lists fit (901: the narrowest as
+        # tables); their void notes are on screen
         page.set_viewport_size({"width": w, "height": h})
         assert page.evaluate("document.documentElement.scrollWidth") <= w, w
         for table in ("#trials", "#history-table"):
@@ -221,6 +222,8 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
             note.scroll_into_view_if_needed()
             box = note.bounding_box()
             assert box["x"] >= 0 and box["x"] + box["width"] <= w and 0 <= box["y"] <= h - box["height"], (w, table, box)
+        lines = page.eval_on_selector_all("#history-table a", "links => links.map(a => a.getClientRects().length)")
+        assert lines == [1, 1, 1], (w, lines)  # "Report (PDF)" on one line, never broken letter by letter
     page.set_viewport_size({"width": 390, "height": 844})
     page.check("#trend-void")  # unless asked for, then drawn as a grey ring
     assert page.evaluate("() => trendCharts.map(c => c.data[2].filter(v => v != null).length)") == [1, 1, 1, 1]
