@@ -165,7 +165,10 @@ function onStatus(snap) {
 function renderTrials(trials) {
   // updated in place: a row is rewritten only when its trial changed, so focus and clicks stay where they are
   const body = $("#trials tbody");
-  if (!trials.length) { if (!body.querySelector(".empty")) body.innerHTML = '<tr class="empty"><td colspan="6" class="muted">No trials yet.</td></tr>'; return; }
+  if (!trials.length) {
+    if (!body.querySelector(".empty")) body.innerHTML = '<tr class="empty"><td colspan="6" class="muted">No trials yet.</td></tr>';
+    keepTableRoles($("#trials")); return;
+  }
   body.querySelector(".empty")?.remove();
   const rows = new Map([...body.querySelectorAll("tr[data-trial]")].map((tr) => [tr.dataset.trial, tr]));
   const wanted = new Set(trials.map((t) => t.id));
@@ -189,6 +192,15 @@ function renderTrials(trials) {
     }
     if (tr !== before) body.insertBefore(tr, before); else before = before.nextElementSibling;
   }
+  keepTableRoles($("#trials"));
+}
+
+// a list shown as cards below 900 px (table.stack) stays a table to screen readers: the roles said outright,
+// as some browsers drop a table's own roles once its display is changed
+function keepTableRoles(table) {
+  table.setAttribute("role", "table");
+  for (const [sel, role] of [["thead, tbody", "rowgroup"], ["tr", "row"], ["th", "columnheader"], ["td", "cell"]])
+    for (const el of table.querySelectorAll(`:is(${sel}):not([role])`)) el.setAttribute("role", role);
 }
 
 // the trial list's columns: the label each cell carries when a narrow screen stacks a row's cells

@@ -158,6 +158,7 @@ async function showHistory(subjectId) {
       <td data-label="State" class="wide">${esc(t.state_text)}${t.voided ? `<div class="void-note">Void: ${esc(t.void_reason)}</div>` : ""}</td>
       <td class="wide">${t.results.length ? `<a href="/trials/${encodeURIComponent(t.id)}/report.pdf" target="_blank" rel="noopener">Report (PDF)</a>` : ""}</td></tr>`;
   }).join("");
+  keepTableRoles($("#history-table"));
   for (const box of body.querySelectorAll(".cmp")) box.onchange = compareChecked;
   drawTrends(h.history);
   $("#compare").hidden = true;

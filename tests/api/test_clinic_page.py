@@ -222,6 +222,13 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
             note.scroll_into_view_if_needed()
             box = note.bounding_box()
             assert box["x"] >= 0 and box["x"] + box["width"] <= w and 0 <= box["y"] <= h - box["height"], (w, table, box)
+            # to a screen reader still a table (cards or not): its headers, rows and cells, each cell named by
+            # its content only (the label drawn before it on a card is the column header's job)
+            grid = page.get_by_role("table").and_(page.locator(table))
+            assert grid.count() == 1, (w, table)
+            assert grid.get_by_role("columnheader", name="Session", exact=True).count() == 1, (w, table)
+            assert grid.get_by_role("row").count() == 1 + page.locator(f"{table} tbody tr").count(), (w, table)
+            assert grid.get_by_role("cell", name="visit-2", exact=True).count() == 1, (w, table)
         lines = page.eval_on_selector_all("#history-table a", "links => links.map(a => a.getClientRects().length)")
         assert lines == [1, 1, 1], (w, lines)  # "Report (PDF)" on one line, never broken letter by letter
     page.set_viewport_size({"width": 390, "height": 844})
