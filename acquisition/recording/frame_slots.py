@@ -17,7 +17,10 @@ restarts reads exactly as before (a clock offset between cameras stays for the s
 A frame id far outside the recording (a corrupt message, or one written before the recorder checked frame
 ids) is left out and counted (``strays``), never allocated for, in two steps. Before placing: a few frames
 whose id is more than ``SLACK_FRAMES`` out of line with the frames around them in time, amid one counter
-(:func:`_in_line`; a restart is a lasting jump, not a few frames). After placing, so frames after a restart
+(:func:`_in_line`; a restart is a lasting jump, not a few frames), and a few frames at either end of a
+camera's series whose timestamp is more than ``SLACK_FRAMES`` periods from the camera's other frames
+while their id is not (a timestamp far off: without this, one frame stamped early would read as the
+camera's first counter and the rest as a restart). After placing, so frames after a restart
 (placed by time) are judged like any other: the frame sets of all cameras together are cut at their widest
 gaps, keeping the side with more frames, until the recording spans at most ``2 x its frame sets +
 SLACK_FRAMES`` (:func:`recording_span`; the memory a reader allocates stays bounded by the data); those
@@ -47,18 +50,34 @@ class SlotReport:
         restarts: {camera: how many times its frame counter started again within the recording}.
         moved: {camera: frames placed by timestamp (offset != 0)}.
         dropped: {camera: frames that landed on a slot the camera already had}.
-        strays: {camera: frame ids (in time order) far outside the recording, left out}.
+        strays: {camera: frame ids (in time order) far outside the recording, left out}, or of frames
+            whose timestamp was far from that of their frame id (:meth:`in_span`).
+        span: (first, last) frame set of the recording.
     """
 
     restarts: dict[str, int]
     moved: dict[str, int]
     dropped: dict[str, int]
     strays: dict[str, tuple[int, ...]] = field(default_factory=dict)
+    span: tuple[int, int] = (0, -1)
+
+    def in_span(self, ids: tuple[int, ...]) -> tuple[int, ...]:
+        """The stray frame ids that are frame sets of the recording: those frames were left out for their
+        timestamp, far from that of their frame id, not for their id."""
+        return tuple(f for f in ids if self.span[0] <= f <= self.span[1])
 
     def messages(self) -> list[str]:
         """One plain sentence per camera that restarted, lost frames to a collision or had stray frame ids."""
-        out = [f"camera {cam}: {len(ids)} frames with frame ids far outside the recording (from {ids[0]}) were "
-               "left out" for cam, ids in sorted(self.strays.items())]
+        out = []
+        for cam, ids in sorted(self.strays.items()):
+            timed = self.in_span(ids)
+            if len(timed) < len(ids):
+                far = [f for f in ids if f not in timed]
+                out.append(f"camera {cam}: {len(far)} frames with frame ids far outside the recording (from "
+                           f"{far[0]}) were left out")
+            if timed:
+                out.append(f"camera {cam}: {len(timed)} frames with a timestamp far from that of their frame id "
+                           f"(from frame {timed[0]}) were left out")
         for cam in sorted(set(self.restarts) | set(self.dropped)):
             if self.restarts.get(cam):
                 out.append(f"camera {cam}: frame counter restarted {self.restarts[cam]} time(s) within the "
@@ -117,7 +136,7 @@ def align_frame_slots(series: dict[str, tuple[np.ndarray, np.ndarray]]
         out = np.setdiff1d(np.arange(ids.size), inside[cam])
         if out.size:
             strays[cam] = tuple(ids[out[np.lexsort((ids[out], ts[out]))]].tolist())
-    report = SlotReport(report.restarts, report.moved, report.dropped, strays)
+    report = SlotReport(report.restarts, report.moved, report.dropped, strays, (lo, hi))
     for message in report.messages():
         log.warning("%s", message)
     return placed, report
@@ -131,7 +150,8 @@ def _in_line(ids: np.ndarray, ts: np.ndarray, period_ns: float) -> np.ndarray:
     more than :data:`SLACK_FRAMES`; a run shorter than :data:`_SHORT_RUN` frames between two longer runs
     that are in line with each other (the counter went on across it: no restart), and not in line with
     them itself, is stray. Short runs at either end of the series are kept here (the recording's span
-    judges them)."""
+    judges them) unless their frames are more than :data:`SLACK_FRAMES` periods in time from the runs
+    next to them: a timestamp far off (stamped early, it would otherwise be the camera's first counter)."""
     if not ids.size:
         return np.zeros(0, dtype=np.int64)
     order = np.lexsort((ids, ts))
@@ -140,6 +160,10 @@ def _in_line(ids: np.ndarray, ts: np.ndarray, period_ns: float) -> np.ndarray:
     starts, stops = np.r_[0, cuts], np.r_[cuts, lag.size]
     runs = np.flatnonzero(stops - starts >= _SHORT_RUN)
     kept = np.ones(lag.size, dtype=bool)
+    if runs.size:  # frames before the first long run and after the last, far from it in time
+        t, head, tail = ts[order], int(starts[runs[0]]), int(stops[runs[-1]])
+        kept[:head] = t[head] - t[:head] <= SLACK_FRAMES * period_ns
+        kept[tail:] = t[tail:] - t[tail - 1] <= SLACK_FRAMES * period_ns
     for before, after in zip(runs[:-1].tolist(), runs[1:].tolist(), strict=True):
         counter = int(lag[stops[before] - 1])
         if after == before + 1 or abs(int(lag[starts[after]]) - counter) > SLACK_FRAMES:

@@ -291,6 +291,8 @@ class KeypointRecording:
             whose every message was such is not in ``camera_names``.
         stray_frame_ids: {camera: the first (in time) of those frame ids, at most
             :data:`STRAY_EXAMPLES`}.
+        mistimed: {camera: how many of its ``strays`` have a frame id of the recording: they were left out
+            for a timestamp far from that of their frame id (or outside 0..2**63 ns), not for their id}.
         unreadable: {camera: {why: keypoint messages that could not be read for that reason, ignored}}
             (not JSON, a field missing or of the wrong kind); a camera with none left is not in
             ``camera_names``.
@@ -306,6 +308,7 @@ class KeypointRecording:
     strays: dict[str, int] = field(default_factory=dict)
     stray_frame_ids: dict[str, tuple[int, ...]] = field(default_factory=dict)
     unreadable: dict[str, dict[str, int]] = field(default_factory=dict)
+    mistimed: dict[str, int] = field(default_factory=dict)
 
     def patient(self) -> Detections:
         """people[0] of every frame (the detector's first person) as reconstruction input."""
@@ -412,7 +415,8 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
                 people[c, fid - first, : len(ppl)] = ppl
     return KeypointRecording(tuple(names), frame_ids, _frame_times_s(stamps), skeletons.pop(), people, stamps,
                              report.restarts, {c: len(ids) for c, ids in strays.items()},
-                             {c: ids[:STRAY_EXAMPLES] for c, ids in strays.items()}, unreadable)
+                             {c: ids[:STRAY_EXAMPLES] for c, ids in strays.items()}, unreadable,
+                             {c: len(timed) for c, ids in strays.items() if (timed := report.in_span(ids))})
 
 
 def _one_joint_count(per_cam: dict[str, list[tuple[int, int, np.ndarray, str]]],

@@ -103,6 +103,7 @@ class DataQuality:
     strays: dict[str, int] = field(default_factory=dict)  # camera -> keypoint messages with a frame id far outside, ignored
     stray_frame_ids: dict[str, list[int]] = field(default_factory=dict)  # camera -> the first of those frame ids
     unreadable: dict[str, dict[str, int]] = field(default_factory=dict)  # camera -> {why: keypoint messages ignored}
+    mistimed: dict[str, int] = field(default_factory=dict)  # camera -> of its strays, those with a timestamp far off
     recovered: bool = False  # the recording was cut by a recorder crash and recovered (no recorder summary)
     warnings: tuple[str, ...] = ()
     serious: bool = False
@@ -200,7 +201,7 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
                       recorded_frames: dict[str, np.ndarray] | None = None, recovered: bool = False,
                       recorder_dropped: dict[str, int] | None = None, strays: dict[str, int] | None = None,
                       stray_frame_ids: dict[str, tuple[int, ...]] | None = None,
-                      unreadable: dict[str, dict[str, int]] | None = None,
+                      unreadable: dict[str, dict[str, int]] | None = None, mistimed: dict[str, int] | None = None,
                       criteria: QualityCriteria = QualityCriteria()) -> DataQuality:
     """Measures and warnings from a recording's (C, T) camera timestamps (-1 where missing) and the
     patient's (C, T, J) detection confidences; ``expected_cameras``: the calibration's cameras (one
@@ -214,7 +215,8 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     ``strays`` / ``stray_frame_ids``: {camera: keypoint messages the reader ignored, their frame ids far
     outside the recording} / {camera: the first of those ids} (a camera with only such messages is not in
     ``camera_names`` and is named for that, not as absent); ``unreadable``: {camera: {why: keypoint
-    messages the reader could not read and ignored}} (likewise)."""
+    messages the reader could not read and ignored}} (likewise); ``mistimed``: {camera: how many of its
+    ``strays`` have a frame id of the recording (left out for a timestamp far from their frame's)}."""
     stamps = np.asarray(timestamps_ns, dtype=np.int64)
     restarts = dict(restarts or {})
     images = {n: np.asarray(ids, dtype=np.int64) for n, ids in (recorded_frames or {}).items()}
@@ -253,6 +255,7 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
                           coverage=None if coverage is None else round(coverage, 3), criteria=criteria,
                           recorded_s=None if recorded_s is None else round(float(recorded_s), 3),
                           restarts=restarts, absent=absent, recovered=recovered, strays=strays, unreadable=unreadable,
+                          mistimed={n: int(k) for n, k in (mistimed or {}).items() if k and n in strays},
                           stray_frame_ids={n: [int(f) for f in ids] for n, ids in (stray_frame_ids or {}).items()})
     return judged(quality)
 
@@ -348,25 +351,33 @@ def judged(q: DataQuality) -> DataQuality:
 
 
 def _strays(q: DataQuality) -> list[str]:
-    """Keypoint messages ignored for a frame id far outside the recording, per camera, with their ids."""
+    """Keypoint messages ignored for a frame id far outside the recording or a timestamp far from that of
+    their frame, per camera, with their ids."""
     out, judged_cameras = [], {c.name for c in q.cameras}
     for name, count in sorted(q.strays.items()):
-        ids = q.stray_frame_ids.get(name, [])
-        named = f" ({', '.join(map(str, ids))}{', ...' if count > len(ids) else ''})" if ids else ""
         if name in q.unreadable and name not in judged_cameras:
             continue  # said with the messages that could not be read (:func:`_unreadable`)
+        ids = q.stray_frame_ids.get(name, [])
+        named = f" ({', '.join(map(str, ids))}{', ...' if count > len(ids) else ''})" if ids else ""
+        what = _stray_what(count, q.mistimed.get(name, 0))
         if name not in judged_cameras:
-            which = f"all its {count} keypoint messages had frame ids" if count > 1 else \
-                "its only keypoint message had a frame id"
-            out.append(f"Camera {name}: {which} far outside the recording{named} and {'were' if count > 1 else 'was'} "
+            which = f"all its {count} keypoint messages" if count > 1 else "its only keypoint message"
+            out.append(f"Camera {name}: {which} had {what}{named} and {'were' if count > 1 else 'was'} "
                        "ignored: the camera has no keypoints")
-        elif count == 1:
-            out.append(f"Camera {name}: 1 keypoint message with a frame id far outside the recording{named} "
-                       "was ignored")
         else:
-            out.append(f"Camera {name}: {count} keypoint messages with frame ids far outside the recording{named} "
-                       "were ignored")
+            out.append(f"Camera {name}: {count} keypoint message{'s' if count > 1 else ''} with {what}{named} "
+                       f"{'were' if count > 1 else 'was'} ignored")
     return out
+
+
+def _stray_what(count: int, mistimed: int) -> str:
+    """What was wrong with ``count`` ignored keypoint messages, ``mistimed`` of them for their timestamp."""
+    if not mistimed:
+        return "frame ids far outside the recording" if count > 1 else "a frame id far outside the recording"
+    if mistimed == count:
+        return "timestamps far from their frames'" if count > 1 else "a timestamp far from its frame's"
+    return (f"frame ids far outside the recording ({count - mistimed}) or timestamps far from their frames' "
+            f"({mistimed})")
 
 
 def _unreadable(q: DataQuality) -> list[str]:
@@ -385,7 +396,7 @@ def _unreadable(q: DataQuality) -> list[str]:
             far, ids = q.strays[name], q.stray_frame_ids.get(name, [])
             named = f" ({', '.join(map(str, ids))}{', ...' if far > len(ids) else ''})" if ids else ""
             unread = f"{count} keypoint message{'s' if count > 1 else ''}"
-            tail = f", and the other {far} had frame ids far outside the recording{named}"
+            tail = f", and the other {far} had {_stray_what(far, q.mistimed.get(name, 0))}{named}"
         out.append(f"Camera {name}: {unread} could not be read ({why}){tail}: the camera has no keypoints")
     return out
 

@@ -231,6 +231,7 @@ class Worker:
                                     recorder_dropped=images.dropped,
                                     restarts=recording.restarts, strays=recording.strays,
                                     stray_frame_ids=recording.stray_frame_ids, unreadable=recording.unreadable,
+                                    mistimed=recording.mistimed,
                                     criteria=self.config.criteria)
         rig = seen_rig
         source = (recording, rig, mcap)  # what the viewer files show besides the results

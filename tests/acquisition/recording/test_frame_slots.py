@@ -32,3 +32,21 @@ def test_a_camera_with_only_stray_ids_gets_no_frames():
                                         "cam1": (np.array([2**40, 2**40 + 1]), T0_NS + np.array([5, 6]) * PERIOD_NS)})
     assert placed["cam1"][0].size == 0 and report.strays == {"cam1": (2**40, 2**40 + 1)}
     np.testing.assert_array_equal(placed["cam0"][1], sets)
+
+
+def test_a_frame_with_a_good_id_and_a_timestamp_far_off_is_left_out_for_its_timestamp(caplog):
+    """Frame 50 of cam0 stamped an hour late, an hour early or 10 min late: it alone is left out (never
+    taken for a counter restart, which would keep it with its wrong time), and said to be for its
+    timestamp, not its id."""
+    sets = np.arange(300)
+    for off_s in (3600, -3600, 600):
+        ts = T0_NS + sets * PERIOD_NS
+        bad = ts.copy()
+        bad[50] += off_s * 10**9
+        caplog.clear()
+        placed, report = align_frame_slots({"cam0": (sets, bad), "cam1": (sets, ts + 1000), "cam2": (sets, ts + 2000)})
+        assert report.strays == {"cam0": (50,)} and report.restarts == {} and report.dropped == {}, off_s
+        assert report.in_span((50, 2**40)) == (50,)
+        np.testing.assert_array_equal(placed["cam0"][1], np.delete(sets, 50))
+        assert "camera cam0: 1 frames with a timestamp far from that of their frame id (from frame 50)" in caplog.text
+        assert "frame ids far outside" not in caplog.text

@@ -81,8 +81,28 @@ def test_a_stray_keypoint_frame_id_is_ignored_and_counted_not_allocated(tmp_path
     assert time.monotonic() - t0 < 5
     assert kp.frame_ids.tolist() == list(range(10)) and kp.camera_names == ("cam01", "cam02")
     assert (kp.timestamps_ns >= 0).all() and not np.isnan(kp.people[..., 0]).any()
-    assert kp.strays == {"cam01": 1} and kp.stray_frame_ids == {"cam01": (2**40,)}
+    assert kp.strays == {"cam01": 1} and kp.stray_frame_ids == {"cam01": (2**40,)} and kp.mistimed == {}
     assert kp.restarts == {}  # the stray in the camera's series is not taken for a counter restart
+
+
+def test_a_keypoint_message_with_a_good_frame_id_stamped_far_off_is_ignored_for_its_timestamp(tmp_path):
+    """cam01's frame 5 stamped an hour early: left out and counted as mistimed (its id is one of the
+    recording's), not read as the camera's first counter with the rest a restart."""
+    from gaitcap.acquisition.recording.reader import read_keypoints
+    from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
+
+    writer = TrialWriter(tmp_path / "m.mcap", WriterSettings())
+    writer.start(metadata={"trial_id": "t"}, time_ns=1)
+    people = [[[1.0, 2.0, 0.5]] * 26]
+    for cam in ("cam01", "cam02"):
+        for fid in range(10):
+            ts = 10**18 + fid * 33_333_333 - (3600 * 10**9 if (cam, fid) == ("cam01", 5) else 0)
+            writer.add_keypoints(cam, Keypoints(cam, fid, ts, "halpe26", people).to_bytes(), timestamp_ns=ts,
+                                 frame_id=fid)
+    kp = read_keypoints(writer.finish({}))
+    assert kp.frame_ids.tolist() == list(range(10)) and kp.restarts == {}
+    assert kp.strays == {"cam01": 1} and kp.stray_frame_ids == {"cam01": (5,)} and kp.mistimed == {"cam01": 1}
+    assert (kp.timestamps_ns[0] >= 10**18).tolist() == [f != 5 for f in range(10)]
 
 
 def test_stray_frame_ids_around_a_restart_leave_the_restarted_frames_in_place(tmp_path):

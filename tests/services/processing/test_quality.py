@@ -281,3 +281,17 @@ def test_keypoint_messages_that_could_not_be_read_are_named_and_a_camera_left_wi
         "Camera cam9: 4 keypoint messages could not be read (not JSON), and the other 3 had frame ids far outside "
         "the recording (1099511627776, ...): the camera has no keypoints")
     assert with_reprojection(q, {}).unreadable == q.unreadable
+
+
+def test_keypoint_messages_left_out_for_their_timestamp_are_said_to_be_so():
+    q = recording_quality(camera_names=NAMES[:9], timestamps_ns=_stamps()[:9], patient_confidence=None,
+                          expected_cameras=NAMES, strays={"cam1": 1, "cam2": 3, "cam9": 2},
+                          stray_frame_ids={"cam1": (50,), "cam2": (2**40, 7, 8), "cam9": (3, 4)},
+                          mistimed={"cam1": 1, "cam2": 2, "cam9": 2})
+    assert q.warnings == (
+        "Camera cam1: 1 keypoint message with a timestamp far from its frame's (50) was ignored",
+        "Camera cam2: 3 keypoint messages with frame ids far outside the recording (1) or timestamps far from "
+        "their frames' (2) (1099511627776, 7, 8) were ignored",
+        "Camera cam9: all its 2 keypoint messages had timestamps far from their frames' (3, 4) and were ignored: "
+        "the camera has no keypoints")
+    assert with_reprojection(q, {}).mistimed == {"cam1": 1, "cam2": 2, "cam9": 2}
