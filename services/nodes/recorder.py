@@ -204,7 +204,8 @@ class Recording:
     def write(self, kind: str, camera: str, payload: bytes, att: bytes | None, recv_ns: int) -> None:
         """Write one bus message of ``kind`` (image | keypoints | status) from ``camera``, as received at
         ``recv_ns`` (ns); ValueError for a message that contradicts its key or cannot be parsed."""
-        _WRITERS[kind](self, camera, payload, att, recv_ns)
+        writer = {"image": self.write_image, "keypoints": self.write_keypoints, "status": self.write_status}[kind]
+        writer(camera, payload, att, recv_ns)
 
     def write_image(self, camera: str, payload: bytes, att: bytes | None, recv_ns: int) -> None:
         frame = ImageFrame.from_bytes(payload, att, camera=camera)
@@ -273,9 +274,6 @@ class Recording:
             "error": self.error,
         }
 
-
-
-_WRITERS = {"image": Recording.write_image, "keypoints": Recording.write_keypoints, "status": Recording.write_status}
 
 class _NoRequest:
     """The status query carries no payload."""
