@@ -74,7 +74,7 @@ def run_calibration(catalog: Catalog, cal_id: str, *, board=None, check: Callabl
     if cal.state != CALIBRATING:
         log.info("calibration %s is %s; nothing to do", cal_id, cal.state)
         return
-    words = "?"
+    words = "none: the board recorded on the calibration is not a board"  # until board_used() read it
     try:
         board, words = (board, board.describe()) if board is not None else board_used(cal)
         update_calibration(catalog, cal_id, stage="finding the board", progress=0.0)

@@ -136,3 +136,16 @@ def test_a_worker_killed_mid_calibration_loses_the_job_to_another(images, tmp_pa
     assert (job.state, job.worker_id, job.attempts) == ("done", "w2", 2)
     done = cals.get_calibration(db, cal_id)
     assert done.state == "done" and cat.latest_calibration(db)[0] == cal_id, done.error
+
+
+def test_a_calibration_whose_recorded_board_is_not_a_board_fails_saying_so(tmp_path):
+    from gaitcap.services.processing.calibration_job import run_calibration
+
+    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+    c = cals.start_board_recording(db, recording_path_for=lambda _id: tmp_path / "none.mcap", started_by="alice",
+                                   board={"kind": "triangle"})
+    cals.queue_calibration(db, c.id, frames=10)
+    run_calibration(db, c.id)
+    got = cals.get_calibration(db, c.id)
+    assert got.state == "failed" and f"calibration {c.id} board" in got.error
+    assert got.error.endswith("(board used: none: the board recorded on the calibration is not a board)"), got.error
