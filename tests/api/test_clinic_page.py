@@ -148,8 +148,9 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
             (((2024, 11, 10, 8, 0), (2025, 11, 3, 8, 0), (2026, 11, 24, 23, 59)), ["10 Nov 2024", "3 Nov 2025", "24 Nov 2026"])):
         times = [calendar.timegm((*t, 0, 0, 0, 0)) for t in visits_at]
         assert page.evaluate(AXIS_OF, times) == labels
-    for cap in page.eval_on_selector_all("#trends figcaption", "c => c.map(x => x.textContent)"):
-        assert "by visit date" in cap and cap.count("(") >= 1, cap
+    caps = page.eval_on_selector_all("#trends figcaption", "c => c.map(x => x.textContent)")
+    assert [c.split(" per visit, by visit date;")[0] for c in caps] == [  # each names its parameter and unit
+        "Gait speed (m/s)", "Step length (mm)", "Cadence (steps/min)", "Step length symmetry index (%)"], caps
     # a man of 70 (Hollman 2011, men 70-74): gait speed 1.17 +- 0.16 m/s, step length 690 +- 80 mm, cadence
     # 102 +- 8 steps/min; the band is mean +- 1.96 SD at each visit; the symmetry index has no reference
     bands = page.evaluate("() => trendCharts.map(c => c.data.length === 5 ? [c.data[4][0], c.data[3][0]] : null)")
