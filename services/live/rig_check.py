@@ -68,11 +68,11 @@ def recorder_warnings(summary: dict) -> list[str]:
     out = []
     messages = {c: int(n) for c, n in (summary.get("dropped_frames") or {}).items() if n}
     images = {c: int(n) for c, n in (summary.get("dropped_images") or {}).items() if n}
-    if messages:
-        keypoints = sum(messages.values()) - sum(images.values())
-        per_camera = _names([f"{c} {images.get(c, 0)}" for c in sorted(messages)])
-        out.append(f"The recorder dropped {sum(images.values())} camera images ({per_camera}) and {keypoints} "
-                   "keypoint messages because the disk or CPU was too slow")
+    if messages:  # dropped_frames: every message dropped (images, keypoints, status); dropped_images: the images
+        others = sum(messages.values()) - sum(images.values())
+        per_camera = f" ({_names([f'{c} {n}' for c, n in sorted(images.items())])})" if images else ""
+        out.append(f"The recorder dropped {sum(images.values())} camera images{per_camera} and {others} "
+                   "keypoint and status messages because the disk or CPU was too slow")
     if summary.get("error"):
         out.append(f"Recording error: {summary['error']}")
     return out
