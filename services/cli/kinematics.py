@@ -56,8 +56,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Scale an OpenSim model to the trial, inverse kinematics, gait-cycle joint angles with norms."""
         from gaitcap.services.kinematics import KinematicsUnavailable
-        from gaitcap.services.kinematics.shown import with_norms
-        from gaitcap.services.kinematics.trial import KinematicsConfig, trial_kinematics
+        from gaitcap.services.kinematics.trial import FILES, KinematicsConfig, trial_kinematics
         from gaitcap.services.processing.outputs import read_npz
         from gaitcap.services.processing.pipeline import gait_of
 
@@ -72,13 +71,13 @@ def register(app: typer.Typer) -> None:
             if gait is None:
                 typer.echo(f"note: no gait cycles ({problem}); joint angles only", err=True)
             try:
-                report = trial_kinematics(traj.points_mm, traj.times_s, traj.joint_names,
-                                          steps=gait.steps if gait is not None else (), quality=traj.num_views,
-                                          out_dir=folder, age_years=age, config=KinematicsConfig(mass_kg=mass_kg))
+                trial_kinematics(traj.points_mm, traj.times_s, traj.joint_names,
+                                 steps=gait.steps if gait is not None else (), quality=traj.num_views,
+                                 out_dir=folder, age_years=age, config=KinematicsConfig(mass_kg=mass_kg))
             except KinematicsUnavailable as exc:
                 typer.echo(f"error: kinematics are unavailable: {exc}", err=True)
                 raise typer.Exit(code=3) from None
-        shown = with_norms({"available": True, **report.to_dict()}, age)  # as written to kinematics.json
+        shown = json.loads((folder / FILES["json"]).read_text())  # what is shown is the file as written
         if as_json:
             typer.echo(json.dumps(shown))
         else:

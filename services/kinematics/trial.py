@@ -23,7 +23,7 @@ from gaitcap.reconstruction.kinematics.report import KinematicsReport, curves_cs
 from gaitcap.services.kinematics.base import FitRequest, KinematicsUnavailable
 from gaitcap.services.kinematics.c3d_file import write_c3d
 from gaitcap.services.kinematics.engine import get_engine
-from gaitcap.services.kinematics.files import norm_bands
+from gaitcap.services.kinematics.files import norms_for_age
 from gaitcap.services.kinematics.shown import curves_png, with_norms
 
 log = logging.getLogger(__name__)
@@ -90,7 +90,7 @@ def trial_kinematics(points_mm: np.ndarray, times_s: np.ndarray, joint_names, *,
              "frames_fitted": int(np.isfinite(fit.coordinates_deg["knee_angle_r"]).sum()) if
              "knee_angle_r" in fit.coordinates_deg else 0, "frames": int(len(fit.times_s)),
              "seconds": {**fit.seconds, "total": round(time.perf_counter() - t0, 3)}}
-    report = kinematics_report(fit.coordinates_deg, fit.times_s, steps, norms=norm_bands(),
+    report = kinematics_report(fit.coordinates_deg, fit.times_s, steps, norms=norms_for_age(age_years).bands,
                                marker_errors_mm=fit.marker_errors_mm, model=model, held=fit.held)
     shown = with_norms({"available": True, **report.to_dict()}, age_years)  # the API re-chooses on reading
     atomic_write_text(out_dir / FILES["json"], json.dumps(shown) + "\n")

@@ -186,3 +186,17 @@ def test_cli_kinematics(tmp_path, fitted):
     assert res.exit_code == 2 and "--mass-kg" in res.output
     res = runner.invoke(app, ["kinematics", str(tmp_path / "none.npz")])
     assert res.exit_code == 2 and "no such file" in res.output
+
+
+def test_the_returned_report_carries_the_band_written_for_the_age(engine, fitted, tmp_path):
+    from gaitcap.services.kinematics.files import adult_norms_file
+    from gaitcap.services.kinematics.trial import trial_kinematics
+
+    if not adult_norms_file().is_file():
+        pytest.skip("the adult normal-gait bands are not installed (deploy/bootstrap.sh)")
+    points, times, names, report, _, _ = fitted
+    kin = trial_kinematics(points[:60], times[:60], names, out_dir=tmp_path, age_years=40)
+    written = json.loads((tmp_path / "kinematics.json").read_text())["norms"]["bands"]
+    assert set(kin.norms) == set(written) and "hip_adduction" not in kin.norms  # the adults' band, not children's
+    knee = kin.norms["knee_flexion"].to_dict()
+    assert knee == written["knee_flexion"]

@@ -39,5 +39,7 @@ def test_age_chooses_the_band_and_the_command_names_it(walk_npz, tmp_path):
     written = json.loads((tmp_path / "adult" / "kinematics.json").read_text())["norms"]
     assert written["population"] == "adults (patient 40 years)" and "knee_flexion" in written["bands"]
     assert "hip_adduction" in written["missing"]  # no adult frontal band: said, not the children's
+    res = runner.invoke(app, ["kinematics", str(walk_npz), "--age", "40", "--json", "--out", str(tmp_path / "j")])
+    assert res.exit_code == 0 and json.loads(res.stdout)["norms"] == written  # what is shown is what is written
     res = runner.invoke(app, ["kinematics", str(walk_npz), "--age", "200"])
     assert res.exit_code == 2 and "--age: must be in [0, 120] years, got 200" in res.output
