@@ -308,17 +308,25 @@ def _solve(layout: _Layout, state: BundleState, rows: np.ndarray, config: Bundle
     return layout.unpack(x, state)
 
 
-def bundle_adjust(prob: BundleProblem, initial: BundleState, config: BundleConfig) -> BundleResult:
-    """Robust bundle adjustment with rounds of outlier rejection."""
+def outlier_threshold_px(err_px: np.ndarray, config: BundleConfig) -> float:
+    """Corners farther than this (px) are outliers, given the inliers' errors (P,) px."""
+    sigma = np.median(err_px) / RAYLEIGH_MEDIAN
+    return float(max(config.outlier_sigmas * sigma, config.min_outlier_px))
+
+
+def bundle_adjust(prob: BundleProblem, initial: BundleState, config: BundleConfig,
+                  exclude: np.ndarray | None = None) -> BundleResult:
+    """Robust bundle adjustment with rounds of outlier rejection; ``exclude`` (P,) bool: corners left
+    out from the start (never inliers; their residuals are still given)."""
     t0 = time.perf_counter()
     layout = _Layout(prob, config.refine_intrinsics, config.refine_cameras)
-    inlier = np.ones(len(prob.cam), dtype=bool)
+    allowed = np.ones(len(prob.cam), dtype=bool) if exclude is None else ~np.asarray(exclude, dtype=bool)
+    inlier = allowed.copy()
     state, rounds = initial, 0
     for rounds in range(1, config.max_rounds + 1):  # noqa: B007
         state = _solve(layout, state, np.flatnonzero(inlier), config)
         err = np.linalg.norm(project_corners(state, prob, np.arange(len(prob.cam))) - prob.uv_px, axis=-1)
-        sigma = np.median(err[inlier]) / RAYLEIGH_MEDIAN
-        keep = err <= max(config.outlier_sigmas * sigma, config.min_outlier_px)
+        keep = (err <= outlier_threshold_px(err[inlier], config)) & allowed
         log.info("bundle round %d: median error %.3f px, %d outliers", rounds, np.median(err[inlier]), (~keep).sum())
         if np.array_equal(keep, inlier):
             break

@@ -28,6 +28,7 @@ from gaitcap.reconstruction.calibration.report import (
 )
 from gaitcap.reconstruction.calibration.still import merge_still_frames
 from gaitcap.reconstruction.calibration.views import view_poses
+from gaitcap.reconstruction.calibration.whole_views import LEFT_OUT_REASON, disagreeing_views
 from gaitcap.reconstruction.calibration.world import (
     WorldFrameConfig,
     floor_plane,
@@ -47,6 +48,9 @@ class CalibrationConfig:
     known_intrinsics: {camera: (K (3, 3) px, dist (5,))} from an earlier calibration (e.g. a separate
     intrinsics session, as caliscope and Pose2Sim do): held fixed, only the poses are estimated. Every
     camera must be in it when given.
+    leave_out_disagreeing_views: views disagreeing with the other cameras as a whole are left out and
+    counted per camera (:mod:`gaitcap.reconstruction.calibration.whole_views`); False: every view is kept
+    and judged.
     """
 
     intrinsics: IntrinsicsConfig = field(default_factory=IntrinsicsConfig)
@@ -54,6 +58,7 @@ class CalibrationConfig:
     world: WorldFrameConfig = field(default_factory=WorldFrameConfig)
     thresholds: QualityThresholds = field(default_factory=QualityThresholds)
     known_intrinsics: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None
+    leave_out_disagreeing_views: bool = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,9 +108,12 @@ def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, .
 
 
 def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThresholds,
-                    all_rms: float, others_rms: float, intrinsics_estimated: bool) -> CameraQuality:
-    """One camera's figures and problems (coverage matters only where the intrinsics were estimated)."""
-    mine = prob.cam == c
+                    all_rms: float, others_rms: float, intrinsics_estimated: bool, left_out: np.ndarray) -> CameraQuality:
+    """One camera's figures and problems (coverage matters only where the intrinsics were estimated), on
+    its views kept (``left_out`` (P,): corners of views left out as disagreeing as a whole)."""
+    mine = (prob.cam == c) & ~left_out
+    n_left = len(np.unique(prob.frame[(prob.cam == c) & left_out]))
+    notes = (f"{n_left} views left out: {LEFT_OUT_REASON}",) if n_left else ()
     err = np.linalg.norm(res.residual_px[mine & res.inlier], axis=-1)
     mean, p95, rms = error_stats(err)
     cov = coverage(prob.uv_px[mine & res.inlier], obs.image_sizes_px[c], thresholds.grid)
@@ -123,25 +131,26 @@ def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThr
         obs.camera_names[c], n_views, int((mine & res.inlier).sum()), int((mine & ~res.inlier).sum()),
         mean, p95, rms, cov, not problems, tuple(problems), median_px=float(np.median(err)) if err.size else
         float("nan"), views_found=detected, views_kept_fraction=n_views / detected if detected else 0.0,
+        views_left_out=n_left, notes=notes,
     )
 
 
-def _rms_per_camera(prob, res: BundleResult, n_cams: int) -> np.ndarray:
-    """Each camera's reprojection RMS over ALL its corners, outliers included (px): a noisy camera loses
-    many corners to outlier rejection, which would hide it from an inlier RMS."""
+def _rms_per_camera(prob, res: BundleResult, n_cams: int, left_out: np.ndarray) -> np.ndarray:
+    """Each camera's reprojection RMS over ALL the corners of its views kept, outliers included (px): a
+    noisy camera loses many corners to outlier rejection, which would hide it from an inlier RMS."""
     out = np.full(n_cams, np.nan)
     for c in range(n_cams):
-        err = res.residual_px[prob.cam == c]
+        err = res.residual_px[(prob.cam == c) & ~left_out]
         if len(err):
             out[c] = float(np.sqrt(np.mean(np.sum(err**2, -1))))
     return out
 
 
-def _report(obs, config, prob, frames, res, world, cams_r, cams_t) -> QualityReport:
-    rms = _rms_per_camera(prob, res, obs.shape[0])
+def _report(obs, config, prob, frames, res, world, cams_r, cams_t, left_out) -> QualityReport:
+    rms = _rms_per_camera(prob, res, obs.shape[0], left_out)
     others = [float(np.nanmedian(np.delete(rms, c))) if obs.shape[0] > 1 else float(rms[c]) for c in range(len(rms))]
-    per_cam = tuple(_camera_quality(obs, prob, res, c, config.thresholds, rms[c],
-                                    others[c], config.known_intrinsics is None) for c in range(obs.shape[0]))
+    per_cam = tuple(_camera_quality(obs, prob, res, c, config.thresholds, rms[c], others[c],
+                                    config.known_intrinsics is None, left_out) for c in range(obs.shape[0]))
     mean, p95, rms = error_stats(np.linalg.norm(res.residual_px[res.inlier], axis=-1))
     ordered = np.full((obs.shape[0], len(frames), obs.board.num_corners, 2), np.nan)
     inl = res.inlier
@@ -151,7 +160,7 @@ def _report(obs, config, prob, frames, res, world, cams_r, cams_t) -> QualityRep
     return QualityReport(
         board=obs.board.name, distortion=config.intrinsics.distortion.value, cameras=per_cam,
         failed_cameras=tuple(q.name for q in per_cam if not q.ok), n_frames=len(frames),
-        n_corners=int(inl.sum()), n_outliers=int((~inl).sum()), reprojection_mean_px=mean,
+        n_corners=int(inl.sum()), n_outliers=int((~inl & ~left_out).sum()), reprojection_mean_px=mean,
         reprojection_p95_px=p95, reprojection_rms_px=rms, square_mm=obs.board.square_mm,
         square_measured_mm=square, square_residual_pct=100 * (square / obs.board.square_mm - 1),
         floor_frames=world.floor_frames, world_flipped=world.flipped, bundle_rounds=res.rounds,
@@ -204,6 +213,10 @@ def calibrate_from_observations(
     held_pp = np.array([i.principal_point_held for i in intr])
     prob, frames = _problem(obs, init, config.intrinsics.distortion.free, held_pp)
     res = bundle_adjust(prob, _initial_state(intr, init, frames), config.bundle)
+    left_out = disagreeing_views(prob, res, config.bundle) if config.leave_out_disagreeing_views \
+        else np.zeros(len(prob.cam), dtype=bool)
+    if left_out.any():
+        res = bundle_adjust(prob, res.state, config.bundle, exclude=left_out)
     used = np.zeros(obs.shape[1], dtype=bool)
     used[frames] = True
     full_r, full_t = np.full((obs.shape[1], 3, 3), np.nan), np.full((obs.shape[1], 3), np.nan)
@@ -221,7 +234,7 @@ def calibrate_from_observations(
                matrix_to_rodrigues(cams_r[c]), cams_t[c], serials.get(name, ""))
         for c, name in enumerate(obs.camera_names)
     ))
-    report = _report(obs, config, prob, frames, res, world, cams_r, cams_t)
+    report = _report(obs, config, prob, frames, res, world, cams_r, cams_t, left_out)
     board_r = np.full((len(runs), 3, 3), np.nan)  # board -> world, for every frame given (still runs share)
     board_t = np.full((len(runs), 3), np.nan)
     board_r[:] = np.einsum("ji,fjk->fik", world.rotation, full_r)[runs]

@@ -32,7 +32,9 @@ class QualityThresholds:
 @dataclass(frozen=True)
 class CameraQuality:
     """One camera: board views used, corners (inliers / outliers), reprojection error (px: mean, p95, RMS,
-    median) and coverage; views_found: views the detector gave; views_kept_fraction: used / found."""
+    median) and coverage; views_found: views the detector gave; views_kept_fraction: used / found;
+    views_left_out: views left out as disagreeing with the other cameras as a whole (not used, not
+    judged); notes: what was left out and why, plain words."""
 
     name: str
     n_detections: int
@@ -47,6 +49,8 @@ class CameraQuality:
     median_px: float = float("nan")
     views_found: int = 0
     views_kept_fraction: float = float("nan")
+    views_left_out: int = 0
+    notes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -54,7 +54,7 @@ def _pnp(obj: np.ndarray, img: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray
     return rvec, tvec, np.linalg.norm(proj[:, 0] - img, axis=-1)
 
 
-def _solve_view(obj: np.ndarray, img: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray, np.ndarray, float]:
+def solve_view(obj: np.ndarray, img: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray, np.ndarray, float]:
     """Board -> camera (R, t) and the median reprojection error (px). Corners far off the first fit
     (misplaced by the detector) are left out of a second fit, so they cannot tip the planar pose over."""
     first = _pnp(obj, img, intr)
@@ -83,7 +83,7 @@ def view_poses(obs: BoardObservations, intrinsics: list[Intrinsics]) -> ViewPose
             img = obs.corners_px[c, f][seen[c, f]]
             for s, perm in enumerate(syms):
                 obj = obs.board.object_points_mm[perm[seen[c, f]]]
-                r, t, median = _solve_view(obj, img, intrinsics[c])
+                r, t, median = solve_view(obj, img, intrinsics[c])
                 rot[c, f, s], tvec[c, f, s] = r, t
                 facing = one_order or _front_facing(r, t)
                 valid[c, f, s] = median < MAX_PNP_MEDIAN_PX and t[2] > 0 and facing

@@ -139,12 +139,15 @@ def test_the_second_sessions_excess_error_is_the_moving_board():
     known = {c.name: (c.matrix_px, c.dist) for c in ref.cameras}
     result = calibrate_from_observations(obs, config=CalibrationConfig(known_intrinsics=known))
     rms = [q.reprojection_rms_px for q in result.report.cameras]
-    # 0.80 / 1.36 / 1.42 / 1.22 px with every view; measured 0.51 / 0.89 / 0.84 / 1.06 px without the smeared
+    # 0.80 / 1.36 / 1.42 / 1.22 px with every view; measured 0.48 / 0.82 / 0.80 / 1.03 px without the smeared
     assert max(rms) < 1.1 and sorted(rms)[2] < 0.95, rms
-    # camera 1 keeps 24 of its 48 views (at most half go), 6 of them disagreeing with the other cameras as
-    # a whole (every corner an outlier): its RMS over all its corners stands out and the report says so
-    assert set(result.report.failed_cameras) <= {"cam_1"}, result.report.failed_cameras
-    assert all("x the other cameras' median" in p for q in result.report.cameras for p in q.problems)
-    assert [q.name for q in result.report.cameras if q.problems] == ["cam_1"]  # the report does say so
+    # camera 1 keeps 24 of its 48 views (at most half go), 5 of them disagreeing with the other cameras as
+    # a whole (every corner an outlier): left out and counted (judged on all of them its RMS over all its
+    # corners was 2.9 x the others' median, and it was refused)
+    assert result.report.failed_cameras == (), [q.problems for q in result.report.cameras]
+    left = {q.name: q.views_left_out for q in result.report.cameras if q.views_left_out}
+    assert left.get("cam_1", 0) >= 4 and sum(left.values()) <= left["cam_1"] + 2, left
+    assert all(q.notes[0].endswith("views left out: the board disagreed with the other cameras as a whole "
+                                   "(moving or out of sync)") for q in result.report.cameras if q.views_left_out)
     cmp = compare_similar(ref, result.rig)
     assert cmp.centre_mm_max < 10.0 and cmp.rotation_deg_max < 1.5, (cmp.centre_mm, cmp.rotation_deg)
