@@ -2,7 +2,7 @@
 squares (DICT_4X4_50), its corner detections in the tracker-named layout (``CHARUCO/xy_CHARUCO.csv``, 2003
 sync indices) and caliscope's bundle-adjusted calibration of them (from the caliscope 0.7.5 sdist, installed
 by deploy/bootstrap.sh). The tests keep every 20th sync index, as caliscope's own tests do: the figures
-below were measured on it (those of the whole file, in docs/calibration.md, differ by < 0.5 mm, 0.03 deg)."""
+below were measured on it (those of the whole file, in docs/calibration.md, differ by < 0.7 mm, 0.05 deg)."""
 
 import csv
 from dataclasses import replace
