@@ -56,11 +56,12 @@ async function loadSides(trialId) {
   body.innerHTML = r.parameters.map((p) => {
     const d = p.decimals, out = p.z != null && Math.abs(p.z) > 1.96;
     const range = p.normal_range ? `${fmtFixed(p.normal_range[0], d)}–${fmtFixed(p.normal_range[1], d)}` : "no reference";
-    return `<tr data-parameter="${esc(p.name)}"><td><abbr title="${esc(p.help)}">${esc(p.label)}</abbr> (${esc(p.unit)})</td>
-      <td>${fmtFixed(p.left, d)}</td><td>${fmtFixed(p.right, d)}</td><td>${fmtFixed(p.mean, d)}</td><td>${fmtFixed(p.sd, d + 1)}</td>
-      <td>${fmtFixed(p.symmetry_index_pct, 1)}</td><td${p.norm_source ? ` title="${esc(p.norm_source)}"` : ""}>${range}</td><td class="${out ? "out" : ""}">${p.z == null ? "–" : (p.z > 0 ? "+" : "") + p.z.toFixed(1)}</td>
-      <td>${sideBars(p.left, p.right)}</td></tr>`;
+    return `<tr data-parameter="${esc(p.name)}"><td class="wide name"><abbr title="${esc(p.help)}">${esc(p.label)}</abbr> (${esc(p.unit)})</td>
+      <td data-label="Left">${fmtFixed(p.left, d)}</td><td data-label="Right">${fmtFixed(p.right, d)}</td><td data-label="Mean">${fmtFixed(p.mean, d)}</td><td data-label="SD">${fmtFixed(p.sd, d + 1)}</td>
+      <td data-label="SI %">${fmtFixed(p.symmetry_index_pct, 1)}</td><td data-label="Normal range"${p.norm_source ? ` title="${esc(p.norm_source)}"` : ""}>${range}</td><td data-label="z" class="${out ? "out" : ""}">${p.z == null ? "–" : (p.z > 0 ? "+" : "") + p.z.toFixed(1)}</td>
+      <td class="wide">${sideBars(p.left, p.right)}</td></tr>`;
   }).join("");
+  keepTableRoles($("#sides-table"));
   $("#sides-note").textContent = "Left and right: means over each side's steady steps. Normal range: mean ± 1.96 SD for the patient's age decade and sex"
     + (r.age == null || !r.sex ? " (record the patient's sex and birth year under Patient history to see it)." : ".");
   $("#sides-wrap").hidden = false;

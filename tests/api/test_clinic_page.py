@@ -17,6 +17,8 @@ from .conftest import sign_in_page
 
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
 TRENDS = ("gait_speed_m_s", "step_length_mm", "cadence_steps_min", "step_length_symmetry_index_pct")
+OVERFLOWING = """() => [...document.querySelectorAll('body *')].filter(e => e.getBoundingClientRect().right > innerWidth + 1)
+    .slice(0, 8).map(e => `${e.tagName}#${e.id}.${e.className} ${Math.round(e.getBoundingClientRect().right)}`)"""  # what sticks out
 WIDTHS = {"phone": (390, 844), "tablet": (820, 1180), "desktop": (1280, 900)}
 # when the three visits took place (UTC, the browser's time zone here): two weeks apart, then twice on one day
 VISIT_TIMES = ((2026, 11, 10, 9, 30), (2026, 11, 24, 10, 0), (2026, 11, 24, 14, 30))
@@ -115,7 +117,7 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.wait_for_selector(f"#trials tr[data-trial='{long}']")  # the longest ids in the list
     for name, (w, h) in WIDTHS.items():
         page.set_viewport_size({"width": w, "height": h})
-        assert page.evaluate("document.documentElement.scrollWidth") <= w, name
+        assert page.evaluate("document.documentElement.scrollWidth") <= w, (name, page.evaluate(OVERFLOWING))
         for button in ("#start", "#stop"):
             box = page.locator(button).bounding_box()
             assert box["x"] >= 0 and box["x"] + box["width"] <= w, (name, button, box)
@@ -179,8 +181,14 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     widths = page.eval_on_selector_all("#sides-table tr[data-parameter='step_time_s'] .bar",
                                        "bars => bars.map(b => b.getBoundingClientRect().width)")
     assert len(widths) == 2 and max(widths) > 0  # per-side bars to one scale
-    step = page.inner_text("#sides-table tr[data-parameter='step_length_mm']")
-    assert step.split("\t")[1:3] == ["650", "650"], step  # left, right (mm)
+    step = page.eval_on_selector_all("#sides-table tr[data-parameter='step_length_mm'] td", "c => c.map(x => x.textContent)")
+    assert step[1:3] == ["650", "650"], step  # left, right (mm)
+    # a phone shows each parameter as a card of labelled values: nothing off to the side, even inside the table
+    assert page.eval_on_selector("#sides-wrap", "w => w.scrollWidth <= w.clientWidth && w.clientWidth <= 390")
+    assert page.eval_on_selector("#sides-table tr[data-parameter='step_length_mm'] td[data-label='z']",
+                                 "c => getComputedStyle(c, '::before').content").startswith('"z: "')
+    sides = page.get_by_role("table", name="Parameters by side with the normal range")
+    assert sides.get_by_role("row", name="Step length (mm)").first.get_by_role("cell").count() == 9  # still a table
     speed = page.inner_text("#sides-table tr[data-parameter='gait_speed_m_s']")
     assert "no reference" not in speed  # a 70-year-old man: gait speed has a normal range
     assert page.get_attribute("#report-pdf", "href").endswith("/report.pdf")
@@ -216,7 +224,7 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     for w, h in ((390, 844), (768, 1024), (901, 900), (1280, 900)):  # both lists fit (901: the narrowest as
         # tables); their void notes are on screen
         page.set_viewport_size({"width": w, "height": h})
-        assert page.evaluate("document.documentElement.scrollWidth") <= w, w
+        assert page.evaluate("document.documentElement.scrollWidth") <= w, (w, page.evaluate(OVERFLOWING))
         for table in ("#trials", "#history-table"):
             assert page.eval_on_selector(table, "t => t.parentElement.scrollWidth <= t.parentElement.clientWidth"), (w, table)
             note = page.locator(f"{table} tr.voided .void-note").first
