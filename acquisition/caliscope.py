@@ -91,9 +91,11 @@ def _columns(path: Path, header: list[str]) -> dict[str, str | None]:
     need = ["sync_index", "point_id", "img_loc_x", "img_loc_y"]
     missing = [c for c in need if c not in header] + ([" or ".join(CAMERA_COLUMNS)] if camera is None else [])
     if missing:
-        raise ValueError(f"{path}: not a caliscope points file: no column {', '.join(missing)} (has {header})")
+        raise ValueError(f"{path}: not a caliscope points file: no column {', '.join(missing)} "
+                         f"(has {header})")
     board_loc = next((p for p in ("obj_loc", "board_loc") if f"{p}_x" in header and f"{p}_y" in header), None)
-    return {**{c: c for c in need}, "cam": camera, "frame": "frame_index" if "frame_index" in header else None,
+    return {**{c: c for c in need}, "cam": camera,
+            "frame": "frame_index" if "frame_index" in header else None,
             "time": "frame_time" if "frame_time" in header else None, "board_loc": board_loc}
 
 
@@ -117,6 +119,8 @@ def _rows(path: Path, sync_every: int = 1) -> tuple[list[tuple], bool, dict[int,
         loc_at = (header.index(f"{loc}_x"), header.index(f"{loc}_y")) if loc else None
         out, board_mm = [], {}
         for line, r in enumerate(reader, start=2):
+            if len(r) != len(header):
+                raise ValueError(f"{path} line {line}: {len(r)} fields, the header has {len(header)}")
             sync = _number(path, line, cols["sync_index"], r[at["sync_index"]], int)
             if sync % sync_every:
                 continue
@@ -131,7 +135,8 @@ def _rows(path: Path, sync_every: int = 1) -> tuple[list[tuple], bool, dict[int,
                 board_mm[pid] = tuple(1000.0 * _number(path, line, f"{loc}_{a}", r[i], float)
                                       for a, i in zip("xy", loc_at, strict=True))
     if not out:
-        raise ValueError(f"{path}: no detections in it" + (f" (every {sync_every}th sync_index)" if sync_every > 1 else ""))
+        kept = f" (every {sync_every}th sync_index)" if sync_every > 1 else ""
+        raise ValueError(f"{path}: no detections in it{kept}")
     timed = all(r[3] is not None for r in out)
     return out, timed, board_mm
 
@@ -195,7 +200,8 @@ def read_points(
     # one frame per (camera, caliscope frame): its time and its corners
     frames: dict[tuple[int, int], dict] = {}
     for cam, frame_index, sync, t, pid, x, y in rows:
-        frame = frames.setdefault((index[cam], frame_index), {"t": t if timed else float(sync), "sync": sync, "uv": {}})
+        frame = frames.setdefault((index[cam], frame_index),
+                                  {"t": t if timed else float(sync), "sync": sync, "uv": {}})
         if not 0 <= pid < geometry.num_corners:
             raise ValueError(f"{path}: point_id {pid} is not a corner of {geometry.name}")
         frame["uv"][pid] = (x, y)
@@ -243,7 +249,8 @@ def read_session(folder: str | os.PathLike, points: str | None = None,
     folder = Path(folder)
     path = folder / points if points is not None else session_points(folder)
     if path is None:
-        raise ValueError(f"{folder}: no caliscope corner detections in it (looked for {', '.join(SESSION_POINTS)})")
+        raise ValueError(f"{folder}: no caliscope corner detections in it "
+                         f"(looked for {', '.join(SESSION_POINTS)})")
     board = board or read_board_file(folder / "charuco.toml")
     rig = read_camera_array(folder / "camera_array.toml")
     obs, moving = read_points(path, board=board, pairing=pairing, sync_every=sync_every,

@@ -18,8 +18,8 @@ from gaitcap.reconstruction.calibration.compare import compare_similar
 SESSION = share_path("testdata", "calibration", "caliscope-11cam")
 POINTS = SESSION / SESSION_POINTS[1]
 EVERY = 20
-pytestmark = pytest.mark.skipif(not POINTS.exists(),
-                                reason=f"caliscope 11-camera session not installed in {SESSION} (run deploy/bootstrap.sh)")
+pytestmark = pytest.mark.skipif(
+    not POINTS.exists(), reason=f"caliscope 11-camera session not installed in {SESSION} (run deploy/bootstrap.sh)")
 CAMERAS = tuple(f"cam_{i}" for i in range(1, 12))
 
 
@@ -103,7 +103,8 @@ def _read(path, board=None):
 def test_a_port_column_or_zero_frame_times_read_the_same(tmp_path):
     obs, _ = _read(_copy(tmp_path))
     ported, _ = _read(_copy(tmp_path, rename={"cam_id": "port"}))
-    zero = _copy(tmp_path, lambda h, r: [("0.0" if c == "frame_time" else v) for c, v in zip(h, r, strict=True)])
+    zero = _copy(tmp_path, lambda h, r: [("0.0" if c == "frame_time" else v)
+                                         for c, v in zip(h, r, strict=True)])
     untimed, _ = _read(zero)
     assert obs.shape == ported.shape == untimed.shape == (6, 41, 15)  # 6 cameras saw the board first
     assert np.array_equal(obs.corners_px, ported.corners_px, equal_nan=True)
@@ -115,9 +116,12 @@ def test_a_broken_file_is_refused_naming_what(tmp_path):
         _read(_copy(tmp_path, rename={"img_loc_y": "y"}))
     with pytest.raises(ValueError, match=r"no column cam_id or port"):
         _read(_copy(tmp_path, rename={"cam_id": "camera"}))
-    bad = _copy(tmp_path, lambda h, r: [("n/a" if c == "img_loc_x" and r[4] == "3" else v) for c, v in zip(h, r, strict=True)])
+    bad = _copy(tmp_path, lambda h, r: [("n/a" if c == "img_loc_x" and r[4] == "3" else v)
+                                        for c, v in zip(h, r, strict=True)])
     with pytest.raises(ValueError, match=r"xy.csv line \d+, column img_loc_x: 'n/a' is not a number"):
         _read(bad)
+    with pytest.raises(ValueError, match=r"xy.csv line 2: 8 fields, the header has 9"):
+        _read(_copy(tmp_path, lambda h, r: r[:-1]))
 
 
 def test_detections_of_another_board_are_refused(tmp_path):
