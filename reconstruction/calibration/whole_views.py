@@ -40,12 +40,16 @@ def disagreeing_views(prob: BundleProblem, res: BundleResult, config: BundleConf
     threshold = outlier_threshold_px(err[res.inlier], config)
     typical = float(np.median(err[res.inlier]))
     view = prob.cam.astype(np.int64) * prob.num_frames + prob.frame
+    order = np.argsort(view, kind="stable")
+    views, starts = np.unique(view[order], return_index=True)
+    rows_of = np.split(order, starts[1:])  # the rows of each view, in ``views`` order
     drop = np.zeros(len(prob.cam), dtype=bool)
     for c in range(prob.num_cameras):
-        views = np.unique(view[prob.cam == c])
-        found = [v for v in views if _disagrees(prob, res, np.flatnonzero(view == v), err, threshold, typical)]
-        if found and len(found) <= MAX_LEFT_OUT_FRACTION * len(views):
-            drop |= np.isin(view, found)
+        mine = np.flatnonzero(views // prob.num_frames == c)
+        found = [k for k in mine if _disagrees(prob, res, rows_of[k], err, threshold, typical)]
+        if found and len(found) <= MAX_LEFT_OUT_FRACTION * len(mine):
+            for k in found:
+                drop[rows_of[k]] = True
     return drop
 
 
