@@ -221,8 +221,8 @@ PYEOF
 # two 4-webcam ChArUco sessions (their corner detections, board files and calibrations) and real checkerboard
 # frames from the caliscope 0.7.5 sdist; its 11-camera 1080p ChArUco session (caliscope-11cam: the detections
 # of larger_calibration_post_monocal, whole, 14 MB; tests keep every 20th sync index; and the bundle-adjusted
-# camera_array.toml of point_estimate_creation/fully_linked, the same detections: the post_monocal one holds
-# the stereo-pair initial poses caliscope's tests start its bundle adjustment from); the Pose2Sim wheel's
+# camera_array.toml of point_estimate_creation/fully_linked, same detections and intrinsics: the detections
+# reproject to 0.5-1.1 px with its poses, 1.2-3.7 px with the post_monocal ones); the Pose2Sim wheel's
 # single-person demo calibration folder (checkerboard intrinsics images, its Config.toml and the Qualisys
 # calibration of the same cameras).
 CALISCOPE_VERSION="0.7.5"
