@@ -21,6 +21,7 @@ from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
 from gaitcap.services.live.protocols import RecorderUnavailable
 from gaitcap.services.live.rig_check import calibration_problems
+from gaitcap.services.processing.calibration_job import check_board
 from pydantic import BaseModel, ConfigDict, Field
 
 log = logging.getLogger(__name__)
@@ -101,6 +102,11 @@ def record_start(request: Request, body: BoardRecordingIn | None = None, user: s
     serve --board-file``), else none (the default board)."""
     db, settings, link = catalog_of(request), request.app.state.settings, request.app.state.link
     board = body.board.model_dump(mode="json", exclude_none=True) if body and body.board else settings.board
+    if board is not None:
+        try:
+            check_board(board)
+        except ValueError as exc:
+            raise HTTPException(status_code=422, detail=f"board: {exc}") from None
     if not getattr(link, "connected", True):
         raise HTTPException(status_code=503, detail="recorder: this server runs without the cameras and "
                                                     "recorder (started with --no-bus)")

@@ -48,6 +48,15 @@ def _progress(catalog: Catalog, cal_id: str, expected_images: int | None, check:
     return progress
 
 
+def check_board(board: dict) -> None:
+    """ValueError naming what is wrong when ``board`` (a board file's ``[board]`` fields) is not a board the
+    worker can search for (an unknown dictionary, markers as large as the squares, ...): checked when the
+    board recording starts, not after the board has been filmed."""
+    from gaitcap.acquisition.board_file import board_from_dict
+
+    board_from_dict({"board": board}, source="board")
+
+
 def board_used(cal: CalibrationInfo):
     """(BoardConfig, words naming it) of a calibration: its recorded board, else the default board.
     ValueError naming the field when the recorded description is not a board."""

@@ -85,7 +85,10 @@ def test_a_board_that_is_no_board_is_refused_naming_the_field(clinic):
     for bad, field in (({"kind": "circles", "squares": [4, 5], "square_mm": 54}, "kind"),
                        ({"kind": "checkerboard", "squares": [1, 5], "square_mm": 54}, "squares"),
                        ({"kind": "checkerboard", "squares": [4, 5], "square_mm": -3}, "square_mm"),
-                       ({"kind": "checkerboard", "squares": [4, 5], "square_mm": 54, "colour": "red"}, "colour")):
+                       ({"kind": "checkerboard", "squares": [4, 5], "square_mm": 54, "colour": "red"}, "colour"),
+                       # well formed but no board the worker could search for: refused before filming it
+                       ({**WRONG_BOARD, "dictionary": "DICT_FOO"}, "DICT_FOO"),
+                       ({**WRONG_BOARD, "marker_mm": 60.0}, "marker")):
         r = client.post("/calibrations/record/start", json={"board": bad})
         assert r.status_code == 422 and field in r.text, (bad, r.text)
     assert link.calls == []  # nothing recorded
