@@ -73,19 +73,31 @@ class SlotReport:
             timed = self.in_span(ids)
             if len(timed) < len(ids):
                 far = [f for f in ids if f not in timed]
-                out.append(f"camera {cam}: {len(far)} frames with frame ids far outside the recording (from "
-                           f"{far[0]}) were left out")
+                which = "a frame id" if len(far) == 1 else "frame ids"
+                out.append(f"camera {cam}: {_frames(len(far))} with {which} far outside the recording (from "
+                           f"{far[0]}) {_were(len(far))} left out")
             if timed:
-                out.append(f"camera {cam}: {len(timed)} frames with a timestamp far from that of their frame id "
-                           f"(from frame {timed[0]}) were left out")
+                out.append(f"camera {cam}: {_frames(len(timed))} with a timestamp far from that of "
+                           f"{'its' if len(timed) == 1 else 'their'} frame id (from frame {timed[0]}) "
+                           f"{_were(len(timed))} left out")
         for cam in sorted(set(self.restarts) | set(self.dropped)):
             if self.restarts.get(cam):
-                out.append(f"camera {cam}: frame counter restarted {self.restarts[cam]} time(s) within the "
-                           f"recording (camera restart); {self.moved.get(cam, 0)} frames placed by timestamp")
+                k = self.restarts[cam]
+                out.append(f"camera {cam}: frame counter restarted {k} time{'s' * (k != 1)} within the "
+                           f"recording (camera restart); {_frames(self.moved.get(cam, 0))} placed by timestamp")
             if self.dropped.get(cam):
-                out.append(f"camera {cam}: {self.dropped[cam]} frames repeat a frame already recorded and were "
-                           "left out")
+                k = self.dropped[cam]
+                out.append(f"camera {cam}: {_frames(k)} {'repeat' if k != 1 else 'repeats'} a frame already "
+                           f"recorded and {_were(k)} left out")
         return out
+
+
+def _frames(n: int) -> str:
+    return f"{n} frame{'s' * (n != 1)}"
+
+
+def _were(n: int) -> str:
+    return "were" if n != 1 else "was"
 
 
 def _segments(ids: np.ndarray) -> list[slice]:

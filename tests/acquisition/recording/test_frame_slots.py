@@ -2,7 +2,7 @@
 frame lands on its true frame set, and the restart is counted once (strays read as no restart)."""
 
 import numpy as np
-from gaitcap.acquisition.recording.frame_slots import SLACK_FRAMES, align_frame_slots
+from gaitcap.acquisition.recording.frame_slots import SLACK_FRAMES, SlotReport, align_frame_slots
 
 PERIOD_NS, T0_NS, FRAMES = 33_333_333, 1_700_000_000_000_000_000, 3000
 
@@ -48,5 +48,23 @@ def test_a_frame_with_a_good_id_and_a_timestamp_far_off_is_left_out_for_its_time
         assert report.strays == {"cam0": (50,)} and report.restarts == {} and report.dropped == {}, off_s
         assert report.in_span((50, 2**40)) == (50,)
         np.testing.assert_array_equal(placed["cam0"][1], np.delete(sets, 50))
-        assert "camera cam0: 1 frames with a timestamp far from that of their frame id (from frame 50)" in caplog.text
+        assert "camera cam0: 1 frame with a timestamp far from that of its frame id (from frame 50) was left out" \
+            in caplog.text
         assert "frame ids far outside" not in caplog.text
+
+
+def test_the_report_says_one_frame_and_one_time_in_the_singular():
+    one = SlotReport(restarts={"cam0": 1}, moved={"cam0": 1}, dropped={"cam1": 1}, strays={"cam2": (5, 2**40)},
+                     span=(0, 10))
+    assert one.messages() == [
+        "camera cam2: 1 frame with a frame id far outside the recording (from 1099511627776) was left out",
+        "camera cam2: 1 frame with a timestamp far from that of its frame id (from frame 5) was left out",
+        "camera cam0: frame counter restarted 1 time within the recording (camera restart); 1 frame placed by "
+        "timestamp",
+        "camera cam1: 1 frame repeats a frame already recorded and was left out"]
+    two = SlotReport(restarts={"cam0": 2}, moved={"cam0": 3}, dropped={"cam1": 2}, strays={"cam2": (2**40, -(2**40))})
+    assert two.messages() == [
+        "camera cam2: 2 frames with frame ids far outside the recording (from 1099511627776) were left out",
+        "camera cam0: frame counter restarted 2 times within the recording (camera restart); 3 frames placed by "
+        "timestamp",
+        "camera cam1: 2 frames repeat a frame already recorded and were left out"]
