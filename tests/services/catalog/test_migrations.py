@@ -100,23 +100,26 @@ def _shape(con: sqlite3.Connection, table: str) -> tuple[list, list]:
     return columns, indexes
 
 
-def test_the_version_2_step_builds_the_frozen_jobs_table_whatever_the_model_says_today(v1):
+def test_the_version_2_step_builds_the_frozen_jobs_table_whatever_the_model_says_today(v1, monkeypatch):
     """The v1 -> v2 step makes exactly the jobs table its own DDL names; a column added to the ORM model
-    later does not leak into what an old catalog migrates to."""
+    later does not leak into what an old catalog migrates to. The later model is a copy of the table with
+    the column, put in the model's place for the step only: the shared model is never altered."""
     from gaitcap.services.catalog import migrations
     from gaitcap.services.catalog.models import Job
-    from sqlalchemy import Column, Integer, create_engine
+    from sqlalchemy import Column, Integer, MetaData, create_engine
 
     path, tid = v1
-    later = Column("priority", Integer, nullable=False, server_default="0")  # a model change after v2
-    Job.__table__.append_column(later)
+    today = Job.__table__
+    later = today.to_metadata(MetaData())  # the model after a change made after v2
+    later.append_column(Column("priority", Integer, nullable=False, server_default="0"))
     engine = create_engine(f"sqlite:///{path}")
     try:
-        with engine.begin() as conn:
+        with monkeypatch.context() as patch, engine.begin() as conn:
+            patch.setattr(Job, "__table__", later)
             migrations.STEPS[1](conn)
     finally:
-        Job.__table__._columns.remove(later)
         engine.dispose()
+    assert Job.__table__ is today and "priority" not in today.c
     frozen = sqlite3.connect(":memory:")
     frozen.executescript("CREATE TABLE trials (id VARCHAR(64) PRIMARY KEY); "
                          "CREATE TABLE calibrations (id VARCHAR(64) PRIMARY KEY);" + migrations.JOBS_V2_DDL)
