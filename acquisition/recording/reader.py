@@ -21,6 +21,7 @@ import numpy as np
 from gaitcap.acquisition.encoding import parse_image_message
 from gaitcap.acquisition.recording import layout
 from gaitcap.acquisition.recording.frame_slots import SlotReport, align_frame_slots
+from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
@@ -270,7 +271,6 @@ def iter_frames(path: str | os.PathLike, camera: str | None = None) -> Iterator[
         yield RecordedFrame(layout.camera_of_topic(topic), int(message.sequence), img.timestamp_ns, img.jpeg)
 
 
-STRAY_EXAMPLES = 3  # stray frame ids a KeypointRecording keeps per camera to name them
 _MAX_FRAME_ID = 2**53  # a frame id this large (either sign) is stray without placing it (exact in float64)
 
 
@@ -287,15 +287,8 @@ class KeypointRecording:
         timestamps_ns: (C, T) camera timestamps, -1 where the frame is missing.
         restarts: {camera: times its frame counter started again within the recording}; those frames are
             placed by timestamp.
-        strays: {camera: keypoint messages with a frame id far outside the recording, ignored}; a camera
-            whose every message was such is not in ``camera_names``.
-        stray_frame_ids: {camera: the first (in time) of those frame ids, at most
-            :data:`STRAY_EXAMPLES`}.
-        mistimed: {camera: how many of its ``strays`` have a frame id of the recording: they were left out
-            for a timestamp far from that of their frame id (or outside 0..2**63 ns), not for their id}.
-        unreadable: {camera: {why: keypoint messages that could not be read for that reason, ignored}}
-            (not JSON, a field missing or of the wrong kind); a camera with none left is not in
-            ``camera_names``.
+        ignored: {camera: its keypoint messages left out (stray frame ids, timestamps far off, unreadable)}
+            for the cameras that had any; a camera with no message left is not in ``camera_names``.
     """
 
     camera_names: tuple[str, ...]
@@ -305,10 +298,7 @@ class KeypointRecording:
     people: np.ndarray
     timestamps_ns: np.ndarray
     restarts: dict[str, int] = field(default_factory=dict)
-    strays: dict[str, int] = field(default_factory=dict)
-    stray_frame_ids: dict[str, tuple[int, ...]] = field(default_factory=dict)
-    unreadable: dict[str, dict[str, int]] = field(default_factory=dict)
-    mistimed: dict[str, int] = field(default_factory=dict)
+    ignored: dict[str, IgnoredKeypoints] = field(default_factory=dict)
 
     def patient(self) -> Detections:
         """people[0] of every frame (the detector's first person) as reconstruction input."""
@@ -372,10 +362,10 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
 
     A camera whose frame counter restarted within the recording (a camera or camera node restarted) has
     its later frames placed by timestamp (:mod:`gaitcap.acquisition.recording.frame_slots`), with a warning.
-    Keypoint messages with a frame id far outside the recording are ignored and counted (``strays``):
-    nothing is allocated for them. Keypoint messages that cannot be read (not JSON, a field missing or of
-    the wrong kind, people with another number of joints than the others) are ignored and counted with
-    why (``unreadable``), never refusing the recording."""
+    Keypoint messages with a frame id far outside the recording (or a timestamp far from their frame's)
+    are ignored and counted: nothing is allocated for them. Keypoint messages that cannot be read (not
+    JSON, a field missing or of the wrong kind, people with another number of joints than the others) are
+    ignored and counted with why, never refusing the recording; both per camera in ``ignored``."""
     per_cam: dict[str, list[tuple[int, int, np.ndarray, str]]] = {}
     unplaceable: dict[str, list[int]] = {}  # frame ids or stamps no frame grid can hold: stray at once
     unreadable: dict[str, dict[str, int]] = {}
@@ -414,9 +404,14 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
             if len(ppl):
                 people[c, fid - first, : len(ppl)] = ppl
     return KeypointRecording(tuple(names), frame_ids, _frame_times_s(stamps), skeletons.pop(), people, stamps,
-                             report.restarts, {c: len(ids) for c, ids in strays.items()},
-                             {c: ids[:STRAY_EXAMPLES] for c, ids in strays.items()}, unreadable,
-                             {c: len(timed) for c, ids in strays.items() if (timed := report.in_span(ids))})
+                             report.restarts, _ignored(strays, report, unreadable))
+
+
+def _ignored(strays: dict[str, tuple[int, ...]], report: SlotReport,
+             unreadable: dict[str, dict[str, int]]) -> dict[str, IgnoredKeypoints]:
+    """{camera: its messages left out} from its stray frame ids (in time order) and unreadable counts."""
+    return {c: IgnoredKeypoints.of(strays.get(c, ()), mistimed=len(report.in_span(strays.get(c, ()))),
+                                   unreadable=unreadable.get(c)) for c in sorted({*strays, *unreadable})}
 
 
 def _one_joint_count(per_cam: dict[str, list[tuple[int, int, np.ndarray, str]]],

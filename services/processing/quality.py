@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
 
 CONFIDENT = 0.3  # a keypoint above this confidence counts as detected
 TAIL_S = 1.0  # the trial's last second is not judged per camera (keypoints still on their way at Stop)
@@ -100,17 +101,20 @@ class DataQuality:
     recorded_s: float | None = None  # wall time from Start to Stop (the recorder's), None when unknown
     restarts: dict[str, int] = field(default_factory=dict)  # camera -> frame counter restarts within the trial
     absent: dict[str, int] = field(default_factory=dict)  # expected camera without keypoints -> images recorded
-    strays: dict[str, int] = field(default_factory=dict)  # camera -> keypoint messages with a frame id far outside, ignored
-    stray_frame_ids: dict[str, list[int]] = field(default_factory=dict)  # camera -> the first of those frame ids
-    unreadable: dict[str, dict[str, int]] = field(default_factory=dict)  # camera -> {why: keypoint messages ignored}
-    mistimed: dict[str, int] = field(default_factory=dict)  # camera -> of its strays, those with a timestamp far off
+    # camera -> its keypoint messages the reader ignored (stray frame ids, timestamps far off, unreadable)
+    ignored_keypoints: dict[str, IgnoredKeypoints] = field(default_factory=dict)
     recovered: bool = False  # the recording was cut by a recorder crash and recovered (no recorder summary)
     warnings: tuple[str, ...] = ()
     serious: bool = False
     criteria: QualityCriteria = field(default_factory=QualityCriteria)
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        return {**asdict(self), "ignored_keypoints": {n: i.to_dict() for n, i in self.ignored_keypoints.items()}}
+
+    def _with(self, **changes) -> DataQuality:
+        """A copy with ``changes``; the nested records kept as records (``asdict`` makes them dicts)."""
+        return DataQuality(**{**asdict(self), "cameras": self.cameras, "criteria": self.criteria,
+                              "ignored_keypoints": self.ignored_keypoints, **changes})
 
 
 def _gaps(present: np.ndarray) -> int:
@@ -199,9 +203,8 @@ def sync_spread_ms(stamps_ns: np.ndarray) -> np.ndarray:
 def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confidence: np.ndarray | None,
                       expected_cameras=(), recorded_s: float | None = None, restarts=None, frame_ids=None,
                       recorded_frames: dict[str, np.ndarray] | None = None, recovered: bool = False,
-                      recorder_dropped: dict[str, int] | None = None, strays: dict[str, int] | None = None,
-                      stray_frame_ids: dict[str, tuple[int, ...]] | None = None,
-                      unreadable: dict[str, dict[str, int]] | None = None, mistimed: dict[str, int] | None = None,
+                      recorder_dropped: dict[str, int] | None = None,
+                      ignored: dict[str, IgnoredKeypoints] | None = None,
                       criteria: QualityCriteria = QualityCriteria()) -> DataQuality:
     """Measures and warnings from a recording's (C, T) camera timestamps (-1 where missing) and the
     patient's (C, T, J) detection confidences; ``expected_cameras``: the calibration's cameras (one
@@ -212,11 +215,10 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     ``frame_ids`` (T,) the keypoints' frame ids: cameras are then judged by their images and keypoints
     missing for recorded frames are the detector's; ``recovered``: the recording was recovered after a
     recorder crash; ``recorder_dropped``: {camera: images the recorder dropped, its queue full};
-    ``strays`` / ``stray_frame_ids``: {camera: keypoint messages the reader ignored, their frame ids far
-    outside the recording} / {camera: the first of those ids} (a camera with only such messages is not in
-    ``camera_names`` and is named for that, not as absent); ``unreadable``: {camera: {why: keypoint
-    messages the reader could not read and ignored}} (likewise); ``mistimed``: {camera: how many of its
-    ``strays`` have a frame id of the recording (left out for a timestamp far from their frame's)}."""
+    ``ignored``: {camera: its keypoint messages the reader ignored} (the reader's
+    :class:`~gaitcap.acquisition.recording.ignored.IgnoredKeypoints`: frame ids far outside the recording,
+    timestamps far from their frame's, messages that could not be read; a camera with only such messages
+    is not in ``camera_names`` and is named for that, not as absent)."""
     stamps = np.asarray(timestamps_ns, dtype=np.int64)
     restarts = dict(restarts or {})
     images = {n: np.asarray(ids, dtype=np.int64) for n, ids in (recorded_frames or {}).items()}
@@ -244,19 +246,16 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     if patient_confidence is not None and patient_confidence.size:
         seen = (np.nan_to_num(patient_confidence) > CONFIDENT).any(-1)  # (C, T)
         coverage = float(np.mean(seen.sum(0) >= 2))
-    strays = {n: int(k) for n, k in (strays or {}).items() if k}
-    unreadable = {n: {why: int(k) for why, k in whys.items()} for n, whys in (unreadable or {}).items() if whys}
+    ignored = {n: i for n, i in (ignored or {}).items() if i.strays or i.unreadable}
     absent = {n: int((recorded_frames or {}).get(n, np.zeros(0)).size) for n in expected_cameras
-              if n not in camera_names and n not in strays and n not in unreadable}
+              if n not in camera_names and n not in ignored}
     quality = DataQuality(duration_s=round(grid.shape[1] / nominal, 3), nominal_fps=round(nominal, 2),
                           cameras=tuple(cams),
                           spread_ms_max=round(float(spread.max()), 2) if spread.size else None,
                           spread_ms_p95=round(float(np.percentile(spread, 95)), 2) if spread.size else None,
                           coverage=None if coverage is None else round(coverage, 3), criteria=criteria,
                           recorded_s=None if recorded_s is None else round(float(recorded_s), 3),
-                          restarts=restarts, absent=absent, recovered=recovered, strays=strays, unreadable=unreadable,
-                          mistimed={n: int(k) for n, k in (mistimed or {}).items() if k and n in strays},
-                          stray_frame_ids={n: [int(f) for f in ids] for n, ids in (stray_frame_ids or {}).items()})
+                          restarts=restarts, absent=absent, recovered=recovered, ignored_keypoints=ignored)
     return judged(quality)
 
 
@@ -279,8 +278,7 @@ def _judged_camera(name: str, stamps: np.ndarray, image_ids: np.ndarray | None, 
 def with_reprojection(quality: DataQuality, errors_px: dict[str, float | None]) -> DataQuality:
     """The quality with each camera's median reprojection error (px) after the fit, judged again."""
     cams = tuple(CameraQuality(**{**asdict(c), "reprojection_px": errors_px.get(c.name)}) for c in quality.cameras)
-    return judged(DataQuality(**{**asdict(quality), "cameras": cams, "criteria": quality.criteria,
-                                 "warnings": (), "serious": False}))
+    return judged(quality._with(cameras=cams, warnings=(), serious=False))
 
 
 def reprojection_px(points_mm: np.ndarray, keypoints: np.ndarray, rig) -> dict[str, float | None]:
@@ -346,20 +344,18 @@ def judged(q: DataQuality) -> DataQuality:
                     "between Start and Stop (the cameras stopped or fell behind)")
     if q.duration_s < cr.min_duration_s:
         warn.append(f"Only {q.duration_s:.1f} s recorded")
-    return DataQuality(**{**asdict(q), "cameras": q.cameras, "criteria": cr, "warnings": tuple(warn),
-                          "serious": bool(warn)})
+    return q._with(warnings=tuple(warn), serious=bool(warn))
 
 
 def _strays(q: DataQuality) -> list[str]:
     """Keypoint messages ignored for a frame id far outside the recording or a timestamp far from that of
     their frame, per camera, with their ids."""
     out, judged_cameras = [], {c.name for c in q.cameras}
-    for name, count in sorted(q.strays.items()):
-        if name in q.unreadable and name not in judged_cameras:
-            continue  # said with the messages that could not be read (:func:`_unreadable`)
-        ids = q.stray_frame_ids.get(name, [])
-        named = f" ({', '.join(map(str, ids))}{', ...' if count > len(ids) else ''})" if ids else ""
-        what = _stray_what(count, q.mistimed.get(name, 0))
+    for name, ign in sorted(q.ignored_keypoints.items()):
+        count = ign.strays
+        if not count or (ign.unreadable and name not in judged_cameras):
+            continue  # none, or said with the messages that could not be read (:func:`_unreadable`)
+        what, named = _stray_what(count, ign.mistimed), _named(ign)
         if name not in judged_cameras:
             which = f"all its {count} keypoint messages" if count > 1 else "its only keypoint message"
             out.append(f"Camera {name}: {which} had {what}{named} and {'were' if count > 1 else 'was'} "
@@ -368,6 +364,12 @@ def _strays(q: DataQuality) -> list[str]:
             out.append(f"Camera {name}: {count} keypoint message{'s' if count > 1 else ''} with {what}{named} "
                        f"{'were' if count > 1 else 'was'} ignored")
     return out
+
+
+def _named(ign: IgnoredKeypoints) -> str:
+    """" (id, id, ...)" naming the first stray frame ids (", ..." when there were more), or ""."""
+    ids = ign.stray_frame_ids
+    return f" ({', '.join(map(str, ids))}{', ...' if ign.strays > len(ids) else ''})" if ids else ""
 
 
 def _stray_what(count: int, mistimed: int) -> str:
@@ -384,19 +386,20 @@ def _unreadable(q: DataQuality) -> list[str]:
     """Keypoint messages the reader could not read and ignored, per camera, with why; a camera left with
     no keypoints says so (with its stray frame ids, if it had those too)."""
     out, judged_cameras = [], {c.name for c in q.cameras}
-    for name, whys in sorted(q.unreadable.items()):
-        count = sum(whys.values())
+    for name, ign in sorted(q.ignored_keypoints.items()):
+        whys, count = ign.unreadable, ign.unread
+        if not count:
+            continue
         why = next(iter(whys)) if len(whys) == 1 else ", ".join(f"{k} {w}" for w, k in sorted(whys.items()))
         if name in judged_cameras:
             out.append(f"Camera {name}: {count} keypoint message{'s' if count > 1 else ''} could not be read and "
                        f"{'were' if count > 1 else 'was'} ignored ({why})")
             continue
         unread, tail = (f"all its {count} keypoint messages" if count > 1 else "its only keypoint message"), ""
-        if q.strays.get(name):
-            far, ids = q.strays[name], q.stray_frame_ids.get(name, [])
-            named = f" ({', '.join(map(str, ids))}{', ...' if far > len(ids) else ''})" if ids else ""
+        if ign.strays:
+            far = ign.strays
             unread = f"{count} keypoint message{'s' if count > 1 else ''}"
-            tail = f", and the other {far} had {_stray_what(far, q.mistimed.get(name, 0))}{named}"
+            tail = f", and the other {far} had {_stray_what(far, ign.mistimed)}{_named(ign)}"
         out.append(f"Camera {name}: {unread} could not be read ({why}){tail}: the camera has no keypoints")
     return out
 

@@ -229,9 +229,7 @@ class Worker:
                                     recorded_s=summary.get("duration_s"), frame_ids=recording.frame_ids,
                                     recorded_frames=images.frames, recovered=images.recovered,
                                     recorder_dropped=images.dropped,
-                                    restarts=recording.restarts, strays=recording.strays,
-                                    stray_frame_ids=recording.stray_frame_ids, unreadable=recording.unreadable,
-                                    mistimed=recording.mistimed,
+                                    restarts=recording.restarts, ignored=recording.ignored,
                                     criteria=self.config.criteria)
         rig = seen_rig
         source = (recording, rig, mcap)  # what the viewer files show besides the results

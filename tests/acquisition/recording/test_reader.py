@@ -251,10 +251,11 @@ def test_malformed_keypoint_messages_are_ignored_and_counted_with_why(tmp_path):
                                             "people": []}).encode(), timestamp_ns=T0_NS + k, frame_id=k)
     kp = read_keypoints(w.finish({}))
     assert kp.camera_names == ("cam0", "cam1") and kp.frame_ids.tolist() == list(range(FRAMES))
-    assert kp.unreadable == {"cam0": {"people with 17 joints where the others have 26": 1},
-                             "cam1": {"missing 'skeleton'": 2, "not JSON": 1},
-                             "cam2": {"missing 'timestamp_ns'": 2}}
-    assert kp.strays == {}
+    assert {c: i.unreadable for c, i in kp.ignored.items()} == {
+        "cam0": {"people with 17 joints where the others have 26": 1},
+        "cam1": {"missing 'skeleton'": 2, "not JSON": 1},
+        "cam2": {"missing 'timestamp_ns'": 2}}
+    assert {c: i.strays for c, i in kp.ignored.items()} == {"cam0": 0, "cam1": 0, "cam2": 0}
     have = kp.timestamps_ns >= 0
     assert have[0].tolist() == [k != 5 for k in range(FRAMES)]
     assert have[1].tolist() == [k not in (3, 7, 9) for k in range(FRAMES)]

@@ -7,6 +7,7 @@ import time
 import numpy as np
 import pytest
 from gaitcap.acquisition.recording import layout
+from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
 from gaitcap.acquisition.recording.reader import iter_messages
 from gaitcap.services.bus.control import RecorderClient, RecorderError
 from gaitcap.services.bus.messages import ImageFrame, Keypoints
@@ -81,7 +82,7 @@ def test_a_stray_keypoint_frame_id_is_ignored_and_counted_not_allocated(tmp_path
     assert time.monotonic() - t0 < 5
     assert kp.frame_ids.tolist() == list(range(10)) and kp.camera_names == ("cam01", "cam02")
     assert (kp.timestamps_ns >= 0).all() and not np.isnan(kp.people[..., 0]).any()
-    assert kp.strays == {"cam01": 1} and kp.stray_frame_ids == {"cam01": (2**40,)} and kp.mistimed == {}
+    assert kp.ignored == {"cam01": IgnoredKeypoints(strays=1, stray_frame_ids=(2**40,), mistimed=0)}
     assert kp.restarts == {}  # the stray in the camera's series is not taken for a counter restart
 
 
@@ -101,7 +102,7 @@ def test_a_keypoint_message_with_a_good_frame_id_stamped_far_off_is_ignored_for_
                                  frame_id=fid)
     kp = read_keypoints(writer.finish({}))
     assert kp.frame_ids.tolist() == list(range(10)) and kp.restarts == {}
-    assert kp.strays == {"cam01": 1} and kp.stray_frame_ids == {"cam01": (5,)} and kp.mistimed == {"cam01": 1}
+    assert kp.ignored == {"cam01": IgnoredKeypoints(strays=1, stray_frame_ids=(5,), mistimed=1)}
     assert (kp.timestamps_ns[0] >= 10**18).tolist() == [f != 5 for f in range(10)]
 
 
@@ -133,8 +134,9 @@ def test_stray_frame_ids_around_a_restart_leave_the_restarted_frames_in_place(tm
     have = kp.timestamps_ns[0] >= 0
     assert have[:30].all() and not have[30:40].any() and have[40:].all()  # the restarted frames by time
     assert kp.restarts == {"cam01": 1}
-    assert kp.strays == {"cam01": 3, "cam02": 2}
-    assert kp.stray_frame_ids == {"cam01": (-(2**40), 7 * 10**9, 3 * 10**9), "cam02": (2**40, 2**70)}
+    assert {c: i.strays for c, i in kp.ignored.items()} == {"cam01": 3, "cam02": 2}
+    assert {c: i.stray_frame_ids for c, i in kp.ignored.items()} == {"cam01": (-(2**40), 7 * 10**9, 3 * 10**9),
+                                                                      "cam02": (2**40, 2**70)}
 
 
 def test_keypoints_that_overtake_their_image_are_kept_and_bounded(tmp_path):

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
 from gaitcap.services.processing.pipeline import ring_rig
 from gaitcap.services.processing.quality import (
     QualityCriteria,
@@ -255,24 +256,28 @@ def test_images_the_recorder_dropped_are_the_recorders_not_the_cameras():
 
 def test_keypoint_messages_with_stray_frame_ids_are_named_and_a_camera_with_only_those_is_said_so():
     q = recording_quality(camera_names=NAMES[:9], timestamps_ns=_stamps()[:9], patient_confidence=None,
-                          expected_cameras=NAMES, strays={"cam1": 4, "cam9": 1},
-                          stray_frame_ids={"cam1": (2**40, 2**40 + 1, 2**40 + 2), "cam9": (7,)})
-    assert q.serious and q.absent == {} and q.strays == {"cam1": 4, "cam9": 1}
+                          expected_cameras=NAMES,
+                          ignored={"cam1": IgnoredKeypoints(4, (2**40, 2**40 + 1, 2**40 + 2)),
+                                   "cam9": IgnoredKeypoints(1, (7,)), "cam2": IgnoredKeypoints()})
+    assert q.serious and q.absent == {} and {n: i.strays for n, i in q.ignored_keypoints.items()} == {"cam1": 4, "cam9": 1}
     assert q.warnings == (
         "Camera cam1: 4 keypoint messages with frame ids far outside the recording (1099511627776, 1099511627777, "
         "1099511627778, ...) were ignored",
         "Camera cam9: its only keypoint message had a frame id far outside the recording (7) and was ignored: the "
         "camera has no keypoints")
-    assert with_reprojection(q, {}).stray_frame_ids == {"cam1": [2**40, 2**40 + 1, 2**40 + 2], "cam9": [7]}
+    assert {n: i["stray_frame_ids"] for n, i in with_reprojection(q, {}).to_dict()["ignored_keypoints"].items()} \
+        == {"cam1": [2**40, 2**40 + 1, 2**40 + 2], "cam9": [7]}
 
 
 def test_keypoint_messages_that_could_not_be_read_are_named_and_a_camera_left_with_none_is_said_so():
     q = recording_quality(camera_names=NAMES[:8], timestamps_ns=_stamps()[:8], patient_confidence=None,
-                          expected_cameras=NAMES, strays={"cam9": 3}, stray_frame_ids={"cam9": (2**40,)},
-                          unreadable={"cam3": {"missing 'skeleton'": 2}, "cam5": {"not JSON": 1, "missing 'people'": 2},
-                                      "cam8": {"missing 'timestamp_ns'": 1}, "cam9": {"not JSON": 4}})
+                          expected_cameras=NAMES,
+                          ignored={"cam3": IgnoredKeypoints(unreadable={"missing 'skeleton'": 2}),
+                                   "cam5": IgnoredKeypoints(unreadable={"not JSON": 1, "missing 'people'": 2}),
+                                   "cam8": IgnoredKeypoints(unreadable={"missing 'timestamp_ns'": 1}),
+                                   "cam9": IgnoredKeypoints(3, (2**40,), unreadable={"not JSON": 4})})
     assert q.serious and q.absent == {}
-    assert q.unreadable["cam5"] == {"not JSON": 1, "missing 'people'": 2}
+    assert q.ignored_keypoints["cam5"].unreadable == {"not JSON": 1, "missing 'people'": 2}
     assert q.warnings == (
         "Camera cam3: 2 keypoint messages could not be read and were ignored (missing 'skeleton')",
         "Camera cam5: 3 keypoint messages could not be read and were ignored (2 missing 'people', 1 not JSON)",
@@ -280,18 +285,20 @@ def test_keypoint_messages_that_could_not_be_read_are_named_and_a_camera_left_wi
         "keypoints",
         "Camera cam9: 4 keypoint messages could not be read (not JSON), and the other 3 had frame ids far outside "
         "the recording (1099511627776, ...): the camera has no keypoints")
-    assert with_reprojection(q, {}).unreadable == q.unreadable
+    assert with_reprojection(q, {}).ignored_keypoints == q.ignored_keypoints
 
 
 def test_keypoint_messages_left_out_for_their_timestamp_are_said_to_be_so():
     q = recording_quality(camera_names=NAMES[:9], timestamps_ns=_stamps()[:9], patient_confidence=None,
-                          expected_cameras=NAMES, strays={"cam1": 1, "cam2": 3, "cam9": 2},
-                          stray_frame_ids={"cam1": (50,), "cam2": (2**40, 7, 8), "cam9": (3, 4)},
-                          mistimed={"cam1": 1, "cam2": 2, "cam9": 2})
+                          expected_cameras=NAMES,
+                          ignored={"cam1": IgnoredKeypoints(1, (50,), mistimed=1),
+                                   "cam2": IgnoredKeypoints(3, (2**40, 7, 8), mistimed=2),
+                                   "cam9": IgnoredKeypoints(2, (3, 4), mistimed=2)})
     assert q.warnings == (
         "Camera cam1: 1 keypoint message with a timestamp far from its frame's (50) was ignored",
         "Camera cam2: 3 keypoint messages with frame ids far outside the recording (1) or timestamps far from "
         "their frames' (2) (1099511627776, 7, 8) were ignored",
         "Camera cam9: all its 2 keypoint messages had timestamps far from their frames' (3, 4) and were ignored: "
         "the camera has no keypoints")
-    assert with_reprojection(q, {}).mistimed == {"cam1": 1, "cam2": 2, "cam9": 2}
+    assert {n: i.mistimed for n, i in with_reprojection(q, {}).ignored_keypoints.items()} \
+        == {"cam1": 1, "cam2": 2, "cam9": 2}

@@ -170,7 +170,9 @@ def test_a_stray_keypoint_frame_id_is_ignored_and_named_in_the_trials_quality(tm
     quality = cat.get_quality(db, t.id)["processing"]
     assert quality["warnings"] == [f"Camera {cam}: 1 keypoint message with a frame id far outside the recording "
                                    "(1099511627776) was ignored"]
-    assert quality["strays"] == {cam: 1} and cat.get_result(db, t.id, "preliminary").steps
+    assert quality["ignored_keypoints"] == {cam: {"strays": 1, "stray_frame_ids": [2**40], "mistimed": 0,
+                                                  "unreadable": {}}}
+    assert cat.get_result(db, t.id, "preliminary").steps
 
 
 def test_unreadable_keypoint_messages_are_ignored_and_named_in_the_trials_quality(tmp_path, walk, monkeypatch):
@@ -200,5 +202,6 @@ def test_unreadable_keypoint_messages_are_ignored_and_named_in_the_trials_qualit
     quality = cat.get_quality(db, t.id)["processing"]
     assert quality["warnings"] == [f"Camera {cam}: 3 keypoint messages could not be read and were ignored "
                                    "(2 missing 'skeleton', 1 not JSON)"]
-    assert quality["unreadable"] == {cam: {"missing 'skeleton'": 2, "not JSON": 1}}
+    assert quality["ignored_keypoints"] == {cam: {"strays": 0, "stray_frame_ids": [], "mistimed": 0,
+                                                  "unreadable": {"missing 'skeleton'": 2, "not JSON": 1}}}
     assert cat.get_result(db, t.id, "preliminary").steps
