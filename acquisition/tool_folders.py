@@ -51,7 +51,8 @@ def _camera_spread(rig: Rig) -> float:
 
 def load_toml_rig(path: Path) -> Rig:
     """A Pose2Sim/aniposelib TOML calibration, in metres or (aniposelib boards measured in mm) millimetres."""
-    from gaitcap.reconstruction.calibration_io import M_TO_MM, load_rig
+    from gaitcap.acquisition.readers import load_rig
+    from gaitcap.reconstruction.calibration_io import M_TO_MM
 
     rig = load_rig(path)
     if _camera_spread(rig) > MM_SPREAD * M_TO_MM:
@@ -99,7 +100,7 @@ def read_qca(path: Path, *, binning_factor: int = 1) -> Rig:
 def load_calibration(path: Path) -> Rig:
     """Any calibration file gaitcap reads: Qualisys ``.qca.txt``, Pose2Sim/aniposelib ``.toml`` (m or mm),
     gaitcap ``.json``."""
-    from gaitcap.reconstruction.calibration_io import load_rig
+    from gaitcap.acquisition.readers import load_rig
 
     path = Path(path)
     if path.name.lower().endswith(".qca.txt"):

@@ -1,6 +1,6 @@
 """Writing the files that ``reconstruction/`` computes and reads: calibrations, keypoints,
-walkway exports. ``reconstruction/`` stays pure (it builds the text or arrays and parses files, never
-writes one); every writer here goes through the one atomic writer, :mod:`gaitcap.acquisition.fileio`.
+walkway exports (read back by :mod:`gaitcap.acquisition.readers`). ``reconstruction/`` stays pure (it
+builds the text or arrays and parses text, never reads or writes a file); every writer here goes through the one atomic writer, :mod:`gaitcap.acquisition.fileio`.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 from gaitcap.acquisition.fileio import atomic_savez, atomic_write_text
+from gaitcap.acquisition.readers import KEYS
 from gaitcap.reconstruction.association.multi import MultiPersonDetections
-from gaitcap.reconstruction.association.npz_io import KEYS
 from gaitcap.reconstruction.calibration_io import rig_to_text
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
@@ -27,14 +27,14 @@ def save_rig(rig: Rig, path: str | os.PathLike, *, metadata: dict[str, Any] | No
 
 
 def save_multi_npz(multi: MultiPersonDetections, path: str | os.PathLike) -> Path:
-    """Write a multi-person keypoint file (read by :func:`gaitcap.reconstruction.association.npz_io.load_multi_npz`)."""
+    """Write a multi-person keypoint file (read by :func:`gaitcap.acquisition.readers.load_multi_npz`)."""
     return atomic_savez(path, keypoints=multi.keypoints, camera_names=np.array(multi.camera_names),
                         times_s=multi.times_s, skeleton=np.array(multi.skeleton.name))
 
 
 def save_detections_npz(detections: Detections, path: str | os.PathLike, **extra: np.ndarray) -> Path:
     """Write one person's detections plus ``extra`` arrays (e.g. ``track_id``; read by
-    :func:`gaitcap.reconstruction.association.npz_io.load_detections_npz`)."""
+    :func:`gaitcap.acquisition.readers.load_detections_npz`)."""
     clash = sorted(set(extra) & set(KEYS))
     if clash:
         raise ValueError(f"extra arrays may not be named {clash}")
@@ -43,5 +43,5 @@ def save_detections_npz(detections: Detections, path: str | os.PathLike, **extra
 
 
 def write_walkway_csv(trials: Sequence[WalkwayTrial], path: str | os.PathLike) -> Path:
-    """Write trials in the walkway CSV format (read by :func:`gaitcap.reconstruction.gait.walkway.read_walkway_csv`)."""
+    """Write trials in the walkway CSV format (read by :func:`gaitcap.acquisition.readers.read_walkway_csv`)."""
     return atomic_write_text(path, walkway_csv_text(trials))

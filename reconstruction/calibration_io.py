@@ -20,15 +20,13 @@ gaitcap JSON::
     {"format": "gaitcap-calibration", "version": 1, "units": {"translation": "mm"},
      "cameras": [{"name", "serial", "size_px", "matrix_px", "dist", "rvec", "rotation_matrix"?, "tvec_mm"}]}
 
-Readers raise ValueError naming the file, the camera section and the field that is wrong.
+Parsers raise ValueError naming the file, the camera section and the field that is wrong.
 """
 
 from __future__ import annotations
 
 import json
-import os
 import tomllib
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -174,21 +172,25 @@ def rig_from_json_dict(data: dict[str, Any], *, source: str = "<json>") -> Rig:
 
 
 
-def load_rig(path: str | os.PathLike) -> Rig:
-    """Read a calibration: ``.toml`` (aniposelib/Pose2Sim) or ``.json`` (gaitcap)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"calibration file {str(path)!r} does not exist")
-    text = path.read_text()
-    if path.suffix.lower() == ".json":
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"{path}: not valid JSON ({exc})") from None
-        return rig_from_json_dict(data, source=str(path))
-    if path.suffix.lower() == ".toml":
-        return rig_from_toml_text(text, source=str(path))
-    raise ValueError(f"{path}: unknown calibration format {path.suffix!r} (expected .toml or .json)")
+def _rig_from_json_text(text: str, *, source: str) -> Rig:
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{source}: not valid JSON ({exc})") from None
+    return rig_from_json_dict(data, source=source)
+
+
+_TEXT_PARSERS = {".json": _rig_from_json_text, ".toml": rig_from_toml_text}
+
+
+def rig_from_text(text: str, *, suffix: str, source: str = "calibration") -> Rig:
+    """The calibration in ``text``, the format following the file name's ``suffix`` (.toml: aniposelib,
+    metres; .json: gaitcap, mm); errors name ``source``. Files are read by
+    :func:`gaitcap.acquisition.readers.load_rig`."""
+    parse = _TEXT_PARSERS.get(suffix.lower())
+    if parse is None:
+        raise ValueError(f"{source}: unknown calibration format {suffix!r} (expected .toml or .json)")
+    return parse(text, source=source)
 
 
 _TEXT_FORMATS = {".json": lambda rig, metadata: json.dumps(rig_to_json_dict(rig), indent=2),

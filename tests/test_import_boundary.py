@@ -2,7 +2,9 @@
 
 Layers (the repository's folders, installed as ``gaitcap.<layer>``):
 - ``reconstruction`` is pure computation: it imports no other gaitcap layer, no plotting or I/O library,
-  and writes no file (the writers of what it computes are ``acquisition.fileio`` / ``acquisition.writers``).
+  and reads and writes no file (the writers of what it computes are ``acquisition.fileio`` /
+  ``acquisition.writers``, the readers of what it parses ``acquisition.readers``); one exception, named in
+  ``READING_ALLOWED``: the machine's available memory, which is the environment, not data.
 - ``acquisition`` (drivers, sync, encoding, detectors, recording) may use ``reconstruction`` only.
 - ``services`` wires them to the bus and never imports ``api``, except ``services.cli``: the one
   composition root that starts the API server.
@@ -301,6 +303,50 @@ def test_file_writes_are_found(tmp_path):
                       "os.replace(a, b)\ns.replace('a', 'b')\njson.dump(d, f)\njson.dumps(d)\np.open('w')\n")
     assert _file_writes(source) == ["m.py:3 savez()", "m.py:4 open()", "m.py:6 open()", "m.py:7 write_text()",
                                     "m.py:8 replace()", "m.py:10 dump()", "m.py:12 open()"]
+
+
+# calls that read a file (open(p), Path.read_text, np.load, json.load, tomllib.load, cv2.imread, pd.read_csv,
+# ...; csv.reader on a file is found by the open() that gives it the file)
+READING_CALLS = {"read_text", "read_bytes", "load", "loadtxt", "genfromtxt", "fromfile", "memmap", "imread",
+                 "imreadmulti", "VideoCapture", "File", "listdir", "scandir", "iterdir", "glob", "rglob", "walk"}
+READING_PREFIXES = ("read_",)  # pd.read_csv, pd.read_parquet, imageio.v3.imread's read_...
+# ``reconstruction/fits/memory.py`` reads /proc/meminfo and the cgroup memory files: the machine's available
+# memory (the environment the fit runs in, to size its batches), not data; the one reading module allowed.
+READING_ALLOWED = {"fits/memory.py"}
+
+
+def _file_reads(path: Path) -> list[str]:
+    """``file:line call`` of every call in the file that opens, reads or lists a file or folder."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if not isinstance(node, ast.Call):
+            continue
+        func = node.func
+        name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+        if name in READING_CALLS or name.startswith(READING_PREFIXES) or name == "open":
+            found.append(f"{path.name}:{node.lineno} {name}()")
+    return found
+
+
+def test_reconstruction_reads_no_file():
+    root = ROOT / "reconstruction"
+    files = sorted(root.rglob("*.py"))
+    assert len(files) > 50
+    assert all((root / a).is_file() for a in READING_ALLOWED), "an allowed module is gone: drop it from the list"
+    reads = [r for p in files if p.relative_to(root).as_posix() not in READING_ALLOWED for r in _file_reads(p)]
+    assert not reads, f"reconstruction must stay pure: read files in acquisition/ (readers.py): {reads}"
+    assert _file_reads(root / "fits" / "memory.py"), "memory.py reads no file any more: drop the exception"
+
+
+def test_file_reads_are_found(tmp_path):
+    source = tmp_path / "m.py"
+    source.write_text("import json, csv, tomllib\nimport numpy as np\nimport pandas as pd\n"
+                      "open(p)\np.read_text()\nnp.load(p)\njson.load(f)\njson.loads(s)\ntomllib.load(f)\n"
+                      "tomllib.loads(s)\ncsv.reader(io.StringIO(s))\ncv2.imread(p)\npd.read_csv(p)\n"
+                      "np.loadtxt(p)\nh5py.File(p)\np.open()\nnp.frombuffer(b)\nreader.line_num\n")
+    assert _file_reads(source) == ["m.py:4 open()", "m.py:5 read_text()", "m.py:6 load()", "m.py:7 load()",
+                                   "m.py:9 load()", "m.py:12 imread()", "m.py:13 read_csv()",
+                                   "m.py:14 loadtxt()", "m.py:15 File()", "m.py:16 open()"]
 
 
 def test_reconstruction_uses_no_io_library():

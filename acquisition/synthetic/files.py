@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.fileio import atomic_path
+from gaitcap.acquisition.readers import load_rig
 from gaitcap.acquisition.writers import save_rig
-from gaitcap.reconstruction.calibration_io import load_rig
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 

@@ -12,10 +12,10 @@ from gaitcap.reconstruction.gait.walkway import (
     AlignmentConfig,
     WalkwayComparison,
     WalkwayTrial,
-    read_walkway_csv,
+    walkway_from_csv_text,
 )
 
 __all__ = [
     "AlignmentConfig", "GaitConfig", "GaitReport", "TrajectoryQuality", "WalkwayComparison", "WalkwayTrial",
-    "analyze_gait", "compare_with_walkway", "read_walkway_csv",
+    "analyze_gait", "compare_with_walkway", "walkway_from_csv_text",
 ]

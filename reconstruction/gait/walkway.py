@@ -31,7 +31,6 @@ import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from gaitcap.reconstruction.gait.parameters import progression_direction
@@ -84,28 +83,38 @@ class WalkwayTrial:
                 object.__setattr__(self, attr, getattr(self, attr)[order])
 
 
-def read_walkway_csv(path: str | Path) -> tuple[WalkwayTrial, ...]:
-    """Read a walkway export (format in the module docstring); trials in order of first appearance."""
+def walkway_from_csv_text(text: str, *, source: str = "<walkway csv>") -> tuple[WalkwayTrial, ...]:
+    """Trials of a walkway export's text (format in the module docstring), in order of first appearance;
+    errors name ``source`` (the file) and the line. Files are read by
+    :func:`gaitcap.acquisition.readers.read_walkway_csv`."""
     rows: dict[str, list[tuple]] = {}
-    with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        missing = [c for c in WALKWAY_COLUMNS[1:] if c not in (reader.fieldnames or ())]
-        if missing:
-            raise ValueError(f"{path}: walkway CSV lacks column(s) {', '.join(missing)}")
-        for line, row in enumerate(reader, start=2):
-            foot = _FEET.get(str(row["foot"]).strip().lower())
-            if foot is None:
-                raise ValueError(f"{path}:{line}: foot must be left/right, got {row['foot']!r}")
-            try:
-                values = tuple(float(row[c]) for c in WALKWAY_COLUMNS[2:])
-            except (TypeError, ValueError):
-                raise ValueError(f"{path}:{line}: a time or position is not a number") from None
-            if not all(math.isfinite(v) for v in values):
-                raise ValueError(f"{path}:{line}: a time or position is not finite")
-            rows.setdefault(str(row.get("trial") or "0"), []).append((foot, *values))
+    reader = csv.DictReader(io.StringIO(text, newline=""))
+    missing = [c for c in WALKWAY_COLUMNS[1:] if c not in (reader.fieldnames or ())]
+    if missing:
+        raise ValueError(f"{source}: walkway CSV lacks column(s) {', '.join(missing)}")
+    for row in reader:
+        foot, values = _footfall(row, where=f"{source}:{reader.line_num}")
+        rows.setdefault(str(row.get("trial") or "0"), []).append((foot, *values))
     if not rows:
-        raise ValueError(f"{path}: walkway CSV has no footfalls")
-    return tuple(_trial(name, r) for name, r in rows.items())
+        raise ValueError(f"{source}: walkway CSV has no footfalls")
+    try:
+        return tuple(_trial(name, r) for name, r in rows.items())
+    except ValueError as exc:  # a footfall ending before it starts
+        raise ValueError(f"{source}: {exc}") from None
+
+
+def _footfall(row: dict[str, str], *, where: str) -> tuple[str, tuple[float, ...]]:
+    """Foot and times (s) / positions (mm) of one CSV row; errors name ``where`` (file:line)."""
+    foot = _FEET.get(str(row["foot"]).strip().lower())
+    if foot is None:
+        raise ValueError(f"{where}: foot must be left/right, got {row['foot']!r}")
+    try:
+        values = tuple(float(row[c]) for c in WALKWAY_COLUMNS[2:])
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: a time or position is not a number") from None
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{where}: a time or position is not finite")
+    return foot, values
 
 
 def _trial(name: str, rows: list[tuple]) -> WalkwayTrial:

@@ -30,6 +30,7 @@ def register(app: typer.Typer) -> None:
             None, "--walkway", help="Walkway centre line X0,Y0,Z0,X1,Y1,Z1 mm (default: through the rig)."),
     ) -> None:
         """Associate the people seen by every camera, track them and write the patient's keypoints."""
+        from gaitcap.acquisition.readers import load_multi_npz, load_rig
         from gaitcap.acquisition.writers import save_detections_npz
         from gaitcap.reconstruction.association import (
             ManualTrack,
@@ -37,8 +38,6 @@ def register(app: typer.Typer) -> None:
             WalkwayTrack,
             associate_and_select,
         )
-        from gaitcap.reconstruction.association.npz_io import load_multi_npz
-        from gaitcap.reconstruction.calibration_io import load_rig
 
         with user_errors():
             if sum(v is not None for v in (track, start, walkway)) > 1:

@@ -20,7 +20,7 @@ def register(app: typer.Typer) -> None:
                                                 help="Rig calibration (TOML/JSON): cameras as CameraCalibration."),
     ) -> None:
         """Relay the live bus to Foxglove: open ws://HOST:PORT in Foxglove (Open connection)."""
-        from gaitcap.reconstruction.calibration_io import load_rig
+        from gaitcap.acquisition.readers import load_rig
         from gaitcap.services.bus.session import default_bus_config, open_session
         from gaitcap.services.nodes.foxglove_live import FoxgloveLiveConfig, FoxgloveRelay
 

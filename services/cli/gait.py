@@ -58,7 +58,8 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Gait events, bouts and spatiotemporal parameters of a reconstructed trial."""
         from gaitcap.acquisition.fileio import atomic_write_bytes, atomic_write_text
-        from gaitcap.reconstruction.gait import GaitConfig, compare_with_walkway, read_walkway_csv
+        from gaitcap.acquisition.readers import read_walkway_csv
+        from gaitcap.reconstruction.gait import GaitConfig, compare_with_walkway
         from gaitcap.services.processing.outputs import read_npz
         from gaitcap.services.processing.pipeline import gait_of
         from gaitcap.services.processing.report_plot import heel_traces_png

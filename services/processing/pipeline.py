@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-from gaitcap.reconstruction.calibration_io import load_rig
+from gaitcap.acquisition.readers import load_rig
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 

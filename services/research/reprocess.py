@@ -286,7 +286,7 @@ def _gait(traj) -> dict:
 
 def _reference(trial: TrialRef):
     """The walkway footfalls to compare with: ``walkway.csv`` (the trial's rows), else ground truth."""
-    from gaitcap.reconstruction.gait import read_walkway_csv
+    from gaitcap.acquisition.readers import read_walkway_csv
 
     walkway = trial.folder / WALKWAY_FILE
     if walkway.is_file():

@@ -2,8 +2,9 @@ import json
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.readers import load_rig
 from gaitcap.acquisition.writers import save_rig
-from gaitcap.reconstruction.calibration_io import load_rig, rig_from_toml_text
+from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.reconstruction.camera import Camera, Rig
 
 

@@ -6,13 +6,13 @@ import json
 import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.readers import load_rig
 from gaitcap.acquisition.synthetic.board import BoardMotion, board_trajectory, observe_board
 from gaitcap.acquisition.synthetic.room import build_rig
 from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.calibration import BoardObservations, calibrate_from_observations
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.reconstruction.calibration.still import merge_still_frames
-from gaitcap.reconstruction.calibration_io import load_rig
 from gaitcap.reconstruction.camera import Camera
 
 NOISE_PX = 0.3

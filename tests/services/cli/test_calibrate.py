@@ -4,9 +4,9 @@ import json
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.readers import load_rig
 from gaitcap.acquisition.synthetic.board import write_board_mcap
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
-from gaitcap.reconstruction.calibration_io import load_rig
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
 

@@ -14,7 +14,7 @@ from gaitcap.acquisition.opencv_samples import (
     read_opencv_camera,
     stereo_difference,
 )
-from gaitcap.reconstruction.calibration_io import load_rig
+from gaitcap.acquisition.readers import load_rig
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
 

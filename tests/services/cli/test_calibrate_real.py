@@ -5,7 +5,7 @@ import re
 
 import pytest
 from gaitcap.acquisition.installed import share_path
-from gaitcap.reconstruction.calibration_io import load_rig
+from gaitcap.acquisition.readers import load_rig
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
 

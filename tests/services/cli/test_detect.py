@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, DetectorConfig
 from gaitcap.acquisition.installed import share_path
+from gaitcap.acquisition.readers import load_multi_npz
 from gaitcap.acquisition.video_detect import detect_videos, find_videos
-from gaitcap.reconstruction.association.npz_io import load_multi_npz
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.services.cli import app

@@ -4,8 +4,8 @@ accuracy targets are measured at full resolution by bench/calibration.py)."""
 
 import re
 
+from gaitcap.acquisition.readers import load_rig
 from gaitcap.reconstruction.calibration.compare import compare_rigs
-from gaitcap.reconstruction.calibration_io import load_rig
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
 

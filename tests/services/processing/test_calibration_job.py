@@ -46,7 +46,7 @@ def _run(tmp_path, frames):
 
 
 def test_a_good_recording_becomes_the_active_calibration(images, tmp_path):
-    from gaitcap.reconstruction.calibration_io import load_rig
+    from gaitcap.acquisition.readers import load_rig
 
     frames, truth = images
     db, run = _run(tmp_path, frames)

@@ -40,8 +40,8 @@ def limb_sd_mm(points_mm: np.ndarray, skeleton: str) -> float:
 @needs_demos
 def test_qualisys_calibration_is_converted_as_pose2sim_does(tmp_path):
     """Pose2Sim's own conversion of this calibration ships beside it (its cam_01 is a moving camera)."""
+    from gaitcap.acquisition.readers import load_rig
     from gaitcap.acquisition.tool_folders import read_qca
-    from gaitcap.reconstruction.calibration_io import load_rig
 
     ours = read_qca(SESSION / "S00_Calibration" / "Calib.qca.txt")
     text = (SESSION / "S00_Calibration" / "Calib_qualisys_multi.test").read_text()
@@ -87,7 +87,7 @@ def test_real_body25b_without_a_config_is_recognised(tmp_path, caplog):
 
     shutil.copytree(ONE_PERSON / "pose", tmp_path / "pose")
     save_rig(read_qca(SESSION / "S00_Calibration" / "Calib.qca.txt"), tmp_path / "calib.toml")
-    from gaitcap.reconstruction.calibration_io import load_rig
+    from gaitcap.acquisition.readers import load_rig
 
     rig = load_rig(tmp_path / "calib.toml")
     data = read_keypoints_input(tmp_path / "pose", rig=rig, fps=60)
