@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 from gaitcap.acquisition.encoding import parse_image_message
+from gaitcap.acquisition.keypoint_message import KeypointMessageError, parse_keypoint_message
 from gaitcap.acquisition.recording import layout
 from gaitcap.acquisition.recording.frame_slots import SlotReport, align_frame_slots
 from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
@@ -327,36 +328,6 @@ def _frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
     return (filled - filled[0]) / 1e9
 
 
-_KEYPOINT_FIELDS = ("frame_id", "timestamp_ns", "skeleton", "people")
-
-
-def _keypoint_message(data: bytes) -> tuple[int, int, str, np.ndarray] | str:
-    """(frame id, timestamp ns, skeleton, people (P, J, 3)) of one recorded keypoint message, or in a few
-    words why it cannot be read."""
-    try:
-        msg = json.loads(data)
-    except ValueError:  # bad JSON or bad UTF-8
-        return "not JSON"
-    if not isinstance(msg, dict):
-        return "not a JSON object"
-    missing = [k for k in _KEYPOINT_FIELDS if k not in msg]
-    if missing:
-        return "missing " + ", ".join(f"'{k}'" for k in missing)
-    for key in ("frame_id", "timestamp_ns"):
-        if isinstance(msg[key], bool) or not isinstance(msg[key], int):
-            return f"'{key}' not an integer"
-    if not isinstance(msg["skeleton"], str):
-        return "'skeleton' not a name"
-    people = msg["people"]
-    try:
-        arr = np.asarray(people, dtype=np.float64) if people else np.zeros((0, 0, 3))
-    except (ValueError, TypeError):
-        arr = None
-    if not isinstance(people, list) or arr is None or arr.ndim != 3 or arr.shape[2] != 3:
-        return "'people' not lists of [x, y, confidence] per joint"
-    return msg["frame_id"], msg["timestamp_ns"], msg["skeleton"], arr
-
-
 def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) -> KeypointRecording:
     """All keypoints, frame sets aligned by frame id; cameras in calibration order (else sorted).
 
@@ -364,18 +335,21 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
     its later frames placed by timestamp (:mod:`gaitcap.acquisition.recording.frame_slots`), with a warning.
     Keypoint messages with a frame id far outside the recording (or a timestamp far from their frame's)
     are ignored and counted: nothing is allocated for them. Keypoint messages that cannot be read (not
-    JSON, a field missing or of the wrong kind, people with another number of joints than the others) are
-    ignored and counted with why, never refusing the recording; both per camera in ``ignored``."""
+    JSON, a field missing, of the wrong kind or out of bounds: :mod:`gaitcap.acquisition.keypoint_message`;
+    people with another number of joints than the others) are ignored and counted with why, never refusing
+    the recording; both per camera in ``ignored``."""
     per_cam: dict[str, list[tuple[int, int, np.ndarray, str]]] = {}
     unplaceable: dict[str, list[int]] = {}  # frame ids or stamps no frame grid can hold: stray at once
     unreadable: dict[str, dict[str, int]] = {}
     for topic, message in iter_messages(path, layout.is_keypoints_topic):
-        camera, parsed = layout.camera_of_topic(topic), _keypoint_message(message.data)
-        if isinstance(parsed, str):
-            unreadable.setdefault(camera, {}).setdefault(parsed, 0)
-            unreadable[camera][parsed] += 1
+        camera = layout.camera_of_topic(topic)
+        try:
+            msg = parse_keypoint_message(message.data, camera=camera)
+        except KeypointMessageError as exc:
+            unreadable.setdefault(camera, {}).setdefault(exc.reason, 0)
+            unreadable[camera][exc.reason] += 1
             continue
-        fid, ts, skeleton, ppl = parsed
+        fid, ts, skeleton, ppl = msg.frame_id, msg.timestamp_ns, msg.skeleton, msg.people
         if abs(fid) >= _MAX_FRAME_ID or not 0 <= ts < 2**63:
             unplaceable.setdefault(camera, []).append(fid)
             continue

@@ -15,17 +15,14 @@ import re
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any, ClassVar
 
-import numpy as np
 from gaitcap.acquisition.encoding import decode_jpeg, image_message, parse_image_message
+from gaitcap.acquisition.keypoint_message import keypoint_message_of
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 
 #: Frame ids count frames from a camera's synchronised start: 2**31 frames is 2 years at 30 frames/s.
 MAX_FRAME_ID = 2**31 - 1
 #: Camera / wall-clock timestamps in ns: 0 .. year 2262.
 MAX_TIME_NS = 2**63 - 1
-MAX_PEOPLE = 32
-MAX_JOINTS = 256
-MAX_IMAGE_PX = 100_000  # a keypoint coordinate beyond this (px) is not from a camera image
 MAX_JSON_BYTES = 4 * 2**20  # a calibration TOML and trial metadata fit easily
 MAX_CALIBRATION_BYTES = 2**20  # a calibration TOML of 64 cameras is about 40 kB
 MAX_JPEG_BYTES = 64 * 2**20
@@ -187,53 +184,13 @@ class ImageFrame:
         return decode_jpeg(self.jpeg, what=f"camera {self.camera} frame {self.frame_id}")
 
 
-def _people(value: Any, what: str) -> list:
-    """P x J x [x px, y px, confidence] with P <= MAX_PEOPLE, J <= MAX_JOINTS, the same J for all."""
-    if _people_ok(value):
-        return value
-    return _people_checked(value, what)
-
-
-def _people_ok(value: Any) -> bool:
-    """The fast path (one array): True when every bound holds; False sends the message to the slow,
-    naming check."""
-    if not isinstance(value, list) or len(value) > MAX_PEOPLE:
-        return False
-    if not value:
-        return True
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (ValueError, TypeError):
-        return False
-    if arr.ndim != 3 or arr.shape[2] != 3 or not 0 < arr.shape[1] <= MAX_JOINTS or not np.isfinite(arr).all():
-        return False
-    xy, conf = arr[..., :2], arr[..., 2]
-    return bool((np.abs(xy) <= MAX_IMAGE_PX).all() and (conf >= 0).all() and (conf <= 1).all())
-
-
-def _people_checked(value: Any, what: str) -> list:
-    if not isinstance(value, list) or len(value) > MAX_PEOPLE:
-        raise ValueError(f"{what}: must be a list of at most {MAX_PEOPLE} people")
-    joints = None
-    for p, person in enumerate(value):
-        if not isinstance(person, list) or not 0 < len(person) <= MAX_JOINTS:
-            raise ValueError(f"{what}[{p}]: must be a list of 1..{MAX_JOINTS} joints")
-        if joints is not None and len(person) != joints:
-            raise ValueError(f"{what}[{p}]: {len(person)} joints, person 0 has {joints}")
-        joints = len(person)
-        for j, xyc in enumerate(person):
-            if not isinstance(xyc, list) or len(xyc) != 3:
-                raise ValueError(f"{what}[{p}][{j}]: must be [x px, y px, confidence]")
-            _num(xyc[0], f"{what}[{p}][{j}].x", -MAX_IMAGE_PX, MAX_IMAGE_PX)
-            _num(xyc[1], f"{what}[{p}][{j}].y", -MAX_IMAGE_PX, MAX_IMAGE_PX)
-            _num(xyc[2], f"{what}[{p}][{j}].confidence", 0.0, 1.0)
-    return value
-
-
 @dataclass(frozen=True)
 class Keypoints(_Json):
     """2D keypoints of one frame of one camera (people[0] is the patient): ``people`` is P lists of J
-    ``[x px, y px, confidence 0..1]``; ``timestamp_ns`` is the frame's camera timestamp."""
+    ``[x px, y px, confidence 0..1]``; ``timestamp_ns`` is the frame's camera timestamp. The format and its
+    checks are :mod:`gaitcap.acquisition.keypoint_message`'s (a recording's reader reads the same
+    messages); the bus adds its bounds: names, frame id and timestamp ranges, no NaN (a joint not seen is
+    ``[0, 0, 0]``), no unknown field."""
 
     what: ClassVar[str] = "keypoints"
     camera: str
@@ -248,8 +205,9 @@ class Keypoints(_Json):
         _int(self.frame_id, f"{self.what}.frame_id", 0, MAX_FRAME_ID)
         _int(self.timestamp_ns, f"{self.what}.timestamp_ns", 0, MAX_TIME_NS)
         check_name(self.skeleton, what=f"{self.what}.skeleton")
-        _people(self.people, f"{self.what} of camera {self.camera}.people")
         _num(self.detector_ms, f"{self.what}.detector_ms", 0.0, 3.6e6)
+        keypoint_message_of({"frame_id": self.frame_id, "timestamp_ns": self.timestamp_ns, "skeleton": self.skeleton,
+                             "people": self.people}, camera=self.camera, allow_nan=False)
 
 
 @dataclass(frozen=True)

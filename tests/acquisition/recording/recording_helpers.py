@@ -30,7 +30,7 @@ def people_for(c: int, f: int, n: int = 2) -> np.ndarray:
     """Deterministic (n, J, 3) keypoints for camera c, frame f."""
     base = np.arange(J * 3, dtype=np.float64).reshape(J, 3) + 100 * c + f
     base[:, 2] = 0.9
-    return np.stack([base + 1000 * p for p in range(n)])
+    return np.stack([base + [1000 * p, 1000 * p, 0] for p in range(n)])  # confidences stay 0.9
 
 
 def write_trial(path, *, finish: bool = True, missing: dict | None = None, compression: str = "lz4",

@@ -262,3 +262,33 @@ def test_malformed_keypoint_messages_are_ignored_and_counted_with_why(tmp_path):
     np.testing.assert_allclose(kp.people[1, 8, :2], people_for(1, 8))
     with pytest.raises(ValueError, match=r"cameras \['cam2'\].*missing 'timestamp_ns'"):
         read_keypoints(tmp_path / "bad.mcap", cameras=["cam0", "cam2"])
+
+
+def test_a_joint_not_seen_recorded_as_nan_is_kept_and_a_confidence_outside_0_to_1_is_ignored_with_why(tmp_path):
+    """A recording written by a tool whose JSON has NaN: a joint not seen (NaN, confidence 0) is read as
+    missing; a message with a confidence of 1.5, or NaN coordinates with confidence 0.4, is left out and
+    counted with why, the rest of its camera read."""
+    from gaitcap.acquisition.recording.writer import TrialWriter
+
+    w = TrialWriter(tmp_path / "nan.mcap")
+    w.start(metadata={"trial_id": "nan"}, calibration_toml=rig_to_toml_text(tiny_rig()), time_ns=T0_NS)
+    for c, cam in enumerate(CAMS[:2]):
+        for k in range(FRAMES):
+            ts = T0_NS + k * PERIOD_NS + 1000 * c
+            people = people_for(c, k)
+            if (cam, k) == ("cam0", 4):
+                people[0, 7] = [np.nan, np.nan, 0.0]
+            elif (cam, k) == ("cam1", 6):
+                people[1, 2, 2] = 1.5
+            elif (cam, k) == ("cam1", 8):
+                people[0, 0] = [np.nan, 3.0, 0.4]
+            w.add_keypoints(cam, json.dumps({"camera": cam, "frame_id": k, "timestamp_ns": ts, "skeleton": "halpe26",
+                                             "people": people.tolist()}).encode(), timestamp_ns=ts, frame_id=k)
+    kp = read_keypoints(w.finish({}))
+    assert kp.camera_names == ("cam0", "cam1") and (kp.timestamps_ns[0] >= 0).all()
+    assert np.isnan(kp.people[0, 4, 0, 7, :2]).all() and kp.people[0, 4, 0, 7, 2] == 0
+    np.testing.assert_allclose(kp.people[0, 4, 0, 8], people_for(0, 4)[0, 8])
+    assert (kp.timestamps_ns[1] >= 0).tolist() == [k not in (6, 8) for k in range(FRAMES)]
+    assert {c: i.unreadable for c, i in kp.ignored.items()} == {"cam1": {
+        "'people' confidence not a number in 0..1": 1,
+        "'people' x NaN with a confidence above 0 (a joint not seen has confidence 0)": 1}}

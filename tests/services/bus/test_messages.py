@@ -4,12 +4,12 @@ import json
 import os
 
 import pytest
+from gaitcap.acquisition.keypoint_message import MAX_PEOPLE
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text, rig_to_toml_text
 from gaitcap.services.bus.messages import (
     MAX_CALIBRATION_BYTES,
     MAX_FRAME_ID,
     MAX_JSON_BYTES,
-    MAX_PEOPLE,
     CameraScene,
     CameraStatus,
     FrameMeta,
@@ -71,6 +71,18 @@ def test_round_trip(message):
 def test_keypoints_out_of_bounds_are_refused_naming_the_field(payload, match):
     with pytest.raises(ValueError, match=match):
         Keypoints.from_bytes(payload)
+
+
+def test_the_bus_writes_the_keypoint_message_format_and_a_joint_not_seen_travels_as_zeros_not_nan():
+    from gaitcap.acquisition.keypoint_message import parse_keypoint_message
+
+    sent = Keypoints("cam01", 3, 10**18, "halpe26", [[[1.0, 2.0, 0.5], [0.0, 0.0, 0.0]]], 2.0)
+    read = parse_keypoint_message(sent.to_bytes(), camera="cam01")
+    assert (read.frame_id, read.timestamp_ns, read.skeleton, read.camera, read.detector_ms) == (3, 10**18, "halpe26",
+                                                                                                 "cam01", 2.0)
+    assert read.people.tolist() == sent.people
+    with pytest.raises(ValueError, match=r"keypoints of camera cam01\.people\[0\]\[1\]\.x: not a finite number"):
+        Keypoints("cam01", 3, 10**18, "halpe26", [[[1.0, 2.0, 0.5], [float("nan"), float("nan"), 0.0]]])
 
 
 def test_one_timestamp_per_frame_and_the_camera_must_match_its_key():
