@@ -18,7 +18,7 @@ simulate-board`` and ``gaitcap calibrate --compare`` do).
     python bench/calibration.py --board charuco --frames 900 --noise-px 1.0
     python bench/calibration.py --images 600         # + end to end from images (about 30 min on 2 cores)
     python bench/calibration.py --real-only          # only the real recordings (below), about a minute
-                                                     # + caliscope's 11-camera session: about 15 min more
+                                                     # + caliscope's 11-camera session: about 6 min more
     python bench/calibration.py --real-only --sync-every 20   # that session thinned as in the tests: a minute
 
 Real recordings (installed by deploy/bootstrap.sh; skipped when absent): caliscope's 4-webcam session of
