@@ -73,9 +73,14 @@ def _views(recording: Path, cfg, flags_given: bool, selection, pairing, progress
     from gaitcap.acquisition.caliscope import is_session, read_session
 
     if is_session(recording):
-        board, obs, _, moving = read_session(recording, pairing=pairing, board=cfg if flags_given else None)
+        if selection.max_frames is not None:
+            raise ValueError("--max-frames: a caliscope session holds corner detections, not frames to search; "
+                             "use --every N to keep every N-th of its frame sets")
+        board, obs, _, moving = read_session(recording, pairing=pairing, board=cfg if flags_given else None,
+                                             sync_every=selection.every)
         counts = ", ".join(f"{n} {k}" for n, k in zip(obs.camera_names, obs.views().sum(1).tolist(), strict=True))
-        return board, obs, None, f"caliscope session: views {counts}; {moving} left out (board moving)"
+        every = f" (every {selection.every}th frame set)" if selection.every > 1 else ""
+        return board, obs, None, f"caliscope session{every}: views {counts}; {moving} left out (board moving)"
     found = find_board_views(recording, board=cfg, selection=selection, pairing=pairing, progress=progress_bar)
     obs = found.observations
     return cfg, obs, found, (f"{int(obs.views().sum())} views in {obs.shape[1]} frame sets (paired "
