@@ -238,7 +238,6 @@ install_calibration_recordings() (
     && "$VENV/bin/python" - "$tmp" "$dest" "$CALISCOPE_VERSION" "$POSE2SIM_VERSION" <<'PYEOF'
 import glob, os, shutil, sys, tarfile, zipfile
 tmp, dest, cs_version, p2s_version = sys.argv[1:5]
-shutil.rmtree(dest, ignore_errors=True)
 root = f"caliscope-{cs_version}/"
 keep = {  # path in the sdist -> path under dest
     "tests/sessions/4_cam_recording/charuco.toml": "caliscope-4cam/charuco.toml",
@@ -255,6 +254,12 @@ keep = {  # path in the sdist -> path under dest
         "caliscope-11cam/calibration/extrinsic/CHARUCO/xy_CHARUCO.csv",
     "tests/sessions/point_estimate_creation/fully_linked/camera_array.toml": "caliscope-11cam/camera_array.toml",
 }
+# Only this installer's folders and version stamps are replaced: dest also holds install_opencv_samples' folders.
+for name in {t.split("/")[0] for t in keep.values()} | {"caliscope-chessboard", "pose2sim-single"}:
+    shutil.rmtree(os.path.join(dest, name), ignore_errors=True)
+for name in os.listdir(dest) if os.path.isdir(dest) else ():
+    if name.startswith(".version-"):
+        os.remove(os.path.join(dest, name))
 with tarfile.open(glob.glob(os.path.join(tmp, f"caliscope-{cs_version}.tar.gz"))[0]) as tar:
     for member in tar.getmembers():
         name = member.name[len(root):]
