@@ -18,6 +18,16 @@ def board_fields(path: Path) -> dict:
     return tomllib.loads(board_to_toml(read_board_file(path)))["board"]
 
 
+def board_words(board: dict | None, path: Path | None) -> str:
+    """The board serve records on board recordings, in one line naming where it came from."""
+    from gaitcap.acquisition.board import BoardConfig
+    from gaitcap.acquisition.board_file import board_from_dict
+
+    if board is None:
+        return f"{BoardConfig().describe()} (the default board: no --board-file)"
+    return f"{board_from_dict({'board': board}, source=str(path)).describe()} (board file {path})"
+
+
 def register(app: typer.Typer) -> None:
     @app.command()
     def serve(
@@ -54,10 +64,10 @@ def register(app: typer.Typer) -> None:
                 tls_cert, tls_key = web_certificate(host if host not in ("0.0.0.0", "::") else "localhost",
                                                     data_dir / "tls")
                 typer.echo(f"HTTPS certificate {tls_cert} (trust {data_dir / 'tls' / 'ca.pem'} in the browsers)")
+            board = board_fields(board_file) if board_file else None
             settings = Settings.from_env(data_dir=data_dir, host=host, port=port, tls_cert=tls_cert, tls_key=tls_key,
                                          plain_http_beyond_loopback=plain_http,
-                                         catalog_url=catalog or str(data_dir / "catalog.sqlite"),
-                                         board=board_fields(board_file) if board_file else None)
+                                         catalog_url=catalog or str(data_dir / "catalog.sqlite"), board=board)
             if sim_scene and no_bus:
                 raise ValueError("--sim-scene: the simulated cameras are reached over the bus (drop --no-bus)")
             link, scene = None, None
@@ -68,5 +78,6 @@ def register(app: typer.Typer) -> None:
 
                 link = BusLink(default_bus_config(bus), node=node)
                 scene = BusSceneControl(link.session, link.bus) if sim_scene else None
+            typer.echo(f"calibration board: {board_words(board, board_file)}")
             typer.echo(f"gaitcap clinic page: {settings.scheme}://{host}:{port}/")
         run(settings, link, scene=scene)

@@ -1,6 +1,7 @@
 """``gaitcap serve --board-file``: the clinic's board file (any format the board reader knows) becomes the
 board recorded on board recordings, as a board file's ``[board]`` fields; a bad file stops serve at once."""
 
+import gaitcap.api.server
 from gaitcap.acquisition.board_file import board_from_dict, read_board_file
 from gaitcap.services.cli import app
 from gaitcap.services.cli.serve import board_fields
@@ -33,3 +34,18 @@ def test_serve_refuses_a_board_file_that_is_not_there_or_not_a_board(tmp_path):
         result = CliRunner().invoke(app, ["serve", "--no-bus", "--data-dir", str(tmp_path), "--board-file",
                                           str(tmp_path / name)])
         assert result.exit_code == 2 and words in result.output and name in result.output, result.output
+
+
+def test_serve_prints_the_board_it_records(tmp_path, monkeypatch):
+    monkeypatch.delenv("GAITCAP_BOARD_FILE", raising=False)
+    served = []
+    monkeypatch.setattr(gaitcap.api.server, "serve", lambda settings, link, scene=None: served.append(settings))
+    path = tmp_path / "charuco.toml"
+    path.write_text(CALISCOPE)
+    for extra, words in (
+        (["--board-file", str(path)], f"calibration board: {read_board_file(path).describe()} (board file {path})"),
+        ([], "calibration board: checkerboard 7 x 5 squares of 110 mm (the default board: no --board-file)"),
+    ):
+        result = CliRunner().invoke(app, ["serve", "--no-bus", "--data-dir", str(tmp_path), *extra])
+        assert result.exit_code == 0 and words in result.output, result.output
+    assert served[0].board == board_fields(path) and served[1].board is None
