@@ -75,7 +75,8 @@ class GaitOut(BaseModel):
     analysis_warnings: list[str] = Field(default_factory=list, description="The gait analysis's notes (turns, "
                                          "gaps, steps left out), plain words")
     data_quality: dict = Field(default_factory=dict, description="Per camera frames expected / received / lost, "
-                               "fps, sync spread (ms), coverage, reprojection error (px), and the criteria")
+                               "fps, sync spread (ms), coverage, reprojection error (px), ignored_keypoints (per "
+                               "camera: keypoint messages left out, strays, mistimed, unreadable), and the criteria")
 
 
 class BoardIn(BaseModel):
