@@ -250,9 +250,12 @@ def alive_nodes(session, bus: BusConfig, timeout_s: float = 1.0) -> set[str]:
 
 def free_loopback_ports(n: int, *, low: int = 20000, high: int = 60000) -> list[int]:
     """``n`` consecutive TCP ports free on 127.0.0.1 right now, ``base, base + 1, ...`` between ``low`` and
-    ``high`` (test, benchmark and demo stacks on loopback: a bus's nodes, an API port and the bus after it)."""
+    ``high`` (test, benchmark and demo stacks on loopback: a bus's nodes, an API port and the bus after it).
+    The base is drawn from the OS's entropy, not the ``random`` module's state, so that processes that seed
+    ``random`` alike (test runners do) still draw different ports; a port bound by any process is skipped."""
+    draw = random.SystemRandom()
     for _ in range(200):
-        base = random.randrange(low, high - n)
+        base = draw.randrange(low, high - n + 1)  # the last port, base + n - 1, below high
         if all(_port_free(base + i) for i in range(n)):
             return list(range(base, base + n))
     raise RuntimeError(f"no {n} consecutive free ports on 127.0.0.1 between {low} and {high}")

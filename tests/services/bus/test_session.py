@@ -13,6 +13,7 @@ from gaitcap.services.bus.session import (
     alive_nodes,
     declare_alive,
     default_bus_config,
+    free_loopback_ports,
     load_bus_config,
     open_session,
     watch_alive,
@@ -133,3 +134,37 @@ def test_own_token_and_bad_node_name():
             open_session(bus, "bad/name")
     finally:
         s.close()
+
+
+def test_free_loopback_ports_skip_a_bound_port_and_not_follow_the_random_seed():
+    import random
+    import socket
+
+    with socket.socket() as held:  # a port another socket listens on is never handed out
+        held.bind(("127.0.0.1", 0))
+        held.listen()
+        p = held.getsockname()[1]
+        if not _free(p + 1):
+            pytest.skip(f"port {p + 1} is in use here")
+        for _ in range(10):  # bases p or p + 1 can be drawn: p is held
+            assert free_loopback_ports(1, low=p, high=p + 2) == [p + 1]
+        with pytest.raises(RuntimeError, match="no 2 consecutive free ports"):
+            free_loopback_ports(2, low=p - 1, high=p + 2)  # both possible pairs include p
+    bases = []
+    for _ in range(3):  # processes seeding random alike (test runners do) draw different ports
+        random.seed(0)
+        ports = free_loopback_ports(4)
+        assert ports == list(range(ports[0], ports[0] + 4))
+        bases.append(ports[0])
+    assert len(set(bases)) > 1, bases
+
+
+def _free(port: int) -> bool:
+    import socket
+
+    with socket.socket() as s:
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError:
+            return False
+    return True
