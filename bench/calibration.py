@@ -85,6 +85,7 @@ def _calibration(board_kind: str, frames: int, floor_frames: int, noise_px: floa
     return {
         "board": board.geometry.name, "frames": frames, "floor_frames": floor_frames, "noise_px": noise_px,
         "views": int(obs.views().sum()), "corners": rep.n_corners, "outliers": rep.n_outliers,
+        "views_left_out": sum(q.views_left_out for q in rep.cameras),
         "seconds": seconds, "centre_err_mm_mean": float(centre.mean()), "centre_err_mm_max": float(centre.max()),
         "rotation_err_deg_mean": float(angle.mean()), "rotation_err_deg_max": float(angle.max()),
         "focal_err_pct_max": float(100 * np.abs(focal).max()), "k1_err_max": float(np.abs(k1).max()),
@@ -411,7 +412,8 @@ def _table(r: dict) -> str:
     rows = [
         ("board", c["board"], ""),
         ("frames (floor) / views / corners", f"{c['frames']} ({c['floor_frames']}) / {c['views']} / {c['corners']}", ""),
-        ("outlier corners", f"{c['outliers']}", ""),
+        ("outlier corners / views left out", f"{c['outliers']} / {c['views_left_out']}",
+         "views disagreeing as a whole (whole_views.py)"),
         ("calibration time", f"{c['seconds']:.1f} s", "2 shared cores, noisy"),
         ("camera centre error mean / max", f"{c['centre_err_mm_mean']:.2f} / {c['centre_err_mm_max']:.2f} mm", f"< {TARGET_CENTRE_MM} mm"),
         ("rotation error mean / max", f"{c['rotation_err_deg_mean']:.3f} / {c['rotation_err_deg_max']:.3f} deg", f"< {TARGET_ROTATION_DEG} deg"),
