@@ -3,8 +3,9 @@ layout when the input says it, and the calibration when the input carries one).
 
 Supported inputs (:func:`read_keypoints_input` asks each :class:`Reader` in turn whether it accepts the path):
 
-- NPZ: ``keypoints`` (C, T, J, 3) x px, y px, confidence, or (C, T, P, J, 3) with several people;
-  ``cameras`` (or ``camera_names``) (C,) names; optional ``times_s`` (T,) and ``skeleton`` (layout name).
+- NPZ (read by :func:`gaitcap.acquisition.readers.read_keypoint_arrays`): ``keypoints`` (C, T, J, 3) x px,
+  y px, confidence, or (C, T, P, J, 3) with several people; ``camera_names`` (or ``cameras``) (C,) names;
+  optional ``times_s`` (T,) and ``skeleton`` (layout name).
 - A trial MCAP written by the recorder (layout and calibration recorded in it).
 - Other tools' folders (:mod:`gaitcap.acquisition.tool_folders`): a Pose2Sim project or trial folder
   (``Config.toml`` ``pose_model``, ``calibration/`` TOML or Qualisys ``.qca.txt``, ``pose/`` OpenPose
@@ -39,7 +40,9 @@ from gaitcap.acquisition.keypoint_input import (
     provisional_skeleton,
 )
 from gaitcap.acquisition.openpose_json import openpose_people
+from gaitcap.acquisition.readers import read_keypoint_arrays
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import validate_keypoints
 
 log = logging.getLogger(__name__)
 
@@ -48,26 +51,18 @@ DEFAULT_FPS = 30.0
 
 # ---------------------------------------------------------------------------------------------- NPZ
 def read_npz(path: Path, *, fps: float, camera_names: list[str] | None = None) -> KeypointInput:
-    with np.load(path, allow_pickle=False) as data:
-        if "keypoints" not in data.files:
-            raise ValueError(f"{path}: missing array 'keypoints' (has {sorted(data.files)})")
-        name_key = next((k for k in ("cameras", "camera_names") if k in data.files), None)
-        if name_key is None:
-            raise ValueError(f"{path}: missing array 'cameras' (camera names, one per row of keypoints)")
-        kp = np.asarray(data["keypoints"], dtype=np.float64)
-        names = tuple(str(n) for n in data[name_key])
-        times = np.asarray(data["times_s"], dtype=np.float64) if "times_s" in data.files else None
-        layout = str(data["skeleton"]) if "skeleton" in data.files else None
-    if kp.ndim == 4:
-        kp = kp[:, :, None]
-    if kp.ndim != 5 or kp.shape[-1] != 3:
-        raise ValueError(f"{path}: keypoints must be (C, T, J, 3) or (C, T, P, J, 3), got {kp.shape}")
-    if len(names) != kp.shape[0]:
-        raise ValueError(f"{path}: {len(names)} camera names for {kp.shape[0]} cameras in keypoints")
-    if np.isinf(kp).any():
-        raise ValueError(f"{path}: keypoints of camera {names[int(np.argwhere(np.isinf(kp))[0, 0])]!r} are infinite")
+    """A keypoint NPZ (:func:`gaitcap.acquisition.readers.read_keypoint_arrays`); without ``times_s`` the frames
+    are ``fps`` apart, without ``skeleton`` the layout is recognised later. Checked as the loaders check
+    (:func:`gaitcap.reconstruction.detections.validate_keypoints`: confidences in 0..1, times increasing,
+    camera names distinct), errors naming the file."""
+    kp, names, times, layout = read_keypoint_arrays(path, optional=("times_s", "skeleton"))
     times = np.arange(kp.shape[1]) / fps if times is None else times
-    return make_input(kp, names, times, layout=layout, rig=None, source="keypoints NPZ")
+    data = make_input(kp, names, times, layout=layout, rig=None, source="keypoints NPZ")
+    try:
+        validate_keypoints(data.recording.people, names, times, data.recording.skeleton, layout="(C, T, P, J, 3)")
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    return data
 
 
 def read_mcap(path: Path, *, fps: float, camera_names: list[str] | None = None) -> KeypointInput:

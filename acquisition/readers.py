@@ -5,13 +5,17 @@ parses the text or arrays handed to it). Every error names the file.
 Keypoint NPZ files: several people per camera and frame in, one chosen person out. Multi-person file
 keys: ``keypoints`` (C, T, P, J, 3) x px, y px, confidence; ``camera_names`` (C,) str; ``times_s`` (T,);
 ``skeleton`` (str). A single-person file has ``keypoints`` (C, T, J, 3) and the same other keys, plus
-whatever extra arrays the writer adds (e.g. ``track_id``).
+whatever extra arrays the writer adds (e.g. ``track_id``). One reader of these files,
+:func:`read_keypoint_arrays`, for the loaders here and for ``gaitcap process`` on an NPZ
+(:mod:`gaitcap.acquisition.keypoint_files`, where ``times_s`` and ``skeleton`` may be left out and the
+camera names may be under ``cameras``).
 """
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from gaitcap.reconstruction.association.multi import MultiPersonDetections
@@ -37,22 +41,48 @@ def read_walkway_csv(path: str | os.PathLike) -> tuple[WalkwayTrial, ...]:
         return walkway_from_csv_text(f.read(), source=str(path))
 
 
-def _read_keypoints(path: str | os.PathLike) -> tuple[np.ndarray, tuple[str, ...], np.ndarray, str]:
-    """keypoints, camera names, times (s) and skeleton name of a keypoint file; errors name the file."""
+class KeypointArrays(NamedTuple):
+    """The arrays of a keypoint NPZ file (float64 keypoints, as laid out in the file)."""
+
+    keypoints: np.ndarray  # (C, T, J, 3) or (C, T, P, J, 3)
+    camera_names: tuple[str, ...]
+    times_s: np.ndarray | None  # (T,); None when left out (only if allowed)
+    skeleton: str | None  # None when left out (only if allowed)
+
+
+def read_keypoint_arrays(path: str | os.PathLike, *, optional: tuple[str, ...] = ()) -> KeypointArrays:
+    """Read a keypoint NPZ file: camera names under ``camera_names`` (or ``cameras``); ``optional``: of
+    ``times_s`` and ``skeleton``, those that may be left out. FileNotFoundError or ValueError naming the file
+    and every missing array, a bad shape, a camera count that differs, times not one per frame, or the
+    camera with infinite keypoints."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"keypoint file {path} does not exist")
     with np.load(path, allow_pickle=False) as data:
-        missing = [k for k in KEYS if k not in data.files]
+        name_key = next((k for k in ("camera_names", "cameras") if k in data.files), None)
+        missing = [k for k in KEYS if k not in optional
+                   and (name_key is None if k == "camera_names" else k not in data.files)]
         if missing:
-            raise ValueError(f"{path}: missing arrays {missing} (has {sorted(data.files)})")
-        return (data["keypoints"], tuple(str(n) for n in data["camera_names"]), data["times_s"],
-                str(data["skeleton"]))
+            also = " (camera names may also be under 'cameras')" if "camera_names" in missing else ""
+            raise ValueError(f"{path}: missing arrays {missing}{also} (has {sorted(data.files)})")
+        kp = np.asarray(data["keypoints"], dtype=np.float64)
+        names = tuple(str(n) for n in data[name_key])
+        times = np.asarray(data["times_s"], dtype=np.float64).reshape(-1) if "times_s" in data.files else None
+        skeleton = str(data["skeleton"]) if "skeleton" in data.files else None
+    if kp.ndim not in (4, 5) or kp.shape[-1] != 3:
+        raise ValueError(f"{path}: keypoints must be (C, T, J, 3) or (C, T, P, J, 3), got {kp.shape}")
+    if len(names) != kp.shape[0]:
+        raise ValueError(f"{path}: {len(names)} camera names for {kp.shape[0]} cameras in keypoints")
+    if times is not None and times.shape != (kp.shape[1],):
+        raise ValueError(f"{path}: times_s: expected {kp.shape[1]} times (one per frame), got {times.shape[0]}")
+    if np.isinf(kp).any():
+        raise ValueError(f"{path}: keypoints of camera {names[int(np.argwhere(np.isinf(kp))[0, 0])]!r} are infinite")
+    return KeypointArrays(kp, names, times, skeleton)
 
 
 def load_multi_npz(path: str | os.PathLike) -> MultiPersonDetections:
     """Read a multi-person keypoint file (ValueError naming the file and a missing key or bad array)."""
-    kp, names, times, skeleton = _read_keypoints(path)
+    kp, names, times, skeleton = read_keypoint_arrays(path)
     if kp.ndim == 4:
         kp = kp[:, :, None]  # one person per camera and frame
     try:
@@ -63,7 +93,7 @@ def load_multi_npz(path: str | os.PathLike) -> MultiPersonDetections:
 
 def load_detections_npz(path: str | os.PathLike) -> Detections:
     """Read a single-person keypoint file written by :func:`gaitcap.acquisition.writers.save_detections_npz`."""
-    kp, names, times, skeleton = _read_keypoints(path)
+    kp, names, times, skeleton = read_keypoint_arrays(path)
     try:
         return Detections(keypoints=kp, camera_names=names, times_s=times, skeleton=skeleton)
     except ValueError as exc:

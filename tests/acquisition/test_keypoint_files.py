@@ -65,6 +65,16 @@ def test_npz_input(tmp_path):
     np.savez(tmp_path / "nocam.npz", keypoints=kp)
     with pytest.raises(ValueError, match="cameras"):
         read_keypoints_input(tmp_path / "nocam.npz")
+    abc = np.array(["a", "b", "c"])
+    np.savez(tmp_path / "pct.npz", keypoints=kp * [1, 1, 100], cameras=abc)  # confidences in percent
+    with pytest.raises(ValueError, match="pct.npz: keypoints: confidence .* must lie in \\[0, 1\\]"):
+        read_keypoints_input(tmp_path / "pct.npz")
+    np.savez(tmp_path / "times.npz", keypoints=kp, cameras=abc, times_s=np.array([0.0]))
+    with pytest.raises(ValueError, match="times.npz: times_s: expected 4 times"):
+        read_keypoints_input(tmp_path / "times.npz")  # never one time broadcast over every frame
+    np.savez(tmp_path / "back.npz", keypoints=kp, cameras=abc, times_s=np.array([0.0, 0.1, 0.05, 0.2]))
+    with pytest.raises(ValueError, match="back.npz: times_s: must be strictly increasing"):
+        read_keypoints_input(tmp_path / "back.npz")
     np.savez(tmp_path / "seven.npz", keypoints=kp[..., :7, :], cameras=np.array(["a", "b", "c"]))
     with pytest.raises(ValueError, match="no known layout has 7 keypoints"):
         read_keypoints_input(tmp_path / "seven.npz")

@@ -5,7 +5,13 @@ import json
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.readers import load_detections_npz, load_multi_npz, load_rig, read_walkway_csv
+from gaitcap.acquisition.readers import (
+    load_detections_npz,
+    load_multi_npz,
+    load_rig,
+    read_keypoint_arrays,
+    read_walkway_csv,
+)
 from gaitcap.acquisition.writers import save_detections_npz, save_multi_npz, save_rig
 from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.camera import Camera, Rig
@@ -47,6 +53,18 @@ def test_missing_file_missing_arrays_and_bad_arrays_are_named(tmp_path):
              times_s=np.arange(4) / 30, skeleton=np.array("halpe26"))
     with pytest.raises(ValueError, match="short.npz: times_s: expected 3 times"):
         load_detections_npz(tmp_path / "short.npz")
+    np.savez(tmp_path / "tool.npz", keypoints=np.zeros((2, 3, 26, 3)), cameras=np.array(["a", "b"]))
+    with pytest.raises(ValueError, match="tool.npz: missing arrays \\['times_s', 'skeleton'\\]"):
+        load_detections_npz(tmp_path / "tool.npz")  # camera names under 'cameras' are read
+    np.savez(tmp_path / "nonames.npz", keypoints=np.zeros((2, 3, 26, 3)))
+    with pytest.raises(ValueError, match="nonames.npz: missing arrays \\['camera_names'\\] .*'cameras'"):
+        read_keypoint_arrays(tmp_path / "nonames.npz", optional=("times_s", "skeleton"))
+    inf = np.zeros((2, 3, 26, 3))
+    inf[1, 2, 0, 0] = np.inf
+    np.savez(tmp_path / "inf.npz", keypoints=inf, camera_names=np.array(["a", "b"]), times_s=np.arange(3) / 30,
+             skeleton=np.array("halpe26"))
+    with pytest.raises(ValueError, match="inf.npz: keypoints of camera 'b' are infinite"):
+        load_detections_npz(tmp_path / "inf.npz")
 
 
 def test_calibration_read_back_and_bad_files_named(tmp_path):
