@@ -45,3 +45,21 @@ def test_wrong_board_is_a_clear_error(recording, tmp_path):
     assert "camera 'cam01': no frame showed the whole 8x6-square checkerboard" in result.output
     assert "camera 'cam02'" in result.output and "board size" not in result.output
     assert not (tmp_path / "c.toml").exists()
+
+
+def test_the_table_names_the_views_left_out_for_passed_and_failed_cameras():
+    from gaitcap.reconstruction.calibration import CameraQuality, QualityReport
+    from gaitcap.reconstruction.calibration.whole_views import LEFT_OUT_REASON
+    from gaitcap.services.cli.calibrate import _summary
+
+    note = (f"3 views left out: {LEFT_OUT_REASON}",)
+    cams = (CameraQuality("cam01", 20, 480, 2, 0.3, 0.6, 0.4, 0.5, True, (), 0.3, 23, 20 / 23, 3, note),
+            CameraQuality("cam02", 20, 480, 9, 0.9, 3.5, 1.2, 0.5, False, ("reprojection p95 3.50 px > 3.0 px",),
+                          0.8, 23, 20 / 23, 3, note),
+            CameraQuality("cam03", 23, 552, 0, 0.3, 0.6, 0.4, 0.5, True, (), 0.3, 23, 1.0))
+    report = QualityReport("board", "k1", cams, ("cam02",), 30, 1512, 11, 0.5, 1.2, 0.7, 110.0, 110.1, 0.1, 5,
+                           False, 3, 1.0)
+    rows = {line.split()[0]: line for line in _summary(report).splitlines()[1:4]}
+    assert rows["cam01"].endswith(f"ok; 3 views left out: {LEFT_OUT_REASON}"), rows["cam01"]
+    assert rows["cam02"].endswith(f"FAILED: reprojection p95 3.50 px > 3.0 px; 3 views left out: {LEFT_OUT_REASON}")
+    assert rows["cam03"].endswith("  ok")
