@@ -360,6 +360,12 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
             f" with a usable frame id and timestamp ({sum(map(len, unplaceable.values()))} messages have a "
             "frame id beyond +-2**53 or a timestamp outside 0..2**63 ns)" if unplaceable else "") + (
             f"; keypoint messages that could not be read: {unreadable}" if unreadable else ""))
+    for cam, whys in sorted(unreadable.items()):  # said here too: gaitcap process has no quality record
+        log.warning("%s: camera %s: %d keypoint message(s) could not be read and were ignored (%s)", path, cam,
+                    sum(whys.values()), ", ".join(f"{n} {why}" for why, n in sorted(whys.items())))
+    for cam, fids in sorted(unplaceable.items()):  # never reach frame_slots, which says the other strays
+        log.warning("%s: camera %s: %d keypoint message(s) with a frame id beyond +-2**53 or a timestamp outside "
+                    "0..2**63 ns were ignored (from frame id %d)", path, cam, len(fids), fids[0])
     slotted, report, skeletons = _on_one_grid(per_cam)
     if len(skeletons) != 1:
         raise ValueError(f"{path}: keypoints of several skeletons {sorted(skeletons)}")

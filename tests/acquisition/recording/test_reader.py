@@ -1,4 +1,5 @@
 import json
+import logging
 import shutil
 
 import numpy as np
@@ -224,7 +225,7 @@ def test_image_times_scan_the_file_when_the_index_points_at_something_else(tmp_p
         np.testing.assert_array_equal(times[cam], good[cam])
 
 
-def test_malformed_keypoint_messages_are_ignored_and_counted_with_why(tmp_path):
+def test_malformed_keypoint_messages_are_ignored_and_counted_with_why(tmp_path, caplog):
     """Keypoint messages that cannot be read (bad JSON, a field missing, people of another joint count)
     are left out and counted per camera with why; the recording is read, not refused. A camera with only
     such messages has no keypoints (not in camera_names), and is counted all the same."""
@@ -249,8 +250,13 @@ def test_malformed_keypoint_messages_are_ignored_and_counted_with_why(tmp_path):
     for k in range(2):  # cam2: every message lacks its timestamp
         w.add_keypoints("cam2", json.dumps({"camera": "cam2", "frame_id": k, "skeleton": "halpe26",
                                             "people": []}).encode(), timestamp_ns=T0_NS + k, frame_id=k)
-    kp = read_keypoints(w.finish({}))
+    with caplog.at_level(logging.WARNING):
+        kp = read_keypoints(w.finish({}))
     assert kp.camera_names == ("cam0", "cam1") and kp.frame_ids.tolist() == list(range(FRAMES))
+    # said in the log too (gaitcap process on a trial file keeps no quality record)
+    assert "camera cam1: 3 keypoint message(s) could not be read and were ignored (2 missing 'skeleton', " \
+           "1 not JSON)" in caplog.text
+    assert "camera cam2: 2 keypoint message(s) could not be read" in caplog.text
     assert {c: i.unreadable for c, i in kp.ignored.items()} == {
         "cam0": {"people with 17 joints where the others have 26": 1},
         "cam1": {"missing 'skeleton'": 2, "not JSON": 1},
@@ -262,6 +268,31 @@ def test_malformed_keypoint_messages_are_ignored_and_counted_with_why(tmp_path):
     np.testing.assert_allclose(kp.people[1, 8, :2], people_for(1, 8))
     with pytest.raises(ValueError, match=r"cameras \['cam2'\].*missing 'timestamp_ns'"):
         read_keypoints(tmp_path / "bad.mcap", cameras=["cam0", "cam2"])
+
+
+def test_keypoint_messages_no_frame_grid_can_hold_are_ignored_counted_and_logged(tmp_path, caplog):
+    """A frame id beyond +-2**53 or a timestamp outside 0..2**63 ns: left out before placing, counted as
+    strays of the camera (mistimed when the frame id is the recording's), and said in the log."""
+    from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
+    from gaitcap.acquisition.recording.writer import TrialWriter
+
+    w = TrialWriter(tmp_path / "far.mcap")
+    w.start(metadata={"trial_id": "far"}, calibration_toml=rig_to_toml_text(tiny_rig()), time_ns=T0_NS)
+    for c, cam in enumerate(CAMS[:2]):
+        for k in range(FRAMES):
+            ts = T0_NS + k * PERIOD_NS + 1000 * c
+            w.add_keypoints(cam, json.dumps({"camera": cam, "frame_id": k, "timestamp_ns": ts, "skeleton": "halpe26",
+                                             "people": people_for(c, k).tolist()}).encode(), timestamp_ns=ts, frame_id=k)
+    for fid, stamp in ((2**60, T0_NS), (3, -1)):
+        w.add_keypoints("cam1", json.dumps({"camera": "cam1", "frame_id": fid, "timestamp_ns": stamp,
+                                            "skeleton": "halpe26", "people": []}).encode(), timestamp_ns=T0_NS,
+                        frame_id=3)
+    with caplog.at_level(logging.WARNING):
+        kp = read_keypoints(w.finish({}))
+    assert kp.camera_names == ("cam0", "cam1") and kp.frame_ids.tolist() == list(range(FRAMES))
+    assert kp.ignored == {"cam1": IgnoredKeypoints(2, (2**60, 3), 1, {})}
+    assert (f"camera cam1: 2 keypoint message(s) with a frame id beyond +-2**53 or a timestamp outside 0..2**63 ns "
+            f"were ignored (from frame id {2**60})") in caplog.text
 
 
 def test_a_joint_not_seen_recorded_as_nan_is_kept_and_a_confidence_outside_0_to_1_is_ignored_with_why(tmp_path):
