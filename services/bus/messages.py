@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any, ClassVar
 
 from gaitcap.acquisition.encoding import decode_jpeg, image_message, parse_image_message
-from gaitcap.acquisition.keypoint_message import keypoint_message_of
+from gaitcap.acquisition.keypoint_message import check_people
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 
 #: Frame ids count frames from a camera's synchronised start: 2**31 frames is 2 years at 30 frames/s.
@@ -206,8 +206,7 @@ class Keypoints(_Json):
         _int(self.timestamp_ns, f"{self.what}.timestamp_ns", 0, MAX_TIME_NS)
         check_name(self.skeleton, what=f"{self.what}.skeleton")
         _num(self.detector_ms, f"{self.what}.detector_ms", 0.0, 3.6e6)
-        keypoint_message_of({"frame_id": self.frame_id, "timestamp_ns": self.timestamp_ns, "skeleton": self.skeleton,
-                             "people": self.people}, camera=self.camera, allow_nan=False)
+        check_people(self.people, camera=self.camera, allow_nan=False)  # the fields above are checked here
 
 
 @dataclass(frozen=True)
