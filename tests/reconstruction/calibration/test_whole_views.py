@@ -70,3 +70,25 @@ def test_a_camera_noisy_on_every_view_is_still_refused(room):
     assert res.report.failed_cameras == ("cam02",)
     assert "reprojection RMS over all its corners" in res.report.cameras[1].problems[0]
     assert res.report.cameras[1].views_left_out <= int(obs.views()[1].sum()) // 3
+
+
+def test_a_camera_out_of_sync_or_with_wrong_intrinsics_on_every_view_is_still_refused(room):
+    """Every view of cam02 one frame late (the board moving), or cam02's known focal length 5 % off: none
+    of cam02's views are left out and it is refused, as without the leave-out (measured: the views left
+    out, 8 and 3, are cam01's, in frames it shares with cam02)."""
+    obs, _ = room
+    rig = build_rig(10, seed=0).subset(["cam01", "cam02", "cam03", "cam04"])
+    board = make_board(BoardConfig.charuco())
+    rot, tvec = board_trajectory(board.geometry, BoardMotion(n_frames=120, floor_frames=5, seed=1), rig)
+    later = np.minimum(np.arange(len(rot)) + 1, len(rot) - 1)
+    late = observe_board(rig, board.geometry, rot[later], tvec[later], noise_px=NOISE_PX, seed=3)
+    corners = obs.corners_px.copy()
+    corners[1] = late.corners_px[1]
+    res = calibrate_from_observations(_with(obs, corners))
+    assert "cam02" in res.report.failed_cameras, [q.problems for q in res.report.cameras]
+    assert res.report.cameras[1].views_left_out == 0
+    focal = np.array([[1.05, 1, 1], [1, 1.05, 1], [1, 1, 1]])  # fx, fy 5 % longer; principal point kept
+    known = {c.name: (focal * c.matrix_px if c.name == "cam02" else c.matrix_px, c.dist) for c in rig.cameras}
+    res = calibrate_from_observations(obs, config=CalibrationConfig(known_intrinsics=known))
+    assert "cam02" in res.report.failed_cameras, [q.problems for q in res.report.cameras]
+    assert res.report.cameras[1].views_left_out == 0
