@@ -135,6 +135,9 @@ def _check_structure(value: Any, camera: str | None) -> None:
             for name, v in zip(("x", "y", "confidence"), xyc, strict=True):
                 if isinstance(v, bool) or not isinstance(v, int | float):
                     raise KeypointMessageError(camera, f"people[{p}][{j}].{name}", "not a number", v)
+                if isinstance(v, int) and abs(v) >= 2**1023:  # JSON integers are unbounded: no float holds it
+                    why = "not a number in 0..1" if name == "confidence" else f"beyond +-{MAX_IMAGE_PX} px"
+                    raise KeypointMessageError(camera, f"people[{p}][{j}].{name}", why, v)
 
 
 def _check_values(arr: np.ndarray, camera: str | None, allow_nan: bool) -> None:

@@ -39,6 +39,9 @@ def test_a_joint_not_seen_may_be_nan_with_confidence_0_where_nan_can_be_read_nev
     ([[[1.0, 2.0, -0.1]]], r"people\[0\]\[0\]\.confidence: not a number in 0\.\.1", None),
     ([[[1.0, 2.0, float("nan")]]], r"people\[0\]\[0\]\.confidence: not a number in 0\.\.1", None),
     ([[[1.0, -2e5, 0.5]]], r"people\[0\]\[0\]\.y: beyond \+-100000 px", "'people' y beyond +-100000 px"),
+    # an integer no float holds (JSON's are unbounded): refused, never an OverflowError out of the reader
+    ([[[10**400, 2.0, 0.5]]], r"people\[0\]\[0\]\.x: beyond \+-100000 px", "'people' x beyond +-100000 px"),
+    ([[[1.0, 2.0, -(10**400)]]], r"people\[0\]\[0\]\.confidence: not a number in 0\.\.1", None),
     ([[[1.0, 2.0, 0.5]] * 3, [[1.0, 2.0, 0.5]] * 2], r"people\[1\]: 2 joints, person 0 has 3", None),
     ([[[1.0, "2", 0.5]]], r"people\[0\]\[0\]\.y: not a number", "'people' y not a number"),
     ([[[1.0, 2.0]]], r"people\[0\]\[0\]: must be \[x px, y px, confidence\]", None),

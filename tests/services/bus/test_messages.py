@@ -83,6 +83,8 @@ def test_the_bus_writes_the_keypoint_message_format_and_a_joint_not_seen_travels
     assert read.people.tolist() == sent.people
     with pytest.raises(ValueError, match=r"keypoints of camera cam01\.people\[0\]\[1\]\.x: not a finite number"):
         Keypoints("cam01", 3, 10**18, "halpe26", [[[1.0, 2.0, 0.5], [float("nan"), float("nan"), 0.0]]])
+    with pytest.raises(ValueError, match=r"keypoints of camera cam01\.people\[0\]\[0\]\.y: beyond"):
+        Keypoints("cam01", 3, 10**18, "halpe26", [[[1.0, 10**400, 0.5]]])  # a ValueError the recorder rejects
 
 
 def test_one_timestamp_per_frame_and_the_camera_must_match_its_key():
