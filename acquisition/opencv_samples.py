@@ -7,8 +7,8 @@ with another tool's on the same real images.
 - ``opencv_stereo_calibration``: OpenCV's own two-camera calibration of synchronised checkerboard images
   (``findChessboardCorners`` + ``cornerSubPix``, ``calibrateCamera`` per camera, then ``stereoCalibrate``
   refining both together), the reference for the stereo sample (OpenCV ships no stereo result).
-- ``stereo_difference``: two calibrations of a camera pair compared through the pair's own geometry (the
-  second camera seen from the first), whatever world frame each was laid down in.
+
+The pair's two calibrations are compared with :func:`gaitcap.reconstruction.calibration.compare.stereo_difference`.
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 from gaitcap.acquisition.board import BoardConfig
-from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 
 SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
@@ -103,33 +102,3 @@ def opencv_stereo_calibration(first: list[Path], second: list[Path], *, board: B
     rig = Rig((Camera(names[0], size, k1, d1.ravel()[:5]),
                Camera(names[1], size, k2, d2.ravel()[:5], matrix_to_rodrigues(rot), trans.ravel())))
     return OpenCVStereo(rig, len(pairs), (float(mono[0][0]), float(mono[1][0])), float(rms))
-
-
-@dataclass(frozen=True)
-class StereoDifference:
-    """The second camera as seen from the first, in two calibrations of a pair: baselines (mm), the
-    distance between the two places of its centre (mm) and the angle between the two relative rotations
-    (deg). Independent of each calibration's world frame."""
-
-    baseline_mm: float
-    reference_baseline_mm: float
-    centre_mm: float
-    rotation_deg: float
-
-
-def _second_from_first(rig: Rig, first: str, second: str) -> tuple[np.ndarray, np.ndarray]:
-    a, b = rig[first], rig[second]
-    rot = b.rotation @ a.rotation.T
-    return rot, a.to_camera(b.center_mm)  # relative rotation, second centre in the first camera's frame (mm)
-
-
-def stereo_difference(reference: Rig, other: Rig, *, first: str, second: str) -> StereoDifference:
-    """``other``'s pair geometry against ``reference``'s (both must hold both cameras: ValueError)."""
-    for rig, what in ((reference, "reference"), (other, "other")):
-        missing = [n for n in (first, second) if n not in rig.names]
-        if missing:
-            raise ValueError(f"stereo_difference: the {what} calibration has no camera {missing} (it has {rig.names})")
-    rot_ref, centre_ref = _second_from_first(reference, first, second)
-    rot, centre = _second_from_first(other, first, second)
-    return StereoDifference(float(np.linalg.norm(centre)), float(np.linalg.norm(centre_ref)),
-                            float(np.linalg.norm(centre - centre_ref)), rotation_angle_deg(rot_ref, rot))

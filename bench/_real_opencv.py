@@ -23,12 +23,9 @@ STEREO_DISTORTIONS = ("k1", "k1k2p1p2k3")  # the paper's model, and OpenCV's fiv
 def _stereo(distortion: str) -> dict | None:
     from gaitcap.acquisition.board import BoardConfig
     from gaitcap.acquisition.board_recording import calibrate_from_recording
-    from gaitcap.acquisition.opencv_samples import (
-        opencv_stereo_calibration,
-        read_opencv_camera,
-        stereo_difference,
-    )
+    from gaitcap.acquisition.opencv_samples import opencv_stereo_calibration, read_opencv_camera
     from gaitcap.reconstruction.calibration import CalibrationConfig, IntrinsicsConfig
+    from gaitcap.reconstruction.calibration.compare import stereo_difference
     from gaitcap.reconstruction.calibration.intrinsics import DistortionModel
 
     folder = share_path("testdata", "calibration", "opencv-stereo")

@@ -5,6 +5,8 @@ Two views of the difference: in the world frame as given (what a gait measuremen
 walking axes included), and after the best rigid alignment of the camera centres (the rig's own shape,
 independent of how the world frame was laid down). The change between the two world frames, found from
 all cameras' orientations and centres, is reported as a floor tilt and a heading (yaw) turn plus a shift.
+Two calibrations by different tools are compared after a similarity alignment (3 or more cameras), a
+camera pair through its own geometry (the second camera seen from the first: :func:`stereo_difference`).
 """
 
 from __future__ import annotations
@@ -151,3 +153,33 @@ def _ray_angle_deg(reference: Camera, other: Camera, turn: np.ndarray) -> float:
     into the reference's frame by ``turn`` (3, 3)."""
     cos = float(np.clip(_centre_ray(reference) @ (turn @ _centre_ray(other)), -1.0, 1.0))
     return float(np.degrees(np.arccos(cos)))
+
+
+@dataclass(frozen=True)
+class StereoDifference:
+    """The second camera as seen from the first, in two calibrations of a pair: baselines (mm), the
+    distance between the two places of its centre (mm) and the angle between the two relative rotations
+    (deg). Independent of each calibration's world frame."""
+
+    baseline_mm: float
+    reference_baseline_mm: float
+    centre_mm: float
+    rotation_deg: float
+
+
+def _second_from_first(rig: Rig, first: str, second: str) -> tuple[np.ndarray, np.ndarray]:
+    a, b = rig[first], rig[second]
+    rot = b.rotation @ a.rotation.T
+    return rot, a.to_camera(b.center_mm)  # relative rotation, second centre in the first camera's frame (mm)
+
+
+def stereo_difference(reference: Rig, other: Rig, *, first: str, second: str) -> StereoDifference:
+    """``other``'s pair geometry against ``reference``'s (both must hold both cameras: ValueError)."""
+    for rig, what in ((reference, "reference"), (other, "other")):
+        missing = [n for n in (first, second) if n not in rig.names]
+        if missing:
+            raise ValueError(f"stereo_difference: the {what} calibration has no camera {missing} (it has {rig.names})")
+    rot_ref, centre_ref = _second_from_first(reference, first, second)
+    rot, centre = _second_from_first(other, first, second)
+    return StereoDifference(float(np.linalg.norm(centre)), float(np.linalg.norm(centre_ref)),
+                            float(np.linalg.norm(centre - centre_ref)), rotation_angle_deg(rot_ref, rot))

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
 from gaitcap.acquisition.installed import share_path
-from gaitcap.acquisition.opencv_samples import read_opencv_camera, stereo_difference
+from gaitcap.acquisition.opencv_samples import read_opencv_camera
+from gaitcap.reconstruction.calibration.compare import stereo_difference
 from gaitcap.reconstruction.camera import Camera, Rig
 
 PHOTO = share_path("testdata", "calibration", "opencv-charuco")

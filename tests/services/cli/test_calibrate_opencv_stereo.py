@@ -9,12 +9,9 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig
 from gaitcap.acquisition.installed import share_path
-from gaitcap.acquisition.opencv_samples import (
-    opencv_stereo_calibration,
-    read_opencv_camera,
-    stereo_difference,
-)
+from gaitcap.acquisition.opencv_samples import opencv_stereo_calibration, read_opencv_camera
 from gaitcap.acquisition.readers import load_rig
+from gaitcap.reconstruction.calibration.compare import stereo_difference
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
 
