@@ -16,6 +16,7 @@ counts a message far outside the recording as stray), not the format's.
 from __future__ import annotations
 
 import json
+import sys
 from dataclasses import dataclass
 from typing import Any
 
@@ -85,7 +86,7 @@ def keypoint_message_of(obj: Any, *, camera: str | None = None, allow_nan: bool 
     if obj.get("camera") is not None and not isinstance(obj["camera"], str):
         raise KeypointMessageError(camera, "camera", "not a name", obj["camera"])
     ms = obj.get("detector_ms")
-    if ms is not None and (isinstance(ms, bool) or not isinstance(ms, int | float) or not 0 <= ms < float("inf")):
+    if ms is not None and (isinstance(ms, bool) or not isinstance(ms, int | float) or not 0 <= ms <= sys.float_info.max):
         raise KeypointMessageError(camera, "detector_ms", "not a finite number >= 0", ms)
     people = check_people(obj["people"], camera=camera, allow_nan=allow_nan)
     return KeypointMessage(obj["frame_id"], obj["timestamp_ns"], obj["skeleton"], people, obj.get("camera"),

@@ -60,8 +60,9 @@ def _int(value: Any, what: str, lo: int, hi: int) -> int:
 
 
 def _num(value: Any, what: str, lo: float, hi: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) \
-            or not lo <= value <= hi:
+    # the bounds first: math.isfinite of an integer no float holds (JSON's are unbounded) raises OverflowError
+    if isinstance(value, bool) or not isinstance(value, int | float) or not lo <= value <= hi \
+            or not math.isfinite(value):
         raise ValueError(f"{what}: {str(value)[:40]} is not a finite number in [{lo}, {hi}]")
     return float(value)
 

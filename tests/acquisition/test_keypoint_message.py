@@ -63,6 +63,7 @@ def test_a_bad_coordinate_or_confidence_is_refused_naming_the_camera_and_the_fie
     (_msg([], skeleton=7), "'skeleton' not a name"),
     (_msg([], camera=["cam01"]), "'camera' not a name"),
     (_msg([], detector_ms=-1), "'detector_ms' not a finite number >= 0"),
+    (_msg([], detector_ms=10**400), "'detector_ms' not a finite number >= 0"),  # no float holds it
 ])
 def test_a_message_missing_a_field_or_with_one_of_the_wrong_kind_is_refused_saying_which(data, reason):
     with pytest.raises(KeypointMessageError) as err:

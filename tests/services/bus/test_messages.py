@@ -85,6 +85,8 @@ def test_the_bus_writes_the_keypoint_message_format_and_a_joint_not_seen_travels
         Keypoints("cam01", 3, 10**18, "halpe26", [[[1.0, 2.0, 0.5], [float("nan"), float("nan"), 0.0]]])
     with pytest.raises(ValueError, match=r"keypoints of camera cam01\.people\[0\]\[0\]\.y: beyond"):
         Keypoints("cam01", 3, 10**18, "halpe26", [[[1.0, 10**400, 0.5]]])  # a ValueError the recorder rejects
+    with pytest.raises(ValueError, match=r"keypoints\.detector_ms: 1000.* is not a finite number in"):
+        Keypoints("cam01", 3, 10**18, "halpe26", [], 10**400)
 
 
 def test_one_timestamp_per_frame_and_the_camera_must_match_its_key():
