@@ -190,6 +190,12 @@ def read_points(
     _check_board(path, board_mm, geometry)
     timed = timed and _times_usable(rows)
     if not timed:
+        asked = [f"{name} {value:g} ms" for name, value in (("readout_ms", pairing.readout_ms),
+                                                              ("tolerance_ms", pairing.tolerance_ms)) if value]
+        if asked:  # they would be ignored: say so rather than pair without them
+            raise ValueError(f"{path}: no usable frame_time (missing, empty or not increasing in a camera): the "
+                             f"cameras are paired by sync_index and the board's motion in time is unknown, so "
+                             f"{' and '.join(asked)} cannot apply")
         log.info("%s: no usable frame_time: cameras paired by sync_index", path)
     cams = sorted({r[0] for r in rows})
     names = [camera_name(c) for c in cams]

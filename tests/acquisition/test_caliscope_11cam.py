@@ -10,6 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from gaitcap.acquisition.board_file import read_board_file
+from gaitcap.acquisition.board_pairing import PairingConfig
 from gaitcap.acquisition.caliscope import SESSION_POINTS, is_session, read_points, read_session
 from gaitcap.acquisition.installed import share_path
 from gaitcap.reconstruction.calibration import CalibrationConfig, calibrate_from_observations
@@ -109,6 +110,14 @@ def test_a_port_column_or_zero_frame_times_read_the_same(tmp_path):
     assert obs.shape == ported.shape == untimed.shape == (6, 41, 15)  # 6 cameras saw the board first
     assert np.array_equal(obs.corners_px, ported.corners_px, equal_nan=True)
     assert np.array_equal(obs.corners_px, untimed.corners_px, equal_nan=True)  # paired by sync_index
+    # without usable times a readout or a pairing tolerance cannot apply: refused rather than ignored
+    sizes = {n: (1920, 1080) for n in CAMERAS}
+    for pairing, words in ((PairingConfig(readout_ms=20.0), "readout_ms 20 ms cannot apply"),
+                           (PairingConfig(tolerance_ms=5.0), "tolerance_ms 5 ms cannot apply")):
+        with pytest.raises(ValueError, match=f"xy.csv: no usable frame_time .* {words}"):
+            read_points(zero, board=read_board_file(SESSION / "charuco.toml"), image_sizes_px=sizes, pairing=pairing)
+    assert read_points(_copy(tmp_path), board=read_board_file(SESSION / "charuco.toml"), image_sizes_px=sizes,
+                       pairing=PairingConfig(readout_ms=20.0))[0].shape[0] == 6  # with times: applied
 
 
 def test_a_broken_file_is_refused_naming_what(tmp_path):
