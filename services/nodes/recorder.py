@@ -357,6 +357,9 @@ class RecorderNode:
                                 f"partial file {rec.writer.part_path}")
             except ValueError as exc:
                 rec.reject(f"a bad message on {item[1]}: {exc}")
+            except Exception as exc:  # a bug must not end the writer thread: Stop and later messages still run
+                log.exception("trial %s: a message on %s could not be written", rec.trial_id, item[1])
+                rec.reject(f"a message on {item[1]} could not be written ({type(exc).__name__}: {exc})")
 
     def _write(self, rec: Recording, kind: str, key: str, payload: bytes, att: bytes | None, recv_ns: int) -> None:
         rec.write(kind, self.bus.keys.camera_of(key), payload, att, recv_ns)

@@ -78,3 +78,38 @@ def test_a_restarted_recorder_finalises_the_recording_a_dead_one_left(tmp_path):
     finally:
         rec.close()
         session.close()
+
+
+def test_an_unexpected_error_on_one_message_does_not_end_the_writer_thread(tmp_path, trial, monkeypatch):
+    """One message raising something other than a bad-message or disk error (a bug) is rejected and logged;
+    the writer thread goes on, later frames are written and Stop finishes the file."""
+    from gaitcap.services.nodes import recorder as recorder_module
+
+    real, calls = recorder_module.Recording.write_image, []
+
+    def flaky(self, camera, *args):
+        calls.append(camera)
+        if len(calls) == 5:
+            raise RuntimeError("an unforeseen bug")
+        return real(self, camera, *args)
+
+    monkeypatch.setattr(recorder_module.Recording, "write_image", flaky)
+    bus = BusConfig.free_local(["recorder", "camera-0"], prefix="gaitcap/ri3")
+    srec, scam = open_session(bus, "recorder"), open_session(bus, "camera-0")
+    rec = RecorderNode(srec, bus, data_root=tmp_path)
+    try:
+        wait_for(lambda: "recorder" in alive_nodes(scam, bus), what="recorder alive")
+        client = RecorderClient(scam, bus.keys)
+        client.start(trial_id="t3", path=str(tmp_path / "t3.mcap"))
+        drivers = simulated_rig(trial, size_px=(32, 24), realtime=False, render=noise_render, max_frames=20)
+        node = CameraNode(scam, bus, "camera-0", drivers, status_interval_s=0.2)
+        node.run(start_at_ns=time.time_ns())
+        wait_for(lambda: len(calls) >= 3 * 20, what="every frame handed to the writer")
+        summary = client.stop("t3").summary
+        assert summary["rejected"] == 1 and summary["frames"] == 3 * 20 - 1 and summary["error"] is None
+        assert is_complete(tmp_path / "t3.mcap")
+        node.close()
+    finally:
+        rec.close()
+        srec.close()
+        scam.close()
