@@ -113,7 +113,7 @@ def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThr
     its views kept (``left_out`` (P,): corners of views left out as disagreeing as a whole)."""
     mine = (prob.cam == c) & ~left_out
     n_left = len(np.unique(prob.frame[(prob.cam == c) & left_out]))
-    notes = (f"{n_left} views left out: {LEFT_OUT_REASON}",) if n_left else ()
+    notes = (f"{n_left} view{'s' * (n_left != 1)} left out: {LEFT_OUT_REASON}",) if n_left else ()
     err = np.linalg.norm(res.residual_px[mine & res.inlier], axis=-1)
     mean, p95, rms = error_stats(err)
     cov = coverage(prob.uv_px[mine & res.inlier], obs.image_sizes_px[c], thresholds.grid)

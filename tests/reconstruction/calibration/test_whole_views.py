@@ -55,7 +55,7 @@ def test_views_disagreeing_as_a_whole_are_left_out_and_counted(displaced):
     assert res.report.failed_cameras == (), [q.problems for q in res.report.cameras]
     cam02 = res.report.cameras[1]
     assert 0 < cam02.views_left_out <= len(pick)
-    assert cam02.notes == (f"{cam02.views_left_out} views left out: {LEFT_OUT_REASON}",)
+    assert cam02.notes == (f"{cam02.views_left_out} view{'s' * (cam02.views_left_out != 1)} left out: {LEFT_OUT_REASON}",)
     assert cam02.n_detections + cam02.views_left_out <= cam02.views_found
     others_left = sum(q.views_left_out for q in res.report.cameras) - cam02.views_left_out
     assert others_left <= cam02.views_left_out  # at most the partner views of frames where cam02 was displaced
