@@ -248,17 +248,29 @@ def alive_nodes(session, bus: BusConfig, timeout_s: float = 1.0) -> set[str]:
     return {keys.node_of(str(r.ok.key_expr)) for r in replies if r.ok is not None}
 
 
-def free_loopback_ports(n: int, *, low: int = 20000, high: int = 60000) -> list[int]:
+def free_loopback_ports(n: int, *, low: int = 20000, high: int | None = None) -> list[int]:
     """``n`` consecutive TCP ports free on 127.0.0.1 right now, ``base, base + 1, ...`` between ``low`` and
     ``high`` (test, benchmark and demo stacks on loopback: a bus's nodes, an API port and the bus after it).
-    The base is drawn from the OS's entropy, not the ``random`` module's state, so that processes that seed
-    ``random`` alike (test runners do) still draw different ports; a port bound by any process is skipped."""
+    ``high`` defaults to the start of the kernel's ephemeral range, so that no outgoing connection is given
+    one of these ports between this check and the bind. The base is drawn from the OS's entropy, not the
+    ``random`` module's state, so that processes that seed ``random`` alike (test runners do) still draw
+    different ports; a port bound by any process is skipped."""
+    high = _ephemeral_start() if high is None else high
     draw = random.SystemRandom()
     for _ in range(200):
         base = draw.randrange(low, high - n + 1)  # the last port, base + n - 1, below high
         if all(_port_free(base + i) for i in range(n)):
             return list(range(base, base + n))
     raise RuntimeError(f"no {n} consecutive free ports on 127.0.0.1 between {low} and {high}")
+
+
+def _ephemeral_start(path: str = "/proc/sys/net/ipv4/ip_local_port_range", fallback: int = 32768) -> int:
+    """The first port the kernel hands to outgoing connections (Linux; ``fallback`` elsewhere)."""
+    try:
+        first = int(Path(path).read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        return fallback
+    return first if first > 21000 else fallback  # a range starting low leaves 20000.. to the stacks anyway
 
 
 def _port_free(port: int) -> bool:

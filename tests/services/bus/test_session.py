@@ -168,3 +168,17 @@ def _free(port: int) -> bool:
         except OSError:
             return False
     return True
+
+
+def test_free_loopback_ports_stay_below_the_kernels_ephemeral_range(tmp_path):
+    from gaitcap.services.bus.session import _ephemeral_start
+
+    ranges = tmp_path / "ip_local_port_range"
+    ranges.write_text("40000\t60999\n")
+    assert _ephemeral_start(str(ranges)) == 40000
+    ranges.write_text("not a range\n")
+    assert _ephemeral_start(str(ranges)) == 32768 == _ephemeral_start(str(tmp_path / "absent"))
+    first = _ephemeral_start()
+    for _ in range(20):
+        ports = free_loopback_ports(4)
+        assert 20000 <= ports[0] and ports[-1] < first, (ports, first)
