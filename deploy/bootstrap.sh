@@ -296,7 +296,8 @@ PYEOF
 OPENCV_SAMPLES_SHA256="faff6cbac9276cc519bde5edf01119546026013fbd2bc723445376ff917ccc93"
 install_opencv_samples() (
   local dest="$SHARE/testdata/calibration" tmp doc sudo=""
-  [ -f "$dest/opencv-stereo/.version-${OPENCV_SAMPLES_SHA256:0:12}" ] && return 0
+  local stamp=".version-${OPENCV_SAMPLES_SHA256:0:12}"  # in both folders: either one missing is reinstalled
+  [ -f "$dest/opencv-stereo/$stamp" ] && [ -f "$dest/opencv-charuco/$stamp" ] && return 0
   echo "[bootstrap] fetching OpenCV's sample calibration images (Debian package opencv-doc, not installed)" >&2
   scratch_dir || return 1
   [ "$(id -u)" -ne 0 ] && sudo="sudo"
@@ -320,7 +321,7 @@ install_opencv_samples() (
       "$dest/opencv-charuco/" \
     && install -m 644 "$doc/copyright" "$dest/opencv-stereo/LICENSE" \
     && install -m 644 "$doc/copyright" "$dest/opencv-charuco/LICENSE" \
-    && touch "$dest/opencv-stereo/.version-${OPENCV_SAMPLES_SHA256:0:12}"
+    && touch "$dest/opencv-stereo/$stamp" "$dest/opencv-charuco/$stamp"
 )
 install_mediapipe_models || echo "[bootstrap] WARNING: MediaPipe Pose models not installed (needs npm)" >&2
 install_test_video || echo "[bootstrap] WARNING: detector test video not installed" >&2
