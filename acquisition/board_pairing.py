@@ -18,7 +18,7 @@ way (the fastest go first), so that a mostly moving clip still ties every camera
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -33,9 +33,9 @@ class PairingConfig:
     readout_ms: time one frame takes to be read out (rolling shutter), ms;
     max_moving_fraction: at most this fraction of a camera's views is left out as smeared."""
 
-    tolerance_ms: float | None = None
+    tolerance_ms: float | None = field(default=None, metadata={"option": "--sync-tolerance-ms"})
     max_shift_px: float = 1.0
-    readout_ms: float = 0.0
+    readout_ms: float = field(default=0.0, metadata={"option": "--readout-ms"})
     max_moving_fraction: float = 0.5
 
     def __post_init__(self) -> None:
@@ -47,6 +47,18 @@ class PairingConfig:
             raise ValueError(f"pairing: readout_ms must be >= 0, got {self.readout_ms}")
         if not 0 <= self.max_moving_fraction <= 1:
             raise ValueError(f"pairing: max_moving_fraction must lie in [0, 1], got {self.max_moving_fraction}")
+
+    def asked(self) -> tuple[str, ...]:
+        """The fields set away from their defaults, each as ``name value`` with the command-line option that
+        sets it (e.g. ``readout_ms 20 (--readout-ms)``): all of them need frame times, so frames paired by
+        order refuse them rather than ignore them."""
+        out = []
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if value != f.default:
+                option = f" ({f.metadata['option']})" if "option" in f.metadata else ""
+                out.append(f"{f.name} {value:g}{option}")
+        return tuple(out)
 
 
 def default_tolerance_ns(times_ns: list[np.ndarray]) -> int:

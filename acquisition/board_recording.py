@@ -32,7 +32,7 @@ from gaitcap.acquisition.board_pairing import (
     pair_by_time,
     separate_moving,
 )
-from gaitcap.acquisition.board_sources import folder_sources
+from gaitcap.acquisition.board_sources import TIMESTAMPS_FILE, folder_sources
 from gaitcap.reconstruction.calibration import (
     BoardObservations,
     CalibrationConfig,
@@ -118,18 +118,34 @@ def _mcap_frames(path: Path, wanted: list[set[int]], names: list[str]) -> Iterat
             yield c, i, img
 
 
-def _frame_sets(cams: list[_Camera], pairing: PairingConfig) -> tuple[np.ndarray, bool]:
-    """(S, C) frame sets and whether they were paired by time (else by order)."""
-    timed = all(c.times_ns is not None and len(c.times_ns) == c.n_frames for c in cams)
-    unordered = [c.name for c in cams if timed and np.any(np.diff(c.times_ns) <= 0)]
-    if unordered:  # e.g. a container that gives every frame the same time: the times say nothing
-        log.warning("frame times of cameras %s do not increase: frames paired by order", unordered)
-        timed = False
-    if not timed:
+def _frame_sets(cams: list[_Camera], pairing: PairingConfig, path: Path) -> tuple[np.ndarray, bool]:
+    """(S, C) frame sets and whether they were paired by time (else by order: ValueError when ``pairing``
+    asks for what only times allow)."""
+    bare = [c.name for c in cams if c.times_ns is None or len(c.times_ns) != c.n_frames]
+    flat = [c.name for c in cams if not bare and np.any(np.diff(c.times_ns) <= 0)]
+    if flat:  # e.g. a container that gives every frame the same time: the times say nothing
+        log.warning("frame times of cameras %s do not increase: frames paired by order", flat)
+    if bare or flat:
+        why = f"the frames of cameras {bare} carry no timestamps" if bare else \
+            f"the frame times of cameras {flat} do not increase"
+        _refuse_untimed(path, why, pairing)
         return pair_by_time([np.arange(c.n_frames, dtype=np.int64) for c in cams], 0), False
     times = [c.times_ns for c in cams]
     tol = int(pairing.tolerance_ms * 1e6) if pairing.tolerance_ms is not None else default_tolerance_ns(times)
     return pair_by_time(times, tol), True
+
+
+def _refuse_untimed(path: Path, why: str, pairing: PairingConfig) -> None:
+    """ValueError naming the pairing options set although frames without times are paired by order (they
+    would be ignored), why, and what to do."""
+    asked = pairing.asked()
+    if not asked:
+        return
+    fix = f"add (or correct) a {TIMESTAMPS_FILE} beside the camera folders (columns camera, time_s) or "
+    fix = fix if path.is_dir() else ""
+    need, them = ("need", "them") if len(asked) > 1 else ("needs", "it")
+    raise ValueError(f"{path}: {why}, so the cameras are paired by order and the board's motion in time is "
+                     f"unknown: {' and '.join(asked)} {need} frame times; {fix}leave {them} out")
 
 
 def _detect(frames: Iterator[tuple[int, int, np.ndarray]], board: BoardConfig, workers: int,
@@ -186,7 +202,7 @@ def find_board_views(
         cams = _mcap_cameras(path)
     if not cams or not any(c.n_frames for c in cams):
         raise ValueError(f"recording {path}: no camera frames in it")
-    sets, timed = _frame_sets(cams, pairing)
+    sets, timed = _frame_sets(cams, pairing, path)
     sets = sets[:: selection.every][: selection.max_frames]
     wanted = [set(sets[:, c][sets[:, c] != MISSING].tolist()) for c in range(len(cams))]
     names = [c.name for c in cams]

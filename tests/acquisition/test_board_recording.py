@@ -124,3 +124,31 @@ def test_times_that_do_not_increase_fall_back_to_order(recordings, truth, tmp_pa
     (copy / "timestamps.csv").write_text("\n".join(lines) + "\n")
     obs = detect_recording(copy, board=BoardConfig.checkerboard(), selection=FrameSelection(max_frames=4))
     assert np.array_equal(obs.views(), truth.views()[:, : obs.shape[1]]) and obs.times_s.tolist() == [0, 1, 2, 3]
+
+
+def test_options_that_need_frame_times_are_refused_on_frames_paired_by_order(recordings, tmp_path):
+    import shutil
+
+    from gaitcap.acquisition.board_pairing import PairingConfig
+    from gaitcap.acquisition.board_recording import find_board_views
+
+    folder, _ = recordings  # image folders without a timestamps.csv: paired by order
+    untimed = r"carry no timestamps, so the cameras are paired by order"
+    for pairing, words in ((PairingConfig(readout_ms=20.0), r"readout_ms 20 \(--readout-ms\) needs frame times"),
+                           (PairingConfig(tolerance_ms=5.0), r"tolerance_ms 5 \(--sync-tolerance-ms\) needs frame times"),
+                           (PairingConfig(max_shift_px=2.0), r"max_shift_px 2 needs frame times"),
+                           (PairingConfig(tolerance_ms=5.0, readout_ms=20.0),
+                            r"tolerance_ms 5 \(--sync-tolerance-ms\) and readout_ms 20 \(--readout-ms\) need frame times")):
+        with pytest.raises(ValueError, match=f"folder: the frames of cameras .'cam01', 'cam02'. {untimed}.* {words}; "
+                                             r"add \(or correct\) a timestamps.csv beside the camera folders"):
+            find_board_views(folder, board=BoardConfig.checkerboard(), pairing=pairing)
+    flat = shutil.copytree(folder, tmp_path / "flat")  # times that do not increase say nothing either
+    lines = ["camera,time_s"] + [f"{cam},5.0" for cam in ("cam01", "cam02") for _ in (flat / cam).iterdir()]
+    (flat / "timestamps.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(ValueError, match=r"frame times of cameras .'cam01', 'cam02'. do not increase.* readout_ms 20"):
+        find_board_views(flat, board=BoardConfig.checkerboard(), pairing=PairingConfig(readout_ms=20.0))
+    timed = shutil.copytree(folder, tmp_path / "timed")
+    _stamps(timed, {"cam01": 0.0, "cam02": 0.0})
+    found = find_board_views(timed, board=BoardConfig.checkerboard(), selection=FrameSelection(max_frames=3),
+                             pairing=PairingConfig(tolerance_ms=5.0, readout_ms=20.0))
+    assert found.timed and found.observations.shape[:2] == (2, 3)  # with times: applied
