@@ -57,6 +57,12 @@ def _similar(cmp) -> str:
             f"rotations max {cmp.rotation_deg_max:.3f} deg ({per})")
 
 
+def _stereo(diff, first: str, second: str) -> str:
+    return (f"the pair's own geometry ({second} seen from {first}): baseline {diff.baseline_mm:.2f} mm vs "
+            f"{diff.reference_baseline_mm:.2f} mm in the reference; {second}'s centre {diff.centre_mm:.2f} mm and "
+            f"its rotation {diff.rotation_deg:.3f} deg from the reference's")
+
+
 def _load_calibration(path: Path):
     """A calibration file: caliscope's camera_array.toml, or any other gaitcap reads (Qualisys .qca.txt,
     Pose2Sim/aniposelib .toml, gaitcap .json)."""
@@ -118,7 +124,11 @@ def register(app: typer.Typer) -> None:
             WorldFrameConfig,
             calibrate_from_observations,
         )
-        from gaitcap.reconstruction.calibration.compare import compare_rigs, compare_similar
+        from gaitcap.reconstruction.calibration.compare import (
+            compare_rigs,
+            compare_similar,
+            stereo_difference,
+        )
 
         with user_errors():
             reference = _load_calibration(compare) if compare is not None else None
@@ -151,12 +161,16 @@ def register(app: typer.Typer) -> None:
             atomic_write_text(report_file, json.dumps(result.report.to_dict(), indent=2))
             comparison = compare_rigs(reference, result.rig) if reference is not None else None
             similar = compare_similar(reference, result.rig) if reference is not None and len(reference) >= 3 else None
+            pair = tuple(reference.names) if reference is not None and len(reference) == 2 else None
+            stereo = stereo_difference(reference, result.rig, first=pair[0], second=pair[1]) if pair else None
         typer.echo(_summary(result.report))
         if comparison is not None:
             typer.echo(f"compared with {compare}:")
             typer.echo(_comparison(comparison))
         if similar is not None:
             typer.echo(_similar(similar))
+        if stereo is not None:
+            typer.echo(_stereo(stereo, *pair))
         typer.echo(f"wrote {target} and {report_file}")
         if refused:
             typer.echo(f"calibration refused for use: cameras {list(result.report.failed_cameras)} failed the quality "

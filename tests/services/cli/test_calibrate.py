@@ -5,7 +5,9 @@ import json
 import numpy as np
 import pytest
 from gaitcap.acquisition.readers import load_rig
-from gaitcap.acquisition.synthetic.board import write_board_mcap
+from gaitcap.acquisition.synthetic.board import write_board_folder, write_board_mcap
+from gaitcap.acquisition.writers import save_rig
+from gaitcap.reconstruction.calibration.compare import stereo_difference
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
@@ -23,11 +25,17 @@ def recording(tmp_path_factory):
 
 def test_calibrate_writes_calibration_and_report(recording, tmp_path):
     mcap, truth = recording
-    out = tmp_path / "calib.toml"
-    result = CliRunner().invoke(app, ["calibrate", str(mcap), "--out", str(out)])
+    out, reference = tmp_path / "calib.toml", save_rig(truth, tmp_path / "truth.toml")
+    result = CliRunner().invoke(app, ["calibrate", str(mcap), "--out", str(out), "--compare", str(reference)])
     assert result.exit_code == 0, result.output
     assert "reprojection RMS" in result.output and "cam02" in result.output
     rig = load_rig(out)
+    # two cameras: the pair's own geometry against the reference's (a similarity alignment needs three)
+    pair = stereo_difference(load_rig(reference), rig, first="cam01", second="cam02")
+    assert (f"the pair's own geometry (cam02 seen from cam01): baseline {pair.baseline_mm:.2f} mm vs "
+            f"{pair.reference_baseline_mm:.2f} mm in the reference; cam02's centre {pair.centre_mm:.2f} mm and its "
+            f"rotation {pair.rotation_deg:.3f} deg from the reference's") in result.output
+    assert pair.centre_mm < 100 and pair.rotation_deg < 1.0 and "similarity alignment" not in result.output
     assert rig.names == ["cam01", "cam02"]
     for true, got in zip(truth, rig, strict=True):  # a short, low-resolution clip: a plumbing check
         assert np.linalg.norm(true.center_mm - got.center_mm) < 100, true.name
@@ -44,6 +52,17 @@ def test_wrong_board_is_a_clear_error(recording, tmp_path):
     assert result.exit_code == 2
     assert "camera 'cam01': no frame showed the whole 8x6-square checkerboard" in result.output
     assert "camera 'cam02'" in result.output and "board size" not in result.output
+    assert not (tmp_path / "c.toml").exists()
+
+
+def test_options_that_need_frame_times_are_a_usage_error_on_image_folders_without_them(tmp_path):
+    images, _ = board_images(SCALE)
+    folder = write_board_folder(tmp_path / "board", {cam: frames[:2] for cam, frames in images.items()})
+    result = CliRunner().invoke(app, ["calibrate", str(folder), "--readout-ms", "20", "--out", str(tmp_path / "c.toml")])
+    assert result.exit_code == 2
+    assert (f"error: {folder}: the frames of cameras ['cam01', 'cam02'] carry no timestamps, so the cameras are "
+            "paired by order") in result.output
+    assert "readout_ms 20 (--readout-ms) needs frame times; add (or correct) a timestamps.csv" in result.output
     assert not (tmp_path / "c.toml").exists()
 
 
