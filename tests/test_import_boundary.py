@@ -274,14 +274,19 @@ def _opens_for_writing(call: ast.Call) -> bool:
     return isinstance(mode, ast.Constant) and isinstance(mode.value, str) and bool(set(mode.value) & set("wax+"))
 
 
+def _calls(path: Path):
+    """(call node, called name) of every call in the file: ``f(...)`` -> f, ``x.f(...)`` -> f."""
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Call):
+            func = node.func
+            yield node, func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+
+
 def _file_writes(path: Path) -> list[str]:
     """``file:line call`` of every call in the file that writes, moves or deletes a file."""
     found = []
-    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-        if not isinstance(node, ast.Call):
-            continue
+    for node, name in _calls(path):
         func = node.func
-        name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
         on_os = isinstance(func, ast.Attribute) and isinstance(func.value, ast.Name) and func.value.id == "os"
         if (name in WRITING_CALLS or (on_os and name in OS_WRITING_CALLS) or _opens_for_writing(node)):
             found.append(f"{path.name}:{node.lineno} {name}()")
@@ -317,15 +322,8 @@ READING_ALLOWED = {"fits/memory.py"}
 
 def _file_reads(path: Path) -> list[str]:
     """``file:line call`` of every call in the file that opens, reads or lists a file or folder."""
-    found = []
-    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-        if not isinstance(node, ast.Call):
-            continue
-        func = node.func
-        name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
-        if name in READING_CALLS or name.startswith(READING_PREFIXES) or name == "open":
-            found.append(f"{path.name}:{node.lineno} {name}()")
-    return found
+    return [f"{path.name}:{node.lineno} {name}()" for node, name in _calls(path)
+            if name in READING_CALLS or name.startswith(READING_PREFIXES) or name == "open"]
 
 
 def test_reconstruction_reads_no_file():

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 from gaitcap.services.bus.session import (
     BusConfig,
+    _port_free,
     alive_nodes,
     declare_alive,
     default_bus_config,
@@ -144,7 +145,7 @@ def test_free_loopback_ports_skip_a_bound_port_and_not_follow_the_random_seed():
         held.bind(("127.0.0.1", 0))
         held.listen()
         p = held.getsockname()[1]
-        if not _free(p + 1):
+        if not _port_free(p + 1):
             pytest.skip(f"port {p + 1} is in use here")
         for _ in range(10):  # bases p or p + 1 can be drawn: p is held
             assert free_loopback_ports(1, low=p, high=p + 2) == [p + 1]
@@ -159,15 +160,6 @@ def test_free_loopback_ports_skip_a_bound_port_and_not_follow_the_random_seed():
     assert len(set(bases)) > 1, bases
 
 
-def _free(port: int) -> bool:
-    import socket
-
-    with socket.socket() as s:
-        try:
-            s.bind(("127.0.0.1", port))
-        except OSError:
-            return False
-    return True
 
 
 def test_free_loopback_ports_stay_below_the_kernels_ephemeral_range(tmp_path):

@@ -145,63 +145,53 @@ def test_viewer_files_are_listed_in_the_catalog_only_once_written(tmp_path, walk
     assert not [p.name for p in folder.iterdir() if p.name.startswith(".") or p.suffix in (".rrd", ".mcap")]
 
 
-def test_a_stray_keypoint_frame_id_is_ignored_and_named_in_the_trials_quality(tmp_path, walk, monkeypatch):
-    """A recording holding one keypoint message with a frame id of 2**40 (a corrupt message, or one from
-    before the recorder bounded frame ids) is processed; the trial's quality names the ignored message."""
+def _processed_with(tmp_path, walk, monkeypatch, messages: list[tuple[str, bytes, int]]):
+    """A synthetic walk's recording with extra keypoint ``messages`` (camera, payload, frame id) written
+    before it is finished, processed by a real worker: (the trial's state, its processing quality, whether
+    the preliminary result has steps)."""
     from gaitcap.acquisition.recording.writer import TrialWriter
     from gaitcap.acquisition.synthetic.recording import write_keypoint_recording
 
     db = cat.open_catalog(tmp_path / "catalog.sqlite")
     t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
-    cam = walk.rig.names[0]
-    stray = {"camera": cam, "frame_id": 2**40, "timestamp_ns": 1, "skeleton": walk.skeleton.name, "people": []}
     original = TrialWriter.finish
 
-    def with_a_stray(writer, summary):
-        writer.add_keypoints(cam, json.dumps(stray).encode(), timestamp_ns=1, frame_id=2**40)
+    def with_messages(writer, summary):
+        for cam, payload, fid in messages:
+            writer.add_keypoints(cam, payload, timestamp_ns=1, frame_id=fid)
         return original(writer, summary)
 
-    monkeypatch.setattr(TrialWriter, "finish", with_a_stray)
+    monkeypatch.setattr(TrialWriter, "finish", with_messages)
     write_keypoint_recording(walk, Path(t.recording_path))
     monkeypatch.undo()
     cat.set_state(db, t.id, "recorded", enqueue=True)
     assert Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db).run_once()
-    assert cat.get_trial(db, t.id).state == "done_with_warnings"
-    quality = cat.get_quality(db, t.id)["processing"]
+    return cat.get_trial(db, t.id).state, cat.get_quality(db, t.id)["processing"], bool(
+        cat.get_result(db, t.id, "preliminary").steps)
+
+
+def test_a_stray_keypoint_frame_id_is_ignored_and_named_in_the_trials_quality(tmp_path, walk, monkeypatch):
+    """A recording holding one keypoint message with a frame id of 2**40 (a corrupt message, or one from
+    before the recorder bounded frame ids) is processed; the trial's quality names the ignored message."""
+    cam = walk.rig.names[0]
+    stray = {"camera": cam, "frame_id": 2**40, "timestamp_ns": 1, "skeleton": walk.skeleton.name, "people": []}
+    state, quality, steps = _processed_with(tmp_path, walk, monkeypatch, [(cam, json.dumps(stray).encode(), 2**40)])
+    assert state == "done_with_warnings" and steps
     assert quality["warnings"] == [f"Camera {cam}: 1 keypoint message with a frame id far outside the recording "
                                    "(1099511627776) was ignored"]
     assert quality["ignored_keypoints"] == {cam: {"strays": 1, "stray_frame_ids": [2**40], "mistimed": 0,
                                                   "unreadable": {}}}
-    assert cat.get_result(db, t.id, "preliminary").steps
 
 
 def test_unreadable_keypoint_messages_are_ignored_and_named_in_the_trials_quality(tmp_path, walk, monkeypatch):
     """A recording holding two keypoint messages without a skeleton and one that is not JSON is processed,
     not refused; the trial's quality says how many of which camera's messages were ignored and why."""
-    from gaitcap.acquisition.recording.writer import TrialWriter
-    from gaitcap.acquisition.synthetic.recording import write_keypoint_recording
-
-    db = cat.open_catalog(tmp_path / "catalog.sqlite")
-    t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
     cam = walk.rig.names[2]
-    original = TrialWriter.finish
-
-    def with_bad_messages(writer, summary):
-        for fid in (3, 4):
-            writer.add_keypoints(cam, json.dumps({"camera": cam, "frame_id": fid, "timestamp_ns": 1,
-                                                  "people": []}).encode(), timestamp_ns=1, frame_id=fid)
-        writer.add_keypoints(cam, b'{"camera": "', timestamp_ns=1, frame_id=5)
-        return original(writer, summary)
-
-    monkeypatch.setattr(TrialWriter, "finish", with_bad_messages)
-    write_keypoint_recording(walk, Path(t.recording_path))
-    monkeypatch.undo()
-    cat.set_state(db, t.id, "recorded", enqueue=True)
-    assert Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db).run_once()
-    assert cat.get_trial(db, t.id).state == "done_with_warnings"
-    quality = cat.get_quality(db, t.id)["processing"]
+    no_skeleton = [(cam, json.dumps({"camera": cam, "frame_id": fid, "timestamp_ns": 1, "people": []}).encode(), fid)
+                   for fid in (3, 4)]
+    state, quality, steps = _processed_with(tmp_path, walk, monkeypatch, [*no_skeleton, (cam, b'{"camera": "', 5)])
+    assert state == "done_with_warnings" and steps
     assert quality["warnings"] == [f"Camera {cam}: 3 keypoint messages could not be read and were ignored "
                                    "(2 missing 'skeleton', 1 not JSON)"]
     assert quality["ignored_keypoints"] == {cam: {"strays": 0, "stray_frame_ids": [], "mistimed": 0,
                                                   "unreadable": {"missing 'skeleton'": 2, "not JSON": 1}}}
-    assert cat.get_result(db, t.id, "preliminary").steps
