@@ -28,7 +28,7 @@ from gaitcap.reconstruction.calibration.report import (
 )
 from gaitcap.reconstruction.calibration.still import merge_still_frames
 from gaitcap.reconstruction.calibration.views import view_poses
-from gaitcap.reconstruction.calibration.whole_views import LEFT_OUT_REASON, disagreeing_views
+from gaitcap.reconstruction.calibration.whole_views import LEFT_OUT_REASON, WholeViews, disagreeing_views
 from gaitcap.reconstruction.calibration.world import (
     WorldFrameConfig,
     floor_plane,
@@ -107,13 +107,22 @@ def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, .
     return prob, frames
 
 
-def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThresholds,
-                    all_rms: float, others_rms: float, intrinsics_estimated: bool, left_out: np.ndarray) -> CameraQuality:
-    """One camera's figures and problems (coverage matters only where the intrinsics were estimated), on
-    its views kept (``left_out`` (P,): corners of views left out as disagreeing as a whole)."""
-    mine = (prob.cam == c) & ~left_out
-    n_left = len(np.unique(prob.frame[(prob.cam == c) & left_out]))
+def _notes(n_left: int, n_undecidable: int) -> tuple[str, ...]:
     notes = (f"{n_left} view{'s' * (n_left != 1)} left out: {LEFT_OUT_REASON}",) if n_left else ()
+    if n_undecidable:
+        notes += (f"{n_undecidable} view{'s' * (n_undecidable != 1)} disagreeing as a whole kept: too few other "
+                  "cameras agreeing in their frame sets to tell which view was wrong",)
+    return notes
+
+
+def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThresholds, all_rms: float,
+                    others_rms: float, intrinsics_estimated: bool, whole: WholeViews, found: int) -> CameraQuality:
+    """One camera's figures and problems (coverage matters only where the intrinsics were estimated), on
+    its views kept (``whole``: the views left out as disagreeing as a whole); ``found``: its views as the
+    detector gave them (before pairing or readout removed any)."""
+    mine = (prob.cam == c) & ~whole.left_out
+    n_left = int(whole.views_left_out[c])
+    notes = _notes(n_left, int(whole.views_undecidable[c]))
     err = np.linalg.norm(res.residual_px[mine & res.inlier], axis=-1)
     mean, p95, rms = error_stats(err)
     cov = coverage(prob.uv_px[mine & res.inlier], obs.image_sizes_px[c], thresholds.grid)
@@ -122,17 +131,40 @@ def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThr
         problems.append(f"reprojection p95 {p95:.2f} px > {thresholds.max_p95_px} px")
     if intrinsics_estimated and cov < thresholds.min_coverage:
         problems.append(f"board covered {100 * cov:.0f} % of the image (< {100 * thresholds.min_coverage:.0f} %)")
-    if all_rms > thresholds.max_rms_ratio * others_rms and all_rms > thresholds.rms_floor_px:
+    if _over_rms(all_rms, others_rms, thresholds):
         problems.append(f"reprojection RMS over all its corners {all_rms:.2f} px is {all_rms / others_rms:.1f} x "
                         f"the other cameras' median ({others_rms:.2f} px)")
     n_views = len(np.unique(prob.frame[mine]))
-    detected = int(obs.views()[c].sum())
+    if n_views < thresholds.min_views_kept_fraction * found:
+        problems.append(f"judged on {n_views} of its {found} views found (< {100 * thresholds.min_views_kept_fraction:.0f} "
+                        "%): the rest were moving, smeared or disagreed with the other cameras")
     return CameraQuality(
         obs.camera_names[c], n_views, int((mine & res.inlier).sum()), int((mine & ~res.inlier).sum()),
         mean, p95, rms, cov, not problems, tuple(problems), median_px=float(np.median(err)) if err.size else
-        float("nan"), views_found=detected, views_kept_fraction=n_views / detected if detected else 0.0,
-        views_left_out=n_left, notes=notes,
+        float("nan"), views_found=found, views_kept_fraction=n_views / found if found else 0.0,
+        views_left_out=n_left, views_undecidable=int(whole.views_undecidable[c]), notes=notes,
     )
+
+
+def _over_rms(all_rms: float | np.ndarray, others_rms: float | np.ndarray, thresholds: QualityThresholds):
+    """The RMS rule: a camera's RMS over all its corners (px) too far above the other cameras' median."""
+    return (all_rms > thresholds.max_rms_ratio * others_rms) & (all_rms > thresholds.rms_floor_px)
+
+
+def _others_median(rms: np.ndarray) -> np.ndarray:
+    """(C,) the median of the other cameras' RMS (px; its own when alone)."""
+    n = len(rms)
+    return np.array([float(np.nanmedian(np.delete(rms, c))) if n > 1 else float(rms[c]) for c in range(n)])
+
+
+def _whole_views(obs, config, prob, res: BundleResult, found: np.ndarray) -> WholeViews:
+    """The views left out as disagreeing as a whole (none when the config turns that off)."""
+    none = np.zeros(obs.shape[0], dtype=int)
+    if not config.leave_out_disagreeing_views:
+        return WholeViews(np.zeros(len(prob.cam), dtype=bool), none, none)
+    rms = _rms_per_camera(prob, res, obs.shape[0], np.zeros(len(prob.cam), dtype=bool))
+    refused = _over_rms(rms, _others_median(rms), config.thresholds)
+    return disagreeing_views(prob, res, config.bundle, views_found=found, refused=refused)
 
 
 def _rms_per_camera(prob, res: BundleResult, n_cams: int, left_out: np.ndarray) -> np.ndarray:
@@ -146,11 +178,12 @@ def _rms_per_camera(prob, res: BundleResult, n_cams: int, left_out: np.ndarray) 
     return out
 
 
-def _report(obs, config, prob, frames, res, world, cams_r, cams_t, left_out) -> QualityReport:
+def _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole: WholeViews, found: np.ndarray) -> QualityReport:
+    left_out = whole.left_out
     rms = _rms_per_camera(prob, res, obs.shape[0], left_out)
-    others = [float(np.nanmedian(np.delete(rms, c))) if obs.shape[0] > 1 else float(rms[c]) for c in range(len(rms))]
+    others = _others_median(rms)
     per_cam = tuple(_camera_quality(obs, prob, res, c, config.thresholds, rms[c], others[c],
-                                    config.known_intrinsics is None, left_out) for c in range(obs.shape[0]))
+                                    config.known_intrinsics is None, whole, int(found[c])) for c in range(obs.shape[0]))
     mean, p95, rms = error_stats(np.linalg.norm(res.residual_px[res.inlier], axis=-1))
     ordered = np.full((obs.shape[0], len(frames), obs.board.num_corners, 2), np.nan)
     inl = res.inlier
@@ -193,13 +226,28 @@ def _intrinsics(obs: BoardObservations, config: CalibrationConfig) -> list[Intri
     return out
 
 
+def _views_found(obs: BoardObservations, removed: Mapping[str, int] | None) -> np.ndarray:
+    """(C,) each camera's views as found: those in ``obs`` plus those removed before (ValueError naming
+    a camera not in ``obs`` or a negative count)."""
+    removed = dict(removed or {})
+    unknown = sorted(set(removed) - set(obs.camera_names))
+    if unknown or any(v < 0 for v in removed.values()):
+        raise ValueError(f"views removed before calibration: cameras {unknown} are not in the observations "
+                         f"{list(obs.camera_names)}, or a count is negative ({removed})")
+    return obs.views().sum(1) + np.array([removed.get(n, 0) for n in obs.camera_names])
+
+
 def calibrate_from_observations(
-    obs: BoardObservations, *, config: CalibrationConfig | None = None, serials: dict[str, str] | None = None
+    obs: BoardObservations, *, config: CalibrationConfig | None = None, serials: dict[str, str] | None = None,
+    views_removed: Mapping[str, int] | None = None,
 ) -> CalibrationResult:
-    """Calibrate every camera in ``obs``; ValueError naming the camera when its data cannot do it."""
+    """Calibrate every camera in ``obs``; ValueError naming the camera when its data cannot do it.
+    ``views_removed``: {camera: views found but removed before calibration (smeared during the readout)},
+    counted in its views found (the base of the leave-out cap and of the views-kept refusal)."""
     config = config or CalibrationConfig()
     n_given = obs.shape[1]
     obs, kept = merge_still_frames(obs)
+    found = _views_found(obs, views_removed)  # on the merged frames, as the views used are counted
     runs = np.searchsorted(kept, np.arange(n_given), side="right") - 1  # merged frame of each given frame
     _check_cameras(obs, config.intrinsics)
     intr = _intrinsics(obs, config)
@@ -213,10 +261,9 @@ def calibrate_from_observations(
     held_pp = np.array([i.principal_point_held for i in intr])
     prob, frames = _problem(obs, init, config.intrinsics.distortion.free, held_pp)
     res = bundle_adjust(prob, _initial_state(intr, init, frames), config.bundle)
-    left_out = disagreeing_views(prob, res, config.bundle) if config.leave_out_disagreeing_views \
-        else np.zeros(len(prob.cam), dtype=bool)
-    if left_out.any():
-        res = bundle_adjust(prob, res.state, config.bundle, exclude=left_out)
+    whole = _whole_views(obs, config, prob, res, found)
+    if whole.left_out.any():
+        res = bundle_adjust(prob, res.state, config.bundle, exclude=whole.left_out)
     used = np.zeros(obs.shape[1], dtype=bool)
     used[frames] = True
     full_r, full_t = np.full((obs.shape[1], 3, 3), np.nan), np.full((obs.shape[1], 3), np.nan)
@@ -234,7 +281,7 @@ def calibrate_from_observations(
                matrix_to_rodrigues(cams_r[c]), cams_t[c], serials.get(name, ""))
         for c, name in enumerate(obs.camera_names)
     ))
-    report = _report(obs, config, prob, frames, res, world, cams_r, cams_t, left_out)
+    report = _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole, found)
     board_r = np.full((len(runs), 3, 3), np.nan)  # board -> world, for every frame given (still runs share)
     board_t = np.full((len(runs), 3), np.nan)
     board_r[:] = np.einsum("ji,fjk->fik", world.rotation, full_r)[runs]

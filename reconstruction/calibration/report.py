@@ -20,6 +20,8 @@ class QualityThresholds:
         max_rms_ratio / rms_floor_px: a camera whose reprojection RMS is more than ``max_rms_ratio`` times
             the other cameras' median RMS (and above ``rms_floor_px``) fails: one bad camera spoils every
             triangulation it takes part in.
+        min_views_kept_fraction: a camera judged on fewer than this share of its views as found (the rest
+            moving, smeared during the readout or left out as disagreeing) fails: too little to judge it on.
     """
 
     max_p95_px: float = 3.0
@@ -27,6 +29,7 @@ class QualityThresholds:
     grid: tuple[int, int] = (8, 5)
     max_rms_ratio: float = 2.5
     rms_floor_px: float = 0.5
+    min_views_kept_fraction: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -34,7 +37,8 @@ class CameraQuality:
     """One camera: board views used, corners (inliers / outliers), reprojection error (px: mean, p95, RMS,
     median) and coverage; views_found: views the detector gave; views_kept_fraction: used / found;
     views_left_out: views left out as disagreeing with the other cameras as a whole (not used, not
-    judged); notes: what was left out and why, plain words."""
+    judged); views_undecidable: views disagreeing as a whole in frame sets that could not tell which camera
+    was wrong (kept and judged); notes: what was left out or kept and why, plain words."""
 
     name: str
     n_detections: int
@@ -51,6 +55,7 @@ class CameraQuality:
     views_kept_fraction: float = float("nan")
     views_left_out: int = 0
     notes: tuple[str, ...] = ()
+    views_undecidable: int = 0
 
 
 @dataclass(frozen=True)

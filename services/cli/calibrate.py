@@ -24,7 +24,7 @@ def _summary(report) -> str:
     lines = [f"{'camera':<10} {'views':>6} {'kept':>5} {'corners':>8} {'RMS px':>7} {'median':>7} {'p95 px':>7} "
              f"{'coverage':>9}  status"]
     for q in report.cameras:
-        status = "; ".join((("ok",) if q.ok else ("FAILED: " + "; ".join(q.problems),)) + q.notes)
+        status = ("ok" if q.ok else "FAILED: " + "; ".join(q.problems)) + "".join(f" | note: {n}" for n in q.notes)
         lines.append(
             f"{q.name:<10} {q.n_detections:>6} {100 * q.views_kept_fraction:>4.0f}% {q.n_corners:>8} "
             f"{q.reprojection_rms_px:>7.3f} {q.median_px:>7.3f} {q.reprojection_p95_px:>7.3f} "

@@ -79,6 +79,6 @@ def test_the_table_names_the_views_left_out_for_passed_and_failed_cameras():
     report = QualityReport("board", "k1", cams, ("cam02",), 30, 1512, 11, 0.5, 1.2, 0.7, 110.0, 110.1, 0.1, 5,
                            False, 3, 1.0)
     rows = {line.split()[0]: line for line in _summary(report).splitlines()[1:4]}
-    assert rows["cam01"].endswith(f"ok; 3 views left out: {LEFT_OUT_REASON}"), rows["cam01"]
-    assert rows["cam02"].endswith(f"FAILED: reprojection p95 3.50 px > 3.0 px; 3 views left out: {LEFT_OUT_REASON}")
+    assert rows["cam01"].endswith(f"ok | note: 3 views left out: {LEFT_OUT_REASON}"), rows["cam01"]
+    assert rows["cam02"].endswith(f"FAILED: reprojection p95 3.50 px > 3.0 px | note: 3 views left out: {LEFT_OUT_REASON}")
     assert rows["cam03"].endswith("  ok")
