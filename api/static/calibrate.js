@@ -51,7 +51,8 @@ function showCalibration(run) {
   const rows = (rep.cameras || []).map((c) => `<tr><td>${esc(c.name)}</td>
     <td class="${c.ok ? "cal-pass" : "cal-fail"}">${c.ok ? "pass" : "FAIL"}</td><td>${c.n_detections}</td>
     <td>${calNum(c.reprojection_mean_px)}</td><td>${calNum(c.reprojection_p95_px)}</td>
-    <td>${Math.round(100 * c.coverage)} %</td><td>${esc([...(c.problems || []), ...(c.notes || [])].join("; "))}</td></tr>`);
+    <td>${Math.round(100 * c.coverage)} %</td><td>${esc((c.problems || []).join("; "))}</td>
+    <td class="muted">${esc((c.notes || []).join("; "))}</td></tr>`);
   document.querySelector("#calibration-table tbody").innerHTML = rows.join("");
   const link = run.has_toml ? ` <a href="${withToken("/calibrations/" + encodeURIComponent(run.id) + "/toml")}">Download calibration (TOML)</a>` : "";
   const square = rep.square_mm ? `Board square ${calNum(rep.square_measured_mm)} mm measured vs ${fmtNum(rep.square_mm)} mm `
