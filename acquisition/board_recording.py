@@ -72,6 +72,12 @@ class BoardDetections:
     def table(self) -> str:
         return detection_table(self.cameras)
 
+    @property
+    def views_removed(self) -> dict[str, int]:
+        """{camera: board views found but left out before calibration (smeared during the readout)}: the
+        calibration counts them among the camera's views found (``calibrate_from_observations``)."""
+        return {c.name: c.smeared for c in self.cameras if c.smeared}
+
     def positions(self) -> tuple[int, ...]:
         """Per camera: distinct board positions the calibration gets (a still board's frames merged)."""
         merged, _ = merge_still_frames(self.observations)
@@ -271,4 +277,4 @@ def calibrate_from_recording(
     config = config or CalibrationConfig()
     found = find_board_views(path, board=board, selection=selection, pairing=pairing, progress=progress)
     found.check(config.intrinsics.min_views)
-    return calibrate_from_observations(found.observations, config=config)
+    return calibrate_from_observations(found.observations, config=config, views_removed=found.views_removed)

@@ -153,7 +153,8 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"board {cfg.describe()}: {what}", err=True)
             if found is not None:
                 found.check(config.intrinsics.min_views)
-            result = calibrate_from_observations(obs, config=config)
+            result = calibrate_from_observations(obs, config=config,
+                                                 views_removed=found.views_removed if found is not None else None)
             refused = bool(result.report.failed_cameras) and not accept_failed
             target = out.with_name(out.stem + ".refused" + out.suffix) if refused else out
             save_rig(result.rig, target, metadata={"error": result.report.reprojection_rms_px})

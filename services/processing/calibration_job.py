@@ -93,7 +93,7 @@ def run_calibration(catalog: Catalog, cal_id: str, *, board=None, check: Callabl
         found.check(config.intrinsics.min_views)  # per camera: what was found and what to change
         check()
         update_calibration(catalog, cal_id, stage="calibrating the cameras", progress=0.8)
-        result = calibrate_from_observations(found.observations, config=config)
+        result = calibrate_from_observations(found.observations, config=config, views_removed=found.views_removed)
     except ValueError as exc:
         log.warning("calibration %s failed (board used: %s): %s", cal_id, words, exc)
         update_calibration(catalog, cal_id, state=FAILED, stage="", progress=1.0,

@@ -152,3 +152,15 @@ def test_options_that_need_frame_times_are_refused_on_frames_paired_by_order(rec
     found = find_board_views(timed, board=BoardConfig.checkerboard(), selection=FrameSelection(max_frames=3),
                              pairing=PairingConfig(tolerance_ms=5.0, readout_ms=20.0))
     assert found.timed and found.observations.shape[:2] == (2, 3)  # with times: applied
+
+
+def test_views_smeared_during_the_readout_are_handed_to_the_calibration_as_views_found():
+    """The views ``--readout-ms`` leaves out still count among a camera's views found, so a camera judged
+    on less than half of them is refused (``calibrate_from_observations(views_removed=...)``)."""
+    from gaitcap.acquisition.board_diagnosis import CameraDetection
+    from gaitcap.acquisition.board_recording import BoardDetections
+
+    cams = tuple(CameraDetection.from_finds(name, [], min_corners=4, smeared=k)
+                 for name, k in (("cam01", 24), ("cam02", 0), ("cam03", 1)))
+    found = BoardDetections(observations=None, cameras=cams, board=BoardConfig.checkerboard(), timed=True)
+    assert found.views_removed == {"cam01": 24, "cam03": 1}
