@@ -270,7 +270,7 @@ def _ephemeral_start(path: str = "/proc/sys/net/ipv4/ip_local_port_range", fallb
         first = int(Path(path).read_text().split()[0])
     except (OSError, ValueError, IndexError):
         return fallback
-    return first if first > 21000 else fallback  # a range starting low leaves 20000.. to the stacks anyway
+    return first if first > 21000 else fallback  # a range starting below 21000 leaves the stacks too few ports
 
 
 def _port_free(port: int) -> bool:

@@ -358,7 +358,8 @@ class RecorderNode:
             except ValueError as exc:
                 rec.reject(f"a bad message on {item[1]}: {exc}")
             except Exception as exc:  # a bug must not end the writer thread: Stop and later messages still run
-                log.exception("trial %s: a message on %s could not be written", rec.trial_id, item[1])
+                if rec.rejected < _LOGGED_REJECTIONS:  # the traceback, as far as rejections are logged
+                    log.exception("trial %s: a message on %s could not be written", rec.trial_id, item[1])
                 rec.reject(f"a message on {item[1]} could not be written ({type(exc).__name__}: {exc})")
 
     def _write(self, rec: Recording, kind: str, key: str, payload: bytes, att: bytes | None, recv_ns: int) -> None:
