@@ -111,13 +111,14 @@ def _others_fit(prob: BundleProblem, res: BundleResult, views: _Views, picks: li
     state = BundleState(s.matrix_px, s.dist, s.cam_rotation, s.cam_tvec_mm, s.frame_rotation[frames],
                         s.frame_tvec_mm[frames])
     held = replace(config, refine_intrinsics=False, refine_cameras=False)
-    fit = bundle_adjust(sub, state, held, exclude=np.concatenate(mine))
+    mine = np.concatenate(mine)
+    fit = bundle_adjust(sub, state, held, exclude=mine)
     err = np.linalg.norm(fit.residual_px, axis=-1)
     own, others = np.zeros(len(picks)), []
-    for j in range(len(picks)):
+    for j, k in enumerate(picks):
         rows = sub.frame == j
-        own[j] = np.median(err[rows & np.concatenate(mine)])
-        cams = [c for c in np.unique(sub.cam[rows]) if not np.any(rows & (sub.cam == c) & np.concatenate(mine))]
+        own[j] = np.median(err[rows & mine])
+        cams = [c for c in np.unique(sub.cam[rows]) if c != views.keys[k] // prob.num_frames]
         others.append(np.array([np.median(err[rows & (sub.cam == c)]) for c in cams]))
     return own, others
 
