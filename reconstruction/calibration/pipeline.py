@@ -136,8 +136,10 @@ def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThr
                         f"the other cameras' median ({others_rms:.2f} px)")
     n_views = len(np.unique(prob.frame[mine]))
     if n_views < thresholds.min_views_kept_fraction * found:
+        given = int(obs.views()[c].sum())  # views handed to the calibration (still runs merged)
         problems.append(f"judged on {n_views} of its {found} views found (< {100 * thresholds.min_views_kept_fraction:.0f} "
-                        "%): the rest were moving, smeared or disagreed with the other cameras")
+                        f"%): {found - given} removed before calibration (smeared during the readout), {n_left} left "
+                        f"out as disagreeing with the other cameras, {given - n_left - n_views} not placed in the rig")
     return CameraQuality(
         obs.camera_names[c], n_views, int((mine & res.inlier).sum()), int((mine & ~res.inlier).sum()),
         mean, p95, rms, cov, not problems, tuple(problems), median_px=float(np.median(err)) if err.size else

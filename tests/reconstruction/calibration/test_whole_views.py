@@ -121,7 +121,10 @@ def test_a_camera_judged_on_less_than_half_of_its_views_found_is_refused(room):
     cam03 = res.report.cameras[2]
     assert res.report.failed_cameras == ("cam03",)
     assert cam03.views_found == 2 * found + 1
-    assert cam03.problems == (f"judged on {cam03.n_detections} of its {2 * found + 1} views found (< 50 %): the "
-                              "rest were moving, smeared or disagreed with the other cameras",)
+    unplaced = found - cam03.views_left_out - cam03.n_detections
+    assert cam03.problems == (f"judged on {cam03.n_detections} of its {2 * found + 1} views found (< 50 %): "
+                              f"{found + 1} removed before calibration (smeared during the readout), "
+                              f"{cam03.views_left_out} left out as disagreeing with the other cameras, {unplaced} not "
+                              "placed in the rig",)
     with pytest.raises(ValueError, match="cam09"):
         calibrate_from_observations(obs, views_removed={"cam09": 3})
