@@ -4,7 +4,7 @@ about the distribution is in pyproject.toml."""
 
 from setuptools import find_packages, setup
 
-LAYERS = ("acquisition", "reconstruction", "services", "api")
+LAYERS = ("acquisition", "reconstruction", "services", "api", "simulator")
 
 
 def _layer_packages(layer: str) -> list[str]:

@@ -1,1 +1,1 @@
-"""Camera drivers, synchronisation, encoding, detectors, recording, and the synthetic world."""
+"""Camera drivers, synchronisation, encoding, detectors and recording (the synthetic world is `gaitcap.simulator`)."""

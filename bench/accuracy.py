@@ -72,7 +72,7 @@ def _clip(trial, seconds: float):
 
 def run(*, preset: str, seconds: float, cameras: int, seed: int, anipose: bool, paper_steps: int,
         clip_seconds: float) -> dict:
-    from gaitcap.acquisition.synthetic.trial import make_trial
+    from gaitcap.simulator.trial import make_trial
     from gaitcap.reconstruction.methods import DLT, Explicit, Implicit, Robust, reconstruct
     from gaitcap.reconstruction.metrics import compute_metrics
 

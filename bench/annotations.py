@@ -45,7 +45,7 @@ JPEG_BYTES = 200_000
 def keypoint_payloads(cameras: int, frames: int, people: int) -> tuple[list[list[dict]], list[str]]:
     """[frame][camera] -> keypoint message as the detector publishes it (``frame_id`` filled in later), and
     the camera names."""
-    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.simulator import make_trial
 
     trial = make_trial("paper", seconds=max(frames / 30.0, 5.0), cameras=cameras, people=1, seed=3, fps=30.0)
     kp = trial.detections.keypoints  # (C, T, J, 3)

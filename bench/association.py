@@ -29,7 +29,7 @@ def _mpjpe(points_mm: np.ndarray, truth_mm: np.ndarray) -> float:
 
 
 def run(*, frames: int, cameras: int, people: int, seed: int, repeats: int, mpjpe: bool) -> dict:
-    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.simulator import make_trial
     from gaitcap.reconstruction.association import (
         MultiPersonDetections,
         associate,

@@ -1,6 +1,6 @@
 """Benchmark: gait events on real walks (motion capture with annotated events) seen by the simulated rig.
 
-Each installed walk (``acquisition/synthetic/mocap.py``) is placed in the room, sampled at 30 fps from
+Each installed walk (``simulator/mocap.py``) is placed in the room, sampled at 30 fps from
 each of its 5 mocap phases (150 Hz / 5), detected with the ``paper`` noise preset on the 10-camera rig,
 reconstructed, and its events found by the default detector and the baselines (Zeni 2008, O'Connor 2007)
 on the same trajectory. Errors are detected minus annotated (ms; frames at 30 fps); an annotated event
@@ -83,7 +83,7 @@ def _temporal_errors(report, walk) -> dict:
 
 
 def run_walk(walk, *, method: str, phase: int, seed: int) -> dict:
-    from gaitcap.acquisition.synthetic.mocap import rig_view
+    from gaitcap.simulator.mocap import rig_view
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.gait.baselines import BASELINES
     from gaitcap.reconstruction.gait.tracks import FootTracks
@@ -123,7 +123,7 @@ def _row(method: str, walk: str, detector: str, kind: str, pooled: dict) -> dict
 
 
 def run(*, methods: list[str], phases: int, seed: int) -> dict:
-    from gaitcap.acquisition.synthetic.mocap import available_walks, load_walk
+    from gaitcap.simulator.mocap import available_walks, load_walk
 
     walks = available_walks()
     if not walks:

@@ -79,7 +79,7 @@ def compare(ik: dict, truth: dict) -> dict:
 
 
 def run(*, preset: str, seconds: float, cameras: int, seed: int) -> dict:
-    from gaitcap.acquisition.synthetic.trial import make_trial
+    from gaitcap.simulator.trial import make_trial
     from gaitcap.reconstruction.kinematics.markers import layout_for
     from gaitcap.reconstruction.methods import Implicit, Robust, reconstruct
     from gaitcap.services.kinematics import get_engine

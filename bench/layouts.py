@@ -54,8 +54,8 @@ def _recognise(recording, rig, truth: str) -> dict:
 
 def synthetic_layouts() -> dict:
     from gaitcap.acquisition.keypoint_input import make_input
-    from gaitcap.acquisition.synthetic import make_trial
-    from gaitcap.acquisition.synthetic.layouts import points_in_layout
+    from gaitcap.simulator import make_trial
+    from gaitcap.simulator.layouts import points_in_layout
     from gaitcap.reconstruction.skeletons import SKELETONS
 
     trial = make_trial(preset="paper", seconds=6.0, cameras=4, seed=2)

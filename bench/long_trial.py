@@ -21,8 +21,8 @@ from _common import add_trial_args, emit
 
 
 def run(*, seconds: float, cameras: int, preset: str, seed: int) -> dict:
-    from gaitcap.acquisition.synthetic import make_trial
-    from gaitcap.acquisition.synthetic.recording import write_keypoint_recording
+    from gaitcap.simulator import make_trial
+    from gaitcap.simulator.recording import write_keypoint_recording
     from gaitcap.services import catalog as cat
     from gaitcap.services.processing.artifacts import trial_files
     from gaitcap.services.processing.worker import Worker, WorkerConfig

@@ -19,8 +19,8 @@ import time
 
 def run(*, frames: int, width: int, height: int, people: int, cameras: int, quality: int, seed: int) -> dict:
     import cv2
-    from gaitcap.acquisition.synthetic import make_trial
-    from gaitcap.acquisition.synthetic.render import render_frame
+    from gaitcap.simulator import make_trial
+    from gaitcap.simulator.render import render_frame
 
     trial = make_trial(preset="clean", seconds=max(6.0, frames / 30.0 + 1.0), cameras=cameras, people=people, seed=seed)
     size = (width, height)

@@ -23,8 +23,8 @@ from pathlib import Path
 
 def write_trials(data_dir: Path, trials: list) -> None:
     """The synthetic trials as recorded trials (MCAP of keypoints + calibration, ground_truth.npz)."""
-    from gaitcap.acquisition.synthetic import save_trial
-    from gaitcap.acquisition.synthetic.recording import write_keypoint_recording
+    from gaitcap.simulator import save_trial
+    from gaitcap.simulator.recording import write_keypoint_recording
     from gaitcap.services import catalog as cat
     from gaitcap.services.processing.artifacts import trial_files
 
@@ -78,7 +78,7 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
 
-    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.simulator import make_trial
     from gaitcap.services.research.method_specs import parse_method
 
     specs = [parse_method(m) for m in (args.method or ["robust", "dlt"])]

@@ -62,7 +62,7 @@ def _differences(worker: dict, other: dict) -> dict:
 
 
 def measure(args) -> dict:
-    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.simulator import make_trial
     from gaitcap.acquisition.writers import save_detections_npz, save_rig
 
     trial = make_trial(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed)

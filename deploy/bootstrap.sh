@@ -168,7 +168,7 @@ PYEOF
 GAITKIT_VERSION="1.5.0"
 # Real gait motion capture with annotated events (CC-BY 4.0 / ODC-By 1.0 data, MIT package): the healthy
 # (Fukuchi et al. 2018) and Parkinson (PhysioNet Gait in PD) walks shipped in the gaitkit sdist, for the
-# gait tests and bench/gait_real.py (see acquisition/synthetic/mocap.py).
+# gait tests and bench/gait_real.py (see simulator/mocap.py).
 install_gait_mocap() (
   local dest="$SHARE/testdata/gait-mocap" tmp
   [ -f "$dest/.version-$GAITKIT_VERSION" ] && return 0

@@ -5,7 +5,10 @@ Layers (the repository's folders, installed as ``gaitcap.<layer>``):
   and reads and writes no file (the writers of what it computes are ``acquisition.fileio`` /
   ``acquisition.writers``, the readers of what it parses ``acquisition.readers``); one exception, named in
   ``READING_ALLOWED``: the machine's available memory, which is the environment, not data.
-- ``acquisition`` (drivers, sync, encoding, detectors, recording) may use ``reconstruction`` only.
+- ``acquisition`` (drivers, sync, encoding, detectors, recording) may use ``reconstruction`` only, and its
+  simulated camera driver the simulator.
+- ``simulator`` (the synthetic world with ground truth) builds on ``acquisition`` and ``reconstruction``
+  and never reaches ``services`` or ``api``.
 - ``services`` wires them to the bus and never imports ``api``, except ``services.cli``: the one
   composition root that starts the API server.
 - ``api`` is HTTP only: it talks to the rest through the catalog, the live-system protocols and a
@@ -13,7 +16,7 @@ Layers (the repository's folders, installed as ``gaitcap.<layer>``):
 - Inside ``services``: the live nodes know nothing of trial processing, research or operations; the
   catalog knows no other subsystem; trial processing knows neither research nor operations.
 - Production code (the live nodes, the API's link to them, the API) never reaches the simulator
-  (``acquisition.synthetic``, the simulated camera driver), not even through another module: the
+  (``simulator``, the simulated camera driver), not even through another module: the
   simulator's hooks live with it (``services.nodes.sim_scene``, wired in by the simulated stack only).
 - Nothing imports a layer under a generic top-level name (``import services``): always ``gaitcap.``.
 - No import cycles between modules (lazy and type-checking imports included).
@@ -24,13 +27,17 @@ import functools
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-LAYERS = ("acquisition", "reconstruction", "services", "api")
+LAYERS = ("acquisition", "reconstruction", "services", "api", "simulator")
 
 # (importer prefix, forbidden prefix, exception prefixes of the importer)
 RULES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("gaitcap.reconstruction", "gaitcap.acquisition", ()),
     ("gaitcap.reconstruction", "gaitcap.services", ()),
     ("gaitcap.reconstruction", "gaitcap.api", ()),
+    ("gaitcap.reconstruction", "gaitcap.simulator", ()),
+    ("gaitcap.simulator", "gaitcap.services", ()),
+    ("gaitcap.simulator", "gaitcap.api", ()),
+    ("gaitcap.api", "gaitcap.simulator", ()),
     ("gaitcap.acquisition", "gaitcap.services", ()),
     ("gaitcap.acquisition", "gaitcap.api", ()),
     ("gaitcap.services", "gaitcap.api", ("gaitcap.services.cli",)),
@@ -58,7 +65,7 @@ RULES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
 )
 
 
-SIMULATOR = ("gaitcap.acquisition.synthetic", "gaitcap.acquisition.drivers.simulated")
+SIMULATOR = ("gaitcap.simulator", "gaitcap.acquisition.drivers.simulated")
 PRODUCTION = ("gaitcap.services.nodes", "gaitcap.services.live", "gaitcap.api")
 SIMULATOR_HOOKS = ("gaitcap.services.nodes.sim_scene",)
 
@@ -242,15 +249,15 @@ def test_checks_detect_violations_and_cycles(tmp_path):
     assert _violations(graph) == ["gaitcap.reconstruction.a -> gaitcap.services.bus"]
     assert _cycles(graph) == [["gaitcap.services.bus", "gaitcap.services.worker"]]
     assert _generic_imports(tmp_path / "services" / "worker.py") == {"api"}
-    for folder in ("services/nodes", "services/live", "acquisition/synthetic"):
+    for folder in ("services/nodes", "services/live", "simulator"):
         (tmp_path / folder).mkdir(parents=True, exist_ok=True)
     (tmp_path / "acquisition" / "synthetic" / "board_scene.py").write_text("")
-    (tmp_path / "services" / "live" / "helper.py").write_text("import gaitcap.acquisition.synthetic.board_scene\n")
+    (tmp_path / "services" / "live" / "helper.py").write_text("import gaitcap.simulator.board_scene\n")
     (tmp_path / "services" / "nodes" / "camera.py").write_text("from gaitcap.services.live import helper\n")
-    (tmp_path / "services" / "nodes" / "sim_scene.py").write_text("import gaitcap.acquisition.synthetic.board_scene\n")
+    (tmp_path / "services" / "nodes" / "sim_scene.py").write_text("import gaitcap.simulator.board_scene\n")
     assert _simulator_reached(_graph(_modules(tmp_path))) == [
-        "gaitcap.services.live.helper -> gaitcap.acquisition.synthetic.board_scene",
-        "gaitcap.services.nodes.camera -> gaitcap.acquisition.synthetic.board_scene"]
+        "gaitcap.services.live.helper -> gaitcap.simulator.board_scene",
+        "gaitcap.services.nodes.camera -> gaitcap.simulator.board_scene"]
 
 
 IO_LIBRARIES = {"matplotlib", "zenoh", "mcap", "mcap_protobuf", "fastapi", "starlette", "sqlalchemy", "uvicorn",

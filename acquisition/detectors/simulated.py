@@ -16,7 +16,7 @@ from gaitcap.acquisition.detectors.base import DetectorConfig, empty_keypoints, 
 @register_detector
 @dataclass(frozen=True, eq=False)
 class SimulatedConfig(DetectorConfig):
-    """Detections of a synthetic trial (``gaitcap.acquisition.synthetic.make_trial(...)``): ``.detections``
+    """Detections of a synthetic trial (``gaitcap.simulator.make_trial(...)``): ``.detections``
     (a :class:`gaitcap.reconstruction.detections.Detections`, one person) and, for several people, ``.multi``
     with all people's keypoints per camera (C, T, P, J, 3)."""
 

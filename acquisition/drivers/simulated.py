@@ -1,6 +1,6 @@
 """Simulated cameras: the synthetic world rendered from each rig camera.
 
-Each :class:`SimulatedCamera` plays one camera of a synthetic trial (``gaitcap.acquisition.synthetic``): it
+Each :class:`SimulatedCamera` plays one camera of a synthetic trial (``gaitcap.simulator``): it
 renders frame ``i`` at the chosen resolution and frame rate and stamps it with the camera's clock:
 
     timestamp_ns = start_ns + i * period_ns + clock_offsets_ns[c] + jitter_ns[c, i]
@@ -45,7 +45,7 @@ class SimulatedFaults:
 
 
 def _default_render(trial: Any, camera_index: int, frame_index: int, size_px: tuple[int, int]) -> np.ndarray:
-    from gaitcap.acquisition.synthetic.render import render_frame
+    from gaitcap.simulator.render import render_frame
 
     return render_frame(trial, camera_index, frame_index, size_px=size_px)
 
@@ -96,7 +96,7 @@ class SimulatedCamera:
         self._first_id = 0  # the first frame id delivered (> 0: joined a rig running since _start_ns)
         self.join_running = False  # a start already past: skip the frames due before now (see the module)
         self._stopped = False
-        # (SceneSwitch, BoardScene) of gaitcap.acquisition.synthetic.board_scene: show a calibration board instead
+        # (SceneSwitch, BoardScene) of gaitcap.simulator.board_scene: show a calibration board instead
         self.scene: tuple[Any, Any] | None = None
 
     def open(self) -> None:
@@ -251,7 +251,7 @@ def cycle_start_ns(*, epoch_ns: int, cycle_ns: int, now_ns: int) -> int:
 class SimTrialSpec:
     """How to rebuild the same synthetic trial in several processes (camera and detector nodes).
 
-    Attributes mirror ``gaitcap.acquisition.synthetic.make_trial(preset, seconds, cameras, people, seed, fps)``.
+    Attributes mirror ``gaitcap.simulator.make_trial(preset, seconds, cameras, people, seed, fps)``.
     """
 
     preset: str = "paper"
@@ -262,7 +262,7 @@ class SimTrialSpec:
     fps: float = 30.0
 
     def make(self) -> Any:
-        from gaitcap.acquisition.synthetic import make_trial
+        from gaitcap.simulator import make_trial
 
         return make_trial(self.preset, seconds=self.seconds, cameras=self.cameras, people=self.people,
                           seed=self.seed, fps=self.fps)

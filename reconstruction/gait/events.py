@@ -12,7 +12,7 @@ staying near where it is at the first frame (its speed may not look still: a rol
 
 Heel strike (initial contact, the first instant of ground contact): real feet reach the floor still
 moving; the heel rolls 20-40 mm over the heel rocker and comes to rest 60-130 ms later (see
-``gaitcap.acquisition.synthetic.foot``), so the moment the foot comes to rest is 2-3 frames late at
+``gaitcap.simulator.foot``), so the moment the foot comes to rest is 2-3 frames late at
 30 fps. The heel strike is the first time heel or toe comes within ``contact_distance_mm`` (30 mm) of
 where it rests in this contact, located on the continuous trajectory (the caller's sampler, else a cubic
 spline through the frames) at ``event_resolution_s``. A position threshold is also far less sensitive to

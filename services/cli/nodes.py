@@ -89,7 +89,7 @@ def camera_cmd(
         }
         if source not in builders:
             raise ValueError(f"--source: {source!r} is not one of {sorted(builders)}")
-        from gaitcap.acquisition.synthetic.board_scene import board_scene_config
+        from gaitcap.simulator.board_scene import board_scene_config
 
         board_scene_config(board_clip)  # a wrong name fails here, cleanly
         drivers = builders[source]().build()

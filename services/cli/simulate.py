@@ -23,8 +23,8 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Simulate a patient walking the room's diagonal, seen by a camera rig; write calibration.toml,
         keypoints.npz and ground_truth.npz to --out and print a ground-truth gait summary."""
-        from gaitcap.acquisition.synthetic import make_trial
-        from gaitcap.acquisition.synthetic.files import save_trial, summary_json, summary_lines
+        from gaitcap.simulator import make_trial
+        from gaitcap.simulator.files import save_trial, summary_json, summary_lines
 
         with user_errors():
             trial = make_trial(preset=preset, seconds=seconds, cameras=cameras, people=people, seed=seed, fps=fps)
@@ -49,7 +49,7 @@ def register(app: typer.Typer) -> None:
         """Render a calibration board carried through the synthetic room, seen by every camera, as a
         recording (then: gaitcap calibrate OUT/board.mcap --out calib.toml --compare OUT/true_calibration.toml)."""
         from gaitcap.acquisition.board import BoardConfig
-        from gaitcap.acquisition.synthetic.board_clip import BoardClipConfig, write_board_clip
+        from gaitcap.simulator.board_clip import BoardClipConfig, write_board_clip
         from gaitcap.acquisition.writers import save_rig
 
         with user_errors():

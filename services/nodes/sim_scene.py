@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 from gaitcap.acquisition.drivers.base import CameraDriver
 from gaitcap.acquisition.drivers.simulated import SimulatedCamera
-from gaitcap.acquisition.synthetic.board_scene import BoardScene, SceneSwitch, board_scene_config
+from gaitcap.simulator.board_scene import BoardScene, SceneSwitch, board_scene_config
 from gaitcap.services.bus.messages import CameraScene
 from gaitcap.services.bus.session import BusConfig
 
@@ -23,7 +23,7 @@ log = logging.getLogger(__name__)
 def attach_board_scene(session, bus: BusConfig, drivers: Sequence[CameraDriver], clip: str = "short"):
     """Let simulated cameras show a calibration board on request (``<prefix>/camera/scene``,
     :class:`gaitcap.services.bus.messages.CameraScene`), the board clip named ``clip`` in
-    :data:`gaitcap.acquisition.synthetic.board_scene.BOARD_SCENES`. Other drivers are left alone. Returns the
+    :data:`gaitcap.simulator.board_scene.BOARD_SCENES`. Other drivers are left alone. Returns the
     subscriber (None when no driver is simulated)."""
     config = board_scene_config(clip)
     sims = [d for d in drivers if isinstance(d, SimulatedCamera)]

@@ -67,7 +67,7 @@ class StackConfig:
             raise ValueError(f"camera_nodes: need 1..{self.cameras} camera processes, got {self.camera_nodes}")
         if not 1 <= self.workers <= 8:
             raise ValueError(f"workers: need 1..8 workers, got {self.workers}")
-        from gaitcap.acquisition.synthetic.board_scene import board_scene_config
+        from gaitcap.simulator.board_scene import board_scene_config
 
         board_scene_config(self.board_clip)
         if self.sim_people not in (1, 2, 3):
@@ -91,7 +91,7 @@ class StackConfig:
 
     def camera_shares(self) -> dict[str, list[str]]:
         """Camera process -> the simulated cameras it runs (cam01.. dealt in turn)."""
-        from gaitcap.acquisition.synthetic.room import build_rig
+        from gaitcap.simulator.room import build_rig
 
         names = build_rig(self.cameras).names
         return {node: list(names[i :: self.camera_nodes]) for i, node in enumerate(self.camera_node_names())}

@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
 from gaitcap.acquisition.board_recording import FrameSelection, detect_recording
-from gaitcap.acquisition.synthetic.board import (
+from gaitcap.simulator.board import (
     BoardMotion,
     board_trajectory,
     render_board_images,
     write_board_folder,
     write_board_mcap,
 )
-from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.simulator.room import build_rig
 
 
 @pytest.fixture(scope="module")

@@ -8,13 +8,13 @@ API gave the recorder)."""
 import httpx
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.synthetic.board import (
+from gaitcap.simulator.board import (
     BoardMotion,
     board_trajectory,
     render_board_images,
     write_board_mcap,
 )
-from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.simulator.room import build_rig
 from gaitcap.api.server import serve_in_thread
 from gaitcap.api.settings import Settings
 from gaitcap.services import catalog as cat

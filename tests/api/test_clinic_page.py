@@ -40,9 +40,9 @@ VISIT_TIMES = ((2026, 11, 10, 9, 30), (2026, 11, 24, 10, 0), (2026, 11, 24, 14, 
 
 @pytest.fixture(scope="module")
 def walk_report():
-    from gaitcap.acquisition.synthetic.params import WalkParams
-    from gaitcap.acquisition.synthetic.path import Room, plan_walk
-    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import Room, plan_walk
+    from gaitcap.simulator.walker import simulate_body
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.skeletons import get_skeleton
 

@@ -22,9 +22,9 @@ HELD = {"pelvis_tilt": "held near 0 by the fit: no keypoint fixes it"}
 @pytest.fixture(scope="module")
 def walk():
     """12 s of the synthetic walker: its gait report and its kinematics.json content."""
-    from gaitcap.acquisition.synthetic.params import WalkParams
-    from gaitcap.acquisition.synthetic.path import Room, plan_walk
-    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import Room, plan_walk
+    from gaitcap.simulator.walker import simulate_body
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.kinematics.geometric import keypoint_angles
     from gaitcap.reconstruction.kinematics.report import kinematics_report

@@ -11,9 +11,9 @@ from gaitcap.services.processing.artifacts import trial_files
 @pytest.fixture(scope="module")
 def synthetic_walk():
     """6 s of the synthetic walker (exact keypoints) and its gait report's steps."""
-    from gaitcap.acquisition.synthetic.params import WalkParams
-    from gaitcap.acquisition.synthetic.path import Room, plan_walk
-    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import Room, plan_walk
+    from gaitcap.simulator.walker import simulate_body
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.skeletons import get_skeleton
 

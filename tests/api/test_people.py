@@ -20,7 +20,7 @@ _spec.loader.exec_module(_helpers)
 
 @pytest.fixture(scope="module")
 def pair():
-    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.simulator import make_trial
 
     return make_trial(preset="paper", seconds=6.0, cameras=6, people=2, seed=1)
 

@@ -18,9 +18,9 @@ from gaitcap.services.reports.content import PARAMETERS
 @pytest.fixture(scope="module")
 def gait_reports():
     """Gait reports of the synthetic walker at three speeds (three visits), 10 s each."""
-    from gaitcap.acquisition.synthetic.params import WalkParams
-    from gaitcap.acquisition.synthetic.path import Room, plan_walk
-    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import Room, plan_walk
+    from gaitcap.simulator.walker import simulate_body
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.skeletons import get_skeleton
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 def main() -> None:
     bus_file, data_dir, sim = Path(sys.argv[1]), Path(sys.argv[2]), json.loads(sys.argv[3])
-    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.simulator import make_trial
     from gaitcap.reconstruction.calibration_io import rig_to_toml_text
     from gaitcap.services import catalog as cat
     from gaitcap.services.bus.control import RecorderClient

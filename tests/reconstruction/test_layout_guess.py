@@ -4,7 +4,7 @@ import logging
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.synthetic.layouts import points_in_layout
+from gaitcap.simulator.layouts import points_in_layout
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.layout_guess import (
     AmbiguousLayout,
@@ -19,7 +19,7 @@ from gaitcap.reconstruction.skeletons import SKELETONS, get_skeleton
 
 @pytest.fixture(scope="module")
 def walk():
-    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.simulator import make_trial
 
     trial = make_trial(preset="paper", seconds=4.0, cameras=4, seed=3)
     return trial.rig, trial.points_mm, trial.times_s

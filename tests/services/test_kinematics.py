@@ -21,9 +21,9 @@ def engine():
 @pytest.fixture(scope="module")
 def fitted(engine, tmp_path_factory):
     """8 s of the synthetic walker (exact keypoints), fitted once."""
-    from gaitcap.acquisition.synthetic.params import WalkParams
-    from gaitcap.acquisition.synthetic.path import Room, plan_walk
-    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import Room, plan_walk
+    from gaitcap.simulator.walker import simulate_body
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.services.kinematics.trial import trial_kinematics

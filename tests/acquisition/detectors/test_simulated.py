@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, Detector
 from gaitcap.acquisition.detectors.simulated import SimulatedConfig
-from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.simulator import make_trial
 
 
 @pytest.fixture(scope="module")

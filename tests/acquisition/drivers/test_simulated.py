@@ -8,7 +8,7 @@ from gaitcap.acquisition.drivers.simulated import (
     simulated_rig,
 )
 from gaitcap.acquisition.sync import check_sync
-from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.simulator import make_trial
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,7 @@ import time
 import numpy as np
 import pytest
 from gaitcap.acquisition.drivers.simulated import cycle_start_ns, simulated_rig
-from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.simulator import make_trial
 
 PERIOD_NS = 33_333_333
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.simulator import make_trial
 from gaitcap.reconstruction.association import (
     BoxConfig,
     ManualTrack,

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.simulator.room import build_rig
 from gaitcap.reconstruction.calibration.compare import compare_rigs
 from gaitcap.reconstruction.camera import Rig, matrix_to_rodrigues
 

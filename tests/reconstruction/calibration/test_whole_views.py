@@ -9,8 +9,8 @@ focal length 5 % off is refused, and the other cameras keep every view."""
 import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.synthetic.board import BoardMotion, board_trajectory, observe_board
-from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
+from gaitcap.simulator.room import build_rig
 from gaitcap.reconstruction.calibration import (
     BoardObservations,
     CalibrationConfig,

@@ -1,7 +1,7 @@
 """An analytic walker for the gait tests: feet flat in stance, swings with a brisk push-off and a landing
 like a real one along a path: at initial contact the foot still moves forward (at 2 ROLL_MM / LOAD_S,
 0.9 m/s) and comes to rest ROLL_MM further on after LOAD_S (the heel rocker; real heels travel 20-40 mm
-after contact, see acquisition/synthetic/foot.py)."""
+after contact, see simulator/foot.py)."""
 
 from __future__ import annotations
 

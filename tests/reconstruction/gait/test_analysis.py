@@ -193,9 +193,9 @@ def test_edge_steps_are_reported_and_left_out_of_the_summary(walker):
 def test_per_side_summary_and_symmetry_index_of_a_hemiparetic_walk():
     """Every parameter per side (n, mean, SD, CV) with the symmetry index 100 |L - R| / mean(L, R), in the
     JSON and the summary CSV: the hemiparetic walker's 15 % step asymmetry gives SI 30 %."""
-    from gaitcap.acquisition.synthetic.params import WalkParams
-    from gaitcap.acquisition.synthetic.path import plan_walk
-    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import plan_walk
+    from gaitcap.simulator.walker import simulate_body
     from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS
     from gaitcap.reconstruction.skeletons import get_skeleton
 

@@ -3,7 +3,7 @@ simulated 30 fps rig, against the annotations and the published baselines."""
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.synthetic.mocap import available_walks, halpe26_points, load_walk, rig_view
+from gaitcap.simulator.mocap import available_walks, halpe26_points, load_walk, rig_view
 from gaitcap.reconstruction.gait import analyze_gait
 from gaitcap.reconstruction.gait.baselines import BASELINES
 from gaitcap.reconstruction.gait.parameters import cycle_timing

@@ -74,6 +74,6 @@ def test_alignment_on_the_analytic_walker(walker):
                          walk.to_s[keep] - offset, heels, toes)
     result = compare_with_walkway([(walk.points_mm, walk.times_s, walk.joint_names)], [trial])
     # Few footfalls here: only the clock is checked; accuracy is checked on the synthetic world
-    # (tests/acquisition/synthetic/test_walkway.py).
+    # (tests/simulator/test_walkway.py).
     assert result.offsets_s["0"] == pytest.approx(offset, abs=0.05)
     assert result.transform.scale == pytest.approx(0.99, abs=0.01)

@@ -15,7 +15,7 @@ from gaitcap.reconstruction.kinematics.geometric import keypoint_angles
 
 @pytest.fixture(scope="module")
 def trial():
-    from gaitcap.acquisition.synthetic.trial import make_trial
+    from gaitcap.simulator.trial import make_trial
 
     return make_trial("clean", seconds=4.0, cameras=3, seed=1)
 

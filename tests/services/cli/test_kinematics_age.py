@@ -16,9 +16,9 @@ def walk_npz(tmp_path_factory):
         get_engine()
     except KinematicsUnavailable as exc:
         pytest.skip(f"OpenSim setup files not installed: {exc}")
-    from gaitcap.acquisition.synthetic.params import WalkParams
-    from gaitcap.acquisition.synthetic.path import Room, plan_walk
-    from gaitcap.acquisition.synthetic.walker import simulate_body
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import Room, plan_walk
+    from gaitcap.simulator.walker import simulate_body
     from gaitcap.reconstruction.skeletons import get_skeleton
 
     params, times = WalkParams(), np.arange(60) / 30.0  # 2 s: the band does not need gait cycles

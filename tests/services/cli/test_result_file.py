@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.simulator import make_trial
 from gaitcap.acquisition.writers import save_detections_npz, save_rig
 from gaitcap.services.cli import app
 from typer.testing import CliRunner

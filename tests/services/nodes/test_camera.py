@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.drivers.simulated import simulated_rig
 from gaitcap.acquisition.encoding import parse_image_message
-from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.simulator import make_trial
 from gaitcap.services.bus.control import CameraStatusBoard, PreviewFrames
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode

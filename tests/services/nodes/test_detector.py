@@ -5,7 +5,7 @@ import time
 import numpy as np
 from gaitcap.acquisition.detectors.simulated import SimulatedConfig
 from gaitcap.acquisition.drivers.simulated import simulated_rig
-from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.simulator import make_trial
 from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode

@@ -14,7 +14,7 @@ from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from gaitcap.acquisition.detectors.simulated import SimulatedConfig
 from gaitcap.acquisition.drivers.simulated import simulated_rig
-from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.simulator import make_trial
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
 from gaitcap.services.nodes.detector import DetectorNode

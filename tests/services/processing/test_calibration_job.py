@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.synthetic.board import write_board_mcap
+from gaitcap.simulator.board import write_board_mcap
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals

@@ -6,7 +6,7 @@ import cv2
 import pytest
 from gaitcap.acquisition.board import BoardConfig
 from gaitcap.acquisition.installed import share_path
-from gaitcap.acquisition.synthetic.board import write_board_mcap
+from gaitcap.simulator.board import write_board_mcap
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
 from gaitcap.services.processing.calibration_job import run_calibration

@@ -101,8 +101,8 @@ def test_real_body25b_without_a_config_is_recognised(tmp_path, caplog):
 
 def _synthetic_body25b_folder(root: Path):
     """A synthetic walk written as OpenPose BODY_25B JSON (one folder per camera), and its calibration."""
-    from gaitcap.acquisition.synthetic import make_trial
-    from gaitcap.acquisition.synthetic.layouts import points_in_layout
+    from gaitcap.simulator import make_trial
+    from gaitcap.simulator.layouts import points_in_layout
 
     trial = make_trial(preset="paper", seconds=4.0, cameras=4, seed=5)
     pts = points_in_layout(trial.points_mm, "body25b")
@@ -168,7 +168,7 @@ def test_real_videos_of_two_people_give_one_consistent_walker(tmp_path):
     is reconstructed in every frame, limbs consistent."""
     import cv2
     from gaitcap.acquisition.detectors.mediapipe import default_model_dir
-    from gaitcap.acquisition.synthetic.board import scaled_rig
+    from gaitcap.simulator.board import scaled_rig
     from gaitcap.acquisition.tool_folders import read_qca
     from gaitcap.services.cli.detect import build_detector
     from gaitcap.services.processing.offline import detect_input

@@ -16,7 +16,7 @@ from gaitcap.acquisition.encoding import image_message
 from gaitcap.acquisition.recording.foxglove_messages import image_annotations
 from gaitcap.acquisition.recording.reader import read_keypoints
 from gaitcap.acquisition.recording.writer import TrialWriter
-from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.simulator import make_trial
 from gaitcap.reconstruction.calibration_io import rig_to_toml_text
 from gaitcap.reconstruction.gait import analyze_gait
 from gaitcap.services.processing.artifacts import TrialFiles

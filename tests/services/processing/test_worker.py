@@ -20,7 +20,7 @@ from ..conftest import write_trial_mcap
 
 @pytest.fixture(scope="module")
 def walk():
-    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.simulator import make_trial
 
     return make_trial("clean", seconds=10, cameras=4, people=1, seed=3, fps=30)
 
@@ -150,7 +150,7 @@ def _processed_with(tmp_path, walk, monkeypatch, messages: list[tuple[str, bytes
     before it is finished, processed by a real worker: (the trial's state, its processing quality, whether
     the preliminary result has steps)."""
     from gaitcap.acquisition.recording.writer import TrialWriter
-    from gaitcap.acquisition.synthetic.recording import write_keypoint_recording
+    from gaitcap.simulator.recording import write_keypoint_recording
 
     db = cat.open_catalog(tmp_path / "catalog.sqlite")
     t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")

@@ -12,14 +12,14 @@ from ..conftest import write_trial_mcap
 
 
 def make_walks(n: int, *, seconds: float = 9.0, cameras: int = 6, preset: str = "paper"):
-    from gaitcap.acquisition.synthetic import make_trial
+    from gaitcap.simulator import make_trial
 
     return [make_trial(preset, seconds=seconds, cameras=cameras, people=1, seed=10 + i, fps=30) for i in range(n)]
 
 
 def recorded_catalog(data_dir: Path, walks, *, subject: str = "P1") -> tuple[cat.Catalog, list[str]]:
     """A catalog with one recorded (state ``done``) trial per walk; returns it and the trial ids."""
-    from gaitcap.acquisition.synthetic import save_trial
+    from gaitcap.simulator import save_trial
 
     db = cat.open_catalog(data_dir / "catalog.sqlite")
     ids = []

@@ -31,9 +31,9 @@ from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.installed import share_path
-from gaitcap.acquisition.synthetic.noise import detect, get_preset
-from gaitcap.acquisition.synthetic.path import Room
-from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.simulator.noise import detect, get_preset
+from gaitcap.simulator.path import Room
+from gaitcap.simulator.room import build_rig
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.skeletons import get_skeleton

@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from gaitcap.acquisition.synthetic.params import WalkParams
+from gaitcap.simulator.params import WalkParams
 
 ROOM_SIZE_MM = (7400.0, 8000.0)
 LEFT, RIGHT = +1, -1

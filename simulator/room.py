@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from gaitcap.acquisition.synthetic.path import Room
+from gaitcap.simulator.path import Room
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 
 SENSOR_PX = (1920, 1200)

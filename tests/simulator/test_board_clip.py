@@ -5,7 +5,7 @@ import cv2
 import numpy as np
 import pytest
 from gaitcap.acquisition.recording.reader import iter_frames
-from gaitcap.acquisition.synthetic.board_clip import BoardClipConfig, write_board_clip
+from gaitcap.simulator.board_clip import BoardClipConfig, write_board_clip
 
 SMALL = BoardClipConfig(frames=12, floor_frames=2, cameras=3, scale=0.2)
 

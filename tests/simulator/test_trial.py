@@ -1,8 +1,8 @@
 import cv2
 import numpy as np
 import pytest
-from gaitcap.acquisition.synthetic import PRESETS, WalkParams, make_trial
-from gaitcap.acquisition.synthetic.room import build_rig, visible
+from gaitcap.simulator import PRESETS, WalkParams, make_trial
+from gaitcap.simulator.room import build_rig, visible
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 

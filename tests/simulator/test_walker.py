@@ -2,10 +2,10 @@ import math
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.synthetic import WalkParams
-from gaitcap.acquisition.synthetic.path import SIDE_NAME, plan_walk
-from gaitcap.acquisition.synthetic.truth import gait_truth
-from gaitcap.acquisition.synthetic.walker import SKELETON, Body, limb_lengths, simulate_body
+from gaitcap.simulator import WalkParams
+from gaitcap.simulator.path import SIDE_NAME, plan_walk
+from gaitcap.simulator.truth import gait_truth
+from gaitcap.simulator.walker import SKELETON, Body, limb_lengths, simulate_body
 
 FPS = 240.0
 

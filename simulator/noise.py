@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from gaitcap.acquisition.synthetic.room import visible
+from gaitcap.simulator.room import visible
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.skeletons import get_skeleton
 from scipy.signal import lfilter

@@ -6,13 +6,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from gaitcap.acquisition.synthetic.noise import NoisePreset, clock_model, detect, get_preset, occlusion_mask
-from gaitcap.acquisition.synthetic.params import WalkParams
-from gaitcap.acquisition.synthetic.path import FootPlan, Room, plan_walk
-from gaitcap.acquisition.synthetic.people import bystander, therapist
-from gaitcap.acquisition.synthetic.room import build_rig
-from gaitcap.acquisition.synthetic.truth import GaitTruth, gait_truth
-from gaitcap.acquisition.synthetic.walker import Body, simulate_body
+from gaitcap.simulator.noise import NoisePreset, clock_model, detect, get_preset, occlusion_mask
+from gaitcap.simulator.params import WalkParams
+from gaitcap.simulator.path import FootPlan, Room, plan_walk
+from gaitcap.simulator.people import bystander, therapist
+from gaitcap.simulator.room import build_rig
+from gaitcap.simulator.truth import GaitTruth, gait_truth
+from gaitcap.simulator.walker import Body, simulate_body
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.skeletons import Skeleton, get_skeleton

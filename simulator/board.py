@@ -16,8 +16,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 from gaitcap.acquisition.board import Board
-from gaitcap.acquisition.synthetic.board_render import BoardRenderer, camera_at
-from gaitcap.acquisition.synthetic.room import visible as lens_visible
+from gaitcap.simulator.board_render import BoardRenderer, camera_at
+from gaitcap.simulator.room import visible as lens_visible
 from gaitcap.reconstruction.calibration.geometry import BoardGeometry, BoardObservations
 from gaitcap.reconstruction.camera import Rig
 

@@ -1,7 +1,7 @@
 """Kinematic walker: Halpe-26 joint trajectories (mm) of one rigid body following a footstep plan.
 
 Feet are rigid bodies (heel, ankle, big toe, small toe) that land and leave like real feet (see
-:mod:`gaitcap.acquisition.synthetic.foot` for the kinematics and their sources):
+:mod:`gaitcap.simulator.foot` for the kinematics and their sources):
   - land heel first with the toes up, flat, or toe first (``heel_strike_angle_deg``), still moving
     forward: the contact point travels ``heel_roll_mm`` more while the foot rolls down to foot flat,
   - stay flat (the heel keypoint at rest from foot flat), then roll about the stationary big toe (heel
@@ -20,9 +20,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from gaitcap.acquisition.synthetic.foot import landing_speed_mm_s, landing_term, rolled_back
-from gaitcap.acquisition.synthetic.params import WalkParams
-from gaitcap.acquisition.synthetic.path import LEFT, RIGHT, FootPlan, forward, left_normal, wrap_angle
+from gaitcap.simulator.foot import landing_speed_mm_s, landing_term, rolled_back
+from gaitcap.simulator.params import WalkParams
+from gaitcap.simulator.path import LEFT, RIGHT, FootPlan, forward, left_normal, wrap_angle
 from gaitcap.reconstruction.skeletons import get_skeleton
 from scipy.interpolate import PchipInterpolator
 

@@ -17,7 +17,7 @@ SIDES = ("left", "right")
 class WalkParams:
     """How the synthetic patient walks (and how the body is built).
 
-    Gait (straight passes reproduce these exactly, see :mod:`gaitcap.acquisition.synthetic.truth`):
+    Gait (straight passes reproduce these exactly, see :mod:`gaitcap.simulator.truth`):
         step_length_mm: mean step length (heel to previous contralateral heel, along progression).
         step_width_mm: heel-to-heel lateral distance (base of support).
         cadence_spm: steps per minute (both feet together).
@@ -35,7 +35,7 @@ class WalkParams:
     Style:
         arm_swing_deg: peak shoulder flexion/extension of the arm swing.
         heel_strike_angle_deg: foot-floor angle at initial contact: > 0 heel first (toes up), 0 flat foot,
-            < 0 toe first (heel up); see :mod:`gaitcap.acquisition.synthetic.foot`.
+            < 0 toe first (heel up); see :mod:`gaitcap.simulator.foot`.
         paretic_heel_strike_angle_deg: the same for the side that is not ``short_side`` (the paretic side
             of ``hemiparetic``), None: ``heel_strike_angle_deg``.
         heel_roll_mm: distance the foot's contact point still travels after initial contact, rolling to
@@ -188,7 +188,7 @@ class WalkParams:
     @classmethod
     def parkinsonian(cls, **changes) -> WalkParams:
         """Shuffling: short quick steps, flat-foot contacts with little roll, low clearance, little arm
-        swing (see :mod:`gaitcap.acquisition.synthetic.foot`)."""
+        swing (see :mod:`gaitcap.simulator.foot`)."""
         base = dict(step_length_mm=420.0, step_width_mm=120.0, cadence_spm=112.0, stance_fraction=0.66,
                     arm_swing_deg=5.0, heel_strike_angle_deg=0.0, heel_roll_mm=15.0, toe_off_angle_deg=25.0,
                     swing_lift_mm=5.0, trunk_lean_deg=10.0, turn_steps=8)

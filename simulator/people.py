@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from gaitcap.acquisition.synthetic.params import WalkParams
-from gaitcap.acquisition.synthetic.path import FootPlan, Room, plan_from_guide, plan_standing
-from gaitcap.acquisition.synthetic.walker import SKELETON, Body, simulate_body
+from gaitcap.simulator.params import WalkParams
+from gaitcap.simulator.path import FootPlan, Room, plan_from_guide, plan_standing
+from gaitcap.simulator.walker import SKELETON, Body, simulate_body
 
 THERAPIST_OFFSET_MM = (-350.0, -650.0)  # (forward, left) of the patient's pelvis: behind and to the right
 BYSTANDER_XY_MM = (2300.0, -2700.0)

@@ -17,7 +17,7 @@ import math
 
 import cv2
 import numpy as np
-from gaitcap.acquisition.synthetic.room import safe_project
+from gaitcap.simulator.room import safe_project
 from gaitcap.reconstruction.camera import Camera
 from gaitcap.reconstruction.skeletons import get_skeleton
 

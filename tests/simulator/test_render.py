@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
-from gaitcap.acquisition.synthetic import make_trial
-from gaitcap.acquisition.synthetic.render import background, render_frame, scaled_camera
-from gaitcap.acquisition.synthetic.room import safe_project
+from gaitcap.simulator import make_trial
+from gaitcap.simulator.render import background, render_frame, scaled_camera
+from gaitcap.simulator.room import safe_project
 
 
 @pytest.fixture(scope="module")

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 from gaitcap.acquisition.readers import load_rig
-from gaitcap.acquisition.synthetic import WalkParams, make_trial
-from gaitcap.acquisition.synthetic.files import load_trial_files, save_trial
+from gaitcap.simulator import WalkParams, make_trial
+from gaitcap.simulator.files import load_trial_files, save_trial
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from gaitcap.acquisition.board import Board
-from gaitcap.acquisition.synthetic.room import safe_project
+from gaitcap.simulator.room import safe_project
 from gaitcap.reconstruction.camera import Camera
 
 PX_PER_MM = 2.0  # texture resolution

@@ -1,7 +1,7 @@
 """Shared short synthetic trials (cached per session: the tests only read them)."""
 
 import pytest
-from gaitcap.acquisition.synthetic import make_trial
+from gaitcap.simulator import make_trial
 
 
 @pytest.fixture(scope="session")

@@ -22,8 +22,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from gaitcap.acquisition.synthetic.path import SIDE_NAME, FootPlan
-from gaitcap.acquisition.synthetic.walker import Body
+from gaitcap.simulator.path import SIDE_NAME, FootPlan
+from gaitcap.simulator.walker import Body
 
 
 @dataclass(frozen=True, eq=False)

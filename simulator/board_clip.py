@@ -20,15 +20,15 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.board import BoardConfig, make_board
 from gaitcap.acquisition.encoding import encode_jpeg
-from gaitcap.acquisition.synthetic.board import (
+from gaitcap.simulator.board import (
     FLOOR_SPOTS_MM,
     BoardMotion,
     add_jpeg_frame,
     board_trajectory,
     scaled_rig,
 )
-from gaitcap.acquisition.synthetic.board_render import BoardRenderer, camera_at
-from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.simulator.board_render import BoardRenderer, camera_at
+from gaitcap.simulator.room import build_rig
 from gaitcap.reconstruction.camera import Rig
 
 log = logging.getLogger(__name__)

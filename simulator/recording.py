@@ -20,7 +20,7 @@ T0_NS = 1_700_000_000_000_000_000
 
 def write_keypoint_recording(trial, path: str | Path, *, metadata: dict | None = None, everyone: bool = False,
                              stills: bool = False) -> Path:
-    """Write ``trial`` (a :class:`~gaitcap.acquisition.synthetic.trial.SyntheticTrial`) to ``path`` and
+    """Write ``trial`` (a :class:`~gaitcap.simulator.trial.SyntheticTrial`) to ``path`` and
     return the finished file's path.
 
     everyone: every person detected in each camera frame, in the detector's (arbitrary) slot order

@@ -89,7 +89,7 @@ class SimulationFiles:
 
     @property
     def params(self):
-        from gaitcap.acquisition.synthetic.params import WalkParams
+        from gaitcap.simulator.params import WalkParams
 
         if self.ground_truth is None:
             raise ValueError("no ground_truth.npz was read")

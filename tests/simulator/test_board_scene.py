@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
 from gaitcap.acquisition.drivers.simulated import SimTrialSpec, simulated_rig
-from gaitcap.acquisition.synthetic.board_scene import BoardScene, BoardSceneConfig, SceneSwitch
+from gaitcap.simulator.board_scene import BoardScene, BoardSceneConfig, SceneSwitch
 
 SHORT = BoardSceneConfig(motion=dataclasses.replace(BoardSceneConfig().motion, n_frames=5, floor_frames=3))
 
@@ -40,8 +40,8 @@ def test_cameras_show_the_floor_board_then_the_walker():
 
 
 def test_board_at_another_aspect_ratio_is_the_sensor_image_resized():
-    from gaitcap.acquisition.synthetic.board import observe_board
-    from gaitcap.acquisition.synthetic.board_render import camera_resized
+    from gaitcap.simulator.board import observe_board
+    from gaitcap.simulator.board_render import camera_resized
     from gaitcap.reconstruction.camera import Rig
 
     trial = SimTrialSpec(cameras=2, seconds=5.0, fps=10.0).make()
@@ -69,7 +69,7 @@ def test_clip_loops():
 
 
 def test_board_clips_are_named():
-    from gaitcap.acquisition.synthetic.board_scene import board_scene_config
+    from gaitcap.simulator.board_scene import board_scene_config
 
     assert board_scene_config("full").motion.n_frames == 600 and len(board_scene_config("full").motion.floor_spots_mm) == 3
     with pytest.raises(ValueError, match=r"'nope' is unknown; choose one of \['full', 'short'\]"):

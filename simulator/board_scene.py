@@ -3,7 +3,7 @@
 :class:`SceneSwitch` holds what the cameras show (``walker`` or ``board``) and from when; every camera
 asks it per frame id, so all cameras that share a start time switch at the same frame id and show the
 same board pose at the same frame id. :class:`BoardScene` renders the board clip of
-:mod:`gaitcap.acquisition.synthetic.board` (it starts with the board lying on the floor: the world frame) frame
+:mod:`gaitcap.simulator.board` (it starts with the board lying on the floor: the world frame) frame
 by frame for each camera at the camera's image size (a camera's pixel rays are set up once, on first
 use or :meth:`BoardScene.prepare`); the clip loops. Two clips are named in :data:`BOARD_SCENES`:
 ``short`` (6 s, the default: a quick look in a demo) and ``full`` (60 s, with the floor spots and the
@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.synthetic.board import FLOOR_SPOTS_MM, BoardMotion, board_trajectory
-from gaitcap.acquisition.synthetic.board_render import BoardRenderer
+from gaitcap.simulator.board import FLOOR_SPOTS_MM, BoardMotion, board_trajectory
+from gaitcap.simulator.board_render import BoardRenderer
 from gaitcap.reconstruction.camera import Rig
 
 log = logging.getLogger(__name__)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.synthetic.board import (
+from gaitcap.simulator.board import (
     FLOOR_ROTATION,
     BoardMotion,
     board_trajectory,
@@ -11,7 +11,7 @@ from gaitcap.acquisition.synthetic.board import (
     render_board_images,
     scaled_rig,
 )
-from gaitcap.acquisition.synthetic.room import build_rig
+from gaitcap.simulator.room import build_rig
 
 
 @pytest.fixture(scope="module")
