@@ -251,7 +251,7 @@ def test_checks_detect_violations_and_cycles(tmp_path):
     assert _generic_imports(tmp_path / "services" / "worker.py") == {"api"}
     for folder in ("services/nodes", "services/live", "simulator"):
         (tmp_path / folder).mkdir(parents=True, exist_ok=True)
-    (tmp_path / "acquisition" / "synthetic" / "board_scene.py").write_text("")
+    (tmp_path / "simulator" / "board_scene.py").write_text("")
     (tmp_path / "services" / "live" / "helper.py").write_text("import gaitcap.simulator.board_scene\n")
     (tmp_path / "services" / "nodes" / "camera.py").write_text("from gaitcap.services.live import helper\n")
     (tmp_path / "services" / "nodes" / "sim_scene.py").write_text("import gaitcap.simulator.board_scene\n")
