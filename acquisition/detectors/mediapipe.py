@@ -10,8 +10,9 @@ pre- and post-processing below follows MediaPipe's pose graphs:
    scale point -> a rotated square region of interest (2 x their distance x 1.25);
 2. landmark model on that region (256x256, RGB in [0, 1]) -> 39 points (33 landmarks + 2 alignment
    points + ...), visibility = sigmoid, refined on the 64x64 heatmaps, mapped back to image px;
-3. tracking: the next frame of the same camera reuses the region from the alignment landmarks 33/34,
-   and runs the detector again only when the pose is lost.
+3. tracking: the next frame of the same camera reuses each person's region from the alignment landmarks
+   33/34; the detector runs again for one pose only when it is lost, for several poses on every frame
+   (for people coming into view).
 Confidence = min(visibility, presence), both sigmoid outputs of the landmark model.
 """
 
@@ -56,7 +57,9 @@ class MediaPipeConfig(DetectorConfig):
         min_detection_confidence: person detector score threshold.
         min_tracking_confidence: pose presence below this drops tracking and re-runs the detector.
         tracking: reuse the previous frame's region for consecutive frames of the same camera.
-        num_poses: at most this many people per image (> 1 disables tracking).
+        num_poses: at most this many people per image (default 4: everyone in a clinic's view; who the
+            patient is is decided across cameras by the association, never per image). Tracking the
+            previous frame's regions are reused; > 1 also runs the person detector on every frame.
         num_threads: TFLite interpreter threads.
     """
 
@@ -66,7 +69,7 @@ class MediaPipeConfig(DetectorConfig):
     min_detection_confidence: float = 0.5
     min_tracking_confidence: float = 0.5
     tracking: bool = True
-    num_poses: int = 1
+    num_poses: int = 4
     num_threads: int = 2
 
     def __post_init__(self) -> None:
@@ -131,6 +134,17 @@ def same_person(a: np.ndarray, b: np.ndarray, *, fraction: float = 0.1) -> bool:
     ``b``'s bounding-box diagonal (two detector regions on one person give two near-identical poses)."""
     diag = float(np.hypot(*(np.nanmax(b[:, :2], 0) - np.nanmin(b[:, :2], 0))))
     return bool(np.nanmedian(np.hypot(*(a[:, :2] - b[:, :2]).T)) < fraction * diag)
+
+
+def box_inside(a: np.ndarray, b: np.ndarray, *, fraction: float = 0.6) -> bool:
+    """Whether the landmark boxes of two (J, 3) poses overlap by at least ``fraction`` of the smaller box:
+    the person detector's second region on one person (a part of the body, or the body stretched to a
+    wrong head) gives a pose inside the first one's box. A person hidden that much behind another in one
+    camera is left to the other cameras."""
+    (ax0, ay0, ax1, ay1), (bx0, by0, bx1, by1) = landmark_box(a), landmark_box(b)
+    inter = max(0.0, min(ax1, bx1) - max(ax0, bx0)) * max(0.0, min(ay1, by1) - max(ay0, by0))
+    smaller = min((ax1 - ax0) * (ay1 - ay0), (bx1 - bx0) * (by1 - by0))
+    return bool(inter >= fraction * max(smaller, 1e-9))
 
 
 def landmark_box(keypoints: np.ndarray, *, min_conf: float = 0.3) -> np.ndarray:
@@ -245,33 +259,40 @@ class MediaPipeDetector:
         self._tracks: dict[str, tuple[int, Roi]] = {}
 
     def detect(self, image_bgr: np.ndarray, *, camera: str, frame_id: int, timestamp_ns: int) -> np.ndarray:
-        """(H, W, 3) BGR -> (P, 33, 3) x px, y px, confidence; P <= ``num_poses``."""
+        """(H, W, 3) BGR -> (P, 33, 3) x px, y px, confidence; P <= ``num_poses``.
+
+        The people tracked from the previous frame of this camera come first (their landmarks' own
+        regions); the person detector then runs for the others (with one pose, only when it is lost), so a
+        person the detector misses in one frame is still followed."""
         img = check_image(image_bgr, camera=camera)
         rgb = cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
-        tracked = self._tracked_roi(camera, frame_id)
-        if tracked is not None:
-            kp, presence, next_roi = self._landmarks(rgb, tracked)
-            if presence >= self.config.min_tracking_confidence:
-                self._tracks[camera] = (frame_id, next_roi)
-                return kp[None]
-        self._tracks.pop(camera, None)
         people: list[np.ndarray] = []
-        for roi in self.find_people(rgb):
-            if len(people) == self.config.num_poses:
-                break
-            kp, presence, next_roi = self._landmarks(rgb, roi)
-            if presence < self.config.min_tracking_confidence or any(same_person(kp, p) for p in people):
-                continue
-            people.append(kp)
-            if self.config.tracking and self.config.num_poses == 1:
-                self._tracks[camera] = (frame_id, next_roi)
+        regions: list[Roi] = []
+        for roi in self._tracked_rois(camera, frame_id):
+            self._add(rgb, roi, people, regions)
+        if len(people) < self.config.num_poses:
+            for roi in self.find_people(rgb):
+                if len(people) == self.config.num_poses:
+                    break
+                self._add(rgb, roi, people, regions)
+        self._tracks.pop(camera, None)
+        if self.config.tracking and regions:
+            self._tracks[camera] = (frame_id, tuple(regions))
         return np.stack(people) if people else empty_keypoints(self.skeleton.num_joints)
 
-    def _tracked_roi(self, camera: str, frame_id: int) -> Roi | None:
-        if not self.config.tracking or self.config.num_poses != 1 or camera not in self._tracks:
-            return None
-        last_id, roi = self._tracks[camera]
-        return roi if frame_id == last_id + 1 else None
+    def _add(self, rgb: np.ndarray, roi: Roi, people: list[np.ndarray], regions: list[Roi]) -> None:
+        """Landmarks on a region, kept (with the next frame's region) unless lost or already found."""
+        kp, presence, next_roi = self._landmarks(rgb, roi)
+        if presence < self.config.min_tracking_confidence or any(same_person(kp, p) or box_inside(kp, p) for p in people):
+            return
+        people.append(kp)
+        regions.append(next_roi)
+
+    def _tracked_rois(self, camera: str, frame_id: int) -> tuple[Roi, ...]:
+        if not self.config.tracking or camera not in self._tracks:
+            return ()
+        last_id, rois = self._tracks[camera]
+        return rois if frame_id == last_id + 1 else ()
 
     def find_people(self, rgb: np.ndarray) -> list[Roi]:
         """Person detector on an RGB image -> regions of interest, best first."""

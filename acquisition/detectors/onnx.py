@@ -127,7 +127,7 @@ class OnnxConfig(DetectorConfig):
         num_threads: onnxruntime intra-op threads (0 = its default).
         person_detector: when no boxes are given, find people with MediaPipe Pose (lite model, tracked
             per camera) and crop around their landmarks.
-        max_people: at most this many people from MediaPipe.
+        max_people: at most this many people from MediaPipe (default 4: everyone in view).
         person_min_score: MediaPipe's person detector score threshold.
     """
 
@@ -139,7 +139,7 @@ class OnnxConfig(DetectorConfig):
     std_rgb: tuple[float, float, float] = IMAGENET_STD_RGB
     num_threads: int = 0
     person_detector: bool = False
-    max_people: int = 1
+    max_people: int = 4
     person_min_score: float = 0.5
 
     def build(self) -> OnnxDetector:

@@ -12,6 +12,7 @@ import pytest
 from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, Detector
 from gaitcap.acquisition.detectors.mediapipe import (
     MediaPipeConfig,
+    box_inside,
     default_model_dir,
     refine_from_heatmaps,
     same_person,
@@ -44,8 +45,8 @@ def _frames(first, count):
 
 @pytest.fixture(scope="module")
 def walk():
-    """(T, 33, 3) keypoints of the walker, and the detector."""
-    det = MediaPipeConfig().build()
+    """(T, 33, 3) keypoints of the walker, and the detector (one pose: tracked from frame to frame)."""
+    det = MediaPipeConfig(num_poses=1).build()
     out = []
     for i, frame in enumerate(_frames(FIRST, COUNT)):
         kp = det.detect(frame, camera="side", frame_id=FIRST + i, timestamp_ns=0)
@@ -85,6 +86,16 @@ def test_same_person():
     a[:, 0], a[:, 1] = np.linspace(0, 100, 33), np.linspace(0, 200, 33)
     assert same_person(a + [3, 3, 0], a)
     assert not same_person(a + [60, 0, 0], a)
+
+
+def test_box_inside():
+    a = np.zeros((33, 3))
+    a[:, 0], a[:, 1], a[:, 2] = np.linspace(0, 100, 33), np.linspace(0, 400, 33), 1.0
+    legs = a.copy()
+    legs[:20] = a[20]  # a second region on the same body: the lower half
+    assert box_inside(legs, a)
+    assert not box_inside(a + [150, 0, 0], a)  # side by side
+    assert not box_inside(a + [60, 0, 0], a)  # overlapping by 40 %
 
 
 def test_config_checks_and_missing_models(tmp_path):
@@ -135,7 +146,7 @@ def test_agrees_with_the_official_mediapipe(walk):
 def test_image_mode_agrees_with_the_official_mediapipe():
     """The person detector path (every frame detected, no tracking) against mediapipe's image mode."""
     ref = np.load(Path(__file__).parent / "data" / "mediapipe_0.10.21_sports2d_demo.npz")
-    det = MediaPipeConfig(tracking=False).build()
+    det = MediaPipeConfig(tracking=False, num_poses=1).build()
     frames = _frames(FIRST, COUNT)
     mine = np.full((len(ref["frames"]), 33, 3), np.nan)
     for k, f in enumerate(ref["frames"]):
@@ -171,7 +182,7 @@ def test_walker_feet_alternate_stance_and_swing(walk):
 
 @needs_models
 def test_tracking_reuses_the_region_and_blank_image_finds_nobody(monkeypatch):
-    det = MediaPipeConfig().build()
+    det = MediaPipeConfig(num_poses=1).build()
     calls = []
     real = det.find_people
     monkeypatch.setattr(det, "find_people", lambda rgb: calls.append(1) or real(rgb))
@@ -184,6 +195,18 @@ def test_tracking_reuses_the_region_and_blank_image_finds_nobody(monkeypatch):
     assert len(calls) == 3
     blank = np.full((480, 640, 3), 127, np.uint8)
     assert det.detect(blank, camera="c", frame_id=0, timestamp_ns=0).shape == (0, 33, 3)
+
+
+@needs_models
+def test_everyone_by_default_finds_the_walker_once_in_every_frame():
+    """Default options look for several people (num_poses 4, tracked): the one walker of the video is
+    found in all 90 frames and never twice (the person detector's second region on a body, e.g. the
+    legs alone, is the same person)."""
+    det = MediaPipeConfig().build()
+    assert det.config.num_poses > 1
+    counts = [len(det.detect(f, camera="side", frame_id=i, timestamp_ns=0))
+              for i, f in enumerate(_frames(FIRST, COUNT))]
+    assert counts == [1] * COUNT  # (4 poses untracked, without box_inside: 1 frame had none, 10 had 2-3)
 
 
 @needs_models
