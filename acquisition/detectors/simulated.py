@@ -28,7 +28,8 @@ class SimulatedConfig(DetectorConfig):
 
 
 class SimulatedDetector:
-    """Returns the trial's keypoints of camera ``camera`` at frame ``frame_id`` as (P, J, 3).
+    """Returns the trial's keypoints of camera ``camera`` at frame ``frame_id`` as (P, J, 3); frame ids past
+    the walk's end are those of a camera playing it again (frame ``frame_id mod num_frames``).
 
     People whose keypoints are all missing in that view (NaN or confidence 0) are left out, as a real
     detector would not report them.
@@ -62,11 +63,9 @@ class SimulatedDetector:
             c = self._cameras.index(camera)
         except ValueError:
             raise ValueError(f"simulated detector: unknown camera {camera!r}; trial cameras: {list(self._cameras)}") from None
-        if not 0 <= frame_id < self.num_frames:
-            raise ValueError(
-                f"simulated detector: camera {camera}: frame id {frame_id} outside the trial's 0..{self.num_frames - 1}"
-            )
-        people = self._people[c, frame_id]
+        if frame_id < 0:
+            raise ValueError(f"simulated detector: camera {camera}: frame id {frame_id} is negative")
+        people = self._people[c, frame_id % self.num_frames]  # a looping camera plays the walk again
         seen = (np.isfinite(people).all(-1) & (np.nan_to_num(people[..., 2]) > 0)).any(-1)
         if not seen.any():
             return empty_keypoints(self.skeleton.num_joints)

@@ -10,6 +10,10 @@ a rig that has been running since then: frame ids still count from that start, a
 it was started are not delivered (several camera processes, or one restarted, keep one frame count;
 :func:`cycle_start_ns`). Without it every frame from the start is delivered, late ones at once.
 
+A camera with ``loop`` set plays the walk again and again with no pause (a live rig that runs all day):
+frame ids go on counting (as a camera's counter does) and frame id ``i`` shows the walk's frame
+``i mod n`` (``n``: :meth:`SimulatedCamera.walk_frames`); the simulated detector looks keypoints up the same way.
+
 Optional faults: dropped frame ids (the id is skipped, as a real camera's counter would) and a camera that
 stops after a given frame id (the iterator ends and the status says ``error``). The ground truth of a
 frame stays with the simulator: :meth:`SimulatedCamera.trial_index` maps a frame id to the trial's frame.
@@ -17,6 +21,7 @@ frame stays with the simulator: :meth:`SimulatedCamera.trial_index` maps a frame
 
 from __future__ import annotations
 
+import itertools
 import logging
 import time
 from collections.abc import Callable, Iterator
@@ -68,6 +73,8 @@ class SimulatedCamera:
         realtime: pace frames on the wall clock (live use); False delivers as fast as possible.
         faults: optional dropped frames / stop.
         render: ``render(trial, camera_index, frame_index, size_px) -> (H, W, 3) uint8``.
+        max_frames: deliver at most this many frame ids (None: the walk once, or without end with ``loop``).
+        loop: play the walk again and again, frame ids counting on (see the module docstring).
     """
 
     def __init__(
@@ -79,6 +86,7 @@ class SimulatedCamera:
         faults: SimulatedFaults = SimulatedFaults(),
         render: RenderFn = _default_render,
         max_frames: int | None = None,
+        loop: bool = False,
     ) -> None:
         num = len(trial.rig)
         if not 0 <= camera_index < num:
@@ -90,6 +98,7 @@ class SimulatedCamera:
         self.faults = faults
         self._render = render
         self.max_frames = max_frames
+        self.loop = loop
         self._settings = CaptureSettings(fps=trial_fps(trial), exposure_us=None)
         self._status = DriverStatus(camera=self.name)
         self._start_ns: int | None = None
@@ -116,11 +125,23 @@ class SimulatedCamera:
     def size_px(self) -> tuple[int, int]:
         return self._settings.size_px or tuple(int(v) for v in self.trial.rig[self.camera_index].size_px)
 
-    def num_frames(self) -> int:
-        """How many frame ids are played: the trial at the configured frame rate (or ``max_frames``)."""
+    def walk_frames(self) -> int:
+        """Frame ids in one play-through of the walk at the configured frame rate."""
         duration_s = float(self.trial.times_s[-1] - self.trial.times_s[0]) + 1.0 / trial_fps(self.trial)
-        n = int(np.floor(duration_s * self._settings.fps + 1e-9))
+        return int(np.floor(duration_s * self._settings.fps + 1e-9))
+
+    def num_frames(self) -> int:
+        """How many frame ids are played: the walk once (or ``max_frames``; with ``loop``, ``max_frames`` or
+        one play-through: the period of its frame grid)."""
+        n = self.walk_frames()
+        if self.loop and self.max_frames is not None:
+            return self.max_frames
         return n if self.max_frames is None else min(n, self.max_frames)
+
+    def _frame_ids(self) -> Iterator[int]:
+        if self.loop and self.max_frames is None:
+            return itertools.count(self._first_id)
+        return iter(range(self._first_id, self.num_frames()))
 
     def start(self, at_ns: int | None = None) -> None:
         if self._status.state not in ("configured", "open"):
@@ -135,7 +156,10 @@ class SimulatedCamera:
         self._status.started_wall_s = joined_ns / 1e9 if self.realtime else time.time()  # the rate counts from here
 
     def trial_index(self, frame_id: int) -> int:
-        """The index into the synthetic trial (its ``times_s``, ground truth) of frame ``frame_id``."""
+        """The index into the synthetic trial (its ``times_s``, ground truth) of frame ``frame_id`` (with
+        ``loop``: of its place in the current play-through)."""
+        if self.loop:
+            frame_id %= self.walk_frames()
         t0 = float(self.trial.times_s[0])
         t = t0 + frame_id / self._settings.fps
         idx = int(np.searchsorted(self.trial.times_s, t - 1e-9))
@@ -155,7 +179,7 @@ class SimulatedCamera:
         period = self._settings.period_ns
         last_ts: int | None = None
         last_id: int | None = None
-        for frame_id in range(self._first_id, self.num_frames()):
+        for frame_id in self._frame_ids():
             if self._stopped:
                 break
             if frame_id in self.faults.drop_frame_ids:
@@ -212,6 +236,7 @@ def simulated_rig(
     cameras: list[str] | None = None,
     render: RenderFn = _default_render,
     max_frames: int | None = None,
+    loop: bool = False,
 ) -> list[SimulatedCamera]:
     """Open and configure one :class:`SimulatedCamera` per rig camera (or per name in ``cameras``)."""
     faults = faults or {}
@@ -228,6 +253,7 @@ def simulated_rig(
             faults=faults.get(name, SimulatedFaults()),
             render=render,
             max_frames=max_frames,
+            loop=loop,
         )
         cam.open()
         cam.configure(CaptureSettings(fps=fps or trial_fps(trial), exposure_us=None, size_px=size_px))

@@ -24,12 +24,13 @@ class SimulatedSource:
     stops: tuple[str, ...] = ()
     realtime: bool = True
     max_frames: int | None = None
+    loop: bool = False  # play the walk again and again (frame ids counting on)
 
     def build(self) -> list[CameraDriver]:
         trial = self.spec.make()
         return simulated_rig(trial, size_px=self.size_px, fps=self.fps, realtime=self.realtime,
                              faults=parse_faults(list(self.drops), list(self.stops)), cameras=self.cameras,
-                             max_frames=self.max_frames)
+                             max_frames=self.max_frames, loop=self.loop)
 
 
 @dataclass(frozen=True)

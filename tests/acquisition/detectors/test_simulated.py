@@ -55,5 +55,16 @@ def test_bad_camera_or_frame_is_named(trials):
     det = SimulatedConfig(trial=one).build()
     with pytest.raises(ValueError, match="unknown camera 'nope'"):
         det.detect(None, camera="nope", frame_id=0, timestamp_ns=0)
-    with pytest.raises(ValueError, match=f"frame id {one.num_frames}"):
-        det.detect(None, camera=one.rig.names[0], frame_id=one.num_frames, timestamp_ns=0)
+    with pytest.raises(ValueError, match="frame id -1 is negative"):
+        det.detect(None, camera=one.rig.names[0], frame_id=-1, timestamp_ns=0)
+
+
+def test_frame_ids_past_the_walk_are_the_walk_played_again(trials):
+    one, _ = trials
+    det = SimulatedConfig(trial=one).build()
+    cam, n = one.rig.names[1], one.num_frames
+    for f in (0, 7, n - 1):
+        again = det.detect(None, camera=cam, frame_id=f + 2 * n, timestamp_ns=0)
+        np.testing.assert_array_equal(again, det.detect(None, camera=cam, frame_id=f, timestamp_ns=0))
+    assert not np.array_equal(det.detect(None, camera=cam, frame_id=n, timestamp_ns=0),
+                              det.detect(None, camera=cam, frame_id=n - 1, timestamp_ns=0))

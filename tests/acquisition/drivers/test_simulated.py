@@ -83,3 +83,33 @@ def test_ptp_jump_rule():
     assert not is_ptp_jump(33_000_000, 33_333_333)
     assert is_ptp_jump(400_000_000, 33_333_333) and is_ptp_jump(-5, 33_333_333)
     assert is_ptp_jump(3_400_000, 33_333_333) is False and is_ptp_jump(3_300_000, 33_333_333)
+
+
+def test_a_looping_camera_plays_the_walk_again_with_no_pause(trial):
+    """The walk starts over at once: frame ids count on, the frame period holds across the end, the
+    pictures and ground truth are those of the walk's start again."""
+    cam = simulated_rig(trial, size_px=(16, 12), realtime=False, render=flat_render, cameras=["cam02"], loop=True)[0]
+    n = cam.walk_frames()
+    assert n == 150  # 5 s at 30 fps
+    cam.start(10**18)
+    frames = []
+    for f in cam.frames():
+        frames.append(f)
+        if len(frames) == 2 * n + 10:
+            break
+    ids = [f.frame_id for f in frames]
+    assert ids == list(range(2 * n + 10)) and cam.status().state == "running"
+    gaps = np.diff([f.timestamp_ns for f in frames])
+    assert gaps.max() < 1.5 * cam.settings.period_ns, "a pause where the walk starts over"
+    assert [cam.trial_index(i) for i in (n - 1, n, n + 1, 2 * n + 3)] == [n - 1, 0, 1, 3]
+    assert frames[n].image[0, 0, 1] == 0 and frames[n + 7].image[0, 0, 1] == 7
+    assert not any(f.ptp_jump for f in frames)
+    cam.stop()
+
+
+def test_a_looping_camera_with_max_frames_stops_there(trial):
+    cam = simulated_rig(trial, size_px=(16, 12), realtime=False, render=flat_render, cameras=["cam01"], loop=True,
+                        max_frames=200)[0]
+    cam.start(0)
+    assert [f.frame_id for f in cam.frames()] == list(range(200))
+    assert cam.status().state == "stopped"
