@@ -55,6 +55,8 @@ def camera_cmd(
     sim_cameras: int = typer.Option(10, "--sim-cameras"),
     sim_people: int = typer.Option(1, "--sim-people"),
     sim_seed: int = typer.Option(0, "--sim-seed"),
+    sim_loop: bool = typer.Option(False, "--sim-loop", help="Simulated: play the walk again and again with no "
+                                  "pause, frame ids counting on (a rig that runs all day)."),
     drop: list[str] = typer.Option([], "--drop", help="Simulated fault CAM:ID,ID (dropped frame ids)."),
     stop: list[str] = typer.Option([], "--stop", help="Simulated fault CAM:ID (camera dies after ID)."),
     frames: int | None = typer.Option(None, "--frames", help="Play at most this many frames (simulated)."),
@@ -80,7 +82,7 @@ def camera_cmd(
             "simulated": lambda: SimulatedSource(
                 spec=_sim_options(sim_preset, sim_seconds, sim_cameras, sim_people, sim_seed, fps),
                 cameras=names, size_px=_size(size), fps=fps, drops=tuple(drop), stops=tuple(stop),
-                max_frames=frames),
+                max_frames=frames, loop=sim_loop),
             "video": lambda: VideoSource(files=tuple(str(v) for v in videos), webcams=tuple(webcam), fps=fps),
             "flir": lambda: FlirSource(serials=tuple(s for s in (serials or "").split(",") if s),
                                        names=tuple(names or ()), fps=fps, exposure_us=exposure_us,
@@ -113,7 +115,8 @@ def camera_cmd(
 
 def _join_walk(source: str, drivers, epoch_ns: int) -> int:
     """Set the simulated cameras to join the walk where it is; returns the start (wall clock ns) of its
-    current play-through on its grid from ``epoch_ns``."""
+    current play-through on its grid from ``epoch_ns`` (looping cameras: ``epoch_ns`` itself, their frame
+    ids counting on from it)."""
     import time
 
     from gaitcap.acquisition.drivers.simulated import cycle_start_ns
@@ -123,6 +126,8 @@ def _join_walk(source: str, drivers, epoch_ns: int) -> int:
     for d in drivers:
         d.join_running = True  # the walk may have been playing for a while: join it where it is
     first = drivers[0]
+    if first.loop:
+        return epoch_ns
     return cycle_start_ns(epoch_ns=epoch_ns, cycle_ns=first.num_frames() * first.settings.period_ns,
                           now_ns=time.time_ns())
 
