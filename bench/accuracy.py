@@ -72,9 +72,9 @@ def _clip(trial, seconds: float):
 
 def run(*, preset: str, seconds: float, cameras: int, seed: int, anipose: bool, paper_steps: int,
         clip_seconds: float) -> dict:
-    from gaitcap.simulator.trial import make_trial
     from gaitcap.reconstruction.methods import DLT, Explicit, Implicit, Robust, reconstruct
     from gaitcap.reconstruction.metrics import compute_metrics
+    from gaitcap.simulator.trial import make_trial
 
     trial = make_trial(preset, seconds=seconds, cameras=cameras, seed=seed)
     det, rig, truth = trial.detections, trial.rig, trial.points_mm

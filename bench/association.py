@@ -29,7 +29,6 @@ def _mpjpe(points_mm: np.ndarray, truth_mm: np.ndarray) -> float:
 
 
 def run(*, frames: int, cameras: int, people: int, seed: int, repeats: int, mpjpe: bool) -> dict:
-    from gaitcap.simulator import make_trial
     from gaitcap.reconstruction.association import (
         MultiPersonDetections,
         associate,
@@ -37,6 +36,7 @@ def run(*, frames: int, cameras: int, people: int, seed: int, repeats: int, mpjp
         patient_detections,
         score_association,
     )
+    from gaitcap.simulator import make_trial
 
     fps = 30.0
     trial = make_trial(preset="paper", seconds=frames / fps, cameras=cameras, people=people, seed=seed)

@@ -58,11 +58,11 @@ FLOOR_SPOTS_MM = ((1500.0, 1500.0), (-1500.0, 1200.0), (1000.0, -1500.0))  # boa
 def _calibration(board_kind: str, frames: int, floor_frames: int, noise_px: float, seed: int,
                  still_floor: bool = False) -> dict:
     from gaitcap.acquisition.board import BoardConfig, make_board
-    from gaitcap.simulator import make_trial
-    from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
     from gaitcap.reconstruction.calibration import calibrate_from_observations
     from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
     from gaitcap.reconstruction.triangulation import robust_triangulate
+    from gaitcap.simulator import make_trial
+    from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
 
     trial = make_trial(preset="paper", seconds=10.0, cameras=10, seed=seed)
     rig = trial.rig
@@ -141,10 +141,10 @@ def _end_to_end(board_kind: str, frames: int, scale: float, seed: int) -> dict:
 
     from gaitcap.acquisition.board import BoardConfig
     from gaitcap.acquisition.board_recording import calibrate_from_recording
-    from gaitcap.simulator.board_clip import BoardClipConfig, write_board_clip
-    from gaitcap.simulator.board_render import camera_at
     from gaitcap.reconstruction.calibration.compare import compare_rigs
     from gaitcap.reconstruction.camera import Rig
+    from gaitcap.simulator.board_clip import BoardClipConfig, write_board_clip
+    from gaitcap.simulator.board_render import camera_at
 
     config = BoardConfig.checkerboard() if board_kind == "checkerboard" else BoardConfig.charuco()
     clip = BoardClipConfig(board=config, frames=frames, scale=scale, seed=seed, floor_spots_mm=FLOOR_SPOTS_MM)
@@ -173,8 +173,8 @@ def _end_to_end(board_kind: str, frames: int, scale: float, seed: int) -> dict:
 
 def _walk_mpjpe(rig, seed: int) -> float:
     """MPJPE (mm) of a walk triangulated with ``rig`` (full resolution) against the true calibration's."""
-    from gaitcap.simulator import make_trial
     from gaitcap.reconstruction.triangulation import robust_triangulate
+    from gaitcap.simulator import make_trial
 
     trial = make_trial(preset="paper", seconds=10.0, cameras=10, seed=seed)
     walk_true = robust_triangulate(trial.detections, trial.rig).points_mm

@@ -51,11 +51,11 @@ def _calibrate_over_rest(client, record_s: float, timeout_s: float) -> tuple[str
 def run(cameras: int, size: tuple[int, int], record_s: float, timeout_s: float) -> dict:
     from gaitcap.acquisition.drivers.simulated import SimTrialSpec
     from gaitcap.acquisition.readers import load_rig
-    from gaitcap.simulator.board_render import camera_resized
     from gaitcap.reconstruction.calibration.compare import compare_rigs
     from gaitcap.reconstruction.camera import Rig
     from gaitcap.services.bus.session import free_loopback_ports
     from gaitcap.services.ops.stack import Stack, StackConfig
+    from gaitcap.simulator.board_render import camera_resized
 
     fps = 10.0
     with tempfile.TemporaryDirectory() as tmp:

@@ -57,10 +57,10 @@ def _step_errors(report, steps) -> dict:
 
 
 def run(*, preset: str, seconds: float, method: str, seed: int, config=None) -> dict:
-    from gaitcap.simulator import make_trial
-    from gaitcap.simulator.walkway import WalkwayExportParams, make_walkway_export
     from gaitcap.reconstruction.gait import GaitConfig, TrajectoryQuality, analyze_gait, compare_with_walkway
     from gaitcap.reconstruction.methods import METHODS, reconstruct
+    from gaitcap.simulator import make_trial
+    from gaitcap.simulator.walkway import WalkwayExportParams, make_walkway_export
 
     trial = make_trial(preset, seconds=seconds, seed=seed)
     names = trial.skeleton.joint_names

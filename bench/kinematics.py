@@ -79,10 +79,10 @@ def compare(ik: dict, truth: dict) -> dict:
 
 
 def run(*, preset: str, seconds: float, cameras: int, seed: int) -> dict:
-    from gaitcap.simulator.trial import make_trial
     from gaitcap.reconstruction.kinematics.markers import layout_for
     from gaitcap.reconstruction.methods import Implicit, Robust, reconstruct
     from gaitcap.services.kinematics import get_engine
+    from gaitcap.simulator.trial import make_trial
 
     trial = make_trial(preset, seconds=seconds, cameras=cameras, seed=seed)
     names = trial.skeleton.joint_names

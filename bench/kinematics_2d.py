@@ -41,11 +41,11 @@ def errors(angles: dict, truth: dict) -> dict:
 
 
 def run(*, preset: str, seconds: float, cameras: int, seed: int) -> dict:
-    from gaitcap.simulator.trial import make_trial
     from gaitcap.reconstruction.fits.common import fill_gaps, reject_spikes
     from gaitcap.reconstruction.kinematics.fit2d import fit_angles_2d
     from gaitcap.reconstruction.kinematics.geometric import keypoint_angles
     from gaitcap.reconstruction.methods import Implicit, Robust, reconstruct
+    from gaitcap.simulator.trial import make_trial
 
     trial = make_trial(preset, seconds=seconds, cameras=cameras, seed=seed)
     names = trial.skeleton.joint_names

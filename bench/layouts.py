@@ -54,9 +54,9 @@ def _recognise(recording, rig, truth: str) -> dict:
 
 def synthetic_layouts() -> dict:
     from gaitcap.acquisition.keypoint_input import make_input
+    from gaitcap.reconstruction.skeletons import SKELETONS
     from gaitcap.simulator import make_trial
     from gaitcap.simulator.layouts import points_in_layout
-    from gaitcap.reconstruction.skeletons import SKELETONS
 
     trial = make_trial(preset="paper", seconds=6.0, cameras=4, seed=2)
     rng = np.random.default_rng(0)

@@ -21,11 +21,11 @@ from _common import add_trial_args, emit
 
 
 def run(*, seconds: float, cameras: int, preset: str, seed: int) -> dict:
-    from gaitcap.simulator import make_trial
-    from gaitcap.simulator.recording import write_keypoint_recording
     from gaitcap.services import catalog as cat
     from gaitcap.services.processing.artifacts import trial_files
     from gaitcap.services.processing.worker import Worker, WorkerConfig
+    from gaitcap.simulator import make_trial
+    from gaitcap.simulator.recording import write_keypoint_recording
 
     t0 = time.perf_counter()
     walk = make_trial(preset, seconds=seconds, cameras=cameras, people=1, seed=seed, fps=30.0)

@@ -28,11 +28,11 @@ from _common import emit  # noqa: E402
 
 
 def _walk(step_mm: float):
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.simulator.params import WalkParams
     from gaitcap.simulator.path import Room, plan_walk
     from gaitcap.simulator.walker import simulate_body
-    from gaitcap.reconstruction.gait import analyze_gait
-    from gaitcap.reconstruction.skeletons import get_skeleton
 
     params, times = WalkParams(step_length_mm=step_mm), np.arange(300) / 30.0
     points, names = simulate_body(plan_walk(params, 10.0, Room(), seed=0), params, times), get_skeleton("halpe26").joint_names

@@ -23,10 +23,10 @@ from pathlib import Path
 
 def write_trials(data_dir: Path, trials: list) -> None:
     """The synthetic trials as recorded trials (MCAP of keypoints + calibration, ground_truth.npz)."""
-    from gaitcap.simulator import save_trial
-    from gaitcap.simulator.recording import write_keypoint_recording
     from gaitcap.services import catalog as cat
     from gaitcap.services.processing.artifacts import trial_files
+    from gaitcap.simulator import save_trial
+    from gaitcap.simulator.recording import write_keypoint_recording
 
     db = cat.open_catalog(data_dir / "catalog.sqlite")
     for i, trial in enumerate(trials):
@@ -78,8 +78,8 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
 
-    from gaitcap.simulator import make_trial
     from gaitcap.services.research.method_specs import parse_method
+    from gaitcap.simulator import make_trial
 
     specs = [parse_method(m) for m in (args.method or ["robust", "dlt"])]
     trials = [make_trial("paper", seconds=args.seconds, cameras=args.cameras, seed=100 + i, fps=30.0)

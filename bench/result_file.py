@@ -62,8 +62,8 @@ def _differences(worker: dict, other: dict) -> dict:
 
 
 def measure(args) -> dict:
-    from gaitcap.simulator import make_trial
     from gaitcap.acquisition.writers import save_detections_npz, save_rig
+    from gaitcap.simulator import make_trial
 
     trial = make_trial(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed)
     with tempfile.TemporaryDirectory() as tmp:

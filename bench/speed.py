@@ -79,9 +79,9 @@ def paper_step_seconds(det, rig, steps: int = 10) -> float:
 
 
 def run(*, seconds: float, cameras: int, repeats: int, anipose: bool, paper_steps: int, clip_seconds: float) -> dict:
-    from gaitcap.simulator.trial import make_trial
     from gaitcap.reconstruction.methods import Explicit, Implicit, reconstruct
     from gaitcap.reconstruction.triangulation import dlt_triangulate, robust_triangulate
+    from gaitcap.simulator.trial import make_trial
 
     trial = make_trial("paper", seconds=seconds, cameras=cameras, seed=0)
     det26, rig = trial.detections, trial.rig

@@ -16,10 +16,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 from gaitcap.acquisition.board import Board
-from gaitcap.simulator.board_render import BoardRenderer, camera_at
-from gaitcap.simulator.room import visible as lens_visible
 from gaitcap.reconstruction.calibration.geometry import BoardGeometry, BoardObservations
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.simulator.board_render import BoardRenderer, camera_at
+from gaitcap.simulator.room import visible as lens_visible
 
 FLOOR_ROTATION = np.diag([1.0, -1.0, -1.0])  # board -> world for a board lying face up
 FLOOR_SPOTS_MM = ((1500.0, 1500.0), (-1500.0, 1200.0), (1000.0, -1500.0))  # where to lay it down again

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.board import BoardConfig, make_board
 from gaitcap.acquisition.encoding import encode_jpeg
+from gaitcap.reconstruction.camera import Rig
 from gaitcap.simulator.board import (
     FLOOR_SPOTS_MM,
     BoardMotion,
@@ -29,7 +30,6 @@ from gaitcap.simulator.board import (
 )
 from gaitcap.simulator.board_render import BoardRenderer, camera_at
 from gaitcap.simulator.room import build_rig
-from gaitcap.reconstruction.camera import Rig
 
 log = logging.getLogger(__name__)
 

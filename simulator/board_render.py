@@ -10,8 +10,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from gaitcap.acquisition.board import Board
-from gaitcap.simulator.room import safe_project
 from gaitcap.reconstruction.camera import Camera
+from gaitcap.simulator.room import safe_project
 
 PX_PER_MM = 2.0  # texture resolution
 

@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.reconstruction.camera import Rig
 from gaitcap.simulator.board import FLOOR_SPOTS_MM, BoardMotion, board_trajectory
 from gaitcap.simulator.board_render import BoardRenderer
-from gaitcap.reconstruction.camera import Rig
 
 log = logging.getLogger(__name__)
 SCENES = ("walker", "board")

@@ -31,12 +31,12 @@ from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.installed import share_path
-from gaitcap.simulator.noise import detect, get_preset
-from gaitcap.simulator.path import Room
-from gaitcap.simulator.room import build_rig
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.skeletons import get_skeleton
+from gaitcap.simulator.noise import detect, get_preset
+from gaitcap.simulator.path import Room
+from gaitcap.simulator.room import build_rig
 
 MOCAP_DIR = share_path("testdata", "gait-mocap")
 MOCAP_WALKS = {"healthy": "example_healthy.json", "parkinson": "example_parkinson.json"}

@@ -22,9 +22,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from gaitcap.simulator.room import visible
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.skeletons import get_skeleton
+from gaitcap.simulator.room import visible
 from scipy.signal import lfilter
 
 SKELETON = get_skeleton("halpe26")

@@ -17,9 +17,9 @@ import math
 
 import cv2
 import numpy as np
-from gaitcap.simulator.room import safe_project
 from gaitcap.reconstruction.camera import Camera
 from gaitcap.reconstruction.skeletons import get_skeleton
+from gaitcap.simulator.room import safe_project
 
 SKELETON = get_skeleton("halpe26")
 J = SKELETON.index

@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from gaitcap.simulator.path import Room
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
+from gaitcap.simulator.path import Room
 
 SENSOR_PX = (1920, 1200)
 PIXEL_MM = 0.00586

@@ -6,6 +6,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.skeletons import Skeleton, get_skeleton
 from gaitcap.simulator.noise import NoisePreset, clock_model, detect, get_preset, occlusion_mask
 from gaitcap.simulator.params import WalkParams
 from gaitcap.simulator.path import FootPlan, Room, plan_walk
@@ -13,9 +16,6 @@ from gaitcap.simulator.people import bystander, therapist
 from gaitcap.simulator.room import build_rig
 from gaitcap.simulator.truth import GaitTruth, gait_truth
 from gaitcap.simulator.walker import Body, simulate_body
-from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
-from gaitcap.reconstruction.skeletons import Skeleton, get_skeleton
 
 MIN_SECONDS = 4.0
 MAX_PEOPLE = 3

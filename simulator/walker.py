@@ -20,10 +20,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.simulator.foot import landing_speed_mm_s, landing_term, rolled_back
 from gaitcap.simulator.params import WalkParams
 from gaitcap.simulator.path import LEFT, RIGHT, FootPlan, forward, left_normal, wrap_angle
-from gaitcap.reconstruction.skeletons import get_skeleton
 from scipy.interpolate import PchipInterpolator
 
 SKELETON = get_skeleton("halpe26")

@@ -49,8 +49,8 @@ def register(app: typer.Typer) -> None:
         """Render a calibration board carried through the synthetic room, seen by every camera, as a
         recording (then: gaitcap calibrate OUT/board.mcap --out calib.toml --compare OUT/true_calibration.toml)."""
         from gaitcap.acquisition.board import BoardConfig
-        from gaitcap.simulator.board_clip import BoardClipConfig, write_board_clip
         from gaitcap.acquisition.writers import save_rig
+        from gaitcap.simulator.board_clip import BoardClipConfig, write_board_clip
 
         with user_errors():
             make = {"checkerboard": BoardConfig.checkerboard, "charuco": BoardConfig.charuco}

@@ -13,9 +13,9 @@ from collections.abc import Sequence
 
 from gaitcap.acquisition.drivers.base import CameraDriver
 from gaitcap.acquisition.drivers.simulated import SimulatedCamera
-from gaitcap.simulator.board_scene import BoardScene, SceneSwitch, board_scene_config
 from gaitcap.services.bus.messages import CameraScene
 from gaitcap.services.bus.session import BusConfig
+from gaitcap.simulator.board_scene import BoardScene, SceneSwitch, board_scene_config
 
 log = logging.getLogger(__name__)
 

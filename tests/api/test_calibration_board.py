@@ -8,6 +8,11 @@ API gave the recorder)."""
 import httpx
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.api.server import serve_in_thread
+from gaitcap.api.settings import Settings
+from gaitcap.services import catalog as cat
+from gaitcap.services.bus.session import free_loopback_ports
+from gaitcap.services.processing.worker import Worker, WorkerConfig
 from gaitcap.simulator.board import (
     BoardMotion,
     board_trajectory,
@@ -15,11 +20,6 @@ from gaitcap.simulator.board import (
     write_board_mcap,
 )
 from gaitcap.simulator.room import build_rig
-from gaitcap.api.server import serve_in_thread
-from gaitcap.api.settings import Settings
-from gaitcap.services import catalog as cat
-from gaitcap.services.bus.session import free_loopback_ports
-from gaitcap.services.processing.worker import Worker, WorkerConfig
 
 from .conftest import ALL_ROLES, TOKEN, RecordingLink, make_accounts
 

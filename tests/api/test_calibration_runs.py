@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.drivers.simulated import SimTrialSpec
 from gaitcap.acquisition.readers import load_rig
-from gaitcap.simulator.board import scaled_rig
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.services.bus.session import free_loopback_ports
 from gaitcap.services.ops.stack import Stack, StackConfig
+from gaitcap.simulator.board import scaled_rig
 
 from .conftest import sign_in_page
 

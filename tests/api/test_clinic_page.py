@@ -40,11 +40,11 @@ VISIT_TIMES = ((2026, 11, 10, 9, 30), (2026, 11, 24, 10, 0), (2026, 11, 24, 14, 
 
 @pytest.fixture(scope="module")
 def walk_report():
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.simulator.params import WalkParams
     from gaitcap.simulator.path import Room, plan_walk
     from gaitcap.simulator.walker import simulate_body
-    from gaitcap.reconstruction.gait import analyze_gait
-    from gaitcap.reconstruction.skeletons import get_skeleton
 
     params, times = WalkParams(), np.arange(300) / 30.0
     points, names = simulate_body(plan_walk(params, 10.0, Room(), seed=0), params, times), get_skeleton("halpe26").joint_names

@@ -22,14 +22,14 @@ HELD = {"pelvis_tilt": "held near 0 by the fit: no keypoint fixes it"}
 @pytest.fixture(scope="module")
 def walk():
     """12 s of the synthetic walker: its gait report and its kinematics.json content."""
-    from gaitcap.simulator.params import WalkParams
-    from gaitcap.simulator.path import Room, plan_walk
-    from gaitcap.simulator.walker import simulate_body
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.kinematics.geometric import keypoint_angles
     from gaitcap.reconstruction.kinematics.report import kinematics_report
     from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.services.kinematics.files import norm_bands
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import Room, plan_walk
+    from gaitcap.simulator.walker import simulate_body
 
     params, times = WalkParams(), np.arange(360) / 30.0
     points, names = simulate_body(plan_walk(params, 12.0, Room(), seed=0), params, times), get_skeleton("halpe26").joint_names

@@ -11,11 +11,11 @@ from gaitcap.services.processing.artifacts import trial_files
 @pytest.fixture(scope="module")
 def synthetic_walk():
     """6 s of the synthetic walker (exact keypoints) and its gait report's steps."""
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.simulator.params import WalkParams
     from gaitcap.simulator.path import Room, plan_walk
     from gaitcap.simulator.walker import simulate_body
-    from gaitcap.reconstruction.gait import analyze_gait
-    from gaitcap.reconstruction.skeletons import get_skeleton
 
     params, times = WalkParams(), np.arange(180) / 30.0
     points = simulate_body(plan_walk(params, 6.0, Room(), seed=0), params, times)

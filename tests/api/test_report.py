@@ -18,11 +18,11 @@ from gaitcap.services.reports.content import PARAMETERS
 @pytest.fixture(scope="module")
 def gait_reports():
     """Gait reports of the synthetic walker at three speeds (three visits), 10 s each."""
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.simulator.params import WalkParams
     from gaitcap.simulator.path import Room, plan_walk
     from gaitcap.simulator.walker import simulate_body
-    from gaitcap.reconstruction.gait import analyze_gait
-    from gaitcap.reconstruction.skeletons import get_skeleton
 
     names, times, out = list(get_skeleton("halpe26").joint_names), np.arange(300) / 30.0, []
     for step_mm in (550.0, 600.0, 650.0):

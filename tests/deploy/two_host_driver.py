@@ -16,12 +16,12 @@ from pathlib import Path
 
 def main() -> None:
     bus_file, data_dir, sim = Path(sys.argv[1]), Path(sys.argv[2]), json.loads(sys.argv[3])
-    from gaitcap.simulator import make_trial
     from gaitcap.reconstruction.calibration_io import rig_to_toml_text
     from gaitcap.services import catalog as cat
     from gaitcap.services.bus.control import RecorderClient
     from gaitcap.services.bus.session import alive_nodes, load_bus_config, open_session
     from gaitcap.services.processing.artifacts import trial_files
+    from gaitcap.simulator import make_trial
 
     bus = load_bus_config(bus_file)
     rig = make_trial(sim["preset"], seconds=sim["seconds"], cameras=sim["cameras"], seed=sim["seed"], fps=30.0).rig

@@ -4,7 +4,6 @@ import logging
 
 import numpy as np
 import pytest
-from gaitcap.simulator.layouts import points_in_layout
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.layout_guess import (
     AmbiguousLayout,
@@ -15,6 +14,7 @@ from gaitcap.reconstruction.layout_guess import (
     score_layout,
 )
 from gaitcap.reconstruction.skeletons import SKELETONS, get_skeleton
+from gaitcap.simulator.layouts import points_in_layout
 
 
 @pytest.fixture(scope="module")

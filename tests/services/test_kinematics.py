@@ -21,12 +21,12 @@ def engine():
 @pytest.fixture(scope="module")
 def fitted(engine, tmp_path_factory):
     """8 s of the synthetic walker (exact keypoints), fitted once."""
-    from gaitcap.simulator.params import WalkParams
-    from gaitcap.simulator.path import Room, plan_walk
-    from gaitcap.simulator.walker import simulate_body
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.services.kinematics.trial import trial_kinematics
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import Room, plan_walk
+    from gaitcap.simulator.walker import simulate_body
 
     params, times = WalkParams(), np.arange(240) / 30.0
     points = simulate_body(plan_walk(params, 8.0, Room(), seed=1), params, times)

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
 from gaitcap.acquisition.board_pairing import smeared_views
+from gaitcap.reconstruction.calibration import calibrate_from_observations
+from gaitcap.reconstruction.calibration.compare import compare_rigs
 from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board, scaled_rig
 from gaitcap.simulator.board_render import BoardRenderer, Exposure, camera_at
 from gaitcap.simulator.room import build_rig
-from gaitcap.reconstruction.calibration import calibrate_from_observations
-from gaitcap.reconstruction.calibration.compare import compare_rigs
 
 
 @pytest.fixture(scope="module")

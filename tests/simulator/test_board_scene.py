@@ -40,9 +40,9 @@ def test_cameras_show_the_floor_board_then_the_walker():
 
 
 def test_board_at_another_aspect_ratio_is_the_sensor_image_resized():
+    from gaitcap.reconstruction.camera import Rig
     from gaitcap.simulator.board import observe_board
     from gaitcap.simulator.board_render import camera_resized
-    from gaitcap.reconstruction.camera import Rig
 
     trial = SimTrialSpec(cameras=2, seconds=5.0, fps=10.0).make()
     scene = BoardScene(trial.rig, SHORT)

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 from gaitcap.acquisition.readers import load_rig
+from gaitcap.services.cli import app
 from gaitcap.simulator import WalkParams, make_trial
 from gaitcap.simulator.files import load_trial_files, save_trial
-from gaitcap.services.cli import app
 from typer.testing import CliRunner
 
 GT_KEYS = {

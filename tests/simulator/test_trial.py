@@ -1,10 +1,10 @@
 import cv2
 import numpy as np
 import pytest
-from gaitcap.simulator import PRESETS, WalkParams, make_trial
-from gaitcap.simulator.room import build_rig, visible
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
+from gaitcap.simulator import PRESETS, WalkParams, make_trial
+from gaitcap.simulator.room import build_rig, visible
 
 
 def _dlt(rig, keypoints, min_conf=0.5):

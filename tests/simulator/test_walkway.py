@@ -1,12 +1,12 @@
 import numpy as np
 import pytest
+from gaitcap.reconstruction.gait import analyze_gait, compare_with_walkway
+from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.simulator import truth as synthetic
 from gaitcap.simulator.params import WalkParams
 from gaitcap.simulator.path import plan_walk
 from gaitcap.simulator.walker import Body, simulate_body
 from gaitcap.simulator.walkway import WalkwayExportParams, make_walkway_export
-from gaitcap.reconstruction.gait import analyze_gait, compare_with_walkway
-from gaitcap.reconstruction.skeletons import get_skeleton
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-from gaitcap.simulator import make_trial
 from gaitcap.reconstruction.association import (
     BoxConfig,
     ManualTrack,
@@ -14,6 +13,7 @@ from gaitcap.reconstruction.association import (
 )
 from gaitcap.reconstruction.gait.analysis import analyze_gait
 from gaitcap.reconstruction.triangulation import robust_triangulate
+from gaitcap.simulator import make_trial
 
 SECONDS = 12.0
 

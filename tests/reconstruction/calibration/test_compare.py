@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
-from gaitcap.simulator.room import build_rig
 from gaitcap.reconstruction.calibration.compare import compare_rigs
 from gaitcap.reconstruction.camera import Rig, matrix_to_rodrigues
+from gaitcap.simulator.room import build_rig
 
 
 def _moved(rig: Rig, turn: np.ndarray, shift_mm: np.ndarray) -> Rig:

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
 from gaitcap.acquisition.readers import load_rig
-from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
-from gaitcap.simulator.room import build_rig
 from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.calibration import BoardObservations, calibrate_from_observations
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.reconstruction.calibration.still import merge_still_frames
 from gaitcap.reconstruction.camera import Camera
+from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
+from gaitcap.simulator.room import build_rig
 
 NOISE_PX = 0.3
 N_BAD = 40

@@ -5,10 +5,10 @@ detector reports a checkerboard's corners in a symmetric order; a camera turned 
 import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
-from gaitcap.simulator.room import build_rig
 from gaitcap.reconstruction.calibration.refit import fit_board_to_rig
 from gaitcap.reconstruction.camera import Rig, matrix_to_rodrigues
+from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
+from gaitcap.simulator.room import build_rig
 
 NOISE_PX = 0.3
 

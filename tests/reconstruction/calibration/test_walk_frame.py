@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
-from gaitcap.simulator import make_trial
 from gaitcap.reconstruction.calibration.geometry import rodrigues_batch, rotation_angle_deg
 from gaitcap.reconstruction.calibration.walk_frame import reframe_rig, world_from_walk
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
+from gaitcap.simulator import make_trial
 
 FEET = ["left_heel", "right_heel", "left_big_toe", "right_big_toe"]
 

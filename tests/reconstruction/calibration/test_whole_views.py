@@ -9,8 +9,6 @@ focal length 5 % off is refused, and the other cameras keep every view."""
 import numpy as np
 import pytest
 from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
-from gaitcap.simulator.room import build_rig
 from gaitcap.reconstruction.calibration import (
     BoardObservations,
     CalibrationConfig,
@@ -18,6 +16,8 @@ from gaitcap.reconstruction.calibration import (
 )
 from gaitcap.reconstruction.calibration.still import merge_still_frames
 from gaitcap.reconstruction.calibration.whole_views import LEFT_OUT_REASON
+from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
+from gaitcap.simulator.room import build_rig
 
 NOISE_PX = 0.3
 

@@ -193,11 +193,11 @@ def test_edge_steps_are_reported_and_left_out_of_the_summary(walker):
 def test_per_side_summary_and_symmetry_index_of_a_hemiparetic_walk():
     """Every parameter per side (n, mean, SD, CV) with the symmetry index 100 |L - R| / mean(L, R), in the
     JSON and the summary CSV: the hemiparetic walker's 15 % step asymmetry gives SI 30 %."""
+    from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS
+    from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.simulator.params import WalkParams
     from gaitcap.simulator.path import plan_walk
     from gaitcap.simulator.walker import simulate_body
-    from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS
-    from gaitcap.reconstruction.skeletons import get_skeleton
 
     params = WalkParams.hemiparetic("left")
     plan = plan_walk(params, 24.0)

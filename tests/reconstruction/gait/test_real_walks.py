@@ -3,12 +3,12 @@ simulated 30 fps rig, against the annotations and the published baselines."""
 
 import numpy as np
 import pytest
-from gaitcap.simulator.mocap import available_walks, halpe26_points, load_walk, rig_view
 from gaitcap.reconstruction.gait import analyze_gait
 from gaitcap.reconstruction.gait.baselines import BASELINES
 from gaitcap.reconstruction.gait.parameters import cycle_timing
 from gaitcap.reconstruction.gait.tracks import FootTracks
 from gaitcap.reconstruction.methods import Robust, reconstruct
+from gaitcap.simulator.mocap import available_walks, halpe26_points, load_walk, rig_view
 
 pytestmark = pytest.mark.skipif(len(available_walks()) < 2,
                                 reason="real gait walks not installed (deploy/bootstrap.sh install_gait_mocap)")

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 from gaitcap.acquisition.readers import load_detections_npz
-from gaitcap.simulator import make_trial
 from gaitcap.acquisition.writers import save_multi_npz, save_rig
 from gaitcap.reconstruction.association import MultiPersonDetections
 from gaitcap.services.cli import app
+from gaitcap.simulator import make_trial
 from typer.testing import CliRunner
 
 

@@ -5,11 +5,11 @@ import json
 import numpy as np
 import pytest
 from gaitcap.acquisition.readers import load_rig
-from gaitcap.simulator.board import write_board_folder, write_board_mcap
 from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.calibration.compare import stereo_difference
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.services.cli import app
+from gaitcap.simulator.board import write_board_folder, write_board_mcap
 from typer.testing import CliRunner
 
 from ..conftest import board_images

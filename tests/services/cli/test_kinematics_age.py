@@ -16,10 +16,10 @@ def walk_npz(tmp_path_factory):
         get_engine()
     except KinematicsUnavailable as exc:
         pytest.skip(f"OpenSim setup files not installed: {exc}")
+    from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.simulator.params import WalkParams
     from gaitcap.simulator.path import Room, plan_walk
     from gaitcap.simulator.walker import simulate_body
-    from gaitcap.reconstruction.skeletons import get_skeleton
 
     params, times = WalkParams(), np.arange(60) / 30.0  # 2 s: the band does not need gait cycles
     points = simulate_body(plan_walk(params, 8.0, Room(), seed=1), params, times)

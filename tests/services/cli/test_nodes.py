@@ -16,10 +16,10 @@ import pytest
 from gaitcap.acquisition.recording import layout
 from gaitcap.acquisition.recording.reader import iter_frames, read_calibration, read_detections, read_summary
 from gaitcap.acquisition.sync import check_sync
-from gaitcap.simulator import make_trial
 from gaitcap.reconstruction.calibration_io import rig_to_toml_text
 from gaitcap.services.bus.control import RecorderClient, subscribe_events
 from gaitcap.services.bus.session import BusConfig, alive_nodes, declare_alive, open_session, watch_alive
+from gaitcap.simulator import make_trial
 from mcap.reader import make_reader
 
 ROOT = Path(__file__).resolve().parents[3]

@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 import pytest
-from gaitcap.simulator import make_trial
 from gaitcap.acquisition.writers import save_detections_npz, save_rig
 from gaitcap.services.cli import app
+from gaitcap.simulator import make_trial
 from typer.testing import CliRunner
 
 # Events to 1 us and lengths to 1 um: the file's float64 dense samples rebuild the worker's spline exactly

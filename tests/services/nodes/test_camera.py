@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.drivers.simulated import simulated_rig
 from gaitcap.acquisition.encoding import parse_image_message
-from gaitcap.simulator import make_trial
 from gaitcap.services.bus.control import CameraStatusBoard, PreviewFrames
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
+from gaitcap.simulator import make_trial
 
 from .conftest import wait_for
 

@@ -5,11 +5,11 @@ import time
 import numpy as np
 from gaitcap.acquisition.detectors.simulated import SimulatedConfig
 from gaitcap.acquisition.drivers.simulated import simulated_rig
-from gaitcap.simulator import make_trial
 from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
 from gaitcap.services.nodes.detector import DetectorNode
+from gaitcap.simulator import make_trial
 
 from .conftest import wait_for
 

@@ -14,11 +14,11 @@ from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
 from gaitcap.acquisition.detectors.simulated import SimulatedConfig
 from gaitcap.acquisition.drivers.simulated import simulated_rig
-from gaitcap.simulator import make_trial
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
 from gaitcap.services.nodes.detector import DetectorNode
 from gaitcap.services.nodes.foxglove_live import FoxgloveLiveConfig, FoxgloveRelay
+from gaitcap.simulator import make_trial
 
 pytest.importorskip("foxglove", reason="foxglove-sdk is installed by deploy/bootstrap.sh (gaitcap[dev])")
 from websockets.sync.client import connect  # noqa: E402

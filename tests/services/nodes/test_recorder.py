@@ -11,11 +11,11 @@ import pytest
 from gaitcap.acquisition.drivers.simulated import parse_faults, simulated_rig
 from gaitcap.acquisition.recording.reader import is_complete, iter_frames, read_metadata, read_status
 from gaitcap.acquisition.recording.recovery import recover
-from gaitcap.simulator import make_trial
 from gaitcap.services.bus.control import RecorderClient, RecorderError, subscribe_events
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
 from gaitcap.services.nodes.recorder import RecorderNode
+from gaitcap.simulator import make_trial
 
 from .conftest import noise_render, wait_for
 

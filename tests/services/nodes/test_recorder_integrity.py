@@ -9,11 +9,11 @@ import pytest
 from gaitcap.acquisition.drivers.simulated import simulated_rig
 from gaitcap.acquisition.recording.reader import is_complete, read_summary
 from gaitcap.acquisition.recording.writer import TrialWriter, WriterSettings
-from gaitcap.simulator import make_trial
 from gaitcap.services.bus.control import RecorderClient
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
 from gaitcap.services.nodes.camera import CameraNode
 from gaitcap.services.nodes.recorder import QueuePolicy, RecorderNode
+from gaitcap.simulator import make_trial
 
 from .conftest import noise_render, wait_for
 

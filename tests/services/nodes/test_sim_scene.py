@@ -6,10 +6,10 @@ import time
 
 import numpy as np
 from gaitcap.acquisition.drivers.simulated import simulated_rig
-from gaitcap.simulator import make_trial
 from gaitcap.services.bus.session import BusConfig, open_session
 from gaitcap.services.live.sim_scene import BusSceneControl
 from gaitcap.services.nodes.sim_scene import attach_board_scene
+from gaitcap.simulator import make_trial
 
 PERIOD_NS = 33_333_333
 CAMERA_START_NS = 10**18

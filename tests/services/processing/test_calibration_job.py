@@ -11,11 +11,11 @@ import time
 
 import numpy as np
 import pytest
-from gaitcap.simulator.board import write_board_mcap
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
 from gaitcap.services.processing.worker import Worker, WorkerConfig
+from gaitcap.simulator.board import write_board_mcap
 
 from ..conftest import board_images
 

@@ -6,10 +6,10 @@ import cv2
 import pytest
 from gaitcap.acquisition.board import BoardConfig
 from gaitcap.acquisition.installed import share_path
-from gaitcap.simulator.board import write_board_mcap
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
 from gaitcap.services.processing.calibration_job import run_calibration
+from gaitcap.simulator.board import write_board_mcap
 
 FRAMES = share_path("testdata", "calibration", "caliscope-chessboard")
 pytestmark = pytest.mark.skipif(not (FRAMES / "cam_0_frame_1070.jpg").exists(),

@@ -168,10 +168,10 @@ def test_real_videos_of_two_people_give_one_consistent_walker(tmp_path):
     is reconstructed in every frame, limbs consistent."""
     import cv2
     from gaitcap.acquisition.detectors.mediapipe import default_model_dir
-    from gaitcap.simulator.board import scaled_rig
     from gaitcap.acquisition.tool_folders import read_qca
     from gaitcap.services.cli.detect import build_detector
     from gaitcap.services.processing.offline import detect_input
+    from gaitcap.simulator.board import scaled_rig
 
     videos = DEMOS / "Demo_MultiPerson" / "videos"
     if not videos.is_dir() or not (default_model_dir() / "pose_landmark_full.tflite").is_file():

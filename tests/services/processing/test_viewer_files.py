@@ -16,7 +16,6 @@ from gaitcap.acquisition.encoding import image_message
 from gaitcap.acquisition.recording.foxglove_messages import image_annotations
 from gaitcap.acquisition.recording.reader import read_keypoints
 from gaitcap.acquisition.recording.writer import TrialWriter
-from gaitcap.simulator import make_trial
 from gaitcap.reconstruction.calibration_io import rig_to_toml_text
 from gaitcap.reconstruction.gait import analyze_gait
 from gaitcap.services.processing.artifacts import TrialFiles
@@ -25,6 +24,7 @@ from gaitcap.services.processing.viewers.files import trial_view, write_viewer_f
 from gaitcap.services.processing.viewers.foxglove_layout import SHIPPED_CAMERAS, layout_for, layout_json
 from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
 from gaitcap.services.processing.viewers.results_mcap import gait_logs
+from gaitcap.simulator import make_trial
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 from scipy.spatial.transform import Rotation
