@@ -26,11 +26,13 @@ def _camera_dicts(link) -> list[dict]:
 
 
 def status_snapshot(app) -> dict:
-    """What the page shows live: the recording trial, recent trials with states, camera health."""
+    """What the page shows live: the recording trial, recent trials with states, camera health, and the live
+    detection coverage per camera (frames received, detected, skipped, lost, failed; lag s)."""
     db = app.state.catalog
     trials = [t.model_dump() for t in trials_out(db, cat.list_trials(db, limit=20))]
     recording = next((t for t in trials if t["state"] == "recording"), None)
-    return {"time": time.time(), "recording": recording, "trials": trials, "cameras": _camera_dicts(app.state.link)}
+    return {"time": time.time(), "recording": recording, "trials": trials, "cameras": _camera_dicts(app.state.link),
+            "detection": app.state.link.detection()}
 
 
 @router.get("/cameras", response_model=list[CameraOut], summary="Camera health (fps, status)")

@@ -22,6 +22,8 @@ key expression                         kind        payload (``messages.``)
 ``<prefix>/recorder/events``           put         :class:`RecorderEvent`
 ``<prefix>/alive/<node>``              liveliness  token held by every node while it runs
 ``<prefix>/worker/progress/<trial>``   put         :class:`WorkerProgress`
+``<prefix>/detector/status/<node>``    put         :class:`DetectorStatus`: per camera frames received,
+                                                   detected, skipped, lost, failed and the lag (s)
 ``<prefix>/camera/scene``              put         :class:`CameraScene`: what simulated cameras show
 =====================================  ==========  ========================================================
 
@@ -86,6 +88,9 @@ class Keys:
 
     def worker_progress(self, trial_id: str = "*") -> str:
         return f"{self.prefix}/worker/progress/{trial_id if trial_id == '*' else check_name(trial_id, what='trial')}"
+
+    def detector_status(self, node: str = "*") -> str:
+        return f"{self.prefix}/detector/status/{node if node == '*' else check_name(node, what='node')}"
 
     def alive(self, node: str = "**") -> str:
         return f"{self.prefix}/alive/{node if node == '**' else check_name(node, what='node')}"

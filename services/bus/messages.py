@@ -364,3 +364,39 @@ class WorkerProgress(_Json):
         _int(self.time_ns, f"{self.what}.time_ns", 0, MAX_TIME_NS)
         if self.result is not None:
             _choice(self.result, f"{self.what}.result", ("preliminary", "refined"))
+
+
+COVERAGE_COUNTS = ("received", "detected", "skipped", "lost", "failed")
+
+
+@dataclass(frozen=True)
+class DetectorStatus(_Json):
+    """A detector node's live coverage (about once per second): ``workers`` alive of ``pool``; per camera
+    ``{received, detected, skipped, lost, failed}`` frame counts since the node started and ``lag_s``, the
+    time from the camera node's send to the keypoints' publication of its latest detected frame (s)."""
+
+    what: ClassVar[str] = "detector status"
+    node: str
+    time_ns: int
+    workers: int
+    pool: int
+    cameras: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        check_name(self.node, what=f"{self.what}.node")
+        _int(self.time_ns, f"{self.what}.time_ns", 0, MAX_TIME_NS)
+        _int(self.pool, f"{self.what}.pool", 1, 4096)
+        _int(self.workers, f"{self.what}.workers", 0, self.pool)
+        _dict(self.cameras, f"{self.what}.cameras", optional=False)
+        if len(self.cameras) > 256:
+            raise ValueError(f"{self.what}.cameras: {len(self.cameras)} cameras, at most 256")
+        for cam, row in self.cameras.items():
+            where = f"{self.what}.cameras.{check_name(cam, what=f'{self.what}.cameras')}"
+            _dict(row, where, optional=False)
+            for key in COVERAGE_COUNTS:
+                _int(row.get(key), f"{where}.{key}", 0, MAX_FRAME_ID)
+            if row.get("lag_s") is not None:
+                _num(row["lag_s"], f"{where}.lag_s", 0.0, 1e6)
+            unknown = sorted(set(row) - {*COVERAGE_COUNTS, "lag_s"})
+            if unknown:
+                raise ValueError(f"{where}: unknown fields {unknown[:5]}")

@@ -16,7 +16,7 @@ and password; and filters what it receives by the sender's role (Zenoh ``access_
 role       may send (put / query / reply) to the other nodes
 =========  =================================================================================
 camera     put ``camera/<its cameras>/image|status``
-detector   put ``keypoints/*``
+detector   put ``keypoints/*`` and ``detector/status/*``
 recorder   put ``recorder/events``; reply on ``recorder/**``
 worker     put ``worker/progress/**``; query ``recorder/**`` (start / stop)
 api        put ``camera/scene``; query ``recorder/**``
@@ -25,7 +25,7 @@ client     nothing but declarations and liveliness (reads what the others let it
 =========  =================================================================================
 
 Every role may declare subscribers, queryables and liveliness tokens and query liveliness. The role of
-a node is its name (``camera-K`` -> camera, ``worker-K`` -> worker); unknown names are clients.
+a node is its name (``camera-K`` -> camera, ``worker-K`` -> worker, ``detector-K`` -> detector); unknown names are clients.
 """
 
 from __future__ import annotations
@@ -44,14 +44,15 @@ _DECLARATIONS = ("declare_subscriber", "declare_queryable", "liveliness_token", 
 #: role -> [(messages, key expressions under the prefix)] it may SEND (checked on ingress by the others).
 ROLE_SENDS: dict[str, tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]] = {
     "camera": ((("put",), ("camera/*/image", "camera/*/status")),),
-    "detector": ((("put",), ("keypoints/*",)),),
+    "detector": ((("put",), ("keypoints/*", "detector/status/*")),),
     "recorder": ((("put",), ("recorder/events",)), (("reply",), ("recorder/**",))),
     "worker": ((("put",), ("worker/progress/**",)), (("query",), ("recorder/**",))),
     "api": ((("put",), ("camera/scene",)), (("query",), ("recorder/**",))),
     "replay": ((("put",), ("camera/*/image", "camera/*/status", "keypoints/*")),),
     "client": (),
 }
-_ROLE_OF_NAME = (("camera", re.compile(r"^camera(-.*)?$")), ("worker", re.compile(r"^worker(-.*)?$")))
+_ROLE_OF_NAME = (("camera", re.compile(r"^camera(-.*)?$")), ("worker", re.compile(r"^worker(-.*)?$")),
+                 ("detector", re.compile(r"^detector(-.*)?$")))
 
 
 def role_of(node: str) -> str:

@@ -150,7 +150,13 @@ def detector_cmd(
     bus: Path | None = BUS_OPT,
     detector: str = typer.Option("simulated", "--detector", help="Detector kind (gaitcap.acquisition.detectors)."),
     param: list[str] = typer.Option([], "--param", help="Detector config field KEY=VALUE (JSON value)."),
-    workers: int = typer.Option(1, "--workers"),
+    workers: int | None = typer.Option(
+        None, "--workers", help="Detector worker processes on this host, each with its own model (default: one per "
+        "CPU core); a camera's frames always go to the same worker."),
+    cameras: str | None = typer.Option(None, "--cameras", help="Detect only these cameras (comma-separated)."),
+    shard: str | None = typer.Option(
+        None, "--shard", help="K/N: detect only the cameras of shard K of N (several detector nodes share a rig)."),
+    batch: int = typer.Option(4, "--batch", help="Frames a worker takes at once (batched by models that take a batch)."),
     sim_preset: str = typer.Option("paper", "--sim-preset", help="Synthetic noise preset."),
     sim_seconds: float = typer.Option(6.0, "--sim-seconds", help="Synthetic trial length, s (>= 5)."),
     sim_cameras: int = typer.Option(10, "--sim-cameras"),
@@ -162,23 +168,27 @@ def detector_cmd(
     import gaitcap.acquisition.detectors  # noqa: F401  (registers the detector kinds)
     from gaitcap.acquisition.detectors.base import config_class
     from gaitcap.services.bus.session import default_bus_config, open_session
-    from gaitcap.services.nodes.detector import DetectorNode
+    from gaitcap.services.nodes.detector import CameraSelection, DetectorNode
+    from gaitcap.services.nodes.detector_pool import DetectorPool, default_workers
 
     with user_errors():
         params = dict(_param(p) for p in param)
         cls = config_class(detector)
         if "trial" in {f.name for f in dataclasses.fields(cls)}:  # simulated: the synthetic trial
             params["trial"] = _sim_options(sim_preset, sim_seconds, sim_cameras, sim_people, sim_seed, fps).make()
-        det = cls(**params).build()
+        config = cls(**params)
+        selection = CameraSelection.parse(cameras, shard)
         cfg = default_bus_config(bus)
+        pool = DetectorPool.of_processes(config.build, workers or default_workers(), max_batch=batch)
         session = open_session(cfg, node)
     stopper = stop_on_signals()
-    det_node = DetectorNode(session, cfg, node, det, workers=workers)
-    typer.echo(f"detector node {node} ready on {cfg.prefix} ({detector}, {det.skeleton.name})")
+    det_node = DetectorNode(session, cfg, node, pool, cameras=selection)
+    typer.echo(f"detector node {node} ready on {cfg.prefix} ({detector}, {pool.skeleton}, {pool.size} workers)")
     stopper.wait()
     det_node.close()
     session.close()
-    typer.echo(f"detector node {node}: {det_node.detected} frames, {det_node.skipped} skipped, {det_node.failed} failed")
+    typer.echo(f"detector node {node}: {det_node.detected} frames, {det_node.skipped} skipped, {det_node.lost} lost, "
+               f"{det_node.failed} failed")
 
 
 @node_app.command("recorder")

@@ -11,6 +11,7 @@ import os
 import time
 from dataclasses import replace
 
+from gaitcap.services.live.detector_coverage import DetectorCoverageBoard
 from gaitcap.services.live.nodes import NodeBoard
 from gaitcap.services.live.protocols import CameraHealth, RecorderUnavailable
 from gaitcap.services.processing.quality import QualityCriteria
@@ -60,6 +61,7 @@ class BusLink:
         self.status_board = CameraStatusBoard(self.session, bus.keys)
         self.previews = PreviewFrames(self.session, bus.keys)
         self.node_board = NodeBoard(self.session, bus)
+        self.coverage = DetectorCoverageBoard(self.session, bus.keys)
 
     def start(self, *, trial_id: str, path: str, metadata: dict, calibration_toml: str | None = None) -> None:
         from gaitcap.services.bus.control import RecorderError
@@ -104,12 +106,15 @@ class BusLink:
             return None
         return {"trial_id": reply.trial_id, "recording": reply.recording, "queued": reply.queued}
 
+    def detection(self) -> dict:
+        return self.coverage.snapshot()
+
     def preview(self, camera: str) -> tuple[float, bytes] | None:
         frame = self.previews.latest().get(camera)
         return None if frame is None else (frame.received_s, frame.jpeg)
 
     def close(self) -> None:
-        for item in (self.status_board, self.previews, self.node_board):
+        for item in (self.status_board, self.previews, self.node_board, self.coverage):
             try:
                 item.close()
             except Exception:  # closing during shutdown: nothing left to do

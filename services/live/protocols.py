@@ -57,6 +57,10 @@ class Components(Protocol):
     def recorder_status(self) -> dict | None:
         """The recorder's status (``trial_id`` it records, ``queued``, ...), None when it does not answer."""
 
+    def detection(self) -> dict:
+        """Live detection coverage per camera and detector node
+        (:func:`gaitcap.services.live.detector_coverage.detection_summary`)."""
+
 
 class Link(TrialRecorder, LiveView, Components, Protocol):
     connected: bool  # False: no recorder can ever answer (Start is refused before a trial is created)
@@ -102,6 +106,9 @@ class NoLink:
 
     def recorder_status(self) -> dict | None:
         return None
+
+    def detection(self) -> dict:
+        return {"nodes": {}, "cameras": {}}
 
     def close(self) -> None:
         pass

@@ -1,12 +1,16 @@
-"""Detector node: 2D keypoints for every frame on the bus.
+"""Detector node: 2D keypoints for every frame of its cameras on the bus.
 
-Subscribes to ``<prefix>/camera/*/image``, decodes the JPEG, runs a
-:class:`~gaitcap.acquisition.detectors.base.Detector` and publishes
-:class:`~gaitcap.services.bus.messages.Keypoints` on ``<prefix>/keypoints/<cam>``. The subscriber callback only
-enqueues; ``workers`` threads decode JPEGs in parallel (OpenCV releases the GIL) while ``detect`` calls
-are serialised (a model interpreter is not thread-safe). When detection falls behind
-by more than ``max_queue`` frames the oldest frames are skipped and counted (``skipped``), so live
-keypoints never lag without bound; the recorder still records every image.
+Subscribes to ``<prefix>/camera/<cam>/image`` for the cameras it serves (:class:`CameraSelection`: all,
+a list, or shard K of N so that several detector nodes on several hosts share a rig's cameras), hands the
+JPEGs to a :class:`~gaitcap.services.nodes.detector_pool.DetectorPool` (worker processes, each with its
+own model, frames routed by camera; or one in-process worker for a detector object) and publishes
+:class:`~gaitcap.services.bus.messages.Keypoints` on ``<prefix>/keypoints/<cam>``. When detection falls
+behind, the pool skips the oldest queued frames and counts them, so live keypoints never lag without
+bound; the recorder still records every image and the worker completes the rest after Stop.
+
+About once per ``status_period_s`` it publishes its live coverage (:class:`DetectorStatus` on
+``<prefix>/detector/status/<node>``): per camera the frames received, detected, skipped, lost (with a
+worker that died) and failed, and the lag (s) from the camera node's send to the keypoints' publication.
 """
 
 from __future__ import annotations
@@ -15,102 +19,189 @@ import collections
 import logging
 import threading
 import time
+import zlib
+from dataclasses import dataclass
 
 import numpy as np
-from gaitcap.services.bus.messages import ImageFrame, Keypoints
+from gaitcap.services.bus.messages import DetectorStatus, ImageFrame, Keypoints
 from gaitcap.services.bus.session import BusConfig, declare_alive
+from gaitcap.services.nodes.detector_pool import DetectorPool, DetectResult, FrameTask
 
 log = logging.getLogger(__name__)
 
 
+@dataclass(frozen=True)
+class CameraSelection:
+    """Which cameras a detector node serves: ``names`` (empty: any), and/or shard ``shard`` of ``shards``
+    (a camera belongs to shard ``crc32(name) % shards``; the same on every host)."""
+
+    names: tuple[str, ...] = ()
+    shard: int = 0
+    shards: int = 1
+
+    def __post_init__(self) -> None:
+        if self.shards < 1 or not 0 <= self.shard < self.shards:
+            raise ValueError(f"--shard: expected K/N with 0 <= K < N, got {self.shard}/{self.shards}")
+
+    @classmethod
+    def parse(cls, cameras: str | None, shard: str | None) -> CameraSelection:
+        """From ``--cameras a,b`` and ``--shard K/N`` (ValueError naming the option)."""
+        names = tuple(c for c in (cameras or "").split(",") if c)
+        if not shard:
+            return cls(names)
+        k, sep, n = shard.partition("/")
+        try:
+            return cls(names, int(k), int(n))
+        except ValueError:
+            raise ValueError(f"--shard: expected K/N (for example 0/2), got {shard!r}") from None
+
+    def wants(self, camera: str) -> bool:
+        if self.names and camera not in self.names:
+            return False
+        return self.shards == 1 or zlib.crc32(camera.encode()) % self.shards == self.shard
+
+
+class Coverage:
+    """Per-camera counts and lag of a detector node (thread-safe)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.received: collections.Counter = collections.Counter()
+        self.detected: collections.Counter = collections.Counter()
+        self.failed: collections.Counter = collections.Counter()
+        self.lag_s: dict[str, float] = {}
+
+    def count(self, counter: collections.Counter, camera: str) -> None:
+        with self._lock:
+            counter[camera] += 1
+
+    def detected_one(self, camera: str, lag_s: float) -> None:
+        with self._lock:
+            self.detected[camera] += 1
+            self.lag_s[camera] = max(0.0, lag_s)
+
+    def rows(self, skipped: collections.Counter, lost: collections.Counter) -> dict[str, dict]:
+        with self._lock:
+            cams = sorted(set(self.received) | set(self.failed) | set(skipped) | set(lost))
+            return {c: {"received": self.received[c], "detected": self.detected[c], "skipped": skipped[c],
+                        "lost": lost[c], "failed": self.failed[c],
+                        "lag_s": round(self.lag_s[c], 3) if c in self.lag_s else None} for c in cams}
+
+
 class DetectorNode:
-    """Runs ``detector`` on every frame of the bus until :meth:`close`."""
+    """Runs a detector pool on the bus frames of ``cameras`` until :meth:`close`.
 
-    def __init__(self, session, bus: BusConfig, node: str, detector, *, workers: int = 1,
-                 max_queue: int = 600) -> None:
-        import zenoh
+    ``detectors``: a :class:`DetectorPool`, or a detector object (then one in-process worker)."""
 
-        if workers < 1 or max_queue < 1:
-            raise ValueError("workers and max_queue must be >= 1")
-        self.session, self.bus, self.node, self.detector = session, bus, node, detector
-        self.skeleton = detector.skeleton.name
-        self.max_queue = max_queue
-        self._pending: collections.deque = collections.deque()
-        self._cond = threading.Condition()
-        self._detect_lock = threading.Lock()
-        self._closed = False
-        self.detected = 0
-        self.skipped = 0
-        self.failed = 0
-        self._block = zenoh.CongestionControl.BLOCK
+    def __init__(self, session, bus: BusConfig, node: str, detectors, *, cameras: CameraSelection | None = None,
+                 max_queue: int = 600, status_period_s: float = 1.0) -> None:
+        if max_queue < 1 or status_period_s <= 0:
+            raise ValueError("max_queue must be >= 1 and status_period_s > 0")
+        self.session, self.bus, self.node = session, bus, node
+        self.cameras = cameras or CameraSelection()
+        self.pool = detectors if isinstance(detectors, DetectorPool) else DetectorPool.in_process(
+            detectors, None, max_pending=max_queue)
+        self.pool.on_result = self._publish
+        self.skeleton = self.pool.skeleton
+        self.coverage = Coverage()
+        self._closed = threading.Event()
         self._pubs: dict[str, object] = {}
-        self._sub = session.declare_subscriber(bus.keys.image(), self._on_image)
-        self._threads = [threading.Thread(target=self._work, name=f"detect-{i}", daemon=True) for i in range(workers)]
-        for t in self._threads:
-            t.start()
+        self._pub_lock = threading.Lock()
+        self._status_pub = session.declare_publisher(bus.keys.detector_status(node))
+        keys = [bus.keys.image(c) for c in self.cameras.names] or [bus.keys.image()]
+        self._subs = [session.declare_subscriber(k, self._on_image) for k in keys]
+        self._status = threading.Thread(target=self._status_loop, args=(status_period_s,), daemon=True,
+                                        name="detector-status")
+        self._status.start()
         self._token = declare_alive(session, bus, node)
 
+    # totals, as the node's log and tests read them
+    @property
+    def detected(self) -> int:
+        return sum(self.coverage.detected.values())
+
+    @property
+    def failed(self) -> int:
+        return sum(self.coverage.failed.values())
+
+    @property
+    def skipped(self) -> int:
+        return sum(self.pool.counts.skipped.values())
+
+    @property
+    def lost(self) -> int:
+        return sum(self.pool.counts.lost.values())
+
     def _on_image(self, sample) -> None:
-        att = sample.attachment.to_bytes() if sample.attachment is not None else None
-        with self._cond:
-            if len(self._pending) >= self.max_queue:
-                self._pending.popleft()
-                self.skipped += 1
-            self._pending.append((str(sample.key_expr), sample.payload.to_bytes(), att))
-            self._cond.notify()
+        key = str(sample.key_expr)
+        try:
+            camera = self.bus.keys.camera_of(key)
+            if not self.cameras.wants(camera):
+                return
+            att = sample.attachment.to_bytes() if sample.attachment is not None else None
+            frame = ImageFrame.from_bytes(sample.payload.to_bytes(), att, camera=camera)
+        except ValueError as exc:
+            log.warning("frame on %s refused: %s", key, exc)
+            return
+        self.coverage.count(self.coverage.received, camera)
+        self.pool.submit(FrameTask(camera, frame.frame_id, frame.timestamp_ns, frame.meta.sent_ns, frame.jpeg))
 
     def _publisher(self, camera: str):
-        if camera not in self._pubs:
-            self._pubs[camera] = self.session.declare_publisher(self.bus.keys.keypoints(camera),
-                                                                congestion_control=self._block)
-        return self._pubs[camera]
+        import zenoh
 
-    def _work(self) -> None:
-        while True:
-            with self._cond:
-                while not self._pending and not self._closed:
-                    self._cond.wait(0.5)
-                if self._closed and not self._pending:
-                    return
-                key, payload, att = self._pending.popleft()
-            try:
-                self._detect(key, payload, att)
-            except Exception as exc:  # one bad frame must not stop the node
-                self.failed += 1
-                log.warning("detection failed on %s: %s", key, exc)
+        with self._pub_lock:
+            if camera not in self._pubs:
+                self._pubs[camera] = self.session.declare_publisher(
+                    self.bus.keys.keypoints(camera), congestion_control=zenoh.CongestionControl.BLOCK)
+            return self._pubs[camera]
 
-    def _detect(self, key: str, payload: bytes, att: bytes | None) -> None:
-        frame = ImageFrame.from_bytes(payload, att, camera=self.bus.keys.camera_of(key))
-        image = frame.image()
-        with self._detect_lock:
-            t0 = time.perf_counter()
-            people = np.asarray(self.detector.detect(image, camera=frame.camera, frame_id=frame.frame_id,
-                                                     timestamp_ns=frame.timestamp_ns), dtype=np.float64)
-            ms = (time.perf_counter() - t0) * 1e3
+    def _publish(self, result: DetectResult) -> None:
+        task = result.task
+        if result.error is not None:
+            self.coverage.count(self.coverage.failed, task.camera)
+            log.warning("detection failed on camera %s frame %d: %s", task.camera, task.frame_id, result.error)
+            return
+        people = result.people
         if people.size:  # JSON has no NaN: a joint with any non-finite value becomes [0, 0, conf 0]
             people = np.where(np.isfinite(people).all(axis=-1, keepdims=True), people, 0.0)
-        out = Keypoints(camera=frame.camera, frame_id=frame.frame_id, timestamp_ns=frame.timestamp_ns,
-                        skeleton=self.skeleton, people=np.round(people, 4).tolist(), detector_ms=round(ms, 3))
-        self._publisher(frame.camera).put(out.to_bytes())
-        self.detected += 1
+        out = Keypoints(camera=task.camera, frame_id=task.frame_id, timestamp_ns=task.timestamp_ns,
+                        skeleton=self.skeleton, people=np.round(people, 4).tolist(),
+                        detector_ms=round(result.detector_ms, 3))
+        self._publisher(task.camera).put(out.to_bytes())
+        self.coverage.detected_one(task.camera, (time.time_ns() - task.sent_ns) / 1e9)
+
+    def status(self) -> DetectorStatus:
+        """The node's live coverage now."""
+        return DetectorStatus(node=self.node, time_ns=time.time_ns(), workers=len(self.pool.alive_workers()),
+                              pool=self.pool.size,
+                              cameras=self.coverage.rows(self.pool.counts.skipped, self.pool.counts.lost))
+
+    def _status_loop(self, period_s: float) -> None:
+        while not self._closed.wait(period_s):
+            try:
+                self._status_pub.put(self.status().to_bytes())
+            except Exception:  # the bus closing under us; the next period tries again
+                log.debug("detector status not published", exc_info=True)
 
     def wait_idle(self, timeout_s: float = 10.0) -> bool:
-        """Wait until the queue is empty (tests, shutdown)."""
+        """Wait until no frame is queued or being detected (tests, shutdown)."""
         end = time.monotonic() + timeout_s
         while time.monotonic() < end:
-            with self._cond:
-                if not self._pending:
-                    return True
+            if not self.pool.busy():
+                return True
             time.sleep(0.02)
         return False
 
     def close(self) -> None:
-        self._sub.undeclare()
-        with self._cond:
-            self._closed = True
-            self._cond.notify_all()
-        for t in self._threads:
-            t.join(timeout=5)
+        for sub in self._subs:
+            sub.undeclare()
+        self.pool.close()
+        self._closed.set()
+        self._status.join(timeout=5)
+        try:
+            self._status_pub.put(self.status().to_bytes())
+        except Exception:  # the session may already be closing
+            log.debug("final detector status not published", exc_info=True)
         self._token.undeclare()
-        log.info("detector node %s: %d detected, %d skipped, %d failed", self.node, self.detected,
-                 self.skipped, self.failed)
+        log.info("detector node %s: %d detected, %d skipped, %d lost, %d failed", self.node, self.detected,
+                 self.skipped, self.lost, self.failed)

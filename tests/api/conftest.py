@@ -48,6 +48,9 @@ class RecordingLink:
     def recorder_status(self):
         return {"trial_id": self.recording, "queued": 0} if self.up["recorder"].alive else None
 
+    def detection(self):
+        return {"nodes": {}, "cameras": {}}
+
     def preview(self, camera):
         return (time.time(), self.jpeg) if camera in ("cam0", "cam1") else None
 

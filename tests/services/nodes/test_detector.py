@@ -39,7 +39,7 @@ def _run(detector, trial, frames=8):
     sc, sd, ss = (open_session(bus, n) for n in ("camera-0", "detector", "sink"))
     got, lock = [], threading.Lock()
     sub = ss.declare_subscriber(bus.keys.keypoints(), lambda s: (lock.acquire(), got.append(json.loads(s.payload.to_bytes())), lock.release()))
-    det = DetectorNode(sd, bus, "detector", detector, workers=2)
+    det = DetectorNode(sd, bus, "detector", detector)
     try:
         wait_for(lambda: {"detector"} <= alive_nodes(ss, bus), 10, "detector alive")
         drivers = simulated_rig(trial, size_px=(32, 24), realtime=False, max_frames=frames,
@@ -79,3 +79,53 @@ def test_simulated_detector_reproduces_the_worlds_keypoints():
         if m["people"]:
             ok = want[:, 2] > 0
             np.testing.assert_allclose(np.asarray(m["people"][0])[ok], want[ok], atol=1e-3)
+
+
+def test_shards_share_the_cameras_and_report_coverage_on_the_bus():
+    from gaitcap.services.bus.messages import DetectorStatus
+    from gaitcap.services.nodes.detector import CameraSelection
+
+    trial = make_trial("paper", seconds=5.0, cameras=4, people=1, seed=4, fps=30.0)
+    bus = free_bus(["camera-0", "detector-0", "detector-1", "sink"], prefix="gaitcap/ds")
+    sessions = {n: open_session(bus, n) for n in ("camera-0", "detector-0", "detector-1", "sink")}
+    got, statuses, lock = [], {}, threading.Lock()
+
+    def on_kp(s):
+        with lock:
+            got.append(json.loads(s.payload.to_bytes()))
+
+    def on_status(s):
+        msg = DetectorStatus.from_bytes(s.payload.to_bytes())
+        with lock:
+            statuses[msg.node] = msg
+
+    subs = [sessions["sink"].declare_subscriber(bus.keys.keypoints(), on_kp),
+            sessions["sink"].declare_subscriber(bus.keys.detector_status(), on_status)]
+    dets = [DetectorNode(sessions[f"detector-{k}"], bus, f"detector-{k}", SimulatedConfig(trial=trial).build(),
+                         cameras=CameraSelection(shard=k, shards=2), status_period_s=0.2) for k in (0, 1)]
+    try:
+        wait_for(lambda: {"detector-0", "detector-1"} <= alive_nodes(sessions["sink"], bus), 10, "detectors alive")
+        drivers = simulated_rig(trial, size_px=(32, 24), realtime=False, max_frames=5,
+                                render=lambda t, c, f, s: np.zeros((s[1], s[0], 3), np.uint8))
+        node = CameraNode(sessions["camera-0"], bus, "camera-0", drivers)
+        time.sleep(0.3)
+        node.run(start_at_ns=time.time_ns())
+        assert all(d.wait_idle(10) for d in dets)
+        wait_for(lambda: len(got) == 20, 10, "every camera's 5 frames detected once")
+        node.close()
+        pairs = [(m["camera"], m["frame_id"]) for m in got]
+        assert len(set(pairs)) == 20  # no frame detected twice
+        wait_for(lambda: sum(r["detected"] for s in statuses.values() for r in s.cameras.values()) == 20, 5,
+                 "coverage of every frame reported")
+        cams = [set(statuses[f"detector-{k}"].cameras) for k in (0, 1)]
+        assert not cams[0] & cams[1] and cams[0] | cams[1] == set(trial.rig.names)
+        row = next(iter(statuses["detector-0"].cameras.values()))
+        assert row["received"] == 5 and row["skipped"] == row["lost"] == row["failed"] == 0
+        assert 0 <= row["lag_s"] < 5
+    finally:
+        for s in subs:
+            s.undeclare()
+        for d in dets:
+            d.close()
+        for s in sessions.values():
+            s.close()

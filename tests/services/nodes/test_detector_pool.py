@@ -1,0 +1,114 @@
+"""The detector pool with real worker processes: routing by camera, batching, a worker killed."""
+
+import functools
+import os
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from gaitcap.acquisition.encoding import encode_jpeg
+from gaitcap.services.nodes.detector_pool import DetectorPool, FrameTask
+
+from .conftest import wait_for
+
+sys.path.insert(0, str(Path(__file__).parent))
+import pool_helpers  # noqa: E402  (spawned workers import it by name from sys.path)
+
+JPEG = encode_jpeg(np.zeros((24, 32, 3), np.uint8))
+
+
+class Results:
+    def __init__(self):
+        self.lock, self.items = threading.Lock(), []
+
+    def __call__(self, result):
+        with self.lock:
+            self.items.append((time.monotonic(), result))
+
+    def of(self, camera):
+        with self.lock:
+            return [r for _, r in self.items if r.task.camera == camera]
+
+
+def task(camera, frame_id, jpeg=JPEG):
+    return FrameTask(camera, frame_id, frame_id * 33_333_333, time.time_ns(), jpeg)
+
+
+def test_frames_are_routed_by_camera_and_batched():
+    got = Results()
+    pool = DetectorPool.of_processes(functools.partial(pool_helpers.BatchDetector, 0.02), 2, got, max_batch=4)
+    try:
+        for f in range(12):
+            for cam in ("cam01", "cam02", "cam03", "cam04"):
+                pool.submit(task(cam, f))
+        pool.submit(task("cam01", 99, b"not a jpeg"))
+        wait_for(lambda: len(got.items) == 49, 30, "every frame detected")
+        for cam in ("cam01", "cam02", "cam03", "cam04"):
+            workers = {r.worker for r in got.of(cam)}
+            assert len(workers) == 1, f"{cam} went to workers {workers}"
+        assert sorted(pool.assignment().values()) == [0, 0, 1, 1]  # two cameras per worker
+        ok = [r for _, r in got.items if r.error is None]
+        assert max(r.people[0, 0, 1] for r in ok) > 1  # frames were detected in batches
+        bad = [r for _, r in got.items if r.error is not None]
+        assert [(r.task.camera, r.task.frame_id) for r in bad] == [("cam01", 99)]
+        assert "camera cam01 frame 99" in bad[0].error
+    finally:
+        pool.close()
+
+
+def test_a_killed_worker_hands_its_cameras_to_the_others_within_2_s():
+    got = Results()
+    pool = DetectorPool.of_processes(functools.partial(pool_helpers.SlowDetector, 0.01), 2, got, max_batch=1)
+    stop = threading.Event()
+
+    def feed():  # 4 cameras at 30 frames/s
+        f = 0
+        while not stop.is_set():
+            for cam in ("cam01", "cam02", "cam03", "cam04"):
+                pool.submit(task(cam, f))
+            f += 1
+            time.sleep(1 / 30)
+
+    feeder = threading.Thread(target=feed, daemon=True)
+    feeder.start()
+    try:
+        wait_for(lambda: len(got.of("cam01")) > 5, 20, "cam01 detected")
+        victim = pool.assignment()["cam01"]
+        pid = pool.pids()[victim]
+        moved = [c for c, w in pool.assignment().items() if w == victim]
+        os.kill(pid, signal.SIGKILL)
+        killed = time.monotonic()
+        wait_for(lambda: pool.alive_workers() == [1 - victim], 5, "the killed worker noticed")
+        for cam in moved:
+            wait_for(lambda cam=cam: any(t > killed and r.worker != victim for t, r in got.items
+                                         if r.task.camera == cam), 5, f"{cam} detected by another worker")
+            first = min(t for t, r in got.items if r.task.camera == cam and t > killed and r.worker != victim)
+            assert first - killed < 2.0, f"{cam} came back after {first - killed:.2f} s"
+        assert set(pool.assignment().values()) == {1 - victim}
+        assert sum(pool.counts.lost.values()) <= 2 * pool.max_inflight  # only what the dead worker held
+    finally:
+        stop.set()
+        feeder.join(5)
+        pool.close()
+
+
+def test_a_worker_that_cannot_build_its_detector_is_named():
+    with pytest.raises(RuntimeError, match=r"worker 0 .*could not build its detector: FileNotFoundError: model file"):
+        DetectorPool.of_processes(functools.partial(pool_helpers.SlowDetector, 0.0, True), 1)
+
+
+def test_a_full_queue_skips_the_oldest_frames_and_counts_them_per_camera():
+    got = Results()
+    pool = DetectorPool.in_process(pool_helpers.SlowDetector(0.05), got, max_pending=3)
+    try:
+        for f in range(10):
+            pool.submit(task("cam01", f))
+        wait_for(lambda: not pool.busy(), 10, "queue drained")
+        done = [r.task.frame_id for r in got.of("cam01")]
+        assert pool.counts.skipped["cam01"] == 10 - len(done) and done[-3:] == [7, 8, 9]
+    finally:
+        pool.close()
