@@ -314,7 +314,9 @@ def _missing(shape: tuple[int, ...]) -> np.ndarray:
     return out
 
 
-def _frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
+def frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
+    """(T,) s since the first frame set: the median camera timestamp of each frame set ((C, T) ns, -1 where
+    missing), interpolated where no camera has one."""
     # Relative to the earliest stamp before going to float: float64 holds absolute ns only to 256 ns.
     ref = int(timestamps_ns[timestamps_ns >= 0].min()) if (timestamps_ns >= 0).any() else 0
     ts = np.where(timestamps_ns >= 0, timestamps_ns - ref, np.nan).astype(np.float64)
@@ -383,7 +385,7 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
             stamps[c, fid - first] = ts
             if len(ppl):
                 people[c, fid - first, : len(ppl)] = ppl
-    return KeypointRecording(tuple(names), frame_ids, _frame_times_s(stamps), skeletons.pop(), people, stamps,
+    return KeypointRecording(tuple(names), frame_ids, frame_times_s(stamps), skeletons.pop(), people, stamps,
                              report.restarts, _ignored(strays, report, unreadable))
 
 
