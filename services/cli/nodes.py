@@ -167,9 +167,9 @@ def detector_cmd(
     """Detect 2D keypoints on every frame of the bus and publish them."""
     import gaitcap.acquisition.detectors  # noqa: F401  (registers the detector kinds)
     from gaitcap.acquisition.detectors.base import config_class
+    from gaitcap.acquisition.detectors.pool import DetectorPool, default_workers
     from gaitcap.services.bus.session import default_bus_config, open_session
     from gaitcap.services.nodes.detector import CameraSelection, DetectorNode
-    from gaitcap.services.nodes.detector_pool import DetectorPool, default_workers
 
     with user_errors():
         params = dict(_param(p) for p in param)

@@ -2,7 +2,7 @@
 
 Subscribes to ``<prefix>/camera/<cam>/image`` for the cameras it serves (:class:`CameraSelection`: all,
 a list, or shard K of N so that several detector nodes on several hosts share a rig's cameras), hands the
-JPEGs to a :class:`~gaitcap.services.nodes.detector_pool.DetectorPool` (worker processes, each with its
+JPEGs to a :class:`~gaitcap.acquisition.detectors.pool.DetectorPool` (worker processes, each with its
 own model, frames routed by camera; or one in-process worker for a detector object) and publishes
 :class:`~gaitcap.services.bus.messages.Keypoints` on ``<prefix>/keypoints/<cam>``. When detection falls
 behind, the pool skips the oldest queued frames and counts them, so live keypoints never lag without
@@ -23,9 +23,9 @@ import zlib
 from dataclasses import dataclass
 
 import numpy as np
+from gaitcap.acquisition.detectors.pool import DetectorPool, DetectResult, FrameTask
 from gaitcap.services.bus.messages import DetectorStatus, ImageFrame, Keypoints
 from gaitcap.services.bus.session import BusConfig, declare_alive
-from gaitcap.services.nodes.detector_pool import DetectorPool, DetectResult, FrameTask
 
 log = logging.getLogger(__name__)
 

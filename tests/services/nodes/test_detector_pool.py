@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.detectors.pool import DetectorPool, FrameTask
 from gaitcap.acquisition.encoding import encode_jpeg
-from gaitcap.services.nodes.detector_pool import DetectorPool, FrameTask
 
 from .conftest import wait_for
 

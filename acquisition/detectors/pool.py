@@ -1,4 +1,5 @@
-"""A pool of detector workers, frames routed by camera.
+"""A pool of detector workers, frames routed by camera (the live detector node's and the completion of a
+trial's keypoints after Stop).
 
 Each worker holds its own model interpreter: a process (:meth:`DetectorPool.of_processes`, the detector
 built in the process by a picklable factory such as a detector config's ``build``) or, for a detector
@@ -265,6 +266,11 @@ class DetectorPool:
     def pids(self) -> list[int]:
         """The worker processes' ids (empty for an in-process pool)."""
         return [w.process.pid for w in self._workers if w.process is not None]
+
+    def queued(self) -> int:
+        """Frames queued or with a worker, over the live workers."""
+        with self._cond:
+            return sum(len(w.pending) + len(w.inflight) for w in self._workers if w.alive)
 
     def busy(self) -> bool:
         """Whether any frame is queued or with a worker."""

@@ -1,0 +1,312 @@
+"""Completion after Stop: every recorded frame without live keypoints, detected from the recording's images.
+
+The live detector keeps up as far as it can; the recorder keeps every image. :func:`complete_keypoints`
+reads the trial's JPEG images from its MCAP in one pass, sends each frame that has no live keypoints (or
+every frame, ``redetect_all``) to a :class:`~gaitcap.acquisition.detectors.pool.DetectorPool` of the offline
+detector (built in each worker process by a picklable factory; it may be heavier than the live one), and
+returns the complete keypoints with a :class:`CompletionReport`: per camera the frames recorded, detected
+live, completed now, the corrupt images (named, skipped and counted; nothing else is lost) and the frames
+still without keypoints; the detector; the provenance of every frame (:data:`LIVE`, :data:`COMPLETED`,
+:data:`MISSING`). :func:`save_completion` stores both with the trial's files.
+
+Frames are placed on the recording's frame grid by frame id (the image's MCAP sequence); a camera whose
+frame counter restarted within the recording is placed by time, from its live keypoints' timestamps.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from gaitcap.acquisition.detectors.pool import DetectorPool, DetectResult, FrameTask
+from gaitcap.acquisition.fileio import atomic_savez, atomic_write_text
+from gaitcap.acquisition.recording.reader import KeypointRecording, frame_times_s, iter_frames
+
+log = logging.getLogger(__name__)
+
+MISSING, LIVE, COMPLETED = 0, 1, 2
+PROVENANCE = {MISSING: "missing", LIVE: "live", COMPLETED: "completed"}
+KEYPOINTS_FILE = "keypoints_complete.npz"
+REPORT_FILE = "completion.json"
+QUEUED_PER_WORKER = 32  # frames read ahead of the workers (bounds memory: JPEGs wait in this process)
+NAMED_AT_MOST = 50  # corrupt / missing frame ids named per camera in the report
+
+
+@dataclass(frozen=True)
+class CameraCompletion:
+    """One camera: ``recorded`` images; of their frames ``live`` had live keypoints, ``completed`` were
+    detected now; ``corrupt_frame_ids`` could not be decoded or detected (skipped); ``missing_frame_ids``
+    are still without keypoints (corrupt, or lost with a worker that died)."""
+
+    camera: str
+    recorded: int
+    live: int
+    completed: int
+    corrupt_frame_ids: tuple[int, ...] = ()
+    missing_frame_ids: tuple[int, ...] = ()
+
+    @property
+    def coverage(self) -> float:
+        """Frames with keypoints / recorded images (0..1; 1 when nothing was recorded)."""
+        return (self.live + self.completed) / self.recorded if self.recorded else 1.0
+
+    def to_dict(self) -> dict:
+        return {"recorded": self.recorded, "live": self.live, "completed": self.completed,
+                "live_coverage": round(self.live / self.recorded, 4) if self.recorded else None,
+                "coverage": round(self.coverage, 4), "corrupt": len(self.corrupt_frame_ids),
+                "corrupt_frame_ids": list(self.corrupt_frame_ids[:NAMED_AT_MOST]),
+                "missing": len(self.missing_frame_ids),
+                "missing_frame_ids": list(self.missing_frame_ids[:NAMED_AT_MOST])}
+
+
+@dataclass(frozen=True, eq=False)
+class CompletionReport:
+    """What the completion did. ``provenance``: (C, T) uint8 per camera and frame of ``frame_ids``:
+    :data:`MISSING`, :data:`LIVE` or :data:`COMPLETED`; ``seconds``: wall time of the completion (s)."""
+
+    detector: str
+    redetected_all: bool
+    workers: int
+    seconds: float
+    cameras: tuple[CameraCompletion, ...]
+    camera_names: tuple[str, ...]
+    frame_ids: np.ndarray
+    provenance: np.ndarray
+
+    @property
+    def complete(self) -> bool:
+        """Every recorded image has keypoints."""
+        return all(not c.missing_frame_ids for c in self.cameras)
+
+    def to_dict(self) -> dict:
+        return {"detector": self.detector, "redetected_all": self.redetected_all, "workers": self.workers,
+                "seconds": round(self.seconds, 3), "complete": self.complete,
+                "frames": {"recorded": sum(c.recorded for c in self.cameras),
+                           "live": sum(c.live for c in self.cameras),
+                           "completed": sum(c.completed for c in self.cameras),
+                           "corrupt": sum(len(c.corrupt_frame_ids) for c in self.cameras)},
+                "cameras": {c.camera: {**c.to_dict(), "completed_frame_ids": _runs(
+                    self.frame_ids[self.provenance[i] == COMPLETED])} for i, c in enumerate(self.cameras)}}
+
+
+def _runs(ids: np.ndarray) -> list[list[int]]:
+    """Sorted frame ids as [[first, last], ...] runs of consecutive ids."""
+    if ids.size == 0:
+        return []
+    cut = np.flatnonzero(np.diff(ids) != 1) + 1
+    return [[int(r[0]), int(r[-1])] for r in np.split(ids, cut)]
+
+
+class _Placer:
+    """Where an image lands on the live keypoints' frame grid, and whether it has live keypoints there."""
+
+    def __init__(self, recording: KeypointRecording | None) -> None:
+        self.rec = recording
+        self.index = {} if recording is None else {c: i for i, c in enumerate(recording.camera_names)}
+        self.by_time = {} if recording is None else {c: self._time_grid(c) for c in recording.restarts
+                                                     if c in self.index}
+
+    def _time_grid(self, camera: str) -> tuple[float, float]:
+        """(offset ns, period ns): frame id = round((t - offset) / period) for a restarted camera."""
+        stamps = self.rec.timestamps_ns
+        ok = stamps >= 0
+        period = float(np.median(np.diff(self.rec.times_s))) * 1e9 if self.rec.times_s.size > 1 else 1e9 / 30
+        row = stamps[self.index[camera]]
+        have = row >= 0
+        ref = int(stamps[ok].min())
+        offset = float(np.median(row[have] - ref - self.rec.frame_ids[have] * period)) if have.any() else 0.0
+        return ref + offset, period
+
+    def slot(self, camera: str, frame_id: int, timestamp_ns: int) -> int:
+        if camera in self.by_time:
+            offset, period = self.by_time[camera]
+            return int(round((timestamp_ns - offset) / period))
+        return int(frame_id)
+
+    def has_live(self, camera: str, slot: int) -> bool:
+        if self.rec is None or camera not in self.index:
+            return False
+        t = slot - int(self.rec.frame_ids[0])
+        return 0 <= t < self.rec.frame_ids.size and self.rec.timestamps_ns[self.index[camera], t] >= 0
+
+
+@dataclass
+class _Collected:
+    """The images seen and the detections received (filled by the pool's reader thread)."""
+
+    images: dict[str, dict[int, int]] = field(default_factory=dict)  # camera -> {slot: timestamp ns}
+    sent: dict[tuple[str, int, int], int] = field(default_factory=dict)  # (camera, frame id, stamp ns) -> slot
+    found: dict[tuple[str, int], np.ndarray] = field(default_factory=dict)  # (camera, slot) -> (P, J, 3)
+    corrupt: dict[str, list[int]] = field(default_factory=dict)  # camera -> frame ids
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def __call__(self, result: DetectResult) -> None:
+        task = result.task
+        with self.lock:
+            slot = self.sent[(task.camera, task.frame_id, task.timestamp_ns)]
+            if result.error is not None:
+                self.corrupt.setdefault(task.camera, []).append(task.frame_id)
+                log.warning("completion: %s skipped: %s", _frame_name(task.camera, task.frame_id), result.error)
+            else:
+                self.found[(result.task.camera, slot)] = result.people
+
+
+def _frame_name(camera: str, frame_id: int) -> str:
+    return f"camera {camera} frame {frame_id}"
+
+
+def complete_keypoints(
+    mcap_path: str | os.PathLike,
+    recording: KeypointRecording | None,
+    detector_factory: Callable[[], object],
+    *,
+    detector_name: str,
+    workers: int = 1,
+    redetect_all: bool = False,
+    max_batch: int = 4,
+) -> tuple[KeypointRecording, CompletionReport]:
+    """Detect the recorded frames of ``mcap_path`` that have no keypoints in ``recording`` (its live
+    keypoints, :func:`~gaitcap.acquisition.recording.reader.read_keypoints`; None when it has none), or
+    all of them (``redetect_all``), with ``detector_factory()`` in ``workers`` processes (0: in this process).
+
+    Returns the keypoints (live ones kept, the others detected; the grid widened to every recorded frame)
+    and the report. ValueError when the live keypoints' skeleton is not the detector's (re-detect all)."""
+    t0 = time.perf_counter()
+    placer = _Placer(None if redetect_all else recording)
+    got = _Collected()
+    pool = (DetectorPool.of_processes(detector_factory, workers, got, max_batch=max_batch, max_pending=2**31)
+            if workers > 0 else DetectorPool.in_process(detector_factory(), got, max_batch=max_batch,
+                                                        max_pending=2**31))
+    try:
+        if recording is not None and not redetect_all and recording.skeleton != pool.skeleton:
+            raise ValueError(f"{mcap_path}: the live keypoints are {recording.skeleton}, the completion detector "
+                             f"{detector_name} gives {pool.skeleton}: re-detect every frame instead")
+        _feed(mcap_path, placer, pool, got, max(1, workers))
+        _drain(pool)
+    finally:
+        pool.close()
+    keypoints, report = _assemble(recording if not redetect_all else None, got, pool.skeleton,
+                                  detector_name=detector_name, redetect_all=redetect_all, workers=workers)
+    report = _with_seconds(report, time.perf_counter() - t0)
+    log.info("completion of %s with %s: %d frames recorded, %d live, %d completed, %d corrupt in %.1f s",
+             mcap_path, detector_name, *(report.to_dict()["frames"][k] for k in ("recorded", "live", "completed",
+                                                                                 "corrupt")), report.seconds)
+    return keypoints, report
+
+
+def _feed(mcap_path, placer: _Placer, pool: DetectorPool, got: _Collected, workers: int) -> None:
+    """One pass over the recording's images: note each, send those without live keypoints to the pool."""
+    for frame in iter_frames(mcap_path):
+        slot = placer.slot(frame.camera, frame.frame_id, frame.timestamp_ns)
+        with got.lock:
+            got.images.setdefault(frame.camera, {})[slot] = frame.timestamp_ns
+            if placer.has_live(frame.camera, slot):
+                continue
+            got.sent[(frame.camera, frame.frame_id, frame.timestamp_ns)] = slot
+        while pool.queued() >= QUEUED_PER_WORKER * workers:
+            if not pool.alive_workers():
+                raise RuntimeError(f"{mcap_path}: every completion detector worker died")
+            time.sleep(0.002)
+        pool.submit(FrameTask(frame.camera, frame.frame_id, frame.timestamp_ns, time.time_ns(), frame.jpeg))
+
+
+def _drain(pool: DetectorPool) -> None:
+    while pool.busy():
+        if not pool.alive_workers():
+            raise RuntimeError("every completion detector worker died")
+        time.sleep(0.01)
+
+
+def _assemble(recording: KeypointRecording | None, got: _Collected, skeleton: str, *, detector_name: str,
+              redetect_all: bool, workers: int) -> tuple[KeypointRecording, CompletionReport]:
+    """The keypoints on one grid holding every live frame and recorded image, and the report."""
+    live_names = list(recording.camera_names) if recording is not None else []
+    names = live_names + sorted(set(got.images) - set(live_names))
+    slots = [s for per in got.images.values() for s in per]
+    if recording is not None:
+        slots += [int(recording.frame_ids[0]), int(recording.frame_ids[-1])]
+    if not slots:
+        raise ValueError("the recording holds no images and no keypoints")
+    first, last = min(slots), max(slots)
+    frame_ids = np.arange(first, last + 1)
+    joints = _joints(recording, got)
+    most = max([len(p) for p in got.found.values()] + ([recording.people.shape[2]] if recording is not None else []))
+    people = np.full((len(names), frame_ids.size, most, joints, 3), np.nan)
+    people[..., 2] = 0.0
+    stamps = np.full((len(names), frame_ids.size), -1, dtype=np.int64)
+    prov = np.zeros((len(names), frame_ids.size), dtype=np.uint8)
+    if recording is not None:
+        t0 = int(recording.frame_ids[0]) - first
+        span = slice(t0, t0 + recording.frame_ids.size)
+        c = len(live_names)
+        people[:c, span, : recording.people.shape[2]] = recording.people
+        stamps[:c, span] = recording.timestamps_ns
+        prov[:c, span] = np.where(recording.timestamps_ns >= 0, LIVE, MISSING)
+    for (cam, slot), found in got.found.items():
+        c, t = names.index(cam), slot - first
+        people[c, t, : len(found)] = found
+        stamps[c, t] = got.images[cam][slot]
+        prov[c, t] = COMPLETED
+    out = KeypointRecording(tuple(names), frame_ids, frame_times_s(stamps), skeleton, people, stamps,
+                            dict(recording.restarts) if recording is not None else {},
+                            dict(recording.ignored) if recording is not None else {})
+    cams = tuple(_camera_row(cam, names.index(cam), got, prov, first) for cam in names)
+    return out, CompletionReport(detector_name, redetect_all, workers, 0.0, cams, tuple(names), frame_ids, prov)
+
+
+def _joints(recording: KeypointRecording | None, got: _Collected) -> int:
+    found = next((p.shape[1] for p in got.found.values() if p.ndim == 3 and p.shape[1]), None)
+    if found is None and recording is not None:
+        return recording.people.shape[3]
+    if found is None:
+        raise ValueError("no keypoints: nothing was detected live and no recorded image could be detected")
+    return found
+
+
+def _camera_row(cam: str, c: int, got: _Collected, prov: np.ndarray, first: int) -> CameraCompletion:
+    recorded = np.array(sorted(got.images.get(cam, {})), dtype=np.int64)
+    on = prov[c, recorded - first] if recorded.size else np.zeros(0, np.uint8)
+    return CameraCompletion(cam, int(recorded.size), int((on == LIVE).sum()), int((on == COMPLETED).sum()),
+                            tuple(sorted(got.corrupt.get(cam, []))), tuple(int(f) for f in recorded[on == MISSING]))
+
+
+def _with_seconds(report: CompletionReport, seconds: float) -> CompletionReport:
+    from dataclasses import replace
+
+    return replace(report, seconds=seconds)
+
+
+@dataclass(frozen=True)
+class CompletionFiles:
+    """The files :func:`save_completion` wrote: ``keypoints`` (.npz) and ``report`` (.json)."""
+
+    keypoints: Path
+    report: Path
+
+    def to_dict(self) -> dict:
+        return {"keypoints": str(self.keypoints), "report": str(self.report)}
+
+
+def save_completion(folder: str | os.PathLike, keypoints: KeypointRecording, report: CompletionReport) -> CompletionFiles:
+    """Store the complete keypoints with their provenance and the report in the trial's ``folder``, each file
+    written whole or not at all.
+
+    ``keypoints_complete.npz`` has the arrays of a multi-person keypoint file (``keypoints`` (C, T, P, J, 3),
+    ``camera_names``, ``times_s``, ``skeleton``: readable by ``load_multi_npz`` and ``gaitcap reconstruct``)
+    plus ``frame_ids`` (T,), ``timestamps_ns`` (C, T) and ``provenance`` (C, T: 0 missing, 1 live,
+    2 completed) and ``detector``; ``completion.json`` is :meth:`CompletionReport.to_dict`."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    npz = atomic_savez(folder / KEYPOINTS_FILE, keypoints=keypoints.people, camera_names=np.array(keypoints.camera_names),
+                       times_s=keypoints.times_s, skeleton=np.array(keypoints.skeleton), frame_ids=keypoints.frame_ids,
+                       timestamps_ns=keypoints.timestamps_ns, provenance=report.provenance,
+                       detector=np.array(report.detector))
+    js = atomic_write_text(folder / REPORT_FILE, json.dumps(report.to_dict(), indent=1))
+    return CompletionFiles(npz, js)
