@@ -34,6 +34,11 @@ STEP_PARAMETERS = (
     "single_support_pct", "double_support_pct",
 )
 
+#: The phases of the gait cycle: their statistics are over the steps whose cycle has every phase measured
+#: (so that per side stance = single + double support and stance + swing = 100 % hold for the means too).
+PHASE_PARAMETERS = ("stance_time_s", "swing_time_s", "single_support_s", "double_support_s", "stance_pct",
+                    "swing_pct", "single_support_pct", "double_support_pct")
+
 
 @dataclass(frozen=True)
 class Step:
@@ -100,6 +105,20 @@ def _nonneg(x: float) -> float:
     return x if np.isfinite(x) and x >= 0 else float("nan")
 
 
+def _support_phases(p: Contact, c: Contact, c0: Contact | None) -> tuple[float, float, float]:
+    """(initial double support, single support, terminal double support) s of the cycle p -> k, or NaN for
+    all three unless the events follow each other as in walking: p's heel strike, then c0's toe off, c's
+    heel strike, p's toe off (each phase >= 0, so stance = their sum). A contralateral toe off before p's
+    heel strike (a missed or unusable contact between c0 and p, or a toe off found early) or after c's
+    heel strike would make one phase negative and the single support longer than the stance around it."""
+    nan = float("nan")
+    if c0 is None or not c0.valid:
+        return nan, nan, nan
+    events = (p.heel_strike_s, c0.toe_off_s, c.heel_strike_s, p.toe_off_s)
+    phases = tuple(float(b - a) for a, b in zip(events[:-1], events[1:], strict=True))
+    return phases if all(np.isfinite(x) and x >= 0 for x in phases) else (nan, nan, nan)
+
+
 def _timing(k: Contact, p: Contact | None, c: Contact, c0: Contact | None) -> dict[str, float]:
     nan = float("nan")
     out = dict.fromkeys(STEP_PARAMETERS[3:], nan)
@@ -109,9 +128,7 @@ def _timing(k: Contact, p: Contact | None, c: Contact, c0: Contact | None) -> di
     stride = _nonneg(k.heel_strike_s - p.heel_strike_s)
     stance = _nonneg(p.toe_off_s - p.heel_strike_s)
     swing = _nonneg(k.heel_strike_s - p.toe_off_s)
-    ds_term = _nonneg(p.toe_off_s - c.heel_strike_s)
-    ds_init = _nonneg(c0.toe_off_s - p.heel_strike_s) if c0 is not None else nan
-    single = _nonneg(c.heel_strike_s - c0.toe_off_s) if c0 is not None else nan
+    ds_init, single, ds_term = _support_phases(p, c, c0)
     out.update(stride_time_s=stride, stance_time_s=stance, swing_time_s=swing,
                single_support_s=single, double_support_s=ds_init + ds_term)
     for name in ("stance", "swing", "single_support", "double_support"):
@@ -256,13 +273,16 @@ class GaitSummary:
 
 def summarise(steps: Sequence[Step], num_passes: int) -> GaitSummary:
     """Per-trial and per-side statistics, cadence, gait speed and asymmetry of the steady ``steps``
-    (all of them when none is steady, e.g. a clip of two steps)."""
+    (all of them when none is steady, e.g. a clip of two steps); the cycle phases (``PHASE_PARAMETERS``)
+    over those of them whose phases are all measured (all of them when none is)."""
     all_steps = list(steps)
     steps = [s for s in all_steps if s.steady] or all_steps
+    complete = [s for s in steps if all(np.isfinite(getattr(s, n)) for n in PHASE_PARAMETERS)] or steps
     params, asym = {}, {}
     for name in STEP_PARAMETERS:
-        groups = {"all": steps, "left": [s for s in steps if s.foot == "left"],
-                  "right": [s for s in steps if s.foot == "right"]}
+        chosen = complete if name in PHASE_PARAMETERS else steps
+        groups = {"all": chosen, "left": [s for s in chosen if s.foot == "left"],
+                  "right": [s for s in chosen if s.foot == "right"]}
         params[name] = {g: Stats.of([getattr(s, name) for s in group]) for g, group in groups.items()}
         left, right = params[name]["left"].mean, params[name]["right"].mean
         mid = 0.5 * (left + right)
