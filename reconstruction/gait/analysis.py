@@ -8,7 +8,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from gaitcap.reconstruction.gait.bouts import Bouts, Pass, find_bouts
 from gaitcap.reconstruction.gait.config import GaitConfig
-from gaitcap.reconstruction.gait.events import Contact, detect_contacts, rest_speed_mm_s
+from gaitcap.reconstruction.gait.events import Contact, detect_contacts, event_timing, rest_speed_mm_s
 from gaitcap.reconstruction.gait.parameters import Step, pass_steps, progression_direction, summarise
 from gaitcap.reconstruction.gait.quality import TrajectoryQuality, contact_confidence
 from gaitcap.reconstruction.gait.report import GaitReport
@@ -123,7 +123,7 @@ def analyze_gait(
         raise ValueError(f"no steps found: {len(contacts)} foot contact(s) detected in {len(passes)} "
                          "pass(es), but no pair of consecutive left/right contacts inside one pass")
     return GaitReport(tuple(steps), summarise(steps, len(passes)), tuple(passes), bouts.segments,
-                      contacts, tuple(warnings))
+                      contacts, tuple(warnings), timing=event_timing(tracks, config))
 
 
 def compare_with_walkway(

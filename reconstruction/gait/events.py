@@ -68,6 +68,45 @@ class Contact:
     valid: bool
 
 
+@dataclass(frozen=True)
+class EventTiming:
+    """How finely a trial's events are located in time (each report says it).
+
+    Attributes:
+        located_on: "continuous trajectory" (the caller's ``sample``, e.g. a refined fit: the events are
+            found between frames) or "spline through frames" (a triangulated, frame-grid trajectory: the
+            spline only interpolates between the frames, where the foot was measured).
+        frame_interval_s: median time between frames (s).
+        search_step_s: step of the event search on that function (s; ``GaitConfig.event_resolution_s``).
+        resolution_s: the events' time resolution (s): the search step on a continuous trajectory, one
+            frame interval on frames.
+    """
+
+    located_on: str
+    frame_interval_s: float
+    search_step_s: float
+    resolution_s: float
+
+    @property
+    def sub_frame(self) -> bool:
+        """Whether the events resolve times finer than a frame."""
+        return self.resolution_s < self.frame_interval_s
+
+    def to_dict(self) -> dict:
+        return {"located_on": self.located_on, "frame_interval_s": self.frame_interval_s,
+                "search_step_s": self.search_step_s, "resolution_s": self.resolution_s,
+                "sub_frame": self.sub_frame}
+
+
+def event_timing(tracks: FootTracks, config: GaitConfig = GaitConfig()) -> EventTiming:
+    """The :class:`EventTiming` of events found on ``tracks``."""
+    dt = float(np.median(np.diff(tracks.times_s)))
+    step = float(config.event_resolution_s)
+    if tracks.continuous:
+        return EventTiming("continuous trajectory", dt, step, min(step, dt))
+    return EventTiming("spline through frames", dt, step, dt)
+
+
 def rest_speed_mm_s(walking_speed_mm_s: float, config: GaitConfig, noise_mm_s: float = 0.0) -> float:
     """The rest-speed threshold (mm/s) for a trial walked at ``walking_speed_mm_s`` whose feet show a
     speed noise floor ``noise_mm_s`` at rest (see ``FootTracks.rest_noise_mm_s``)."""

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from gaitcap.reconstruction.gait.bouts import Pass, Segment
-from gaitcap.reconstruction.gait.events import Contact
+from gaitcap.reconstruction.gait.events import Contact, EventTiming
 from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS, GaitSummary, Step
 from gaitcap.reconstruction.gait.walkway import WalkwayComparison
 from gaitcap.reconstruction.jsonable import json_ready
@@ -35,6 +35,8 @@ class GaitReport:
         contacts: every detected foot contact, including those in turns (s, mm).
         warnings: human-readable notes on what was excluded and why.
         walkway: comparison with a walkway export, when one was given.
+        timing: how finely the events are located (sub-frame on a continuous trajectory, one frame
+            interval on a frame-grid one such as the preliminary triangulation); None if not given.
     """
 
     steps: tuple[Step, ...]
@@ -44,13 +46,14 @@ class GaitReport:
     contacts: tuple[Contact, ...]
     warnings: tuple[str, ...] = ()
     walkway: WalkwayComparison | None = None
+    timing: EventTiming | None = None
 
     def with_walkway(self, comparison: WalkwayComparison) -> GaitReport:
         return dataclasses.replace(self, walkway=comparison)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict: steps (list of objects), summary, passes, segments, contacts, warnings,
-        walkway (or None). NaN values become None."""
+        walkway (or None), timing (``EventTiming``'s fields). NaN values become None."""
         return json_ready(self)
 
     def to_json(self, **kwargs: Any) -> str:

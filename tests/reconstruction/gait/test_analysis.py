@@ -52,6 +52,20 @@ def test_continuous_sampler_gives_sub_frame_events(walker):
     assert max(abs(e) for e in errors) < 0.015
 
 
+def test_reports_say_how_finely_their_events_are_located(walker):
+    """A continuous trajectory gives sub-frame events (1 ms search), frames alone one frame interval."""
+    walk = walker()
+    fine = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names, sample=walk.sample).timing
+    frames = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names).timing
+    dt = float(np.median(np.diff(walk.times_s)))
+    assert fine.located_on == "continuous trajectory" and fine.sub_frame and fine.resolution_s == 0.001
+    assert frames.located_on == "spline through frames" and not frames.sub_frame
+    assert frames.resolution_s == pytest.approx(dt) and frames.frame_interval_s == pytest.approx(dt)
+    report = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names)
+    assert report.to_dict()["timing"]["resolution_s"] == pytest.approx(dt)
+    assert fine.to_dict()["sub_frame"] is True
+
+
 def test_u_turn_splits_passes_and_excludes_turn_steps(walker):
     walk = walker(segments=(("line", 5000), ("arc", 500, 180), ("line", 5000)))
     report = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names)

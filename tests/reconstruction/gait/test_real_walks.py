@@ -72,7 +72,8 @@ def reconstructed(walks):
 
 def test_default_detector_on_reconstructed_real_walks(walks, reconstructed):
     """Every annotated event found, none invented, heel strikes within a frame and a half (median within
-    one), toe offs within a frame: and no worse than each baseline on the same trajectories."""
+    one, signed median within 0.3 of a frame: no systematic bias), toe offs within a frame: and no worse
+    than each baseline on the same trajectories."""
     ours = {"heel_strike": [], "toe_off": []}
     baseline = {name: {"heel_strike": [], "toe_off": []} for name in BASELINES}
     for name, w in walks.items():
@@ -89,6 +90,7 @@ def test_default_detector_on_reconstructed_real_walks(walks, reconstructed):
         assert len(report.contacts) <= sum(len(v) for v in w.heel_strike_s.values()) + 3
     hs, to = np.abs(ours["heel_strike"]), np.abs(ours["toe_off"])
     assert np.median(hs) <= 1 / 30 and np.percentile(hs, 90) <= 2.6 / 30
+    assert abs(np.median(ours["heel_strike"])) <= 0.3 / 30  # not early or late as a rule (measured -0.22 frame)
     assert np.median(to) <= 1 / 30
     for b, errs in baseline.items():
         assert np.median(hs) <= np.median(np.abs(errs["heel_strike"])) + 0.002, b
