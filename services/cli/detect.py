@@ -25,6 +25,12 @@ def _params(items: list[str]) -> dict:
 
 def build_detector(kind: str, model: Path | None, param: list[str]):
     """A detector of ``kind`` with its model file and other config fields KEY=VALUE (ValueError if bad)."""
+    return detector_config(kind, model, param).build()
+
+
+def detector_config(kind: str, model: Path | None, param: list[str]):
+    """The typed config of a detector of ``kind`` with its model file and other fields KEY=VALUE (ValueError
+    if bad); ``config.build`` builds it (in a worker process too: configs pickle)."""
     import gaitcap.acquisition.detectors  # noqa: F401  (registers the detector kinds)
     from gaitcap.acquisition.detectors.base import config_class
 
@@ -36,7 +42,7 @@ def build_detector(kind: str, model: Path | None, param: list[str]):
         if key not in fields:
             raise ValueError(f"--model: detector {kind} takes no model file")
         params[key] = model if key == "model_path" else str(model)
-    return cls(**params).build()
+    return cls(**params)
 
 
 def frame_count(files: list[Path]) -> int:
