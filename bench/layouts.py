@@ -114,8 +114,8 @@ def process_times(source: Path, *, videos: bool) -> dict:
     try:
         t0 = time.perf_counter()
         factory = (lambda: build_detector("mediapipe", None, ["num_poses=3"])) if videos else None
-        data, rig = load_input(source, calibration=None, options=OfflineOptions(), detector_factory=factory)
-        result = process_input(data, rig, out, timings_s={"read" + (" and detect" if videos else ""):
+        data = load_input(source, calibration=None, options=OfflineOptions(), detector_factory=factory)
+        result = process_input(data, out, timings_s={"read" + (" and detect" if videos else ""):
                                                           time.perf_counter() - t0})
         return {"cameras": len(result.cameras), "frames": result.frames, "layout": result.layout.skeleton,
                 "tracks": result.selection.tracks.num_tracks if result.selection else 1,

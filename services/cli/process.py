@@ -10,20 +10,23 @@ import typer
 from gaitcap.services.cli._common import progress, user_errors
 
 
-def _echo_summary(result, out: Path) -> None:
+def _echo_summary(result, out: Path, chosen_how: str) -> None:
     from gaitcap.services.cli.reconstruct import figure
 
     typer.echo(f"{result.source}: {len(result.cameras)} cameras ({', '.join(result.cameras)}), {result.frames} frames")
-    typer.echo(result.layout.evidence())
-    for warning in result.layout.warnings:
-        typer.echo(f"warning: {warning}", err=True)
+    if result.layout is not None:
+        typer.echo(result.layout.evidence())
+        for warning in result.layout.warnings:
+            typer.echo(f"warning: {warning}", err=True)
     if result.selection is not None:
         from gaitcap.services.processing.offline import people_lines
 
         typer.echo(f"{result.selection.tracks.num_tracks} people tracked (see {out / 'people.json'}):")
-        for line in people_lines(result.selection, how=result.chosen_how):
+        for line in people_lines(result.selection, how=chosen_how):
             typer.echo(f"  {line}")
     for name, stage in result.stages.items():
+        from gaitcap.services.processing.offline import missing_frames
+
         s = stage.report.summary if stage.report is not None else None
         if s is None:
             typer.echo(f"{name} ({stage.trajectory.method}): no gait parameters: {stage.problem}")
@@ -33,20 +36,19 @@ def _echo_summary(result, out: Path) -> None:
                        f"{figure(s.gait_speed_m_s, '.2f', 'no straight pass')} m/s")
         if stage.missing:
             typer.echo("  joints missing in some frames (NaN in the files): "
-                       + "; ".join(f"{j} frames {r}" for j, r in stage.missing_frames.items()))
+                       + "; ".join(f"{j} frames {r}" for j, r in missing_frames(stage.trajectory).items()))
         typer.echo(f"  files: {out / name}/ ({', '.join(sorted(Path(p).name for p in stage.files.values()))})")
+    for warning in result.quality.warnings:
+        typer.echo(f"data quality: {warning}", err=True)
     typer.echo("time: " + ", ".join(f"{k} {v:.1f} s" for k, v in result.timings_s.items()))
 
 
 def _kinematics(out: Path, result) -> str:
-    """The worker's kinematics step on the last stage; a line saying where the files are, or why not."""
+    """Where the last stage's kinematics are, or why there are none (its kinematics.json says)."""
     from gaitcap.services.processing.artifacts import TrialFiles
-    from gaitcap.services.processing.kinematics_step import kinematics_step
 
-    stage = list(result.stages)[-1]
-    files = TrialFiles(out)
-    kinematics_step(files, stage, result.stages[stage].trajectory)
-    path = files.stage_file(stage, "kinematics_json")
+    stage = result.last.name
+    path = TrialFiles(out).stage_file(stage, "kinematics_json")
     status = json.loads(path.read_text()) if path.is_file() else {"available": False, "reason": "not written"}
     if status.get("available"):
         return f"kinematics ({stage}): {path.parent}/ (kinematics.mot, .osim, .trc, .json, .csv, trajectory.c3d)"
@@ -82,34 +84,40 @@ def register(app: typer.Typer) -> None:
         from gaitcap.reconstruction.jsonable import json_ready
         from gaitcap.services.cli.detect import build_detector
         from gaitcap.services.cli.reconstruct import patient_request
-        from gaitcap.services.processing.offline import OfflineOptions, load_input, process_input
+        from gaitcap.services.processing.offline import (
+            OfflineOptions,
+            choice_reason,
+            load_input,
+            process_input,
+            result_summary,
+        )
 
         with user_errors():
             options = OfflineOptions(skeleton=skeleton, fps=fps, refine=refine,
-                                     patient=patient_request(person, patient_near))
+                                     patient=patient_request(person, patient_near), kinematics=kinematics)
             t0 = time.perf_counter()
             with progress(desc="detect", unit="frame") as bar:
-                data, rig = load_input(source, calibration=calibration, options=options,
+                data = load_input(source, calibration=calibration, options=options,
                                        detector_factory=lambda: build_detector(detector, model, param),
                                        on_frame=lambda: bar.update(1))
             read_s = time.perf_counter() - t0
-            with progress(total=3 if refine else 2, desc="stages", unit="stage") as stages, \
-                    progress(desc="fit", unit="step") as fit:
+            with progress(desc="steps", unit="step") as stages, progress(desc="fit", unit="step") as fit:
 
                 def on_stage(name: str) -> None:
                     stages.set_description(name)
-                    stages.update(0 if name == "layout" else 1)
+                    stages.update(1)
 
                 def on_fit(done: int, total: int) -> None:
                     fit.total, fit.n = total, done
                     fit.refresh()
 
-                result = process_input(data, rig, out, options=options, on_stage=on_stage, fit_progress=on_fit,
+                result = process_input(data, out, options=options, on_stage=on_stage, fit_progress=on_fit,
                                        timings_s={"read and detect": read_s})
             kinematics_note = _kinematics(out, result) if kinematics else ""
+            chosen_how = choice_reason(options.patient)
         if as_json:
-            typer.echo(json.dumps(json_ready(result.summary())))
+            typer.echo(json.dumps(json_ready(result_summary(result, chosen_how=chosen_how))))
         else:
-            _echo_summary(result, out)
+            _echo_summary(result, out, chosen_how)
             if kinematics_note:
                 typer.echo(kinematics_note)

@@ -70,33 +70,23 @@ def reconstruct_command(
     patient_near: str | None = typer.Option(
         None, "--patient-near", help="Several people in view: the one nearest this floor point X,Y mm early on."),
 ) -> None:
-    """Reconstruct 3D keypoint trajectories (mm) from multi-camera 2D keypoints."""
-    import numpy as np
-
+    """Reconstruct 3D keypoint trajectories (mm) from multi-camera 2D keypoints (the one processing path,
+    its reconstruction stage only: no gait files, no kinematics)."""
     with user_errors():
-        from gaitcap.reconstruction.methods import reconstruct
         from gaitcap.reconstruction.trc import to_trc
-        from gaitcap.services.processing.offline import OfflineOptions, load_input
-        from gaitcap.services.processing.outputs import write_npz
-        from gaitcap.services.processing.pipeline import (
-            check_usable,
-            patient_input,
-            resolve_layout,
-            trajectory_of,
+        from gaitcap.services.processing.offline import (
+            OfflineOptions,
+            choice_reason,
+            load_input,
+            people_lines,
         )
+        from gaitcap.services.processing.outputs import write_npz
+        from gaitcap.services.processing.trial import StagePlan, TrialOptions, ViewerFiles, process_trial
 
         options = OfflineOptions(skeleton=skeleton, fps=fps, patient=patient_request(person, patient_near))
-        data, rig = load_input(keypoints, calibration=calibration, options=options)
-        check_usable(data.recording.patient())
-        recording, layout = resolve_layout(data.recording, rig, named=data.layout)
-        det, rig, selection = patient_input(recording, rig, selector=options.patient.selector())
-        if selection is not None:
-            from gaitcap.services.processing.offline import choice_reason, people_lines
-
-            typer.echo(f"{selection.tracks.num_tracks} people tracked:", err=True)
-            for line in people_lines(selection, how=choice_reason(options.patient)):
-                typer.echo(f"  {line}", err=True)
-        config = _method(method, paper, steps)
+        data = load_input(keypoints, calibration=calibration, options=options)
+        plan = TrialOptions(stages=(StagePlan(method.value, _method(method, paper, steps)),),
+                            selector=options.patient.selector(), kinematics=False, viewer_files=ViewerFiles.NONE)
         with progress(desc=method.value, unit="step") as bar:
 
             def report(done: int, total: int) -> None:
@@ -104,10 +94,13 @@ def reconstruct_command(
                 bar.n = done
                 bar.refresh()
 
-            rec = reconstruct(det, rig, method=config, progress=report)
-        if not np.isfinite(rec.points_mm).any():
-            raise ValueError("no joint could be reconstructed in any frame (nothing written)")
-        write_npz(out, trajectory_of(rec))  # the worker's result file (dense samples of a fit included)
+            result = process_trial(data, plan, files=None, fit_progress=report)
+        if result.selection is not None:
+            typer.echo(f"{result.selection.tracks.num_tracks} people tracked:", err=True)
+            for line in people_lines(result.selection, how=choice_reason(options.patient)):
+                typer.echo(f"  {line}", err=True)
+        rec, layout = result.last.reconstruction, result.layout
+        write_npz(out, result.last.trajectory)  # the worker's result file (dense samples of a fit included)
         if trc is not None:
             atomic_write_text(trc, to_trc(rec.points_mm, rec.times_s, rec.joint_names, filename=trc.name))
     from gaitcap.services.processing.offline import frame_ranges, missing_by_joint

@@ -1,37 +1,33 @@
 """Recordings made elsewhere, processed as the worker processes a trial: the offline twin of the clinic's
-Stop button (``gaitcap process``).
+Stop button (``gaitcap process``), an adapter of the one processing path
+(:func:`~gaitcap.services.processing.trial.process_trial`).
 
-input (videos, trial MCAP, keypoint files, other tools' folders) -> everyone's 2D keypoints -> layout
-(:func:`~gaitcap.services.processing.pipeline.resolve_layout`) -> the patient
-(:func:`~gaitcap.services.processing.pipeline.patient_input`, the worker's association and choice) ->
-preliminary (robust triangulation) and refined (implicit fit) trajectories -> gait
-(:func:`~gaitcap.services.processing.pipeline.gait_of`) -> the worker's files for each stage
-(:mod:`gaitcap.services.processing.outputs`, viewer files) in ``OUT/<stage>/``, and ``people.json`` when
-several people were in view.
+It chooses the input (videos detected here, a trial MCAP with what its recorder measured, keypoint files,
+other tools' folders: :func:`load_input`), the options (:class:`OfflineOptions` -> :class:`TrialOptions`)
+and where results go (``OUT/<stage>/``, ``people.json`` when several people were in view); the steps and
+their order are the worker's.
 """
 
 from __future__ import annotations
 
 import logging
-import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.keypoint_files import read_keypoints_input
 from gaitcap.acquisition.keypoint_input import KeypointInput, make_input
-from gaitcap.reconstruction.camera import Rig
 from gaitcap.services.processing.artifacts import TrialFiles
-from gaitcap.services.processing.pipeline import (
-    NoUsableObservations,
-    Trajectory,
-    check_usable,
-    gait_of,
-    patient_input,
-    preliminary,
-    refined,
-    resolve_layout,
+from gaitcap.services.processing.pipeline import Trajectory
+from gaitcap.services.processing.trial import (
+    TrialInput,
+    TrialOptions,
+    TrialResult,
+    default_stages,
+    is_trial_recording,
+    process_trial,
+    recorded_facts,
 )
 
 log = logging.getLogger(__name__)
@@ -64,55 +60,40 @@ class PatientRequest:
 @dataclass(frozen=True)
 class OfflineOptions:
     """skeleton: layout name (wins over the input's and the recognised one); fps: frame rate when the
-    input has none; refine: also run the implicit fit; patient: :class:`PatientRequest`."""
+    input has none; refine: also run the implicit fit; patient: :class:`PatientRequest`; kinematics:
+    joint kinematics of the last stage."""
 
     skeleton: str | None = None
     fps: float = 30.0
     refine: bool = True
     patient: PatientRequest = PatientRequest()
+    kinematics: bool = True
+
+    def trial_options(self) -> TrialOptions:
+        """The one path's options: the worker's, less what was asked to be left out."""
+        return TrialOptions(stages=default_stages(refine=self.refine), selector=self.patient.selector(),
+                            kinematics=self.kinematics)
 
 
-@dataclass(frozen=True, eq=False)
-class StageResult:
-    """One stage: trajectory, gait report (or None and the problem), joints with missing frames, files."""
+def result_summary(result: TrialResult, *, chosen_how: str) -> dict:
+    """JSON-ready summary of a processed input (the ``--json`` output): layout, people, each stage's
+    summary, the data-quality block, timings and the steps left out."""
+    from gaitcap.services.processing.outputs import summary_of
 
-    trajectory: Trajectory
-    report: object | None
-    problem: str
-    missing: dict[str, int]
-    missing_frames: dict[str, str]
-    files: dict[str, str]
-
-
-@dataclass(frozen=True, eq=False)
-class OfflineResult:
-    source: str
-    layout: object  # LayoutChoice
-    selection: object | None  # PatientSelection, None with one person in view
-    cameras: tuple[str, ...]
-    frames: int
-    stages: dict[str, StageResult]
-    timings_s: dict[str, float] = field(default_factory=dict)
-    chosen_how: str = ""
-
-    def summary(self) -> dict:
-        """JSON-ready summary (the ``--json`` output)."""
-        from gaitcap.services.processing.outputs import summary_of
-
-        people = None
-        if self.selection is not None:
-            people = {"tracks": int(self.selection.tracks.num_tracks), "patient_track_id": int(self.selection.track_id),
-                      "chosen_by": self.chosen_how, "lines": people_lines(self.selection, how=self.chosen_how)}
-        return {"source": self.source, "layout": {"skeleton": self.layout.skeleton, "how": self.layout.how,
-                                                  "evidence": self.layout.evidence(),
-                                                  "warnings": list(self.layout.warnings)},
-                "cameras": list(self.cameras), "frames": self.frames, "people": people,
-                "stages": {name: {"method": s.trajectory.method, "problem": s.problem,
-                                  "missing_frames_per_joint": s.missing, "missing_frames": s.missing_frames,
-                                  "files": s.files,
-                                  "summary": summary_of(s.report) if s.report is not None else {}}
-                           for name, s in self.stages.items()},
-                "timings_s": {k: round(v, 3) for k, v in self.timings_s.items()}}
+    people = None
+    if result.selection is not None:
+        people = {"tracks": int(result.selection.tracks.num_tracks), "patient_track_id": int(result.selection.track_id),
+                  "chosen_by": chosen_how, "lines": people_lines(result.selection, how=chosen_how)}
+    layout = None if result.layout is None else {"skeleton": result.layout.skeleton, "how": result.layout.how,
+                                                 "evidence": result.layout.evidence(),
+                                                 "warnings": list(result.layout.warnings)}
+    return {"source": result.source, "layout": layout, "cameras": list(result.cameras), "frames": result.frames,
+            "people": people, "data_quality": result.quality.to_dict(),
+            "stages": {name: {"method": s.trajectory.method, "problem": s.problem,
+                              "missing_frames_per_joint": s.missing, "missing_frames": missing_frames(s.trajectory),
+                              "files": s.files, "summary": summary_of(s.report) if s.report is not None else {}}
+                       for name, s in result.stages.items()},
+            "skipped": dict(result.skipped), "timings_s": {k: round(v, 3) for k, v in result.timings_s.items()}}
 
 
 def people_lines(selection, *, how: str) -> list[str]:
@@ -171,8 +152,9 @@ def detect_input(path: Path, detector, *, fps: float | None, on_frame: Callable[
 
 
 def load_input(path: Path, *, calibration: Path | None, options: OfflineOptions, detector_factory=None,
-               on_frame: Callable[[], None] | None = None) -> tuple[KeypointInput, Rig]:
-    """The keypoint input and the rig (``calibration`` wins over one carried by the input)."""
+               on_frame: Callable[[], None] | None = None) -> TrialInput:
+    """The input as the one path takes it (``calibration`` wins over one carried by the input); a trial
+    MCAP comes with what its recorder measured, so it is judged as the clinic judges it."""
     from gaitcap.acquisition.tool_folders import load_calibration, pose2sim_calibration, pose2sim_videos
 
     user_rig = load_calibration(calibration) if calibration is not None else None
@@ -191,62 +173,38 @@ def load_input(path: Path, *, calibration: Path | None, options: OfflineOptions,
     missing = [n for n in data.recording.camera_names if n not in rig.names]
     if missing:
         raise ValueError(f"cameras {missing} of {path} are not in the calibration (cameras {list(rig.names)})")
-    return data, rig
+    recorded = recorded_facts(path, data.recording) if is_trial_recording(path) else None
+    return TrialInput(data, rig, recorded)
 
 
 # ---------------------------------------------------------------------------------------------- process
-def _stage(files: TrialFiles, name: str, traj: Trajectory, det, *, recording, rig: Rig, trial_id: str) -> StageResult:
-    from gaitcap.services.processing.outputs import write_data, write_views
-    from gaitcap.services.processing.viewers.files import trial_view, write_viewer_files
+class StageNotifier:
+    """A sink that tells the caller as each step starts (``on_stage(words)``); results stay in the files."""
 
-    report, problem = gait_of(traj)
-    if problem:
-        log.warning("%s: no gait parameters: %s", name, problem)
-    missing = {n: int(f.size) for n, f in missing_by_joint(traj.points_mm, traj.joint_names).items()}
-    if missing:
-        log.warning("%s: joints missing in some frames: %s", name,
-                    ", ".join(f"{j} ({n} of {traj.points_mm.shape[0]})" for j, n in missing.items()))
-    write_data(files, name, traj, report)
-    write_views(files, name, traj, report, trial_id=trial_id)
-    write_viewer_files(files, name, trial_view(trial_id, traj, detections=det, keypoints=recording, rig=rig,
-                                               report=report, recording=None, bones=det.skeleton.bone_indices))
-    return StageResult(traj, report, problem, missing, missing_frames(traj), files.existing(name))
+    def __init__(self, on_stage: Callable[[str], None] | None) -> None:
+        self.on_stage = on_stage or (lambda _step: None)
+
+    def progress(self, step: str, fraction: float, result: str | None) -> None:
+        self.on_stage(step)
+
+    def stored(self, outcome, quality) -> None:
+        pass
+
+    def files_added(self, stage: str, files: dict[str, str]) -> None:
+        pass
+
+    def check(self) -> None:
+        pass
 
 
-def process_input(data: KeypointInput, rig: Rig, out: Path, *, options: OfflineOptions = OfflineOptions(),
+def process_input(data: TrialInput, out: Path, *, options: OfflineOptions = OfflineOptions(),
                   on_stage: Callable[[str], None] | None = None, fit_progress=None,
-                  timings_s: dict[str, float] | None = None) -> OfflineResult:
-    """Run the processing path on an input already read (see the module docstring); files under ``out``.
-    ``on_stage(name)`` is called as each stage starts; ``fit_progress(done, total)`` during the fit."""
-    timings = dict(timings_s or {})
-    notify = on_stage or (lambda _name: None)
-    files = TrialFiles(Path(out))
-    check_usable(data.recording.patient())  # before anything is written
-    t0 = time.perf_counter()
-    notify("layout")
-    recording, layout = resolve_layout(data.recording, rig, named=data.layout)
-    timings["layout"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    notify("patient")
-    det, rig_used, selection = patient_input(recording, rig, files=files, selector=options.patient.selector())
-    if selection is not None:
-        for line in people_lines(selection, how=choice_reason(options.patient)):
+                  timings_s: dict[str, float] | None = None) -> TrialResult:
+    """The one processing path on an input already read; files under ``out`` (the worker's names).
+    ``on_stage(words)`` is called as each step starts; ``fit_progress(done, total)`` during the fit."""
+    result = process_trial(data, options.trial_options(), files=TrialFiles(Path(out)), sink=StageNotifier(on_stage),
+                           fit_progress=fit_progress)
+    if result.selection is not None:
+        for line in people_lines(result.selection, how=choice_reason(options.patient)):
             log.info("%s", line)
-    timings["association"] = time.perf_counter() - t0
-    stages = {}
-    runs = [("preliminary", lambda: preliminary(det, rig_used))]
-    if options.refine:
-        runs.append(("refined", lambda: refined(det, rig_used, progress=fit_progress)))
-    for name, run in runs:
-        t0 = time.perf_counter()
-        notify(name)
-        traj = run()
-        if not np.isfinite(traj.points_mm).any():
-            raise NoUsableObservations(f"{name}: no joint could be reconstructed in any frame")
-        timings[name] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        stages[name] = _stage(files, name, traj, det, recording=recording, rig=rig_used, trial_id=files.root.name)
-        timings[f"{name} gait and files"] = time.perf_counter() - t0
-    return OfflineResult(data.source, layout, selection, tuple(det.camera_names), int(det.shape[1]), stages, timings,
-                         choice_reason(options.patient))
-
+    return replace(result, timings_s={**(timings_s or {}), **result.timings_s})

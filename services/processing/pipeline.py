@@ -1,9 +1,9 @@
-"""The computation of one trial: recording -> the patient's detections -> preliminary and refined
-trajectories -> gait. The ONE processing path: the worker, ``gaitcap process`` / ``reconstruct``,
-reprocessing and sweeps call these functions (the patient: :func:`patient_input`; a trajectory:
-:func:`preliminary`, :func:`refined` or :func:`trajectory_of`; gait: :func:`gait_of`).
+"""The steps of one trial's computation: the patient (:func:`patient_input`), the layout
+(:func:`resolve_layout`), a trajectory (:func:`preliminary`, :func:`refined` or :func:`trajectory_of`),
+gait (:func:`gait_of`). They are sequenced in one place only, the one processing path
+:func:`gaitcap.services.processing.trial.process_trial`, which every consumer of a trial calls.
 
-Pure orchestration of ``gaitcap.acquisition.recording`` (reader) and ``reconstruction`` (maths); files are
+Pure computation over ``gaitcap.acquisition.recording`` (reader) and ``reconstruction`` (maths); files are
 written by :mod:`gaitcap.services.processing.outputs`. Robust triangulation is run on detections padded to a
 fixed-size chunks of frames (the last one padded) so a warm worker never recompiles JAX for a new
 trial length.
@@ -51,14 +51,6 @@ class Trajectory:
     sample: Callable[[np.ndarray], np.ndarray] | None = None
     metrics: dict | None = None
     elapsed_s: float = 0.0
-
-
-def load_keypoints(mcap_path: Path, *, fallback_calibration: Path | None = None):
-    """Everyone's 2D keypoints (a ``KeypointRecording``, (C, T, P, J, 3)) and the rig from a trial MCAP;
-    ``.patient()`` of it: the patient's detections."""
-    from gaitcap.acquisition.recording.reader import read_keypoints
-
-    return read_keypoints(mcap_path), recorded_rig(mcap_path, fallback_calibration=fallback_calibration)
 
 
 def recorded_rig(mcap_path: Path, *, fallback_calibration: Path | None = None) -> Rig:

@@ -1,7 +1,8 @@
-"""The worker: takes jobs from the catalog's job table under a lease. A ``process`` job: reads the
-trial's MCAP where the catalog records it (with several people in view it finds the patient first:
-:mod:`gaitcap.services.processing.people`), stores PRELIMINARY gait metrics (robust triangulation) first,
-then the REFINED ones (implicit fit), writes the files and reports progress on the bus. A ``calibrate`` job: computes the calibration of a stopped board
+"""The worker: takes jobs from the catalog's job table under a lease. A ``process`` job runs the one
+processing path (:func:`gaitcap.services.processing.trial.process_trial`) on the trial's MCAP where the
+catalog records it, with the catalog as its sink: PRELIMINARY gait metrics (robust triangulation) are
+stored first, then the REFINED ones (implicit fit), each stage's files listed as they are written, progress
+on the trial's record and the bus. A ``calibrate`` job: computes the calibration of a stopped board
 recording (:mod:`gaitcap.services.processing.calibration_job`).
 
 Several workers may run; each renews its lease while it works. A worker that dies stops renewing and
@@ -24,34 +25,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
-from gaitcap.acquisition.recording.reader import read_summary
 from gaitcap.services import catalog as cat
 from gaitcap.services.kinematics.shown import patient_age
-from gaitcap.services.processing.artifacts import TrialFiles, trial_files
+from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.calibration_job import fail_calibration, run_calibration
-from gaitcap.services.processing.kinematics_step import kinematics_step
-from gaitcap.services.processing.outputs import steps_of, summary_of, write_data, write_views
-from gaitcap.services.processing.people import most_people_in_view
-from gaitcap.services.processing.pipeline import (
-    Trajectory,
-    enable_compile_cache,
-    gait_of,
-    load_keypoints,
-    patient_input,
-    preliminary,
-    refined,
-    ring_rig,
-    warm_up,
+from gaitcap.services.processing.outputs import steps_of, summary_of
+from gaitcap.services.processing.pipeline import Trajectory, enable_compile_cache, ring_rig, warm_up
+from gaitcap.services.processing.quality import DataQuality, QualityCriteria
+from gaitcap.services.processing.trial import (
+    StageOutcome,
+    TrialOptions,
+    default_stages,
+    process_trial,
+    recording_input,
 )
-from gaitcap.services.processing.quality import (
-    DataQuality,
-    QualityCriteria,
-    recording_quality,
-    reprojection_px,
-    with_reprojection,
-)
-from gaitcap.services.processing.recorded_images import recorded_images
-from gaitcap.services.processing.viewers.files import trial_view, write_viewer_files
 from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
 
 log = logging.getLogger(__name__)
@@ -208,6 +195,8 @@ class Worker:
                                          "worker": self.config.worker_id, "time_ns": time.time_ns()})
 
     def process(self, trial_id: str, lease: LeaseKeeper) -> None:
+        """The trial's job: the one processing path (:func:`~gaitcap.services.processing.trial.process_trial`)
+        on its recording, results into the catalog as each stage is stored."""
         trial = cat.get_trial(self.db, trial_id)
         if trial.state in cat.PROCESSABLE:
             cat.set_state(self.db, trial_id, "processing", expect=trial.state, stage="starting", progress=0.0)
@@ -215,40 +204,17 @@ class Worker:
             log.info("trial %s is %s; skipping", trial_id, trial.state)
             return
         files = trial_files(self.config.data_dir, trial_id, recording_of(trial))
-        mcap = files.recording
         self._report(trial_id, "processing", "reading the recording", 0.05, None)
         t0 = time.perf_counter()
-        recording, rig = load_keypoints(mcap, fallback_calibration=self.config.fallback_calibration)
-        if most_people_in_view(recording.people) > 1:
-            self._report(trial_id, "processing", "finding the patient among the people in view", 0.07, None)
-        det, seen_rig, _ = patient_input(recording, rig, files=files)
-        summary = read_summary(mcap)  # the recorder's: Start to Stop, the images it wrote per camera
-        images = recorded_images(mcap, summary, recording)  # from the file when recovered or restarted
-        quality = recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
-                                    patient_confidence=det.keypoints[..., 2], expected_cameras=rig.names,
-                                    recorded_s=summary.get("duration_s"), frame_ids=recording.frame_ids,
-                                    recorded_frames=images.frames, recovered=images.recovered,
-                                    recorder_dropped=images.dropped,
-                                    restarts=recording.restarts, ignored=recording.ignored,
-                                    criteria=self.config.criteria)
-        rig = seen_rig
-        source = (recording, rig, mcap)  # what the viewer files show besides the results
-        self.load_s = time.perf_counter() - t0
-        self._report(trial_id, "processing", "first 3D reconstruction", 0.1, None)
-        traj = preliminary(det, rig)
-        quality = with_reprojection(quality, reprojection_px(traj.points_mm, det.keypoints, rig))
-        lease.check()
-        self._store(files, "preliminary", traj, det, viewers=None if self.config.refine else source,
-                    data_quality=quality)
-        if self.config.refine:
-            self._report(trial_id, "processing", "refining the 3D reconstruction", 0.4, "preliminary")
-            traj = refined(det, rig)
-            lease.check()
-            self._store(files, "refined", traj, det, viewers=source, data_quality=quality)
-        # joint kinematics follow the stored result (separate step, never fails the trial)
-        kinematics_step(files, "refined" if self.config.refine else "preliminary", traj,
-                        age_years=patient_age(self.db, trial_id))  # the band the page shows, in the files
-        self._finish(trial_id, quality)
+        data = recording_input(files.recording, fallback_calibration=self.config.fallback_calibration)
+        sink = CatalogSink(self, trial_id, lease, load_s=time.perf_counter() - t0)
+        result = process_trial(data, self.options(age_years=patient_age(self.db, trial_id)), files=files, sink=sink)
+        self._finish(trial_id, result.quality)
+
+    def options(self, *, age_years: int | None) -> TrialOptions:
+        """The clinic's options: both stages (or the preliminary only), kinematics, viewer files of the last."""
+        return TrialOptions(stages=default_stages(refine=self.config.refine), age_years=age_years,
+                            criteria=self.config.criteria, rerun=self.config.rerun)
 
     def _finish(self, trial_id: str, quality: DataQuality) -> None:
         """``done``, or ``done_with_warnings`` when the data had serious problems (this worker's measures,
@@ -258,40 +224,36 @@ class Worker:
         cat.set_state(self.db, trial_id, final, expect="processing", stage="done", progress=1.0)
         self._report(trial_id, final, "done", 1.0, "refined" if self.config.refine else "preliminary")
 
-    def _store(self, files: TrialFiles, stage: str, traj: Trajectory, det, *, viewers: tuple | None,
-               data_quality: DataQuality) -> None:
-        """Gait analysis, the catalog result and the stage's files (``files``: the trial's, as the job found
-        them); ``viewers``: (keypoint recording, rig, trial MCAP) to write the viewer files (.rrd, results
-        MCAP) from, None for none."""
-        trial_id = files.root.name
-        t0 = time.perf_counter()
-        report, problem = gait_of(traj)
-        if problem:
-            log.warning("trial %s %s: no gait parameters: %s", trial_id, stage, problem)
-        gait_s = time.perf_counter() - t0
-        written = write_data(files, stage, traj, report, data_quality=data_quality.to_dict())
-        # The plot, TRC and viewer files follow right after the result is stored (the page retries the plot);
-        # each is listed in the catalog only once written (renamed into place): never a row for a half file.
+
+class CatalogSink:
+    """The clinic's sink: each stage's result row, quality and files into the catalog, progress on the
+    trial's record and the bus, the job's lease checked between steps."""
+
+    def __init__(self, worker: Worker, trial_id: str, lease: LeaseKeeper, *, load_s: float) -> None:
+        self.worker, self.trial_id, self.lease, self.load_s = worker, trial_id, lease, load_s
+
+    def progress(self, step: str, fraction: float, result: str | None) -> None:
+        self.worker._report(self.trial_id, "processing", step, fraction, result)
+
+    def check(self) -> None:
+        self.lease.check()
+
+    def stored(self, outcome: StageOutcome, quality: DataQuality) -> None:
+        db, report, traj = self.worker.db, outcome.report, outcome.trajectory
         gait_warnings = list(report.warnings) if report else []
-        cat.set_quality(self.db, trial_id, "processing", {**data_quality.to_dict(), "gait_warnings": gait_warnings,
-                                                          "stage": stage})
-        extra = {"warnings": gait_warnings, "problem": problem, "data_quality": data_quality.to_dict(),
-                 "load_s": round(getattr(self, "load_s", 0.0), 3), "compute_s": round(traj.elapsed_s, 3),
-                 "gait_s": round(gait_s, 3), "gait_and_files_s": round(time.perf_counter() - t0, 3)}
-        cat.store_result(self.db, trial_id=trial_id, stage=stage, method=traj.method,
+        cat.set_quality(db, self.trial_id, "processing", {**quality.to_dict(), "gait_warnings": gait_warnings,
+                                                          "stage": outcome.name})
+        extra = {"warnings": gait_warnings, "problem": outcome.problem, "data_quality": quality.to_dict(),
+                 "load_s": round(self.load_s, 3), "compute_s": round(traj.elapsed_s, 3),
+                 "gait_s": round(outcome.gait_s, 3)}
+        cat.store_result(db, trial_id=self.trial_id, stage=outcome.name, method=traj.method,
                          steps=steps_of(report) if report else [], summary=summary_of(report) if report else {},
-                         report=extra, quality=traj.metrics or {}, artifacts=written,
-                         elapsed_s=traj.elapsed_s + time.perf_counter() - t0)
-        log.info("trial %s: %s results stored (%s)", trial_id, stage, extra)
-        self._report(trial_id, "processing", f"saving the {stage} files", 0.35 if stage == "preliminary" else 0.95,
-                     stage)
-        cat.add_artifacts(self.db, trial_id, stage, write_views(files, stage, traj, report, trial_id=trial_id))
-        if viewers:
-            keypoints, rig, mcap = viewers
-            view = trial_view(trial_id, traj, detections=det, keypoints=keypoints, rig=rig, report=report,
-                              recording=mcap, bones=det.skeleton.bone_indices)
-            shown = write_viewer_files(files, stage, view, self.config.rerun)
-            cat.add_artifacts(self.db, trial_id, stage, {k: str(p) for k, p in shown.items()})
+                         report=extra, quality=traj.metrics or {}, artifacts=outcome.files,
+                         elapsed_s=traj.elapsed_s + outcome.gait_s)
+        log.info("trial %s: %s results stored (%s)", self.trial_id, outcome.name, extra)
+
+    def files_added(self, stage: str, files: dict[str, str]) -> None:
+        cat.add_artifacts(self.worker.db, self.trial_id, stage, files)
 
 
 def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:

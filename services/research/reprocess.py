@@ -237,51 +237,63 @@ def run_task(task: ReprocessTask) -> TaskOutcome:
 
 # ---------------------------------------------------------------------------------------------- one result
 def compute_result(task: ReprocessTask) -> MethodResult:
-    """Reconstruction, metrics, gait and residuals of one trial under one method (raises ValueError)."""
-    from gaitcap.reconstruction.methods import reconstruct
+    """Reconstruction, metrics, gait and residuals of one trial under one method (raises ValueError): the
+    one processing path with the method as its only stage, nothing written in the trial's files."""
     from gaitcap.services.processing.artifacts import TrialFiles
     from gaitcap.services.processing.people import read_choice
-    from gaitcap.services.processing.pipeline import load_keypoints, patient_input, trajectory_of
+    from gaitcap.services.processing.trial import (
+        StagePlan,
+        TrialOptions,
+        ViewerFiles,
+        process_trial,
+        recording_input,
+    )
 
-    recording, rig = load_keypoints(task.trial.recording)  # several people in view: the patient (stored choice)
-    det, rig, _ = patient_input(recording, rig, choice=read_choice(TrialFiles(task.trial.folder)))
-    truth = _truth_points(task.trial.folder, det)
-    rec = reconstruct(det, rig, method=task.spec.config(), truth_mm=truth)
-    traj = trajectory_of(rec)  # the worker's trajectory: its sampler and gait analysis
+    data = recording_input(task.trial.recording)  # several people in view: the patient (stored choice)
+    recording = data.keypoints.recording
+    options = TrialOptions(stages=(StagePlan(task.spec.method, task.spec.config()),), kinematics=False,
+                           viewer_files=ViewerFiles.NONE, choice=read_choice(TrialFiles(task.trial.folder)),
+                           truth_mm=_truth_points(task.trial.folder, recording.people.shape[1], recording.skeleton))
+    result = process_trial(data, options, files=None)
+    stage = result.last
+    rec, traj = stage.reconstruction, stage.trajectory  # the worker's trajectory: its sampler and gait analysis
     points, times, names = traj.points_mm, traj.times_s, list(traj.joint_names)
-    gait = _gait(traj)
+    gait = _gait(stage)
     residuals = _residuals(task.trial, points, times, names, traj.sample)
     metrics = {k: v for k, v in rec.metrics.items()}
     metrics.update({f"fit.{k}": float(v) for k, v in rec.losses.items() if np.isscalar(v) and k != "seconds"})
     result = MethodResult(task.trial.trial_id, task.spec.method, task.spec.key, task.spec.to_dict(), "ok",
-                          skeleton=det.skeleton.name, metrics=json_ready(metrics), gait=gait, residuals=residuals)
+                          skeleton=result.layout.skeleton if result.layout else recording.skeleton,
+                          metrics=json_ready(metrics), gait=gait, residuals=residuals)
     if task.write_files:
         result = MethodResult(**{**result.__dict__, "artifacts": _write_files(task, result, traj)})
     return result
 
 
-def _truth_points(folder: Path, det) -> np.ndarray | None:
-    """Ground-truth points (T, J, 3) mm from ``ground_truth.npz`` when it matches the detections."""
+def _truth_points(folder: Path, frames: int, skeleton: str) -> np.ndarray | None:
+    """Ground-truth points (T, J, 3) mm from ``ground_truth.npz`` when it matches the recording's ``frames``
+    and ``skeleton``'s joints."""
+    from gaitcap.reconstruction.skeletons import get_skeleton
+
     path = folder / GROUND_TRUTH_FILE
     if not path.is_file():
         return None
+    joints = tuple(get_skeleton(skeleton).joint_names)
     with np.load(path, allow_pickle=False) as z:
         points, names = z["points_mm"], tuple(str(n) for n in z["joint_names"])
-    if points.shape != (det.shape[1], det.shape[2], 3) or names != tuple(det.skeleton.joint_names):
+    if points.shape != (frames, len(joints), 3) or names != joints:
         log.warning("%s: shape %s / joints do not match the recording; not used", path, points.shape)
         return None
     return points
 
 
-def _gait(traj) -> dict:
-    """The worker's gait analysis (:func:`~gaitcap.services.processing.pipeline.gait_of`) and catalog summary."""
+def _gait(stage) -> dict:
+    """The one path's gait analysis of the stage and the catalog's summary."""
     from gaitcap.services.processing.outputs import summary_of
-    from gaitcap.services.processing.pipeline import gait_of
 
-    report, problem = gait_of(traj)
-    if report is None:
-        return {"problem": problem, "steps": 0, "summary": {}}
-    return {"problem": "", "steps": len(report.steps), "summary": summary_of(report)}
+    if stage.report is None:
+        return {"problem": stage.problem, "steps": 0, "summary": {}}
+    return {"problem": "", "steps": len(stage.report.steps), "summary": summary_of(stage.report)}
 
 
 def _reference(trial: TrialRef):

@@ -1,0 +1,412 @@
+"""One trial, one path: :func:`process_trial` is the only place that sequences a trial's stages.
+
+Every consumer of a trial (the clinic's worker, ``gaitcap process``, ``gaitcap reconstruct``, research
+reprocessing and sweeps) is an adapter that chooses the input (:class:`TrialInput`), the options
+(:class:`TrialOptions`: which reconstruction stages, which optional steps) and where results go (a
+:class:`TrialSink`: the catalog, an output folder, the research store); none of them decides which
+steps run or in which order. The sequence:
+
+1. usable input (:func:`~gaitcap.services.processing.pipeline.check_usable`), before anything is written;
+2. keypoint layout (:func:`~gaitcap.services.processing.pipeline.resolve_layout`; option ``layout_check``);
+3. the patient among the people in view (:func:`~gaitcap.services.processing.pipeline.patient_input`);
+4. data quality of the recording (:func:`~gaitcap.services.processing.quality.recording_quality`);
+5. each reconstruction stage in order (default: preliminary robust triangulation, refined implicit fit):
+   the trajectory (refused when no joint could be reconstructed), the reprojection error of the first
+   stage into the quality block, gait (:func:`~gaitcap.services.processing.pipeline.gait_of`), the stage's
+   data files, ``sink.stored``, its views (TRC, plot) and, by ``viewer_files``, its viewer files;
+6. joint kinematics of the last stage (option ``kinematics``; never fails the trial).
+
+A step left out by the options is named in :attr:`TrialResult.skipped` with the option that left it out.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+from gaitcap.acquisition.keypoint_input import KeypointInput
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.services.processing.artifacts import TrialFiles
+from gaitcap.services.processing.pipeline import (
+    NoUsableObservations,
+    Trajectory,
+    check_usable,
+    gait_of,
+    patient_input,
+    preliminary,
+    resolve_layout,
+    trajectory_of,
+)
+from gaitcap.services.processing.quality import (
+    DataQuality,
+    QualityCriteria,
+    recording_quality,
+    reprojection_px,
+    with_reprojection,
+)
+from gaitcap.services.processing.recorded_images import RecordedImages
+from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
+
+log = logging.getLogger(__name__)
+
+
+# ---------------------------------------------------------------------------------------------- input
+@dataclass(frozen=True, eq=False)
+class RecordedFacts:
+    """What only a trial recording made by the recorder tells: ``mcap`` (its path, for the viewer files'
+    images), ``summary`` (the recorder's, Start to Stop: ``duration_s``, cameras) and ``images`` (the images
+    it holds per camera)."""
+
+    mcap: Path
+    summary: dict
+    images: RecordedImages
+
+
+@dataclass(frozen=True, eq=False)
+class TrialInput:
+    """Everyone's 2D keypoints (``keypoints.recording``, (C, T, P, J, 3)), the rig they are calibrated
+    by, and, for a trial recording, what the recorder measured (``recorded``; None for other inputs)."""
+
+    keypoints: KeypointInput
+    rig: Rig
+    recorded: RecordedFacts | None = None
+
+    @property
+    def source(self) -> str:
+        return self.keypoints.source
+
+
+# ---------------------------------------------------------------------------------------------- options
+class ViewerFiles(enum.Enum):
+    """Which stages get viewer files (.rrd, results MCAP): none, the last, every one."""
+
+    NONE = "none"
+    LAST = "last"
+    EVERY = "every"
+
+
+@dataclass(frozen=True)
+class StagePlan:
+    """One reconstruction stage: ``name`` (the trial's stage folder: preliminary | refined; any name when
+    nothing is written), ``method`` (a :mod:`gaitcap.reconstruction.methods` config), ``label`` (the
+    trajectory's method in words; default the method's name), ``chunked`` (robust triangulation on fixed
+    chunks of frames, so a warm worker never recompiles: the clinic's preliminary stage)."""
+
+    name: str
+    method: object
+    label: str | None = None
+    chunked: bool = False
+
+
+def default_stages(*, refine: bool = True) -> tuple[StagePlan, ...]:
+    """The clinic's stages: preliminary (chunked robust triangulation) then, with ``refine``, refined
+    (the default implicit trajectory fit)."""
+    from gaitcap.reconstruction.methods import Implicit, Robust
+
+    stages = (StagePlan("preliminary", Robust(), label="robust triangulation", chunked=True),)
+    return stages + ((StagePlan("refined", Implicit(), label="implicit trajectory fit"),) if refine else ())
+
+
+@dataclass(frozen=True, eq=False)
+class TrialOptions:
+    """What runs. ``stages``: the reconstruction stages in order; ``layout_check``: score the keypoint
+    layouts (else the input's is used as it is); ``selector``: how to choose the patient (default: the
+    clinician's stored choice, else automatic); ``choice``: the clinician's stored choice when nothing is
+    written (``files`` None: reprocessing reads it from the trial's folder); ``kinematics``: joint kinematics of the last stage;
+    ``age_years``: the patient's age (the kinematics band); ``viewer_files``: which stages get viewer
+    files; ``criteria``: the data-quality thresholds; ``rerun``: the .rrd's settings; ``truth_mm``:
+    ground-truth points (T, J, 3) mm for the methods' metrics (research), or None."""
+
+    stages: tuple[StagePlan, ...] = field(default_factory=default_stages)
+    layout_check: bool = True
+    selector: object | None = None
+    choice: object | None = None
+    kinematics: bool = True
+    age_years: int | None = None
+    viewer_files: ViewerFiles = ViewerFiles.LAST
+    criteria: QualityCriteria = QualityCriteria()
+    rerun: RerunSettings = RerunSettings()
+    truth_mm: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if not self.stages:
+            raise ValueError("stages: give at least one reconstruction stage")
+        names = [s.name for s in self.stages]
+        if len(set(names)) != len(names):
+            raise ValueError(f"stages: each stage name once, got {names}")
+
+
+# ---------------------------------------------------------------------------------------------- results
+@dataclass(frozen=True, eq=False)
+class StageOutcome:
+    """One stage: its trajectory, gait report (or None and ``problem``), the joints with missing frames
+    ({joint: count}), the files written ({artifact key: path}), and the method's
+    :class:`~gaitcap.reconstruction.result.Reconstruction` when it ran unchunked (metrics, losses)."""
+
+    name: str
+    trajectory: Trajectory
+    report: object | None
+    problem: str
+    missing: dict[str, int]
+    files: dict[str, str] = field(default_factory=dict)
+    reconstruction: object | None = None
+    gait_s: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class TrialResult:
+    """A processed trial: the layout chosen, the patient's selection (None with one person in view), the
+    cameras and frames used, the data quality, each stage's outcome, timings (s), and the steps the
+    options left out ({step: why})."""
+
+    source: str
+    layout: object  # LayoutChoice, or None without the layout check
+    selection: object | None
+    cameras: tuple[str, ...]
+    frames: int
+    quality: DataQuality
+    stages: dict[str, StageOutcome]
+    timings_s: dict[str, float]
+    skipped: dict[str, str]
+    kinematics: bool | None = None  # computed (True), unavailable (False), not run (None)
+
+    @property
+    def last(self) -> StageOutcome:
+        return list(self.stages.values())[-1]
+
+
+# ---------------------------------------------------------------------------------------------- sinks
+class TrialSink(Protocol):
+    """Where a trial's results go besides its files (the catalog, the terminal)."""
+
+    def progress(self, step: str, fraction: float, result: str | None) -> None:
+        """A step starts (words), ``fraction`` of the trial done, the last stage stored (or None)."""
+
+    def stored(self, outcome: StageOutcome, quality: DataQuality) -> None:
+        """A stage's result is computed and its data files written."""
+
+    def files_added(self, stage: str, files: dict[str, str]) -> None:
+        """More files of a stage are written whole ({artifact key: path})."""
+
+    def check(self) -> None:
+        """Raise to stop processing (e.g. the job's lease was lost)."""
+
+
+class NoSink:
+    """Results stay in the files and the returned :class:`TrialResult`."""
+
+    def progress(self, step: str, fraction: float, result: str | None) -> None:
+        pass
+
+    def stored(self, outcome: StageOutcome, quality: DataQuality) -> None:
+        pass
+
+    def files_added(self, stage: str, files: dict[str, str]) -> None:
+        pass
+
+    def check(self) -> None:
+        pass
+
+
+# ---------------------------------------------------------------------------------------------- the path
+def process_trial(data: TrialInput, options: TrialOptions = TrialOptions(), *, files: TrialFiles | None,
+                  sink: TrialSink | None = None, fit_progress=None) -> TrialResult:
+    """Process one trial (see the module docstring). ``files``: the trial's folder (None: nothing is
+    written); ``sink``: where results go besides the files; ``fit_progress(done, total)`` during fits."""
+    sink = sink or NoSink()
+    timings: dict[str, float] = {}
+    skipped = _skipped(options, files)
+    check_usable(data.keypoints.recording.patient())  # before anything is written
+    t0 = time.perf_counter()
+    recording, layout = _layout(data, options)
+    timings["layout"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    if _people_in_view(recording) > 1:
+        sink.progress("finding the patient among the people in view", 0.07, None)
+    det, rig, selection = patient_input(recording, data.rig, files=files, choice=options.choice,
+                                        selector=options.selector)
+    timings["association"] = time.perf_counter() - t0
+    quality = trial_quality(data, recording, det, rig, options.criteria)
+    stages: dict[str, StageOutcome] = {}
+    for index, plan in enumerate(options.stages):
+        sink.progress(_STARTING.get(plan.name, f"reconstruction: {plan.name}"), _start(index, options), _last(stages))
+        t0 = time.perf_counter()
+        traj, rec = run_stage(plan, det, rig, fit_progress=fit_progress, truth_mm=options.truth_mm)
+        timings[plan.name] = time.perf_counter() - t0
+        sink.check()
+        if index == 0:
+            quality = with_reprojection(quality, reprojection_px(traj.points_mm, det.keypoints, rig))
+        t0 = time.perf_counter()
+        viewers = (recording, rig) if _wants_viewers(options, index) else None
+        stages[plan.name] = _finish_stage(plan.name, traj, rec, det, files, sink, quality, viewers=viewers,
+                                          data=data, options=options)
+        timings[f"{plan.name} gait and files"] = time.perf_counter() - t0
+    kinematics = None
+    if options.kinematics and files is not None:
+        t0 = time.perf_counter()
+        kinematics = _kinematics(files, list(stages.values())[-1], options.age_years)
+        timings["kinematics"] = time.perf_counter() - t0
+    return TrialResult(data.source, layout, selection, tuple(det.camera_names), int(det.shape[1]), quality, stages,
+                       timings, skipped, kinematics)
+
+
+_STARTING = {"preliminary": "first 3D reconstruction", "refined": "refining the 3D reconstruction"}
+
+
+def _start(index: int, options: TrialOptions) -> float:
+    """Fraction of the trial done when stage ``index`` starts (0.1 .. 0.9)."""
+    return round(0.1 + 0.3 * index if len(options.stages) == 2 else 0.1 + 0.8 * index / len(options.stages), 3)
+
+
+def _last(stages: dict[str, StageOutcome]) -> str | None:
+    return list(stages)[-1] if stages else None
+
+
+def _skipped(options: TrialOptions, files: TrialFiles | None) -> dict[str, str]:
+    out = {}
+    if not options.layout_check:
+        out["layout check"] = "layout_check=False: the input's layout is used as it is"
+    if not options.kinematics:
+        out["kinematics"] = "kinematics=False"
+    if files is None:
+        out["files"] = "no output folder: nothing written"
+    elif options.viewer_files is ViewerFiles.NONE:
+        out["viewer files"] = "viewer_files=none"
+    return out
+
+
+def _layout(data: TrialInput, options: TrialOptions):
+    """The recording in its keypoint layout and the choice (None when the check is left out)."""
+    if not options.layout_check:
+        return data.keypoints.recording, None
+    return resolve_layout(data.keypoints.recording, data.rig, named=data.keypoints.layout)
+
+
+def _people_in_view(recording) -> int:
+    from gaitcap.services.processing.people import most_people_in_view
+
+    return most_people_in_view(recording.people)
+
+
+def _wants_viewers(options: TrialOptions, index: int) -> bool:
+    last = index == len(options.stages) - 1
+    return options.viewer_files is ViewerFiles.EVERY or (options.viewer_files is ViewerFiles.LAST and last)
+
+
+def trial_quality(data: TrialInput, recording, det, rig: Rig, criteria: QualityCriteria) -> DataQuality:
+    """The recording's data quality: cameras, timing, the patient's detections; a recorder's recording
+    also judges the cameras by the images it holds and says when it was recovered."""
+    recorded = data.recorded
+    images = recorded.images if recorded is not None else None
+    return recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
+                             patient_confidence=det.keypoints[..., 2], expected_cameras=rig.names,
+                             recorded_s=recorded.summary.get("duration_s") if recorded else None,
+                             frame_ids=recording.frame_ids, recorded_frames=images.frames if images else None,
+                             recovered=images.recovered if images else False,
+                             recorder_dropped=images.dropped if images else None,
+                             restarts=recording.restarts, ignored=recording.ignored, criteria=criteria)
+
+
+def run_stage(plan: StagePlan, det, rig: Rig, *, fit_progress=None, truth_mm=None) -> tuple[Trajectory, object]:
+    """The stage's trajectory and the method's Reconstruction (None when chunked); NoUsableObservations
+    when no joint could be reconstructed in any frame."""
+    from gaitcap.reconstruction.methods import reconstruct
+
+    t0 = time.perf_counter()
+    if plan.chunked:
+        traj, rec = preliminary(det, rig), None
+    else:
+        rec = reconstruct(det, rig, method=plan.method, progress=fit_progress, truth_mm=truth_mm)
+        traj = trajectory_of(rec, method=plan.label, elapsed_s=time.perf_counter() - t0)
+    if plan.label and traj.method != plan.label:
+        traj = replace(traj, method=plan.label)
+    if not np.isfinite(traj.points_mm).any():
+        raise NoUsableObservations(f"{plan.name}: no joint could be reconstructed in any frame")
+    return traj, rec
+
+
+def _finish_stage(name: str, traj: Trajectory, rec, det, files: TrialFiles | None, sink: TrialSink,
+                  quality: DataQuality, *, viewers, data: TrialInput, options: TrialOptions) -> StageOutcome:
+    """Gait, the stage's data files, ``sink.stored``, then its views and viewer files."""
+    from gaitcap.services.processing.outputs import write_data, write_views
+
+    t0 = time.perf_counter()
+    report, problem = gait_of(traj)
+    if problem:
+        log.warning("%s: no gait parameters: %s", name, problem)
+    missing = missing_counts(traj)
+    if missing:
+        log.warning("%s: joints missing in some frames: %s", name,
+                    ", ".join(f"{j} ({n} of {traj.points_mm.shape[0]})" for j, n in missing.items()))
+    gait_s = time.perf_counter() - t0
+    written = {} if files is None else write_data(files, name, traj, report, data_quality=quality.to_dict())
+    outcome = StageOutcome(name, traj, report, problem, missing, dict(written), rec, gait_s)
+    sink.stored(outcome, quality)
+    if files is None:
+        return outcome
+    sink.progress(f"saving the {name} files", 0.35 if name == "preliminary" else 0.95, name)
+    views = write_views(files, name, traj, report, trial_id=files.root.name)
+    sink.files_added(name, views)
+    written.update(views)
+    if viewers is not None:
+        shown = _viewer_files(files, name, traj, det, report, viewers, data, options)
+        sink.files_added(name, shown)
+        written.update(shown)
+    return replace(outcome, files=written)
+
+
+def _viewer_files(files: TrialFiles, name: str, traj: Trajectory, det, report, viewers, data: TrialInput,
+                  options: TrialOptions) -> dict[str, str]:
+    from gaitcap.services.processing.viewers.files import trial_view, write_viewer_files
+
+    recording, rig = viewers
+    mcap = data.recorded.mcap if data.recorded is not None else None
+    view = trial_view(files.root.name, traj, detections=det, keypoints=recording, rig=rig, report=report,
+                      recording=mcap, bones=det.skeleton.bone_indices)
+    return {k: str(p) for k, p in write_viewer_files(files, name, view, options.rerun).items()}
+
+
+def missing_counts(traj: Trajectory) -> dict[str, int]:
+    """Joint name -> frames where the trajectory has no point, for joints with some."""
+    gone = ~np.isfinite(traj.points_mm).all(-1)  # (T, J)
+    return {n: int(gone[:, j].sum()) for j, n in enumerate(traj.joint_names) if gone[:, j].any()}
+
+
+def _kinematics(files: TrialFiles, stage: StageOutcome, age_years: int | None) -> bool:
+    from gaitcap.services.processing.kinematics_step import kinematics_step
+
+    return kinematics_step(files, stage.name, stage.trajectory, age_years=age_years)
+
+
+# ---------------------------------------------------------------------------------------------- inputs
+def recording_input(mcap: Path, *, fallback_calibration: Path | None = None) -> TrialInput:
+    """A trial recording made by the recorder as a :class:`TrialInput` (the worker's): everyone's
+    keypoints, the calibration recorded in it (else ``fallback_calibration``), what the recorder measured."""
+    from gaitcap.acquisition.recording.reader import read_keypoints
+    from gaitcap.services.processing.pipeline import recorded_rig
+
+    recording = read_keypoints(mcap)  # first: a file that is no recording is named as such
+    rig = recorded_rig(mcap, fallback_calibration=fallback_calibration)
+    keypoints = KeypointInput(recording, recording.skeleton, rig, "trial MCAP")
+    return TrialInput(keypoints, rig, recorded_facts(mcap, recording))
+
+
+def recorded_facts(mcap: Path, recording) -> RecordedFacts:
+    """The recorder's summary of a trial MCAP (Start to Stop, images per camera) and the images it holds,
+    placed on ``recording``'s (its keypoints') frame grid."""
+    from gaitcap.acquisition.recording.reader import read_summary
+    from gaitcap.services.processing.recorded_images import recorded_images
+
+    summary = read_summary(mcap)
+    return RecordedFacts(Path(mcap), summary, recorded_images(mcap, summary, recording))
+
+
+def is_trial_recording(path: Path) -> bool:
+    """A recorder's trial MCAP (a file ending in .mcap)."""
+    return Path(path).is_file() and Path(path).suffix.lower() == ".mcap"
+
