@@ -1,0 +1,358 @@
+"""The rig checked from the walking patient: has a camera moved since it was calibrated?
+
+Each camera is judged against points triangulated from the OTHER cameras (leave one out), so a camera
+cannot hide its own error by pulling the points towards itself. Its residuals against those points are
+split into two parts by refitting the camera's pose (rotation about its centre and a shift of the centre)
+to them with a robust loss:
+
+- the **systematic field**: how far (px) the refitted pose moves the points in the image compared with the
+  calibrated pose. A camera rotated or moved after calibration shifts every point coherently, by several px
+  for a fraction of a degree; detector noise averages out over thousands of points and leaves it near 0.
+- the **noise**: what is left after the refit (the detector's scatter, the other cameras' error).
+
+How much of the systematic field the noise alone could produce is measured, not assumed: the frames are
+split into blocks (contiguous in time, since detector errors are correlated from frame to frame) and the
+pose is refitted without each block in turn (a delete-one-block jackknife); the spread of those fields
+gives the field's standard error. A camera is flagged as moved when its field exceeds ``min_field_px``,
+``significance`` standard errors and ``rig_ratio`` times the other cameras' median field (a real detector
+leaves every camera a field of its own; a moved camera stands out), and its estimated rotation (deg) or
+shift (mm) reaches the configured size. Cameras are judged worst first: once a camera is flagged it is left
+out of the other cameras' triangulations, so a moved camera does not make its neighbours look moved.
+
+Units: points mm, image points px, rotations deg. Pure computation (numpy, scipy); no I/O.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+from gaitcap.reconstruction.calibration.geometry import rodrigues_batch, rotation_angle_deg, rvec_of
+from gaitcap.reconstruction.camera import Camera, Rig
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.triangulation import robust_triangulate
+
+log = logging.getLogger(__name__)
+
+RAYLEIGH_MEDIAN = float(np.sqrt(2 * np.log(2)))  # median of |e| / sigma for 2D Gaussian noise
+
+
+@dataclass(frozen=True)
+class RigCheckConfig:
+    """Rig-check settings.
+
+    Attributes:
+        min_confidence: keypoints at or below this confidence are not used.
+        max_frames: frames used at most (evenly spaced), for speed.
+        min_points: a camera with fewer usable keypoints is not judged (``judged`` False).
+        blocks: contiguous frame blocks of the jackknife for the field's standard error.
+        min_field_px: a field smaller than this (median over the points, px) is never a moved camera.
+        significance: the field must exceed this many of its standard errors.
+        rig_ratio: and this many times the median field of the other cameras judged (floored at
+            ``min_field_px``): where detector biases leave every camera a field of its own (real detectors,
+            a person who barely moves), one camera must stand out from the rest.
+        min_rotation_deg / min_shift_mm: a flagged camera's estimate must reach one of these.
+        robust_scale_px: scale of the soft-L1 loss of the pose refit, px.
+        triangulation_sigma_mm: the robust triangulation's sigma (mm) for the leave-one-out points.
+    """
+
+    min_confidence: float = 0.5
+    max_frames: int = 300
+    min_points: int = 200
+    blocks: int = 8
+    min_field_px: float = 2.0
+    significance: float = 5.0
+    rig_ratio: float = 2.5
+    min_rotation_deg: float = 0.3
+    min_shift_mm: float = 10.0
+    robust_scale_px: float = 3.0
+    triangulation_sigma_mm: float = 150.0
+
+    def __post_init__(self) -> None:
+        if self.blocks < 2:
+            raise ValueError(f"rig check: blocks must be >= 2, got {self.blocks}")
+        if not 0.0 <= self.min_confidence < 1.0:
+            raise ValueError(f"rig check: min_confidence must lie in [0, 1), got {self.min_confidence}")
+
+
+@dataclass(frozen=True)
+class CameraCheck:
+    """One camera's check.
+
+    Attributes:
+        name: the camera.
+        judged: False when it had too few usable keypoints (``points`` < ``min_points``) to judge.
+        points: keypoints used (confident, with a leave-one-out point).
+        residual_px: median reprojection error against the leave-one-out points, px (calibrated pose).
+        residual_all_px: median error against the points triangulated from all cameras (the trial's own
+            reprojection figure), px.
+        refit_residual_px: median error after refitting the pose, px (the detector's and the other cameras'
+            share).
+        expected_px: the calibration's own reprojection figure for this camera, px (None: not known).
+        field_px: median image displacement (px) of the refitted pose from the calibrated one.
+        field_se_px: standard error of ``field_px`` from the frame blocks, px.
+        rotation_deg: estimated rotation of the camera since calibration, deg.
+        shift_mm: estimated shift of its centre, mm.
+        moved: flagged as moved.
+        turn_deg: the estimated rotation as a rotation vector (3,) deg in the camera's frame (the actual
+            world -> camera rotation is ``rodrigues(turn) @ R_calibrated``).
+        shift_vector_mm: the estimated shift of the centre (3,) mm in the world frame.
+    """
+
+    name: str
+    judged: bool
+    points: int
+    residual_px: float
+    residual_all_px: float
+    refit_residual_px: float
+    expected_px: float | None
+    field_px: float
+    field_se_px: float
+    rotation_deg: float
+    shift_mm: float
+    moved: bool
+    turn_deg: tuple[float, float, float] = (float("nan"),) * 3
+    shift_vector_mm: tuple[float, float, float] = (float("nan"),) * 3
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class RigCheck:
+    """The rig check of one trial: every camera's check and the warnings naming a moved camera."""
+
+    cameras: tuple[CameraCheck, ...]
+    warnings: tuple[str, ...]
+
+    @property
+    def moved(self) -> tuple[str, ...]:
+        """Names of the cameras flagged as moved."""
+        return tuple(c.name for c in self.cameras if c.moved)
+
+    @property
+    def flagged(self) -> bool:
+        return bool(self.moved)
+
+    def camera(self, name: str) -> CameraCheck:
+        for cam in self.cameras:
+            if cam.name == name:
+                return cam
+        raise KeyError(f"rig check: camera {name!r} was not checked (checked: {[c.name for c in self.cameras]})")
+
+    def to_dict(self) -> dict:
+        return {"flagged": self.flagged, "moved": list(self.moved), "warnings": list(self.warnings),
+                "cameras": {c.name: c.to_dict() for c in self.cameras}}
+
+
+@dataclass(frozen=True, eq=False)
+class PoseFit:
+    """A camera pose refitted to fixed points: rotation ``turn`` (3, 3) applied after the calibrated one
+    (world -> camera: R = turn @ R0), centre moved by ``shift_mm`` (3,)."""
+
+    turn: np.ndarray
+    shift_mm: np.ndarray
+
+    def apply(self, cam: Camera) -> Camera:
+        rot = self.turn @ cam.rotation
+        centre = cam.center_mm + self.shift_mm
+        return cam.replace(rvec=rvec_of(rot), tvec_mm=-rot @ centre)
+
+    @property
+    def rotation_deg(self) -> float:
+        return float(rotation_angle_deg(self.turn, np.eye(3)))
+
+
+def _project_moved(cam: Camera, params: np.ndarray, points_mm: np.ndarray) -> np.ndarray:
+    """Pixels (N, 2) of points (N, 3) mm seen by ``cam`` turned by rvec params[:3] (rad) about its centre
+    and its centre moved by params[3:] (mm)."""
+    rot = rodrigues_batch(params[:3]) @ cam.rotation
+    pc = (points_mm - (cam.center_mm + params[3:])) @ rot.T
+    xy = pc[:, :2] / pc[:, 2:3]
+    return cam.distort_normalized(xy) @ cam.matrix_px[:2, :2].T + cam.matrix_px[:2, 2]
+
+
+def refit_pose(cam: Camera, points_mm: np.ndarray, uv_px: np.ndarray, *, scale_px: float,
+               max_iterations: int = 30) -> PoseFit:
+    """Robust refit of one camera's pose to fixed points (N, 3) mm and their observed pixels (N, 2) px,
+    starting at the calibrated pose: Gauss-Newton on the six unknowns (rotation vector rad, centre shift
+    mm) with soft-L1 weights (scale ``scale_px``) by iteratively reweighted least squares."""
+    params = np.zeros(6)
+    steps = np.r_[np.full(3, 1e-6), np.full(3, 1e-3)]  # finite-difference steps: rad, mm
+    for _ in range(max_iterations):
+        err = _project_moved(cam, params, points_mm) - uv_px
+        weight = 1.0 / np.sqrt(1.0 + np.sum(err**2, -1) / scale_px**2)
+        jac = np.stack([((_project_moved(cam, params + np.eye(6)[k] * steps[k], points_mm) - uv_px) - err).ravel()
+                        / steps[k] for k in range(6)], -1)  # (2N, 6)
+        w2 = np.repeat(weight, 2)
+        hess = jac.T @ (jac * w2[:, None])
+        delta = np.linalg.solve(hess + 1e-9 * np.diag(np.diag(hess)) + 1e-12 * np.eye(6), -jac.T @ (w2 * err.ravel()))
+        params = params + delta
+        if np.abs(delta[:3]).max() < 1e-8 and np.abs(delta[3:]).max() < 1e-4:
+            break
+    return PoseFit(rodrigues_batch(params[:3]), params[3:].copy())
+
+
+def _field_px(cam: Camera, fit: PoseFit, points_mm: np.ndarray) -> float:
+    """Median image displacement (px) of ``points_mm`` between the refitted and the calibrated pose."""
+    params = np.r_[rvec_of(fit.turn), fit.shift_mm]
+    moved = _project_moved(cam, params, points_mm)
+    return float(np.median(np.linalg.norm(moved - cam.project(points_mm), axis=-1)))
+
+
+def _frames(num_frames: int, max_frames: int) -> np.ndarray:
+    step = max(1, int(np.ceil(num_frames / max_frames)))
+    return np.arange(0, num_frames, step)
+
+
+def _subset(det: Detections, frames: np.ndarray) -> Detections:
+    return Detections(det.keypoints[:, frames], det.camera_names, det.times_s[frames], det.skeleton)
+
+
+def _without(det: Detections, cameras: list[int]) -> Detections:
+    kp = det.keypoints.copy()
+    kp[cameras, ..., 2] = 0.0
+    return Detections(kp, det.camera_names, det.times_s, det.skeleton)
+
+
+def _loo_points(det: Detections, rig: Rig, left_out: list[int], config: RigCheckConfig) -> np.ndarray:
+    """Points (T, J, 3) mm triangulated without the cameras ``left_out`` (NaN where < 2 views)."""
+    sub = _without(det, left_out)
+    return robust_triangulate(sub, rig, gamma=config.min_confidence, sigma_mm=config.triangulation_sigma_mm).points_mm
+
+
+def _median_error(cam: Camera, points_mm: np.ndarray, uv_px: np.ndarray) -> float:
+    if not len(points_mm):
+        return float("nan")
+    return float(np.median(np.linalg.norm(cam.project(points_mm) - uv_px, axis=-1)))
+
+
+@dataclass(frozen=True, eq=False)
+class _Evidence:
+    points_mm: np.ndarray  # (N, 3)
+    uv_px: np.ndarray  # (N, 2)
+    frame: np.ndarray  # (N,) frame index in the used frames
+
+
+def _evidence(det: Detections, c: int, loo: np.ndarray, cam: Camera, config: RigCheckConfig) -> _Evidence:
+    kp = det.keypoints[c]
+    ok = det.confident(config.min_confidence)[c] & np.isfinite(loo).all(-1)
+    ok &= cam.depth_mm(np.nan_to_num(loo)) > 0
+    t_idx, _ = np.nonzero(ok)
+    return _Evidence(loo[ok], kp[ok][:, :2], t_idx)
+
+
+def _judge(cam: Camera, ev: _Evidence, points_all: np.ndarray, uv_all: np.ndarray, expected: float | None,
+           num_frames: int, config: RigCheckConfig) -> CameraCheck:
+    n = len(ev.points_mm)
+    if n < config.min_points:
+        nan = float("nan")
+        return CameraCheck(cam.name, False, n, _median_error(cam, ev.points_mm, ev.uv_px),
+                           _median_error(cam, points_all, uv_all), nan, expected, nan, nan, nan, nan, False)
+    fit = refit_pose(cam, ev.points_mm, ev.uv_px, scale_px=config.robust_scale_px)
+    field = _field_px(cam, fit, ev.points_mm)
+    block = np.minimum((ev.frame * config.blocks) // max(num_frames, 1), config.blocks - 1)
+    jackknife = []
+    for b in range(config.blocks):
+        sel = block != b
+        part = refit_pose(cam, ev.points_mm[sel], ev.uv_px[sel], scale_px=config.robust_scale_px)
+        jackknife.append(_project_moved(cam, np.r_[rvec_of(part.turn), part.shift_mm], ev.points_mm))
+    se = _field_se_px(jackknife)
+    refit_cam = fit.apply(cam)
+    big = fit.rotation_deg >= config.min_rotation_deg or float(np.linalg.norm(fit.shift_mm)) >= config.min_shift_mm
+    moved = bool(field >= config.min_field_px and field >= config.significance * se and big)  # rig_ratio: later
+    return CameraCheck(
+        cam.name, True, n, _median_error(cam, ev.points_mm, ev.uv_px), _median_error(cam, points_all, uv_all),
+        _median_error(refit_cam, ev.points_mm, ev.uv_px), expected, field, se, fit.rotation_deg,
+        float(np.linalg.norm(fit.shift_mm)), moved, tuple(float(v) for v in np.degrees(rvec_of(fit.turn))),
+        tuple(float(v) for v in fit.shift_mm),
+    )
+
+
+def _field_se_px(jackknife: list[np.ndarray]) -> float:
+    """Delete-one-block jackknife standard error (px) of the field from the fields (each (N, 2) px) refitted
+    without one block of frames each: the median over the points."""
+    stack = np.stack(jackknife)  # (B, N, 2)
+    b = len(jackknife)
+    spread = np.sqrt((b - 1) / b * np.sum((stack - stack.mean(0)) ** 2, axis=(0, 2)))  # (N,)
+    return float(np.median(spread))
+
+
+def _all_points(det: Detections, c: int, points_mm: np.ndarray, config: RigCheckConfig):
+    ok = det.confident(config.min_confidence)[c] & np.isfinite(points_mm).all(-1)
+    return points_mm[ok], det.keypoints[c][ok][:, :2]
+
+
+def check_rig(detections: Detections, rig: Rig, points_mm: np.ndarray, *,
+              expected_px: Mapping[str, float] | None = None,
+              config: RigCheckConfig = RigCheckConfig()) -> RigCheck:
+    """Check every camera of ``rig`` against the patient seen in ``detections`` (C, T, J, 3) px.
+
+    ``points_mm`` (T, J, 3) mm: the trial's triangulated points (all cameras), used for the trial's own
+    reprojection figure per camera. ``expected_px``: the calibration's own reprojection figure per camera
+    name (px), reported beside the trial's. Needs at least 3 cameras (2 to triangulate without the one
+    judged); ValueError naming what is wrong otherwise.
+    """
+    det, sub = detections.aligned_to(rig)
+    c_count, t_count, j_count = det.shape
+    points_mm = np.asarray(points_mm, dtype=np.float64)
+    if points_mm.shape != (t_count, j_count, 3):
+        raise ValueError(f"rig check: points_mm must be (T, J, 3) = ({t_count}, {j_count}, 3), got {points_mm.shape}")
+    if c_count < 3:
+        raise ValueError(f"rig check: needs at least 3 cameras (2 besides the one judged), got {list(det.camera_names)}")
+    frames = _frames(t_count, config.max_frames)
+    det = _subset(det, frames)
+    points_mm = points_mm[frames]
+    expected = dict(expected_px or {})
+    flagged: list[int] = []
+    checks: dict[int, CameraCheck] = {}
+    while True:
+        round_checks = {}
+        for c in range(c_count):
+            if c in flagged:
+                continue
+            cam = sub[c]
+            loo = _loo_points(det, sub, flagged + [c], config)
+            ev = _evidence(det, c, loo, cam, config)
+            pts_all, uv_all = _all_points(det, c, points_mm, config)
+            round_checks[c] = _judge(cam, ev, pts_all, uv_all, expected.get(cam.name), len(frames), config)
+        round_checks = _stand_out(round_checks, config)
+        moved = [c for c, chk in round_checks.items() if chk.moved]
+        if not moved or c_count - len(flagged) - 1 < 3:
+            checks.update(round_checks)
+            break
+        worst = max(moved, key=lambda c: round_checks[c].field_px / max(round_checks[c].field_se_px, 1e-9))
+        checks[worst] = round_checks[worst]
+        flagged.append(worst)
+        log.info("rig check: camera %s moved (field %.1f px); judging the others without it",
+                 sub[worst].name, round_checks[worst].field_px)
+    cams = tuple(checks[c] for c in range(c_count))
+    return RigCheck(cams, tuple(_warning(chk) for chk in cams if chk.moved) + _unjudged(cams))
+
+
+def _stand_out(checks: dict[int, CameraCheck], config: RigCheckConfig) -> dict[int, CameraCheck]:
+    """Keep a camera's ``moved`` flag only where its field stands out from the other judged cameras'."""
+    out = {}
+    for c, chk in checks.items():
+        others = [o.field_px for k, o in checks.items() if k != c and o.judged]
+        typical = max(float(np.median(others)) if others else 0.0, config.min_field_px)
+        out[c] = replace(chk, moved=chk.moved and chk.field_px >= config.rig_ratio * typical)
+    return out
+
+
+def _warning(chk: CameraCheck) -> str:
+    promised = f", the calibration promised {chk.expected_px:.2f} px" if chk.expected_px is not None else ""
+    return (f"Camera {chk.name} appears to have moved since calibration: about {chk.rotation_deg:.1f} deg of "
+            f"rotation and {chk.shift_mm:.0f} mm of shift; its keypoints sit {chk.field_px:.1f} px off the other "
+            f"cameras' points in a consistent direction (median error {chk.residual_px:.1f} px, "
+            f"{chk.refit_residual_px:.1f} px once refitted{promised}). Recalibrate or refine the rig before "
+            f"the next patient.")
+
+
+def _unjudged(cams: tuple[CameraCheck, ...]) -> tuple[str, ...]:
+    names = [c.name for c in cams if not c.judged]
+    if not names:
+        return ()
+    return (f"Rig check: camera(s) {', '.join(names)} saw too few of the patient's keypoints to be checked.",)
