@@ -1,0 +1,404 @@
+"""GigE Vision cameras through Aravis (the open-source GigE Vision / GenICam stack), no vendor SDK.
+
+Aravis speaks the protocol itself: GVCP (control, UDP port 3956), GVSP (the image stream over UDP, with
+packet resend requests) and the cameras' GenICam features. It drives FLIR (and other) GigE Vision cameras
+without Spinnaker, and its Debian package ships ``arv-fake-gv-camera-0.8``, a camera simulator that speaks
+the same protocol over real UDP (the tests and ``bench/gige.py`` run against it).
+
+Life cycle (:mod:`gaitcap.acquisition.drivers.base`): :meth:`AravisCamera.open` finds the device by
+serial number, device id or IP address (a device that never answers is named with what was found);
+:meth:`~AravisCamera.configure` sets continuous free-run acquisition, exposure (auto off), gain (auto
+off), frame rate, pixel format, region, packet size and inter-packet delay, and reads back what the
+camera took; :meth:`~AravisCamera.start` starts the stream; :meth:`~AravisCamera.frames` yields
+complete frames with the device timestamp (ns) and a frame id from the device's block id (16-bit GigE
+Vision 1.x ids unwrapped); incomplete frames are counted and dropped, so they show as frame-id gaps.
+
+Synchronised start: Aravis 0.8 sends no scheduled action command, so the start is a software start.
+When the device clock is on the host's epoch (PTP-synchronised to the same grandmaster as the host, or
+the fake camera, whose clock is the host's), frames stamped before ``at_ns`` are discarded and frame
+ids count camera periods from ``at_ns``, so every camera numbers the same instant alike; otherwise frame
+ids count from the first frame and the status says so. PTP is enabled and reported where the device has
+the feature (``PtpEnable``/``PtpStatus`` or ``GevIEEE1588``/``GevIEEE1588Status``); where it has not
+(the fake camera), the status says ``ptp: not supported by the device``. Nothing is assumed silently.
+
+Aravis (PyGObject and the ``Aravis-0.8`` typelib) is imported lazily; a missing piece raises
+:class:`AravisMissing` naming it and the packages that provide it.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from gaitcap.acquisition.drivers.base import CaptureSettings, DriverStatus, Frame, is_ptp_jump
+from gaitcap.acquisition.drivers.flir import to_bgr
+
+log = logging.getLogger(__name__)
+
+SUPPORTED_FORMATS = ("BayerRG8", "BayerBG8", "BayerGR8", "BayerGB8", "Mono8", "RGB8", "BGR8")
+GEV1_BLOCK_IDS = 65535  # GigE Vision 1.x block ids: 16 bits, 0 reserved, 65535 wraps to 1
+CLOCK_ON_HOST_EPOCH_NS = 2_000_000_000  # a device clock within 2 s of the host's shares its epoch
+_PTP_FEATURES = (("PtpEnable", "PtpStatus"), ("GevIEEE1588", "GevIEEE1588Status"))
+START_SYNC = ("software start (Aravis 0.8 sends no scheduled action command); frame ids aligned on the "
+              "device timestamps")
+_STREAM_COUNTERS = {"n_missing_packets": "missing_packets", "n_resend_requests": "resend_requests",
+                    "n_resent_packets": "resent_packets", "n_received_packets": "received_packets",
+                    "n_timeouts": "stream_timeouts"}
+
+
+class AravisMissing(ValueError):
+    """PyGObject or the Aravis 0.8 introspection data is not installed."""
+
+
+def import_aravis():
+    """The ``Aravis`` module (0.8) or :class:`AravisMissing` naming what is missing."""
+    try:
+        import gi
+    except ImportError as exc:
+        raise AravisMissing(
+            "the Aravis driver needs PyGObject (the 'gi' module): pip install 'PyGObject>=3.42,<3.51' in this "
+            "environment (it builds against the Debian packages libgirepository1.0-dev, libcairo2-dev and "
+            f"pkg-config; deploy/bootstrap.sh installs all of it) ({exc})") from None
+    try:
+        gi.require_version("Aravis", "0.8")
+        from gi.repository import Aravis
+    except (ValueError, ImportError) as exc:
+        raise AravisMissing(
+            "the Aravis driver needs the Aravis 0.8 introspection data (Debian package gir1.2-aravis-0.8; "
+            f"the fake camera is in aravis-tools) ({exc})") from None
+    return Aravis
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    """One GigE Vision device as discovered: ``device_id`` (Aravis id), ``serial``, ``address`` (IPv4)."""
+
+    device_id: str
+    serial: str
+    address: str
+    vendor: str
+    model: str
+
+    def matches(self, wanted: str) -> bool:
+        return wanted in (self.serial, self.device_id, self.address)
+
+
+def discover(aravis: Any | None = None) -> list[DeviceInfo]:
+    """Every GigE Vision device answering discovery on this host's interfaces (about 1 s)."""
+    arv = aravis or import_aravis()
+    arv.update_device_list()
+    return [DeviceInfo(device_id=arv.get_device_id(i), serial=arv.get_device_serial_nbr(i) or "",
+                       address=arv.get_device_address(i) or "", vendor=arv.get_device_vendor(i) or "",
+                       model=arv.get_device_model(i) or "")
+            for i in range(arv.get_n_devices()) if arv.get_device_protocol(i) == "GigEVision"]
+
+
+def _is_ipv4(text: str) -> bool:
+    parts = text.split(".")
+    return len(parts) == 4 and all(p.isdigit() and int(p) < 256 for p in parts)
+
+
+@dataclass(frozen=True)
+class AravisOptions:
+    """GigE Vision transport and imaging options beyond :class:`CaptureSettings`.
+
+    Attributes:
+        packet_size_bytes: GVSP packet size (GevSCPSPacketSize; 9000 = jumbo frames, the NIC's MTU must
+            allow it); None: Aravis negotiates the largest that passes.
+        packet_delay_ns: inter-packet delay (GevSCPD, set in ns; Aravis converts to device ticks) so many
+            cameras share one link.
+        gain_db: fixed gain (auto off); None: the device's.
+        frame_timeout_ms: wait for one frame at most this long; ``stall_timeouts`` waits in a row with no
+            frame = the camera is gone (named, state ``error``).
+        buffers: stream buffers queued to Aravis.
+        packet_resend: ask the camera to resend lost packets (GVCP PACKETRESEND).
+    """
+
+    packet_size_bytes: int | None = 1400
+    packet_delay_ns: int = 0
+    gain_db: float | None = None
+    frame_timeout_ms: int = 1000
+    stall_timeouts: int = 3
+    buffers: int = 16
+    packet_resend: bool = True
+
+    def __post_init__(self) -> None:
+        if self.packet_size_bytes is not None and not 576 <= self.packet_size_bytes <= 16000:
+            raise ValueError(f"packet_size_bytes: expected 576..16000 bytes, got {self.packet_size_bytes}")
+        if self.packet_delay_ns < 0:
+            raise ValueError(f"packet_delay_ns: must be >= 0, got {self.packet_delay_ns}")
+        if self.frame_timeout_ms <= 0 or self.stall_timeouts < 1 or self.buffers < 2:
+            raise ValueError(f"frame_timeout_ms > 0, stall_timeouts >= 1 and buffers >= 2 needed, got "
+                             f"{self.frame_timeout_ms}, {self.stall_timeouts}, {self.buffers}")
+
+
+class BlockIds:
+    """Unwraps device block ids (16-bit on GigE Vision 1.x: 1..65535, then 1 again) into a counter."""
+
+    def __init__(self) -> None:
+        self._last_raw: int | None = None
+        self.count = 0
+
+    def next(self, raw: int) -> int:
+        """The unwrapped id of block ``raw``; the first block is 0."""
+        if self._last_raw is not None:
+            step = raw - self._last_raw
+            if step <= 0 and self._last_raw <= GEV1_BLOCK_IDS and self._last_raw - raw > GEV1_BLOCK_IDS // 2:
+                step += GEV1_BLOCK_IDS  # 65535 -> 1 (0 is never sent)
+            self.count += max(step, 0)
+        self._last_raw = raw
+        return self.count
+
+
+def _gerror_text(exc: Exception) -> str:
+    return getattr(exc, "message", None) or str(exc)
+
+
+class AravisCamera:
+    """One GigE Vision camera through Aravis, behind the camera driver protocol.
+
+    ``device``: serial number, Aravis device id or IPv4 address (an address is opened directly, without
+    discovery, so a camera on another subnet is reachable); ``name``: the camera's name in the rig.
+    """
+
+    def __init__(self, device: str, name: str, *, options: AravisOptions = AravisOptions(),
+                 aravis: Any | None = None) -> None:
+        if not device:
+            raise ValueError(f"camera {name}: no device (serial, device id or IP address) given")
+        self.device, self.name, self.options = device, name, options
+        self._arv = aravis
+        self._cam = self._stream = self._failed_stream = None
+        self._settings = CaptureSettings()
+        self._status = DriverStatus(camera=name, extra={"device": device, "incomplete": 0, "frame_id_gaps": 0,
+                                                        **{v: 0 for v in _STREAM_COUNTERS.values()}})
+        self._stopped = False
+        self._at_ns: int | None = None
+
+    # -- set-up -----------------------------------------------------------------------------------
+    def open(self) -> None:
+        """Connect to the device (ValueError naming the camera, the device and what was found)."""
+        self._arv = self._arv or import_aravis()
+        target = self.device
+        if not _is_ipv4(self.device):
+            found = discover(self._arv)
+            match = [d for d in found if d.matches(self.device)]
+            if not match:
+                seen = ", ".join(f"{d.serial} at {d.address}" for d in found) or "none"
+                raise ValueError(f"camera {self.name}: GigE Vision device {self.device!r} not found "
+                                 f"(devices that answered discovery: {seen})")
+            target = match[0].device_id
+        try:
+            self._cam = self._arv.Camera.new(target)
+        except Exception as exc:  # GLib.GError
+            raise ValueError(f"camera {self.name}: GigE Vision device {self.device} does not answer "
+                             f"({_gerror_text(exc)})") from None
+        if not self._cam.is_gv_device():
+            raise ValueError(f"camera {self.name}: device {self.device} is not a GigE Vision camera")
+        ex = self._status.extra
+        ex.update(serial=self._cam.get_device_serial_number() or "", model=self._cam.get_model_name() or "",
+                  vendor=self._cam.get_vendor_name() or "", address=self._address())
+        self._status.state = "open"
+
+    def _address(self) -> str:
+        try:
+            return str(self._cam.get_device().get_device_address().to_string())
+        except Exception:  # noqa: BLE001  (informative only)
+            return self.device if _is_ipv4(self.device) else ""
+
+    def _available(self, feature: str) -> bool:
+        return bool(self._cam.is_feature_available(feature))
+
+    def _set(self, what: str, setter, *args) -> None:
+        try:
+            setter(*args)
+        except Exception as exc:  # GLib.GError from the device or GenICam
+            raise ValueError(f"camera {self.name} ({self.device}): {what} {args}: {_gerror_text(exc)}") from None
+
+    def configure(self, settings: CaptureSettings) -> None:
+        """Free-run acquisition with the settings; what the camera took is read back into the status."""
+        if self._cam is None:
+            raise ValueError(f"camera {self.name}: configure() before open()")
+        cam, opt = self._cam, self.options
+        formats = list(cam.dup_available_pixel_formats_as_strings() or [])
+        usable = [f for f in formats if f in SUPPORTED_FORMATS]
+        if settings.pixel_format not in usable:
+            raise ValueError(f"camera {self.name} ({self.device}): pixel format {settings.pixel_format!r} not "
+                             f"offered; it offers {formats}, gaitcap converts {list(SUPPORTED_FORMATS)}")
+        self._set("acquisition mode", cam.set_acquisition_mode, self._arv.AcquisitionMode.CONTINUOUS)
+        self._set("triggers off", cam.clear_triggers)
+        self._set("pixel format", cam.set_pixel_format_from_string, settings.pixel_format)
+        if settings.size_px is not None:
+            self._set("region", cam.set_region, 0, 0, int(settings.size_px[0]), int(settings.size_px[1]))
+        if settings.exposure_us is not None:
+            if cam.is_exposure_auto_available():
+                self._set("exposure auto off", cam.set_exposure_time_auto, self._arv.Auto.OFF)
+            self._set("exposure time", cam.set_exposure_time, float(settings.exposure_us))
+        if opt.gain_db is not None:
+            if cam.is_gain_auto_available():
+                self._set("gain auto off", cam.set_gain_auto, self._arv.Auto.OFF)
+            self._set("gain", cam.set_gain, float(opt.gain_db))
+        self._set("frame rate", cam.set_frame_rate, float(settings.fps))
+        if opt.packet_size_bytes is None:
+            self._set("packet size negotiation", cam.gv_auto_packet_size)
+        else:
+            self._set("packet size", cam.gv_set_packet_size, int(opt.packet_size_bytes))
+        self._set("packet delay", cam.gv_set_packet_delay, int(opt.packet_delay_ns))
+        self._settings = settings
+        self._read_back()
+        self._status.state = "configured"
+
+    def _read_back(self) -> None:
+        cam = self._cam
+        region = cam.get_region()
+        self._status.extra.update(
+            pixel_format=cam.get_pixel_format_as_string(), size_px=[int(region.width), int(region.height)],
+            fps_set=round(float(cam.get_frame_rate()), 3),
+            exposure_us=round(float(cam.get_exposure_time()), 1) if cam.is_exposure_time_available() else None,
+            gain_db=round(float(cam.get_gain()), 2) if cam.is_gain_available() else None,
+            packet_size_bytes=int(cam.gv_get_packet_size()), packet_delay_ns=int(cam.gv_get_packet_delay()),
+            ptp=self._ptp(), start_sync=START_SYNC)
+
+    def _ptp(self) -> str:
+        """Enable PTP where the device has it and return its state, or say the device has none."""
+        dev = self._cam.get_device()
+        for enable, state in _PTP_FEATURES:
+            if self._available(enable):
+                try:
+                    dev.set_boolean_feature_value(enable, True)
+                    return f"enabled ({enable}); state {dev.get_string_feature_value(state)}"
+                except Exception as exc:  # noqa: BLE001  (reported, not assumed)
+                    return f"{enable} present but not settable: {_gerror_text(exc)}"
+        return "not supported by the device"
+
+    # -- streaming --------------------------------------------------------------------------------
+    def start(self, at_ns: int | None = None) -> None:
+        """Start the stream now; frames stamped before ``at_ns`` (host epoch, ns) are discarded when the
+        device clock is on the host's epoch."""
+        if self._status.state != "configured":
+            raise ValueError(f"camera {self.name}: start() in state {self._status.state}; configure() first")
+        arv, opt = self._arv, self.options
+        try:
+            self._stream = self._cam.create_stream(None, None)
+        except Exception as exc:
+            raise ValueError(f"camera {self.name} ({self.device}): cannot open the stream: "
+                             f"{_gerror_text(exc)}") from None
+        resend = arv.GvStreamPacketResend.ALWAYS if opt.packet_resend else arv.GvStreamPacketResend.NEVER
+        self._stream.set_property("packet-resend", resend)
+        payload = self._cam.get_payload()
+        for _ in range(opt.buffers):
+            self._stream.push_buffer(arv.Buffer.new_allocate(payload))
+        self._at_ns, self._stopped = at_ns, False
+        self._cam.start_acquisition()
+        self._status.state = "running"
+        self._status.started_wall_s = (at_ns or time.time_ns()) / 1e9
+
+    def frames(self) -> Iterator[Frame]:
+        if self._stream is None:
+            raise ValueError(f"camera {self.name}: frames() before start()")
+        ids, offset, last = BlockIds(), None, None
+        timeouts = 0
+        try:
+            while not self._stopped:
+                buf = self._stream.timeout_pop_buffer(self.options.frame_timeout_ms * 1000)
+                if buf is None:
+                    timeouts += 1
+                    if timeouts >= self.options.stall_timeouts:
+                        self._fail(f"no frame for {timeouts * self.options.frame_timeout_ms} ms (camera "
+                                   f"unreachable, stopped or its stream blocked)")
+                        return
+                    continue
+                timeouts = 0
+                frame, offset = self._take(buf, ids, offset)
+                if frame is None:
+                    continue
+                if last is not None and frame.frame_id > last.frame_id + 1:
+                    self._status.extra["frame_id_gaps"] += 1
+                self._status.count(frame)
+                last = frame
+                yield frame
+        finally:
+            self._refresh_counters()
+            self._end()
+
+    def _take(self, buf, ids: BlockIds, offset: int | None) -> tuple[Frame | None, int | None]:
+        """Frame of one popped buffer (None: incomplete or before the start) and the frame id offset."""
+        try:
+            raw_id = int(buf.get_frame_id())
+            if buf.get_status() != self._arv.BufferStatus.SUCCESS:
+                self._status.extra["incomplete"] += 1
+                ids.next(raw_id)
+                return None, offset
+            ts = int(buf.get_timestamp())
+            count = ids.next(raw_id)
+            image = self._image(buf)
+        finally:
+            self._stream.push_buffer(buf)
+        period = self._settings.period_ns
+        if offset is None:
+            on_host_epoch = abs(ts - time.time_ns()) < CLOCK_ON_HOST_EPOCH_NS
+            self._status.extra["device_clock"] = "host epoch" if on_host_epoch else "own epoch (frame ids from the first frame)"
+            if on_host_epoch and self._at_ns is not None:
+                if ts < self._at_ns - period // 2:
+                    return None, None  # before the synchronised start
+                offset = int(round((ts - self._at_ns) / period)) - count
+            else:
+                offset = -count
+        frame_id = offset + count
+        prev = self._status.last_timestamp_ns
+        gap = frame_id - (self._status.last_frame_id if self._status.last_frame_id is not None else frame_id)
+        jump = prev is not None and is_ptp_jump(ts - prev, period * max(gap, 1))
+        if self._status.frames % 30 == 0:
+            self._refresh_counters()
+        return Frame(camera=self.name, image=image, timestamp_ns=ts, frame_id=frame_id, ptp_jump=jump), offset
+
+    def _image(self, buf) -> np.ndarray:
+        w, h = int(buf.get_image_width()), int(buf.get_image_height())
+        data = np.frombuffer(buf.get_data(), dtype=np.uint8)
+        fmt = self._settings.pixel_format
+        channels = 3 if fmt in ("RGB8", "BGR8") else 1
+        raw = data[: w * h * channels].reshape((h, w, channels) if channels == 3 else (h, w))
+        return to_bgr(raw.copy(), fmt)
+
+    def _refresh_counters(self) -> None:
+        if self._stream is None:
+            return
+        stream, ex = self._stream, self._status.extra
+        names = {stream.get_info_name(i): i for i in range(stream.get_n_infos())}
+        for info, key in _STREAM_COUNTERS.items():
+            if info in names:
+                ex[key] = int(stream.get_info_uint64(names[info]))
+
+    def _fail(self, message: str) -> None:
+        self._status.state = "error"
+        self._status.error = f"camera {self.name} ({self.device}): {message}"
+        log.error(self._status.error)
+
+    def _end(self) -> None:
+        if self._cam is not None and self._stream is not None and self._status.state != "error":
+            try:
+                self._cam.stop_acquisition()
+            except Exception as exc:  # noqa: BLE001  (logged; the stream is dropped all the same)
+                log.warning("camera %s: stop acquisition: %s", self.name, _gerror_text(exc))
+        if self._status.state == "error" and self._stream is not None:
+            # a camera that failed is not told to stop (that times out, about 7 s), and its stream is kept
+            # until close(): disposing of it waits about 5 s for its thread, holding the interpreter
+            self._failed_stream = self._stream
+        self._stream = None
+        if self._status.state == "running":
+            self._status.state = "stopped"
+
+    def stop(self) -> None:
+        self._stopped = True
+
+    def close(self) -> None:
+        self._stopped = True
+        self._end()
+        self._cam = self._failed_stream = None
+        self._status.state = "closed"
+
+    def status(self) -> DriverStatus:
+        return self._status

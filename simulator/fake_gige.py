@@ -1,0 +1,214 @@
+"""Fake GigE Vision cameras: ``arv-fake-gv-camera-0.8`` processes (Debian package aravis-tools) speaking the
+real protocol (GVCP control, GVSP stream over UDP), for tests and ``bench/gige.py``.
+
+One fake camera listens on one IPv4 address of an interface. On the host, only 127.0.0.1 exists, so one
+camera runs there (:func:`host_lab`). Several cameras run in a network namespace of their own
+(:class:`FakeGigELab` with ``namespace=True``): its loopback gets one address per camera
+(127.0.0.11, 127.0.0.12, ...), and the processes that talk to them (camera nodes, the bench) run in the
+same namespace through :attr:`FakeGigELab.exec_prefix`. Faults: :meth:`FakeGigELab.kill` (a camera
+vanishes), ``lost_per_thousand`` (the camera's own GVSP packet loss), :meth:`FakeGigELab.shape` (a
+``tc`` queueing discipline on the namespace's loopback: ``netem`` loss and delay where the kernel has
+it, else ``tbf``, whose rate limit delays and drops packets).
+
+The fake camera streams a 512 x 512 test pattern (nobody in it), its timestamps are the host clock in ns
+and it fires on the host clock's frame grid; it has no PTP, no action commands and does not answer
+packet resend requests (resend requests are counted, resent packets stay 0).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import shutil
+import signal
+import subprocess
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+log = logging.getLogger(__name__)
+
+FAKE_CAMERA = "arv-fake-gv-camera-0.8"
+GVCP_PORT = 3956
+FAKE_SIZE_PX = (512, 512)
+
+
+def fake_camera_binary() -> str:
+    """Path of the fake camera program (ValueError naming the package when it is absent)."""
+    path = shutil.which(FAKE_CAMERA)
+    if path is None:
+        raise ValueError(f"{FAKE_CAMERA} not found: install the Debian package aravis-tools "
+                         "(deploy/bootstrap.sh does)")
+    return path
+
+
+def _ip(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=20)
+
+
+def namespace_unavailable() -> str:
+    """Why network namespaces cannot be made here ("" when they can)."""
+    if os.geteuid() != 0:
+        return "needs root to create network namespaces"
+    if shutil.which("ip") is None:
+        return "the 'ip' command (iproute2) is not installed"
+    probe = f"gcgvprobe{os.getpid()}"
+    r = _ip("netns", "add", probe)
+    if r.returncode != 0:
+        return f"'ip netns add' failed: {r.stderr.strip()}"
+    try:
+        r = _ip("netns", "exec", probe, "true")
+        return "" if r.returncode == 0 else f"'ip netns exec' failed: {r.stderr.strip()}"
+    finally:
+        _ip("netns", "del", probe)
+
+
+@dataclass
+class FakeCamera:
+    """One running fake camera: its serial number, address and process."""
+
+    serial: str
+    address: str
+    process: subprocess.Popen
+
+
+class FakeGigELab:
+    """``cameras`` fake GigE Vision cameras, serials ``GC001``.., in a namespace of their own or on the
+    host's 127.0.0.1 (one camera). Use as a context manager; everything is removed on exit."""
+
+    def __init__(self, cameras: int = 1, *, namespace: bool = True, lost_per_thousand: int = 0,
+                 log_dir: Path | None = None, ready_timeout_s: float = 10.0) -> None:
+        if cameras < 1 or (not namespace and cameras != 1):
+            raise ValueError(f"cameras: {cameras} fake cameras need a namespace (the host has one loopback "
+                             "address: 1 camera)" if cameras > 1 else f"cameras: must be >= 1, got {cameras}")
+        if not 0 <= lost_per_thousand <= 1000:
+            raise ValueError(f"lost_per_thousand: expected 0..1000, got {lost_per_thousand}")
+        self.count, self.lost_per_thousand = cameras, lost_per_thousand
+        self.log_dir, self.ready_timeout_s = log_dir, ready_timeout_s
+        self.namespace = f"gcgige{os.getpid() % 100000}" if namespace else None
+        self.cameras: list[FakeCamera] = []
+
+    @property
+    def exec_prefix(self) -> list[str]:
+        """Prefix that runs a command where the cameras are reachable (the namespace, or nothing)."""
+        return ["ip", "netns", "exec", self.namespace] if self.namespace else []
+
+    @property
+    def addresses(self) -> list[str]:
+        return [c.address for c in self.cameras]
+
+    @property
+    def serials(self) -> list[str]:
+        return [c.serial for c in self.cameras]
+
+    def __enter__(self) -> FakeGigELab:
+        try:
+            self.start()
+        except BaseException:
+            self.close()
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def start(self) -> None:
+        binary = fake_camera_binary()
+        if self.namespace:
+            reason = namespace_unavailable()
+            if reason:
+                raise ValueError(f"fake GigE Vision lab: {reason}")
+            self._ns_up()
+        addresses = [f"127.0.0.{11 + i}" for i in range(self.count)] if self.namespace else ["127.0.0.1"]
+        for i, addr in enumerate(addresses):
+            self.cameras.append(self._spawn(binary, f"GC{i + 1:03d}", addr))
+        for cam in self.cameras:
+            self._wait_ready(cam)
+
+    def _ns_up(self) -> None:
+        cmds = [["netns", "add", self.namespace], ["-n", self.namespace, "link", "set", "lo", "up"]]
+        cmds += [["-n", self.namespace, "addr", "add", f"127.0.0.{11 + i}/8", "dev", "lo"] for i in range(self.count)]
+        for cmd in cmds:
+            r = _ip(*cmd)
+            if r.returncode != 0:
+                raise ValueError(f"fake GigE Vision lab: ip {' '.join(cmd)}: {r.stderr.strip()}")
+
+    def _spawn(self, binary: str, serial: str, address: str) -> FakeCamera:
+        argv = [*self.exec_prefix, binary, "-i", address, "-s", serial]
+        if self.lost_per_thousand:
+            argv += ["-r", str(self.lost_per_thousand)]
+        out = open(self.log_dir / f"fake-{serial}.log", "wb") if self.log_dir else subprocess.DEVNULL  # noqa: SIM115
+        proc = subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+        return FakeCamera(serial=serial, address=address, process=proc)
+
+    def _wait_ready(self, cam: FakeCamera) -> None:
+        """Until the camera's GVCP port is bound (ValueError naming it if it exits or never binds)."""
+        deadline = time.monotonic() + self.ready_timeout_s
+        while time.monotonic() < deadline:
+            if cam.process.poll() is not None:
+                raise ValueError(f"fake camera {cam.serial} on {cam.address} exited ({cam.process.returncode})")
+            r = subprocess.run([*self.exec_prefix, "ss", "-Hlun", "src", f"{cam.address}:{GVCP_PORT}"],
+                               capture_output=True, text=True, timeout=10)
+            if f"{cam.address}:{GVCP_PORT}" in r.stdout:
+                return
+            time.sleep(0.05)
+        raise ValueError(f"fake camera {cam.serial} on {cam.address}: not listening after {self.ready_timeout_s} s")
+
+    def kill(self, index: int) -> FakeCamera:
+        """SIGKILL camera ``index`` (it vanishes from the network mid-stream)."""
+        cam = self.cameras[index]
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(cam.process.pid, signal.SIGKILL)
+        cam.process.wait(10)
+        return cam
+
+    def shape(self, *, loss_percent: float = 0.0, delay_ms: float = 0.0, rate_mbit: float | None = None) -> str:
+        """Put a ``tc`` queueing discipline on the namespace's loopback; returns what was applied.
+
+        ``netem`` (``loss_percent``, ``delay_ms``) where the kernel has it; otherwise ``tbf`` at
+        ``rate_mbit`` (required then), whose queue delays packets and drops what exceeds ``delay_ms`` of
+        queue (a real loss on the path). ValueError naming the qdisc when neither works.
+        """
+        if not self.namespace:
+            raise ValueError("shape: traffic shaping needs the lab's own namespace")
+        base = ["-n", self.namespace, "qdisc", "replace", "dev", "lo", "root"]
+        netem = ["netem", "loss", f"{loss_percent}%", "delay", f"{delay_ms}ms"]
+        r = subprocess.run(["tc", *base, *netem], capture_output=True, text=True, timeout=20)
+        if r.returncode == 0:
+            return " ".join(netem)
+        if rate_mbit is None:
+            raise ValueError(f"shape: tc netem unavailable ({r.stderr.strip()}) and no rate_mbit for tbf")
+        tbf = ["tbf", "rate", f"{rate_mbit}mbit", "burst", "32kb", "latency", f"{max(delay_ms, 1.0)}ms"]
+        r2 = subprocess.run(["tc", *base, *tbf], capture_output=True, text=True, timeout=20)
+        if r2.returncode != 0:
+            raise ValueError(f"shape: tc netem ({r.stderr.strip()}) and tbf ({r2.stderr.strip()}) both failed")
+        return " ".join(tbf) + f" (netem unavailable: {r.stderr.strip()})"
+
+    def unshape(self) -> None:
+        if self.namespace:
+            subprocess.run(["tc", "-n", self.namespace, "qdisc", "del", "dev", "lo", "root"], capture_output=True,
+                           timeout=20)
+
+    def close(self) -> None:
+        for cam in self.cameras:
+            if cam.process.poll() is None:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(cam.process.pid, signal.SIGTERM)
+        for cam in self.cameras:
+            try:
+                cam.process.wait(5)
+            except subprocess.TimeoutExpired:
+                os.killpg(cam.process.pid, signal.SIGKILL)
+                cam.process.wait(5)
+        self.cameras.clear()
+        if self.namespace:
+            _ip("netns", "del", self.namespace)
+
+
+@contextlib.contextmanager
+def host_lab(**kwargs) -> Iterator[FakeGigELab]:
+    """One fake camera on the host's 127.0.0.1."""
+    with FakeGigELab(1, namespace=False, **kwargs) as lab:
+        yield lab

@@ -1,0 +1,147 @@
+"""The Aravis GigE Vision driver against real ``arv-fake-gv-camera-0.8`` processes on the host's loopback
+(GVCP control and GVSP streaming over UDP): discovery, settings, streaming with device frame ids and ns
+timestamps, status counters, clean stop, a camera killed mid-stream, packet loss, a device that never
+answers. Skipped, with the reason, where Aravis or the fake camera is not installed."""
+
+import shutil
+import sys
+import time
+
+import pytest
+from gaitcap.acquisition.drivers.aravis import AravisCamera, AravisMissing, AravisOptions, BlockIds, discover
+from gaitcap.acquisition.drivers.base import CaptureSettings
+
+
+def _aravis_missing() -> str:
+    try:
+        from gaitcap.acquisition.drivers.aravis import import_aravis
+
+        import_aravis()
+    except AravisMissing as exc:
+        return str(exc)
+    return "" if shutil.which("arv-fake-gv-camera-0.8") else "arv-fake-gv-camera-0.8 (aravis-tools) not installed"
+
+
+needs_aravis = pytest.mark.skipif(bool(_aravis_missing()), reason=_aravis_missing() or "-")
+SETTINGS = CaptureSettings(fps=30.0, exposure_us=8000.0, size_px=(320, 240), pixel_format="BayerRG8")
+
+
+@pytest.fixture
+def fake_camera(tmp_path):
+    from gaitcap.simulator.fake_gige import host_lab
+
+    with host_lab(log_dir=tmp_path) as lab:
+        yield lab
+
+
+@pytest.fixture
+def lossy_camera(tmp_path):
+    from gaitcap.simulator.fake_gige import host_lab
+
+    with host_lab(log_dir=tmp_path, lost_per_thousand=3) as lab:
+        yield lab
+
+
+def _stream(cam: AravisCamera, n: int, at_ns: int) -> list:
+    out = []
+    cam.start(at_ns)
+    for frame in cam.frames():
+        out.append(frame)
+        if len(out) == n:
+            cam.stop()
+    return out
+
+
+def test_a_missing_pygobject_is_named(monkeypatch):
+    from gaitcap.acquisition.drivers.aravis import import_aravis
+
+    monkeypatch.setitem(sys.modules, "gi", None)
+    with pytest.raises(AravisMissing, match=r"PyGObject.*libgirepository1.0-dev"):
+        import_aravis()
+
+
+def test_block_ids_unwrap_the_16_bit_gige_counter():
+    ids = BlockIds()
+    assert [ids.next(r) for r in (65533, 65534, 65535, 1, 2, 5)] == [0, 1, 2, 3, 4, 7]  # 0 is never sent
+
+
+@needs_aravis
+def test_discovers_configures_and_streams_device_ids_and_ns_timestamps(fake_camera):
+    (found,) = [d for d in discover() if d.serial == "GC001"]
+    assert found.address == "127.0.0.1" and found.model == "Fake"
+    cam = AravisCamera("GC001", "cam01", options=AravisOptions(packet_size_bytes=1400, gain_db=2.0))
+    cam.open()
+    cam.configure(SETTINGS)
+    ex = cam.status().to_dict()
+    assert (ex["serial"], ex["pixel_format"], ex["size_px"], ex["fps_set"]) == ("GC001", "BayerRG8", [320, 240], 30.0)
+    assert (ex["exposure_us"], ex["gain_db"], ex["packet_size_bytes"]) == (8000.0, 2.0, 1400)
+    assert ex["ptp"] == "not supported by the device" and "software start" in ex["start_sync"]
+    at = time.time_ns() + 200_000_000
+    frames = _stream(cam, 45, at)
+    ids = [f.frame_id for f in frames]
+    stamps = [f.timestamp_ns for f in frames]
+    assert ids == list(range(ids[0], ids[0] + 45)), ids  # consecutive device block ids
+    assert ids[0] == round((stamps[0] - at) / SETTINGS.period_ns) >= 0, (ids[0], stamps[0] - at)  # periods since start
+    assert all(s >= at - 17_000_000 for s in stamps) and abs(stamps[-1] - time.time_ns()) < 500_000_000
+    intervals_ms = [(b - a) / 1e6 for a, b in zip(stamps, stamps[1:], strict=False)]
+    assert 30 < sum(intervals_ms) / len(intervals_ms) < 36.7, intervals_ms
+    assert frames[0].image.shape == (240, 320, 3) and frames[0].image.std() > 0  # demosaiced test pattern
+    st = cam.status().to_dict()
+    assert (st["state"], st["frames"], st["drops"], st["incomplete"], st["missing_packets"]) == ("stopped", 45, 0, 0, 0)
+    assert st["received_packets"] > 45 and st["last_frame_id"] == ids[-1] and st["device_clock"] == "host epoch"
+    cam.close()
+    again = AravisCamera("127.0.0.1", "cam01")  # a clean stop releases control: it opens again at once
+    again.open()
+    assert again.status().state == "open"
+    again.close()
+
+
+@needs_aravis
+def test_a_format_the_camera_lacks_is_named(fake_camera):
+    cam = AravisCamera("127.0.0.1", "cam03")
+    cam.open()
+    with pytest.raises(ValueError, match=r"camera cam03 \(127.0.0.1\): pixel format 'BayerRG12' not offered.*Mono8"):
+        cam.configure(CaptureSettings(pixel_format="BayerRG12"))
+    cam.close()
+
+
+@needs_aravis
+def test_a_device_that_never_answers_is_named():
+    with pytest.raises(ValueError, match=r"camera cam07: GigE Vision device 127.0.0.97 does not answer"):
+        AravisCamera("127.0.0.97", "cam07").open()
+    with pytest.raises(ValueError, match=r"camera cam08: GigE Vision device 'GC997' not found \(devices that "):
+        AravisCamera("GC997", "cam08").open()
+
+
+@needs_aravis
+def test_a_camera_killed_mid_stream_is_named_within_5_s(fake_camera):
+    cam = AravisCamera("127.0.0.1", "cam02", options=AravisOptions(frame_timeout_ms=1000, stall_timeouts=3))
+    cam.open()
+    cam.configure(SETTINGS)
+    cam.start(None)
+    got, killed_at = 0, None
+    for _ in cam.frames():
+        got += 1
+        if got == 15:
+            fake_camera.kill(0)
+            killed_at = time.monotonic()
+    detect_s = time.monotonic() - killed_at
+    st = cam.status()
+    assert st.state == "error" and "camera cam02 (127.0.0.1): no frame for 3000 ms" in st.error, st.error
+    assert detect_s < 5.0, detect_s
+    cam.close()
+
+
+@needs_aravis
+def test_lost_packets_make_incomplete_frames_counted_and_never_delivered(lossy_camera):
+    cam = AravisCamera("127.0.0.1", "cam04", options=AravisOptions(frame_timeout_ms=500))
+    cam.open()
+    cam.configure(CaptureSettings(fps=30.0, exposure_us=8000.0, pixel_format="Mono8"))  # 512 x 512: 188 packets
+    frames = _stream(cam, 40, time.time_ns() + 100_000_000)
+    st = cam.status().to_dict()
+    assert st["incomplete"] > 0 and st["missing_packets"] > 0 and st["resend_requests"] > 0, st
+    assert st["resent_packets"] == 0  # the fake camera does not answer resend requests
+    ids = [f.frame_id for f in frames]
+    assert st["drops"] == ids[-1] - ids[0] + 1 - len(ids) > 0 and st["frame_id_gaps"] > 0, (ids, st)
+    assert all(f.image.shape == (512, 512, 3) for f in frames)
+    cam.close()
