@@ -57,7 +57,7 @@ def report_pdf(trial_id: str, request: Request, user: str = Depends(require_user
 def parameters(trial_id: str, request: Request, user: str = Depends(require_user)) -> dict:
     """The report's numbers as JSON (units in ``unit``; ``null`` where not measured)."""
     c = _content(request, trial_id)
-    rows = []
+    rows, doubt = [], set(c.consistency.get("parameters_in_doubt") or ())
     for r in c.rows:
         p = PARAMETERS[r.name]
         band = r.norm.band() if r.norm is not None else None
@@ -67,10 +67,12 @@ def parameters(trial_id: str, request: Request, user: str = Depends(require_user
                      "n": r.n, "normal_range": [round(band[0], 4), round(band[1], 4)] if band else None,
                      "z": _num(r.z, 2), "percentile": _num(r.percentile, 1),
                      "norm_source": r.norm.source if r.norm is not None else None,
-                     "previous": _num(c.previous.values.get(r.name, math.nan), 4) if c.previous else None})
+                     "previous": _num(c.previous.values.get(r.name, math.nan), 4) if c.previous else None,
+                     "in_doubt": r.name in doubt})
     return {"trial_id": c.trial.id, "subject_id": c.patient.id, "session": c.trial.session,
             "started_at": c.trial.started_at, "stage": c.stage, "method": c.method, "age": c.age,
             "sex": c.patient.sex, "parameters": rows, "flags": list(c.flags), "warnings": list(c.warnings),
+            "data_problems": list(c.data_problems), "norm_summary": c.norm_summary, "consistency": c.consistency,
             "analysis_notes": list(c.analysis_notes), "voided": c.details.voided, "void_reason": c.details.void_reason,
             "details": {k: getattr(c.details, k) for k in DETAIL_FIELDS},
             "previous_trial": c.previous.trial.id if c.previous else None,

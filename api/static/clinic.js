@@ -31,6 +31,7 @@ function checkFields() {
 // ---------- both sides against the norms ----------
 function resetSides() {
   $("#sides-wrap").hidden = true; $("#results-flags").hidden = true; $("#report-pdf").hidden = true;
+  $("#results-problems").hidden = true; $("#norm-summary").hidden = true;
   $("#sides-table tbody").innerHTML = "";
   for (const c of charts.splice(0)) c.destroy();
   $("#charts").hidden = true; $("#plot-figure").hidden = false;
@@ -54,9 +55,10 @@ async function loadSides(trialId) {
     + (r.voided ? ` · VOID: ${r.void_reason}` : "");
   const body = $("#sides-table tbody");
   body.innerHTML = r.parameters.map((p) => {
-    const d = p.decimals, out = p.z != null && Math.abs(p.z) > 1.96;
+    const d = p.decimals, out = !p.in_doubt && p.z != null && Math.abs(p.z) > 1.96;
     const range = p.normal_range ? `${fmtFixed(p.normal_range[0], d)}–${fmtFixed(p.normal_range[1], d)}` : "no reference";
-    return `<tr data-parameter="${esc(p.name)}"><td class="wide name"><abbr title="${esc(p.help)}">${esc(p.label)}</abbr> (${esc(p.unit)})</td>
+    const doubt = p.in_doubt ? ` <span class="doubt">(data problem)</span>` : "";
+    return `<tr data-parameter="${esc(p.name)}"${p.in_doubt ? ' class="in-doubt"' : ""}><td class="wide name"><abbr title="${esc(p.help)}">${esc(p.label)}</abbr> (${esc(p.unit)})${doubt}</td>
       <td data-label="Left">${fmtFixed(p.left, d)}</td><td data-label="Right">${fmtFixed(p.right, d)}</td><td data-label="Mean">${fmtFixed(p.mean, d)}</td><td data-label="SD">${fmtFixed(p.sd, d + 1)}</td>
       <td data-label="SI %">${fmtFixed(p.symmetry_index_pct, 1)}</td><td data-label="Normal range"${p.norm_source ? ` title="${esc(p.norm_source)}"` : ""}>${range}</td><td data-label="z" class="${out ? "out" : ""}">${p.z == null ? "–" : (p.z > 0 ? "+" : "") + p.z.toFixed(1)}</td>
       <td class="wide">${sideBars(p.left, p.right)}</td></tr>`;
@@ -68,6 +70,11 @@ async function loadSides(trialId) {
   const flags = $("#results-flags");
   flags.querySelector("ul").innerHTML = r.flags.map((f) => `<li>${esc(f)}</li>`).join("");
   flags.hidden = !r.flags.length;
+  const problems = $("#results-problems");
+  problems.querySelector("ul").innerHTML = (r.data_problems || []).map((f) => `<li>${esc(f)}</li>`).join("");
+  problems.hidden = !(r.data_problems || []).length;
+  $("#norm-summary").textContent = r.norm_summary || "";
+  $("#norm-summary").hidden = !r.norm_summary;
   fillCorrection(r);
   loadFigures(trialId, r.footprints);
   const link = $("#report-pdf");

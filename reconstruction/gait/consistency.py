@@ -38,6 +38,13 @@ OTHER = {"left": "right", "right": "left"}
 ROUNDING = 2e-3
 
 
+def _parameter(key: str) -> str:
+    """The parameter a value's key names: ``previous_left_step_time_s`` -> ``step_time_s``."""
+    for prefix in ("previous_", "left_", "right_"):
+        key = key.removeprefix(prefix)
+    return key
+
+
 def _label(name: str) -> str:
     """``stance_pct`` -> "stance %", ``left_swing_time_s`` -> "left swing time"."""
     for suffix, unit in (("_pct", " %"), ("_s", ""), ("_min", "")):
@@ -115,7 +122,7 @@ class ConsistencyReport:
     @property
     def parameters_in_doubt(self) -> frozenset[str]:
         """Every parameter that entered a failing comparison: not to be read as a clinical finding."""
-        return frozenset(name for f in self.failures for name in (f.parameter, *f.values))
+        return frozenset(_parameter(name) for f in self.failures for name in (f.parameter, *f.values))
 
     def to_dict(self) -> dict[str, Any]:
         return {"ok": self.ok, "frame_period_s": self.frame_period_s, "rules_checked": list(self.rules_checked),

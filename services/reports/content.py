@@ -13,6 +13,7 @@ from pathlib import Path
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import patients as pat
 from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.reports.findings import Findings, consistency_of, findings_of
 from gaitcap.services.reports.norms import NormRow, NormTable, load_norms, percentile
 
 
@@ -129,6 +130,9 @@ class ReportContent:
     num_passes: int
     previous: PreviousVisit | None = None
     flags: tuple[str, ...] = field(default_factory=tuple)
+    data_problems: tuple[str, ...] = field(default_factory=tuple)  # failed consistency rules: not findings
+    norm_summary: str = ""  # "6 of 15 parameters have a normal range for age and sex; none outside it."
+    consistency: dict = field(default_factory=dict)  # the stage's ConsistencyReport dict
     joint_angles_note: str = ""
     kinematics: dict = field(default_factory=dict)  # kinematics.json with the band for the patient's age
 
@@ -187,19 +191,17 @@ def footprints_of(steps: list[dict]) -> tuple[Footprint, ...]:
                            -(s["heel_mm"][0] - a[0]) * uy + (s["heel_mm"][1] - a[1]) * ux) for s in first)
 
 
-def flags_of(rows: tuple[Row, ...]) -> tuple[str, ...]:
-    """Plain-word flags: values outside the normative 95 % band, sides differing by more than 10 %."""
-    out = []
-    for r in rows:
-        p = PARAMETERS[r.name]
-        if math.isfinite(r.z) and abs(r.z) > 1.96:
-            lo, hi = r.norm.band()
-            out.append(f"{p.label} {r.mean:.{p.decimals}f} {p.unit} is {'below' if r.z < 0 else 'above'} the "
-                       f"normal range for age and sex ({lo:.{p.decimals}f}-{hi:.{p.decimals}f} {p.unit}).")
-        if math.isfinite(r.si_pct) and r.si_pct > 10.0:
-            out.append(f"{p.label} differs between sides: left {r.left:.{p.decimals}f}, right "
-                       f"{r.right:.{p.decimals}f} {p.unit} (symmetry index {r.si_pct:.1f} %).")
-    return tuple(out)
+def findings(rows: tuple[Row, ...], consistency: dict | None = None) -> Findings:
+    """What may be said of the rows: findings against the norms on the numbers that passed the
+    consistency rules (``consistency``: a ``ConsistencyReport`` dict; None: none failed), data problems,
+    and how many parameters had a normal range (see :mod:`gaitcap.services.reports.findings`)."""
+    return findings_of(rows, consistency or {}, PARAMETERS)
+
+
+def flags_of(rows: tuple[Row, ...], consistency: dict | None = None) -> tuple[str, ...]:
+    """Plain-word flags: values outside the normative 95 % band, sides differing by more than 10 %, on
+    parameters not in doubt by ``consistency``."""
+    return findings(rows, consistency).findings
 
 
 def sides_of(summary: dict) -> dict[str, dict]:
@@ -297,17 +299,22 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
     age = pat.age_at_trial(patient, trial)
     norms = norms or load_norms(config.norms_csv, units=NORM_UNITS)
     rows = rows_of(gait.get("summary", {}), norms, sex=patient.sex, age=age)
+    data_quality = result.report.get("data_quality") or gait.get("data_quality") or {}
+    consistency = consistency_of(result.report.get("consistency") or (result.quality or {}).get("consistency"),
+                                 gait, data_quality)
+    said = findings(rows, consistency)
     png = trial_files(data_dir, trial.id).stage_file(result.stage, "report_png")
     kinematics = stored_kinematics(Path(data_dir), trial.id, result.stage)
     return ReportContent(
         clinic_name=config.clinic_name, trial=trial, patient=patient, details=pat.get_details(db, trial.id),
         age=age, stage=result.stage, method=result.method, rows=rows,
         warnings=tuple(cat.warnings_of(cat.get_quality(db, trial.id))),
-        analysis_notes=tuple(gait.get("warnings") or ()), data_quality=result.report.get("data_quality") or {},
+        analysis_notes=tuple(gait.get("warnings") or ()), data_quality=data_quality,
         footprints=footprints_of(gait.get("steps") or []), heel_plot_png=png.read_bytes() if png.is_file() else None,
         norm_citations=norms.citations, version=_version(),
         num_steps=int(gait.get("summary", {}).get("num_steps") or 0),
         num_passes=int(gait.get("summary", {}).get("num_passes") or 0),
-        previous=previous_visit(db, trial, Path(data_dir)), flags=flags_of(rows),
+        previous=previous_visit(db, trial, Path(data_dir)), flags=said.findings, data_problems=said.data_problems,
+        norm_summary=said.norm_summary, consistency=consistency,
         joint_angles_note=joint_angles_note(kinematics),
         kinematics=with_norms(kinematics, age) if kinematics is not None else {})

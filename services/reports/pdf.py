@@ -31,6 +31,12 @@ def _fmt(x: float, decimals: int) -> str:
     return f"{x:.{decimals}f}" if math.isfinite(x) else "-"
 
 
+def ordinal(n: int) -> str:
+    """1st, 2nd, 3rd, 4th, 11th, 12th, 13th, 21st, 41st, 43rd, 61st."""
+    suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{suffix}"
+
+
 def _when(t_s: float | None) -> str:
     return time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(t_s)) if t_s else "-"
 
@@ -54,6 +60,15 @@ class _Doc(FPDF):
                   new_x="LMARGIN", new_y="NEXT")
         self.line(self.l_margin, self.get_y() + 1, self.w - self.r_margin, self.get_y() + 1)
         self.ln(3)
+        if self.c.details.voided:  # on every page: a page printed alone must not look valid
+            self.set_text_color(160, 0, 0)
+            self.set_font("Helvetica", "B", 12)
+            reason = self.c.details.void_reason
+            reason = reason if len(reason) <= 70 else reason[:69] + "..."
+            self.cell(0, 6, _latin1(f"VOID - not for clinical use: {reason}"),
+                      new_x="LMARGIN", new_y="NEXT")
+            self.set_text_color(0, 0, 0)
+            self.set_font("Helvetica", "", 9)
 
     def footer(self) -> None:
         self.set_y(-12)
@@ -119,7 +134,7 @@ def _norm_cells(r: Row) -> tuple[str, str]:
     lo, hi = r.norm.band()
     z = r.z
     return (f"{lo:.{p.decimals}f}-{hi:.{p.decimals}f}",
-            f"{z:+.1f} ({r.percentile:.0f}th)" if math.isfinite(z) else "-")
+            f"{z:+.1f} ({ordinal(round(r.percentile))})" if math.isfinite(z) else "-")
 
 
 def _table(pdf: _Doc) -> None:
@@ -157,9 +172,21 @@ def _table(pdf: _Doc) -> None:
 
 
 def _flags(pdf: _Doc) -> None:
+    c = pdf.c
     pdf.heading("Findings to note")
-    for f in pdf.c.flags or ("No parameter outside the normal range and no side difference over 10 %.",):
+    if c.norm_summary:
+        pdf.para(c.norm_summary)
+    for f in c.flags:
         pdf.para(f"- {f}")
+    if not c.flags:
+        pdf.para("No finding to note" + (" against a normal range" if "none outside" in c.norm_summary else "")
+                 + "; no side difference over 10 %" + (" among the parameters without a data problem."
+                                                        if c.data_problems else "."))
+    if c.data_problems:
+        pdf.set_text_color(140, 70, 0)
+        for p in c.data_problems:
+            pdf.para(f"- {p}")
+        pdf.set_text_color(0, 0, 0)
 
 
 def _heel_plot(pdf: _Doc) -> None:

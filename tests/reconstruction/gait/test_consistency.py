@@ -62,7 +62,8 @@ def test_the_issues_single_support_is_a_data_problem_naming_side_values_and_tole
     assert pct.tolerance == pytest.approx(100 * (FRAME_S + 0.002) / 1.10)
     assert "right mean" in pct.message and "47.300" in pct.message and "% cycle" in pct.message
     assert {"single_support_s", "single_support_pct", "stance_pct"} <= report.parameters_in_doubt
-    assert "step_length_mm" not in report.parameters_in_doubt
+    assert "step_length_mm" not in report.parameters_in_doubt and "swing_time_s" in report.parameters_in_doubt
+    assert not [n for n in report.parameters_in_doubt if n.startswith(("left_", "right_", "previous_"))]
     assert report.to_dict()["failures"][0]["message"]
 
 

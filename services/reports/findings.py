@@ -1,0 +1,135 @@
+"""What the page and the report may say about a trial's numbers: findings only against a norm, only on
+numbers that passed the consistency rules, and a count of what had a reference.
+
+- A value is called outside the normal range only when the normative table has a row for it (and its
+  z-score is beyond +-1.96); nothing is ever called "normal" without a row. ``norm_summary`` says how many
+  parameters had one ("6 of 15 parameters have a normal range for age and sex; none outside it").
+- A parameter that entered a failed consistency rule (:mod:`gaitcap.reconstruction.gait.consistency`) is a
+  data problem: it gets no finding (neither outside the range nor a side difference), and the failure is
+  listed in plain words among the data problems.
+- The consistency block is the stage's stored one (key ``consistency`` of the result's report or quality
+  block) when the processing stored it, else computed here from the stage's ``gait.json`` summary and
+  steps with the trial's frame period (``data_quality.nominal_fps``; 30 fps when unknown).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+from gaitcap.reconstruction.gait.consistency import check_consistency
+
+DEFAULT_FPS = 30.0
+SIDE_DIFFERENCE_PCT = 10.0  # symmetry index above which sides are said to differ
+Z_OUTSIDE = 1.96
+
+
+class _Row(Protocol):  # services.reports.content.Row
+    name: str
+    left: float
+    right: float
+    mean: float
+    si_pct: float
+    norm: Any
+
+    @property
+    def z(self) -> float: ...
+
+
+@dataclass(frozen=True)
+class Labelled:
+    """How a parameter is named in a sentence: label, unit, decimals."""
+
+    label: str
+    unit: str
+    decimals: int
+
+
+@dataclass(frozen=True)
+class Findings:
+    """What may be said of a trial's parameters.
+
+    Attributes:
+        findings: values outside their normal range, sides differing by more than 10 %.
+        data_problems: consistency rules that failed (plain words): not findings.
+        norm_summary: how many parameters had a normal range and how many lie outside it.
+        with_reference: parameters with a normal range for the patient (and a measured value).
+        outside: of those, the ones outside it.
+        in_doubt: parameters that entered a failed rule (no finding is made on them).
+    """
+
+    findings: tuple[str, ...]
+    data_problems: tuple[str, ...]
+    norm_summary: str
+    with_reference: int
+    total: int
+    outside: int
+    in_doubt: frozenset[str]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"findings": list(self.findings), "data_problems": list(self.data_problems),
+                "norm_summary": self.norm_summary, "with_reference": self.with_reference, "total": self.total,
+                "outside": self.outside, "in_doubt": sorted(self.in_doubt)}
+
+
+def frame_period_s(data_quality: Mapping[str, Any] | None) -> float:
+    """The trial's frame period (s) from its data-quality block's ``nominal_fps``; 1/30 s when unknown."""
+    fps = (data_quality or {}).get("nominal_fps")
+    return 1.0 / fps if isinstance(fps, int | float) and math.isfinite(fps) and 5 <= fps <= 1000 else 1.0 / DEFAULT_FPS
+
+
+def consistency_of(stored: Mapping[str, Any] | None, gait: Mapping[str, Any] | None,
+                   data_quality: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The stage's consistency block: ``stored`` when the processing stored one, else computed from the
+    stage's ``gait.json`` (``summary`` and ``steps``); an empty check when there is no gait file."""
+    if stored and isinstance(stored.get("failures"), list):
+        return dict(stored)
+    gait = gait or {}
+    return check_consistency(gait.get("summary") or {}, gait.get("steps") or [],
+                             frame_period_s=frame_period_s(data_quality)).to_dict()
+
+
+def plain_problem(failure: Mapping[str, Any]) -> str:
+    """A failed rule as a data problem the clinician can read (the message, stated as not a finding)."""
+    return f"Data problem, not a clinical finding: {failure.get('message') or failure.get('rule')}."
+
+
+def findings_of(rows: Sequence[_Row], consistency: Mapping[str, Any],
+                labels: Mapping[str, Labelled]) -> Findings:
+    """Findings of the report rows (``content.Row``: mean, sides, symmetry, norm row) against their norms,
+    leaving out the parameters in doubt by ``consistency`` (a :class:`ConsistencyReport` dict)."""
+    doubt = frozenset(consistency.get("parameters_in_doubt") or ())
+    out, outside, referenced = [], 0, 0
+    measured = [r for r in rows if math.isfinite(r.mean)]
+    for r in rows:
+        p = labels[r.name]
+        if r.name in doubt:
+            continue
+        if r.norm is not None and math.isfinite(r.mean):
+            referenced += 1
+            if math.isfinite(r.z) and abs(r.z) > Z_OUTSIDE:
+                outside += 1
+                lo, hi = r.norm.band()
+                out.append(f"{p.label} {r.mean:.{p.decimals}f} {p.unit} is {'below' if r.z < 0 else 'above'} the "
+                           f"normal range for age and sex ({lo:.{p.decimals}f}-{hi:.{p.decimals}f} {p.unit}).")
+        if math.isfinite(r.si_pct) and r.si_pct > SIDE_DIFFERENCE_PCT:
+            out.append(f"{p.label} differs between sides: left {r.left:.{p.decimals}f}, right "
+                       f"{r.right:.{p.decimals}f} {p.unit} (symmetry index {r.si_pct:.1f} %).")
+    problems = tuple(plain_problem(f) for f in consistency.get("failures") or ())
+    return Findings(tuple(out), problems, norm_summary(referenced, len(measured), outside, len(doubt & {r.name for r in rows})),
+                    referenced, len(measured), outside, doubt)
+
+
+def norm_summary(with_reference: int, total: int, outside: int, in_doubt: int = 0) -> str:
+    """"6 of 15 parameters have a normal range for age and sex; none outside it." Without any range it says
+    that no value is called normal or abnormal."""
+    doubt = (f" {in_doubt} parameter{'s' * (in_doubt != 1)} with a data problem not compared."
+             if in_doubt else "")
+    if with_reference == 0:
+        return (f"None of the {total} parameters has a normal range for this patient's age and sex: no value "
+                f"is called normal or abnormal.{doubt}")
+    verdict = "none outside it" if outside == 0 else f"{outside} outside it"
+    have = "has" if with_reference == 1 else "have"
+    return f"{with_reference} of {total} parameters {have} a normal range for age and sex; {verdict}.{doubt}"

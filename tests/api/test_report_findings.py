@@ -1,0 +1,113 @@
+"""The report and the page's numbers say nothing false: findings only against a norm (with a count of the
+parameters that had one), numbers that disagree shown as a data problem and never as a finding, a void
+trial marked VOID on every page of its PDF, percentiles as ordinals."""
+
+import copy
+import io
+import json
+import time
+
+import numpy as np
+import pytest
+from gaitcap.acquisition.fileio import atomic_write_text
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.outputs import steps_of, summary_of
+from gaitcap.services.reports.pdf import ordinal
+
+
+@pytest.fixture(scope="module")
+def walk():
+    """The gait report of the synthetic walker, 10 s, as gait.json holds it."""
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.skeletons import get_skeleton
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import Room, plan_walk
+    from gaitcap.simulator.walker import simulate_body
+
+    names, times, params = list(get_skeleton("halpe26").joint_names), np.arange(300) / 30.0, WalkParams()
+    return analyze_gait(simulate_body(plan_walk(params, 10.0, Room(), seed=0), params, times), times, names)
+
+
+def _trial(server, report, gait: dict, *, subject: str) -> str:
+    _, client, _, settings = server
+    tid = client.post("/trials", json={"subject_id": subject, "session": "visit-1"}).json()["id"]
+    client.post(f"/trials/{tid}/stop")
+    atomic_write_text(trial_files(settings.data_dir, tid).stage_file("preliminary", "gait_json"), json.dumps(gait))
+    db = cat.open_catalog(settings.catalog_url)
+    cat.store_result(db, trial_id=tid, stage="preliminary", method="robust_triangulation", steps=steps_of(report),
+                     summary=summary_of(report), quality={}, report={"warnings": []})
+    db.close()
+    return tid
+
+
+def _pdf_pages(client, tid) -> list[str]:
+    from pypdf import PdfReader
+
+    pdf = client.get(f"/trials/{tid}/report.pdf")
+    assert pdf.status_code == 200
+    return [" ".join(p.extract_text().split()) for p in PdfReader(io.BytesIO(pdf.content)).pages]
+
+
+def test_without_norms_nothing_is_called_normal_and_with_norms_the_count_is_given(server, walk):
+    _, client, _, _ = server
+    tid = _trial(server, walk, walk.to_dict(), subject="P100")
+    js = client.get(f"/trials/{tid}/parameters").json()
+    assert js["consistency"]["ok"] and js["data_problems"] == [] and not any(p["in_doubt"] for p in js["parameters"])
+    measured = sum(p["mean"] is not None for p in js["parameters"])
+    assert js["norm_summary"] == (f"None of the {measured} parameters has a normal range for this patient's age "
+                                  "and sex: no value is called normal or abnormal.")
+    text = " ".join(_pdf_pages(client, tid))
+    assert "no value is called normal or abnormal" in text
+    assert "outside the normal range" not in text and "No parameter outside" not in text
+    client.put("/patients/P100", json={"sex": "female", "birth_year": time.gmtime().tm_year - 74})
+    js = client.get(f"/trials/{tid}/parameters").json()
+    referenced = [p for p in js["parameters"] if p["normal_range"] is not None and p["mean"] is not None]
+    outside = [p for p in referenced if abs(p["z"]) > 1.96]
+    assert len(referenced) >= 6
+    verdict = "none outside it" if not outside else f"{len(outside)} outside it"
+    assert js["norm_summary"] == (f"{len(referenced)} of {measured} parameters have a normal range for age and sex; "
+                                  f"{verdict}.")
+    assert sum("normal range for age and sex (" in f for f in js["flags"]) == len(outside)
+    assert js["norm_summary"] in " ".join(_pdf_pages(client, tid))
+
+
+def test_numbers_that_disagree_are_a_data_problem_never_a_finding(server, walk):
+    """The issue's visit 1: right single support 0.52 s (47.3 %) next to stance 61.6 % and double support
+    24.4 %: the page and the report list a data problem, and make no side-difference finding of it."""
+    _, client, _, _ = server
+    gait = copy.deepcopy(walk.to_dict())
+    params = gait["summary"]["parameters"]
+    stride = params["stride_time_s"]["right"]["mean"]
+    params["single_support_s"]["right"]["mean"] = 0.52
+    params["single_support_pct"]["right"]["mean"] = 100 * 0.52 / stride
+    si = 100 * abs(0.52 - params["single_support_s"]["left"]["mean"]) / (0.5 * (0.52 + params["single_support_s"]["left"]["mean"]))
+    gait["summary"]["asymmetry_pct"]["single_support_s"] = si
+    assert si > 10
+    tid = _trial(server, walk, gait, subject="P101")
+    js = client.get(f"/trials/{tid}/parameters").json()
+    assert not js["consistency"]["ok"]
+    doubt = {p["name"] for p in js["parameters"] if p["in_doubt"]}
+    assert {"single_support_s", "single_support_pct", "stance_time_s"} <= doubt and "step_length_mm" not in doubt
+    assert not [f for f in js["flags"] if f.startswith("Single support")]
+    assert js["data_problems"] and all(p.startswith("Data problem, not a clinical finding:") for p in js["data_problems"])
+    assert any("right mean" in p and "single support 0.520" in p for p in js["data_problems"])
+    text = " ".join(_pdf_pages(client, tid))
+    assert "Data problem, not a clinical finding" in text and "Single support differs between sides" not in text
+
+
+def test_a_void_trial_says_void_on_every_pdf_page(server, walk):
+    _, client, _, _ = server
+    tid = _trial(server, walk, walk.to_dict(), subject="P102")
+    assert client.post(f"/trials/{tid}/mark-void", json={"reason": "wrong patient walked"}).status_code == 200
+    pages = _pdf_pages(client, tid)
+    assert len(pages) >= 2
+    assert all("VOID - not for clinical use: wrong patient walked" in p for p in pages)
+    assert client.get(f"/trials/{tid}/parameters").json()["voided"] is True
+
+
+@pytest.mark.parametrize("n,text", [(1, "1st"), (2, "2nd"), (3, "3rd"), (4, "4th"), (11, "11th"), (12, "12th"),
+                                    (13, "13th"), (21, "21st"), (41, "41st"), (43, "43rd"), (51, "51st"),
+                                    (61, "61st"), (100, "100th"), (111, "111th")])
+def test_percentiles_are_ordinals(n, text):
+    assert ordinal(n) == text
