@@ -116,6 +116,7 @@ class AravisOptions:
             frame = the camera is gone (named, state ``error``).
         buffers: stream buffers queued to Aravis.
         packet_resend: ask the camera to resend lost packets (GVCP PACKETRESEND).
+        max_frames: end the stream after this many delivered frames (None: until stopped).
     """
 
     packet_size_bytes: int | None = 1400
@@ -125,6 +126,7 @@ class AravisOptions:
     stall_timeouts: int = 3
     buffers: int = 16
     packet_resend: bool = True
+    max_frames: int | None = None
 
     def __post_init__(self) -> None:
         if self.packet_size_bytes is not None and not 576 <= self.packet_size_bytes <= 16000:
@@ -320,6 +322,8 @@ class AravisCamera:
                 self._status.count(frame)
                 last = frame
                 yield frame
+                if self.options.max_frames is not None and self._status.frames >= self.options.max_frames:
+                    return
         finally:
             self._refresh_counters()
             self._end()

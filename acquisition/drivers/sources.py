@@ -1,6 +1,7 @@
 """Typed camera-source configs: each builds the opened and configured drivers of one host.
 
-``SimulatedSource`` (synthetic world), ``VideoSource`` (files / webcams), ``FlirSource`` (PySpin).
+``SimulatedSource`` (synthetic world), ``VideoSource`` (files / webcams), ``FlirSource`` (PySpin),
+``AravisSource`` (GigE Vision cameras through Aravis).
 """
 
 from __future__ import annotations
@@ -84,4 +85,37 @@ class FlirSource:
             cam.open()
             cam.configure(settings)
         system.wait_ptp_locked(cams)
+        return cams
+
+
+@dataclass(frozen=True)
+class AravisSource:
+    """GigE Vision cameras through Aravis (FLIR and others, no vendor SDK) by serial number, Aravis device
+    id or IPv4 address; names default to the devices. Packet size in bytes, packet delay in ns, gain in dB."""
+
+    devices: tuple[str, ...] = ()
+    names: tuple[str, ...] = ()
+    fps: float = 30.0
+    exposure_us: float = 15000.0
+    pixel_format: str = "BayerRG8"
+    packet_size_bytes: int | None = 1400
+    packet_delay_ns: int = 0
+    gain_db: float | None = None
+    max_frames: int | None = None
+
+    def build(self) -> list[CameraDriver]:
+        from gaitcap.acquisition.drivers.aravis import AravisCamera, AravisOptions
+
+        if not self.devices:
+            raise ValueError("aravis source: give --devices SERIAL_OR_ADDRESS,...")
+        if self.names and len(self.names) != len(self.devices):
+            raise ValueError(f"aravis source: {len(self.names)} names for {len(self.devices)} devices")
+        options = AravisOptions(packet_size_bytes=self.packet_size_bytes, packet_delay_ns=self.packet_delay_ns,
+                                gain_db=self.gain_db, max_frames=self.max_frames)
+        settings = CaptureSettings(fps=self.fps, exposure_us=self.exposure_us, pixel_format=self.pixel_format)
+        cams = [AravisCamera(d, n, options=options)
+                for d, n in zip(self.devices, self.names or self.devices, strict=True)]
+        for cam in cams:
+            cam.open()
+            cam.configure(settings)
         return cams

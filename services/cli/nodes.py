@@ -41,7 +41,7 @@ def _sim_options(preset: str, seconds: float, cameras: int, people: int, seed: i
 def camera_cmd(
     node: str = typer.Option("camera-0", "--node", help="Node name (bus file entry)."),
     bus: Path | None = BUS_OPT,
-    source: str = typer.Option("simulated", "--source", help="simulated | video | flir"),
+    source: str = typer.Option("simulated", "--source", help="simulated | video | flir | aravis"),
     cameras: str | None = typer.Option(None, "--cameras", help="Comma-separated camera names (default: all)."),
     size: str = typer.Option("640x480", "--size", help="Image size WIDTHxHEIGHT px (simulated)."),
     fps: float = typer.Option(30.0, "--fps", help="Frame rate, frames/s."),
@@ -59,7 +59,7 @@ def camera_cmd(
                                   "pause, frame ids counting on (a rig that runs all day)."),
     drop: list[str] = typer.Option([], "--drop", help="Simulated fault CAM:ID,ID (dropped frame ids)."),
     stop: list[str] = typer.Option([], "--stop", help="Simulated fault CAM:ID (camera dies after ID)."),
-    frames: int | None = typer.Option(None, "--frames", help="Play at most this many frames (simulated)."),
+    frames: int | None = typer.Option(None, "--frames", help="Play at most this many frames (simulated, aravis)."),
     board_clip: str = typer.Option("short", "--board-clip", help="Board shown on Calibrate (simulated): short (6 s) | full (60 s)."),
     videos: list[Path] = typer.Option([], "--video", help="Video file(s) (source video); camera = file stem."),
     webcam: list[int] = typer.Option([], "--webcam", help="Webcam index (source video)."),
@@ -69,9 +69,13 @@ def camera_cmd(
     packet_size: int = typer.Option(9000, "--packet-size", help="FLIR GigE packet size (jumbo 9000)."),
     packet_delay: int = typer.Option(4000, "--packet-delay", help="FLIR GigE inter-packet delay (ticks)."),
     trigger: str = typer.Option("Action0", "--trigger", help="FLIR start: Action0 (scheduled action) or Line0.."),
+    devices: str | None = typer.Option(None, "--devices", help="Aravis: GigE Vision serials, device ids or IP "
+                                       "addresses, comma-separated (names from --cameras)."),
+    packet_delay_ns: int = typer.Option(0, "--packet-delay-ns", help="Aravis GigE inter-packet delay, ns."),
+    gain_db: float | None = typer.Option(None, "--gain-db", help="Aravis fixed gain, dB (default: the camera's)."),
 ) -> None:
     """Publish the frames and status of one host's cameras."""
-    from gaitcap.acquisition.drivers.sources import FlirSource, SimulatedSource, VideoSource
+    from gaitcap.acquisition.drivers.sources import AravisSource, FlirSource, SimulatedSource, VideoSource
     from gaitcap.services.bus.session import default_bus_config, open_session
     from gaitcap.services.nodes.camera import CameraNode
     from gaitcap.services.nodes.sim_scene import attach_board_scene
@@ -88,6 +92,10 @@ def camera_cmd(
                                        names=tuple(names or ()), fps=fps, exposure_us=exposure_us,
                                        pixel_format=pixel_format, packet_size=packet_size,
                                        packet_delay=packet_delay, trigger_source=trigger),
+            "aravis": lambda: AravisSource(devices=tuple(d for d in (devices or "").split(",") if d),
+                                           names=tuple(names or ()), fps=fps, exposure_us=exposure_us,
+                                           pixel_format=pixel_format, packet_size_bytes=packet_size,
+                                           packet_delay_ns=packet_delay_ns, gain_db=gain_db, max_frames=frames),
         }
         if source not in builders:
             raise ValueError(f"--source: {source!r} is not one of {sorted(builders)}")

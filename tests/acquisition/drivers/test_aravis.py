@@ -145,3 +145,25 @@ def test_lost_packets_make_incomplete_frames_counted_and_never_delivered(lossy_c
     assert st["drops"] == ids[-1] - ids[0] + 1 - len(ids) > 0 and st["frame_id_gaps"] > 0, (ids, st)
     assert all(f.image.shape == (512, 512, 3) for f in frames)
     cam.close()
+
+
+def test_the_source_names_what_is_missing():
+    from gaitcap.acquisition.drivers.sources import AravisSource
+
+    with pytest.raises(ValueError, match="--devices"):
+        AravisSource().build()
+    with pytest.raises(ValueError, match="2 names for 1 devices"):
+        AravisSource(devices=("GC001",), names=("a", "b")).build()
+
+
+@needs_aravis
+def test_the_source_builds_configured_cameras_that_stop_after_max_frames(fake_camera):
+    from gaitcap.acquisition.drivers.sources import AravisSource
+
+    (cam,) = AravisSource(devices=("127.0.0.1",), names=("left",), fps=25.0, exposure_us=5000.0,
+                          pixel_format="Mono8", packet_size_bytes=9000, max_frames=5).build()
+    st = cam.status().to_dict()
+    assert (cam.name, st["state"], st["fps_set"], st["packet_size_bytes"]) == ("left", "configured", 25.0, 9000)
+    cam.start(None)
+    assert len(list(cam.frames())) == 5 and cam.status().state == "stopped"
+    cam.close()
