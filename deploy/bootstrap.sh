@@ -323,6 +323,20 @@ install_opencv_samples() (
     && install -m 644 "$doc/copyright" "$dest/opencv-charuco/LICENSE" \
     && touch "$dest/opencv-stereo/$stamp" "$dest/opencv-charuco/$stamp"
 )
+# GigE Vision cameras through Aravis (docs/lab-setup.md): Debian's Aravis 0.8 (introspection data, and
+# aravis-tools with arv-fake-gv-camera-0.8, the camera simulator the GigE tests and bench/gige.py run) and
+# PyGObject built in the venv against it (the pin is pyproject.toml's extra "gige"). Without them the rest
+# works; the Aravis driver says what is missing and its tests skip.
+install_aravis() {
+  apt_install aravis-tools gir1.2-aravis-0.8 libgirepository1.0-dev libcairo2-dev pkg-config || return 1
+  "$VENV/bin/python" -c 'import gi; gi.require_version("Aravis", "0.8")' >/dev/null 2>&1 && return 0
+  echo "[bootstrap] building PyGObject for the Aravis GigE Vision driver" >&2
+  local spec
+  spec="$("$VENV/bin/python" -c 'import sys, tomllib; print(*tomllib.load(open(sys.argv[1], "rb"))["project"]["optional-dependencies"]["gige"])' "$ROOT/pyproject.toml")" \
+    && "$VENV/bin/python" -m pip install -q $spec \
+    && "$VENV/bin/python" -c 'import gi; gi.require_version("Aravis", "0.8")'
+}
+install_aravis || echo "[bootstrap] WARNING: Aravis GigE Vision driver not installed (its tests skip)" >&2
 install_mediapipe_models || echo "[bootstrap] WARNING: MediaPipe Pose models not installed (needs npm)" >&2
 install_test_video || echo "[bootstrap] WARNING: detector test video not installed" >&2
 install_opensim_setup || echo "[bootstrap] WARNING: OpenSim model and setups not installed" >&2
