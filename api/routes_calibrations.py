@@ -21,7 +21,7 @@ from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
 from gaitcap.services.live.protocols import RecorderUnavailable
 from gaitcap.services.live.rig_check import calibration_problems
-from gaitcap.services.processing.calibration_job import check_board
+from gaitcap.services.processing.boards import check_board
 from pydantic import BaseModel, ConfigDict, Field
 
 log = logging.getLogger(__name__)

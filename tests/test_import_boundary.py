@@ -18,6 +18,9 @@ Layers (the repository's folders, installed as ``gaitcap.<layer>``):
 - Production code (the live nodes, the API's link to them, the API) never reaches the simulator
   (``simulator``, the simulated camera driver), not even through another module: the
   simulator's hooks live with it (``services.nodes.sim_scene``, wired in by the simulated stack only).
+- Rules that hold through any chain of imports (``REACH_RULES``): the API never reaches drivers, detectors,
+  the live nodes, research, operations or the trial-processing path, nor the recording reader except
+  through the three named modules that need it; a failure names the chain of imports.
 - Nothing imports a layer under a generic top-level name (``import services``): always ``gaitcap.``.
 - No import cycles between modules (lazy and type-checking imports included).
 """
@@ -64,6 +67,36 @@ RULES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("gaitcap.services.bus", "gaitcap.services.processing", ()),
 )
 
+
+# What a layer may not reach at all, directly or through any chain of imports: (importer prefix, forbidden
+# prefix, modules a chain may pass through all the same, each with why). A failure names the chain.
+REACH_RULES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("gaitcap.reconstruction", "gaitcap.acquisition", ()),
+    ("gaitcap.reconstruction", "gaitcap.services", ()),
+    ("gaitcap.reconstruction", "gaitcap.api", ()),
+    ("gaitcap.reconstruction", "gaitcap.simulator", ()),
+    ("gaitcap.api", "gaitcap.acquisition.drivers", ()),
+    ("gaitcap.api", "gaitcap.acquisition.detectors", ()),
+    ("gaitcap.api", "gaitcap.acquisition.video_detect", ()),
+    ("gaitcap.api", "gaitcap.services.nodes", ()),
+    ("gaitcap.api", "gaitcap.services.research", ()),
+    ("gaitcap.api", "gaitcap.services.ops", ()),
+    ("gaitcap.api", "gaitcap.services.processing.worker", ()),
+    ("gaitcap.api", "gaitcap.services.processing.trial", ()),
+    # the recording reader: only the live link's crash recovery of a recording (services.live.guard), the
+    # patient's still and click on a recorded image (services.processing.people) and a board recording's
+    # calibration (services.processing.calibration_job)
+    ("gaitcap.api", "gaitcap.acquisition.recording.reader",
+     ("gaitcap.services.live.guard", "gaitcap.services.processing.people",
+      "gaitcap.services.processing.calibration_job")),
+    ("gaitcap.services.catalog", "gaitcap.acquisition", ()),
+    ("gaitcap.services.catalog", "gaitcap.services.processing", ()),
+    ("gaitcap.services.nodes", "gaitcap.services.processing", ()),
+    ("gaitcap.services.nodes", "gaitcap.services.catalog", ()),
+    ("gaitcap.services.processing", "gaitcap.services.research", ()),
+    ("gaitcap.services.processing", "gaitcap.services.nodes", ()),
+    ("gaitcap.services.processing", "gaitcap.services.ops", ()),
+)
 
 SIMULATOR = ("gaitcap.simulator", "gaitcap.acquisition.drivers.simulated")
 PRODUCTION = ("gaitcap.services.nodes", "gaitcap.services.live", "gaitcap.api")
@@ -145,6 +178,39 @@ def _reached(graph: dict[str, set[str]], start: str) -> set[str]:
     return seen
 
 
+def _chain(graph: dict[str, set[str]], start: str, target: str, through: tuple[str, ...]) -> list[str] | None:
+    """The shortest import chain from ``start`` to a module within ``target`` that passes through none of
+    ``through`` (breadth first), or None."""
+    previous: dict[str, str | None] = {start: None}
+    todo = [start]
+    while todo:
+        nxt = []
+        for name in todo:
+            for dep in sorted(graph.get(name, ())):
+                if dep in previous or any(_within(dep, t) for t in through):
+                    continue
+                previous[dep] = name
+                if _within(dep, target):
+                    chain = [dep]
+                    while previous[chain[-1]] is not None:
+                        chain.append(previous[chain[-1]])
+                    return chain[::-1]
+                nxt.append(dep)
+        todo = nxt
+    return None
+
+
+def _reach_violations(graph: dict[str, set[str]], rules=REACH_RULES) -> list[str]:
+    """``a -> b -> c`` for each module of a ruled layer that reaches what the rule forbids."""
+    found = []
+    for importer, forbidden, through in rules:
+        for name in sorted(n for n in graph if _within(n, importer) and not any(_within(n, t) for t in through)):
+            chain = _chain(graph, name, forbidden, through)
+            if chain is not None:
+                found.append(" -> ".join(chain))
+    return found
+
+
 def _simulator_reached(graph: dict[str, set[str]]) -> list[str]:
     """``production module -> simulator module`` for each production module that reaches the simulator."""
     found = []
@@ -217,6 +283,20 @@ def test_every_layer_rule_holds():
     assert len(graph) > 100, "the layer folders were not found"
     violations = _violations(graph)
     assert not violations, "layer rules broken:\n" + "\n".join(violations)
+
+
+def test_every_layer_rule_holds_through_any_chain_of_imports():
+    violations = _reach_violations(_tree_graph())
+    assert not violations, "layers reach what they must not (the chain):\n" + "\n".join(violations)
+
+
+def test_a_forbidden_reach_is_named_by_its_chain():
+    graph = {"gaitcap.api.a": {"gaitcap.services.x"}, "gaitcap.services.x": {"gaitcap.services.y"},
+             "gaitcap.services.y": {"gaitcap.acquisition.drivers.video"}, "gaitcap.acquisition.drivers.video": set(),
+             "gaitcap.api.b": {"gaitcap.services.ok"}, "gaitcap.services.ok": {"gaitcap.acquisition.drivers.video"}}
+    rules = (("gaitcap.api", "gaitcap.acquisition.drivers", ("gaitcap.services.ok",)),)
+    assert _reach_violations(graph, rules) == [
+        "gaitcap.api.a -> gaitcap.services.x -> gaitcap.services.y -> gaitcap.acquisition.drivers.video"]
 
 
 def test_no_import_cycles():

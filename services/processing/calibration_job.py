@@ -20,11 +20,11 @@ from gaitcap.services.catalog import Catalog
 from gaitcap.services.catalog.calibrations import (
     CALIBRATING,
     FAILED,
-    CalibrationInfo,
     finish_calibration,
     get_calibration,
     update_calibration,
 )
+from gaitcap.services.processing.boards import board_used
 
 log = logging.getLogger(__name__)
 
@@ -46,28 +46,6 @@ def _progress(catalog: Catalog, cal_id: str, expected_images: int | None, check:
             update_calibration(catalog, cal_id, stage=f"finding the board ({done} images)", progress=0.8 * frac)
 
     return progress
-
-
-def check_board(board: dict) -> None:
-    """ValueError naming what is wrong when ``board`` (a board file's ``[board]`` fields) is not a board the
-    worker can search for (an unknown dictionary, markers as large as the squares, ...): checked when the
-    board recording starts, not after the board has been filmed."""
-    from gaitcap.acquisition.board_file import board_from_dict
-
-    board_from_dict({"board": board}, source="board")
-
-
-def board_used(cal: CalibrationInfo):
-    """(BoardConfig, words naming it) of a calibration: its recorded board, else the default board.
-    ValueError naming the field when the recorded description is not a board."""
-    from gaitcap.acquisition.board import BoardConfig
-    from gaitcap.acquisition.board_file import board_from_dict
-
-    if cal.board is None:
-        board = BoardConfig()
-        return board, f"{board.describe()} (the default board: none was given)"
-    board = board_from_dict({"board": cal.board}, source=f"calibration {cal.id} board")
-    return board, board.describe()
 
 
 def run_calibration(catalog: Catalog, cal_id: str, *, board=None, check: Callable[[], None] = lambda: None) -> None:
@@ -118,4 +96,4 @@ def fail_calibration(catalog: Catalog, cal_id: str, exc: Exception) -> None:
         log.warning("calibration %s could not be marked failed", cal_id)
 
 
-__all__ = ["board_used", "fail_calibration", "run_calibration"]
+__all__ = ["fail_calibration", "run_calibration"]
