@@ -251,10 +251,15 @@ function connectPreviews() {
 }
 
 // ---------- results ----------
+function markVoidResults(voided) {
+  // a void trial's results are struck through, its stage label red, and a VOID banner is printed
+  $("#results").classList.toggle("voided", !!voided);
+}
+
 function follow(trialId) {
   state.followed = trialId; state.shownResult = null;
   $("#results").hidden = false;
-  $("#results-title").textContent = "trial " + trialId; $("#results-patient").textContent = "";
+  $("#results-title").textContent = "trial " + trialId; $("#results-patient").textContent = ""; markVoidResults(false);
   resetSides(); if (typeof kinReset === "function") kinReset("");
   $("#results-stage").textContent = "Computing the results… the first numbers appear a few seconds after Stop.";
   $("#results-stage").className = "stage";
@@ -278,7 +283,9 @@ function renderWarnings(warnings, t) {
 
 function updateFollowed(t) {
   renderWarnings(t.warnings || [], t);
-  $("#results-patient").textContent = `Patient ${t.subject_id} · ${fmtTime(t.started_at || t.created_at)} · session ${t.session}`;
+  $("#results-patient").textContent = `Patient ${t.subject_id} · ${fmtTime(t.started_at || t.created_at)} · session ${t.session}`
+    + (t.voided ? ` · VOID: ${t.void_reason}` : "");
+  markVoidResults(t.voided);
   if (state.rerun === t.id && !rerunFinished(t)) return;
   const best = t.results.includes("refined") ? "refined" : t.results.includes("preliminary") ? "preliminary" : null;
   if (t.state === "failed") {

@@ -53,6 +53,7 @@ async function loadSides(trialId) {
   if (state.followed !== trialId) return;
   $("#results-patient").textContent = `Patient ${r.subject_id} · ${fmtTime(r.started_at)} · session ${r.session}`
     + (r.voided ? ` · VOID: ${r.void_reason}` : "");
+  markVoidResults(r.voided);
   const body = $("#sides-table tbody");
   body.innerHTML = r.parameters.map((p) => {
     const d = p.decimals, out = !p.in_doubt && p.z != null && Math.abs(p.z) > 1.96;

@@ -13,7 +13,7 @@ from pathlib import Path
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import patients as pat
 from gaitcap.services.processing.artifacts import trial_files
-from gaitcap.services.reports.findings import Findings, consistency_of, findings_of
+from gaitcap.services.reports.findings import Findings, consistency_of, findings_of, key_value_findings
 from gaitcap.services.reports.norms import NormRow, NormTable, load_norms, percentile
 
 
@@ -303,8 +303,10 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
     consistency = consistency_of(result.report.get("consistency") or (result.quality or {}).get("consistency"),
                                  gait, data_quality)
     said = findings(rows, consistency)
-    png = trial_files(data_dir, trial.id).stage_file(result.stage, "report_png")
     kinematics = stored_kinematics(Path(data_dir), trial.id, result.stage)
+    shown_kinematics = with_norms(kinematics, age) if kinematics is not None else {}
+    angles = key_value_findings(shown_kinematics)
+    png = trial_files(data_dir, trial.id).stage_file(result.stage, "report_png")
     return ReportContent(
         clinic_name=config.clinic_name, trial=trial, patient=patient, details=pat.get_details(db, trial.id),
         age=age, stage=result.stage, method=result.method, rows=rows,
@@ -314,7 +316,8 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
         norm_citations=norms.citations, version=_version(),
         num_steps=int(gait.get("summary", {}).get("num_steps") or 0),
         num_passes=int(gait.get("summary", {}).get("num_passes") or 0),
-        previous=previous_visit(db, trial, Path(data_dir)), flags=said.findings, data_problems=said.data_problems,
-        norm_summary=said.norm_summary, consistency=consistency,
+        previous=previous_visit(db, trial, Path(data_dir)), flags=said.findings + angles.findings,
+        data_problems=said.data_problems, norm_summary=" ".join(filter(None, (said.norm_summary, angles.summary))),
+        consistency=consistency,
         joint_angles_note=joint_angles_note(kinematics),
-        kinematics=with_norms(kinematics, age) if kinematics is not None else {})
+        kinematics=shown_kinematics)

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from gaitcap.reconstruction.gait.consistency import check_consistency
+from gaitcap.reconstruction.kinematics.key_norms import KeyNorm, key_norms
 
 DEFAULT_FPS = 30.0
 SIDE_DIFFERENCE_PCT = 10.0  # symmetry index above which sides are said to differ
@@ -133,3 +134,61 @@ def norm_summary(with_reference: int, total: int, outside: int, in_doubt: int = 
     verdict = "none outside it" if outside == 0 else f"{outside} outside it"
     have = "has" if with_reference == 1 else "have"
     return f"{with_reference} of {total} parameters {have} a normal range for age and sex; {verdict}.{doubt}"
+
+
+@dataclass(frozen=True)
+class KeyValueFindings:
+    """Joint-angle key values against the band: findings, how many values (per side) had a normal range
+    (a z-score), how many were measured, how many lie outside; the norms by key value name."""
+
+    findings: tuple[str, ...]
+    with_reference: int
+    total: int
+    outside: int
+    norms: dict[str, KeyNorm]
+
+    @property
+    def summary(self) -> str:
+        if not self.total:
+            return ""
+        if not self.with_reference:
+            return "Joint angles: no key value has a normal range (no band), none is called normal or abnormal."
+        verdict = "none outside it" if not self.outside else f"{self.outside} outside it"
+        return (f"Joint angles: {self.with_reference} of {self.total} key values (per side) have a normal range "
+                f"from the band; {verdict}.")
+
+
+def key_value_label(name: str) -> str:
+    return name.removesuffix("_deg").replace("_", " ").capitalize()
+
+
+def key_value_findings(kinematics: Mapping[str, Any] | None) -> KeyValueFindings:
+    """Each side's key joint-angle values (``kinematics.json`` with the band chosen for the patient) against
+    the band (:mod:`gaitcap.reconstruction.kinematics.key_norms`): a finding per value outside the normal
+    range (|z| > 1.96), both sides in one sentence."""
+    k = kinematics or {}
+    kv = k.get("key_values") or {}
+    norms = key_norms((k.get("norms") or {}).get("bands") or {})
+    out, referenced, total, outside = [], 0, 0, 0
+    for name in (kv.get("left") or kv.get("right") or {}):
+        norm, off = norms.get(name), []
+        for side in ("left", "right"):
+            value = _finite(((kv.get(side) or {}).get(name) or {}).get("mean"))
+            if not math.isfinite(value):
+                continue
+            total += 1
+            z = norm.z(value) if norm is not None else math.nan
+            if math.isfinite(z):
+                referenced += 1
+                if abs(z) > Z_OUTSIDE:
+                    outside += 1
+                    off.append(f"{side} {value:.1f} ({'below' if z < 0 else 'above'}, z {z:+.1f})")
+        if off:
+            lo, hi = norm.band()
+            out.append(f"{key_value_label(name)}: {', '.join(off)} deg, outside the normal range "
+                       f"{lo:.1f}-{hi:.1f} deg of the band at {norm.at_pct} % of the cycle.")
+    return KeyValueFindings(tuple(out), referenced, total, outside, norms)
+
+
+def _finite(x: Any) -> float:
+    return float(x) if isinstance(x, int | float) and math.isfinite(x) else math.nan

@@ -7,12 +7,13 @@ from __future__ import annotations
 import io
 import math
 
-import numpy as np
 from fpdf.fonts import FontFace
-from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT, KEY_VALUES
+from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT
+from gaitcap.reconstruction.kinematics.key_norms import Z_OUTSIDE, key_norms
 
 NORMAL_NOTE = (f"Normal: the key value read off the band's mean curve (toe-off taken at {DEFAULT_TOE_OFF_PCT:.0f} % "
-               "of the cycle); the normal spread between people is the band's.")
+               "of the cycle); Normal (95 %): +- 1.96 times the band's SD where the value is read; a range of "
+               "motion has no SD in the band (no range, no z-score). !: outside the normal range (|z| > 1.96).")
 
 
 def _stat(s: dict | None) -> str:
@@ -24,11 +25,23 @@ def _stat(s: dict | None) -> str:
 
 def normal_key_value(name: str, bands: dict) -> float:
     """A key value (degrees) on the normal band's mean curve, NaN without a band for its variable."""
-    var, fn = KEY_VALUES[name]
-    band = bands.get(var)
-    if band is None:
-        return math.nan
-    return float(fn(np.asarray(band["mean_deg"], dtype=np.float64), int(DEFAULT_TOE_OFF_PCT)))
+    norm = key_norms(bands).get(name)
+    return norm.normal_deg if norm is not None else math.nan
+
+
+def _side_cell(s: dict | None, norm) -> str:
+    """The side's value, marked "!" when outside the normal range (|z| > 1.96)."""
+    text = _stat(s)
+    value = s.get("mean") if isinstance(s, dict) else None
+    z = norm.z(float(value)) if norm is not None and isinstance(value, (int, float)) else math.nan
+    return text + (" !" if math.isfinite(z) and abs(z) > Z_OUTSIDE else "")
+
+
+def _range_cell(norm) -> str:
+    if norm is None:
+        return "no band"
+    band = norm.band()
+    return f"{band[0]:.1f} to {band[1]:.1f}" if band else "no SD (range)"
 
 
 def _key_table(pdf, k: dict) -> None:
@@ -37,20 +50,22 @@ def _key_table(pdf, k: dict) -> None:
     if not names:
         pdf.para("No key values: no complete gait cycle.")
         return
+    norms = key_norms(bands)
     pdf.set_font("Helvetica", "", 8.5)
-    with pdf.table(col_widths=(70, 36, 36, 22), width=164, align="LEFT", line_height=4.6,
-                   text_align=("LEFT", "RIGHT", "RIGHT", "RIGHT"),
+    with pdf.table(col_widths=(56, 32, 32, 16, 28), width=164, align="LEFT", line_height=4.6,
+                   text_align=("LEFT", "RIGHT", "RIGHT", "RIGHT", "RIGHT"),
                    headings_style=FontFace(emphasis="BOLD", fill_color=(230, 234, 240))) as table:
         head = table.row()
-        for h in ("Key value (degrees)", "Left", "Right", "Normal"):
+        for h in ("Key value (degrees)", "Left", "Right", "Normal", "Normal (95 %)"):
             head.cell(h)
         for name in names:
             row = table.row()
+            norm = norms.get(name)
             row.cell(pdf.latin1(name.removesuffix("_deg").replace("_", " ").capitalize()))
             for side in ("left", "right"):
-                row.cell(pdf.latin1(_stat((kv.get(side) or {}).get(name))))
-            normal = normal_key_value(name, bands) if name in KEY_VALUES else math.nan
-            row.cell(f"{normal:.1f}" if math.isfinite(normal) else "-")
+                row.cell(pdf.latin1(_side_cell((kv.get(side) or {}).get(name), norm)))
+            row.cell(f"{norm.normal_deg:.1f}" if norm is not None else "-")
+            row.cell(pdf.latin1(_range_cell(norm)))
     pdf.para(NORMAL_NOTE, 7.5)
 
 

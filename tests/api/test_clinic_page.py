@@ -227,6 +227,13 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.once("dialog", lambda d: d.accept("walked with the wrong shoes"))
     page.click("#void-button")
     page.wait_for_function("() => document.querySelector('#results-patient').textContent.includes('VOID: walked with')")
+    page.wait_for_timeout(400)  # several status updates later the header still says VOID (it once lost it)
+    assert "VOID: walked with the wrong shoes" in page.inner_text("#results-patient")
+    struck = page.eval_on_selector("#sides-table tbody td[data-label='Mean']", "td => getComputedStyle(td).textDecorationLine")
+    assert "line-through" in struck
+    page.emulate_media(media="print")  # the printed page carries the void mark too
+    assert "VOID" in page.evaluate("() => getComputedStyle(document.querySelector('#results'), '::before').content")
+    page.emulate_media(media="screen")
     voided = page.locator(f"#trials tr.voided[data-trial='{visits[2]}']")  # marked in the trial list
     voided.wait_for()
     assert "Void: walked with the wrong shoes" in voided.inner_text()

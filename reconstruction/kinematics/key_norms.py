@@ -1,0 +1,88 @@
+"""Key joint-angle values against a normal band: the value read off the band's mean curve, the band's SD
+where that value is read, and the patient's z-score, exactly like a spatiotemporal parameter's.
+
+A key value read at one point of the cycle (the knee at initial contact, a peak) is compared with the band
+at that point: normal value = the key value of the band's mean curve (through the same function as the
+patient's, :data:`gaitcap.reconstruction.kinematics.clinical.KEY_VALUES`, so sign and zero are the same),
+SD = the band's SD at the percent of the cycle where the mean curve takes it. A range of motion (max -
+min) has no SD in a band of means and SDs per point (their spreads are not independent): it gets the
+normal value and no z-score. Outside the normal range: |z| > 1.96. Pure computation, degrees.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT, KEY_VALUES
+
+Z_OUTSIDE = 1.96
+
+
+def _point_of(name: str, mean: np.ndarray, toe: int) -> int | None:
+    """The percent of the cycle at which key value ``name`` is read on ``mean``; None for a range."""
+    if name.endswith("_rom_deg"):
+        return None
+    if name == "knee_flexion_initial_contact_deg":
+        return 0
+    if name == "knee_peak_flexion_swing_deg":
+        return toe + int(np.argmax(mean[toe:]))
+    if name == "ankle_peak_dorsiflexion_stance_deg":
+        return int(np.argmax(mean[: toe + 1]))
+    if name == "ankle_peak_plantarflexion_deg":
+        return int(np.argmin(mean))
+    if name == "hip_peak_extension_terminal_stance_deg":
+        start = 30
+        return start + int(np.argmin(mean[start: max(toe, 31) + 1]))
+    if name == "hip_peak_flexion_deg":
+        return int(np.argmax(mean))
+    raise ValueError(f"key value {name!r}: no rule for where it is read")
+
+
+@dataclass(frozen=True)
+class KeyNorm:
+    """The normal value (degrees) of one key value, its SD (NaN for a range of motion) and the percent of
+    the cycle where it is read (None for a range)."""
+
+    name: str
+    normal_deg: float
+    sd_deg: float
+    at_pct: int | None
+
+    def z(self, value_deg: float) -> float:
+        if not (math.isfinite(value_deg) and math.isfinite(self.sd_deg) and self.sd_deg > 0):
+            return math.nan
+        return (value_deg - self.normal_deg) / self.sd_deg
+
+    def band(self, k: float = Z_OUTSIDE) -> tuple[float, float] | None:
+        """normal -+ k SD, None without an SD."""
+        if not math.isfinite(self.sd_deg):
+            return None
+        return self.normal_deg - k * self.sd_deg, self.normal_deg + k * self.sd_deg
+
+
+def key_norm(name: str, mean_deg, sd_deg, *, toe_off_pct: float = DEFAULT_TOE_OFF_PCT) -> KeyNorm:
+    """The :class:`KeyNorm` of key value ``name`` on a band (mean and SD curves, 101 points, degrees)."""
+    var_fn = KEY_VALUES.get(name)
+    if var_fn is None:
+        raise ValueError(f"unknown key value {name!r}; known: {', '.join(KEY_VALUES)}")
+    mean, sd = np.asarray(mean_deg, dtype=np.float64), np.asarray(sd_deg, dtype=np.float64)
+    if mean.shape != (101,) or sd.shape != (101,):
+        raise ValueError(f"{name}: the band must have 101 points (0..100 % of the cycle), got {mean.shape}")
+    toe = int(round(toe_off_pct))
+    at = _point_of(name, mean, toe)
+    return KeyNorm(name, float(var_fn[1](mean, toe)), float(sd[at]) if at is not None else math.nan, at)
+
+
+def key_norms(bands: Mapping[str, Mapping[str, Any]]) -> dict[str, KeyNorm]:
+    """Key value name -> :class:`KeyNorm` for every key value whose variable has a band (``bands``: the
+    ``kinematics.json`` ``norms.bands`` form, variable -> {"mean_deg", "sd_deg"})."""
+    out = {}
+    for name, (var, _) in KEY_VALUES.items():
+        band = bands.get(var)
+        if band and band.get("mean_deg") is not None and band.get("sd_deg") is not None:
+            out[name] = key_norm(name, band["mean_deg"], band["sd_deg"])
+    return out
