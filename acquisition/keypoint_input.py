@@ -8,7 +8,7 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
-from gaitcap.acquisition.recording.reader import KeypointRecording
+from gaitcap.acquisition.keypoints import KeypointRecording
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.skeletons import get_skeleton
 

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from gaitcap.acquisition.encoding import parse_image_message
 from gaitcap.acquisition.keypoint_message import KeypointMessageError, parse_keypoint_message
+from gaitcap.acquisition.keypoints import KeypointRecording, missing_keypoints
 from gaitcap.acquisition.recording import layout
 from gaitcap.acquisition.recording.frame_slots import SlotReport, align_frame_slots
 from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
@@ -275,45 +276,6 @@ def iter_frames(path: str | os.PathLike, camera: str | None = None) -> Iterator[
 _MAX_FRAME_ID = 2**53  # a frame id this large (either sign) is stray without placing it (exact in float64)
 
 
-@dataclass(frozen=True, eq=False)
-class KeypointRecording:
-    """Every person's keypoints from a recording.
-
-    Attributes:
-        camera_names: (C,).
-        frame_ids: (T,) consecutive frame ids from the first to the last seen.
-        times_s: (T,) s since the first frame set (median camera timestamp per frame id).
-        skeleton: skeleton name.
-        people: (C, T, P, J, 3) x px, y px, conf; P = most people seen in one frame; missing: NaN, conf 0.
-        timestamps_ns: (C, T) camera timestamps, -1 where the frame is missing.
-        restarts: {camera: times its frame counter started again within the recording}; those frames are
-            placed by timestamp.
-        ignored: {camera: its keypoint messages left out (stray frame ids, timestamps far off, unreadable)}
-            for the cameras that had any; a camera with no message left is not in ``camera_names``.
-    """
-
-    camera_names: tuple[str, ...]
-    frame_ids: np.ndarray
-    times_s: np.ndarray
-    skeleton: str
-    people: np.ndarray
-    timestamps_ns: np.ndarray
-    restarts: dict[str, int] = field(default_factory=dict)
-    ignored: dict[str, IgnoredKeypoints] = field(default_factory=dict)
-
-    def patient(self) -> Detections:
-        """people[0] of every frame (the detector's first person) as reconstruction input."""
-        c, t, _, j, _ = self.people.shape
-        kp = self.people[:, :, 0] if self.people.shape[2] else _missing((c, t, j))
-        return Detections(kp, self.camera_names, self.times_s, self.skeleton)
-
-
-def _missing(shape: tuple[int, ...]) -> np.ndarray:
-    out = np.full((*shape, 3), np.nan)
-    out[..., 2] = 0.0
-    return out
-
-
 def frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
     """(T,) s since the first frame set: the median camera timestamp of each frame set ((C, T) ns, -1 where
     missing), interpolated where no camera has one."""
@@ -378,7 +340,7 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
     frame_ids = np.arange(first, last + 1)
     most = max((len(p) for cam in slotted.values() for _, p in cam.values()), default=0)
     joints = next((p.shape[1] for cam in slotted.values() for _, p in cam.values() if len(p)), 0)
-    people = _missing((len(names), frame_ids.size, most, joints))
+    people = missing_keypoints((len(names), frame_ids.size, most, joints))
     stamps = np.full((len(names), frame_ids.size), -1, dtype=np.int64)
     for c, name in enumerate(names):
         for fid, (ts, ppl) in slotted.get(name, {}).items():

@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.detectors.pool import DetectorPool, DetectResult, FrameTask
 from gaitcap.acquisition.fileio import atomic_savez, atomic_write_text
-from gaitcap.acquisition.recording.reader import KeypointRecording, frame_times_s, iter_frames
+from gaitcap.acquisition.keypoints import KeypointRecording
+from gaitcap.acquisition.recording.reader import frame_times_s, iter_frames
 
 log = logging.getLogger(__name__)
 

@@ -56,7 +56,7 @@ def most_people_in_view(people: np.ndarray, *, threshold: float = IN_VIEW_CONFID
 
 
 def multi_of(recording) -> MultiPersonDetections:
-    """A :class:`~gaitcap.acquisition.recording.reader.KeypointRecording` as association input."""
+    """A :class:`~gaitcap.acquisition.keypoints.KeypointRecording` as association input."""
     return MultiPersonDetections(keypoints=recording.people, camera_names=recording.camera_names,
                                  times_s=recording.times_s, skeleton=recording.skeleton)
 

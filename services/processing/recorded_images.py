@@ -11,7 +11,8 @@ import os
 from dataclasses import dataclass, field
 
 import numpy as np
-from gaitcap.acquisition.recording.reader import KeypointRecording, read_image_times
+from gaitcap.acquisition.keypoints import KeypointRecording
+from gaitcap.acquisition.recording.reader import read_image_times
 from gaitcap.services.processing.quality import images_on_grid, recorded_frame_ids
 
 
