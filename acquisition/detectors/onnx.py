@@ -125,6 +125,8 @@ class OnnxConfig(DetectorConfig):
         box_padding: person boxes are enlarged by this factor before cropping.
         mean_rgb, std_rgb: input normalisation (ImageNet by default, as RTMPose and HRNet).
         num_threads: onnxruntime intra-op threads (0 = its default).
+        device: "auto" (onnxruntime's CUDA provider when it has one, else the CPU, said in the log), "cuda"
+            (the CUDA provider or an error naming the providers there are) or "cpu".
         person_detector: when no boxes are given, find people with MediaPipe Pose (lite model, tracked
             per camera) and crop around their landmarks.
         max_people: at most this many people from MediaPipe (default 4: everyone in view).
@@ -138,6 +140,7 @@ class OnnxConfig(DetectorConfig):
     mean_rgb: tuple[float, float, float] = IMAGENET_MEAN_RGB
     std_rgb: tuple[float, float, float] = IMAGENET_STD_RGB
     num_threads: int = 0
+    device: str = "auto"
     person_detector: bool = False
     max_people: int = 4
     person_min_score: float = 0.5
@@ -159,10 +162,12 @@ class OnnxDetector:
         if config.num_threads:
             opts.intra_op_num_threads = config.num_threads
         try:
-            self._session = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+            self._session = ort.InferenceSession(
+                str(path), opts, providers=execution_providers(config.device, ort.get_available_providers()))
         except Exception as exc:  # onnxruntime raises its own exception types
             raise ValueError(f"ONNX model {path}: cannot be loaded: {exc}") from exc
         self.config = config
+        self.provider = self._session.get_providers()[0]
         inp = self._session.get_inputs()[0]
         if len(inp.shape) != 4 or inp.shape[1] != 3 or not all(isinstance(v, int) for v in inp.shape[2:]):
             raise ValueError(f"ONNX model {path}: expected an input (N, 3, H, W) with fixed H, W, got {inp.shape}")
@@ -194,19 +199,35 @@ class OnnxDetector:
     ) -> np.ndarray:
         """(H, W, 3) BGR -> (P, J, 3) keypoints for P person boxes (see the module docstring)."""
         img = check_image(image_bgr, camera=camera)
+        return self._keypoints([(img, self._crops(img, camera, frame_id, timestamp_ns, boxes_xyxy_px))])[0]
+
+    def detect_batch(self, images: list[np.ndarray], *, cameras: list[str], frame_ids: list[int],
+                     timestamps_ns: list[int]) -> list[np.ndarray]:
+        """Several images (of several cameras) in one model run: [(P_i, J, 3)], as :meth:`detect` each."""
+        imgs = [check_image(im, camera=c) for im, c in zip(images, cameras, strict=True)]
+        return self._keypoints([(im, self._crops(im, c, f, t, None))
+                                for im, c, f, t in zip(imgs, cameras, frame_ids, timestamps_ns, strict=True)])
+
+    def _crops(self, img: np.ndarray, camera: str, frame_id: int, timestamp_ns: int, boxes_xyxy_px) -> list[Crop]:
         if boxes_xyxy_px is None and self._people is not None:
             boxes_xyxy_px = self._people.boxes(img, camera=camera, frame_id=frame_id, timestamp_ns=timestamp_ns)
         boxes = _boxes_or_whole_image(boxes_xyxy_px, img.shape, camera=camera)
-        if boxes.shape[0] == 0:
-            return empty_keypoints(self.skeleton.num_joints)
-        crops = [box_crop(b, out_size_px=self.input_size_px, padding=self.config.box_padding) for b in boxes]
-        batch = np.stack([self._preprocess(img, c) for c in crops])
-        raw = self._run(batch)
-        kp = self._decoder.decode(raw)
-        out = np.empty(kp.shape, dtype=np.float64)
-        for i, crop in enumerate(crops):
-            out[i, :, :2] = crop.to_image(kp[i, :, :2])
-            out[i, :, 2] = kp[i, :, 2]
+        return [box_crop(b, out_size_px=self.input_size_px, padding=self.config.box_padding) for b in boxes]
+
+    def _keypoints(self, images_and_crops: list[tuple[np.ndarray, list[Crop]]]) -> list[np.ndarray]:
+        """One model run over every crop of every image -> (P_i, J, 3) per image, in image px."""
+        patches = [self._preprocess(img, c) for img, crops in images_and_crops for c in crops]
+        if not patches:
+            return [empty_keypoints(self.skeleton.num_joints) for _ in images_and_crops]
+        kp = self._decoder.decode(self._run(np.stack(patches)))
+        out, k = [], 0
+        for _, crops in images_and_crops:
+            people = np.empty((len(crops), *kp.shape[1:]), dtype=np.float64)
+            for i, crop in enumerate(crops):
+                people[i, :, :2] = crop.to_image(kp[k + i, :, :2])
+                people[i, :, 2] = kp[k + i, :, 2]
+            out.append(people)
+            k += len(crops)
         return out
 
     def _preprocess(self, img: np.ndarray, crop: Crop) -> np.ndarray:
@@ -219,6 +240,27 @@ class OnnxDetector:
             return self._session.run(None, {self._input_name: batch})
         parts = [self._session.run(None, {self._input_name: batch[i : i + 1]}) for i in range(batch.shape[0])]
         return [np.concatenate([p[k] for p in parts]) for k in range(len(parts[0]))]
+
+
+DEVICE_PROVIDERS = {"cuda": "CUDAExecutionProvider", "cpu": "CPUExecutionProvider"}
+
+
+def execution_providers(device: str, available: list[str]) -> list[str]:
+    """onnxruntime providers for ``device`` (auto | cuda | cpu) given the ``available`` ones; "auto" without
+    CUDA logs the CPU fallback; "cuda" without it is a ValueError naming what there is."""
+    if device not in ("auto", *DEVICE_PROVIDERS):
+        raise ValueError(f"onnx device must be auto, cuda or cpu, got {device!r}")
+    cuda, cpu = DEVICE_PROVIDERS["cuda"], DEVICE_PROVIDERS["cpu"]
+    if device == "cpu":
+        return [cpu]
+    if cuda in available:
+        log.info("onnx: running on %s (GPU), %s as fallback", cuda, cpu)
+        return [cuda, cpu]
+    if device == "cuda":
+        raise ValueError(f"onnx device cuda: onnxruntime has no {cuda} here (it has {available})")
+    log.warning("onnx: no GPU provider (%s not in onnxruntime's %s): running on the CPU fallback, %s", cuda,
+                available, cpu)
+    return [cpu]
 
 
 def _skeleton_for(name: str | None, joints: int, path: Path) -> Skeleton:

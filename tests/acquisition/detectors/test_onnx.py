@@ -244,3 +244,31 @@ def test_person_detector_places_the_crop_on_the_person(tmp_path):
     # The walker's hips are at about x 820, y 720 in this frame (1768 x 994), not at the image centre.
     assert abs(kp[0, 0, 0] - 820) < 100 and abs(kp[0, 0, 1] - 720) < 150
     assert _detect(det, np.full((480, 640, 3), 127, np.uint8)).shape == (0, 17, 3)  # nobody, no box
+
+
+def test_a_batch_of_images_in_one_run_equals_image_by_image(tmp_path):
+    det = OnnxConfig(model_path=simcc_blob_model(tmp_path), device="cpu").build()
+    imgs = [_image_with_blob((200.0 + 30 * i, 150.0)) for i in range(3)]
+    one = [det.detect(im, camera=f"cam{i}", frame_id=i, timestamp_ns=0) for i, im in enumerate(imgs)]
+    batch = det.detect_batch(imgs, cameras=["cam0", "cam1", "cam2"], frame_ids=[0, 1, 2], timestamps_ns=[0, 0, 0])
+    assert len(batch) == 3
+    for a, b in zip(one, batch, strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-9)
+
+
+def test_without_a_gpu_the_cpu_fallback_is_named_in_the_log(tmp_path, caplog):
+    import logging
+
+    from gaitcap.acquisition.detectors.onnx import execution_providers
+
+    with caplog.at_level(logging.WARNING, logger="gaitcap.acquisition.detectors.onnx"):
+        det = OnnxConfig(model_path=simcc_blob_model(tmp_path)).build()  # device auto; this machine: no CUDA
+    if "CUDAExecutionProvider" in __import__("onnxruntime").get_available_providers():
+        pytest.skip("this machine has onnxruntime's CUDA provider")
+    assert det.provider == "CPUExecutionProvider"
+    assert "running on the CPU fallback, CPUExecutionProvider" in caplog.text
+    assert execution_providers("auto", ["CUDAExecutionProvider", "CPUExecutionProvider"])[0] == "CUDAExecutionProvider"
+    with pytest.raises(ValueError, match="onnx device cuda: onnxruntime has no CUDAExecutionProvider here"):
+        execution_providers("cuda", ["CPUExecutionProvider"])
+    with pytest.raises(ValueError, match="onnx device must be auto, cuda or cpu, got 'tpu'"):
+        execution_providers("tpu", [])
