@@ -50,9 +50,9 @@ class RigCheckConfig:
         blocks: contiguous frame blocks of the jackknife for the field's standard error.
         min_field_px: a field smaller than this (median over the points, px) is never a moved camera.
         significance: the field must exceed this many of its standard errors.
-        rig_ratio: and this many times the median field of the other cameras judged (floored at
-            ``min_field_px``): where detector biases leave every camera a field of its own (real detectors,
-            a person who barely moves), one camera must stand out from the rest.
+        rig_ratio: and this many times the median field of the other cameras, judged without it: where
+            detector biases leave every camera a field of its own (real detectors, a person who barely
+            moves), one camera must stand out from the rest.
         min_rotation_deg / min_shift_mm: a flagged camera's estimate must reach one of these.
         robust_scale_px: scale of the soft-L1 loss of the pose refit, px.
         triangulation_sigma_mm: the robust triangulation's sigma (mm) for the leave-one-out points.
@@ -285,6 +285,28 @@ def _all_points(det: Detections, c: int, points_mm: np.ndarray, config: RigCheck
     return points_mm[ok], det.keypoints[c][ok][:, :2]
 
 
+class _Judge:
+    """Judges cameras against points triangulated without them and without the cameras already flagged."""
+
+    def __init__(self, det: Detections, rig: Rig, points_mm: np.ndarray, expected: dict[str, float],
+                 num_frames: int, config: RigCheckConfig):
+        self.det, self.rig, self.points_mm, self.expected = det, rig, points_mm, expected
+        self.num_frames, self.config = num_frames, config
+        self.final: dict[int, CameraCheck] = {}
+
+    def one(self, c: int, left_out: list[int]) -> CameraCheck:
+        cam = self.rig[c]
+        loo = _loo_points(self.det, self.rig, left_out + [c], self.config)
+        ev = _evidence(self.det, c, loo, cam, self.config)
+        pts_all, uv_all = _all_points(self.det, c, self.points_mm, self.config)
+        return _judge(cam, ev, pts_all, uv_all, self.expected.get(cam.name), self.num_frames, self.config)
+
+    def all_but(self, left_out: list[int]) -> dict[int, CameraCheck]:
+        if len(self.rig) - len(left_out) < 3:  # too few left to triangulate without the one judged
+            return {}
+        return {c: self.one(c, left_out) for c in range(len(self.rig)) if c not in left_out}
+
+
 def check_rig(detections: Detections, rig: Rig, points_mm: np.ndarray, *,
               expected_px: Mapping[str, float] | None = None,
               config: RigCheckConfig = RigCheckConfig()) -> RigCheck:
@@ -306,40 +328,29 @@ def check_rig(detections: Detections, rig: Rig, points_mm: np.ndarray, *,
     det = _subset(det, frames)
     points_mm = points_mm[frames]
     expected = dict(expected_px or {})
+    judge = _Judge(det, sub, points_mm, expected, len(frames), config)
     flagged: list[int] = []
-    checks: dict[int, CameraCheck] = {}
+    current = judge.all_but(flagged)
     while True:
-        round_checks = {}
-        for c in range(c_count):
-            if c in flagged:
-                continue
-            cam = sub[c]
-            loo = _loo_points(det, sub, flagged + [c], config)
-            ev = _evidence(det, c, loo, cam, config)
-            pts_all, uv_all = _all_points(det, c, points_mm, config)
-            round_checks[c] = _judge(cam, ev, pts_all, uv_all, expected.get(cam.name), len(frames), config)
-        round_checks = _stand_out(round_checks, config)
-        moved = [c for c, chk in round_checks.items() if chk.moved]
-        if not moved or c_count - len(flagged) - 1 < 3:
-            checks.update(round_checks)
+        candidates = [c for c, chk in current.items() if chk.moved]
+        if not candidates:
             break
-        worst = max(moved, key=lambda c: round_checks[c].field_px / max(round_checks[c].field_se_px, 1e-9))
-        checks[worst] = round_checks[worst]
+        worst = max(candidates, key=lambda c: current[c].field_px / max(current[c].field_se_px, 1e-9))
+        others = judge.all_but(flagged + [worst]) or {c: replace(chk, moved=False)
+                                                      for c, chk in current.items() if c != worst}
+        typical = float(np.median([o.field_px for o in others.values() if o.judged] or [0.0]))
+        if current[worst].field_px < config.rig_ratio * typical:  # does not stand out from the rest
+            current = {c: replace(chk, moved=False) for c, chk in current.items()}
+            break
+        log.info("rig check: camera %s moved (field %.1f px, the others' %.1f px)", sub[worst].name,
+                 current[worst].field_px, typical)
         flagged.append(worst)
-        log.info("rig check: camera %s moved (field %.1f px); judging the others without it",
-                 sub[worst].name, round_checks[worst].field_px)
+        judge.final[worst] = current[worst]
+        current = others
+    judge.final.update({c: replace(chk, moved=False) if chk.moved else chk for c, chk in current.items()})
+    checks = judge.final
     cams = tuple(checks[c] for c in range(c_count))
     return RigCheck(cams, tuple(_warning(chk) for chk in cams if chk.moved) + _unjudged(cams))
-
-
-def _stand_out(checks: dict[int, CameraCheck], config: RigCheckConfig) -> dict[int, CameraCheck]:
-    """Keep a camera's ``moved`` flag only where its field stands out from the other judged cameras'."""
-    out = {}
-    for c, chk in checks.items():
-        others = [o.field_px for k, o in checks.items() if k != c and o.judged]
-        typical = max(float(np.median(others)) if others else 0.0, config.min_field_px)
-        out[c] = replace(chk, moved=chk.moved and chk.field_px >= config.rig_ratio * typical)
-    return out
 
 
 def _warning(chk: CameraCheck) -> str:

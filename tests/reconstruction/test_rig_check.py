@@ -1,0 +1,88 @@
+"""The rig check from the patient's keypoints and the refinement of a rig from people, on the synthetic
+clinic (exact ground truth): one camera's calibration made stale by a known rotation or shift."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg, rvec_of
+from gaitcap.reconstruction.calibration.people_bundle import PeopleBundleConfig, refine_rig_from_people
+from gaitcap.reconstruction.calibration.rig_check import check_rig
+from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
+from gaitcap.reconstruction.triangulation import robust_triangulate
+from gaitcap.simulator import make_trial
+
+MOVED = "cam03"
+
+
+@pytest.fixture(scope="module")
+def trial():
+    return make_trial(preset="paper", seconds=10.0, cameras=6, seed=3)
+
+
+def stale(rig: Rig, name: str, *, rotation_deg: float = 0.0, shift_mm: float = 0.0) -> Rig:
+    """The rig as calibrated before camera ``name`` was turned by ``rotation_deg`` (about a tilted axis) and
+    its centre moved by ``shift_mm``: the calibration no longer matches the camera."""
+    axis = np.array([0.3, 1.0, 0.2]) / np.linalg.norm([0.3, 1.0, 0.2])
+    cams = []
+    for cam in rig:
+        if cam.name == name:
+            rot = rodrigues_to_matrix(np.radians(rotation_deg) * axis) @ cam.rotation
+            centre = cam.center_mm + shift_mm * np.array([0.6, -0.8, 0.0])
+            cam = cam.replace(rvec=rvec_of(rot), tvec_mm=-rot @ centre)
+        cams.append(cam)
+    return Rig(tuple(cams))
+
+
+def run_check(trial, calib: Rig, **kw):
+    points = robust_triangulate(trial.detections, calib).points_mm
+    return check_rig(trial.detections, calib, points, **kw)
+
+
+def test_unmoved_rig_is_not_flagged(trial):
+    check = run_check(trial, trial.rig, expected_px={"cam01": 0.4})
+    assert not check.flagged, check.warnings
+    assert all(c.judged for c in check.cameras)
+    assert max(c.field_px for c in check.cameras) < 2.0
+    assert check.camera("cam01").expected_px == 0.4
+    d = check.to_dict()
+    assert d["flagged"] is False and set(d["cameras"]) == set(trial.rig.names)
+
+
+def test_rotated_camera_is_named_with_its_rotation(trial):
+    calib = stale(trial.rig, MOVED, rotation_deg=1.0)
+    check = run_check(trial, calib)
+    assert check.moved == (MOVED,), [(c.name, c.field_px, c.field_se_px) for c in check.cameras]
+    est = check.camera(MOVED)
+    true_turn = trial.rig[MOVED].rotation @ calib[MOVED].rotation.T
+    err = rotation_angle_deg(rodrigues_to_matrix(np.radians(est.turn_deg)), true_turn)
+    assert err < 0.3
+    assert est.refit_residual_px < 0.8 * est.residual_px  # the refitted pose explains a large share
+    assert any(MOVED in w and "deg" in w and "mm" in w for w in check.warnings)
+
+
+def test_shifted_camera_is_flagged(trial):
+    check = run_check(trial, stale(trial.rig, MOVED, shift_mm=20.0))
+    assert check.moved == (MOVED,)
+    assert 10.0 < check.camera(MOVED).shift_mm < 40.0
+
+
+def test_bad_input_is_named(trial):
+    points = robust_triangulate(trial.detections, trial.rig).points_mm
+    with pytest.raises(ValueError, match="points_mm"):
+        check_rig(trial.detections, trial.rig, points[:-1])
+    det = trial.detections
+    two = type(det)(det.keypoints[:2], det.camera_names[:2], det.times_s, det.skeleton)
+    with pytest.raises(ValueError, match="at least 3 cameras"):
+        check_rig(two, trial.rig, points)
+
+
+def test_refinement_brings_the_moved_camera_back(trial):
+    calib = stale(trial.rig, MOVED, rotation_deg=2.0, shift_mm=20.0)
+    result = refine_rig_from_people([trial.detections], calib, config=PeopleBundleConfig(max_frames=60))
+    back = rotation_angle_deg(result.rig[MOVED].rotation, trial.rig[MOVED].rotation)
+    assert back < 0.3
+    assert np.linalg.norm(result.rig[MOVED].center_mm - trial.rig[MOVED].center_mm) < 20.0
+    report = result.report
+    assert report.median_after_px < report.median_before_px
+    assert report.to_dict()["change_from_prior"][MOVED]["rotation_deg"] > 1.5
