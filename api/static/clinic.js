@@ -149,12 +149,14 @@ async function showHistory(subjectId) {
   if (problem || !subjectId) { err.textContent = problem || "Enter a patient ID."; err.hidden = false; return; }
   let h;
   try { h = await api(`/patients/${encodeURIComponent(subjectId)}`); } catch (e) {
-    err.textContent = e.status === 404 ? `No patient ${subjectId.toUpperCase()} yet.` : "Could not load the history: " + e.message;
-    err.hidden = false; return;
+    if (e.status !== 404) { err.textContent = "Could not load the history: " + e.message; err.hidden = false; return; }
+    h = { id: subjectId.toUpperCase(), created_at: null, history: [], sex: "", birth_year: null, notes: "", isNew: true };
   }
   $("#patient-view").hidden = false;
+  fillPatientDetails(h);
   const visits = h.history.filter((t) => !t.voided).length;
-  $("#patient-summary").textContent = `Patient ${h.id}, first seen ${fmtTime(h.created_at)}; ${h.history.length} trial(s), ${visits} valid`
+  $("#patient-summary").textContent = h.isNew ? `New patient ${h.id}: no trials yet. Record the sex and birth year for the normal ranges.`
+    : `Patient ${h.id}, first seen ${fmtTime(h.created_at)}; ${h.history.length} trial(s), ${visits} valid`
     + (h.sex ? `; ${h.sex}` : "") + (h.birth_year ? `, born ${h.birth_year}` : "") + (h.notes ? `. Notes: ${h.notes}` : "");
   const body = $("#history-table tbody");
   body.innerHTML = h.history.map((t) => {
@@ -333,6 +335,40 @@ async function markVoid() {
 
 $("#correct-form").onsubmit = submitCorrection;
 $("#void-button").onclick = markVoid;
+function fillPatientDetails(h) {
+  const form = $("#patient-details");
+  form.dataset.patient = h.id;
+  $("#patient-sex").value = h.sex || ""; $("#patient-birth-year").value = h.birth_year || "";
+  $("#patient-details-status").textContent = "";
+  $("#patient-birth-year").setAttribute("aria-invalid", "false");
+}
+
+function birthYearProblem(text) {
+  const year = new Date().getFullYear();
+  if (!text) return "";
+  if (!/^[0-9]{4}$/.test(text)) return "Birth year: four digits, e.g. 1952.";
+  const y = Number(text);
+  return y < year - 120 || y > year ? `Birth year: between ${year - 120} and ${year}.` : "";
+}
+
+async function savePatientDetails(ev) {
+  ev.preventDefault();
+  const id = $("#patient-details").dataset.patient, status = $("#patient-details-status");
+  const text = $("#patient-birth-year").value.trim(), problem = birthYearProblem(text);
+  $("#patient-birth-year").setAttribute("aria-invalid", problem ? "true" : "false");
+  if (problem) { status.textContent = "Not saved: " + problem; $("#patient-birth-year").focus(); return; }
+  const body = { sex: $("#patient-sex").value };
+  if (text) body.birth_year = Number(text);
+  try {
+    const p = await api(`/patients/${encodeURIComponent(id)}`, { method: "PUT", body });
+    status.textContent = `Saved (audited): ${p.sex || "sex not recorded"}${p.birth_year ? `, born ${p.birth_year}` : ""}. The normal ranges use them now.`;
+    if (state.followed) loadSides(state.followed);
+    await showHistory(id);
+    status.textContent = `Saved (audited): ${p.sex || "sex not recorded"}${p.birth_year ? `, born ${p.birth_year}` : ""}. The normal ranges use them now.`;
+  } catch (e) { status.textContent = "Not saved: " + e.message; }
+}
+
+$("#patient-details").onsubmit = savePatientDetails;
 $("#patient-form").onsubmit = (ev) => { ev.preventDefault(); showHistory($("#patient-input").value.trim()); };
 $("#print").onclick = () => window.print();
 $("#trend-void").onchange = () => drawTrends(trendHistory);

@@ -147,8 +147,27 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.fill("#subject", "P" + "0" * 63)
     _fits(page, 390, "phone")
 
-    page.locator("body").focus()
+    page.locator("body").focus()  # a new patient's sex and birth year, by keyboard, audited
     _tab_to(page, "#patient-input")
+    page.keyboard.type("p0777")
+    page.keyboard.press("Enter")
+    page.wait_for_function("() => document.querySelector('#patient-summary').textContent.includes('New patient P0777')")
+    _tab_to(page, "#patient-sex")
+    page.keyboard.type("female")
+    _tab_to(page, "#patient-birth-year")
+    page.keyboard.type("52")
+    page.keyboard.press("Enter")
+    assert "four digits" in page.inner_text("#patient-details-status")
+    assert page.get_attribute("#patient-birth-year", "aria-invalid") == "true"
+    page.keyboard.press("Control+a")
+    page.keyboard.type("1952")
+    page.keyboard.press("Enter")
+    page.wait_for_function("() => document.querySelector('#patient-details-status').textContent.includes('Saved (audited)')")
+    assert {k: client.get("/patients/P0777").json()[k] for k in ("sex", "birth_year")} == {"sex": "female", "birth_year": 1952}
+    assert any(e["action"] == "patient edit" and "P0777" in e["detail"] for e in client.get("/audit").json())
+    _fits(page, 390, "phone")
+    _tab_to(page, "#patient-input")
+    page.keyboard.press("Control+a")
     page.keyboard.type("p0042")
     page.keyboard.press("Enter")
     page.wait_for_selector("#history-table tbody tr:nth-child(3)")
