@@ -21,11 +21,13 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import MISSING as MISSING_FIELD
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.detectors.pool import DetectorPool, DetectResult, FrameTask
+from gaitcap.acquisition.detectors.base import DetectorConfig
+from gaitcap.acquisition.detectors.pool import DetectorPool, DetectResult, FrameTask, default_workers
 from gaitcap.acquisition.fileio import atomic_savez, atomic_write_text
 from gaitcap.acquisition.keypoints import KeypointRecording
 from gaitcap.acquisition.recording.reader import frame_times_s, iter_frames
@@ -247,7 +249,8 @@ def _assemble(recording: KeypointRecording | None, got: _Collected, skeleton: st
         t0 = int(recording.frame_ids[0]) - first
         span = slice(t0, t0 + recording.frame_ids.size)
         c = len(live_names)
-        people[:c, span, : recording.people.shape[2]] = recording.people
+        if recording.people.shape[2]:  # no live person at all: (C, T, 0, 0, 3)
+            people[:c, span, : recording.people.shape[2]] = recording.people
         stamps[:c, span] = recording.timestamps_ns
         prov[:c, span] = np.where(recording.timestamps_ns >= 0, LIVE, MISSING)
     for (cam, slot), found in got.found.items():
@@ -282,6 +285,34 @@ def _with_seconds(report: CompletionReport, seconds: float) -> CompletionReport:
     from dataclasses import replace
 
     return replace(report, seconds=seconds)
+
+
+@dataclass(frozen=True)
+class CompletionSettings:
+    """How a trial is completed: ``detector``, the offline detector's typed config (its ``build`` runs in each
+    worker process; e.g. ``MediaPipeConfig(model="heavy")`` or an ``OnnxConfig``); ``workers`` processes (None:
+    one per CPU core; 0: in this process); ``max_batch`` frames a worker takes at once."""
+
+    detector: DetectorConfig
+    workers: int | None = None
+    max_batch: int = 4
+
+    @property
+    def detector_name(self) -> str:
+        """The detector kind and the config fields that differ from their defaults."""
+        changed = [f"{f.name}={getattr(self.detector, f.name)}" for f in fields(self.detector)
+                   if f.default is not MISSING_FIELD and getattr(self.detector, f.name) != f.default]
+        return " ".join([self.detector.kind, *changed])
+
+
+def complete_trial(mcap_path: str | os.PathLike, recording: KeypointRecording | None, folder: str | os.PathLike,
+                   settings: CompletionSettings) -> tuple[KeypointRecording, CompletionReport, CompletionFiles]:
+    """:func:`complete_keypoints` with ``settings``, then :func:`save_completion` into the trial's ``folder``."""
+    workers = default_workers() if settings.workers is None else settings.workers
+    keypoints, report = complete_keypoints(mcap_path, recording, settings.detector.build,
+                                           detector_name=settings.detector_name, workers=workers,
+                                           max_batch=settings.max_batch)
+    return keypoints, report, save_completion(folder, keypoints, report)
 
 
 @dataclass(frozen=True)

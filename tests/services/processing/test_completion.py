@@ -131,3 +131,26 @@ def test_real_mediapipe_in_two_worker_processes_equals_the_detector_on_the_same_
             assert len(want) >= 1, "the walker is in these frames"
             np.testing.assert_allclose(kp.people[c, f, : len(want)], want, atol=1e-6)
             assert (kp.people[c, f, len(want):, :, 2] == 0).all()
+
+
+def test_complete_trial_with_settings_stores_the_files(tmp_path):
+    from dataclasses import dataclass
+
+    from gaitcap.acquisition.detectors.base import DetectorConfig
+    from gaitcap.services.processing.completion import CompletionSettings, complete_trial
+
+    @dataclass(frozen=True)
+    class BrightnessConfig(DetectorConfig):
+        kind = "brightness"
+        gain: float = 1.0
+
+        def build(self):
+            return Brightness()
+
+    images = {"cam0": {f: _grey(60 + f) for f in range(4)}}
+    path = _write(tmp_path / "t.mcap", images, {"cam0": {1: []}})
+    settings = CompletionSettings(BrightnessConfig(gain=2.0), workers=0)
+    assert settings.detector_name == "brightness gain=2.0"
+    kp, report, files = complete_trial(path, read_keypoints(path), tmp_path / "trial", settings)
+    assert report.detector == "brightness gain=2.0" and report.provenance.tolist() == [[2, 1, 2, 2]]
+    assert files.keypoints.is_file() and files.report.is_file() and kp.frame_ids.tolist() == [0, 1, 2, 3]
