@@ -185,11 +185,13 @@ install_gait_mocap() (
 # other tools' folders, layout recognition and several people in view (see docs/offline.md): from pose2sim
 # 0.8.4 its demo session's OpenPose BODY_25B JSON of 4 cameras (one participant; two participants together),
 # Config.toml files and Qualisys calibration with Pose2Sim's own conversion of it; from 0.10.49 (the version
-# above) the 4-camera videos of two people walking and their calibration.
+# above) the 4-camera videos of two people walking and of the single participant's balancing trial (the
+# recordings of the 0.8.4 JSON), with their calibration.
 POSE2SIM_DEMO_VERSION="0.8.4"
+POSE2SIM_DEMO_REVISION="2"  # 2: also the single-person demo's videos
 install_pose2sim_demos() (
   local dest="$SHARE/testdata/pose2sim" tmp
-  [ -f "$dest/.version-$POSE2SIM_DEMO_VERSION-$POSE2SIM_VERSION" ] && return 0
+  [ -f "$dest/.version-$POSE2SIM_DEMO_VERSION-$POSE2SIM_VERSION-$POSE2SIM_DEMO_REVISION" ] && return 0
   echo "[bootstrap] fetching Pose2Sim demo recordings (wheels pose2sim==$POSE2SIM_DEMO_VERSION and" \
     "$POSE2SIM_VERSION, not installed)" >&2
   scratch_dir || return 1
@@ -198,12 +200,13 @@ install_pose2sim_demos() (
     && "$VENV/bin/python" - "$tmp" "$dest" <<'PYEOF'
 import glob, os, shutil, sys, zipfile
 tmp, dest = sys.argv[1], sys.argv[2]
-keep = {  # wheel -> (prefix inside it, folder under dest, suffixes kept)
-    "0.8.4": ("Pose2Sim/S00_Demo_BatchSession/", "S00_Demo_BatchSession/", (".json", ".toml", ".qca.txt", ".test")),
-    "0.10.49": ("Pose2Sim/Demo_MultiPerson/", "Demo_MultiPerson/", (".mp4", ".toml", ".qca.txt")),
-}
+keep = (  # (wheel, prefix inside it, folder under dest, suffixes kept)
+    ("0.8.4", "Pose2Sim/S00_Demo_BatchSession/", "S00_Demo_BatchSession/", (".json", ".toml", ".qca.txt", ".test")),
+    ("0.10.49", "Pose2Sim/Demo_MultiPerson/", "Demo_MultiPerson/", (".mp4", ".toml", ".qca.txt")),
+    ("0.10.49", "Pose2Sim/Demo_SinglePerson/", "Demo_SinglePerson/", (".mp4", ".toml", ".qca.txt")),
+)
 shutil.rmtree(dest, ignore_errors=True)
-for version, (prefix, folder, suffixes) in keep.items():
+for version, prefix, folder, suffixes in keep:
     with zipfile.ZipFile(glob.glob(os.path.join(tmp, f"pose2sim-{version}-*.whl"))[0]) as z:
         for name in z.namelist():
             if name.startswith(prefix) and name.endswith(suffixes):
@@ -215,7 +218,7 @@ for version, (prefix, folder, suffixes) in keep.items():
         with open(os.path.join(dest, folder, "LICENSE"), "wb") as f:
             f.write(z.read(lic))
 PYEOF
-  [ $? -eq 0 ] && touch "$dest/.version-$POSE2SIM_DEMO_VERSION-$POSE2SIM_VERSION"
+  [ $? -eq 0 ] && touch "$dest/.version-$POSE2SIM_DEMO_VERSION-$POSE2SIM_VERSION-$POSE2SIM_DEMO_REVISION"
 )
 # Real calibration recordings for the calibration tests (BSD licences, kept beside them): caliscope's
 # two 4-webcam ChArUco sessions (their corner detections, board files and calibrations) and real checkerboard
