@@ -73,6 +73,7 @@ def parameters(trial_id: str, request: Request, user: str = Depends(require_user
             "started_at": c.trial.started_at, "stage": c.stage, "method": c.method, "age": c.age,
             "sex": c.patient.sex, "parameters": rows, "flags": list(c.flags), "warnings": list(c.warnings),
             "data_problems": list(c.data_problems), "norm_summary": c.norm_summary, "consistency": c.consistency,
+            "gait_speed_reference": c.speed_reference,
             "analysis_notes": list(c.analysis_notes), "voided": c.details.voided, "void_reason": c.details.void_reason,
             "details": {k: getattr(c.details, k) for k in DETAIL_FIELDS},
             "previous_trial": c.previous.trial.id if c.previous else None,

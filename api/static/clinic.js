@@ -57,7 +57,9 @@ async function loadSides(trialId) {
   const body = $("#sides-table tbody");
   body.innerHTML = r.parameters.map((p) => {
     const d = p.decimals, out = !p.in_doubt && p.z != null && Math.abs(p.z) > 1.96;
-    const range = p.normal_range ? `${fmtFixed(p.normal_range[0], d)}–${fmtFixed(p.normal_range[1], d)}` : "no reference";
+    const ref = p.name === "gait_speed_m_s" && r.gait_speed_reference;
+    const range = p.normal_range ? `${fmtFixed(p.normal_range[0], d)}–${fmtFixed(p.normal_range[1], d)}`
+      : ref ? `${ref.pct_of_mean.toFixed(0)} % of the age-sex mean (no z-score)` : "no reference";
     const doubt = p.in_doubt ? ` <span class="doubt">(data problem)</span>` : "";
     return `<tr data-parameter="${esc(p.name)}"${p.in_doubt ? ' class="in-doubt"' : ""}><td class="wide name"><abbr title="${esc(p.help)}">${esc(p.label)}</abbr> (${esc(p.unit)})${doubt}</td>
       <td data-label="Left">${fmtFixed(p.left, d)}</td><td data-label="Right">${fmtFixed(p.right, d)}</td><td data-label="Mean">${fmtFixed(p.mean, d)}</td><td data-label="SD">${fmtFixed(p.sd, d + 1)}</td>
@@ -74,8 +76,8 @@ async function loadSides(trialId) {
   const problems = $("#results-problems");
   problems.querySelector("ul").innerHTML = (r.data_problems || []).map((f) => `<li>${esc(f)}</li>`).join("");
   problems.hidden = !(r.data_problems || []).length;
-  $("#norm-summary").textContent = r.norm_summary || "";
-  $("#norm-summary").hidden = !r.norm_summary;
+  $("#norm-summary").textContent = [r.norm_summary, r.gait_speed_reference && r.gait_speed_reference.text].filter(Boolean).join(" ");
+  $("#norm-summary").hidden = !$("#norm-summary").textContent;
   fillCorrection(r);
   loadFigures(trialId, r.footprints);
   const link = $("#report-pdf");

@@ -15,6 +15,7 @@ from gaitcap.services.catalog import patients as pat
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.reports.findings import Findings, consistency_of, findings_of, key_value_findings
 from gaitcap.services.reports.norms import NormRow, NormTable, load_norms, percentile
+from gaitcap.services.reports.speed_means import compare_speed
 
 
 @dataclass(frozen=True)
@@ -133,6 +134,7 @@ class ReportContent:
     data_problems: tuple[str, ...] = field(default_factory=tuple)  # failed consistency rules: not findings
     norm_summary: str = ""  # "6 of 15 parameters have a normal range for age and sex; none outside it."
     consistency: dict = field(default_factory=dict)  # the stage's ConsistencyReport dict
+    speed_reference: dict | None = None  # gait speed as % of the age-sex mean (no SD, no z), speed_means
     joint_angles_note: str = ""
     kinematics: dict = field(default_factory=dict)  # kinematics.json with the band for the patient's age
 
@@ -275,6 +277,12 @@ def joint_angles_note(data: dict | None) -> str:
     return held + "." if held else ""
 
 
+def _speed_reference(rows: tuple[Row, ...], sex: str, age: int | None) -> dict | None:
+    speed = next((r.mean for r in rows if r.name == "gait_speed_m_s"), math.nan)
+    found = compare_speed(speed, sex=sex, age=age)
+    return found.to_dict() if found is not None else None
+
+
 def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -318,6 +326,6 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
         num_passes=int(gait.get("summary", {}).get("num_passes") or 0),
         previous=previous_visit(db, trial, Path(data_dir)), flags=said.findings + angles.findings,
         data_problems=said.data_problems, norm_summary=" ".join(filter(None, (said.norm_summary, angles.summary))),
-        consistency=consistency,
+        consistency=consistency, speed_reference=_speed_reference(rows, patient.sex, age),
         joint_angles_note=joint_angles_note(kinematics),
         kinematics=shown_kinematics)

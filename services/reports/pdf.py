@@ -176,6 +176,8 @@ def _flags(pdf: _Doc) -> None:
     pdf.heading("Findings to note")
     if c.norm_summary:
         pdf.para(c.norm_summary)
+    if c.speed_reference:
+        pdf.para(c.speed_reference["text"])
     for f in c.flags:
         pdf.para(f"- {f}")
     if not c.flags:

@@ -111,3 +111,19 @@ def test_a_void_trial_says_void_on_every_pdf_page(server, walk):
                                     (61, "61st"), (100, "100th"), (111, "111th")])
 def test_percentiles_are_ordinals(n, text):
     assert ordinal(n) == text
+
+
+def test_under_70_gait_speed_is_a_percentage_of_the_age_sex_mean_and_the_rest_has_no_reference(server, walk):
+    _, client, _, _ = server
+    tid = _trial(server, walk, walk.to_dict(), subject="P103")
+    client.put("/patients/P103", json={"sex": "male", "birth_year": time.gmtime().tm_year - 45})
+    js = client.get(f"/trials/{tid}/parameters").json()
+    speed = next(p for p in js["parameters"] if p["name"] == "gait_speed_m_s")
+    ref = js["gait_speed_reference"]
+    assert ref["mean_m_s"] == 1.43 and ref["z"] is None and (ref["age_from"], ref["age_to"]) == (40, 49)
+    assert ref["pct_of_mean"] == pytest.approx(100 * speed["mean"] / 1.43, abs=0.1)
+    others = [p for p in js["parameters"] if p["name"] not in ("gait_speed_m_s",)]
+    assert all(p["normal_range"] is None and p["z"] is None for p in others)
+    text = " ".join(_pdf_pages(client, tid))
+    assert f"is {ref['pct_of_mean']:.0f} % of the mean comfortable speed of healthy men aged 40-49" in text
+    assert "no z-score or normal range is available" in text
