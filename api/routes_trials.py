@@ -14,7 +14,7 @@ from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog.calibrations import current_board_recording
 from gaitcap.services.live.protocols import RecorderUnavailable
-from gaitcap.services.live.rig_check import recorder_warnings, rig_problems
+from gaitcap.services.live.rig_check import NO_CAMERA, recorder_warnings, rig_problems
 from gaitcap.services.processing.artifacts import trial_files
 
 log = logging.getLogger(__name__)
@@ -39,6 +39,9 @@ def start(body: StartTrial, request: Request, user: str = Depends(require_user))
         raise HTTPException(status_code=409, detail=f"board recording {board.id} is under way; stop it first")
     calibration = cat.latest_calibration(db)
     problems = rig_problems(link.cameras(), _calibrated_cameras(calibration))
+    if NO_CAMERA in problems:  # nothing to record: no confirmation starts a trial without images
+        raise HTTPException(status_code=409, detail=f"Start refused: {NO_CAMERA}. Check the cameras' power and "
+                                                    "network, then press Start again.")
     if problems and not body.override_rig_check:
         raise HTTPException(status_code=409, detail="Start refused: " + "; ".join(problems)
                             + ". To record anyway, confirm (override_rig_check).")

@@ -81,6 +81,10 @@ async function startTrial() {
     } catch (e) {
       // the rig check refused: say why, and record only if the clinician confirms (the override is audited)
       if (e.status !== 409 || !e.message.startsWith("Start refused")) throw e;
+      if (!e.message.includes("override_rig_check")) {  // nothing to record (no camera delivers images): no "anyway"
+        showError(e.message); setStatus("Not recording: " + e.message.replace(/^Start refused: /, ""));
+        state.busy = false; renderRecording(); return;
+      }
       if (!confirm(e.message.replace(". To record anyway, confirm (override_rig_check).", ".") + "\n\nRecord anyway? The results will carry a warning.")) {
         showError(e.message.replace(" To record anyway, confirm (override_rig_check).", "")); setStatus("Not recording.");
         state.busy = false; renderRecording(); return;

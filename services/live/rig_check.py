@@ -3,7 +3,8 @@
 Problems, in plain words: no camera delivering images; cameras the calibration needs that are missing or
 not working; cameras far below the sync criteria's frame rate (below ``start_fraction`` of
 :attr:`QualityCriteria.min_fps`, i.e. 21 fps at the default 28 fps). Start is refused when there is any,
-unless the clinician confirms (the override is audited and becomes a warning of the trial).
+unless the clinician confirms (the override is audited and becomes a warning of the trial); with no
+camera delivering images (:data:`NO_CAMERA`) there is nothing to record, and no confirmation starts it.
 """
 
 from __future__ import annotations
@@ -38,6 +39,9 @@ class RigCriteria:
         return self.min_fps * self.start_fraction
 
 
+NO_CAMERA = "no camera is delivering images"
+
+
 def _names(items: list[str], most: int = 4) -> str:
     return ", ".join(items[:most]) + (f" and {len(items) - most} more" if len(items) > most else "")
 
@@ -48,7 +52,7 @@ def rig_problems(cameras: list[CameraHealth], calibrated: list[str] | None,
     calibration in use (None: no calibration, only the live cameras are judged)."""
     working = {c.name: c for c in cameras if c.has_signal}
     if not working:
-        return ["no camera is delivering images"]
+        return [NO_CAMERA]
     problems = []
     if calibrated:
         seen = {c.name: c for c in cameras}

@@ -13,7 +13,13 @@ from pathlib import Path
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import patients as pat
 from gaitcap.services.processing.artifacts import trial_files
-from gaitcap.services.reports.findings import Findings, consistency_of, findings_of, key_value_findings
+from gaitcap.services.reports.findings import (
+    Findings,
+    consistency_of,
+    findings_of,
+    key_value_findings,
+    outage_problem,
+)
 from gaitcap.services.reports.norms import NormRow, NormTable, load_norms, percentile
 from gaitcap.services.reports.speed_means import compare_speed
 
@@ -325,7 +331,7 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
         num_steps=int(gait.get("summary", {}).get("num_steps") or 0),
         num_passes=int(gait.get("summary", {}).get("num_passes") or 0),
         previous=previous_visit(db, trial, Path(data_dir)), flags=said.findings + angles.findings,
-        data_problems=said.data_problems, norm_summary=" ".join(filter(None, (said.norm_summary, angles.summary))),
+        data_problems=tuple(filter(None, (outage_problem(data_quality),))) + said.data_problems, norm_summary=" ".join(filter(None, (said.norm_summary, angles.summary))),
         consistency=consistency, speed_reference=_speed_reference(rows, patient.sex, age),
         joint_angles_note=joint_angles_note(kinematics),
         kinematics=shown_kinematics)

@@ -92,6 +92,20 @@ def consistency_of(stored: Mapping[str, Any] | None, gait: Mapping[str, Any] | N
                              frame_period_s=frame_period_s(data_quality)).to_dict()
 
 
+def outage_problem(data_quality: Mapping[str, Any] | None) -> str:
+    """A camera outage during the trial (the recorder's Start-Stop time exceeds the time with images by
+    more than ``NO_IMAGES_S``) as a data problem: the walk there is missing from the numbers; "" when none."""
+    from gaitcap.services.processing.quality import NO_IMAGES_S
+
+    q = data_quality or {}
+    recorded, imaged = q.get("recorded_s"), q.get("duration_s")
+    if not (isinstance(recorded, int | float) and isinstance(imaged, int | float)) or recorded - imaged <= NO_IMAGES_S:
+        return ""
+    return (f"Data problem, not a clinical finding: no camera images for {recorded - imaged:.1f} s of the "
+            f"{recorded:.1f} s between Start and Stop; the walking of that time is missing from these numbers, "
+            "which may not represent the whole walk.")
+
+
 def plain_problem(failure: Mapping[str, Any]) -> str:
     """A failed rule as a data problem the clinician can read (the message, stated as not a finding)."""
     return f"Data problem, not a clinical finding: {failure.get('message') or failure.get('rule')}."

@@ -29,14 +29,14 @@ def walk():
     return analyze_gait(simulate_body(plan_walk(params, 10.0, Room(), seed=0), params, times), times, names)
 
 
-def _trial(server, report, gait: dict, *, subject: str) -> str:
+def _trial(server, report, gait: dict, *, subject: str, stored: dict | None = None) -> str:
     _, client, _, settings = server
     tid = client.post("/trials", json={"subject_id": subject, "session": "visit-1"}).json()["id"]
     client.post(f"/trials/{tid}/stop")
     atomic_write_text(trial_files(settings.data_dir, tid).stage_file("preliminary", "gait_json"), json.dumps(gait))
     db = cat.open_catalog(settings.catalog_url)
     cat.store_result(db, trial_id=tid, stage="preliminary", method="robust_triangulation", steps=steps_of(report),
-                     summary=summary_of(report), quality={}, report={"warnings": []})
+                     summary=summary_of(report), quality={}, report={"warnings": [], **(stored or {})})
     db.close()
     return tid
 
@@ -127,3 +127,17 @@ def test_under_70_gait_speed_is_a_percentage_of_the_age_sex_mean_and_the_rest_ha
     text = " ".join(_pdf_pages(client, tid))
     assert f"is {ref['pct_of_mean']:.0f} % of the mean comfortable speed of healthy men aged 40-49" in text
     assert "no z-score or normal range is available" in text
+
+
+def test_a_camera_outage_during_the_trial_is_a_data_problem_so_the_trial_does_not_look_normal(server, walk):
+    """The issue's visit: 8 steps computed with "No camera images for 5.1 s" and nothing else said."""
+    _, client, _, _ = server
+    tid = _trial(server, walk, walk.to_dict(), subject="P104",
+                 stored={"data_quality": {"recorded_s": 20.0, "duration_s": 14.9, "nominal_fps": 30.0}})
+    js = client.get(f"/trials/{tid}/parameters").json()
+    assert js["data_problems"][0].startswith("Data problem, not a clinical finding: no camera images for 5.1 s of "
+                                             "the 20.0 s between Start and Stop")
+    assert "no camera images for 5.1 s" in " ".join(_pdf_pages(client, tid))
+    fine = _trial(server, walk, walk.to_dict(), subject="P105",
+                  stored={"data_quality": {"recorded_s": 20.0, "duration_s": 19.0, "nominal_fps": 30.0}})
+    assert client.get(f"/trials/{fine}/parameters").json()["data_problems"] == []

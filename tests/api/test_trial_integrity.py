@@ -76,6 +76,9 @@ def test_start_is_refused_on_a_broken_rig_unless_confirmed_and_the_override_is_a
     assert r.status_code == 409 and "4 of 4 cameras deliver far below 28 fps: cam0 12 fps" in r.json()["detail"]
     link.camera_list = []
     assert "no camera is delivering images" in client.post("/trials", json={"subject_id": "P1"}).json()["detail"]
+    r = client.post("/trials", json={"subject_id": "P1", "override_rig_check": True})  # nothing to record
+    assert r.status_code == 409 and "no camera is delivering images" in r.json()["detail"]
+    assert "override_rig_check" not in r.json()["detail"] and client.get("/trials").json() == []
     link.camera_list = _cams(4, down=(2,))
     r = client.post("/trials", json={"subject_id": "P1", "override_rig_check": True})
     assert r.status_code == 201
