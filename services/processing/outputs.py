@@ -134,16 +134,19 @@ def report_png(traj: Trajectory, report, *, title: str) -> bytes:
 
 
 def write_data(files: TrialFiles, stage: str, traj: Trajectory, report, *,
-               data_quality: dict | None = None) -> dict[str, str]:
+               data_quality: dict | None = None, consistency: dict | None = None) -> dict[str, str]:
     """The stage's trajectory (npz) and gait report (JSON, steps CSV, per-side summary CSV): quick, written
     before the result is stored in the catalog; artifact key -> path of each file written. ``data_quality``
     (the trial's measures and plain-word warnings, :class:`~gaitcap.services.processing.quality.DataQuality`
     as a dict) goes into gait.json beside the gait analysis's own warnings, so the file never carries
-    numbers without their quality."""
+    numbers without their quality; ``consistency`` (the stage's consistency rules,
+    :func:`~gaitcap.services.processing.checks.stage_consistency`) beside them, so a failed rule travels with
+    the numbers it puts in doubt."""
     write_npz(files.stage_file(stage, "trajectory_npz"), traj)
     written = ["trajectory_npz"]
     if report is not None:
-        payload = {**report.to_dict(), **({"data_quality": data_quality} if data_quality is not None else {})}
+        payload = {**report.to_dict(), **({"data_quality": data_quality} if data_quality is not None else {}),
+                   **({"consistency": consistency} if consistency is not None else {})}
         atomic_write_text(files.stage_file(stage, "gait_json"), json.dumps(json_ready(payload), indent=2) + "\n")
         atomic_write_text(files.stage_file(stage, "steps_csv"), report.to_csv())
         atomic_write_text(files.stage_file(stage, "summary_csv"), report.to_summary_csv())

@@ -104,6 +104,9 @@ class DataQuality:
     # camera -> its keypoint messages the reader ignored (stray frame ids, timestamps far off, unreadable)
     ignored_keypoints: dict[str, IgnoredKeypoints] = field(default_factory=dict)
     recovered: bool = False  # the recording was cut by a recorder crash and recovered (no recorder summary)
+    # the trial's checks of its results, by name (one person, the rig, completion): each a JSON-ready dict
+    # whose "warnings" (plain words) join the trial's and make it serious, and whose "notes" do not
+    checks: dict[str, dict] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     serious: bool = False
     criteria: QualityCriteria = field(default_factory=QualityCriteria)
@@ -275,6 +278,12 @@ def _judged_camera(name: str, stamps: np.ndarray, image_ids: np.ndarray | None, 
                    recorder_dropped=recorder_dropped)
 
 
+def with_check(quality: DataQuality, name: str, check: dict) -> DataQuality:
+    """The quality with the trial's check ``name`` (a JSON-ready dict with ``warnings`` and ``notes`` lists
+    of plain words), judged again: its warnings join the trial's."""
+    return judged(quality._with(checks={**quality.checks, name: check}, warnings=(), serious=False))
+
+
 def with_reprojection(quality: DataQuality, errors_px: dict[str, float | None]) -> DataQuality:
     """The quality with each camera's median reprojection error (px) after the fit, judged again."""
     cams = tuple(CameraQuality(**{**asdict(c), "reprojection_px": errors_px.get(c.name)}) for c in quality.cameras)
@@ -320,18 +329,18 @@ def judged(q: DataQuality) -> DataQuality:
     min_fps = cr.min_fps_at(q.nominal_fps)
     slow = [c for c in q.cameras if c.received and c.fps < min_fps]
     if slow:
-        names = ", ".join(f"{c.name} {c.fps:.0f} fps" for c in slow[:4]) + (", ..." if len(slow) > 4 else "")
+        names = ", ".join(f"{c.name} {c.fps:.0f} fps" for c in slow)
         warn.append(f"{len(slow)} of {len(q.cameras)} cameras below {min_fps:.0f} fps ({names})")
     lossy = [c for c in q.cameras if c.received and c.camera_lost / max(c.expected, 1) > cr.max_lost_fraction]
     if lossy:
         warn.append(f"{len(lossy)} of {len(q.cameras)} cameras lost frames ("
-                    + ", ".join(f"{c.name} {c.camera_lost} of {c.expected}" for c in lossy[:4]) + ")")
+                    + ", ".join(f"{c.name} {c.camera_lost} of {c.expected}" for c in lossy) + ")")
     warn += [f"The recorder dropped {c.recorder_dropped} images of camera {c.name} (disk or CPU too slow)"
              for c in q.cameras if c.recorder_dropped]
     skipping = [c for c in q.cameras if c.skips > cr.max_skips and c not in lossy and c.camera_lost]
     if skipping:
         warn.append(f"{len(skipping)} of {len(q.cameras)} cameras skipped frames ("
-                    + ", ".join(f"{c.name} {c.skips} gaps" for c in skipping[:4]) + ")")
+                    + ", ".join(f"{c.name} {c.skips} gaps" for c in skipping) + ")")
     warn += _detector_behind(q.cameras, cr)
     if q.spread_ms_max is not None and q.spread_ms_max > cr.max_spread_ms:
         warn.append(f"Cameras out of sync: up to {q.spread_ms_max:.0f} ms between cameras "
@@ -344,6 +353,7 @@ def judged(q: DataQuality) -> DataQuality:
                     "between Start and Stop (the cameras stopped or fell behind)")
     if q.duration_s < cr.min_duration_s:
         warn.append(f"Only {q.duration_s:.1f} s recorded")
+    warn += [w for _, check in sorted(q.checks.items()) for w in check.get("warnings", ())]
     return q._with(warnings=tuple(warn), serious=bool(warn))
 
 
@@ -411,8 +421,7 @@ def _detector_behind(cameras, cr: QualityCriteria) -> list[str]:
         return []
     return [f"The detector fell behind on {len(behind)} of {len(cameras)} cameras: no keypoints for frames the "
             "cameras delivered and the recording holds (" + ", ".join(
-                f"{c.name} {c.without_keypoints} of {c.received} frames" for c in behind[:4])
-            + (", ..." if len(behind) > 4 else "") + ")"]
+                f"{c.name} {c.without_keypoints} of {c.received} frames" for c in behind) + ")"]
 
 
 def _bumped(cameras, cr: QualityCriteria) -> list[str]:

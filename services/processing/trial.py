@@ -14,6 +14,8 @@ steps run or in which order. The sequence:
    the trajectory (refused when no joint could be reconstructed), the reprojection error of the first
    stage into the quality block, gait (:func:`~gaitcap.services.processing.pipeline.gait_of`), the stage's
    data files, ``sink.stored``, its views (TRC, plot) and, by ``viewer_files``, its viewer files;
+   after the first stage, the trial's checks of its results (one person, the rig: :mod:`.checks`), and
+   each stage's consistency rules beside its numbers;
 6. joint kinematics of the last stage (option ``kinematics``; never fails the trial).
 
 A step left out by the options is named in :attr:`TrialResult.skipped` with the option that left it out.
@@ -32,6 +34,7 @@ import numpy as np
 from gaitcap.acquisition.keypoint_input import KeypointInput
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.services.processing.artifacts import TrialFiles
+from gaitcap.services.processing.checks import one_person_check, rig_check, stage_consistency
 from gaitcap.services.processing.pipeline import (
     NoUsableObservations,
     Trajectory,
@@ -47,6 +50,7 @@ from gaitcap.services.processing.quality import (
     QualityCriteria,
     recording_quality,
     reprojection_px,
+    with_check,
     with_reprojection,
 )
 from gaitcap.services.processing.recorded_images import RecordedImages
@@ -82,6 +86,8 @@ class TrialInput:
 
 
 # ---------------------------------------------------------------------------------------------- options
+# the trial's checks of its results, by name: (patient detections, rig, first stage's points mm) -> check dict
+CHECKS = {"one_person": one_person_check, "rig": rig_check}
 class ViewerFiles(enum.Enum):
     """Which stages get viewer files (.rrd, results MCAP): none, the last, every one."""
 
@@ -120,7 +126,8 @@ class TrialOptions:
     written (``files`` None: reprocessing reads it from the trial's folder); ``kinematics``: joint kinematics of the last stage;
     ``age_years``: the patient's age (the kinematics band); ``viewer_files``: which stages get viewer
     files; ``criteria``: the data-quality thresholds; ``rerun``: the .rrd's settings; ``truth_mm``:
-    ground-truth points (T, J, 3) mm for the methods' metrics (research), or None."""
+    ground-truth points (T, J, 3) mm for the methods' metrics (research), or None; ``checks``: the trial's
+    checks of its results run on the first stage (names of :data:`CHECKS`), into the quality block."""
 
     stages: tuple[StagePlan, ...] = field(default_factory=default_stages)
     layout_check: bool = True
@@ -132,8 +139,12 @@ class TrialOptions:
     criteria: QualityCriteria = QualityCriteria()
     rerun: RerunSettings = RerunSettings()
     truth_mm: np.ndarray | None = None
+    checks: tuple[str, ...] = tuple(CHECKS)
 
     def __post_init__(self) -> None:
+        unknown = [c for c in self.checks if c not in CHECKS]
+        if unknown:
+            raise ValueError(f"checks: unknown {unknown}, known {sorted(CHECKS)}")
         if not self.stages:
             raise ValueError("stages: give at least one reconstruction stage")
         names = [s.name for s in self.stages]
@@ -156,6 +167,7 @@ class StageOutcome:
     files: dict[str, str] = field(default_factory=dict)
     reconstruction: object | None = None
     gait_s: float = 0.0
+    consistency: dict = field(default_factory=dict)  # the stage's consistency rules (ConsistencyReport dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -240,7 +252,7 @@ def process_trial(data: TrialInput, options: TrialOptions = TrialOptions(), *, f
         timings[plan.name] = time.perf_counter() - t0
         sink.check()
         if index == 0:
-            quality = with_reprojection(quality, reprojection_px(traj.points_mm, det.keypoints, rig))
+            quality = first_stage_quality(quality, det, rig, traj.points_mm, options.checks)
         t0 = time.perf_counter()
         viewers = (recording, rig) if _wants_viewers(options, index) else None
         stages[plan.name] = _finish_stage(plan.name, traj, rec, det, files, sink, quality, viewers=viewers,
@@ -273,6 +285,7 @@ def _skipped(options: TrialOptions, files: TrialFiles | None) -> dict[str, str]:
         out["layout check"] = "layout_check=False: the input's layout is used as it is"
     if not options.kinematics:
         out["kinematics"] = "kinematics=False"
+    out.update({f"{name} check": f"checks={list(options.checks)}" for name in CHECKS if name not in options.checks})
     if files is None:
         out["files"] = "no output folder: nothing written"
     elif options.viewer_files is ViewerFiles.NONE:
@@ -296,6 +309,15 @@ def _people_in_view(recording) -> int:
 def _wants_viewers(options: TrialOptions, index: int) -> bool:
     last = index == len(options.stages) - 1
     return options.viewer_files is ViewerFiles.EVERY or (options.viewer_files is ViewerFiles.LAST and last)
+
+
+def first_stage_quality(quality: DataQuality, det, rig: Rig, points_mm: np.ndarray, checks) -> DataQuality:
+    """The quality once the first stage's points (T, J, 3) mm exist: each camera's reprojection error
+    and the trial's ``checks`` (names of :data:`CHECKS`)."""
+    quality = with_reprojection(quality, reprojection_px(points_mm, det.keypoints, rig))
+    for name in checks:
+        quality = with_check(quality, name, CHECKS[name](det, rig, points_mm))
+    return quality
 
 
 def trial_quality(data: TrialInput, recording, det, rig: Rig, criteria: QualityCriteria) -> DataQuality:
@@ -339,13 +361,18 @@ def _finish_stage(name: str, traj: Trajectory, rec, det, files: TrialFiles | Non
     report, problem = gait_of(traj)
     if problem:
         log.warning("%s: no gait parameters: %s", name, problem)
+    consistency = stage_consistency(report, traj.times_s)
+    if consistency.get("failures"):
+        log.warning("%s: %d consistency rule(s) failed: the parameters concerned are in doubt", name,
+                    len(consistency["failures"]))
     missing = missing_counts(traj)
     if missing:
         log.warning("%s: joints missing in some frames: %s", name,
                     ", ".join(f"{j} ({n} of {traj.points_mm.shape[0]})" for j, n in missing.items()))
     gait_s = time.perf_counter() - t0
-    written = {} if files is None else write_data(files, name, traj, report, data_quality=quality.to_dict())
-    outcome = StageOutcome(name, traj, report, problem, missing, dict(written), rec, gait_s)
+    written = {} if files is None else write_data(files, name, traj, report, data_quality=quality.to_dict(),
+                                                  consistency=consistency)
+    outcome = StageOutcome(name, traj, report, problem, missing, dict(written), rec, gait_s, consistency)
     sink.stored(outcome, quality)
     if files is None:
         return outcome

@@ -244,6 +244,7 @@ class CatalogSink:
         cat.set_quality(db, self.trial_id, "processing", {**quality.to_dict(), "gait_warnings": gait_warnings,
                                                           "stage": outcome.name})
         extra = {"warnings": gait_warnings, "problem": outcome.problem, "data_quality": quality.to_dict(),
+                 "consistency": outcome.consistency,
                  "load_s": round(self.load_s, 3), "compute_s": round(traj.elapsed_s, 3),
                  "gait_s": round(outcome.gait_s, 3)}
         cat.store_result(db, trial_id=self.trial_id, stage=outcome.name, method=traj.method,

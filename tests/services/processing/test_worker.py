@@ -73,6 +73,9 @@ def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path,
             assert files.stage_file(stage, key).stat().st_size > 100, (stage, key)
         gait = json.loads(files.stage_file(stage, "gait_json").read_text())  # numbers with their quality
         assert gait["data_quality"]["cameras"] and "warnings" in gait["data_quality"], gait.get("data_quality")
+        checks = gait["data_quality"]["checks"]  # the trial's checks of its results: one person, no camera moved
+        assert not checks["one_person"]["mixed"] and checks["rig"]["run"] and not checks["rig"]["moved"], checks
+        assert gait["consistency"]["ok"] and gait["consistency"]["comparisons"] > 0, gait["consistency"]
     assert files.stage_file("refined", "rerun_rrd").stat().st_size > 1000
     listed = cat.get_result(db, tid, "refined").artifacts  # each file listed once written
     assert {"rerun_rrd", "results_mcap", "trajectory_trc", "report_png"} <= set(listed)
@@ -195,3 +198,35 @@ def test_unreadable_keypoint_messages_are_ignored_and_named_in_the_trials_qualit
                                    "(2 missing 'skeleton', 1 not JSON)"]
     assert quality["ignored_keypoints"] == {cam: {"strays": 0, "stray_frame_ids": [], "mistimed": 0,
                                                   "unreadable": {"missing 'skeleton'": 2, "not JSON": 1}}}
+
+
+def test_a_camera_moved_since_calibration_flags_the_trial_and_its_checks_are_stored(tmp_path):
+    """The one path's checks on a real trial MCAP whose recorded calibration is stale for one camera (turned
+    2 deg after calibration): the rig check names it, the trial ends with warnings; the reconstruction is
+    one person; each stage's consistency rules travel with its numbers."""
+    from dataclasses import replace
+
+    from gaitcap.reconstruction.calibration.geometry import rvec_of
+    from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
+    from gaitcap.simulator import make_trial
+
+    walk = make_trial(preset="paper", seconds=10.0, cameras=6, seed=3)
+    turn = rodrigues_to_matrix(np.radians(2.0) * np.array([0.0, 1.0, 0.0]))
+    cams = [c.replace(rvec=rvec_of(turn @ c.rotation), tvec_mm=-(turn @ c.rotation) @ c.center_mm)
+            if c.name == "cam03" else c for c in walk.rig]
+    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+    t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
+    write_trial_mcap(replace(walk, rig=Rig(tuple(cams))), Path(t.recording_path))  # the stale calibration
+    cat.set_state(db, t.id, "recorded")
+    cat.enqueue_job(db, t.id)
+    assert Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db).run_once()
+    trial = cat.get_trial(db, t.id)
+    assert trial.state == "done_with_warnings", trial
+    gait = json.loads(trial_files(tmp_path, t.id).stage_file("preliminary", "gait_json").read_text())
+    checks = gait["data_quality"]["checks"]
+    assert checks["rig"]["moved"] == ["cam03"], checks["rig"]
+    assert abs(checks["rig"]["cameras"]["cam03"]["rotation_deg"] - 2.0) < 0.5, checks["rig"]["cameras"]["cam03"]
+    assert not checks["one_person"]["mixed"], checks["one_person"]
+    assert any("Camera cam03 appears to have moved" in w for w in cat.warnings_of(cat.get_quality(db, t.id)))
+    stored = cat.get_result(db, t.id, "preliminary").report["consistency"]
+    assert stored == gait["consistency"] and stored["rules_checked"] and stored["comparisons"] > 0, stored

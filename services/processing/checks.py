@@ -1,0 +1,56 @@
+"""The trial's checks of its own results, run by the one processing path on the first stage's points and
+stored in the trial's data-quality block under ``checks`` (each a JSON-ready dict whose ``warnings`` join
+the trial's, and whose ``notes`` do not):
+
+- ``one_person``: the reconstruction follows one person seen by every view, not a mix of two
+  (:func:`gaitcap.reconstruction.people_check.check_one_person`);
+- ``rig``: no camera moved since calibration, judged from the patient's own keypoints
+  (:func:`gaitcap.reconstruction.calibration.rig_check.check_rig`).
+
+Each stage's gait parameters are checked against each other apart (:func:`stage_consistency`): a failed
+rule is a data problem of that stage, never a clinical finding.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.detections import Detections
+
+log = logging.getLogger(__name__)
+
+
+def one_person_check(det: Detections, rig: Rig, points_mm: np.ndarray) -> dict:
+    """``check_one_person`` of the patient's detections (C, T, J, 3) px and points (T, J, 3) mm, with the
+    mix as a warning."""
+    from gaitcap.reconstruction.people_check import check_one_person
+
+    verdict = check_one_person(det, rig, points_mm)
+    return {**verdict.to_dict(), "warnings": [verdict.message] if verdict.mixed else [], "notes": []}
+
+
+def rig_check(det: Detections, rig: Rig, points_mm: np.ndarray) -> dict:
+    """``check_rig`` of the patient's detections and points: a moved camera is a warning (named, with its
+    rotation deg and shift mm); a camera that could not be judged, or a rig too small to check, a note."""
+    from gaitcap.reconstruction.calibration.rig_check import check_rig
+
+    try:
+        result = check_rig(det, rig, points_mm)
+    except ValueError as exc:  # fewer than 3 cameras: nothing to judge a camera against
+        return {"run": False, "flagged": False, "moved": [], "warnings": [], "notes": [str(exc)]}
+    moved = set(result.moved)
+    warnings = [w for w in result.warnings if any(f"Camera {name} " in w for name in moved)]
+    return {**result.to_dict(), "run": True, "warnings": warnings,
+            "notes": [w for w in result.warnings if w not in warnings]}
+
+
+def stage_consistency(report, times_s: np.ndarray) -> dict:
+    """The consistency rules on a stage's gait report (``ConsistencyReport.to_dict()``), tolerances from
+    the frame period (s, the median step of ``times_s``); {} without a report."""
+    from gaitcap.reconstruction.gait.consistency import check_report
+
+    if report is None or len(times_s) < 2:
+        return {}
+    return check_report(report, frame_period_s=float(np.median(np.diff(times_s)))).to_dict()
