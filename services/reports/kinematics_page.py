@@ -51,8 +51,8 @@ def _key_table(pdf, k: dict) -> None:
         pdf.para("No key values: no complete gait cycle.")
         return
     norms = key_norms(bands)
-    pdf.set_font("Helvetica", "", 8.5)
-    with pdf.table(col_widths=(56, 32, 32, 16, 28), width=164, align="LEFT", line_height=4.6,
+    pdf.set_font("Helvetica", "", 8)
+    with pdf.table(col_widths=(56, 32, 32, 16, 28), width=164, align="LEFT", line_height=4.0,
                    text_align=("LEFT", "RIGHT", "RIGHT", "RIGHT", "RIGHT"),
                    headings_style=FontFace(emphasis="BOLD", fill_color=(230, 234, 240))) as table:
         head = table.row()
@@ -66,33 +66,46 @@ def _key_table(pdf, k: dict) -> None:
                 row.cell(pdf.latin1(_side_cell((kv.get(side) or {}).get(name), norm)))
             row.cell(f"{norm.normal_deg:.1f}" if norm is not None else "-")
             row.cell(pdf.latin1(_range_cell(norm)))
-    pdf.para(NORMAL_NOTE, 7.5)
+    pdf.para(NORMAL_NOTE, 7, height=3.3)
 
 
 def _notes(k: dict) -> list[str]:
     norms = k.get("norms") or {}
     out = [f"Grey band: normal mean +- 1 SD for {norms.get('population')}. Source: {norms['source']}."
            if norms.get("source") else "No normal band: no normative data is installed."]
-    out += [f"{name.replace('_', ' ').capitalize()}: no band ({why})." for name, why in (norms.get("missing") or {}).items()
-            if name in (k.get("curves") or {})]
+    missing = {name: why for name, why in (norms.get("missing") or {}).items() if name in (k.get("curves") or {})}
+    for why in dict.fromkeys(missing.values()):
+        names = ", ".join(n.replace("_", " ") for n, w in missing.items() if w == why)
+        out.append(f"No band (not drawn): {names} ({why}).")
     out += [f"{name.replace('_', ' ').capitalize()}: not measured ({why})." for name, why in
             (k.get("not_measured") or {}).items()]
     return out
 
 
-def kinematics_section(pdf) -> None:
-    """A page of curves, band sources and key values when the trial has curves; else the key values or
-    the reason there are none (``pdf.c``: the report content)."""
+def kinematics_figure_png(k: dict) -> bytes | None:
+    """The report's curves: each side's mean +- SD over the band, of the variables that have a band (the
+    others are named in the notes), half a page wide; None without curves."""
     from gaitcap.services.kinematics.plot import side_curves_png
 
+    curves, bands = k.get("curves") or {}, (k.get("norms") or {}).get("bands") or {}
+    shown = {name: c for name, c in curves.items() if name in bands} or curves
+    if not shown:
+        return None
+    return side_curves_png({**k, "curves": shown}, width_in=8.0)
+
+
+def kinematics_section(pdf) -> None:
+    """The key values against the band with the band's source and what has no band; the curves are drawn
+    beside the heel traces (``pdf.curves_drawn``), else on their own here (``pdf.c``: the report content)."""
     c = pdf.c
     k = c.kinematics or {}
     if k.get("curves"):
-        pdf.add_page()
-        pdf.heading("Joint kinematics over the gait cycle (mean +- SD per side; left blue, right red)")
-        pdf.image(io.BytesIO(side_curves_png(k)), w=pdf.w - pdf.l_margin - pdf.r_margin)
-        for line in _notes(k):
-            pdf.para(line, 7.5)
+        pdf.heading("Joint kinematics (mean +- SD per side; left blue, right red; grey: the normal band)", keep_mm=40)
+        if not getattr(pdf, "curves_drawn", False):
+            png = kinematics_figure_png(k)
+            if png:
+                pdf.image(io.BytesIO(png), w=(pdf.w - pdf.l_margin - pdf.r_margin) / 2)
+        pdf.para(" ".join(_notes(k)), 7, height=3.3)
     else:
         pdf.heading("Joint angles")
     if k.get("key_values"):

@@ -16,7 +16,7 @@ import time
 from fpdf import FPDF
 from fpdf.fonts import FontFace
 from gaitcap.services.reports.content import METHOD_TEXT, PARAMETERS, ReportContent, Row
-from gaitcap.services.reports.kinematics_page import kinematics_section
+from gaitcap.services.reports.kinematics_page import kinematics_figure_png, kinematics_section
 
 SIDE_COLOURS = {"left": (31, 119, 180), "right": (214, 39, 40)}
 
@@ -76,15 +76,21 @@ class _Doc(FPDF):
         self.cell(0, 5, _latin1(f"Trial {self.c.trial.id} - gaitcap {self.c.version} - page {self.page_no()}/{{nb}}"),
                   align="C")
 
-    def heading(self, text: str) -> None:
+    curves_drawn = False  # the joint-angle curves are on the page already (beside the heel traces)
+
+    def heading(self, text: str, keep_mm: float = 16.0) -> None:
+        """A section heading, on the next page when less than ``keep_mm`` is left under it (no heading
+        alone at the bottom of a page)."""
+        if self.get_y() + 1.5 + 6 + keep_mm > self.page_break_trigger:
+            self.add_page()
         self.ln(1.5)
         self.set_font("Helvetica", "B", 11)
         self.cell(0, 6, _latin1(text), new_x="LMARGIN", new_y="NEXT")
         self.set_font("Helvetica", "", 9)
 
-    def para(self, text: str, size: float = 9, style: str = "") -> None:
+    def para(self, text: str, size: float = 9, style: str = "", height: float = 4.4) -> None:
         self.set_font("Helvetica", style, size)
-        self.multi_cell(0, 4.4, _latin1(text), new_x="LMARGIN", new_y="NEXT")
+        self.multi_cell(0, height, _latin1(text), new_x="LMARGIN", new_y="NEXT")
 
 
 def _identity(pdf: _Doc) -> None:
@@ -191,24 +197,38 @@ def _flags(pdf: _Doc) -> None:
         pdf.set_text_color(0, 0, 0)
 
 
-def _heel_plot(pdf: _Doc) -> None:
-    pdf.heading("Heel traces and detected steps")
-    if pdf.c.heel_plot_png:
-        pdf.image(io.BytesIO(pdf.c.heel_plot_png), w=150)
+def _figures(pdf: _Doc) -> None:
+    """The heel traces and, beside them, the joint-angle curves (the variables with a band), both half the
+    page wide, so that one trial's report stays on two pages."""
+    c = pdf.c
+    curves = kinematics_figure_png(c.kinematics or {})
+    pdf.heading("Heel traces and detected steps" + (" | joint angles over the gait cycle" if curves else ""),
+                keep_mm=60)
+    half = (pdf.w - pdf.l_margin - pdf.r_margin - 4) / 2
+    y0, bottom = pdf.get_y(), pdf.get_y()
+    if c.heel_plot_png:
+        info = pdf.image(io.BytesIO(c.heel_plot_png), x=pdf.l_margin, y=y0, w=half if curves else 120)
+        bottom = max(bottom, y0 + info.rendered_height)
     else:
         pdf.para("The heel-trace figure was not written for this trial.")
+        bottom = pdf.get_y()
+    if curves:
+        info = pdf.image(io.BytesIO(curves), x=pdf.l_margin + half + 4, y=y0, w=half)
+        bottom = max(bottom, y0 + info.rendered_height)
+        pdf.curves_drawn = True
+    pdf.set_y(bottom + 1)
 
 
 def _footprints(pdf: _Doc) -> None:
     c = pdf.c
-    pdf.heading("Footprints of the first straight pass (walking direction to the right)")
+    pdf.heading("Footprints of the first straight pass (walking direction to the right)", keep_mm=26)
     if not c.footprints:
         pdf.para("Fewer than two steps in the first pass: no footprint diagram.")
         return
     span = max(f.along_mm for f in c.footprints) - min(f.along_mm for f in c.footprints) or 1.0
     width = pdf.w - pdf.l_margin - pdf.r_margin - 10
     scale = min(width / span, 0.12)  # mm on paper per mm on the floor
-    x0, y0 = pdf.l_margin + 5, pdf.get_y() + 16
+    x0, y0 = pdf.l_margin + 5, pdf.get_y() + 8
     pdf.set_draw_color(180, 180, 180)
     pdf.line(x0, y0, x0 + span * scale, y0)
     for f in c.footprints:
@@ -216,7 +236,8 @@ def _footprints(pdf: _Doc) -> None:
         x, y = x0 + f.along_mm * scale, y0 - f.across_mm * scale
         pdf.ellipse(x - 3.2, y - 1.6, 6.4, 3.2, style="F")
     pdf.set_draw_color(0, 0, 0)
-    pdf.set_y(y0 + 16)
+    pdf.set_fill_color(255, 255, 255)  # the tables after it are not filled with the last foot's colour
+    pdf.set_y(y0 + 8)
     pdf.set_font("Helvetica", "", 8)
     pdf.cell(0, 4, _latin1(f"Blue: left heel, red: right heel; scale 1:{1 / scale:.0f}; {span / 1000:.2f} m shown."),
              new_x="LMARGIN", new_y="NEXT")
@@ -225,17 +246,19 @@ def _footprints(pdf: _Doc) -> None:
 def _closing(pdf: _Doc) -> None:
     c = pdf.c
     kinematics_section(pdf)
-    pdf.heading("Method and software")
-    pdf.para(f"{METHOD_TEXT} Software: gaitcap {c.version}; results: {c.stage} ({c.method}).", 8)
-    pdf.heading("Normative reference")
-    pdf.para(" ".join(c.norm_citations) or "No normative table.", 8)
-    pdf.ln(10)
+    pdf.heading("Method and software", keep_mm=14)
+    pdf.para(f"{METHOD_TEXT} Software: gaitcap {c.version}; results: {c.stage} ({c.method}).", 7, height=3.3)
+    pdf.heading("Normative reference", keep_mm=14)
+    pdf.para(" ".join(c.norm_citations) or "No normative table.", 7, height=3.3)
+    if pdf.get_y() + 14 > pdf.page_break_trigger:
+        pdf.add_page()
+    pdf.ln(6)
     pdf.set_font("Helvetica", "", 10)
     pdf.cell(95, 6, "Clinician: ______________________________")
     pdf.cell(0, 6, "Signature / date: ______________________", new_x="LMARGIN", new_y="NEXT")
 
 
-SECTIONS = (_identity, _quality, _table, _flags, _heel_plot, _footprints, _closing)
+SECTIONS = (_identity, _quality, _table, _flags, _figures, _footprints, _closing)
 
 
 def report_pdf(content: ReportContent) -> bytes:
@@ -244,7 +267,7 @@ def report_pdf(content: ReportContent) -> bytes:
     pdf.alias_nb_pages()
     pdf.add_page()
     for section in SECTIONS:
-        if section is _heel_plot:
+        if section is _figures:
             pdf.add_page()
         section(pdf)
     return bytes(pdf.output())

@@ -103,13 +103,14 @@ def test_report_has_a_kinematics_page_with_curves_band_source_and_key_values(ser
     tid = _trial(server, walk, subject="A2", kinematics=kin, birth_year=1956)
     reader = PdfReader(io.BytesIO(client.get(f"/trials/{tid}/report.pdf").content))
     pages = [" ".join(p.extract_text().split()) for p in reader.pages]
-    page = next(p for p in pages if "Joint kinematics over the gait cycle" in p)
+    page = next(p for p in pages if "Joint kinematics (mean +- SD per side" in p)  # beside the heel traces
     norms = norms_for_age(client.get(f"/trials/{tid}/parameters").json()["age"])
     assert f"normal mean +- 1 SD for {norms.population}" in page and norms.source.split(":")[0] in page
     assert "Pelvis tilt: not measured (held near 0" in page
     left = kin["key_values"]["left"]["knee_peak_flexion_swing_deg"]
     assert f"Knee peak flexion swing {left['mean']:.1f} ± {left['sd']:.1f} (n={left['n']})" in page
-    assert len(reader.pages[pages.index(page)].images) == 1  # the curves figure
+    assert len(reader.pages[pages.index(page)].images) == 1  # the curves figure (no heel-trace plot stored)
+    assert len(reader.pages) == 2
 
 
 def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, walk):

@@ -141,3 +141,57 @@ def test_a_camera_outage_during_the_trial_is_a_data_problem_so_the_trial_does_no
     fine = _trial(server, walk, walk.to_dict(), subject="P105",
                   stored={"data_quality": {"recorded_s": 20.0, "duration_s": 19.0, "nominal_fps": 30.0}})
     assert client.get(f"/trials/{fine}/parameters").json()["data_problems"] == []
+
+
+def _kinematics_of(walk_report, times, points, names) -> dict:
+    """kinematics.json as the worker writes it, from the walker's angles measured on its keypoints."""
+    from gaitcap.reconstruction.kinematics.geometric import keypoint_angles
+    from gaitcap.reconstruction.kinematics.report import kinematics_report
+    from gaitcap.services.kinematics.files import norm_bands
+
+    a, zero = keypoint_angles(points, names), np.zeros(len(times))
+    coords = {"pelvis_tilt": zero, "pelvis_list": zero, "pelvis_rotation": zero, "L5_S1_Flex_Ext": zero}
+    for model, ours in (("hip_flexion", "hip_flexion"), ("hip_adduction", "hip_adduction"),
+                        ("knee_angle", "knee_flexion"), ("ankle_angle", "ankle_dorsiflexion")):
+        coords |= {f"{model}_{s[0]}": a[ours][s] for s in ("left", "right")}
+    coords |= {f"hip_rotation_{s}": zero for s in "lr"}
+    rep = kinematics_report(coords, times, walk_report.steps, norms=norm_bands(), held={"pelvis_tilt": "held"})
+    return {"available": True, **rep.to_dict()}
+
+
+def test_one_trial_with_every_figure_is_two_pages_void_on_both_and_no_heading_left_at_a_page_foot(server):
+    """Heel traces, footprints, joint-angle curves and key values, norms, a previous visit: 2 pages."""
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.skeletons import get_skeleton
+    from gaitcap.services.processing.report_plot import heel_traces_png
+    from gaitcap.simulator.params import WalkParams
+    from gaitcap.simulator.path import Room, plan_walk
+    from gaitcap.simulator.walker import simulate_body
+    from pypdf import PdfReader
+
+    _, client, _, settings = server
+    names, times, params = list(get_skeleton("halpe26").joint_names), np.arange(360) / 30.0, WalkParams()
+    points = simulate_body(plan_walk(params, 12.0, Room(), seed=0), params, times)
+    report = analyze_gait(points, times, names)
+    kinematics = _kinematics_of(report, times, points, names)
+    for session in ("visit-1", "visit-2"):
+        tid = _trial(server, report, report.to_dict(), subject="P106")
+        client.post(f"/trials/{tid}/correct", json={"session": session, "reason": "visit label"})
+        files = trial_files(settings.data_dir, tid)
+        files.stage_file("preliminary", "report_png").write_bytes(heel_traces_png(report, points, times, names))
+        files.stage_file("preliminary", "kinematics_json").parent.mkdir(parents=True, exist_ok=True)
+        files.stage_file("preliminary", "kinematics_json").write_text(json.dumps(kinematics))
+        time.sleep(0.01)
+    client.put("/patients/P106", json={"sex": "female", "birth_year": time.gmtime().tm_year - 74})
+    client.post(f"/trials/{tid}/mark-void", json={"reason": "shoes left on"})
+    pdf = client.get(f"/trials/{tid}/report.pdf").content
+    pages = [p.extract_text() for p in PdfReader(io.BytesIO(pdf)).pages]
+    assert len(pages) == 2 and len(pdf) < 200 * 1024
+    assert all("VOID - not for clinical use: shoes left on" in p for p in pages)
+    text = " ".join(" ".join(p.split()) for p in pages)
+    for heading in ("Findings to note", "Heel traces and detected steps", "Footprints of the first straight pass",
+                    "Joint kinematics", "Key value (degrees)", "Method and software", "Normative reference", "Signature"):
+        assert heading in text, heading
+    for page in pages:  # the last line before the footer is never a heading
+        lines = [ln for ln in page.splitlines() if ln.strip() and not ln.startswith("Trial ")]
+        assert lines[-1].strip() not in ("Findings to note", "Method and software", "Normative reference", "Data quality")
