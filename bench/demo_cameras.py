@@ -105,7 +105,7 @@ def _recording_path(catalog_url: str, trial_id: str) -> str:
 
 def run(*, seconds: float, cameras: int, size: str, camera_nodes: int, burn: int, timeout_s: float) -> dict:
     from gaitcap.acquisition.recording.reader import read_summary
-    from gaitcap.services.bus.session import free_loopback_ports, open_session
+    from gaitcap.services.bus.session import free_loopback_ports
     from gaitcap.services.ops.stack import Stack, StackConfig
 
     base = free_loopback_ports(24)[0]
@@ -120,7 +120,7 @@ def run(*, seconds: float, cameras: int, size: str, camera_nodes: int, burn: int
             for b in burners:
                 b.start()
             counter = ImageCounter()
-            session = open_session(stack.bus, None)
+            session = stack.bus_session()
             try:
                 sub = session.declare_subscriber(stack.bus.keys.image(), counter)
                 trial, window_s = record_trial(stack, counter, seconds=seconds, timeout_s=timeout_s)

@@ -32,29 +32,40 @@ def register(app: typer.Typer) -> None:
         first_trial: bool = typer.Option(True, "--first-trial/--no-first-trial",
                                          help="Record one walk automatically once the stack is up, so the page "
                                               "already shows a finished trial (ignored with --auto)."),
+        wait_stall: float = typer.Option(600.0, "--wait-stall", help="Give up on the trial's results when the "
+                                         "worker reported no new stage or progress for this long (s)."),
+        wait_limit: float = typer.Option(3600.0, "--wait-limit", help="Give up on the trial's results after "
+                                         "this long after Stop in all (s)."),
+        plain_bus: bool = typer.Option(False, "--plain-bus", help="A plain TCP bus on loopback: no TLS, passwords "
+                                       "or access control, any local process can use it (default: secured)."),
     ) -> None:
         """Bring up the whole clinic stack (simulated rig) and print the web page's URL."""
         import logging
 
         from gaitcap.api.settings import new_token
-        from gaitcap.services.ops.stack import Stack, StackConfig
+        from gaitcap.services.ops.auto_trial import WaitLimits
+        from gaitcap.services.ops.stack import Stack, StackConfig, bus_keys_dir
 
         with user_errors():
             cfg = StackConfig(data_dir=data_dir, token=new_token(), port=port, bus_base_port=bus_port,
                               cameras=cameras, camera_nodes=camera_nodes, size=size, workers=workers, refine=refine,
-                              sim_people=people, board_clip=board_clip)
+                              sim_people=people, board_clip=board_clip, plain_bus=plain_bus)
+            limits = WaitLimits(stall_s=wait_stall, overall_s=wait_limit)
         logging.getLogger("httpx").setLevel(logging.WARNING)
         stack = Stack(cfg)
         stop = stop_on_signals()
         typer.echo(f"starting gaitcap ({cameras} simulated cameras, detector, recorder, {workers} worker(s), "
                    f"API); logs in {stack.supervisor.log_dir}", err=True)
+        typer.echo("bus: PLAIN TCP on loopback (--plain-bus): no authentication, any local process can use it"
+                   if plain_bus else f"bus: mutual TLS, passwords and access control (keys in {bus_keys_dir(cfg)})",
+                   err=True)
         try:
             stack.start()
             typer.echo(f"gaitcap clinic page: {stack.page_url}")
             typer.echo(f"sign in as: demo / {cfg.token}  (this terminal only; not logged)")
             typer.echo(f"API docs: {cfg.url}/docs")
             if auto or first_trial:
-                ok = _one_trial(stack, seconds=seconds, refine=refine)
+                ok = _one_trial(stack, seconds=seconds, refine=refine, limits=limits)
                 if auto:
                     if not ok:
                         raise typer.Exit(code=1)
@@ -65,15 +76,16 @@ def register(app: typer.Typer) -> None:
             stack.stop()
 
 
-def _one_trial(stack, *, seconds: float, refine: bool) -> bool:
-    """Record one simulated walk through the API, wait for its results and print them; True if done."""
+def _one_trial(stack, *, seconds: float, refine: bool, limits) -> bool:
+    """Record one simulated walk through the API, wait for its results (following the worker's stages
+    within ``limits``) and print them; True if done, else False after saying what was still running."""
     from gaitcap.services.ops.auto_trial import format_metrics, run_trial
 
     with stack.client() as c:
         typer.echo(f"recording a {seconds:.0f} s walk ...", err=True)
-        t = run_trial(c, subject_id="DEMO001", seconds=seconds)
+        t = run_trial(c, subject_id="DEMO001", seconds=seconds, limits=limits)
         if t.state not in ("done", "done_with_warnings"):
-            typer.echo(f"trial {t.trial_id} {t.state}: {t.error}", err=True)
+            typer.echo(f"trial {t.trial_id} {t.state}: {t.error}; logs in {stack.supervisor.log_dir}", err=True)
             return False
         for warning in t.warnings:
             typer.echo(f"warning: {warning}", err=True)

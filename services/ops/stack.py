@@ -6,10 +6,16 @@ simulated detector, recorder, worker(s) and the API, all Zenoh peers on 127.0.0.
 log in ``<data_dir>/logs/``. :class:`Stack` starts them, waits until cameras, keypoints, worker and API
 are ready, restarts a process that dies (a supervising thread), and stops everything on exit.
 
-The simulated world is a ``sim_seconds`` long walk in the paper's room; a camera process plays it once
-and is restarted when it ends (the world starts over). Several camera processes start on the walk's grid
-from the stack's start (``--cycle-epoch-ns``), so they, also a restarted one joining mid-walk, count frame
-ids from one synchronised start.
+The bus is secured even on loopback (mutual TLS with a CA of the stack's own, a password per node and
+access control by role, :mod:`gaitcap.services.bus.security`): the keys and passwords are made at the first
+start into ``<data_dir>/bus-keys`` (folder 0700, private files 0600) and kept. A plain TCP bus, open to
+any local process, only with ``plain_bus`` (``gaitcap demo --plain-bus``), and said at start.
+Each child gets only the environment it needs (:mod:`gaitcap.services.ops.child_env`).
+
+The simulated world is a ``sim_seconds`` long walk in the paper's room; the camera processes play it
+again and again with no pause (``--sim-loop``), frame ids counting on. Several camera processes count
+from the stack's start (``--cycle-epoch-ns``), so they, also a restarted one joining mid-walk, keep one
+synchronised frame count.
 """
 
 from __future__ import annotations
@@ -17,17 +23,21 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import os
 import sys
 import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from gaitcap.acquisition.fileio import atomic_write_text
 from gaitcap.services.catalog.paths import DEMO_DATA_DIR, catalog_url
+from gaitcap.services.ops.child_env import child_environment, held_secrets
 from gaitcap.services.ops.supervisor import ProcessSpec, Supervisor
 
 log = logging.getLogger(__name__)
 CLI = (sys.executable, "-c", "from gaitcap.services.cli import main; main()")
+STACK_CLIENT = "stack"  # the bus identity of the stack's own checks (listens nowhere; role client)
 
 
 @dataclass(frozen=True)
@@ -35,7 +45,9 @@ class StackConfig:
     """Where and how the stack runs. Ports: API ``port``; bus nodes ``bus_base_port`` and up. ``token`` is
     the password of the stack's ``demo`` account (every role), made in ``data_dir/accounts.json``.
     ``camera_nodes``: processes the simulated cameras are dealt to (one holds 10 x 30 fps at 240x180 px on
-    a loaded 2-core machine; more give it headroom)."""
+    a loaded 2-core machine; more give it headroom). ``plain_bus``: a bus without TLS, passwords or access
+    control (any local process can use it; default: secured, see the module docstring). ``extra_env``: variables set in every child (on top of
+    what each needs: :mod:`gaitcap.services.ops.child_env`)."""
 
     data_dir: Path = DEMO_DATA_DIR
     token: str = ""
@@ -57,6 +69,7 @@ class StackConfig:
     board_clip: str = "short"
     catalog_url: str = ""
     extra_env: dict[str, str] = field(default_factory=dict)
+    plain_bus: bool = False  # plain TCP bus, no authentication: only when asked for by name
 
     def __post_init__(self) -> None:
         if len(self.token) < 12:
@@ -97,11 +110,34 @@ class StackConfig:
         return {node: list(names[i :: self.camera_nodes]) for i, node in enumerate(self.camera_node_names())}
 
 
+def bus_keys_dir(cfg: StackConfig) -> Path:
+    """Where the stack's bus keys and passwords are made at its first start (and kept)."""
+    return Path(cfg.data_dir).resolve() / "bus-keys"
+
+
 def bus_config(cfg: StackConfig):
+    """The stack's bus: one loopback port per node from ``bus_base_port``; secured (``tls/`` endpoints,
+    keys in :func:`bus_keys_dir`, the stack's own client :data:`STACK_CLIENT`) unless ``plain_bus``."""
+    from gaitcap.services.bus.security import BusSecurity
     from gaitcap.services.bus.session import BusConfig
 
     nodes = ("recorder", "detector", "api", *cfg.camera_node_names(), *cfg.worker_names())
-    return BusConfig.local(cfg.bus_base_port, nodes=nodes)
+    plain = BusConfig.local(cfg.bus_base_port, nodes=nodes)
+    if cfg.plain_bus:
+        return plain
+    return BusConfig({n: "tls/" + e.split("/", 1)[1] for n, e in plain.nodes.items()}, prefix=plain.prefix,
+                     security=BusSecurity(bus_keys_dir(cfg), clients=(STACK_CLIENT,)))
+
+
+def make_stack_bus_keys(cfg: StackConfig) -> list[str]:
+    """The secured bus's CA, certificates and passwords in :func:`bus_keys_dir` (the missing ones; existing
+    files are kept); returns the identities made now (none for a plain bus)."""
+    from gaitcap.services.bus.certs import make_bus_keys
+
+    bus = bus_config(cfg)
+    if bus.security is None:
+        return []
+    return make_bus_keys({n: bus.nodes.get(n) for n in bus.identities}, bus.security.keys_dir)
 
 
 def _sim_args(cfg: StackConfig) -> list[str]:
@@ -109,30 +145,63 @@ def _sim_args(cfg: StackConfig) -> list[str]:
             str(cfg.cameras), "--sim-seed", str(cfg.seed), "--fps", str(cfg.fps), "--sim-people", str(cfg.sim_people)]
 
 
-def process_specs(cfg: StackConfig, *, epoch_ns: int | None = None) -> list[ProcessSpec]:
+def _camera_args(cfg: StackConfig) -> list[str]:
+    return [*_sim_args(cfg), "--sim-loop"]  # the walk starts over with no pause
+
+
+def bus_file(cfg: StackConfig) -> Path:
+    """The stack's bus file (every node reads it through ``GAITCAP_BUS``)."""
+    return Path(cfg.data_dir).resolve() / "bus.json"
+
+
+def stack_set_env(cfg: StackConfig, role: str) -> dict[str, str]:
+    """What the stack sets in the environment of a child of ``role``: the bus file for every node; the
+    data folder for the recorder, the worker and the API (the recorder writes only inside it); the
+    catalog for the worker and the API; the frame-rate criteria for the API."""
+    env = {"GAITCAP_BUS": str(bus_file(cfg))}
+    if role in ("recorder", "worker", "api"):
+        env["GAITCAP_DATA_DIR"] = str(Path(cfg.data_dir).resolve())
+    if role in ("worker", "api"):
+        env["GAITCAP_CATALOG"] = cfg.catalog
+    if role == "api":
+        from gaitcap.services.processing.quality import QualityCriteria
+
+        env["GAITCAP_MIN_FPS"] = str(QualityCriteria().min_fps_at(cfg.fps))  # the criteria scale with fps
+    return {**env, **cfg.extra_env}
+
+
+def _spec(cfg: StackConfig, parent_env, role: str, name: str, argv: tuple[str, ...], **kw) -> ProcessSpec:
+    return ProcessSpec(name, argv, env=child_environment(role, parent_env, stack_set_env(cfg, role)), **kw)
+
+
+def process_specs(cfg: StackConfig, *, epoch_ns: int | None = None, parent_env=None) -> list[ProcessSpec]:
     """The processes of the stack, in start order; ``epoch_ns``: the camera processes' synchronised start
-    (wall clock ns; None: each its own)."""
+    (wall clock ns; None: each its own); ``parent_env``: the environment the children's are drawn from
+    (default ``os.environ``; each child gets only what it needs, :func:`child_environment`)."""
+    parent_env = os.environ if parent_env is None else parent_env
     data = str(Path(cfg.data_dir).resolve())
     specs = [
-        ProcessSpec("recorder", (*CLI, "node", "recorder", "--node", "recorder"), ready_text="ready"),
-        ProcessSpec("detector", (*CLI, "node", "detector", "--node", "detector", "--detector", "simulated",
-                                 *_sim_args(cfg))),
+        _spec(cfg, parent_env, "recorder", "recorder", (*CLI, "node", "recorder", "--node", "recorder"),
+              ready_text="ready"),
+        _spec(cfg, parent_env, "detector", "detector", (*CLI, "node", "detector", "--node", "detector",
+                                                        "--detector", "simulated", *_sim_args(cfg))),
     ]
-    # several camera processes share one frame count on the walk's grid (one process: its own start, and a
-    # restarted one starts its counter again, as camera hardware does)
+    # several camera processes share one frame count from the stack's start (one process: its own start, and
+    # a restarted one starts its counter again, as camera hardware does)
     epoch = ["--cycle-epoch-ns", str(int(epoch_ns))] if epoch_ns is not None and cfg.camera_nodes > 1 else []
     for node, cameras in cfg.camera_shares().items():
         # The simulated cameras stand in for camera hardware: rendering them must not slow processing.
-        specs.append(ProcessSpec(node, (*CLI, "node", "camera", "--node", node, "--source", "simulated", "--cameras",
-                                        ",".join(cameras), "--size", cfg.size, "--board-clip", cfg.board_clip,
-                                        *_sim_args(cfg), *epoch), nice=cfg.camera_nice))
+        specs.append(_spec(cfg, parent_env, "camera", node, (
+            *CLI, "node", "camera", "--node", node, "--source", "simulated", "--cameras", ",".join(cameras), "--size",
+            cfg.size, "--board-clip", cfg.board_clip, *_camera_args(cfg), *epoch), nice=cfg.camera_nice))
     for name in cfg.worker_names():
         argv = [*CLI, "worker", "--node", name, "--id", name, "--data-dir", data, "--catalog", cfg.catalog,
                 "--lease", str(cfg.lease_s)]
-        specs.append(ProcessSpec(name, tuple(argv + ([] if cfg.refine else ["--no-refine"])), ready_text="ready"))
-    specs.append(ProcessSpec("api", (*CLI, "serve", "--node", "api", "--data-dir", data, "--catalog", cfg.catalog,
-                                     "--host", cfg.host, "--port", str(cfg.port), "--sim-scene"),
-                              ready_text="Uvicorn running"))
+        specs.append(_spec(cfg, parent_env, "worker", name, tuple(argv + ([] if cfg.refine else ["--no-refine"])),
+                           ready_text="ready"))
+    specs.append(_spec(cfg, parent_env, "api", "api", (
+        *CLI, "serve", "--node", "api", "--data-dir", data, "--catalog", cfg.catalog, "--host", cfg.host, "--port",
+        str(cfg.port), "--sim-scene"), ready_text="Uvicorn running"))
     return specs
 
 
@@ -161,9 +230,9 @@ class Stack:
         self.cfg = cfg
         self.data_dir = Path(cfg.data_dir).resolve()
         self.bus = bus_config(cfg)
-        self.bus_file = self.data_dir / "bus.json"
+        self.bus_file = bus_file(cfg)
         self.epoch_ns = time.time_ns()  # the camera processes' synchronised start
-        self.supervisor = Supervisor(self.data_dir / "logs")
+        self.supervisor = Supervisor(self.data_dir / "logs", base_env={})  # each spec: its whole environment
         self._stop_supervising = threading.Event()
         self._supervising: threading.Thread | None = None
 
@@ -180,18 +249,20 @@ class Stack:
 
     def start(self, *, timeout_s: float = 180.0) -> None:
         self.data_dir.mkdir(parents=True, exist_ok=True)
-        self.bus_file.write_text(json.dumps(self.bus.to_dict(), indent=2))
+        made = make_stack_bus_keys(self.cfg)
+        if made:
+            log.info("bus keys made in %s for %s", bus_keys_dir(self.cfg), ", ".join(made))
+        if self.cfg.plain_bus:
+            log.warning("bus: plain TCP on loopback (asked for): no authentication, any local process can use it")
+        atomic_write_text(self.bus_file, json.dumps(self.bus.to_dict(), indent=2))
         register_calibration(self.cfg)
         from gaitcap.services.access.accounts import AccountStore
         from gaitcap.services.access.client import DEMO_ROLES, DEMO_USER
 
         AccountStore(self.data_dir / "accounts.json").set(DEMO_USER, password=self.cfg.token, roles=DEMO_ROLES)
-        from gaitcap.services.processing.quality import QualityCriteria
-
-        env = {"GAITCAP_MIN_FPS": str(QualityCriteria().min_fps_at(self.cfg.fps)),  # the criteria scale with fps
-               "GAITCAP_BUS": str(self.bus_file),
-               "GAITCAP_DATA_DIR": str(self.data_dir), "GAITCAP_CATALOG": self.cfg.catalog, **self.cfg.extra_env}
-        self.supervisor.base_env.update(env)
+        held = held_secrets("camera", os.environ)
+        if held:  # names only, never values
+            log.info("not passed to the camera, detector and recorder processes: %s", ", ".join(held))
         try:
             for spec in process_specs(self.cfg, epoch_ns=self.epoch_ns):
                 self.supervisor.start(spec)
@@ -247,11 +318,15 @@ class Stack:
             time.sleep(0.5)
         raise RuntimeError(f"only {len(seen)} of {self.cfg.cameras} cameras delivering; logs in {self.supervisor.log_dir}")
 
-    def _wait_keypoints(self, deadline: float) -> None:
+    def bus_session(self):
+        """A bus session of the stack's own client identity (close it after use)."""
         from gaitcap.services.bus.session import open_session
 
+        return open_session(self.bus, None if self.bus.security is None else STACK_CLIENT)
+
+    def _wait_keypoints(self, deadline: float) -> None:
         got = threading.Event()
-        session = open_session(self.bus, None)
+        session = self.bus_session()
         try:
             sub = session.declare_subscriber(self.bus.keys.keypoints(), lambda _s: got.set())
             while not got.wait(0.5):
