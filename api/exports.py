@@ -9,13 +9,16 @@ from pathlib import Path
 import numpy as np
 
 
-def steps_csv(steps: list[dict], warnings: list[str] = ()) -> str:
-    """One row per step; columns = the union of the steps' keys (first-seen order). The trial's
-    data-quality ``warnings`` come first, one ``# warning: ...`` line each (read with ``comment="#"``)."""
+def steps_csv(steps: list[dict], warnings: list[str] = (), *, void_reason: str | None = None) -> str:
+    """One row per step; columns = the union of the steps' keys (first-seen order). A void trial's file
+    starts with ``# VOID - not for clinical use: <reason>``; the trial's data-quality ``warnings`` follow,
+    one ``# warning: ...`` line each (read with ``comment="#"``)."""
     columns: list[str] = []
     for step in steps:
         columns += [k for k in step if k not in columns]
     out = io.StringIO()
+    if void_reason is not None:
+        out.write("# VOID - not for clinical use: " + " ".join(void_reason.split()) + "\n")
     out.writelines(f"# warning: {w}\n" for w in warnings)
     writer = csv.DictWriter(out, fieldnames=columns or ["side"], extrasaction="ignore", lineterminator="\n")
     writer.writeheader()

@@ -13,8 +13,10 @@ from gaitcap.api.deps import catalog_of, checked_trial_id
 from gaitcap.api.exports import steps_csv, trajectory_csv, trajectory_json
 from gaitcap.api.schemas import GaitOut
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog import patients as pat
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.reports.content import sides_of, stored_gait
+from gaitcap.services.reports.findings import consistency_of
 
 router = APIRouter(tags=["results"])
 
@@ -74,13 +76,16 @@ def _downloads(trial_id: str, stage: str) -> dict[str, str]:
 def gait(trial_id: str, request: Request, stage: Stage | None = None, user: str = Depends(require_user)):
     r = _result(request, trial_id, stage)
     cat.audit(catalog_of(request), actor=user, action="view", trial_id=r.trial_id, detail=f"gait {r.stage}")
-    return GaitOut(trial_id=r.trial_id, stage=r.stage, method=r.method, elapsed_s=r.elapsed_s,
+    gait_json = stored_gait(request.app.state.settings.data_dir, r.trial_id, r.stage)
+    data_quality = r.report.get("data_quality") or {}
+    return GaitOut(trial_id=r.trial_id, stage=r.stage, method=r.method, elapsed_s=r.elapsed_s, **_void(request, r.trial_id),
+                   consistency=consistency_of(r.report.get("consistency") or r.quality.get("consistency"),
+                                              gait_json or {"summary": r.summary, "steps": r.steps}, data_quality),
                    summary=r.summary, steps=r.steps, quality=r.quality,
                    downloads=_downloads(r.trial_id, r.stage),
                    warnings=cat.warnings_of(cat.get_quality(catalog_of(request), r.trial_id)),
                    data_quality=r.report.get("data_quality", {}),
-                   sides=sides_of((stored_gait(request.app.state.settings.data_dir, r.trial_id, r.stage) or {})
-                                  .get("summary", {})),
+                   sides=sides_of((gait_json or {}).get("summary", {})),
                    analysis_warnings=list(r.report.get("warnings") or []))
 
 
@@ -90,11 +95,18 @@ def steps(trial_id: str, request: Request, stage: Stage | None = None, format: T
     r = _result(request, trial_id, stage)
     cat.audit(catalog_of(request), actor=user, action="download", trial_id=r.trial_id,
               detail=f"steps {r.stage} {format.value}")
+    void = _void(request, r.trial_id)
     if format is TableFormat.csv:
         warnings = cat.warnings_of(cat.get_quality(catalog_of(request), r.trial_id))
-        return PlainTextResponse(steps_csv(r.steps, warnings), media_type="text/csv", headers=_attachment(
-            f"{r.trial_id}-{r.stage}-steps.csv"))
-    return {"trial_id": r.trial_id, "stage": r.stage, "steps": r.steps}
+        return PlainTextResponse(steps_csv(r.steps, warnings, void_reason=void["void_reason"] if void["voided"] else None),
+                                 media_type="text/csv", headers=_attachment(f"{r.trial_id}-{r.stage}-steps.csv"))
+    return {"trial_id": r.trial_id, "stage": r.stage, **void, "steps": r.steps}
+
+
+def _void(request: Request, trial_id: str) -> dict:
+    """``voided`` and ``void_reason`` of the trial (every export says whether it is void)."""
+    d = pat.get_details(catalog_of(request), trial_id)
+    return {"voided": d.voided, "void_reason": d.void_reason}
 
 
 @router.get("/trials/{trial_id}/trajectory", summary="3D joint trajectories in mm (JSON, CSV or TRC)")

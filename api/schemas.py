@@ -74,6 +74,10 @@ class GaitOut(BaseModel):
                                    "right, all ({n, mean, sd, cv_pct}) and symmetry_index_pct, over the steady steps")
     analysis_warnings: list[str] = Field(default_factory=list, description="The gait analysis's notes (turns, "
                                          "gaps, steps left out), plain words")
+    voided: bool = Field(default=False, description="Marked void: not for clinical use")
+    void_reason: str = Field(default="", description="Why it was marked void (empty when not void)")
+    consistency: dict = Field(default_factory=dict, description="The consistency rules run on this stage's "
+                              "parameters (ok, rules_checked, failures naming parameter, side, values, tolerance)")
     data_quality: dict = Field(default_factory=dict, description="Per camera frames expected / received / lost, "
                                "fps, sync spread (ms), coverage, reprojection error (px), ignored_keypoints (per "
                                "camera: keypoint messages left out, strays, mistimed, unreadable), and the criteria")

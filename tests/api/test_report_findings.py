@@ -104,6 +104,15 @@ def test_a_void_trial_says_void_on_every_pdf_page(server, walk):
     assert len(pages) >= 2
     assert all("VOID - not for clinical use: wrong patient walked" in p for p in pages)
     assert client.get(f"/trials/{tid}/parameters").json()["voided"] is True
+    gait = client.get(f"/trials/{tid}/gait").json()  # the API and the exports say it too
+    assert (gait["voided"], gait["void_reason"]) == (True, "wrong patient walked") and gait["consistency"]["ok"]
+    assert client.get(f"/trials/{tid}/steps").json()["voided"] is True
+    csv_text = client.get(f"/trials/{tid}/steps", params={"format": "csv"}).text
+    assert csv_text.startswith("# VOID - not for clinical use: wrong patient walked\n")
+    assert [t["voided"] for t in client.get("/trials", params={"subject_id": "P102"}).json()] == [True]
+    other = _trial(server, walk, walk.to_dict(), subject="P107")
+    assert client.get(f"/trials/{other}/gait").json()["voided"] is False
+    assert not client.get(f"/trials/{other}/steps", params={"format": "csv"}).text.startswith("# VOID")
 
 
 @pytest.mark.parametrize("n,text", [(1, "1st"), (2, "2nd"), (3, "3rd"), (4, "4th"), (11, "11th"), (12, "12th"),
