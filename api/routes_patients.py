@@ -39,7 +39,7 @@ class TrialCorrection(BaseModel):
     assistance: str | None = Field(default=None, max_length=128, description="e.g. none, standby, hand held")
     footwear: str | None = Field(default=None, max_length=128, description="e.g. own shoes, barefoot")
     notes: str | None = Field(default=None, max_length=2000)
-    reason: str = Field(default="", max_length=500, description="Why (audited)")
+    reason: str = Field(min_length=1, max_length=500, pattern=r"\S", description="Why (required; audited)")
 
 
 class VoidIn(BaseModel):

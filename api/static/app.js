@@ -191,7 +191,7 @@ function renderTrials(trials) {
       if (hasButton !== !!cells[5]) {
         tr.children[5].innerHTML = cells[5];
         const btn = tr.children[5].querySelector(".view");
-        if (btn) btn.onclick = () => follow(t.id);
+        if (btn) btn.onclick = () => { follow(t.id); showResults(); };
       }
     }
     if (tr !== before) body.insertBefore(tr, before); else before = before.nextElementSibling;
@@ -255,6 +255,12 @@ function connectPreviews() {
 }
 
 // ---------- results ----------
+function showResults() {
+  // "View results" far down the list: bring the results into view and move the focus there
+  $("#results-heading").focus({ preventScroll: true });
+  $("#results").scrollIntoView({ block: "start" });
+}
+
 function markVoidResults(voided) {
   // a void trial's results are struck through, its stage label red, and a VOID banner is printed
   $("#results").classList.toggle("voided", !!voided);
@@ -299,8 +305,10 @@ function updateFollowed(t) {
     $("#results-stage").textContent = t.state === "recording" ? "Recording…" : `${t.state_text}… (${Math.round(100 * t.progress)} %)`;
   }
   if (best && state.shownResult !== best) { state.shownResult = best; loadResult(t.id, best, t.state); }
-  if (!state.recording && !state.busy && (t.state === "done" || t.state === "failed")) {
-    setStatus(t.state === "done" ? "Ready for the next walk. Enter the patient ID and press Start." : "Not recording. Processing of the last walk failed (see below).");
+  if (!state.recording && !state.busy && (t.state === "done" || t.state === "done_with_warnings" || t.state === "failed")) {
+    setStatus(t.state === "done" ? "Ready for the next walk. Enter the patient ID and press Start."
+      : t.state === "done_with_warnings" ? "Ready for the next walk. The last walk's results carry data-quality warnings (see below)."
+      : "Not recording. Processing of the last walk failed (see below).");
   }
   else if (best === "preliminary" && t.state === "processing") {
     $("#results-stage").textContent = `Preliminary results. Refining the 3D reconstruction… (${Math.round(100 * t.progress)} %)`;

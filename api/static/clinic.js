@@ -293,7 +293,7 @@ const FIELD_INPUTS = { walking_aid: "walking-aid", assistance: "assistance", foo
 const FIX_INPUTS = { walking_aid: "fix-aid", assistance: "fix-assistance", footwear: "fix-footwear", notes: "fix-notes" };
 
 function saveClinicalFields(trialId) {
-  const body = { operator: state.user || "" };
+  const body = { operator: state.user || "", reason: "entered at Start" };
   for (const [key, id] of Object.entries(FIELD_INPUTS)) { const v = $(`#${id}`).value.trim(); if (v) body[key] = v; }
   api(`/trials/${encodeURIComponent(trialId)}/correct`, { method: "POST", body })
     .catch((e) => showError("The recording runs, but walking aid, footwear and notes were not saved: " + e.message));
@@ -315,6 +315,11 @@ async function submitCorrection(ev) {
   const subject = $("#fix-subject").value.trim(), session = $("#fix-session").value.trim();
   const problem = idProblem(subject, "Patient ID") || idProblem(session, "Session");
   if (problem) { status.textContent = problem; return; }
+  if (!$("#fix-reason").value.trim()) {
+    status.textContent = "Not saved: give the reason for the change (it is kept in the audit log).";
+    $("#fix-reason").setAttribute("aria-invalid", "true"); $("#fix-reason").focus(); return;
+  }
+  $("#fix-reason").setAttribute("aria-invalid", "false");
   const body = { subject_id: subject, session, reason: $("#fix-reason").value.trim() };
   for (const [key, id] of Object.entries(FIX_INPUTS)) body[key] = $(`#${id}`).value.trim();
   try {
@@ -327,8 +332,9 @@ async function submitCorrection(ev) {
 
 async function markVoid() {
   const trialId = $("#correct-box").dataset.trial, status = $("#correct-status");
-  const reason = (prompt("Why is this trial void? (kept with the trial and in the audit log)") || "").trim();
+  const reason = (prompt("Why is this trial void? At least 5 characters; kept with the trial and in the audit log.") || "").trim();
   if (!reason) return;
+  if (reason.length < 5) { status.textContent = "Not marked void: the reason needs at least 5 characters."; return; }
   try {
     await api(`/trials/${encodeURIComponent(trialId)}/mark-void`, { method: "POST", body: { reason } });
     loadSides(trialId);

@@ -210,6 +210,9 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     _tab_to(page, "#trials tbody tr[data-trial] .view")
     page.keyboard.press("Enter")
     page.wait_for_selector("#sides-wrap:not([hidden])")
+    # the results come into view with the focus on their heading (they lie far above the list on a phone)
+    assert page.evaluate("document.activeElement.id") == "results-heading"
+    assert abs(page.eval_on_selector("#results", "e => e.getBoundingClientRect().top")) < 5
     assert "Patient P0042" in page.inner_text("#results-patient") and "visit-3" in page.inner_text("#results-patient")
     widths = page.eval_on_selector_all("#sides-table tr[data-parameter='step_time_s'] .bar",
                                        "bars => bars.map(b => b.getBoundingClientRect().width)")
@@ -240,12 +243,17 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.click("#correct-box summary")
     assert page.input_value("#fix-subject") == "P0042"
     page.fill("#fix-aid", "cane")
+    page.click("#correct-form button[type=submit]")  # no reason: refused, the field says why
+    assert "give the reason" in page.inner_text("#correct-status")
+    assert page.evaluate("document.activeElement.id") == "fix-reason"
     page.fill("#fix-reason", "entered after the walk")
     page.click("#correct-form button[type=submit]")
     page.wait_for_function("() => document.querySelector('#correct-status').textContent.includes('walking aid changed')")
-    page.once("dialog", lambda d: d.accept("walked with the wrong shoes"))
+    asked = []
+    page.once("dialog", lambda d: (asked.append(d.message), d.accept("walked with the wrong shoes")))
     page.click("#void-button")
     page.wait_for_function("() => document.querySelector('#results-patient').textContent.includes('VOID: walked with')")
+    assert "At least 5 characters" in asked[0]  # the minimum is said before, not only when refused
     page.wait_for_timeout(400)  # several status updates later the header still says VOID (it once lost it)
     assert "VOID: walked with the wrong shoes" in page.inner_text("#results-patient")
     struck = page.eval_on_selector("#sides-table tbody td[data-label='Mean']", "td => getComputedStyle(td).textDecorationLine")

@@ -90,7 +90,9 @@ def test_history_over_three_visits_shows_the_trend_and_leaves_void_out(server, g
     _, client, _, _ = server
     ids = [_trial_with(server, rep, subject="P7", session=f"visit-{i + 1}") for i, rep in enumerate(gait_reports)]
     wrong = _trial_with(server, gait_reports[0], subject="P8", session="visit-1")
-    r = client.post(f"/trials/{wrong}/correct", json={"subject_id": "p7", "session": "visit-3"})
+    r = client.post(f"/trials/{wrong}/correct", json={"subject_id": "p7", "session": "visit-3", "reason": " "})
+    assert r.status_code == 422 and "reason" in r.json()["detail"]  # a correction says why
+    r = client.post(f"/trials/{wrong}/correct", json={"subject_id": "p7", "session": "visit-3", "reason": "typo"})
     assert r.json()["changed"]["subject_id"] == {"old": "P8", "new": "P7"}
     assert client.post(f"/trials/{wrong}/mark-void", json={"reason": "walked with the wrong shoes"}).status_code == 200
     assert client.post(f"/trials/{wrong}/mark-void", json={"reason": "again and again"}).status_code == 409
