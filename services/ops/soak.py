@@ -1,0 +1,209 @@
+"""A stack that runs all day: record a trial every ``every_s`` on a running :class:`Stack` and watch it.
+
+:func:`run_soak` records ``trials`` simulated walks through the REST API, one every ``every_s`` (s), waits
+for each one's results (:func:`gaitcap.services.ops.auto_trial.wait_for_results`) and meanwhile:
+
+- counts every camera's frames on the bus (:class:`FrameGaps`): frame ids missing, the longest run of
+  missing ids (s), the longest pause between two frames arriving (s);
+- reads the resident memory of every process of the stack (with its own children) after each trial
+  (:func:`rss_mb`), and the disk the data folder uses (:func:`disk_bytes`);
+- checks every trial's recording is on disk (a recording is lost when its file is missing or empty).
+
+The result is a :class:`SoakReport` (``to_dict()``); ``bench/soak.py`` prints it.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+log = logging.getLogger(__name__)
+
+
+class FrameGaps:
+    """Bus subscriber callback: per camera, frames seen, frame ids missing between them, the longest run of
+    missing ids and the longest pause between arrivals (s)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.cameras: dict[str, dict] = {}
+
+    def __call__(self, sample) -> None:
+        from gaitcap.acquisition.encoding import parse_image_message
+        from gaitcap.services.bus.messages import FrameMeta
+
+        meta = FrameMeta.from_bytes(bytes(sample.attachment.to_bytes()))
+        camera = parse_image_message(bytes(sample.payload.to_bytes())).camera
+        self.see(camera, meta.frame_id, time.monotonic())
+
+    def see(self, camera: str, frame_id: int, now_s: float) -> None:
+        with self._lock:
+            c = self.cameras.setdefault(camera, {"frames": 0, "missing_ids": 0, "longest_missing_run": 0,
+                                                 "longest_pause_s": 0.0, "restarted_count": 0,
+                                                 "last_id": None, "last_s": None})
+            if c["last_id"] is not None:
+                step = frame_id - c["last_id"]
+                if step > 1:
+                    c["missing_ids"] += step - 1
+                    c["longest_missing_run"] = max(c["longest_missing_run"], step - 1)
+                elif step < 1:
+                    c["restarted_count"] += 1  # the counter went back: the camera started over
+                c["longest_pause_s"] = max(c["longest_pause_s"], now_s - c["last_s"])
+            c["frames"] += 1
+            c["last_id"], c["last_s"] = frame_id, now_s
+
+    def snapshot(self) -> dict[str, dict]:
+        with self._lock:
+            return {k: {n: v for n, v in c.items() if not n.startswith("last_")} for k, c in sorted(self.cameras.items())}
+
+
+def _children_of() -> dict[int, list[int]]:
+    out: dict[int, list[int]] = {}
+    for f in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            ppid = int(f.read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, IndexError, ValueError):
+            continue
+        out.setdefault(ppid, []).append(int(f.parent.name))
+    return out
+
+
+def rss_mb(pid: int, children: dict[int, list[int]] | None = None) -> float:
+    """Resident memory (MB) of ``pid`` and all its descendants (Linux ``/proc``; 0 for a process gone)."""
+    children = _children_of() if children is None else children
+    total_kb, todo = 0, [pid]
+    while todo:
+        p = todo.pop()
+        todo += children.get(p, [])
+        try:
+            for line in Path(f"/proc/{p}/status").read_text().splitlines():
+                if line.startswith("VmRSS:"):
+                    total_kb += int(line.split()[1])
+        except (OSError, ValueError):
+            continue
+    return total_kb / 1024
+
+
+def disk_bytes(folder: Path) -> int:
+    """Bytes of the files under ``folder`` (what the data folder uses)."""
+    total = 0
+    for root, _, files in os.walk(folder):
+        for f in files:
+            try:
+                total += os.lstat(os.path.join(root, f)).st_size
+            except OSError:
+                continue
+    return total
+
+
+@dataclass(frozen=True)
+class SoakTrial:
+    """One trial of the soak: its id, end state, Stop -> preliminary / refined (s), whether its recording is
+    on disk, the data folder's growth since the previous trial (bytes), and why the wait gave up ('' if not)."""
+
+    trial_id: str
+    state: str
+    preliminary_s: float | None
+    refined_s: float | None
+    recording_kept: bool
+    disk_growth_bytes: int
+    gave_up: str = ""
+
+
+@dataclass(frozen=True)
+class SoakReport:
+    """What :func:`run_soak` saw. ``rss_mb``: process -> [first, last, max] resident memory (MB);
+    ``cameras``: :class:`FrameGaps` per camera; ``restarts``: process -> restarts by the supervisor."""
+
+    minutes: float
+    trials: tuple[SoakTrial, ...]
+    cameras: dict[str, dict]
+    rss_mb: dict[str, list[float]]
+    restarts: dict[str, int]
+    disk_per_trial_mb: float
+    frame_period_s: float
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def all_done(self) -> bool:
+        return bool(self.trials) and all(t.state in ("done", "done_with_warnings") for t in self.trials)
+
+    @property
+    def recordings_lost(self) -> int:
+        return sum(not t.recording_kept for t in self.trials)
+
+    @property
+    def longest_camera_pause_s(self) -> float:
+        return max((c["longest_pause_s"] for c in self.cameras.values()), default=float("inf"))
+
+    @property
+    def missing_frame_ids(self) -> int:
+        return sum(c["missing_ids"] for c in self.cameras.values())
+
+    def to_dict(self) -> dict:
+        out = asdict(self)
+        out.update(all_done=self.all_done, recordings_lost=self.recordings_lost,
+                   longest_camera_pause_s=self.longest_camera_pause_s, missing_frame_ids=self.missing_frame_ids)
+        return out
+
+
+def _recording_kept(stack, trial_id: str) -> bool:
+    from gaitcap.services import catalog as cat
+
+    db = cat.open_catalog(stack.cfg.catalog, create=False)
+    try:
+        path = cat.get_trial(db, trial_id).recording_path
+    finally:
+        db.close()
+    p = Path(path) if Path(path).is_absolute() else stack.data_dir / path
+    return p.is_file() and p.stat().st_size > 0
+
+
+def _sample_rss(stack, into: dict[str, list[float]]) -> None:
+    children = _children_of()
+    for name in stack.supervisor.children:
+        mb = round(rss_mb(stack.supervisor.pid(name), children), 1)
+        first = into.setdefault(name, [mb, mb, mb])
+        first[1], first[2] = mb, max(first[2], mb)
+
+
+def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0, stall_s: float = 600.0,
+             subject_id: str = "SOAK001") -> SoakReport:
+    """Record ``trials`` walks of ``trial_s`` on the running ``stack``, one starting every ``every_s`` (or
+    as soon as the previous one's results are in, when later), and report what happened."""
+    from gaitcap.services.ops.auto_trial import WaitLimits, record, wait_for_results
+
+    if trials < 1 or every_s <= 0 or trial_s <= 0:
+        raise ValueError(f"soak: need trials >= 1, every_s > 0, trial_s > 0; got {trials}, {every_s}, {trial_s}")
+    gaps, rss, done = FrameGaps(), {}, []
+    session = stack.bus_session()
+    sub = session.declare_subscriber(stack.bus.keys.image(), gaps)
+    restarts0 = {n: stack.supervisor.restarts(n) for n in stack.supervisor.children}
+    t0 = time.monotonic()
+    try:
+        _sample_rss(stack, rss)
+        disk = disk_bytes(stack.data_dir)
+        with stack.client() as c:
+            for k in range(trials):
+                time.sleep(max(0.0, t0 + k * every_s - time.monotonic()))
+                trial_id, *_ = record(c, subject_id=subject_id, seconds=trial_s)
+                trial, prelim, refined, why = wait_for_results(c, trial_id, limits=WaitLimits(stall_s=stall_s))
+                now_disk = disk_bytes(stack.data_dir)
+                done.append(SoakTrial(trial_id, trial["state"], prelim, refined, _recording_kept(stack, trial_id),
+                                      now_disk - disk, why))
+                disk = now_disk
+                _sample_rss(stack, rss)
+                log.info("soak trial %d/%d %s: %s, preliminary %s s, refined %s s", k + 1, trials, trial_id,
+                         trial["state"], prelim, refined)
+    finally:
+        sub.undeclare()
+        session.close()
+    growth = sorted(t.disk_growth_bytes for t in done)
+    return SoakReport(minutes=(time.monotonic() - t0) / 60, trials=tuple(done), cameras=gaps.snapshot(), rss_mb=rss,
+                      restarts={n: stack.supervisor.restarts(n) - restarts0[n] for n in restarts0},
+                      disk_per_trial_mb=growth[len(growth) // 2] / 1e6 if growth else 0.0,
+                      frame_period_s=1.0 / stack.cfg.fps)
