@@ -179,9 +179,10 @@ async function showHistory(subjectId) {
 
 // ---------- trends over the visits (uPlot), each with its normal band where the norms have one ----------
 const TRENDS = [
-  { name: "gait_speed_m_s", label: "Gait speed", unit: "m/s", decimals: 2 },
-  { name: "step_length_mm", label: "Step length", unit: "mm", decimals: 0 },
-  { name: "cadence_steps_min", label: "Cadence", unit: "steps/min", decimals: 1 },
+  // minSpan: the least y range drawn (so that 1.18 -> 1.19 m/s does not fill the chart like a fall)
+  { name: "gait_speed_m_s", label: "Gait speed", unit: "m/s", decimals: 2, minSpan: 0.5 },
+  { name: "step_length_mm", label: "Step length", unit: "mm", decimals: 0, minSpan: 200 },
+  { name: "cadence_steps_min", label: "Cadence", unit: "steps/min", decimals: 1, minSpan: 30 },
   { name: "step_length_symmetry_index_pct", label: "Step length symmetry index", unit: "%", decimals: 1, fromZero: true },
 ];
 const trendCharts = [];
@@ -240,7 +241,11 @@ function trendChart(spec, visits, box) {
     { label: `${spec.label} (${spec.unit})`, stroke: "#1f3a5f", width: 2, spanGaps: true, value: (u, v) => fmt(v), points: { show: true, size: 8, fill: "#1f3a5f" } },
     { ...markers("void trial", "#5b6675", "open"), value: (u, v) => fmt(v) }];
   const dates = visitAxis(data[0]);
-  const scales = { x: dates.scale, ...(spec.fromZero ? { y: { range: (u, lo, hi) => [0, Math.max(10, 1.2 * (hi ?? 0))] } } : {}) };
+  const spanned = (u, lo, hi) => {  // at least minSpan around the data (and the band), centred on them
+    const mid = (lo + hi) / 2, half = Math.max(spec.minSpan, 1.1 * (hi - lo)) / 2;
+    return [mid - half, mid + half];
+  };
+  const scales = { x: dates.scale, y: { range: spec.fromZero ? (u, lo, hi) => [0, Math.max(10, 1.2 * (hi ?? 0))] : spanned } };
   const opts = { height: 190, series, scales, legend: { show: false },
     axes: [dates.axis, { label: spec.unit, size: Y_AXIS_PX }] };
   if (hasBand) {
@@ -272,16 +277,24 @@ function drawTrends(history) {
   for (const spec of TRENDS) trendChart(spec, visits, box);
 }
 
+function signedChange(delta, d) {
+  // "+0.02", "-3"; a change that rounds to nothing is "0", never "-0.00" or "+0.00"
+  const text = delta.toFixed(d);
+  return Number(text) === 0 ? "0" : (delta > 0 ? "+" : "") + text;
+}
+
 async function compareChecked() {
   const ids = [...document.querySelectorAll("#history-table .cmp:checked")].map((b) => b.value);
-  const box = $("#compare");
+  const box = $("#compare"), note = $("#compare-note");
+  note.textContent = ids.length > 2 ? `${ids.length} visits are ticked: tick exactly two to compare them side by side.` : "";
+  note.hidden = ids.length <= 2;
   if (ids.length !== 2) { box.hidden = true; return; }
   const [a, b] = await Promise.all(ids.map((id) => api(`/trials/${encodeURIComponent(id)}/parameters`)));
   $("#compare-table thead").innerHTML = `<tr><th>Parameter</th><th>${esc(a.session)} L</th><th>${esc(a.session)} R</th><th>${esc(a.session)} mean</th>
     <th>${esc(b.session)} L</th><th>${esc(b.session)} R</th><th>${esc(b.session)} mean</th><th>Change</th></tr>`;
   $("#compare-table tbody").innerHTML = a.parameters.map((p, i) => {
     const q = b.parameters[i], d = p.decimals;
-    const change = p.mean != null && q.mean != null ? (q.mean - p.mean >= 0 ? "+" : "") + (q.mean - p.mean).toFixed(d) : "–";
+    const change = p.mean != null && q.mean != null ? signedChange(q.mean - p.mean, d) : "–";
     return `<tr><td>${esc(p.label)} (${esc(p.unit)})</td><td>${fmtFixed(p.left, d)}</td><td>${fmtFixed(p.right, d)}</td><td>${fmtFixed(p.mean, d)}</td>
       <td>${fmtFixed(q.left, d)}</td><td>${fmtFixed(q.right, d)}</td><td>${fmtFixed(q.mean, d)}</td><td>${change}</td></tr>`;
   }).join("");
