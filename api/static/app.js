@@ -349,6 +349,8 @@ async function loadResult(trialId, stage, trialState) {
 function showPlot(url, tries) {
   // the plot is drawn just after the numbers are stored: retry for a little while
   const img = $("#report-plot");
+  img.classList.add("loading");  // hidden (no broken-image text) until it loads
+  img.onload = () => img.classList.remove("loading");
   img.onerror = () => { if (tries > 0) setTimeout(() => showPlot(url, tries - 1), 1000); };
   img.src = url + "&t=" + Date.now();
 }

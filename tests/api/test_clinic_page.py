@@ -246,6 +246,8 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.emulate_media(media="print")  # the print stylesheet: the results only, no cameras, buttons or lists
     assert page.is_visible("#sides-table") and page.is_visible("#results-patient")
     assert not any(page.is_visible(s) for s in ("#cameras-card", "#record", "#trials-card", "header", "#print"))
+    assert page.is_visible("#heel-chart .uplot") and page.is_visible("#foot-chart .uplot")  # the charts print too
+    assert page.eval_on_selector("#steps-table", "t => t.closest('.table-wrap').scrollHeight <= t.closest('.table-wrap').clientHeight + 1")
     page.emulate_media(media="screen")
     assert page.get_attribute("#record-status", "aria-live") == "polite"
     assert page.locator("#record-timer[aria-live]").count() == 0
