@@ -6,9 +6,9 @@ camera runs there (:func:`host_lab`). Several cameras run in a network namespace
 (:class:`FakeGigELab` with ``namespace=True``): its loopback gets one address per camera
 (127.0.0.11, 127.0.0.12, ...), and the processes that talk to them (camera nodes, the bench) run in the
 same namespace through :attr:`FakeGigELab.exec_prefix`. Faults: :meth:`FakeGigELab.kill` (a camera
-vanishes), ``lost_per_thousand`` (the camera's own GVSP packet loss), :meth:`FakeGigELab.shape` (a
-``tc`` queueing discipline on the namespace's loopback: ``netem`` loss and delay where the kernel has
-it, else ``tbf``, whose rate limit delays and drops packets).
+vanishes), ``lost_per_thousand`` (GVSP packets the camera never sends: random loss on its link),
+:meth:`FakeGigELab.shape` (``tc`` on the namespace's loopback: one camera's stream through ``netem`` loss
+and delay where the kernel has it, else through a rate limit that delays it and a queue that drops it).
 
 The fake camera streams a 512 x 512 test pattern (nobody in it), its timestamps are the host clock in ns
 and it fires on the host clock's frame grid; it has no PTP, no action commands and does not answer
@@ -24,7 +24,7 @@ import shutil
 import signal
 import subprocess
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -78,14 +78,15 @@ class FakeGigELab:
     """``cameras`` fake GigE Vision cameras, serials ``GC001``.., in a namespace of their own or on the
     host's 127.0.0.1 (one camera). Use as a context manager; everything is removed on exit."""
 
-    def __init__(self, cameras: int = 1, *, namespace: bool = True, lost_per_thousand: int = 0,
+    def __init__(self, cameras: int = 1, *, namespace: bool = True, lost_per_thousand: int | Sequence[int] = 0,
                  log_dir: Path | None = None, ready_timeout_s: float = 10.0) -> None:
         if cameras < 1 or (not namespace and cameras != 1):
             raise ValueError(f"cameras: {cameras} fake cameras need a namespace (the host has one loopback "
                              "address: 1 camera)" if cameras > 1 else f"cameras: must be >= 1, got {cameras}")
-        if not 0 <= lost_per_thousand <= 1000:
-            raise ValueError(f"lost_per_thousand: expected 0..1000, got {lost_per_thousand}")
-        self.count, self.lost_per_thousand = cameras, lost_per_thousand
+        lost = (lost_per_thousand,) * cameras if isinstance(lost_per_thousand, int) else tuple(lost_per_thousand)
+        if len(lost) != cameras or not all(0 <= k <= 1000 for k in lost):
+            raise ValueError(f"lost_per_thousand: expected 0..1000 (one or one per camera), got {lost_per_thousand}")
+        self.count, self.lost_per_thousand = cameras, lost
         self.log_dir, self.ready_timeout_s = log_dir, ready_timeout_s
         self.namespace = f"gcgige{os.getpid() % 100000}" if namespace else None
         self.cameras: list[FakeCamera] = []
@@ -123,7 +124,7 @@ class FakeGigELab:
             self._ns_up()
         addresses = [f"127.0.0.{11 + i}" for i in range(self.count)] if self.namespace else ["127.0.0.1"]
         for i, addr in enumerate(addresses):
-            self.cameras.append(self._spawn(binary, f"GC{i + 1:03d}", addr))
+            self.cameras.append(self._spawn(binary, f"GC{i + 1:03d}", addr, self.lost_per_thousand[i]))
         for cam in self.cameras:
             self._wait_ready(cam)
 
@@ -135,10 +136,10 @@ class FakeGigELab:
             if r.returncode != 0:
                 raise ValueError(f"fake GigE Vision lab: ip {' '.join(cmd)}: {r.stderr.strip()}")
 
-    def _spawn(self, binary: str, serial: str, address: str) -> FakeCamera:
+    def _spawn(self, binary: str, serial: str, address: str, lost_per_thousand: int) -> FakeCamera:
         argv = [*self.exec_prefix, binary, "-i", address, "-s", serial]
-        if self.lost_per_thousand:
-            argv += ["-r", str(self.lost_per_thousand)]
+        if lost_per_thousand:
+            argv += ["-r", str(lost_per_thousand)]
         out = open(self.log_dir / f"fake-{serial}.log", "wb") if self.log_dir else subprocess.DEVNULL  # noqa: SIM115
         proc = subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
         return FakeCamera(serial=serial, address=address, process=proc)
@@ -164,27 +165,42 @@ class FakeGigELab:
         cam.process.wait(10)
         return cam
 
-    def shape(self, *, loss_percent: float = 0.0, delay_ms: float = 0.0, rate_mbit: float | None = None) -> str:
-        """Put a ``tc`` queueing discipline on the namespace's loopback; returns what was applied.
-
-        ``netem`` (``loss_percent``, ``delay_ms``) where the kernel has it; otherwise ``tbf`` at
-        ``rate_mbit`` (required then), whose queue delays packets and drops what exceeds ``delay_ms`` of
-        queue (a real loss on the path). ValueError naming the qdisc when neither works.
+    def shape(self, *, source: str, loss_percent: float = 0.0, delay_ms: float = 0.0, rate_mbit: float = 50.0,
+              queue_packets: int = 20) -> str:
+        """Make the link from camera address ``source`` lossy and slow with ``tc`` on the namespace's loopback;
+        returns what was applied. Only that camera's GVSP stream is touched (its GVCP answers, from port
+        3956, pass, as does the bus on 127.0.0.1): an ``htb`` class at ``rate_mbit`` takes the stream, and under it
+        ``netem`` (``loss_percent``, ``delay_ms``) where the kernel has it, else a ``pfifo`` of
+        ``queue_packets``: the rate limit delays packets and the full queue drops them (a real loss on the
+        path). ValueError naming the command that failed.
         """
         if not self.namespace:
             raise ValueError("shape: traffic shaping needs the lab's own namespace")
-        base = ["-n", self.namespace, "qdisc", "replace", "dev", "lo", "root"]
+        tc = ["tc", "-n", self.namespace]
+        self.unshape()
+        for argv in (["qdisc", "add", "dev", "lo", "root", "handle", "1:", "htb", "default", "10", "r2q", "1000"],
+                     ["class", "add", "dev", "lo", "parent", "1:", "classid", "1:10", "htb", "rate", "10gbit"],
+                     ["class", "add", "dev", "lo", "parent", "1:", "classid", "1:20", "htb", "rate",
+                      f"{rate_mbit}mbit", "ceil", f"{rate_mbit}mbit"],
+                     ["filter", "add", "dev", "lo", "parent", "1:", "protocol", "ip", "prio", "1", "u32", "match",
+                      "ip", "src", f"{source}/32", "match", "ip", "sport", str(GVCP_PORT), "0xffff", "flowid", "1:10"],
+                     ["filter", "add", "dev", "lo", "parent", "1:", "protocol", "ip", "prio", "2", "u32", "match",
+                      "ip", "src", f"{source}/32", "flowid", "1:20"]):
+            self._tc(tc + argv)
+        leaf = ["qdisc", "add", "dev", "lo", "parent", "1:20", "handle", "20:"]
         netem = ["netem", "loss", f"{loss_percent}%", "delay", f"{delay_ms}ms"]
-        r = subprocess.run(["tc", *base, *netem], capture_output=True, text=True, timeout=20)
+        r = subprocess.run(tc + leaf + netem, capture_output=True, text=True, timeout=20)
         if r.returncode == 0:
-            return " ".join(netem)
-        if rate_mbit is None:
-            raise ValueError(f"shape: tc netem unavailable ({r.stderr.strip()}) and no rate_mbit for tbf")
-        tbf = ["tbf", "rate", f"{rate_mbit}mbit", "burst", "32kb", "latency", f"{max(delay_ms, 1.0)}ms"]
-        r2 = subprocess.run(["tc", *base, *tbf], capture_output=True, text=True, timeout=20)
-        if r2.returncode != 0:
-            raise ValueError(f"shape: tc netem ({r.stderr.strip()}) and tbf ({r2.stderr.strip()}) both failed")
-        return " ".join(tbf) + f" (netem unavailable: {r.stderr.strip()})"
+            return f"{source}: htb {rate_mbit} Mbit/s, " + " ".join(netem)
+        self._tc(tc + leaf + ["pfifo", "limit", str(queue_packets)])
+        return (f"{source}: htb {rate_mbit} Mbit/s, pfifo {queue_packets} packets (netem unavailable in this "
+                f"kernel: {r.stderr.strip()})")
+
+    @staticmethod
+    def _tc(argv: list[str]) -> None:
+        r = subprocess.run(argv, capture_output=True, text=True, timeout=20)
+        if r.returncode != 0:
+            raise ValueError(f"shape: {' '.join(argv)}: {r.stderr.strip()}")
 
     def unshape(self) -> None:
         if self.namespace:

@@ -11,7 +11,10 @@ serial number, device id or IP address (a device that never answers is named wit
 off), frame rate, pixel format, region, packet size and inter-packet delay, and reads back what the
 camera took; :meth:`~AravisCamera.start` starts the stream; :meth:`~AravisCamera.frames` yields
 complete frames with the device timestamp (ns) and a frame id from the device's block id (16-bit GigE
-Vision 1.x ids unwrapped); incomplete frames are counted and dropped, so they show as frame-id gaps.
+Vision 1.x ids unwrapped); incomplete frames are counted and dropped, so they show as frame-id gaps. A
+device whose timestamps show more frame periods passing than its block ids (a camera that skipped frames
+itself, as the software fake camera does on a loaded host) has its frame ids advanced by the periods, the
+skipped ones counted (``device_skipped``), so frame ids stay one per period on every camera.
 
 Synchronised start: Aravis 0.8 sends no scheduled action command, so the start is a software start.
 When the device clock is on the host's epoch (PTP-synchronised to the same grandmaster as the host, or
@@ -175,7 +178,7 @@ class AravisCamera:
         self._arv = aravis
         self._cam = self._stream = self._failed_stream = None
         self._settings = CaptureSettings()
-        self._status = DriverStatus(camera=name, extra={"device": device, "incomplete": 0, "frame_id_gaps": 0,
+        self._status = DriverStatus(camera=name, extra={"device": device, "incomplete": 0, "frame_id_gaps": 0, "device_skipped": 0,
                                                         **{v: 0 for v in _STREAM_COUNTERS.values()}})
         self._stopped = False
         self._at_ns: int | None = None
@@ -302,7 +305,8 @@ class AravisCamera:
         if self._stream is None:
             raise ValueError(f"camera {self.name}: frames() before start()")
         ids, offset, last = BlockIds(), None, None
-        timeouts = 0
+        timeouts, stall_s = 0, self.options.stall_timeouts * self.options.frame_timeout_ms / 1000
+        complete_at = time.monotonic()
         try:
             while not self._stopped:
                 buf = self._stream.timeout_pop_buffer(self.options.frame_timeout_ms * 1000)
@@ -316,7 +320,12 @@ class AravisCamera:
                 timeouts = 0
                 frame, offset = self._take(buf, ids, offset)
                 if frame is None:
+                    if time.monotonic() - complete_at > stall_s and self._status.extra["incomplete"]:
+                        self._fail(f"no complete frame for {stall_s:.0f} s, {self._status.extra['incomplete']} "
+                                   "incomplete (packets lost on the link: check the MTU, packet size and delay)")
+                        return
                     continue
+                complete_at = time.monotonic()
                 if last is not None and frame.frame_id > last.frame_id + 1:
                     self._status.extra["frame_id_gaps"] += 1
                 self._status.count(frame)
@@ -355,6 +364,10 @@ class AravisCamera:
         prev = self._status.last_timestamp_ns
         gap = frame_id - (self._status.last_frame_id if self._status.last_frame_id is not None else frame_id)
         jump = prev is not None and is_ptp_jump(ts - prev, period * max(gap, 1))
+        periods = round((ts - prev) / period) if prev is not None and not jump else gap
+        if periods > gap:  # the device let frame periods pass without a frame (its own block ids go on by 1)
+            offset, frame_id = offset + periods - gap, frame_id + periods - gap
+            self._status.extra["device_skipped"] += periods - gap
         if self._status.frames % 30 == 0:
             self._refresh_counters()
         return Frame(camera=self.name, image=image, timestamp_ns=ts, frame_id=frame_id, ptp_jump=jump), offset

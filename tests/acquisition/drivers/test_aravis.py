@@ -80,14 +80,18 @@ def test_discovers_configures_and_streams_device_ids_and_ns_timestamps(fake_came
     frames = _stream(cam, 45, at)
     ids = [f.frame_id for f in frames]
     stamps = [f.timestamp_ns for f in frames]
-    assert ids == list(range(ids[0], ids[0] + 45)), ids  # consecutive device block ids
-    assert ids[0] == round((stamps[0] - at) / SETTINGS.period_ns) >= 0, (ids[0], stamps[0] - at)  # periods since start
+    st = cam.status().to_dict()
+    # one id per frame period since the start on the device clock, within the fake camera's timing (its
+    # first frame comes at once, off its frame grid, and it fires late on a loaded host); a gap only where
+    # the device itself skipped a period
+    lag = [(s - at) / SETTINGS.period_ns - i for i, s in zip(ids, stamps, strict=True)]
+    assert ids[0] >= 0 and all(abs(x) < 1.5 for x in lag) and max(lag[1:]) - min(lag[1:]) < 1.0, lag
+    assert ids[-1] - ids[0] + 1 - len(ids) == st["device_skipped"] == st["drops"] <= 3, (ids, st)
     assert all(s >= at - 17_000_000 for s in stamps) and abs(stamps[-1] - time.time_ns()) < 500_000_000
     intervals_ms = [(b - a) / 1e6 for a, b in zip(stamps, stamps[1:], strict=False)]
     assert 30 < sum(intervals_ms) / len(intervals_ms) < 36.7, intervals_ms
     assert frames[0].image.shape == (240, 320, 3) and frames[0].image.std() > 0  # demosaiced test pattern
-    st = cam.status().to_dict()
-    assert (st["state"], st["frames"], st["drops"], st["incomplete"], st["missing_packets"]) == ("stopped", 45, 0, 0, 0)
+    assert (st["state"], st["frames"], st["incomplete"], st["missing_packets"]) == ("stopped", 45, 0, 0)
     assert st["received_packets"] > 45 and st["last_frame_id"] == ids[-1] and st["device_clock"] == "host epoch"
     cam.close()
     again = AravisCamera("127.0.0.1", "cam01")  # a clean stop releases control: it opens again at once
@@ -142,7 +146,7 @@ def test_lost_packets_make_incomplete_frames_counted_and_never_delivered(lossy_c
     assert st["incomplete"] > 0 and st["missing_packets"] > 0 and st["resend_requests"] > 0, st
     assert st["resent_packets"] == 0  # the fake camera does not answer resend requests
     ids = [f.frame_id for f in frames]
-    assert st["drops"] == ids[-1] - ids[0] + 1 - len(ids) > 0 and st["frame_id_gaps"] > 0, (ids, st)
+    assert st["drops"] == ids[-1] - ids[0] + 1 - len(ids) >= st["incomplete"] and st["frame_id_gaps"] > 0, (ids, st)
     assert all(f.image.shape == (512, 512, 3) for f in frames)
     cam.close()
 
