@@ -129,6 +129,9 @@ def _thread_main(detector, conn: Connection, max_batch: int) -> None:
 
 def _process_main(factory: Callable[[], object], conn: Connection, index: int, max_batch: int) -> None:
     """A worker process: build the detector, say ready (its skeleton) or why not, then serve."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent closes the pool
     logging.basicConfig(level=logging.INFO, format=f"%(asctime)s detector worker {index}: %(message)s")
     try:
         detector = factory()
@@ -360,6 +363,8 @@ class DetectorPool:
         with self._cond:
             self._closed = True
             self._cond.notify_all()
+        for t in self._senders:  # one writer per pipe: the sender finishes its frame first
+            t.join(timeout_s)
         for w in self._workers:
             try:
                 w.conn.send(None)
