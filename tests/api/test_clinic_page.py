@@ -273,6 +273,13 @@ def test_clinic_page_at_phone_tablet_desktop_keyboard_only(server, visits, brows
     page.emulate_media(media="print")  # the printed page carries the void mark too
     assert "VOID" in page.evaluate("() => getComputedStyle(document.querySelector('#results'), '::before').content")
     page.emulate_media(media="screen")
+    for name, (w, h) in WIDTHS.items():  # the void mark, the count of normal ranges and the findings at every width
+        page.set_viewport_size({"width": w, "height": h})
+        page.wait_for_timeout(300)  # status updates come and go: the header keeps VOID
+        assert "VOID: walked with the wrong shoes" in page.inner_text("#results-patient"), name
+        assert page.is_visible("#norm-summary") and "parameters have a normal range" in page.inner_text("#norm-summary"), name
+        _fits(page, w, name)
+    page.set_viewport_size({"width": 390, "height": 844})
     voided = page.locator(f"#trials tr.voided[data-trial='{visits[2]}']")  # marked in the trial list
     voided.wait_for()
     assert "Void: walked with the wrong shoes" in voided.inner_text()
