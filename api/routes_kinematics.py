@@ -55,6 +55,20 @@ def _status(request: Request, trial_id: str, stage: str) -> dict:
     raise HTTPException(status_code=404, detail=detail)
 
 
+def _key_value_norms(status: dict) -> dict:
+    """Key value name -> its normal value (deg), SD where read (None for a range of motion), the percent of
+    the cycle and the normal range (mean +- 1.96 SD, None without an SD), from the band shown."""
+    from gaitcap.reconstruction.jsonable import finite_or_none
+    from gaitcap.reconstruction.kinematics.key_norms import key_norms
+
+    out = {}
+    for name, n in key_norms((status.get("norms") or {}).get("bands") or {}).items():
+        band = n.band()
+        out[name] = {"normal_deg": finite_or_none(n.normal_deg), "sd_deg": finite_or_none(n.sd_deg), "at_pct": n.at_pct,
+                     "normal_range_deg": [round(band[0], 2), round(band[1], 2)] if band else None}
+    return out
+
+
 @router.get("/trials/{trial_id}/kinematics",
             summary="Joint angles over the gait cycle with norms and key values (JSON, CSV), model files")
 def kinematics(trial_id: str, request: Request, stage: Stage | None = None,
@@ -68,7 +82,7 @@ def kinematics(trial_id: str, request: Request, stage: Stage | None = None,
     if format in _SHOWN:  # the band by the patient's age now (a birth year may be recorded after the fit)
         status = with_norms(status, patient_age(catalog_of(request), r.trial_id))
     if format is KinematicsFormat.json:
-        return {"trial_id": r.trial_id, "stage": r.stage, **status}
+        return {"trial_id": r.trial_id, "stage": r.stage, **status, "key_value_norms": _key_value_norms(status)}
     if not status.get("available", False):
         raise HTTPException(status_code=404, detail=f"trial {r.trial_id}: no kinematics: {status.get('reason', '')}")
     key, media, suffix = _FILES[format]

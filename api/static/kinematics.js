@@ -91,11 +91,18 @@ function drawKinematics(k) {
   for (const [name, why] of Object.entries(k.not_measured || {})) notes.push(`${KIN_LABELS[name] || name}: not measured (${why}).`);
   $("#kinematics-notes").innerHTML = notes.map((t) => `<li>${esc(t)}</li>`).join("");
   const kv = k.key_values || {}, keys = Object.keys(kv.left || {}).filter((name) => ["left", "right"].some((s) => ((kv[s] || {})[name] || {}).n));
-  const cell = (s) => (s && s.mean != null ? `${s.mean.toFixed(1)}${s.sd != null ? " ± " + s.sd.toFixed(1) : ""} (n=${s.n})` : "–");
-  $("#kinematics-keys").innerHTML = keys.length ? `<caption>Key values (degrees, mean ± SD over the cycles)</caption>
-    <thead><tr><th>Key value</th><th>Left</th><th>Right</th></tr></thead><tbody>${keys.map((name) =>
+  const norms = k.key_value_norms || {};
+  const outside = (s, nr) => s && s.mean != null && nr && nr.normal_range_deg
+    && (s.mean < nr.normal_range_deg[0] || s.mean > nr.normal_range_deg[1]);
+  const cell = (s, nr) => (s && s.mean != null ? `${s.mean.toFixed(1)}${s.sd != null ? " ± " + s.sd.toFixed(1) : ""} (n=${s.n})`
+    + (outside(s, nr) ? ' <strong class="out-flag">outside</strong>' : "") : "–");
+  const range = (nr) => !nr ? "no band" : nr.normal_range_deg ? `${nr.normal_range_deg[0].toFixed(1)}–${nr.normal_range_deg[1].toFixed(1)}`
+    : `${nr.normal_deg.toFixed(1)} (no SD for a range)`;
+  $("#kinematics-keys").innerHTML = keys.length ? `<caption>Key values (degrees, mean ± SD over the cycles) against the band</caption>
+    <thead><tr><th>Key value</th><th>Left</th><th>Right</th><th>Normal (95 %)</th></tr></thead><tbody>${keys.map((name) =>
       `<tr data-key="${esc(name)}"><td>${esc(name.replace(/_deg$/, "").replace(/_/g, " "))}</td>
-        <td>${cell(k.key_values.left[name])}</td><td>${cell(k.key_values.right[name])}</td></tr>`).join("")}</tbody>` : "";
+        <td>${cell(k.key_values.left[name], norms[name])}</td><td>${cell(k.key_values.right[name], norms[name])}</td>
+        <td>${range(norms[name])}</td></tr>`).join("")}</tbody>` : "";
 }
 
 new ResizeObserver(() => {

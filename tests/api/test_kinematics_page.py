@@ -136,6 +136,15 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
         assert norms.population in notes and norms.source in notes and "Pelvic tilt (anterior +): not measured" in notes
         row = page.inner_text("#kinematics-keys tr[data-key='knee_peak_flexion_swing_deg']")
         assert f"{kin['key_values']['right']['knee_peak_flexion_swing_deg']['mean']:.1f} ±" in row
+        # each key value against the band like a spatiotemporal parameter: its normal range and a flag outside it
+        kv_norms = client.get(f"/trials/{tid}/kinematics").json()["key_value_norms"]
+        for name, side_values in (("hip_peak_flexion_deg", kin["key_values"]), ("knee_peak_flexion_swing_deg", kin["key_values"])):
+            lo, hi = kv_norms[name]["normal_range_deg"]
+            text = page.inner_text(f"#kinematics-keys tr[data-key='{name}']")
+            assert f"{lo:.1f}–{hi:.1f}" in text, text
+            flagged = [s for s in ("left", "right") if not lo <= side_values[s][name]["mean"] <= hi]
+            assert text.count("outside") == len(flagged), (name, text)
+        assert kv_norms["knee_flexion_rom_deg"]["normal_range_deg"] is None  # a range of motion: no SD in a band
         page.set_viewport_size({"width": 390, "height": 844})  # a phone: one panel a row, nothing wider than it
         page.wait_for_timeout(300)
         assert page.evaluate("document.documentElement.scrollWidth") <= 390
