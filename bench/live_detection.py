@@ -164,13 +164,15 @@ def reference(video: Path, model: str) -> np.ndarray:
     return detect_videos([video], MediaPipeConfig(model=model, num_threads=1).build()).people[0]
 
 
-def agreement_px(people: np.ndarray, frame_ids: np.ndarray, ref: np.ndarray, min_conf: float = 0.5) -> dict:
+def agreement_px(people: np.ndarray, frame_ids: np.ndarray, ref: np.ndarray, keep: np.ndarray,
+                 min_conf: float = 0.5) -> dict:
     """Per camera frame: the median distance (px) between the final first person and the nearest person of the
-    reference, over the joints both see; frames where only one of them finds someone counted apart."""
+    reference, over the joints both see; frames where only one of them finds someone counted apart. ``keep``
+    (C, T) bool: the camera frames compared."""
     dists, one_sided = [], 0
     for c in range(people.shape[0]):
         for t, fid in enumerate(frame_ids):
-            if not 0 <= fid < ref.shape[0]:
+            if not 0 <= fid < ref.shape[0] or not keep[c, t]:
                 continue
             a = people[c, t, 0]
             others = [b for b in ref[fid] if (b[:, 2] > min_conf).any()]
@@ -196,7 +198,7 @@ def _median_px(a: np.ndarray, b: np.ndarray, min_conf: float) -> float | None:
 def run(*, cameras: int, seconds: float, workers: int, model: str, check: bool) -> dict:
     from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig
     from gaitcap.acquisition.recording.reader import read_keypoints
-    from gaitcap.services.processing.completion import complete_keypoints
+    from gaitcap.services.processing.completion import COMPLETED, LIVE, complete_keypoints
 
     with tempfile.TemporaryDirectory(prefix="livedet-") as tmp:
         out = Path(tmp)
@@ -209,7 +211,11 @@ def run(*, cameras: int, seconds: float, workers: int, model: str, check: bool) 
         kp, report = complete_keypoints(path, recording, MediaPipeConfig(model=model, num_threads=1).build,
                                         detector_name=f"mediapipe {model}", workers=workers)
         stop_to_complete = time.perf_counter() - t0
-        agree = agreement_px(kp.people, kp.frame_ids, reference(files[0], model)) if check else None
+        agree = None
+        if check:
+            ref = reference(files[0], model)
+            agree = {name: agreement_px(kp.people, kp.frame_ids, ref, report.provenance == code)
+                     for name, code in (("completed", COMPLETED), ("live", LIVE))}
     rows = {}
     status = live["status"]
     for cam in report.cameras:
@@ -240,9 +246,10 @@ def table(r: dict) -> str:
     lines.append(f"all: {r['frames_recorded']} frames recorded, live coverage {100 * r['live_coverage']:.1f} %, "
                  f"final coverage {100 * r['final_coverage']:.1f} %; Stop -> complete detection "
                  f"{r['stop_to_complete_s']:.1f} s")
-    a = r["agreement_with_detect"]
-    if a:
-        lines.append(f"vs gaitcap detect on the video: {a['frames_compared']} camera frames, median "
+    for name, a in (r["agreement_with_detect"] or {}).items():
+        if not a["frames_compared"]:
+            continue
+        lines.append(f"vs gaitcap detect on the video, {name} frames: {a['frames_compared']} camera frames, median "
                      f"{a['median_px']:.2f} px, p95 {a['p95_px']:.2f} px, {100 * a['within_2px']:.0f} % within 2 px, "
                      f"{a['found_by_one_only']} found by only one")
     return "\n".join(lines)
