@@ -14,7 +14,8 @@ complete frames with the device timestamp (ns) and a frame id from the device's 
 Vision 1.x ids unwrapped); incomplete frames are counted and dropped, so they show as frame-id gaps. A
 device whose timestamps show more frame periods passing than its block ids (a camera that skipped frames
 itself, as the software fake camera does on a loaded host) has its frame ids advanced by the periods, the
-skipped ones counted (``device_skipped``), so frame ids stay one per period on every camera.
+skipped ones counted (``device_skipped``), so frame ids stay one per period on every camera (a frame up to
+1.5 periods late is taken as late, not as a skip; only on a device clock on the host's epoch).
 
 Synchronised start: Aravis 0.8 sends no scheduled action command, so the start is a software start.
 When the device clock is on the host's epoch (PTP-synchronised to the same grandmaster as the host, or
@@ -182,6 +183,7 @@ class AravisCamera:
                                                         **{v: 0 for v in _STREAM_COUNTERS.values()}})
         self._stopped = False
         self._at_ns: int | None = None
+        self._on_host_epoch = False
 
     # -- set-up -----------------------------------------------------------------------------------
     def open(self) -> None:
@@ -352,7 +354,7 @@ class AravisCamera:
             self._stream.push_buffer(buf)
         period = self._settings.period_ns
         if offset is None:
-            on_host_epoch = abs(ts - time.time_ns()) < CLOCK_ON_HOST_EPOCH_NS
+            on_host_epoch = self._on_host_epoch = abs(ts - time.time_ns()) < CLOCK_ON_HOST_EPOCH_NS
             self._status.extra["device_clock"] = "host epoch" if on_host_epoch else "own epoch (frame ids from the first frame)"
             if on_host_epoch and self._at_ns is not None:
                 if ts < self._at_ns - period // 2:
@@ -364,10 +366,11 @@ class AravisCamera:
         prev = self._status.last_timestamp_ns
         gap = frame_id - (self._status.last_frame_id if self._status.last_frame_id is not None else frame_id)
         jump = prev is not None and is_ptp_jump(ts - prev, period * max(gap, 1))
-        periods = round((ts - prev) / period) if prev is not None and not jump else gap
-        if periods > gap:  # the device let frame periods pass without a frame (its own block ids go on by 1)
-            offset, frame_id = offset + periods - gap, frame_id + periods - gap
-            self._status.extra["device_skipped"] += periods - gap
+        late = (ts - self._at_ns) / period - frame_id if self._on_host_epoch and self._at_ns is not None else 0.0
+        if late > 1.5:  # periods passed on the device clock without a frame (its block ids went on by 1)
+            skipped = round(late)
+            offset, frame_id = offset + skipped, frame_id + skipped
+            self._status.extra["device_skipped"] += skipped
         if self._status.frames % 30 == 0:
             self._refresh_counters()
         return Frame(camera=self.name, image=image, timestamp_ns=ts, frame_id=frame_id, ptp_jump=jump), offset

@@ -26,10 +26,13 @@ from gaitcap.services.catalog.states import FINISHED
 
 ROOT = Path(__file__).resolve().parents[2]
 PY = [sys.executable, "-c", "from gaitcap.services.cli import main; main()"]
-SIM = {"preset": "paper", "seconds": 9.0, "cameras": 3, "seed": 5}
+# 15 frames/s: the fake cameras are software timed, and a frame up to half a period late still lands on its
+# frame slot on a loaded 2-core host (real GigE cameras time frames in hardware)
+FPS = 15
+SIM = {"preset": "paper", "seconds": 10.0, "cameras": 3, "seed": 5}
 SIM_ARGS = ["--sim-preset", SIM["preset"], "--sim-seconds", str(SIM["seconds"]), "--sim-cameras",
-            str(SIM["cameras"]), "--sim-seed", str(SIM["seed"]), "--fps", "30"]
-FRAMES = 150
+            str(SIM["cameras"]), "--sim-seed", str(SIM["seed"]), "--fps", str(FPS)]
+FRAMES = 120
 NAMES = ["cam01", "cam02", "cam03"]
 KILL_AFTER_S = 2.0
 
@@ -103,7 +106,7 @@ def test_a_trial_on_fake_gige_cameras_with_a_camera_killed_and_a_lossy_link(tmp_
         start_ns = time.time_ns() + 7_000_000_000  # the camera node is up by then
         camera = procs.start("camera-0", ns, [
             *PY, "node", "camera", "--node", "camera-0", "--source", "aravis", "--devices", ",".join(lab.addresses),
-            "--cameras", ",".join(NAMES), "--fps", "30", "--exposure-us", "8000", "--pixel-format", "BayerRG8",
+            "--cameras", ",".join(NAMES), "--fps", str(FPS), "--exposure-us", "8000", "--pixel-format", "BayerRG8",
             "--packet-size", "9000", "--frames", str(FRAMES), "--start-at-ns", str(start_ns)])
         _wait_streaming(lab, camera.pid, len(NAMES), procs)
         time.sleep(max(0.0, (start_ns - time.time_ns()) / 1e9) + KILL_AFTER_S)
@@ -122,7 +125,7 @@ def test_a_trial_on_fake_gige_cameras_with_a_camera_killed_and_a_lossy_link(tmp_
         warnings = cat.warnings_of(quality)
     finally:
         procs.stop_all()
-    from gaitcap.acquisition.recording.reader import read_detections, read_image_times, read_status
+    from gaitcap.acquisition.recording.reader import read_image_times, read_keypoints, read_status
 
     path = Path(trial.recording_path)
     statuses = read_status(path)
@@ -142,7 +145,9 @@ def test_a_trial_on_fake_gige_cameras_with_a_camera_killed_and_a_lossy_link(tmp_
     times = read_image_times(path)
     assert {c: len(times[c]) for c in NAMES} == {c: last[c]["published"] for c in NAMES}, summary
     assert summary["keypoints"] == summary["frames"] == sum(last[c]["published"] for c in NAMES), summary
-    assert read_detections(path).shape[0] == 3
+    kp = read_keypoints(path)
+    seen = (kp.timestamps_ns >= 0).sum(axis=1)
+    assert kp.camera_names == tuple(NAMES) and list(seen) == [last[c]["published"] for c in NAMES], seen
     # the trial is flagged with what happened, and processed
     assert trial.state == "done_with_warnings", (trial.state, trial.error, warnings)
     assert any(w.startswith("Camera cam02 stopped at") for w in warnings), warnings
