@@ -1,0 +1,95 @@
+"""One trial, one path: a trial recorded by the stack (real processes: simulated cameras, detector,
+recorder, worker, API; Zenoh on loopback; SQLite) gives exactly the same results in the clinic (its
+worker, into the catalog and the trial's files) and on a researcher's machine (``gaitcap process`` on the
+same recording, a separate process): gait parameters, events, warnings, the data-quality block, the
+trajectories and the joint kinematics, stage by stage."""
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from gaitcap.services.bus.session import free_loopback_ports
+from gaitcap.services.ops.faults import Drill
+from gaitcap.services.ops.stack import Stack, StackConfig
+
+STAGES = ("preliminary", "refined")
+RECORD_S = 14.0
+
+
+@pytest.fixture(scope="module")
+def both(tmp_path_factory):
+    """(the clinic's trial folder, its REST view, ``gaitcap process``'s output folder and its --json)."""
+    base = free_loopback_ports(12)[0]
+    root = tmp_path_factory.mktemp("one-path")
+    cfg = StackConfig(data_dir=root / "clinic", token="one-path-password-42", port=base, bus_base_port=base + 1,
+                      cameras=6, size="160x120", fps=15.0, sim_seconds=60.0, lease_s=10.0, refine=True)
+    with Stack(cfg) as stack:
+        drill = Drill(stack, timeout_s=300)
+        try:
+            tid = drill.start("P0001")
+            time.sleep(RECORD_S)
+            drill.client.post(f"/trials/{tid}/stop").raise_for_status()
+            drill.wait(lambda: drill.trial(tid)["state"] in ("done", "done_with_warnings"), f"trial {tid} done", 300)
+            clinic = {"trial": drill.trial(tid),
+                      "gait": {s: drill.client.get(f"/trials/{tid}/gait", params={"stage": s}).json() for s in STAGES}}
+        finally:
+            drill.close()
+    folder = cfg.data_dir / "trials" / tid
+    out = root / "offline"
+    gaitcap = Path(sys.executable).with_name("gaitcap")  # the installed command, as a researcher runs it
+    run = subprocess.run([str(gaitcap), "process", str(folder / "recording.mcap"),
+                          "--out", str(out), "--json"], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    return folder, clinic, out, json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def _json(path: Path) -> dict:
+    return json.loads(path.read_text())
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_every_stage_file_is_the_same_in_the_clinic_and_offline(both, stage):
+    folder, _, out, _ = both
+    names = {p.name for p in (folder / stage).iterdir()}
+    assert names == {p.name for p in (out / stage).iterdir()}  # the same files
+    if "gait.json" not in names:  # this stage found no steps in the clinic either
+        return
+    clinic, offline = _json(folder / stage / "gait.json"), _json(out / stage / "gait.json")
+    assert clinic["data_quality"]["cameras"], clinic["data_quality"]  # the quality block is there to compare
+    assert offline == clinic  # steps, events, summary, warnings, data-quality block, consistency rules
+    for name in ("steps.csv", "summary.csv"):
+        assert (out / stage / name).read_text() == (folder / stage / name).read_text(), name
+    with np.load(folder / stage / "trajectory.npz") as a, np.load(out / stage / "trajectory.npz") as b:
+        assert sorted(a.files) == sorted(b.files)
+        for key in a.files:
+            np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def test_the_kinematics_are_the_same_in_the_clinic_and_offline(both):
+    folder, _, out, _ = both
+    clinic, offline = (_json(f / "refined" / "kinematics" / "kinematics.json") for f in (folder, out))
+    for k in (clinic, offline):  # how long the model fit took (s) is the machine's, not the result's
+        k.get("model", {}).pop("seconds", None)
+    assert offline == clinic
+    if clinic.get("available"):
+        csv = Path("refined") / "kinematics" / "kinematics.csv"
+        assert (out / csv).read_text() == (folder / csv).read_text()
+
+
+def test_the_clinics_stored_numbers_are_the_files_numbers(both):
+    folder, clinic, _, summary = both
+    assert (folder / "refined" / "gait.json").is_file(), "the refined stage found no steps: nothing compared"
+    for stage in (s for s in STAGES if (folder / s / "gait.json").is_file()):
+        stored, written = clinic["gait"][stage], _json(folder / stage / "gait.json")
+        assert len(stored["steps"]) == len(written["steps"]) > 0, stage
+        assert [s["side"] for s in stored["steps"]] == [s["foot"] for s in written["steps"]], stage
+        assert stored["data_quality"] == written["data_quality"], stage
+    # what gaitcap process says of the data is what the clinic says (the quality block, its warnings)
+    assert summary["data_quality"] == _json(folder / "refined" / "gait.json")["data_quality"]
+    assert summary["skipped"] == {}  # every step of the path ran in both
+    for warning in summary["data_quality"]["warnings"]:
+        assert warning in clinic["trial"]["warnings"], (warning, clinic["trial"]["warnings"])
