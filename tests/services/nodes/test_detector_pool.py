@@ -112,3 +112,59 @@ def test_a_full_queue_skips_the_oldest_frames_and_counts_them_per_camera():
         assert pool.counts.skipped["cam01"] == 10 - len(done) and done[-3:] == [7, 8, 9]
     finally:
         pool.close()
+
+
+def test_the_node_keeps_detecting_every_camera_when_a_worker_is_killed():
+    """A detector node over the bus with two worker processes: one SIGKILLed mid-trial, its cameras keep
+    getting keypoints from the other and the node's coverage counts what was lost."""
+    from gaitcap.acquisition.drivers.simulated import simulated_rig
+    from gaitcap.services.bus.session import BusConfig, open_session
+    from gaitcap.services.nodes.camera import CameraNode
+    from gaitcap.services.nodes.detector import DetectorNode
+    from gaitcap.simulator import make_trial
+
+    trial = make_trial("paper", seconds=5.0, cameras=4, people=1, seed=1, fps=30.0)
+    bus = BusConfig.free_local(["camera-0", "detector", "sink"], prefix="gaitcap/dk")
+    sc, sd, ss = (open_session(bus, n) for n in ("camera-0", "detector", "sink"))
+    got = Results()
+    sub = ss.declare_subscriber(bus.keys.keypoints(), lambda s: got(SimpleResult(s)))
+    pool = DetectorPool.of_processes(functools.partial(pool_helpers.SlowDetector, 0.005), 2, max_batch=2)
+    det = DetectorNode(sd, bus, "detector", pool, status_period_s=0.2)
+    drivers = simulated_rig(trial, size_px=(32, 24), realtime=True, max_frames=120,
+                            render=lambda t, c, f, s: np.zeros((s[1], s[0], 3), np.uint8))
+    node = CameraNode(sc, bus, "camera-0", drivers)
+    runner = threading.Thread(target=node.run, kwargs={"start_at_ns": time.time_ns() + 300_000_000}, daemon=True)
+    try:
+        runner.start()
+        wait_for(lambda: len(pool.assignment()) == 4 and det.detected > 20, 20, "every camera detected")
+        victim = 0
+        moved = [c for c, w in pool.assignment().items() if w == victim]
+        os.kill(pool.pids()[victim], signal.SIGKILL)
+        killed = time.monotonic()
+        for cam in moved:
+            wait_for(lambda cam=cam: any(t > killed for t, r in got.items if r.task.camera == cam), 5,
+                     f"{cam} detected after the kill")
+            first = min(t for t, r in got.items if r.task.camera == cam and t > killed)
+            assert first - killed < 2.0, f"{cam} came back after {first - killed:.2f} s"
+        runner.join(20)
+        assert det.wait_idle(10)
+        status = det.status()
+        assert status.workers == 1 and status.pool == 2 and set(status.cameras) == set(trial.rig.names)
+        for row in status.cameras.values():
+            assert row["detected"] + row["lost"] + row["skipped"] + row["failed"] == row["received"], row
+    finally:
+        sub.undeclare()
+        node.close()
+        det.close()
+        for s in (sc, sd, ss):
+            s.close()
+
+
+class SimpleResult:
+    """A keypoints message as the Results collector files it (its camera and frame id)."""
+
+    def __init__(self, sample):
+        import json
+
+        msg = json.loads(sample.payload.to_bytes())
+        self.task = FrameTask(msg["camera"], msg["frame_id"], msg["timestamp_ns"], 0, b"")
