@@ -1,0 +1,94 @@
+"""``gaitcap refine-rig TRIAL... --calibration CALIB --out NEW.toml``: refine a calibration from the people
+filmed in trials (bundle adjustment of the camera poses, the given calibration as prior and its scale kept),
+and say how far each camera moved; ``--check`` only checks the rig against each trial (moved cameras)."""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import typer
+from gaitcap.services.cli._common import user_errors
+
+log = logging.getLogger(__name__)
+
+
+def _patient(path: Path, rig):
+    """The patient's detections of one trial (a trial .mcap or a keypoint folder another tool wrote),
+    aligned to ``rig``."""
+    from gaitcap.acquisition.keypoint_files import read_keypoints_input
+    from gaitcap.services.processing.pipeline import patient_input, resolve_layout
+
+    data = read_keypoints_input(path, rig=rig)
+    missing = [n for n in data.recording.camera_names if n not in rig.names]
+    if missing:
+        raise ValueError(f"{path}: cameras {missing} are not in the calibration (it has {list(rig.names)})")
+    recording, _ = resolve_layout(data.recording, rig, named=data.layout)
+    det, _, _ = patient_input(recording, rig)
+    return det
+
+
+def _check_table(name: str, check) -> str:
+    lines = [f"{name}: " + ("cameras moved: " + ", ".join(check.moved) if check.flagged else "no camera moved"),
+             f"  {'camera':<10} {'points':>6} {'error px':>9} {'refit px':>9} {'field px':>9} {'+-':>5} "
+             f"{'rot deg':>8} {'shift mm':>9}  moved"]
+    for c in check.cameras:
+        lines.append(f"  {c.name:<10} {c.points:>6} {c.residual_px:>9.2f} {c.refit_residual_px:>9.2f} "
+                     f"{c.field_px:>9.2f} {c.field_se_px:>5.2f} {c.rotation_deg:>8.2f} {c.shift_mm:>9.1f}  "
+                     f"{'YES' if c.moved else 'no'}")
+    return "\n".join(lines + [f"  {w}" for w in check.warnings])
+
+
+def _refine_table(report) -> str:
+    lines = [f"{report.trials} trial(s), {report.frames} frames, {report.keypoints} keypoints "
+             f"({report.outliers} rejected as outliers or swaps); median error {report.median_before_px:.2f} px "
+             f"-> {report.median_after_px:.2f} px in {report.solve_time_s:.1f} s",
+             f"{'camera':<10} {'before px':>10} {'after px':>9} {'centre mm':>10} {'rotation deg':>13} {'focal %':>8}"]
+    for c in report.comparison.cameras:
+        lines.append(f"{c.name:<10} {report.per_camera_before_px[c.name]:>10.2f} {report.per_camera_after_px[c.name]:>9.2f} "
+                     f"{c.centre_mm:>10.2f} {c.rotation_deg:>13.3f} {c.focal_pct:>+8.3f}")
+    return "\n".join(lines)
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("refine-rig")
+    def refine_rig_cmd(
+        trials: list[Path] = typer.Argument(..., help="Trials: trial .mcap recordings or keypoint folders (OpenPose JSON, Pose2Sim)."),
+        calibration: Path = typer.Option(..., "--calibration", help="The calibration in use (the prior): .toml, .json or .qca.txt."),
+        out: Path | None = typer.Option(None, "--out", help="Refined calibration to write (.toml or .json); its report beside it (.report.json)."),
+        focal: bool = typer.Option(False, "--focal", help="Also refine each camera's focal length."),
+        check: bool = typer.Option(False, "--check", help="Only check the rig against each trial (which camera moved, by how much); write nothing."),
+        max_frames: int = typer.Option(150, "--max-frames", help="Frames used at most per trial."),
+    ) -> None:
+        """Refine a calibration from the people in trials, or check the rig against them (--check)."""
+        from gaitcap.acquisition.fileio import atomic_write_text
+        from gaitcap.acquisition.tool_folders import load_calibration
+        from gaitcap.acquisition.writers import save_rig
+        from gaitcap.reconstruction.calibration.people_bundle import (
+            PeopleBundleConfig,
+            refine_rig_from_people,
+        )
+        from gaitcap.reconstruction.calibration.rig_check import check_rig
+        from gaitcap.reconstruction.triangulation import robust_triangulate
+
+        with user_errors():
+            if not check and out is None:
+                raise ValueError("--out: give the refined calibration's file name (or --check to only check)")
+            if out is not None and out.suffix.lower() not in (".toml", ".json"):
+                raise ValueError(f"--out {out}: use a .toml or .json file name")
+            rig = load_calibration(calibration)
+            dets = [(path, _patient(path, rig)) for path in trials]
+            if check:
+                for path, det in dets:
+                    sub = rig.subset(det.camera_names)
+                    result = check_rig(det, sub, robust_triangulate(det, sub).points_mm)
+                    typer.echo(_check_table(str(path), result))
+                return
+            result = refine_rig_from_people([d for _, d in dets], rig,
+                                            config=PeopleBundleConfig(refine_focal=focal, max_frames=max_frames))
+            save_rig(result.rig, out, metadata={"refined_from": [str(p) for p in trials], "prior": str(calibration)})
+            report_file = out.with_suffix(".report.json")
+            atomic_write_text(report_file, json.dumps(result.report.to_dict(), indent=2))
+        typer.echo(_refine_table(result.report))
+        typer.echo(f"wrote {out} and {report_file}")
