@@ -40,21 +40,13 @@ def run(*, seconds: float, cameras: int, preset: str, seed: int) -> dict:
         write_s = time.perf_counter() - t0
         cat.set_state(db, trial.id, "recorded")
         cat.enqueue_job(db, trial.id)
-        stored: dict[str, float] = {}
-        start = [0.0]
-
-        class Progress:
-            def publish(self, trial_id, payload):
-                if payload.get("result") and payload["result"] not in stored:
-                    stored[payload["result"]] = time.perf_counter() - start[0]
-
-        worker = Worker(WorkerConfig(catalog_url=db.url, data_dir=data, refine=True, lease_s=30), db=db,
-                        progress=Progress())
-        start[0] = time.perf_counter()
+        worker = Worker(WorkerConfig(catalog_url=db.url, data_dir=data, refine=True, lease_s=30), db=db)
+        start_wall, start = time.time(), time.perf_counter()
         worker.run_once()
-        total_s = time.perf_counter() - start[0]
+        total_s = time.perf_counter() - start
         final = cat.get_trial(db, trial.id)
         results = {stage: cat.get_result(db, trial.id, stage) for stage in ("preliminary", "refined")}
+        stored = {stage: r.created_at - start_wall for stage, r in results.items() if r is not None}  # stored after s
         out = {
             "seconds": seconds, "cameras": cameras, "frames": int(walk.times_s.size),
             "recording_mb": path.stat().st_size / 1e6, "simulate_s": simulate_s, "write_recording_s": write_s,

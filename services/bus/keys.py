@@ -21,7 +21,6 @@ key expression                         kind        payload (``messages.``)
 ``<prefix>/recorder/status``           queryable   no payload; reply :class:`RecorderReply` (``recording``)
 ``<prefix>/recorder/events``           put         :class:`RecorderEvent`
 ``<prefix>/alive/<node>``              liveliness  token held by every node while it runs
-``<prefix>/worker/progress/<trial>``   put         :class:`WorkerProgress`
 ``<prefix>/detector/status/<node>``    put         :class:`DetectorStatus`: per camera frames received,
                                                    detected, skipped, lost, failed and the lag (s)
 ``<prefix>/camera/scene``              put         :class:`CameraScene`: what simulated cameras show
@@ -85,9 +84,6 @@ class Keys:
     @property
     def camera_scene(self) -> str:
         return f"{self.prefix}/camera/scene"
-
-    def worker_progress(self, trial_id: str = "*") -> str:
-        return f"{self.prefix}/worker/progress/{trial_id if trial_id == '*' else check_name(trial_id, what='trial')}"
 
     def detector_status(self, node: str = "*") -> str:
         return f"{self.prefix}/detector/status/{node if node == '*' else check_name(node, what='node')}"

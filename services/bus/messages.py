@@ -342,30 +342,6 @@ class CameraScene(_Json):
         _int(self.start_ns, f"{self.what}.start_ns", 0, MAX_TIME_NS)
 
 
-@dataclass(frozen=True)
-class WorkerProgress(_Json):
-    """Progress of one trial's processing: ``progress`` 0..1, ``result`` null | preliminary | refined."""
-
-    what: ClassVar[str] = "worker progress"
-    trial_id: str
-    state: str
-    stage: str
-    progress: float
-    worker: str
-    time_ns: int
-    result: str | None = None
-
-    def __post_init__(self) -> None:
-        check_name(self.trial_id, what=f"{self.what}.trial_id")
-        _str(self.state, f"{self.what}.state", 32)
-        _str(self.stage, f"{self.what}.stage", 64)
-        _num(self.progress, f"{self.what}.progress", 0.0, 1.0)
-        _str(self.worker, f"{self.what}.worker", 128)
-        _int(self.time_ns, f"{self.what}.time_ns", 0, MAX_TIME_NS)
-        if self.result is not None:
-            _choice(self.result, f"{self.what}.result", ("preliminary", "refined"))
-
-
 COVERAGE_COUNTS = ("received", "detected", "skipped", "lost", "failed")
 
 

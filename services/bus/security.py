@@ -18,7 +18,7 @@ role       may send (put / query / reply) to the other nodes
 camera     put ``camera/<its cameras>/image|status``
 detector   put ``keypoints/*`` and ``detector/status/*``
 recorder   put ``recorder/events``; reply on ``recorder/**``
-worker     put ``worker/progress/**``; query ``recorder/**`` (start / stop)
+worker     nothing but declarations and liveliness (its progress is in the catalog)
 api        put ``camera/scene``; query ``recorder/**``
 replay     put ``camera/*/image|status`` and ``keypoints/*``
 client     nothing but declarations and liveliness (reads what the others let it subscribe to)
@@ -46,7 +46,7 @@ ROLE_SENDS: dict[str, tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]] = {
     "camera": ((("put",), ("camera/*/image", "camera/*/status")),),
     "detector": ((("put",), ("keypoints/*", "detector/status/*")),),
     "recorder": ((("put",), ("recorder/events",)), (("reply",), ("recorder/**",))),
-    "worker": ((("put",), ("worker/progress/**",)), (("query",), ("recorder/**",))),
+    "worker": (),
     "api": ((("put",), ("camera/scene",)), (("query",), ("recorder/**",))),
     "replay": ((("put",), ("camera/*/image", "camera/*/status", "keypoints/*")),),
     "client": (),

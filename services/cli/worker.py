@@ -20,13 +20,13 @@ def register(app: typer.Typer) -> None:
         lease_s: float = typer.Option(10.0, "--lease", help="Job lease (s); renewed every third of it."),
         no_refine: bool = typer.Option(False, "--no-refine", help="Preliminary results only."),
         bus: Path | None = typer.Option(None, "--bus", envvar="GAITCAP_BUS", help="Bus file (JSON5)."),
-        no_bus: bool = typer.Option(False, "--no-bus", help="Do not publish progress on the bus."),
+        no_bus: bool = typer.Option(False, "--no-bus", help="Do not declare this worker alive on the bus."),
         node: str = typer.Option("worker", "--node", help="Bus node name of this worker."),
         warm_up: bool = typer.Option(True, "--warm-up/--no-warm-up", help="Compile JAX code at start."),
         rerun_images_hz: float = typer.Option(5.0, "--rerun-images-hz",
                                               help="Images per second and camera in the trial's .rrd (0: none)."),
     ) -> None:
-        """Process recorded trials (preliminary then refined gait metrics, files, progress on the bus) and
+        """Process recorded trials (preliminary then refined gait metrics, files, progress in the catalog) and
         compute the calibrations of stopped board recordings, as jobs taken from the catalog under a lease."""
         from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
         from gaitcap.services.processing.worker import Worker, WorkerConfig, warm_worker
@@ -35,16 +35,14 @@ def register(app: typer.Typer) -> None:
             cfg = WorkerConfig(catalog_url=catalog_url(data_dir, catalog), data_dir=data_dir,
                                lease_s=lease_s, refine=not no_refine, rerun=RerunSettings(image_rate_hz=rerun_images_hz),
                                **({"worker_id": worker_id} if worker_id else {}))
-            progress, session = None, None
-            if not no_bus:
+            session = None
+            if not no_bus:  # the worker is alive on the bus (the API's health); its progress is in the catalog
                 from gaitcap.services.bus.session import declare_alive, default_bus_config, open_session
-                from gaitcap.services.live.bus_link import BusProgress
 
                 bus_cfg = default_bus_config(bus)
                 session = open_session(bus_cfg, node)
                 _token = declare_alive(session, bus_cfg, node)  # noqa: F841  (held while running)
-                progress = BusProgress(session, bus_cfg)
-            w = Worker(cfg, progress=progress)
+            w = Worker(cfg)
         def _abandon(signum: int) -> None:
             if w.busy:  # do not finish a long fit: the job's lease expires and another worker redoes it
                 raise SystemExit(128 + signum)

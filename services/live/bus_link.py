@@ -122,17 +122,3 @@ class BusLink:
         if self._alive is not None:
             self._alive.undeclare()
         self.session.close()
-
-
-class BusProgress:
-    """Publishes worker progress (:class:`gaitcap.services.bus.messages.WorkerProgress`) on
-    ``<prefix>/worker/progress/<trial_id>``."""
-
-    def __init__(self, session, bus) -> None:
-        self.session, self.keys = session, bus.keys
-
-    def publish(self, trial_id: str, payload: dict) -> None:
-        from gaitcap.services.bus.messages import WorkerProgress
-
-        message = WorkerProgress(**payload)
-        self.session.put(self.keys.worker_progress(message.trial_id), message.to_bytes())

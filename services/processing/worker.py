@@ -9,8 +9,7 @@ Several workers may run; each renews its lease while it works. A worker that die
 its job is taken over by another once the lease has expired (the trial stays ``processing``). The
 process stays warm: JAX code is compiled once at start (:meth:`Worker.warm_up`).
 
-Progress on the bus: ``<prefix>/worker/progress/<trial_id>`` JSON ``{"trial_id", "state", "stage",
-"progress" (0..1), "result" (null | "preliminary" | "refined"), "worker", "time_ns"}``.
+Progress goes to the trial's record in the catalog (``stage``, ``progress`` 0..1), where the API reads it.
 """
 
 from __future__ import annotations
@@ -23,7 +22,6 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
 
 from gaitcap.services import catalog as cat
 from gaitcap.services.kinematics.shown import patient_age
@@ -46,15 +44,6 @@ log = logging.getLogger(__name__)
 
 class LeaseLost(RuntimeError):
     """Another worker has taken this job over (our lease expired)."""
-
-
-class ProgressSink(Protocol):
-    def publish(self, trial_id: str, payload: dict) -> None: ...
-
-
-class NoProgress:
-    def publish(self, trial_id: str, payload: dict) -> None:
-        pass
 
 
 @dataclass(frozen=True)
@@ -130,11 +119,9 @@ def recording_of(trial: cat.TrialInfo) -> Path:
 
 
 class Worker:
-    def __init__(self, config: WorkerConfig, *, db: cat.Catalog | None = None,
-                 progress: ProgressSink | None = None) -> None:
+    def __init__(self, config: WorkerConfig, *, db: cat.Catalog | None = None) -> None:
         self.config = config
         self.db = db or cat.open_catalog(config.catalog_url)
-        self.progress = progress or NoProgress()
         self.busy = False  # a job is being processed
         self.kinds = {  # job kind -> what this worker does with it
             "process": JobKind(run=lambda job, lease: self.process(job.trial_id, lease),
@@ -185,14 +172,12 @@ class Worker:
             cat.set_state(self.db, trial_id, "failed", error=message[:2000], stage="")
         except cat.IllegalTransition:
             log.warning("trial %s could not be marked failed", trial_id)
-        self._report(trial_id, "failed", "failed", 1.0, None)
+        self._report(trial_id, "failed", 1.0)
 
     # ------------------------------------------------------------------ one trial
-    def _report(self, trial_id: str, state: str, stage: str, progress: float, result: str | None) -> None:
+    def _report(self, trial_id: str, stage: str, progress: float) -> None:
+        """The trial's step (words) and how far it is (0..1), on its record in the catalog."""
         cat.set_progress(self.db, trial_id, stage=stage, progress=progress)
-        self.progress.publish(trial_id, {"trial_id": trial_id, "state": state, "stage": stage,
-                                         "progress": progress, "result": result,
-                                         "worker": self.config.worker_id, "time_ns": time.time_ns()})
 
     def process(self, trial_id: str, lease: LeaseKeeper) -> None:
         """The trial's job: the one processing path (:func:`~gaitcap.services.processing.trial.process_trial`)
@@ -204,7 +189,7 @@ class Worker:
             log.info("trial %s is %s; skipping", trial_id, trial.state)
             return
         files = trial_files(self.config.data_dir, trial_id, recording_of(trial))
-        self._report(trial_id, "processing", "reading the recording", 0.05, None)
+        self._report(trial_id, "reading the recording", 0.05)
         t0 = time.perf_counter()
         data = recording_input(files.recording, fallback_calibration=self.config.fallback_calibration)
         sink = CatalogSink(self, trial_id, lease, load_s=time.perf_counter() - t0)
@@ -222,18 +207,18 @@ class Worker:
         earlier = {k: v for k, v in cat.get_quality(self.db, trial_id).items() if k != "processing"}
         final = "done_with_warnings" if quality.serious or cat.warnings_of(earlier) else "done"
         cat.set_state(self.db, trial_id, final, expect="processing", stage="done", progress=1.0)
-        self._report(trial_id, final, "done", 1.0, "refined" if self.config.refine else "preliminary")
+        self._report(trial_id, "done", 1.0)
 
 
 class CatalogSink:
     """The clinic's sink: each stage's result row, quality and files into the catalog, progress on the
-    trial's record and the bus, the job's lease checked between steps."""
+    trial's record, the job's lease checked between steps."""
 
     def __init__(self, worker: Worker, trial_id: str, lease: LeaseKeeper, *, load_s: float) -> None:
         self.worker, self.trial_id, self.lease, self.load_s = worker, trial_id, lease, load_s
 
     def progress(self, step: str, fraction: float, result: str | None) -> None:
-        self.worker._report(self.trial_id, "processing", step, fraction, result)
+        self.worker._report(self.trial_id, step, fraction)
 
     def check(self) -> None:
         self.lease.check()

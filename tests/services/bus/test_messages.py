@@ -19,7 +19,6 @@ from gaitcap.services.bus.messages import (
     RecorderReply,
     RecorderStart,
     RecorderStop,
-    WorkerProgress,
 )
 from gaitcap.services.nodes.recorder import confined_path
 from gaitcap.services.processing.pipeline import ring_rig
@@ -44,7 +43,6 @@ def _kp(**over):
     RecorderReply(ok=False, error="no"),
     RecorderEvent("stopped", "t-1", "/d/t.mcap", 7, summary={"frames": 3}),
     CameraScene("board", 5),
-    WorkerProgress("t-1", "processing", "fit", 0.5, "w0", 9, "preliminary"),
     FrameMeta(4, 10**18, ptp_jump=True),
 ])
 def test_round_trip(message):
@@ -112,8 +110,6 @@ def test_control_messages_are_bounded():
         RecorderStart("t1", "t1.mcap", cameras=["ok", "not ok"])
     with pytest.raises(ValueError, match="camera scene.scene"):
         CameraScene.from_bytes(b'{"scene": "walls", "start_ns": 1}')
-    with pytest.raises(ValueError, match="worker progress.progress"):
-        WorkerProgress("t1", "processing", "fit", 1.5, "w", 1)
     assert MAX_FRAME_ID == 2**31 - 1
 
 

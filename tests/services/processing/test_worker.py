@@ -52,13 +52,7 @@ def _step_length_errors(result, truth) -> list[float]:
 def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path, walk):
     db, tid = _recorded_trial(tmp_path, walk)
     update_patient(db, "P1", birth_year=time.gmtime().tm_year - 40)  # the files carry the adults' band
-    published = []
-
-    class Sink:
-        def publish(self, trial_id, payload):
-            published.append(payload)
-
-    w = Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=True, lease_s=5), db=db, progress=Sink())
+    w = Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=True, lease_s=5), db=db)
     assert w.run_once() and not w.run_once()
     trial = cat.get_trial(db, tid)
     assert trial.state == "done" and trial.progress == 1.0
@@ -94,9 +88,7 @@ def test_worker_stores_preliminary_then_refined_results_close_to_truth(tmp_path,
         kin_dir = files.stage_file("refined", "kinematics_json").parent
         assert (kin_dir / "kinematics.csv").read_text() == curves_csv(kin)
     assert cat.get_result(db, tid, "refined").quality["GC_10"] > 0.9
-    results = [p["result"] for p in published if p["result"]]
-    assert sorted(set(results), key=results.index) == ["preliminary", "refined"]
-    assert [p["stage"] for p in published][-1] == "done" and published[0]["state"] == "processing"
+    assert trial.stage == "done"  # the progress the page shows, from the trial's record
     assert cat.jobs_for_trial(db, tid)[0].state == "done"
 
 
