@@ -9,7 +9,7 @@ with the fewest cameras. A worker takes up to ``max_batch`` frames at once and h
 ``detect_batch`` when it has one (a batched ONNX model), else detects them one by one.
 
 Each worker has a bounded queue in this process (``max_pending`` frames); when it is full the oldest frame
-is skipped and counted for its camera, so live keypoints never lag without bound (the recorder still
+is skipped and counted for its camera (so is a frame older than ``max_age_s`` when its turn comes), so live keypoints never lag without bound (the recorder still
 records every image). At most ``max_inflight`` frames are with a worker at once. A worker process that
 dies is noticed at once (its process sentinel): its cameras move to the workers left, its queued frames
 with them; the frames it held are counted as ``lost`` for their cameras. Results reach ``on_result``
@@ -173,9 +173,10 @@ class DetectorPool:
     """Detector workers with frames routed by camera (see the module docstring)."""
 
     def __init__(self, workers: list[_Worker], skeleton: str, on_result: Callable[[DetectResult], None] | None, *,
-                 max_pending: int, max_inflight: int) -> None:
-        if max_pending < 1 or max_inflight < 1:
-            raise ValueError("max_pending and max_inflight must be >= 1")
+                 max_pending: int, max_inflight: int, max_age_s: float | None = None) -> None:
+        if max_pending < 1 or max_inflight < 1 or (max_age_s is not None and max_age_s <= 0):
+            raise ValueError("max_pending and max_inflight must be >= 1, max_age_s > 0")
+        self.max_age_ns = None if max_age_s is None else int(max_age_s * 1e9)
         self.skeleton = skeleton
         self._workers = workers
         self.on_result = on_result
@@ -195,9 +196,11 @@ class DetectorPool:
     def of_processes(cls, factory: Callable[[], object], workers: int,
                      on_result: Callable[[DetectResult], None] | None = None, *,
                      max_batch: int = 4, max_pending: int = 300, max_inflight: int | None = None,
-                     start_timeout_s: float = START_TIMEOUT_S) -> DetectorPool:
+                     max_age_s: float | None = None, start_timeout_s: float = START_TIMEOUT_S) -> DetectorPool:
         """``workers`` processes, each building its detector with ``factory`` (picklable; e.g. a detector
-        config's ``build``). RuntimeError naming the worker when one cannot build its detector."""
+        config's ``build``). ``max_age_s``: a frame sent by its camera node longer ago than this (s) is skipped
+        rather than detected (live keypoints stay fresh). RuntimeError naming the worker when one cannot build
+        its detector."""
         if workers < 1 or max_batch < 1:
             raise ValueError(f"detector pool: workers and max_batch must be >= 1, got {workers}, {max_batch}")
         ctx = multiprocessing.get_context("spawn")  # never fork a process with bus threads
@@ -213,18 +216,18 @@ class DetectorPool:
         log.info("detector pool: %d worker processes (pids %s), batches of up to %d frames", workers,
                  ", ".join(str(w.process.pid) for w in started), max_batch)
         return cls(started, skeleton, on_result, max_pending=max_pending,
-                   max_inflight=max_inflight or 2 * max_batch)
+                   max_inflight=max_inflight or 2 * max_batch, max_age_s=max_age_s)
 
     @classmethod
     def in_process(cls, detector, on_result: Callable[[DetectResult], None] | None = None, *, max_batch: int = 1,
-                   max_pending: int = 600) -> DetectorPool:
+                   max_pending: int = 600, max_age_s: float | None = None) -> DetectorPool:
         """One worker thread running ``detector`` (already built) in this process."""
         parent, child = multiprocessing.Pipe(duplex=True)
         thread = threading.Thread(target=_thread_main, args=(detector, child, max_batch), daemon=True,
                                   name="detect-0")
         thread.start()
         return cls([_Worker(0, parent, thread=thread)], detector.skeleton.name, on_result,
-                   max_pending=max_pending, max_inflight=2 * max_batch)
+                   max_pending=max_pending, max_inflight=2 * max_batch, max_age_s=max_age_s)
 
     # --- routing ------------------------------------------------------------------------------------
     def submit(self, task: FrameTask) -> None:
@@ -289,6 +292,9 @@ class DetectorPool:
                 if self._closed or not worker.alive:
                     return
                 task = worker.pending.popleft()
+                if self.max_age_ns is not None and time.time_ns() - task.sent_ns > self.max_age_ns:
+                    self.counts.skipped[task.camera] += 1  # too old to be live
+                    continue
                 worker.inflight[(task.camera, task.frame_id)] = task
             try:
                 worker.conn.send(task)

@@ -165,6 +165,9 @@ def detector_cmd(
     shard: str | None = typer.Option(
         None, "--shard", help="K/N: detect only the cameras of shard K of N (several detector nodes share a rig)."),
     batch: int = typer.Option(4, "--batch", help="Frames a worker takes at once (batched by models that take a batch)."),
+    max_lag_s: float = typer.Option(
+        2.0, "--max-lag-s", help="A frame older than this when a worker is free is skipped (counted; completed after "
+        "Stop): live keypoints stay fresh, s."),
     sim_preset: str = typer.Option("paper", "--sim-preset", help="Synthetic noise preset."),
     sim_seconds: float = typer.Option(6.0, "--sim-seconds", help="Synthetic trial length, s (>= 5)."),
     sim_cameras: int = typer.Option(10, "--sim-cameras"),
@@ -187,7 +190,8 @@ def detector_cmd(
         config = cls(**params)
         selection = CameraSelection.parse(cameras, shard)
         cfg = default_bus_config(bus)
-        pool = DetectorPool.of_processes(config.build, workers or default_workers(), max_batch=batch)
+        pool = DetectorPool.of_processes(config.build, workers or default_workers(), max_batch=batch,
+                                         max_age_s=max_lag_s)
         session = open_session(cfg, node)
     stopper = stop_on_signals()
     det_node = DetectorNode(session, cfg, node, pool, cameras=selection)

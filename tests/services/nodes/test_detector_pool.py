@@ -168,3 +168,16 @@ class SimpleResult:
 
         msg = json.loads(sample.payload.to_bytes())
         self.task = FrameTask(msg["camera"], msg["frame_id"], msg["timestamp_ns"], 0, b"")
+
+
+def test_frames_older_than_the_age_limit_are_skipped_not_detected():
+    got = Results()
+    pool = DetectorPool.in_process(pool_helpers.SlowDetector(0.0), got, max_age_s=0.5)
+    try:
+        old = FrameTask("cam01", 1, 0, time.time_ns() - 2_000_000_000, JPEG)  # sent 2 s ago
+        pool.submit(old)
+        pool.submit(task("cam01", 2))
+        wait_for(lambda: len(got.items) == 1 and not pool.busy(), 10, "the fresh frame detected")
+        assert got.of("cam01")[0].task.frame_id == 2 and pool.counts.skipped["cam01"] == 1
+    finally:
+        pool.close()
