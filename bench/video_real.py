@@ -12,8 +12,12 @@ have (mm), on the joints both skeletons name (MediaPipe's foot_index as the big 
 
 Where the distance comes from, per demo: ``offset removed``: the median once each joint's mean offset in
 the pelvis frame (x left hip - right hip, z up) is removed: what remains is not a difference of keypoint
-definitions; ``best shift``: the time shift of ours (frames, sampled on the fit) that minimises the median,
-and the median there: frame timing; ``robust``: ours without the fit's smoothing.
+definitions (the hips', ankles' and heels' mean offsets are listed, mm lateral / forward / up, ours minus
+the reference); ``best shift``: the time shift of ours (frames, sampled on the fit) that minimises the
+median, and the median there: frame timing; ``files offset``: the whole-frame offset between the two
+packages' frame numbers that best aligns our robust triangulation with the reference (their frame i is
+our frame i + offset), and the fit's median at it; ``robust``: ours without the fit (closer to a per-frame
+reference partly because the reference keeps its own per-frame noise).
 
 The data are installed by deploy/bootstrap.sh (install_pose2sim_demos).
 """
@@ -40,6 +44,8 @@ DEMOS = {
 }
 ALIASES = {"left_foot_index": "left_big_toe", "right_foot_index": "right_big_toe"}
 SHIFTS_FRAMES = np.arange(-2.0, 2.01, 0.25)
+FILE_OFFSETS = range(-3, 4)
+OFFSET_JOINTS = ("left_hip", "right_hip", "left_ankle", "right_ankle", "left_heel", "right_heel")
 
 
 def _ours(videos: Path) -> dict:
@@ -96,17 +102,28 @@ def _paired(ours: np.ndarray, ours_names: list[str], ref: np.ndarray, ref_names:
     return ours[:, [a for a, _, _ in pairs]], ref[:, [b for _, b, _ in pairs]], [n for *_, n in pairs]
 
 
-def _offset_removed(diff: np.ndarray, ours: np.ndarray, names: list[str]) -> float:
-    """Median distance once each joint's mean offset in the pelvis frame is removed (mm)."""
+def _pelvis_offsets(diff: np.ndarray, ours: np.ndarray, names: list[str]) -> np.ndarray:
+    """(T, K, 3) ``diff`` (mm) in the pelvis frame of ``ours``: lateral (to the left hip), forward, up."""
     lat = ours[:, names.index("left_hip")] - ours[:, names.index("right_hip")]
     lat[:, 2] = 0.0
     x = lat / np.linalg.norm(lat, axis=-1, keepdims=True)
     z = np.broadcast_to([0.0, 0.0, 1.0], x.shape)
     y = np.cross(z, x)
     frame = np.stack([x, y, z], axis=1)  # (T, 3, 3) rows: pelvis axes in the room
-    local = np.einsum("tab,tkb->tka", frame, diff)
-    local = local - np.nanmean(local, axis=0)
-    return float(np.nanmedian(np.linalg.norm(local, axis=-1)))
+    return np.einsum("tab,tkb->tka", frame, diff)
+
+
+def _offset_removed(local: np.ndarray) -> float:
+    """Median distance once each joint's mean offset in the pelvis frame is removed (mm)."""
+    return float(np.nanmedian(np.linalg.norm(local - np.nanmean(local, axis=0), axis=-1)))
+
+
+def _lagged(ours: np.ndarray, ref: np.ndarray, offset: int) -> tuple[np.ndarray, np.ndarray]:
+    """Our frames i + offset against the reference's frames i (both (T, ...), the overlap only)."""
+    n = min(len(ours), len(ref))
+    if offset >= 0:
+        return ours[offset:n], ref[:n - offset]
+    return ours[:n + offset], ref[-offset:n]
 
 
 def run_demo(name: str) -> dict:
@@ -129,10 +146,18 @@ def run_demo(name: str) -> dict:
         shifts[float(s)] = float(np.nanmedian(np.linalg.norm(so - sr, axis=-1)[inside]))
     best = min(shifts, key=shifts.get)
     ro, rr, _ = _paired(ours["robust"].points_mm[:n], names, ref[:n], ref_names)
+    robust_at = {k: float(np.nanmedian(np.linalg.norm(np.subtract(*_lagged(ro, rr, k)), axis=-1))) for k in FILE_OFFSETS}
+    files = min(robust_at, key=robust_at.get)
+    local = _pelvis_offsets(o - r, o, joints)
+    mean_local = np.nanmean(local, axis=0)
     return {"frames": n, "tracks": ours["tracks"], "detect_s": round(ours["detect_s"], 1),
             "median_mm": float(np.nanmedian(dist)),
             "per_joint_mm": {j: float(np.nanmedian(dist[:, k])) for k, j in enumerate(joints)},
-            "offset_removed_mm": _offset_removed(o - r, o, joints),
+            "offset_removed_mm": _offset_removed(local),
+            "mean_offset_mm": {j: [round(float(v), 1) for v in mean_local[joints.index(j)]] for j in OFFSET_JOINTS
+                               if j in joints},
+            "files_offset_frames": files,
+            "files_offset_median_mm": float(np.nanmedian(np.linalg.norm(np.subtract(*_lagged(o, r, files)), axis=-1))),
             "best_shift_frames": best, "best_shift_median_mm": shifts[best],
             "robust_median_mm": float(np.nanmedian(np.linalg.norm(ro - rr, axis=-1))),
             "reference_frames": int(np.isfinite(r).all(-1).any(-1).sum())}
@@ -147,10 +172,15 @@ def _table(r: dict) -> str:
         lines.append(f"{j:<18}" + "".join(f"{r['demos'][d]['per_joint_mm'].get(j, float('nan')):>10.1f}" for d in demos))
     rows = (("all joints", "median_mm"), ("offset removed", "offset_removed_mm"),
             ("robust (no fit)", "robust_median_mm"), ("best shift", "best_shift_median_mm"),
-            ("  at (frames)", "best_shift_frames"), ("tracks", "tracks"), ("frames", "frames"))
+            ("  at (frames)", "best_shift_frames"), ("files offset", "files_offset_median_mm"),
+            ("  at (frames)", "files_offset_frames"), ("tracks", "tracks"), ("frames", "frames"))
     for label, key in rows:
         lines.append(f"{label:<18}" + "".join(f"{r['demos'][d][key]:>10.2f}" if isinstance(r['demos'][d][key], float)
                                               else f"{r['demos'][d][key]:>10}" for d in demos))
+    lines.append("mean offset, ours minus reference, in the pelvis frame (mm lateral / forward / up)")
+    for j in OFFSET_JOINTS:
+        lines.append(f"{j:<18}" + "".join(f"{' / '.join(f'{v:.0f}' for v in r['demos'][d]['mean_offset_mm'][j]):>18}"
+                                          for d in demos if j in r['demos'][d]['mean_offset_mm']))
     return "\n".join(lines)
 
 
