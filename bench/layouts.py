@@ -9,8 +9,8 @@
    patient's reconstruction switches person (hips' midpoint moving > 150 mm in 1/60 s), the median limb-
    length SD (mm) of each person's robust triangulation.
 3. ``gaitcap process`` wall time per stage (s) on the real 4-camera recordings: the two-person keypoints,
-   and with ``--videos`` the Pose2Sim 4-camera videos of two people from detection on (MediaPipe, up to
-   3 people per image).
+   and with ``--videos`` the Pose2Sim 4-camera videos of two people from detection on (MediaPipe with its
+   default options: everyone, up to 4 people per image).
 
 The Pose2Sim data are installed by deploy/bootstrap.sh (install_pose2sim_demos).
 """
@@ -113,7 +113,7 @@ def process_times(source: Path, *, videos: bool) -> dict:
     out = Path(tempfile.mkdtemp(prefix="gaitcap-process-"))
     try:
         t0 = time.perf_counter()
-        factory = (lambda: build_detector("mediapipe", None, ["num_poses=3"])) if videos else None
+        factory = (lambda: build_detector("mediapipe", None, [])) if videos else None
         data = load_input(source, calibration=None, options=OfflineOptions(), detector_factory=factory)
         result = process_input(data, out, timings_s={"read" + (" and detect" if videos else ""):
                                                           time.perf_counter() - t0})
