@@ -9,7 +9,9 @@ with the fewest cameras. A worker takes up to ``max_batch`` frames at once and h
 ``detect_batch`` when it has one (a batched ONNX model), else detects them one by one.
 
 Each worker has a bounded queue in this process (``max_pending`` frames); when it is full the oldest frame
-is skipped and counted for its camera (so is a frame older than ``max_age_s`` when its turn comes), so live keypoints never lag without bound (the recorder still
+is skipped and counted for its camera (so is a frame older than ``max_age_s`` when its turn comes; and a live
+pool, one with ``max_age_s``, behind by more than a few frames per camera detects only every 2nd, 4th or 8th
+frame id, the same ones on every camera), so live keypoints never lag without bound (the recorder still
 records every image). At most ``max_inflight`` frames are with a worker at once. A worker process that
 dies is noticed at once (its process sentinel): its cameras move to the workers left, its queued frames
 with them; the frames it held are counted as ``lost`` for their cameras. Results reach ``on_result``
@@ -33,6 +35,8 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 START_TIMEOUT_S = 120.0
+THIN_AFTER = 4  # frames queued per camera before the frame ids are thinned out (live pools only)
+MAX_STRIDE = 8
 
 
 def default_workers() -> int:
@@ -177,6 +181,7 @@ class DetectorPool:
         if max_pending < 1 or max_inflight < 1 or (max_age_s is not None and max_age_s <= 0):
             raise ValueError("max_pending and max_inflight must be >= 1, max_age_s > 0")
         self.max_age_ns = None if max_age_s is None else int(max_age_s * 1e9)
+        self.thin = max_age_s is not None  # a live pool keeps up by common frames; an offline one detects all
         self.skeleton = skeleton
         self._workers = workers
         self.on_result = on_result
@@ -291,15 +296,29 @@ class DetectorPool:
                     self._cond.wait(0.5)
                 if self._closed or not worker.alive:
                     return
+                stride = self._stride(worker)
                 task = worker.pending.popleft()
-                if self.max_age_ns is not None and time.time_ns() - task.sent_ns > self.max_age_ns:
-                    self.counts.skipped[task.camera] += 1  # too old to be live
+                too_old = self.max_age_ns is not None and time.time_ns() - task.sent_ns > self.max_age_ns
+                if too_old or task.frame_id % stride:
+                    self.counts.skipped[task.camera] += 1  # too old to be live, or thinned out
                     continue
                 worker.inflight[(task.camera, task.frame_id)] = task
             try:
                 worker.conn.send(task)
             except (OSError, ValueError):  # its pipe closed: the reader sees the death
                 return
+
+    def _stride(self, worker: _Worker) -> int:
+        """Behind by more than ``THIN_AFTER`` frames per camera, only every 2nd (4th, ... up to ``MAX_STRIDE``-th)
+        frame id is detected: the same frame ids on every worker and camera (their frame ids are counted from
+        one synchronised start), so the live keypoints of the cameras stay on common frames."""
+        if not self.thin:
+            return 1
+        backlog = len(worker.pending) / max(1, len(worker.cameras))
+        stride = 1
+        while backlog > THIN_AFTER * stride and stride < MAX_STRIDE:
+            stride *= 2
+        return stride
 
     def _read_loop(self) -> None:
         while not self._closed:

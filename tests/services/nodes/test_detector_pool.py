@@ -181,3 +181,20 @@ def test_frames_older_than_the_age_limit_are_skipped_not_detected():
         assert got.of("cam01")[0].task.frame_id == 2 and pool.counts.skipped["cam01"] == 1
     finally:
         pool.close()
+
+
+def test_a_live_pool_behind_thins_out_the_same_frame_ids_on_every_camera():
+    got = Results()
+    pool = DetectorPool.in_process(pool_helpers.SlowDetector(0.005), got, max_age_s=60.0)
+    try:
+        for f in range(64):
+            for cam in ("cam01", "cam02", "cam03"):
+                pool.submit(task(cam, f))
+        wait_for(lambda: not pool.busy(), 20, "queue drained")
+        ids = {cam: {r.task.frame_id for r in got.of(cam)} for cam in ("cam01", "cam02", "cam03")}
+        assert len(ids["cam01"]) < 40  # thinned out: far fewer than the 64 frames
+        common = ids["cam01"] & ids["cam02"] & ids["cam03"]
+        assert len(common) >= 0.8 * max(len(v) for v in ids.values()), ids  # mostly the same frame ids
+        assert sum(pool.counts.skipped.values()) == 3 * 64 - sum(len(v) for v in ids.values())
+    finally:
+        pool.close()
