@@ -29,6 +29,10 @@ def _echo_summary(report) -> None:
     s = report.summary
     typer.echo(f"steps {s.num_steps} in {s.num_passes} pass(es); cadence {_fmt(s.cadence_steps_min)} "
                f"steps/min; gait speed {_fmt(s.gait_speed_m_s, 2)} m/s")
+    t = report.timing
+    if t is not None:
+        typer.echo(f"events located on the {t.located_on}: resolution {t.resolution_s * 1000:.0f} ms "
+                   f"({'sub-frame' if t.sub_frame else 'one frame'}; frames {t.frame_interval_s * 1000:.1f} ms apart)")
     typer.echo(f"{'parameter':<20}{'left mean':>11}{'SD':>8}{'right mean':>12}{'SD':>8}{'asym %':>8}")
     for name in _TABLE:
         p, d = s.parameters[name], 3 if name.endswith("_s") else 1

@@ -30,6 +30,9 @@ def test_gait_command_json_csv_plot(tmp_path):
     assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
     text = runner.invoke(app, ["gait", str(npz)])
     assert text.exit_code == 0 and "cadence" in text.stdout
+    # frames only (no dense trajectory in the file): the events say they are located to one frame
+    assert "events located on the spline through frames: resolution 33 ms (one frame" in text.stdout
+    assert report["timing"]["located_on"] == "spline through frames"
 
 
 def test_gait_command_bad_input(tmp_path):
