@@ -82,7 +82,11 @@ def kinematics(trial_id: str, request: Request, stage: Stage | None = None,
     if format in _SHOWN:  # the band by the patient's age now (a birth year may be recorded after the fit)
         status = with_norms(status, patient_age(catalog_of(request), r.trial_id))
     if format is KinematicsFormat.json:
-        return {"trial_id": r.trial_id, "stage": r.stage, **status, "key_value_norms": _key_value_norms(status)}
+        from gaitcap.reconstruction.kinematics.gait_profile import gait_profile
+
+        extra = {"key_value_norms": _key_value_norms(status),
+                 "gait_profile": gait_profile(status).to_dict() if status.get("curves") else None}
+        return {"trial_id": r.trial_id, "stage": r.stage, **status, **extra}
     if not status.get("available", False):
         raise HTTPException(status_code=404, detail=f"trial {r.trial_id}: no kinematics: {status.get('reason', '')}")
     key, media, suffix = _FILES[format]

@@ -82,6 +82,20 @@ def _notes(k: dict) -> list[str]:
     return out
 
 
+def gait_profile_line(k: dict) -> str:
+    """The Gait Profile Score over the variables it could include, naming those it could not."""
+    from gaitcap.reconstruction.kinematics.gait_profile import gait_profile
+
+    p = gait_profile(k)
+    included = sorted({v for side in p.gvs_deg.values() for v in side})
+    if not included:
+        return "Gait Profile Score (Baker 2009): not computed (no measured angle has a normal band)."
+    left_out = "; ".join(f"{v.replace('_', ' ')} {why}" for v, why in p.not_included.items())
+    return (f"Gait Profile Score (Baker 2009) over {', '.join(v.replace('_', ' ') for v in included)} only: left "
+            f"{p.gps_deg['left']:.1f}, right {p.gps_deg['right']:.1f}, both {p.overall_gps_deg:.1f} deg (not Baker's "
+            f"nine-variable score; left out: {left_out}).")
+
+
 def kinematics_figure_png(k: dict) -> bytes | None:
     """The report's curves: each side's mean +- SD over the band, of the variables that have a band (the
     others are named in the notes), half a page wide; None without curves."""
@@ -105,7 +119,7 @@ def kinematics_section(pdf) -> None:
             png = kinematics_figure_png(k)
             if png:
                 pdf.image(io.BytesIO(png), w=(pdf.w - pdf.l_margin - pdf.r_margin) / 2)
-        pdf.para(" ".join(_notes(k)), 7, height=3.3)
+        pdf.para(" ".join(_notes(k) + [gait_profile_line(k)]), 7, height=3.3)
     else:
         pdf.heading("Joint angles")
     if k.get("key_values"):

@@ -145,6 +145,9 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
             flagged = [s for s in ("left", "right") if not lo <= side_values[s][name]["mean"] <= hi]
             assert text.count("outside") == len(flagged), (name, text)
         assert kv_norms["knee_flexion_rom_deg"]["normal_range_deg"] is None  # a range of motion: no SD in a band
+        profile = client.get(f"/trials/{tid}/kinematics").json()["gait_profile"]  # Baker 2009, on what it can
+        assert profile["overall_gps_deg"] > 0 and "knee_flexion" in profile["variables"]
+        assert "pelvis_tilt" in profile["not_included"] and "foot_progression" in profile["not_included"]
         page.set_viewport_size({"width": 390, "height": 844})  # a phone: one panel a row, nothing wider than it
         page.wait_for_timeout(300)
         assert page.evaluate("document.documentElement.scrollWidth") <= 390

@@ -199,7 +199,8 @@ def test_one_trial_with_every_figure_is_two_pages_void_on_both_and_no_heading_le
     assert all("VOID - not for clinical use: shoes left on" in p for p in pages)
     text = " ".join(" ".join(p.split()) for p in pages)
     for heading in ("Findings to note", "Heel traces and detected steps", "Footprints of the first straight pass",
-                    "Joint kinematics", "Key value (degrees)", "Method and software", "Normative reference", "Signature"):
+                    "Joint kinematics", "Key value (degrees)", "Gait Profile Score (Baker 2009) over",
+                    "Method and software", "Normative reference", "Signature"):
         assert heading in text, heading
     for page in pages:  # the last line before the footer is never a heading
         lines = [ln for ln in page.splitlines() if ln.strip() and not ln.startswith("Trial ")]

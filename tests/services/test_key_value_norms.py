@@ -76,3 +76,24 @@ def test_a_key_value_without_a_rule_or_with_a_short_band_is_refused():
         key_norm("knee_twist_deg", np.zeros(101), np.ones(101))
     with pytest.raises(ValueError, match="101 points"):
         key_norm("hip_peak_flexion_deg", np.zeros(51), np.ones(51))
+
+
+def test_gait_profile_score_is_zero_on_the_band_and_names_what_it_leaves_out():
+    """Baker 2009: GVS = RMS over the cycle (every 2 %) of curve minus band mean; GPS = RMS of the GVS."""
+    from gaitcap.reconstruction.kinematics.gait_profile import gait_profile
+
+    norms = _norm_set("adults")
+    bands = norms["bands"]
+    curves = {var: {side: {"mean_deg": list(b["mean_deg"])} for side in ("left", "right")} for var, b in bands.items()}
+    k = {"curves": curves, "norms": norms, "not_measured": {"pelvis_tilt": "held near 0 by the fit"}}
+    profile = gait_profile(k)
+    assert profile.overall_gps_deg == pytest.approx(0.0, abs=1e-9)
+    assert profile.not_included["pelvis_tilt"].startswith("not measured")
+    assert "foot_progression" in profile.not_included and set(profile.gvs_deg["left"]) <= set(bands)
+    shifted = {**curves, "knee_flexion": {"left": {"mean_deg": [v + 6.0 for v in bands["knee_flexion"]["mean_deg"]]},
+                                          "right": curves["knee_flexion"]["right"]}}
+    moved = gait_profile({**k, "curves": shifted})
+    n_left = len(moved.gvs_deg["left"])
+    assert moved.gvs_deg["left"]["knee_flexion"] == pytest.approx(6.0) and moved.gvs_deg["right"]["knee_flexion"] == 0.0
+    assert moved.gps_deg["left"] == pytest.approx(6.0 / math.sqrt(n_left))
+    assert moved.to_dict()["source"].startswith("Baker")
