@@ -35,7 +35,7 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 START_TIMEOUT_S = 120.0
-THIN_AFTER = 4  # frames queued per camera before the frame ids are thinned out (live pools only)
+THIN_AFTER = 15  # frames queued per camera (0.5 s at 30 fps) before frame ids are thinned out (live pools)
 MAX_STRIDE = 8
 
 
