@@ -79,7 +79,8 @@ def gait(trial_id: str, request: Request, stage: Stage | None = None, user: str 
     gait_json = stored_gait(request.app.state.settings.data_dir, r.trial_id, r.stage)
     data_quality = r.report.get("data_quality") or {}
     return GaitOut(trial_id=r.trial_id, stage=r.stage, method=r.method, elapsed_s=r.elapsed_s, **_void(request, r.trial_id),
-                   consistency=consistency_of(r.report.get("consistency") or r.quality.get("consistency"),
+                   consistency=consistency_of(r.report.get("consistency") or r.quality.get("consistency")
+                                              or (gait_json or {}).get("consistency"),
                                               gait_json or {"summary": r.summary, "steps": r.steps}, data_quality),
                    summary=r.summary, steps=r.steps, quality=r.quality,
                    downloads=_downloads(r.trial_id, r.stage),

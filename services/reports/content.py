@@ -314,8 +314,8 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
     norms = norms or load_norms(config.norms_csv, units=NORM_UNITS)
     rows = rows_of(gait.get("summary", {}), norms, sex=patient.sex, age=age)
     data_quality = result.report.get("data_quality") or gait.get("data_quality") or {}
-    consistency = consistency_of(result.report.get("consistency") or (result.quality or {}).get("consistency"),
-                                 gait, data_quality)
+    consistency = consistency_of(result.report.get("consistency") or (result.quality or {}).get("consistency")
+                                 or gait.get("consistency"), gait, data_quality)
     said = findings(rows, consistency)
     kinematics = stored_kinematics(Path(data_dir), trial.id, result.stage)
     shown_kinematics = with_norms(kinematics, age) if kinematics is not None else {}

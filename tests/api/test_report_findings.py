@@ -205,3 +205,20 @@ def test_one_trial_with_every_figure_is_two_pages_void_on_both_and_no_heading_le
     for page in pages:  # the last line before the footer is never a heading
         lines = [ln for ln in page.splitlines() if ln.strip() and not ln.startswith("Trial ")]
         assert lines[-1].strip() not in ("Findings to note", "Method and software", "Normative reference", "Data quality")
+
+
+def test_the_consistency_block_the_processing_stored_is_the_one_shown(server, walk):
+    """The one processing path stores each stage's rules under ``consistency`` (result report, gait.json):
+    the page and the report use that block rather than checking again."""
+    _, client, _, _ = server
+    stored = {"ok": False, "frame_period_s": 1 / 30, "rules_checked": ["stance_support"], "rules_not_checked": {},
+              "comparisons": 1, "parameters_in_doubt": ["double_support_pct", "stance_pct"],
+              "failures": [{"rule": "stance_support", "parameter": "stance_pct", "side": "left",
+                            "message": "stance = single support + double support does not hold (left mean)"}]}
+    tid = _trial(server, walk, {**walk.to_dict(), "consistency": stored}, subject="P108")
+    for where in (client.get(f"/trials/{tid}/parameters").json(), client.get(f"/trials/{tid}/gait").json()):
+        assert where["consistency"] == stored
+    js = client.get(f"/trials/{tid}/parameters").json()
+    assert js["data_problems"] == ["Data problem, not a clinical finding: stance = single support + double support "
+                                   "does not hold (left mean)."]
+    assert {p["name"] for p in js["parameters"] if p["in_doubt"]} == {"double_support_pct", "stance_pct"}
