@@ -291,12 +291,13 @@ async function compareChecked() {
   if (ids.length !== 2) { box.hidden = true; return; }
   const [a, b] = await Promise.all(ids.map((id) => api(`/trials/${encodeURIComponent(id)}/parameters`)));
   $("#compare-table thead").innerHTML = `<tr><th>Parameter</th><th>${esc(a.session)} L</th><th>${esc(a.session)} R</th><th>${esc(a.session)} mean</th>
-    <th>${esc(b.session)} L</th><th>${esc(b.session)} R</th><th>${esc(b.session)} mean</th><th>Change</th></tr>`;
+    <th>${esc(b.session)} L</th><th>${esc(b.session)} R</th><th>${esc(b.session)} mean</th><th>Change L</th><th>Change R</th><th>Change</th></tr>`;
   $("#compare-table tbody").innerHTML = a.parameters.map((p, i) => {
     const q = b.parameters[i], d = p.decimals;
-    const change = p.mean != null && q.mean != null ? signedChange(q.mean - p.mean, d) : "–";
+    const change = (x, y) => (x != null && y != null ? signedChange(y - x, d) : "–");
     return `<tr><td>${esc(p.label)} (${esc(p.unit)})</td><td>${fmtFixed(p.left, d)}</td><td>${fmtFixed(p.right, d)}</td><td>${fmtFixed(p.mean, d)}</td>
-      <td>${fmtFixed(q.left, d)}</td><td>${fmtFixed(q.right, d)}</td><td>${fmtFixed(q.mean, d)}</td><td>${change}</td></tr>`;
+      <td>${fmtFixed(q.left, d)}</td><td>${fmtFixed(q.right, d)}</td><td>${fmtFixed(q.mean, d)}</td>
+      <td>${change(p.left, q.left)}</td><td>${change(p.right, q.right)}</td><td>${change(p.mean, q.mean)}</td></tr>`;
   }).join("");
   box.hidden = false;
 }
