@@ -15,12 +15,14 @@ frame id, the same ones on every camera), so live keypoints never lag without bo
 records every image). At most ``max_inflight`` frames are with a worker at once. A worker process that
 dies is noticed at once (its process sentinel): its cameras move to the workers left, its queued frames
 with them; the frames it held are counted as ``lost`` for their cameras. Results reach ``on_result``
-(:class:`DetectResult`) on the pool's reader thread.
+(:class:`DetectResult`) on the pool's reader thread. A dead worker process is replaced after a second (at
+most ``MAX_RESPAWNS`` times) and takes cameras from the busiest workers.
 """
 
 from __future__ import annotations
 
 import collections
+import functools
 import logging
 import multiprocessing
 import os
@@ -35,6 +37,8 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 START_TIMEOUT_S = 120.0
+RESPAWN_DELAY_S = 1.0  # a dead worker is replaced after this long
+MAX_RESPAWNS = 20  # a detector that keeps crashing is not restarted for ever
 THIN_AFTER = 15  # frames queued per camera (0.5 s at 30 fps) before frame ids are thinned out (live pools)
 MAX_STRIDE = 8
 
@@ -184,6 +188,9 @@ class DetectorPool:
         self.thin = max_age_s is not None  # a live pool keeps up by common frames; an offline one detects all
         self.skeleton = skeleton
         self._workers = workers
+        self._size = len(workers)
+        self._respawn: Callable[[int], _Worker] | None = None  # set by of_processes
+        self.respawned = 0
         self.on_result = on_result
         self.max_pending, self.max_inflight = max_pending, max_inflight
         self.counts = PoolCounts()
@@ -208,20 +215,15 @@ class DetectorPool:
         its detector."""
         if workers < 1 or max_batch < 1:
             raise ValueError(f"detector pool: workers and max_batch must be >= 1, got {workers}, {max_batch}")
-        ctx = multiprocessing.get_context("spawn")  # never fork a process with bus threads
-        started = []
-        for i in range(workers):
-            parent, child = ctx.Pipe(duplex=True)
-            proc = ctx.Process(target=_process_main, args=(factory, child, i, max_batch), daemon=True,
-                               name=f"gaitcap-detector-{i}")
-            proc.start()
-            child.close()
-            started.append(_Worker(i, parent, process=proc))
+        spawn = functools.partial(_spawn_worker, factory, max_batch)
+        started = [spawn(i) for i in range(workers)]
         skeleton = _await_ready(started, start_timeout_s)
         log.info("detector pool: %d worker processes (pids %s), batches of up to %d frames", workers,
                  ", ".join(str(w.process.pid) for w in started), max_batch)
-        return cls(started, skeleton, on_result, max_pending=max_pending,
+        pool = cls(started, skeleton, on_result, max_pending=max_pending,
                    max_inflight=max_inflight or 2 * max_batch, max_age_s=max_age_s)
+        pool._respawn = spawn
+        return pool
 
     @classmethod
     def in_process(cls, detector, on_result: Callable[[DetectResult], None] | None = None, *, max_batch: int = 1,
@@ -271,8 +273,8 @@ class DetectorPool:
 
     @property
     def size(self) -> int:
-        """Workers started (alive or not)."""
-        return len(self._workers)
+        """The pool's size: workers it keeps (a dead one is replaced)."""
+        return self._size
 
     def pids(self) -> list[int]:
         """The worker processes' ids (empty for an in-process pool)."""
@@ -322,9 +324,11 @@ class DetectorPool:
 
     def _read_loop(self) -> None:
         while not self._closed:
-            live = [w for w in self._workers if w.alive]
+            with self._cond:
+                live = [w for w in self._workers if w.alive]
             if not live:
-                return
+                time.sleep(0.1)  # a replacement may be starting
+                continue
             waits = {w.conn: w for w in live} | {w.process.sentinel: w for w in live if w.process is not None}
             for ready in wait(list(waits), timeout=0.5):
                 worker = waits[ready]
@@ -375,6 +379,8 @@ class DetectorPool:
                 else:
                     target.pending.append(task)
             self._cond.notify_all()
+        if self._respawn is not None and self.respawned < MAX_RESPAWNS:
+            threading.Thread(target=self._replace, args=(worker,), daemon=True, name="pool-respawn").start()
         code = worker.process.exitcode if worker.process is not None else None
         where = {cam: (w.index if w is not None else None) for cam, w in moved.items()}
         if any(w is not None for w in moved.values()):
@@ -382,6 +388,51 @@ class DetectorPool:
         else:
             log.error("detector %s died (exit code %s) and no worker is left for cameras %s", worker.name, code,
                       cameras)
+
+    def _replace(self, dead: _Worker) -> None:
+        """Start a worker in place of ``dead`` and hand it cameras from the busiest workers (their tracking
+        starts again once); given up, with an error, when it cannot start."""
+        time.sleep(RESPAWN_DELAY_S)
+        with self._cond:
+            if self._closed:
+                return
+            self.respawned += 1
+            index = len(self._workers)
+        try:
+            worker = self._respawn(index)
+            _await_ready([worker], START_TIMEOUT_S)
+        except Exception as exc:  # no replacement: the workers left carry on
+            log.error("detector worker %d could not be replaced: %s", dead.index, exc)
+            return
+        with self._cond:
+            if self._closed:
+                _stop_all([worker])
+                return
+            self._workers.append(worker)
+            sender = threading.Thread(target=self._send_loop, args=(worker,), daemon=True, name=f"pool-send-{index}")
+            self._senders.append(sender)
+            moved = self._rebalance(worker)
+            self._cond.notify_all()
+        sender.start()
+        log.warning("detector %s replaces worker %d; cameras moved to it: %s", worker.name, dead.index, moved)
+
+    def _rebalance(self, new: _Worker) -> list[str]:
+        """Move cameras from the busiest live workers to ``new`` until counts differ by at most one."""
+        moved = []
+        while True:
+            busiest = max((w for w in self._workers if w.alive and w is not new), key=lambda w: len(w.cameras),
+                          default=None)
+            if busiest is None or len(busiest.cameras) - len(new.cameras) <= 1:
+                return moved
+            cam = sorted(busiest.cameras)[-1]
+            busiest.cameras.discard(cam)
+            new.cameras.add(cam)
+            self._route[cam] = new
+            keep = [t for t in busiest.pending if t.camera != cam]
+            new.pending.extend(t for t in busiest.pending if t.camera == cam)
+            busiest.pending.clear()
+            busiest.pending.extend(keep)
+            moved.append(cam)
 
     def close(self, timeout_s: float = 5.0) -> None:
         """Stop the workers (frames still queued are left undetected)."""
@@ -406,6 +457,16 @@ class DetectorPool:
         self._reader.join(timeout_s)
         for w in self._workers:
             w.conn.close()
+
+
+def _spawn_worker(factory: Callable[[], object], max_batch: int, index: int) -> _Worker:
+    ctx = multiprocessing.get_context("spawn")  # never fork a process with bus threads
+    parent, child = ctx.Pipe(duplex=True)
+    proc = ctx.Process(target=_process_main, args=(factory, child, index, max_batch), daemon=True,
+                       name=f"gaitcap-detector-{index}")
+    proc.start()
+    child.close()
+    return _Worker(index, parent, process=proc)
 
 
 def _await_ready(workers: list[_Worker], timeout_s: float) -> str:
