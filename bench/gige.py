@@ -132,14 +132,17 @@ def run(cameras: int, seconds: float, fps: float, packet_size: int, lossy_link: 
         probe_proc = subprocess.Popen([*lab.exec_prefix, sys.executable, __file__, "--probe", str(bus), str(out),
                                        ",".join(names), str(LEAD_S + seconds + 180)], env=env)
         cpu = _measure_cpu(nodes, lab, start_ns, seconds)
-        for node in nodes:
-            node.wait(timeout=seconds + 120)
+        exits = [node.wait(timeout=seconds + 120) for node in nodes]
+        for name, code in zip(names, exits, strict=True):
+            if code != 0:
+                logging.warning("camera node of %s exited %s: %s", name, code,
+                                (tmp / f"{name}.log").read_text(errors="replace")[-1500:])
         time.sleep(2.0)  # the last status messages
         probe_proc.terminate()
         probe_proc.wait(timeout=30)
         per_camera = json.loads(out.read_text())
-    for name, (node_cpu, fake_cpu) in zip(names, cpu, strict=True):
-        per_camera[name].update(node_cpu_percent=node_cpu, fake_camera_cpu_percent=fake_cpu)
+    for name, (node_cpu, fake_cpu), code in zip(names, cpu, exits, strict=True):
+        per_camera[name].update(node_cpu_percent=node_cpu, fake_camera_cpu_percent=fake_cpu, node_exit=code)
     return {"cameras": cameras, "seconds": seconds, "fps_set": fps, "packet_size_bytes": packet_size,
             "size_px": [512, 512], "pixel_format": "BayerRG8", "link_camera_1": link,
             "namespace": not no_ns, "per_camera": per_camera}
@@ -157,13 +160,13 @@ def _measure_cpu(nodes, lab, start_ns: int, seconds: float) -> list[tuple[float,
 
 
 def table(report: dict) -> str:
-    head = (f"{'camera':8s} {'fps':>6s} {'frames':>6s} {'incompl':>7s} {'lost':>5s} {'resend':>6s} {'skip':>4s} "
+    head = (f"{'camera':8s} {'fps':>6s} {'bus/sent':>12s} {'incompl':>7s} {'lost':>5s} {'resend':>6s} {'skip':>4s} "
             f"{'node CPU%':>9s} {'fake CPU%':>9s} {'lat p50 ms':>10s} {'lat p95 ms':>10s}")
     rows = []
     for cam, r in report["per_camera"].items():
         st = r["status"] or {}
         ex = st.get("extra", {})
-        rows.append(f"{cam:8s} {r['fps']:6.2f} {r['received']:6d} {ex.get('incomplete', -1):7d} {st.get('drops', -1):5d} "
+        rows.append(f"{cam:8s} {r['fps']:6.2f} {r['received']:6d}/{st.get('published', 0):<5d} {ex.get('incomplete', -1):7d} {st.get('drops', -1):5d} "
                     f"{ex.get('resend_requests', -1):6d} {ex.get('device_skipped', -1):4d} {r['node_cpu_percent']:9.1f} "
                     f"{r['fake_camera_cpu_percent']:9.1f} {r['latency_ms_p50'] or float('nan'):10.2f} "
                     f"{r['latency_ms_p95'] or float('nan'):10.2f}")
