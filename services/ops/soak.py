@@ -117,6 +117,7 @@ class SoakTrial:
 @dataclass(frozen=True)
 class SoakReport:
     """What :func:`run_soak` saw. ``rss_mb``: process -> [first, last, max] resident memory (MB);
+    ``rss_series_mb``: process -> its resident memory before the first trial and after each (MB);
     ``cameras``: :class:`FrameGaps` per camera; ``restarts``: process -> restarts by the supervisor."""
 
     minutes: float
@@ -126,7 +127,7 @@ class SoakReport:
     restarts: dict[str, int]
     disk_per_trial_mb: float
     frame_period_s: float
-    extra: dict = field(default_factory=dict)
+    rss_series_mb: dict[str, list[float]] = field(default_factory=dict)
 
     @property
     def all_done(self) -> bool:
@@ -163,12 +164,13 @@ def _recording_kept(stack, trial_id: str) -> bool:
     return p.is_file() and p.stat().st_size > 0
 
 
-def _sample_rss(stack, into: dict[str, list[float]]) -> None:
+def _sample_rss(stack, into: dict[str, list[float]], series: dict[str, list[float]]) -> None:
     children = _children_of()
     for name in stack.supervisor.children:
         mb = round(rss_mb(stack.supervisor.pid(name), children), 1)
         first = into.setdefault(name, [mb, mb, mb])
         first[1], first[2] = mb, max(first[2], mb)
+        series.setdefault(name, []).append(mb)
 
 
 def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0, stall_s: float = 600.0,
@@ -179,13 +181,13 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
 
     if trials < 1 or every_s <= 0 or trial_s <= 0:
         raise ValueError(f"soak: need trials >= 1, every_s > 0, trial_s > 0; got {trials}, {every_s}, {trial_s}")
-    gaps, rss, done = FrameGaps(), {}, []
+    gaps, rss, series, done = FrameGaps(), {}, {}, []
     session = stack.bus_session()
     sub = session.declare_subscriber(stack.bus.keys.image(), gaps)
     restarts0 = {n: stack.supervisor.restarts(n) for n in stack.supervisor.children}
     t0 = time.monotonic()
     try:
-        _sample_rss(stack, rss)
+        _sample_rss(stack, rss, series)
         disk = disk_bytes(stack.data_dir)
         with stack.client() as c:
             for k in range(trials):
@@ -196,7 +198,7 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
                 done.append(SoakTrial(trial_id, trial["state"], prelim, refined, _recording_kept(stack, trial_id),
                                       now_disk - disk, why))
                 disk = now_disk
-                _sample_rss(stack, rss)
+                _sample_rss(stack, rss, series)
                 log.info("soak trial %d/%d %s: %s, preliminary %s s, refined %s s", k + 1, trials, trial_id,
                          trial["state"], prelim, refined)
     finally:
@@ -206,4 +208,4 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
     return SoakReport(minutes=(time.monotonic() - t0) / 60, trials=tuple(done), cameras=gaps.snapshot(), rss_mb=rss,
                       restarts={n: stack.supervisor.restarts(n) - restarts0[n] for n in restarts0},
                       disk_per_trial_mb=growth[len(growth) // 2] / 1e6 if growth else 0.0,
-                      frame_period_s=1.0 / stack.cfg.fps)
+                      frame_period_s=1.0 / stack.cfg.fps, rss_series_mb=series)
