@@ -193,6 +193,9 @@ class StageNotifier:
     def files_added(self, stage: str, files: dict[str, str]) -> None:
         pass
 
+    def checked(self, quality) -> None:
+        pass
+
     def check(self) -> None:
         pass
 

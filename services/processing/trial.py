@@ -14,8 +14,9 @@ steps run or in which order. The sequence:
    the trajectory (refused when no joint could be reconstructed), the reprojection error of the first
    stage into the quality block, gait (:func:`~gaitcap.services.processing.pipeline.gait_of`), the stage's
    data files, ``sink.stored``, its views (TRC, plot) and, by ``viewer_files``, its viewer files;
-   after the first stage, the trial's checks of its results (one person, the rig: :mod:`.checks`), and
-   each stage's consistency rules beside its numbers;
+   once the first stage is stored, the trial's checks of its results (one person, the rig:
+   :mod:`.checks`; ``sink.checked``), whose warnings the later stages' quality blocks carry; each stage's
+   consistency rules beside its numbers;
 6. joint kinematics of the last stage (option ``kinematics``; never fails the trial).
 
 A step left out by the options is named in :attr:`TrialResult.skipped` with the option that left it out.
@@ -205,6 +206,9 @@ class TrialSink(Protocol):
     def files_added(self, stage: str, files: dict[str, str]) -> None:
         """More files of a stage are written whole ({artifact key: path})."""
 
+    def checked(self, quality: DataQuality) -> None:
+        """The trial's checks of its results are done (``quality.checks``): the quality as it now stands."""
+
     def check(self) -> None:
         """Raise to stop processing (e.g. the job's lease was lost)."""
 
@@ -219,6 +223,9 @@ class NoSink:
         pass
 
     def files_added(self, stage: str, files: dict[str, str]) -> None:
+        pass
+
+    def checked(self, quality: DataQuality) -> None:
         pass
 
     def check(self) -> None:
@@ -252,12 +259,18 @@ def process_trial(data: TrialInput, options: TrialOptions = TrialOptions(), *, f
         timings[plan.name] = time.perf_counter() - t0
         sink.check()
         if index == 0:
-            quality = first_stage_quality(quality, det, rig, traj.points_mm, options.checks)
+            quality = with_reprojection(quality, reprojection_px(traj.points_mm, det.keypoints, rig))
         t0 = time.perf_counter()
         viewers = (recording, rig) if _wants_viewers(options, index) else None
         stages[plan.name] = _finish_stage(plan.name, traj, rec, det, files, sink, quality, viewers=viewers,
                                           data=data, options=options)
         timings[f"{plan.name} gait and files"] = time.perf_counter() - t0
+        if index == 0 and options.checks:  # after the first result is stored: the page shows it meanwhile
+            sink.progress("checking the rig and the reconstruction", _start(index, options) + 0.05, plan.name)
+            t0 = time.perf_counter()
+            quality = checked_quality(quality, det, rig, traj.points_mm, options.checks)
+            sink.checked(quality)
+            timings["checks"] = time.perf_counter() - t0
     kinematics = None
     if options.kinematics and files is not None:
         t0 = time.perf_counter()
@@ -311,10 +324,9 @@ def _wants_viewers(options: TrialOptions, index: int) -> bool:
     return options.viewer_files is ViewerFiles.EVERY or (options.viewer_files is ViewerFiles.LAST and last)
 
 
-def first_stage_quality(quality: DataQuality, det, rig: Rig, points_mm: np.ndarray, checks) -> DataQuality:
-    """The quality once the first stage's points (T, J, 3) mm exist: each camera's reprojection error
-    and the trial's ``checks`` (names of :data:`CHECKS`)."""
-    quality = with_reprojection(quality, reprojection_px(points_mm, det.keypoints, rig))
+def checked_quality(quality: DataQuality, det, rig: Rig, points_mm: np.ndarray, checks) -> DataQuality:
+    """The quality with the trial's ``checks`` (names of :data:`CHECKS`) of the first stage's points
+    (T, J, 3) mm."""
     for name in checks:
         quality = with_check(quality, name, CHECKS[name](det, rig, points_mm))
     return quality

@@ -216,6 +216,7 @@ class CatalogSink:
 
     def __init__(self, worker: Worker, trial_id: str, lease: LeaseKeeper, *, load_s: float) -> None:
         self.worker, self.trial_id, self.lease, self.load_s = worker, trial_id, lease, load_s
+        self.gait_warnings, self.stage = [], ""  # the last stored stage's
 
     def progress(self, step: str, fraction: float, result: str | None) -> None:
         self.worker._report(self.trial_id, step, fraction)
@@ -226,8 +227,8 @@ class CatalogSink:
     def stored(self, outcome: StageOutcome, quality: DataQuality) -> None:
         db, report, traj = self.worker.db, outcome.report, outcome.trajectory
         gait_warnings = list(report.warnings) if report else []
-        cat.set_quality(db, self.trial_id, "processing", {**quality.to_dict(), "gait_warnings": gait_warnings,
-                                                          "stage": outcome.name})
+        self.gait_warnings, self.stage = gait_warnings, outcome.name
+        self.checked(quality)
         extra = {"warnings": gait_warnings, "problem": outcome.problem, "data_quality": quality.to_dict(),
                  "consistency": outcome.consistency,
                  "load_s": round(self.load_s, 3), "compute_s": round(traj.elapsed_s, 3),
@@ -240,6 +241,11 @@ class CatalogSink:
 
     def files_added(self, stage: str, files: dict[str, str]) -> None:
         cat.add_artifacts(self.worker.db, self.trial_id, stage, files)
+
+    def checked(self, quality: DataQuality) -> None:
+        """The trial's quality as it now stands, with the last stored stage's gait warnings."""
+        cat.set_quality(self.worker.db, self.trial_id, "processing",
+                        {**quality.to_dict(), "gait_warnings": self.gait_warnings, "stage": self.stage})
 
 
 def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:
