@@ -147,6 +147,12 @@ def box_inside(a: np.ndarray, b: np.ndarray, *, fraction: float = 0.6) -> bool:
     return bool(inter >= fraction * max(smaller, 1e-9))
 
 
+def _centre_inside(roi: Roi, keypoints: np.ndarray) -> bool:
+    """Whether a detector region's centre (a person's hip centre) lies in a found person's landmark box."""
+    x0, y0, x1, y1 = landmark_box(keypoints)
+    return bool(x0 <= roi.center_px[0] <= x1 and y0 <= roi.center_px[1] <= y1)
+
+
 def landmark_box(keypoints: np.ndarray, *, min_conf: float = 0.3) -> np.ndarray:
     """(4,) x0, y0, x1, y1 px around the (J, 3) keypoints with confidence >= ``min_conf`` (all if none)."""
     ok = keypoints[:, 2] >= min_conf
@@ -274,7 +280,8 @@ class MediaPipeDetector:
             for roi in self.find_people(rgb):
                 if len(people) == self.config.num_poses:
                     break
-                self._add(rgb, roi, people, regions)
+                if not any(_centre_inside(roi, p) for p in people):  # a person already found: no rerun
+                    self._add(rgb, roi, people, regions)
         self._tracks.pop(camera, None)
         if self.config.tracking and regions:
             self._tracks[camera] = (frame_id, tuple(regions))
