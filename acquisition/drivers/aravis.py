@@ -342,13 +342,13 @@ class AravisCamera:
     def _take(self, buf, ids: BlockIds, offset: int | None) -> tuple[Frame | None, int | None]:
         """Frame of one popped buffer (None: incomplete or before the start) and the frame id offset."""
         try:
-            raw_id = int(buf.get_frame_id())
             if buf.get_status() != self._arv.BufferStatus.SUCCESS:
+                # not counted into the block ids: a buffer that lost its leader may carry id 0; the next
+                # whole frame shows the gap
                 self._status.extra["incomplete"] += 1
-                ids.next(raw_id)
                 return None, offset
             ts = int(buf.get_timestamp())
-            count = ids.next(raw_id)
+            count = ids.next(int(buf.get_frame_id()))
             image = self._image(buf)
         finally:
             self._stream.push_buffer(buf)

@@ -29,10 +29,10 @@ PY = [sys.executable, "-c", "from gaitcap.services.cli import main; main()"]
 # 15 frames/s: the fake cameras are software timed, and a frame up to half a period late still lands on its
 # frame slot on a loaded 2-core host (real GigE cameras time frames in hardware)
 FPS = 15
-SIM = {"preset": "paper", "seconds": 10.0, "cameras": 3, "seed": 5}
+SIM = {"preset": "paper", "seconds": 8.0, "cameras": 3, "seed": 5}
 SIM_ARGS = ["--sim-preset", SIM["preset"], "--sim-seconds", str(SIM["seconds"]), "--sim-cameras",
             str(SIM["cameras"]), "--sim-seed", str(SIM["seed"]), "--fps", str(FPS)]
-FRAMES = 120
+FRAMES = 90
 NAMES = ["cam01", "cam02", "cam03"]
 KILL_AFTER_S = 2.0
 
