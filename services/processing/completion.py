@@ -291,11 +291,14 @@ def _with_seconds(report: CompletionReport, seconds: float) -> CompletionReport:
 class CompletionSettings:
     """How a trial is completed: ``detector``, the offline detector's typed config (its ``build`` runs in each
     worker process; e.g. ``MediaPipeConfig(model="heavy")`` or an ``OnnxConfig``); ``workers`` processes (None:
-    one per CPU core; 0: in this process); ``max_batch`` frames a worker takes at once."""
+    one per CPU core; 0: in this process); ``max_batch`` frames a worker takes at once; ``redetect_all``: detect
+    every recorded frame, the live ones too (each camera tracked through all its frames, as ``gaitcap detect``
+    does: the final keypoints do not depend on what the live pass caught; costs the live frames again)."""
 
     detector: DetectorConfig
     workers: int | None = None
     max_batch: int = 4
+    redetect_all: bool = False
 
     @property
     def detector_name(self) -> str:
@@ -305,13 +308,18 @@ class CompletionSettings:
         return " ".join([self.detector.kind, *changed])
 
 
+def complete_with(mcap_path: str | os.PathLike, recording: KeypointRecording | None,
+                  settings: CompletionSettings) -> tuple[KeypointRecording, CompletionReport]:
+    """:func:`complete_keypoints` with ``settings`` (the one processing path's completion step)."""
+    workers = default_workers() if settings.workers is None else settings.workers
+    return complete_keypoints(mcap_path, recording, settings.detector.build, detector_name=settings.detector_name,
+                              workers=workers, max_batch=settings.max_batch, redetect_all=settings.redetect_all)
+
+
 def complete_trial(mcap_path: str | os.PathLike, recording: KeypointRecording | None, folder: str | os.PathLike,
                    settings: CompletionSettings) -> tuple[KeypointRecording, CompletionReport, CompletionFiles]:
-    """:func:`complete_keypoints` with ``settings``, then :func:`save_completion` into the trial's ``folder``."""
-    workers = default_workers() if settings.workers is None else settings.workers
-    keypoints, report = complete_keypoints(mcap_path, recording, settings.detector.build,
-                                           detector_name=settings.detector_name, workers=workers,
-                                           max_batch=settings.max_batch)
+    """:func:`complete_with`, then :func:`save_completion` into the trial's ``folder``."""
+    keypoints, report = complete_with(mcap_path, recording, settings)
     return keypoints, report, save_completion(folder, keypoints, report)
 
 

@@ -154,3 +154,24 @@ def test_complete_trial_with_settings_stores_the_files(tmp_path):
     kp, report, files = complete_trial(path, read_keypoints(path), tmp_path / "trial", settings)
     assert report.detector == "brightness gain=2.0" and report.provenance.tolist() == [[2, 1, 2, 2]]
     assert files.keypoints.is_file() and files.report.is_file() and kp.frame_ids.tolist() == [0, 1, 2, 3]
+
+
+def test_settings_can_redetect_every_frame_the_live_ones_too(tmp_path):
+    from dataclasses import dataclass
+
+    from gaitcap.acquisition.detectors.base import DetectorConfig
+    from gaitcap.services.processing.completion import CompletionSettings, complete_trial
+
+    @dataclass(frozen=True)
+    class BrightnessConfig(DetectorConfig):
+        kind = "brightness"
+
+        def build(self):
+            return Brightness()
+
+    images = {"cam0": {f: _grey(60 + f) for f in range(4)}}
+    path = _write(tmp_path / "t.mcap", images, {"cam0": {1: [[[1.0, 2.0, 0.5]] * 17]}})
+    kp, report, _ = complete_trial(path, read_keypoints(path), tmp_path / "trial",
+                                   CompletionSettings(BrightnessConfig(), workers=0, redetect_all=True))
+    assert report.provenance.tolist() == [[2, 2, 2, 2]] and report.redetected_all
+    assert kp.people[0, 1, 0, 0, 0] == pytest.approx(decode_jpeg(images["cam0"][1]).mean())
