@@ -1,9 +1,10 @@
 """Benchmark: 2D detector speed at 640x480 on a real walking video.
 
 Frames of the sports2d demo video (installed by deploy/bootstrap.sh), centre-cropped to 4:3 and resized
-to 640x480, go through MediaPipe Pose (lite / full / heavy) in tracking mode (one camera, consecutive
-frames: the person detector runs only when the pose is lost) and in image mode (detector + landmarks on
-every frame), and through the ONNX detector's pre/post-processing with a trivial model (the crop, the
+to 640x480, go through MediaPipe Pose (lite / full / heavy) in tracking mode (one pose, one camera,
+consecutive frames: the person detector runs only when the pose is lost), in image mode (one pose,
+detector + landmarks on every frame) and with the default options (everyone: up to 4 poses, each tracked,
+the person detector on every frame for newcomers), and through the ONNX detector's pre/post-processing with a trivial model (the crop, the
 normalisation and onnxruntime's call overhead, not a real network). Wall time and CPU time per frame.
 
     python bench/detectors.py                # a table
@@ -86,11 +87,12 @@ def run(*, frames: int, threads: int) -> dict:
 
     imgs = load_frames(frames)
     rows = []
+    modes = (("tracking", True, 1), ("image", False, 1), ("everyone", True, MediaPipeConfig.num_poses))
     for model in ("lite", "full", "heavy"):
-        for consecutive in (True, False):
-            det = MediaPipeConfig(model=model, num_threads=threads).build()
+        for mode, consecutive, poses in modes:
+            det = MediaPipeConfig(model=model, num_threads=threads, num_poses=poses).build()
             res = time_detector(det, imgs, consecutive=consecutive)
-            rows.append({"detector": f"mediapipe-{model}", "mode": "tracking" if consecutive else "image", **res})
+            rows.append({"detector": f"mediapipe-{model}", "mode": mode, **res})
     with tempfile.TemporaryDirectory() as tmp:
         det = OnnxConfig(model_path=trivial_onnx(Path(tmp) / "t.onnx"), num_threads=threads).build()
         res = time_detector(det, imgs, consecutive=True)
