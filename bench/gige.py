@@ -6,8 +6,9 @@ namespace of their own (one camera: on the host's 127.0.0.1 when namespaces cann
 Zenoh bus inside the namespace) and a probe on the bus. Prints per camera: frames/s received on the bus,
 incomplete frames, lost frames (frame-id gaps), resend requests, CPU of its camera node process (and of
 the fake camera), and latency from the device timestamp to the bus (p50 / p95, ms). ``--lossy-link``
-passes camera 1's stream through ``tc`` (netem loss and delay where the kernel has it, else a rate limit
-and a short queue) to show the faults counted. Target: 4 cameras at 30 fps with 0 incomplete frames.
+makes camera 1 lose 2 in 1000 GVSP packets and passes its stream through ``tc`` (netem 0.1 % loss and
+20 ms delay where the kernel has it, else a 100 Mbit/s rate limit whose queue delays it) to show the
+faults counted. Target: 4 cameras at 30 fps with 0 incomplete frames.
 
     python bench/gige.py                          # table, 4 cameras, 10 s
     python bench/gige.py --cameras 2 --seconds 5 --json
@@ -33,6 +34,7 @@ from _common import emit  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 PY_CLI = [sys.executable, "-c", "from gaitcap.services.cli import main; main()"]
 TARGET_CAMERAS, TARGET_FPS = 4, 30.0
+LOSSY_PER_THOUSAND = 2  # --lossy-link: GVSP packets camera 1 never sends (random loss on its link)
 LEAD_S = 10.0  # camera nodes start streaming this long after launch (imports, opening the cameras)
 
 
@@ -114,10 +116,15 @@ def run(cameras: int, seconds: float, fps: float, packet_size: int, lossy_link: 
         raise SystemExit(f"bench/gige.py: {cameras} cameras or --lossy-link need a network namespace: {no_ns}")
     names = [f"cam{i + 1:02d}" for i in range(cameras)]
     frames = int(round(seconds * fps))
-    with tempfile.TemporaryDirectory() as tmp_name, FakeGigELab(cameras, namespace=not no_ns) as lab:
+    lost = [LOSSY_PER_THOUSAND if lossy_link and i == 0 else 0 for i in range(cameras)]
+    with tempfile.TemporaryDirectory() as tmp_name, FakeGigELab(cameras, namespace=not no_ns,
+                                                                lost_per_thousand=lost) as lab:
         tmp = Path(tmp_name)
-        link = lab.shape(source=lab.addresses[0], loss_percent=1.0, delay_ms=5.0, rate_mbit=100.0,
-                         queue_packets=16) if lossy_link else "clean"
+        link = "clean"
+        if lossy_link:
+            link = (f"{LOSSY_PER_THOUSAND} per 1000 GVSP packets lost; "
+                    + lab.shape(source=lab.addresses[0], loss_percent=0.1, delay_ms=20.0, rate_mbit=100.0,
+                                queue_packets=64))
         bus = _bus_file(tmp, cameras)
         env = dict(os.environ, GAITCAP_BUS=str(bus), PYTHONPATH=str(ROOT))
         start_ns = time.time_ns() + int(LEAD_S * 1e9)
