@@ -23,6 +23,6 @@ def test_two_cameras_two_seconds_end_fully_detected():
     assert r["frames_recorded"] >= 2 * 50, r  # 60 frames per camera at 30 fps, a few may be late
     assert r["frames_live"] > 0 and r["final_coverage"] == 1.0 and r["targets_met"]["final_coverage_100pct"]
     for row in r["per_camera"].values():
-        assert row["live"] + row["completed"] == row["recorded"] and row["corrupt"] == 0
+        assert row["live"] + row["completed"] == row["recorded"] and row["corrupt"] == row["missing"] == 0
         assert row["lag_s"] is not None and row["lag_s"] >= 0
     assert "Stop -> complete detection" in bench.table(r)
