@@ -267,7 +267,14 @@ class AravisCamera:
             exposure_us=round(float(cam.get_exposure_time()), 1) if cam.is_exposure_time_available() else None,
             gain_db=round(float(cam.get_gain()), 2) if cam.is_gain_available() else None,
             packet_size_bytes=int(cam.gv_get_packet_size()), packet_delay_ns=int(cam.gv_get_packet_delay()),
-            ptp=self._ptp(), start_sync=START_SYNC)
+            ptp=self._ptp(), start_sync=START_SYNC, action_commands=self._actions(),
+            trigger_sources=list(cam.dup_available_trigger_sources() or []))
+
+    def _actions(self) -> str:
+        """Whether the device takes GigE Vision action commands (Aravis 0.8 sends none either way)."""
+        has = self._available("ActionDeviceKey") and self._available("ActionGroupKey")
+        return ("supported by the device, not sent (Aravis 0.8 has no action command sender)" if has
+                else "not supported by the device")
 
     def _ptp(self) -> str:
         """Enable PTP where the device has it and return its state, or say the device has none."""

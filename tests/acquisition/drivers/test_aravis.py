@@ -75,7 +75,8 @@ def test_discovers_configures_and_streams_device_ids_and_ns_timestamps(fake_came
     ex = cam.status().to_dict()
     assert (ex["serial"], ex["pixel_format"], ex["size_px"], ex["fps_set"]) == ("GC001", "BayerRG8", [320, 240], 30.0)
     assert (ex["exposure_us"], ex["gain_db"], ex["packet_size_bytes"]) == (8000.0, 2.0, 1400)
-    assert ex["ptp"] == "not supported by the device" and "software start" in ex["start_sync"]
+    assert ex["ptp"] == ex["action_commands"] == "not supported by the device" and "software start" in ex["start_sync"]
+    assert "Software" in ex["trigger_sources"], ex["trigger_sources"]  # what the fake camera offers, reported
     at = time.time_ns() + 200_000_000
     frames = _stream(cam, 45, at)
     ids = [f.frame_id for f in frames]
