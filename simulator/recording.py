@@ -19,13 +19,15 @@ T0_NS = 1_700_000_000_000_000_000
 
 
 def write_keypoint_recording(trial, path: str | Path, *, metadata: dict | None = None, everyone: bool = False,
-                             stills: bool = False) -> Path:
+                             stills: bool = False, live: np.ndarray | None = None) -> Path:
     """Write ``trial`` (a :class:`~gaitcap.simulator.trial.SyntheticTrial`) to ``path`` and
     return the finished file's path.
 
     everyone: every person detected in each camera frame, in the detector's (arbitrary) slot order
         (``trial.multi``), instead of the patient alone;
-    stills: also a small grey JPEG per camera and frame (a recording with images to click on).
+    stills: also a small grey JPEG per camera and frame (a recording with images to click on);
+    live: (C, T) bool, the camera frames whose keypoints the live detector caught (default all): the others
+        have their image only (with ``stills``), as when the live detector fell behind.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -39,7 +41,8 @@ def write_keypoint_recording(trial, path: str | Path, *, metadata: dict | None =
             people = _everyone(trial, c, i) if everyone else _patient(trial, c, i)
             msg = {"camera": camera, "frame_id": i, "timestamp_ns": ts, "skeleton": trial.skeleton.name,
                    "people": people, "detector_ms": 0.0}
-            writer.add_keypoints(camera, json.dumps(msg).encode(), timestamp_ns=ts, frame_id=i)
+            if live is None or live[c, i]:
+                writer.add_keypoints(camera, json.dumps(msg).encode(), timestamp_ns=ts, frame_id=i)
             if stills:
                 from gaitcap.acquisition.encoding import image_message
 

@@ -45,6 +45,20 @@ def detector_config(kind: str, model: Path | None, param: list[str]):
     return cls(**params)
 
 
+def completion_plan(kind: str, model: Path | None, param: list[str], workers: int | None):
+    """``--complete-with KIND [--complete-model PATH] [--complete-param K=V] [--complete-workers N]`` as the
+    one path's :class:`~gaitcap.services.processing.completion.CompletionSettings`; None for kind ``none``."""
+    from gaitcap.services.processing.completion import CompletionSettings
+
+    if kind == "none":
+        return None
+    return CompletionSettings(detector_config(kind, model, param), workers=workers)
+
+
+COMPLETE_WITH_HELP = ("Detect the recorded frames the live detector missed, before the refined stage, with this "
+                      "detector kind (mediapipe | onnx; none: the live keypoints only).")
+
+
 def frame_count(files: list[Path]) -> int:
     from gaitcap.acquisition.drivers.video import VideoCamera
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import typer
 from gaitcap.services.cli._common import progress, user_errors
+from gaitcap.services.cli.detect import COMPLETE_WITH_HELP, completion_plan
 
 
 def _echo_summary(result, out: Path, chosen_how: str) -> None:
@@ -74,6 +75,10 @@ def register(app: typer.Typer) -> None:
         param: list[str] = typer.Option([], "--param", help="Videos: other detector config field KEY=VALUE."),
         fps: float = typer.Option(30.0, "--fps", help="Frame rate when the input has none."),
         refine: bool = typer.Option(True, "--refine/--no-refine", help="Also run the implicit fit (slower)."),
+        complete_with: str = typer.Option("none", "--complete-with", help="A trial MCAP: " + COMPLETE_WITH_HELP),
+        complete_model: Path | None = typer.Option(None, "--complete-model", help="Its model."),
+        complete_param: list[str] = typer.Option([], "--complete-param", help="Its other config field KEY=VALUE."),
+        complete_workers: int | None = typer.Option(None, "--complete-workers", help="Its processes."),
         kinematics: bool = typer.Option(True, "--kinematics/--no-kinematics",
                                         help="Joint kinematics of the last stage (OpenSim model fit)."),
         as_json: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),
@@ -94,7 +99,9 @@ def register(app: typer.Typer) -> None:
 
         with user_errors():
             options = OfflineOptions(skeleton=skeleton, fps=fps, refine=refine,
-                                     patient=patient_request(person, patient_near), kinematics=kinematics)
+                                     patient=patient_request(person, patient_near), kinematics=kinematics,
+                                     completion=completion_plan(complete_with, complete_model, complete_param,
+                                                                complete_workers))
             t0 = time.perf_counter()
             with progress(desc="detect", unit="frame") as bar:
                 data = load_input(source, calibration=calibration, options=options,

@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR, catalog_url
 from gaitcap.services.cli._common import stop_on_signals, user_errors
+from gaitcap.services.cli.detect import COMPLETE_WITH_HELP, completion_plan
 
 
 def register(app: typer.Typer) -> None:
@@ -23,6 +24,11 @@ def register(app: typer.Typer) -> None:
         no_bus: bool = typer.Option(False, "--no-bus", help="Do not declare this worker alive on the bus."),
         node: str = typer.Option("worker", "--node", help="Bus node name of this worker."),
         warm_up: bool = typer.Option(True, "--warm-up/--no-warm-up", help="Compile JAX code at start."),
+        complete_with: str = typer.Option("none", "--complete-with", help=COMPLETE_WITH_HELP),
+        complete_model: Path | None = typer.Option(None, "--complete-model", help="Its model (e.g. mediapipe heavy)."),
+        complete_param: list[str] = typer.Option([], "--complete-param", help="Its other config field KEY=VALUE."),
+        complete_workers: int | None = typer.Option(None, "--complete-workers",
+                                                    help="Its processes (default: one per CPU core)."),
         rerun_images_hz: float = typer.Option(5.0, "--rerun-images-hz",
                                               help="Images per second and camera in the trial's .rrd (0: none)."),
     ) -> None:
@@ -34,6 +40,8 @@ def register(app: typer.Typer) -> None:
         with user_errors():
             cfg = WorkerConfig(catalog_url=catalog_url(data_dir, catalog), data_dir=data_dir,
                                lease_s=lease_s, refine=not no_refine, rerun=RerunSettings(image_rate_hz=rerun_images_hz),
+                               completion=completion_plan(complete_with, complete_model, complete_param,
+                                                          complete_workers),
                                **({"worker_id": worker_id} if worker_id else {}))
             session = None
             if not no_bus:  # the worker is alive on the bus (the API's health); its progress is in the catalog

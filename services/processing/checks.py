@@ -46,6 +46,24 @@ def rig_check(det: Detections, rig: Rig, points_mm: np.ndarray) -> dict:
             "notes": [w for w in result.warnings if w not in warnings]}
 
 
+def completion_check(report) -> dict:
+    """A :class:`~gaitcap.services.processing.completion.CompletionReport` as a check: live and final
+    coverage per camera; corrupt images (named, skipped) and recorded frames still without keypoints are
+    warnings, what was completed a note."""
+    data = report.to_dict()
+    warnings, frames = [], data["frames"]
+    for camera, row in data["cameras"].items():
+        if row["corrupt"]:
+            warnings.append(f"Camera {camera}: {row['corrupt']} recorded image(s) could not be read and were skipped "
+                            f"(frames {', '.join(str(f) for f in row['corrupt_frame_ids'])})")
+        if row["missing"] - row["corrupt"] > 0:
+            warnings.append(f"Camera {camera}: {row['missing'] - row['corrupt']} recorded frame(s) still have no "
+                            f"keypoints after completion with {data['detector']}")
+    note = (f"{frames['completed']} of {frames['recorded']} recorded frames had no live keypoints and were detected "
+            f"after Stop with {data['detector']} in {data['seconds']:.1f} s")
+    return {**data, "warnings": warnings, "notes": [note]}
+
+
 def stage_consistency(report, times_s: np.ndarray) -> dict:
     """The consistency rules on a stage's gait report (``ConsistencyReport.to_dict()``), tolerances from
     the frame period (s, the median step of ``times_s``); {} without a report."""

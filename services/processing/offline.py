@@ -68,11 +68,12 @@ class OfflineOptions:
     refine: bool = True
     patient: PatientRequest = PatientRequest()
     kinematics: bool = True
+    completion: object | None = None  # a trial MCAP: its frames without live keypoints detected (CompletionPlan)
 
     def trial_options(self) -> TrialOptions:
         """The one path's options: the worker's, less what was asked to be left out."""
         return TrialOptions(stages=default_stages(refine=self.refine), selector=self.patient.selector(),
-                            kinematics=self.kinematics)
+                            kinematics=self.kinematics, completion=self.completion if self.refine else None)
 
 
 def result_summary(result: TrialResult, *, chosen_how: str) -> dict:

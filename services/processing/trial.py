@@ -16,7 +16,9 @@ steps run or in which order. The sequence:
    data files, ``sink.stored``, its views (TRC, plot) and, by ``viewer_files``, its viewer files;
    once the first stage is stored, the trial's checks of its results (one person, the rig:
    :mod:`.checks`; ``sink.checked``), whose warnings the later stages' quality blocks carry; each stage's
-   consistency rules beside its numbers;
+   consistency rules beside its numbers; with ``completion`` settings, before the last stage every
+   recorded frame the live detector missed is detected from the trial's images (the refined result then
+   rests on the complete keypoints and says so: its method and the quality block's ``completion`` check);
 6. joint kinematics of the last stage (option ``kinematics``; never fails the trial).
 
 A step left out by the options is named in :attr:`TrialResult.skipped` with the option that left it out.
@@ -36,6 +38,7 @@ from gaitcap.acquisition.keypoint_input import KeypointInput
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.services.processing.artifacts import TrialFiles
 from gaitcap.services.processing.checks import one_person_check, rig_check, stage_consistency
+from gaitcap.services.processing.completion import CompletionSettings
 from gaitcap.services.processing.pipeline import (
     NoUsableObservations,
     Trajectory,
@@ -128,7 +131,9 @@ class TrialOptions:
     ``age_years``: the patient's age (the kinematics band); ``viewer_files``: which stages get viewer
     files; ``criteria``: the data-quality thresholds; ``rerun``: the .rrd's settings; ``truth_mm``:
     ground-truth points (T, J, 3) mm for the methods' metrics (research), or None; ``checks``: the trial's
-    checks of its results run on the first stage (names of :data:`CHECKS`), into the quality block."""
+    checks of its results run on the first stage (names of :data:`CHECKS`), into the quality block;
+    ``completion``: how the recorded frames without live keypoints are detected from the images before the
+    last stage (:class:`~gaitcap.services.processing.completion.CompletionSettings`), or None."""
 
     stages: tuple[StagePlan, ...] = field(default_factory=default_stages)
     layout_check: bool = True
@@ -141,6 +146,7 @@ class TrialOptions:
     rerun: RerunSettings = RerunSettings()
     truth_mm: np.ndarray | None = None
     checks: tuple[str, ...] = tuple(CHECKS)
+    completion: CompletionSettings | None = None
 
     def __post_init__(self) -> None:
         unknown = [c for c in self.checks if c not in CHECKS]
@@ -253,9 +259,16 @@ def process_trial(data: TrialInput, options: TrialOptions = TrialOptions(), *, f
     quality = trial_quality(data, recording, det, rig, options.criteria)
     stages: dict[str, StageOutcome] = {}
     for index, plan in enumerate(options.stages):
+        if options.completion is not None and index == len(options.stages) - 1 and data.recorded is not None:
+            sink.progress("detecting the frames the live pass missed", _start(index, options), _last(stages))
+            t0 = time.perf_counter()
+            recording, det, rig, selection, quality = _completed(data, recording, quality, files, options)
+            timings["completion"] = time.perf_counter() - t0
         sink.progress(_STARTING.get(plan.name, f"reconstruction: {plan.name}"), _start(index, options), _last(stages))
         t0 = time.perf_counter()
         traj, rec = run_stage(plan, det, rig, fit_progress=fit_progress, truth_mm=options.truth_mm)
+        if "completion" in quality.checks:
+            traj = replace(traj, method=f"{traj.method} (keypoints completed after Stop)")
         timings[plan.name] = time.perf_counter() - t0
         sink.check()
         if index == 0:
@@ -288,6 +301,21 @@ def _start(index: int, options: TrialOptions) -> float:
     return round(0.1 + 0.3 * index if len(options.stages) == 2 else 0.1 + 0.8 * index / len(options.stages), 3)
 
 
+def _completed(data: TrialInput, recording, quality: DataQuality, files: TrialFiles | None, options: TrialOptions):
+    """Every recorded frame without live keypoints detected from the recording's images (stored with its
+    provenance when ``files``), the patient chosen again on the complete keypoints; (recording, det, rig,
+    selection, quality with the ``completion`` check)."""
+    from gaitcap.services.processing.checks import completion_check
+    from gaitcap.services.processing.completion import complete_with, save_completion
+
+    completed, report = complete_with(data.recorded.mcap, recording, options.completion)
+    if files is not None:
+        save_completion(files.root, completed, report)
+    det, rig, selection = patient_input(completed, data.rig, files=files, choice=options.choice,
+                                        selector=options.selector)
+    return completed, det, rig, selection, with_check(quality, "completion", completion_check(report))
+
+
 def _last(stages: dict[str, StageOutcome]) -> str | None:
     return list(stages)[-1] if stages else None
 
@@ -299,6 +327,8 @@ def _skipped(options: TrialOptions, files: TrialFiles | None) -> dict[str, str]:
     if not options.kinematics:
         out["kinematics"] = "kinematics=False"
     out.update({f"{name} check": f"checks={list(options.checks)}" for name in CHECKS if name not in options.checks})
+    if options.completion is None:
+        out["completion"] = "completion=None: the stages use the live keypoints"
     if files is None:
         out["files"] = "no output folder: nothing written"
     elif options.viewer_files is ViewerFiles.NONE:

@@ -27,6 +27,7 @@ from gaitcap.services import catalog as cat
 from gaitcap.services.kinematics.shown import patient_age
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.calibration_job import fail_calibration, run_calibration
+from gaitcap.services.processing.completion import CompletionSettings
 from gaitcap.services.processing.outputs import steps_of, summary_of
 from gaitcap.services.processing.pipeline import Trajectory, enable_compile_cache, ring_rig, warm_up
 from gaitcap.services.processing.quality import DataQuality, QualityCriteria
@@ -50,7 +51,9 @@ class LeaseLost(RuntimeError):
 class WorkerConfig:
     """catalog_url: SQLite path or URL; data_dir: trial files; lease_s: job lease (s), renewed every
     lease_s / 3; poll_s: how often the job table is polled (s); refine: run the implicit fit;
-    rerun: the .rrd's settings (images per second and camera copied from the recording)."""
+    rerun: the .rrd's settings (images per second and camera copied from the recording); completion:
+    detect the recorded frames the live detector missed before the refined stage (None: the live
+    keypoints only)."""
 
     catalog_url: str
     data_dir: Path
@@ -61,6 +64,7 @@ class WorkerConfig:
     fallback_calibration: Path | None = None
     criteria: QualityCriteria = QualityCriteria()
     rerun: RerunSettings = RerunSettings()
+    completion: CompletionSettings | None = None
 
     def __post_init__(self) -> None:
         if self.lease_s < 1.0:
@@ -199,7 +203,8 @@ class Worker:
     def options(self, *, age_years: int | None) -> TrialOptions:
         """The clinic's options: both stages (or the preliminary only), kinematics, viewer files of the last."""
         return TrialOptions(stages=default_stages(refine=self.config.refine), age_years=age_years,
-                            criteria=self.config.criteria, rerun=self.config.rerun)
+                            criteria=self.config.criteria, rerun=self.config.rerun,
+                            completion=self.config.completion if self.config.refine else None)
 
     def _finish(self, trial_id: str, quality: DataQuality) -> None:
         """``done``, or ``done_with_warnings`` when the data had serious problems (this worker's measures,

@@ -223,3 +223,41 @@ def test_a_camera_moved_since_calibration_flags_the_trial_and_its_checks_are_sto
     assert any("Camera cam03 appears to have moved" in w for w in cat.warnings_of(cat.get_quality(db, t.id)))
     stored = cat.get_result(db, t.id, "preliminary").report["consistency"]
     assert stored == gait["consistency"] and stored["rules_checked"] and stored["comparisons"] > 0, stored
+
+
+def test_the_frames_the_live_detector_missed_are_detected_before_the_refined_stage(tmp_path):
+    """Completion in the one path: a recording whose live keypoints miss a third of one camera's frames and
+    a 2 s stretch of another's is completed from its images (the simulated detector, which looks the
+    synthetic world up by camera and frame) before the refined stage; the preliminary result rests on the
+    live keypoints, the refined on the complete set and says so; the keypoints are stored with their
+    provenance."""
+    from gaitcap.acquisition.detectors.simulated import SimulatedConfig
+    from gaitcap.acquisition.readers import load_multi_npz
+    from gaitcap.services.processing.completion import CompletionSettings
+    from gaitcap.simulator import make_trial
+    from gaitcap.simulator.recording import write_keypoint_recording
+
+    walk = make_trial("clean", seconds=10, cameras=4, people=1, seed=3, fps=30)
+    live = np.ones(walk.detections.keypoints.shape[:2], bool)
+    live[1, ::3] = False  # cam02: every third frame missed
+    live[0, 60:120] = False  # cam01: two seconds missed
+    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+    t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
+    write_keypoint_recording(walk, Path(t.recording_path), stills=True, live=live)
+    cat.set_state(db, t.id, "recorded")
+    cat.enqueue_job(db, t.id)
+    completion = CompletionSettings(SimulatedConfig(walk), workers=0)
+    cfg = WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=True, completion=completion)
+    assert Worker(cfg, db=db).run_once()
+    assert cat.get_trial(db, t.id).state in ("done", "done_with_warnings")
+    prelim, refined = cat.get_result(db, t.id, "preliminary"), cat.get_result(db, t.id, "refined")
+    assert prelim.method == "robust triangulation"
+    assert refined.method == "implicit trajectory fit (keypoints completed after Stop)"
+    done = refined.report["data_quality"]["checks"]["completion"]
+    assert done["frames"]["completed"] == int((~live).sum()) and done["complete"], done["frames"]
+    assert done["cameras"]["cam02"]["live"] == int(live[1].sum()) and done["warnings"] == [], done
+    assert "completion" not in prelim.report["data_quality"]["checks"]
+    kp = load_multi_npz(trial_files(tmp_path, t.id).root / "keypoints_complete.npz")
+    assert kp.keypoints.shape[:2] == live.shape
+    errors = _step_length_errors(refined, walk.truth.steps)  # the refined numbers on the complete keypoints
+    assert len(errors) >= 6 and np.abs(errors).max() < 3.0, errors
