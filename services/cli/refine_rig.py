@@ -51,6 +51,16 @@ def _refine_table(report) -> str:
     return "\n".join(lines)
 
 
+def _from_people(dets, rig, height_mm: float, max_frames: int):
+    from gaitcap.reconstruction.calibration.people_bundle import PeopleBundleConfig
+    from gaitcap.reconstruction.calibration.people_init import PeopleCalibrationConfig, calibrate_from_people
+
+    if len(dets) != 1:
+        raise ValueError(f"--height-mm: calibrating from people alone takes one walk, got {len(dets)} trials")
+    bundle = PeopleBundleConfig(prior_rotation_deg=5.0, prior_shift_mm=300.0, max_frames=max_frames)
+    return calibrate_from_people(dets[0][1], rig, height_mm=height_mm, config=PeopleCalibrationConfig(bundle=bundle))
+
+
 def register(app: typer.Typer) -> None:
     @app.command("refine-rig")
     def refine_rig_cmd(
@@ -60,6 +70,7 @@ def register(app: typer.Typer) -> None:
         focal: bool = typer.Option(False, "--focal", help="Also refine each camera's focal length."),
         check: bool = typer.Option(False, "--check", help="Only check the rig against each trial (which camera moved, by how much); write nothing."),
         max_frames: int = typer.Option(150, "--max-frames", help="Frames used at most per trial."),
+        height_mm: float | None = typer.Option(None, "--height-mm", help="Calibrate from people alone (no board): the subject's standing height, mm, sets the scale; only the calibration's intrinsics are used (one trial: a walk)."),
     ) -> None:
         """Refine a calibration from the people in trials, or check the rig against them (--check)."""
         from gaitcap.acquisition.fileio import atomic_write_text
@@ -84,6 +95,15 @@ def register(app: typer.Typer) -> None:
                     sub = rig.subset(det.camera_names)
                     result = check_rig(det, sub, robust_triangulate(det, sub).points_mm)
                     typer.echo(_check_table(str(path), result))
+                return
+            if height_mm is not None:
+                result = _from_people(dets, rig, height_mm, max_frames)
+                save_rig(result.rig, out, metadata={"calibrated_from": str(trials[0]), "height_mm": height_mm})
+                report_file = out.with_suffix(".report.json")
+                atomic_write_text(report_file, json.dumps(result.to_dict(), indent=2))
+                typer.echo(f"from people alone: stature {result.stature_mm:.0f} mm (entered {height_mm:.0f} mm)")
+                typer.echo(_refine_table(result.report))
+                typer.echo(f"wrote {out} and {report_file}")
                 return
             result = refine_rig_from_people([d for _, d in dets], rig,
                                             config=PeopleBundleConfig(refine_focal=focal, max_frames=max_frames))

@@ -50,3 +50,13 @@ def test_refine_rig_needs_an_output(tmp_path):
     res = CliRunner().invoke(app, ["refine-rig", str(tmp_path), "--calibration", str(tmp_path / "c.toml")])
     assert res.exit_code == 2
     assert "--out" in res.output
+
+
+def test_from_people_alone_takes_one_walk(tmp_path):
+    trial = make_trial(preset="paper", seconds=4.0, cameras=4, seed=6)
+    files = save_trial(trial, tmp_path / "trial")
+    res = CliRunner().invoke(app, ["refine-rig", str(files["keypoints"]), str(files["keypoints"]),
+                                   "--calibration", str(files["calibration"]), "--height-mm", "1750",
+                                   "--out", str(tmp_path / "people.toml")])
+    assert res.exit_code == 2
+    assert "one walk" in res.output
