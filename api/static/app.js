@@ -161,7 +161,7 @@ function onStatus(snap) {
   if (!state.recording && wasRecording && !state.followed) follow(wasRecording.id);
   renderRecording();
   renderTrials(snap.trials);
-  renderCameras(snap.cameras);
+  renderCameras(snap.cameras, snap.detection);
   const followed = snap.trials.find((t) => t.id === state.followed);
   if (followed) updateFollowed(followed);
 }
@@ -219,8 +219,9 @@ function trialCells(t) {
 }
 
 // ---------- cameras ----------
-function renderCameras(cams) {
+function renderCameras(cams, detection) {
   const grid = $("#cameras");
+  const det = (detection && detection.cameras) || {};
   const bad = cams.filter((c) => !c.healthy).length;
   $("#camera-summary").textContent = cams.length ? `${cams.length} cameras, ${bad ? bad + " with a problem" : "all working"}` : "";
   if (!cams.length) { grid.innerHTML = '<p class="muted">No cameras seen yet. Check that the cameras are switched on.</p>'; state.cameras = {}; return; }
@@ -230,11 +231,14 @@ function renderCameras(cams) {
     if (!tile) {
       tile = document.createElement("div");
       tile.className = "camera"; tile.dataset.camera = c.name;
-      tile.innerHTML = `<img alt="Camera ${esc(c.name)} preview"><div class="cap"><span class="name">${esc(c.name)}</span><span class="fps"></span></div>`;
+      tile.innerHTML = `<img alt="Camera ${esc(c.name)} preview"><div class="cap"><span class="name">${esc(c.name)}</span><span class="fps"></span></div><div class="det"></div>`;
       grid.appendChild(tile); state.cameras[c.name] = tile;
     }
     tile.className = "camera " + (c.healthy ? "ok" : "bad");
     tile.querySelector(".fps").textContent = c.healthy ? `${c.fps.toFixed(1)} fps` : `${c.status} (${c.fps.toFixed(1)} fps)`;
+    const d = det[c.name];  // live detection: share of the frames with keypoints, and their lag
+    tile.querySelector(".det").textContent = d && d.coverage != null
+      ? `Keypoints live: ${Math.round(100 * d.coverage)} %` + (d.lag_s != null ? `, ${d.lag_s.toFixed(1)} s behind` : "") : "";
   }
 }
 
