@@ -41,7 +41,8 @@ class WalkParams:
         heel_roll_mm: distance the foot's contact point still travels after initial contact, rolling to
             rest at foot flat (real heels: 20-40 mm).
         toe_off_angle_deg: foot-floor angle (heel up) at toe-off.
-        swing_lift_mm: extra heel lift at mid-swing (foot clearance).
+        swing_lift_mm: extra heel lift in the swing, highest a quarter into it (real heels keep rising after
+            toe off; with 70 mm the walker's toes rise to about 100 mm, as in the healthy walk of ``mocap.py``).
         pelvis_sway_mm: lateral pelvis shift towards the stance foot.
         pelvis_rotation_deg: transverse pelvis rotation (trunk counter-rotates).
         trunk_lean_deg: forward trunk lean while walking.
@@ -77,7 +78,7 @@ class WalkParams:
     paretic_heel_strike_angle_deg: float | None = None
     heel_roll_mm: float = 30.0
     toe_off_angle_deg: float = 45.0
-    swing_lift_mm: float = 20.0
+    swing_lift_mm: float = 70.0
     pelvis_sway_mm: float = 22.0
     pelvis_rotation_deg: float = 4.0
     trunk_lean_deg: float = 3.0

@@ -43,9 +43,17 @@ def swing_profile(tau):
     return 1.0 - (1.0 - tau) ** 3 * (1.0 + 3.0 * tau)
 
 
-def bump(tau):
+EARLY_LIFT_PEAK = 0.25  # fraction of the swing where the heel's extra lift peaks
+
+
+def early_bump(tau):
+    """0 -> 1 -> 0 over the swing, peaking at :data:`EARLY_LIFT_PEAK` (zero speed at both ends): real heels
+    keep rising after toe off, highest at about 70 % of the stride, a quarter into the swing (the healthy
+    motion-capture walk of ``mocap.py``: heel 270 mm up; the knee's flexion in swing follows the lift)."""
     tau = np.clip(tau, 0.0, 1.0)
-    return 64.0 * tau**3 * (1 - tau) ** 3
+    a, b = 2.0, 2.0 * (1.0 - EARLY_LIFT_PEAK) / EARLY_LIFT_PEAK
+    peak = EARLY_LIFT_PEAK**a * (1.0 - EARLY_LIFT_PEAK) ** b
+    return tau**a * (1.0 - tau) ** b / peak
 
 
 @dataclass(frozen=True)
@@ -179,7 +187,7 @@ def foot_trajectory(plan: FootPlan, body: Body, params: WalkParams, side: int, t
             end = landing_heel(nxt, roll, th_hs)
             v_land = landing_speed_mm_s(roll, nxt.t_ff - nxt.t_hs) * ahead(nxt)
             hh = start * (1 - s) + end * s + landing_term(tau)[:, None] * (v_land * swing_s)
-            hh[:, 2] += params.swing_lift_mm * bump(tau)
+            hh[:, 2] += params.swing_lift_mm * early_bump(tau)
             dyaw = float(wrap_angle(nxt.heading - c.heading))
             heel[m], yaw[m] = hh, c.heading + dyaw * s[:, 0]
             pitch[m] = -th_to + (th_to + th_hs) * s[:, 0]
@@ -200,11 +208,12 @@ def _pelvis_anchors(plan: FootPlan, body: Body, params: WalkParams):
         local = np.array([toe_local[0], -c.side * body.toe_medial])
         return c.heel_xy + np.array([ca * local[0] - sa * local[1], sa * local[0] + ca * local[1]])
 
-    def midfoot(c):
-        return 0.5 * (c.heel_xy + toe_xy(c))
+    def over_ankle(c):
+        """Where the ankle keypoint stands (xy): standing upright, the hips are above the ankles."""
+        return c.heel_xy + body.ankle_forward * np.array([math.cos(c.heading), math.sin(c.heading)])
 
     stand = [c for c in cs if c.kind == "stand"]
-    centre0 = 0.5 * (midfoot(stand[0]) + midfoot(stand[1]))
+    centre0 = 0.5 * (over_ankle(stand[0]) + over_ankle(stand[1]))
     h0 = float(np.angle(np.exp(1j * stand[0].heading) + np.exp(1j * stand[1].heading)))
     times, xy, head = [-1e6], [centre0], [h0]
     steps = [k for k, c in enumerate(cs) if c.kind != "stand"]
@@ -238,7 +247,7 @@ def _pelvis_anchors(plan: FootPlan, body: Body, params: WalkParams):
             xy.append(mid + sway)
             head.append(hd)
     last, before = cs[-1], cs[-2]
-    end_centre = 0.5 * (midfoot(last) + midfoot(before))
+    end_centre = 0.5 * (over_ankle(last) + over_ankle(before))
     h_end = float(np.angle(np.exp(1j * last.heading) + np.exp(1j * before.heading)))
     for dt in (0.45, 1e6):
         times.append(last.t_hs + dt)
@@ -248,6 +257,14 @@ def _pelvis_anchors(plan: FootPlan, body: Body, params: WalkParams):
     times, xy, head = np.array(times)[order], np.array(xy)[order], np.array(head)[order]
     keep = np.concatenate([[True], np.diff(times) > 1e-6])
     return times[keep], xy[keep], np.unwrap(head[keep])
+
+
+# The pelvis height is a soft minimum of what each leg reaches (its full length): the legs' shortfall bends
+# the knees (a shortfall of d mm bends a leg of length L by about sqrt(8 d / L) rad: 1 mm, 5.5 deg).
+# Walking, 1.5 mm; standing still, 0.05 mm: straight legs (1.0 deg). Before (6 mm, 99.5 % of the legs'
+# length) the walker stood with its knees bent 16.5 deg (docs/kinematics.md).
+SOFTMIN_WALK_MM = 1.5
+SOFTMIN_STAND_MM = 0.05
 
 
 def _softmin(values, k):
@@ -298,14 +315,14 @@ def simulate_body(plan: FootPlan, params: WalkParams, times: np.ndarray, body: B
     thorax_yaw = heading + 0.6 * rot_p * phase
     pl = np.stack([-np.sin(pelvis_yaw), np.cos(pelvis_yaw)], -1)
     hips_xy = {s: pel_xy + s * (body.hip_width / 2) * pl for s in (LEFT, RIGHT)}
-    reach = 0.995 * (body.thigh + body.shank)
+    reach = body.thigh + body.shank
     limits = []
     for s in (LEFT, RIGHT):
         dxy2 = ((hips_xy[s] - ankle[s][:, :2]) ** 2).sum(-1)
         if np.any(dxy2 >= reach**2):
             raise AssertionError("walker: a foot lands out of reach of the hip (step too long for the legs)")
         limits.append(ankle[s][:, 2] + np.sqrt(reach**2 - dxy2))
-    pel_z = _softmin([np.full(t.size, body.pelvis_height), *limits], k=6.0)
+    pel_z = _softmin([np.full(t.size, body.pelvis_height), *limits], k=SOFTMIN_WALK_MM * walking + SOFTMIN_STAND_MM)
     pelvis = np.concatenate([pel_xy, pel_z[:, None]], -1)
     out = np.zeros((t.size, 26, 3))
     out[:, J("pelvis")] = pelvis
