@@ -53,3 +53,26 @@ def test_redetect_a_whole_trial_names_the_corrupt_frame(tmp_path):
 def test_a_missing_recording_is_named(tmp_path):
     res = CliRunner().invoke(app, ["redetect", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "o")])
     assert res.exit_code != 0 and "nope.mcap" in res.output
+
+
+def test_several_trials_one_task_each_a_bad_one_fails_alone(tmp_path):
+    for name in ("T1", "T2"):
+        (tmp_path / name).mkdir()
+        _trial(tmp_path / name / "recording.mcap", frames=3)
+    out = tmp_path / "again"
+    args = ["redetect", str(tmp_path / "T1" / "recording.mcap"), str(tmp_path / "T2" / "recording.mcap"),
+            str(tmp_path / "T3.mcap"), "--model", "lite", "--workers", "0", "--out", str(out)]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 1, res.output
+    assert f"{out / 'T1'}: done: 5 frames detected, 1 corrupt" in res.output
+    assert f"{out / 'T3'}: failed: FileNotFoundError: recording {tmp_path / 'T3.mcap'} not found" in res.output
+    assert json.loads((out / "T2" / "completion.json").read_text())["cameras"]["cam02"]["corrupt_frame_ids"] == [2]
+
+
+def test_two_trials_writing_into_one_folder_are_refused(tmp_path):
+    from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig
+    from gaitcap.services.processing.completion import CompletionSettings
+    from gaitcap.services.research.redetect import plan_redetect
+
+    with pytest.raises(ValueError, match="would both write into"):
+        plan_redetect(["a/x.mcap", "b/x.mcap"], tmp_path, CompletionSettings(MediaPipeConfig()))
