@@ -7,8 +7,12 @@ these are its true joint angles. Conventions as in :mod:`gaitcap.reconstruction.
 - knee flexion: the angle between the thigh and the shank (0 = straight, negative = hyperextended);
 - ankle dorsiflexion: 90 degrees minus the angle between the shank (ankle -> knee) and the foot (heel ->
   big toe).
-To compare with a model, subtract the same angles measured on the model's markers in its zero pose
-(:func:`zero_pose_offsets`): the model's zero is not the keypoints' straight line.
+These are the norm sources' definitions (angles between segments through joint centres: a straight leg
+is 0, a foot at right angles to the shank is 0). A model's zero is not: the OpenSim model's knee in its
+zero pose is 2.3 deg hyperextended measured through its own joint centres and knee markers, and its
+heel marker sits higher than its toe markers (4.5 deg). :func:`zero_pose_offsets` measures a model's
+zero pose this way; the model's angle plus that offset is the angle in these definitions
+(``kinematics_report``'s ``zero_offsets_deg``).
 """
 
 from __future__ import annotations
@@ -55,6 +59,21 @@ def keypoint_angles(points_mm: np.ndarray, joint_names) -> dict[str, dict[str, n
         foot = j(f"{side}_big_toe") - j(f"{side}_heel")
         out["ankle_dorsiflexion"][side] = 90.0 - _angle_deg(-shank, foot)
     return out
+
+
+# the model's marker names (every layout spells these alike) -> the keypoint the angles above use
+MODEL_MARKER_JOINTS = {f"{m[0]}{part}": f"{side}_{joint}" for side, m in (("left", "L"), ("right", "R"))
+                       for part, joint in (("Hip", "hip"), ("Knee", "knee"), ("Ankle", "ankle"),
+                                           ("Heel", "heel"), ("BigToe", "big_toe"))}
+
+
+def model_zero_offsets(markers_mm: dict[str, np.ndarray]) -> dict[str, dict[str, float]]:
+    """:func:`zero_pose_offsets` of a model's markers (marker name -> (3,) mm, room frame z up, the model in
+    its zero pose); a variable whose markers the model lacks is NaN."""
+    names = list(MODEL_MARKER_JOINTS.values())
+    pts = np.array([markers_mm.get(m, np.full(3, np.nan)) for m in MODEL_MARKER_JOINTS], dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        return zero_pose_offsets(pts, names)
 
 
 def zero_pose_offsets(model_points_mm: np.ndarray, joint_names) -> dict[str, dict[str, float]]:

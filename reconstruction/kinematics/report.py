@@ -69,15 +69,28 @@ def curves_csv(d: dict) -> str:
         out.write(",".join("" if not np.isfinite(v) else f"{v:.2f}" for v in row) + "\n")
     return out.getvalue()
 
+def with_zero_offsets(angles: dict[str, dict[str, np.ndarray]], offsets_deg: dict[str, dict[str, float]]
+                      ) -> dict[str, dict[str, np.ndarray]]:
+    """``angles`` (variable -> side -> (T,) degrees) with each finite offset (degrees) added."""
+    out = {}
+    for var, by_side in angles.items():
+        off = offsets_deg.get(var) or {}
+        out[var] = {s: v + off[s] if np.isfinite(off.get(s, np.nan)) else v for s, v in by_side.items()}
+    return out
+
+
 def kinematics_report(coordinates_deg: dict[str, np.ndarray], times_s: np.ndarray, steps, *,
                       norms: dict[str, NormBand] | None = None, marker_errors_mm=None,
-                      model: dict | None = None, held: dict[str, str] | None = None) -> KinematicsReport:
+                      model: dict | None = None, held: dict[str, str] | None = None,
+                      zero_offsets_deg: dict[str, dict[str, float]] | None = None) -> KinematicsReport:
     """Curves and key values from the model's coordinates (name -> (T,) degrees) and the gait report's
     steps (objects with foot, heel_strike_s, toe_off_s, pass_index). ``held``: coordinates the fit held
     rather than measured (-> why): the variables read from them get no curve and no key value, and
-    ``not_measured`` says why."""
+    ``not_measured`` says why. ``zero_offsets_deg``: variable -> side -> degrees added to the model's angle
+    (the model's zero pose measured in the norm sources' joint-centre definitions, ``geometric``), so that
+    a straight leg is 0 whatever the model calls 0; NaN or absent: the model's angle as it is."""
     cycles = cycles_from_steps(steps)
-    angles = clinical_angles(coordinates_deg, times_s)
+    angles = with_zero_offsets(clinical_angles(coordinates_deg, times_s), zero_offsets_deg or {})
     not_measured = {var: (held or {})[coord] for var, v in VARIABLES.items() if var in angles
                     for coord in set(v.coordinate.values()) if coord in (held or {})}
     curves = {var: {side: cycle_curves(vals[side], times_s, cycles, side) for side in SIDES}

@@ -20,7 +20,10 @@ class ModelFit:
     frames that could not be fitted); marker_errors_mm: marker -> {"rms", "max"} over the fitted frames;
     files: "osim" (scaled model), "mot" (coordinates), "trc" (the markers fitted) -> path;
     scale_factors: body -> factor; seconds: {"scale", "ik"}; held: coordinate -> why it was held by the
-    fit rather than measured from the markers (its values are the fit's prior, not the patient's)."""
+    fit rather than measured from the markers (its values are the fit's prior, not the patient's);
+    zero_offsets_deg: clinical variable -> side -> degrees the fitted model's markers read in its zero pose,
+    measured like the keypoints (``geometric.model_zero_offsets``; add it to the model's angle for the
+    joint-centre definitions of the norm sources)."""
 
     times_s: np.ndarray
     coordinates_deg: dict[str, np.ndarray]
@@ -29,6 +32,7 @@ class ModelFit:
     scale_factors: dict[str, float] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
     held: dict[str, str] = field(default_factory=dict)
+    zero_offsets_deg: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

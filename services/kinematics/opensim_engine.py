@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.fileio import atomic_path, atomic_write_text
 from gaitcap.reconstruction.kinematics.frames import opensim_to_room, room_to_opensim
+from gaitcap.reconstruction.kinematics.geometric import model_zero_offsets
 from gaitcap.reconstruction.kinematics.mot import to_mot
 from gaitcap.reconstruction.kinematics.outliers import OUTLIER_MM, gross_outliers
 from gaitcap.reconstruction.trc import to_trc
@@ -227,6 +228,21 @@ class OpenSimEngine:
         return {ms.get(i).getName(): opensim_to_room(ms.get(i).getLocationInGround(state).to_numpy()) * 1000.0
                 for i in range(ms.getSize())}
 
+    def zero_offsets_deg(self, osim_path: Path) -> dict[str, dict[str, float]]:
+        """variable -> side -> degrees: the keypoint angles (``geometric``) of a model file's markers with
+        every rotational coordinate at 0 (the scaled, placed model of a fit)."""
+        model = self.osim.Model(str(osim_path))
+        state = model.initSystem()
+        cs = model.getCoordinateSet()
+        for i in range(cs.getSize()):
+            if cs.get(i).getMotionType() == 1:  # rotational
+                cs.get(i).setValue(state, 0.0, False)
+        model.realizePosition(state)
+        ms = model.getMarkerSet()
+        markers = {ms.get(i).getName(): opensim_to_room(ms.get(i).getLocationInGround(state).to_numpy()) * 1000.0
+                   for i in range(ms.getSize())}
+        return model_zero_offsets(markers)
+
     def fit(self, request: FitRequest) -> ModelFit:
         req = request
         pts = np.asarray(req.points_mm, dtype=np.float64)
@@ -245,6 +261,8 @@ class OpenSimEngine:
         factors = self._scale(files, room_to_opensim(pts) / 1000.0, req, paths["osim"])
         placed = self._place(files, paths, req, times, pts)
         log.info("markers placed on their bodies (m): %s", placed)
+        zero = self.zero_offsets_deg(paths["osim"])
+        log.info("the fitted model's zero pose, measured like the keypoints (deg): %s", zero)
         t1 = time.perf_counter()
         coords, errors = self._ik(files, paths, req, times, pts)
         t2 = time.perf_counter()
@@ -252,7 +270,7 @@ class OpenSimEngine:
         held = {p.coordinate: f"held near {p.target_deg:g} deg by the fit: the keypoints do not determine it"
                 for p in PRIORS if p.weight > 0 and p.coordinate in coords}
         return ModelFit(times, coords, errors, paths, {b: f[0] for b, f in factors.items()},
-                        {"scale": round(t1 - t0, 3), "ik": round(t2 - t1, 3)}, held)
+                        {"scale": round(t1 - t0, 3), "ik": round(t2 - t1, 3)}, held, zero)
 
     @staticmethod
     def _without_outliers(pts: np.ndarray, names: tuple[str, ...]) -> np.ndarray:

@@ -39,25 +39,27 @@ def fitted(engine, tmp_path_factory):
 
 def test_ik_matches_the_walkers_true_angles(engine, fitted):
     from gaitcap.reconstruction.kinematics.angles import clinical_angles
-    from gaitcap.reconstruction.kinematics.geometric import keypoint_angles, zero_pose_offsets
-    from gaitcap.reconstruction.kinematics.markers import layout_for
+    from gaitcap.reconstruction.kinematics.geometric import keypoint_angles
     from gaitcap.reconstruction.kinematics.mot import parse_mot
+    from gaitcap.reconstruction.kinematics.report import with_zero_offsets
 
-    points, times, names, _, _, out = fitted
-    layout = layout_for("halpe26")
-    zero = engine.zero_pose_markers_mm(layout.setup)
-    offsets = zero_pose_offsets(np.array([zero.get(layout.markers.get(j, ""), [np.nan] * 3) for j in names]), names)
+    points, times, names, _, kin, out = fitted
     truth = keypoint_angles(points, names)
     mot_times, coords, in_degrees = parse_mot((out / "kinematics.mot").read_text())
     assert in_degrees and np.allclose(mot_times, times, atol=1e-5)
-    ik = clinical_angles(coords, mot_times)
+    # the reported angles: the model's plus its zero pose measured like the keypoints
+    ik = with_zero_offsets(clinical_angles(coords, mot_times), kin.model["angle_zero_offsets_deg"])
     errors = {}
     for var in ("hip_flexion", "knee_flexion", "ankle_dorsiflexion", "hip_adduction"):
         for side in ("left", "right"):
-            err = ik[var][side] - (truth[var][side] - offsets[var][side])
+            err = ik[var][side] - truth[var][side]
             errors[var, side] = float(np.sqrt(np.mean(err**2)))
-    # measured on these 8 s: hip flexion 1.5 / 0.9, knee 1.2 / 1.1, ankle 2.2 / 2.2, hip adduction 1.7 / 1.0
-    limits = {"hip_flexion": 2.5, "knee_flexion": 1.5, "ankle_dorsiflexion": 3.0, "hip_adduction": 2.5}
+    # measured on these 8 s (the walker standing upright, its knee to 64 deg in swing): hip flexion 1.5 / 1.3,
+    # knee 1.4 / 1.7 (the largest errors in swing, -4 deg at 30-60 deg of flexion), ankle 3.4 / 3.0 (bias
+    # -2.5 / -2.0: the walker's foot is not the model's, its heel lower and its ankle further forward),
+    # hip adduction 1.5 / 1.1. Before the walker stood upright (knee to 54 deg in swing, the model's
+    # unscaled zero pose subtracted from the truth): knee 1.2 / 1.1, ankle 2.2 / 2.2.
+    limits = {"hip_flexion": 2.5, "knee_flexion": 2.0, "ankle_dorsiflexion": 4.0, "hip_adduction": 2.5}
     for (var, side), rmse in errors.items():
         assert rmse < limits[var], (var, side, rmse)
     # the walker's pelvis is upright: the keypoints do not tilt the model's (measured mean 1.2 deg)
