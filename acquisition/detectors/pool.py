@@ -189,6 +189,7 @@ class DetectorPool:
         self.skeleton = skeleton
         self._workers = workers
         self._size = len(workers)
+        self._next_index = len(workers)
         self._respawn: Callable[[int], _Worker] | None = None  # set by of_processes
         self.respawned = 0
         self.on_result = on_result
@@ -276,9 +277,10 @@ class DetectorPool:
         """The pool's size: workers it keeps (a dead one is replaced)."""
         return self._size
 
-    def pids(self) -> list[int]:
-        """The worker processes' ids (empty for an in-process pool)."""
-        return [w.process.pid for w in self._workers if w.process is not None]
+    def pids(self) -> dict[int, int]:
+        """{worker index: its process id} of every worker process started (empty for an in-process pool)."""
+        with self._cond:
+            return {w.index: w.process.pid for w in self._workers if w.process is not None}
 
     def queued(self) -> int:
         """Frames queued or with a worker, over the live workers."""
@@ -397,7 +399,7 @@ class DetectorPool:
             if self._closed:
                 return
             self.respawned += 1
-            index = len(self._workers)
+            index, self._next_index = self._next_index, self._next_index + 1
         try:
             worker = self._respawn(index)
             _await_ready([worker], START_TIMEOUT_S)
