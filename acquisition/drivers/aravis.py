@@ -51,7 +51,7 @@ START_SYNC = ("software start (Aravis 0.8 sends no scheduled action command); fr
               "device timestamps")
 _STREAM_COUNTERS = {"n_missing_packets": "missing_packets", "n_resend_requests": "resend_requests",
                     "n_resent_packets": "resent_packets", "n_received_packets": "received_packets",
-                    "n_timeouts": "stream_timeouts"}
+                    "n_timeouts": "stream_timeouts", "n_missing_frames": "missing_frames"}
 
 
 class AravisMissing(ValueError):
