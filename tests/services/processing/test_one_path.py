@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.installed import share_path
 from gaitcap.services.bus.session import free_loopback_ports
 from gaitcap.services.ops.faults import Drill
 from gaitcap.services.ops.stack import Stack, StackConfig
@@ -93,3 +94,41 @@ def test_the_clinics_stored_numbers_are_the_files_numbers(both):
     assert summary["skipped"] == {}  # every step of the path ran in both
     for warning in summary["data_quality"]["warnings"]:
         assert warning in clinic["trial"]["warnings"], (warning, clinic["trial"]["warnings"])
+
+
+POSE2SIM_TRIAL = share_path("testdata", "pose2sim", "S00_Demo_BatchSession", "S00_P00_SingleParticipant",
+                            "S00_P00_T01_BalancingTrial")
+
+
+@pytest.mark.skipif(not POSE2SIM_TRIAL.is_dir(), reason="Pose2Sim demo recordings not installed (deploy/bootstrap.sh)")
+def test_the_same_real_keypoints_read_by_two_importers_give_the_same_files(tmp_path):
+    """Real keypoints (Pose2Sim's demo trial: OpenPose JSON per camera, Pose2Sim's calibration) through
+    ``gaitcap process`` as the Pose2Sim folder and as the NPZ keypoint file holding the same keypoints: the
+    importers give the one keypoints type, so every file of every stage is the same."""
+    from gaitcap.acquisition.writers import save_multi_npz, save_rig
+    from gaitcap.reconstruction.association.multi import MultiPersonDetections
+    from gaitcap.reconstruction.skeletons import get_skeleton
+    from gaitcap.services.processing.offline import OfflineOptions, load_input
+
+    data = load_input(POSE2SIM_TRIAL, calibration=None, options=OfflineOptions())
+    rec = data.keypoints.recording
+    save_multi_npz(MultiPersonDetections(rec.people, rec.camera_names, rec.times_s, get_skeleton(rec.skeleton)),
+                   tmp_path / "keypoints.npz")
+    save_rig(data.rig, tmp_path / "calibration.toml")
+    gaitcap = Path(sys.executable).with_name("gaitcap")
+    runs = {"folder": [str(POSE2SIM_TRIAL)],
+            "npz": [str(tmp_path / "keypoints.npz"), "--calibration", str(tmp_path / "calibration.toml")]}
+    for name, args in runs.items():
+        run = subprocess.run([str(gaitcap), "process", *args, "--out", str(tmp_path / name), "--no-kinematics",
+                              "--no-refine"],  # the stages after the first take what it takes: one is enough
+                             capture_output=True, text=True, timeout=600)
+        assert run.returncode == 0, (name, run.stderr[-3000:])
+    for stage in ("preliminary",):
+        a, b = tmp_path / "folder" / stage, tmp_path / "npz" / stage
+        assert sorted(p.name for p in a.iterdir()) == sorted(p.name for p in b.iterdir()), stage
+        with np.load(a / "trajectory.npz") as x, np.load(b / "trajectory.npz") as y:
+            assert np.isfinite(x["points_mm"]).any()
+            for key in x.files:
+                np.testing.assert_array_equal(x[key], y[key], err_msg=f"{stage} {key}")
+        if (a / "gait.json").is_file():
+            assert _json(a / "gait.json") == _json(b / "gait.json"), stage
