@@ -5,9 +5,11 @@ entered height, the world frame from the floor the feet stand on.
    connected first, from the essential matrix of the keypoints it shares (same frame, same joint) with a
    camera already placed (RANSAC, OpenCV), its baseline scaled to the rig so far by the depths of their
    common points. Intrinsics are taken as given (a separate intrinsics session, or the cameras' data).
-2. Scale: the subject's stature chain (heel - ankle - knee - hip - neck - head, each side; median over the
-   walk) is ``STATURE_CHAIN_RATIO`` times the standing height (segment proportions of Drillis and Contini's
-   anthropometric table), so the rig is scaled to make it match ``height_mm``.
+2. Scale: the subject's stature chain (ankle - knee - hip - neck - head, each side; each segment's median
+   over the walk) is ``STATURE_CHAIN_RATIO`` times the standing height (segment proportions of Drillis and
+   Contini's anthropometric table: the ankle's height above the floor, 0.039 H, is the rest), so the rig is
+   scaled to make it match ``height_mm``. The short heel - ankle segment is left out: detector noise
+   lengthens a short segment most (by 15 mm on the synthetic clinic's feet).
 3. Refinement: :func:`gaitcap.reconstruction.calibration.people_bundle.refine_rig_from_people` with a loose
    prior, then the scale is measured and set again.
 4. World frame: :func:`gaitcap.reconstruction.calibration.walk_frame.world_from_walk` (floor from the feet
@@ -35,8 +37,8 @@ from gaitcap.reconstruction.triangulation import robust_triangulate
 
 log = logging.getLogger(__name__)
 
-STATURE_CHAIN_RATIO = 1.01  # heel-ankle-knee-hip-neck-head over standing height (Drillis & Contini)
-CHAIN = ("heel", "ankle", "knee", "hip")
+STATURE_CHAIN_RATIO = 0.97  # ankle-knee-hip-neck-head over standing height (Drillis & Contini)
+CHAIN = ("ankle", "knee", "hip")
 
 
 @dataclass(frozen=True)
@@ -151,8 +153,9 @@ def initial_poses(det: Detections, rig: Rig, config: PeopleCalibrationConfig) ->
 
 
 def stature_mm(points_mm: np.ndarray, det: Detections) -> float:
-    """Median over the frames of the stature chain (heel-ankle-knee-hip-neck-head, the mean of the two
-    sides) divided by ``STATURE_CHAIN_RATIO``, mm; ValueError when the chain is never complete."""
+    """Standing height (mm) from the stature chain (ankle-knee-hip-neck-head): each segment's median length
+    over the frames, summed, the two sides averaged, divided by ``STATURE_CHAIN_RATIO``; ValueError when a
+    joint is missing from the skeleton or a segment is never reconstructed."""
     sk = det.skeleton
     for name in ("neck", "head"):
         if name not in sk.joint_names:
@@ -160,12 +163,12 @@ def stature_mm(points_mm: np.ndarray, det: Detections) -> float:
     sides = []
     for side in ("left", "right"):
         joints = [sk.index(f"{side}_{n}") for n in CHAIN] + [sk.index("neck"), sk.index("head")]
-        seg = np.linalg.norm(np.diff(points_mm[:, joints], axis=1), axis=-1).sum(1)
-        sides.append(seg)
-    chain = np.nanmean(np.stack(sides), axis=0)
-    if not np.isfinite(chain).any():
-        raise ValueError("calibration from people: the heel-to-head chain was never reconstructed")
-    return float(np.nanmedian(chain) / STATURE_CHAIN_RATIO)
+        seg = np.linalg.norm(np.diff(points_mm[:, joints], axis=1), axis=-1)  # (T, segments)
+        if not np.isfinite(seg).any(0).all():
+            raise ValueError(f"calibration from people: a {side} segment of the ankle-to-head chain was never "
+                             f"reconstructed")
+        sides.append(np.nanmedian(seg, axis=0).sum())
+    return float(np.mean(sides) / STATURE_CHAIN_RATIO)
 
 
 def _scaled(rig: Rig, factor: float) -> Rig:
