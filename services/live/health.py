@@ -2,7 +2,8 @@
 
 Components: ``database`` (a query answers), ``disk`` (free space of the data folder), ``recorder``,
 ``detector`` and ``workers`` (their bus liveliness tokens, since when up or down; the recorder's own
-status: the trial it records, its queue), ``cameras`` (working / seen, and which are not, judged like
+status: the trial it records, its queue; the detector's worker processes alive and its largest lag, s, a
+detector without any worker process being a problem), ``cameras`` (working / seen, and which are not, judged like
 the Start check). Each is ``{"ok": true | false | null, "status": words, "since": UNIX s | null}``;
 ``ok`` null means not attached (a catalog-only server). The overall ``status`` is ``ok`` when no
 component is false, else ``degraded``.
@@ -69,6 +70,24 @@ def _recorder(nodes: dict, link) -> dict:
     return comp
 
 
+def _detector(nodes: dict, link) -> dict:
+    """The detector nodes' liveliness, and from their coverage messages: worker processes alive of the pools'
+    size and the largest lag (s); a node alive with no worker process left is a problem."""
+    comp = _nodes(nodes, "detector", "detector")
+    if not comp["ok"]:
+        return comp
+    det = link.detection()
+    live = [d for d in det["nodes"].values() if not d["stale"]]
+    if not live:
+        return comp
+    workers, pool = sum(d["workers"] for d in live), sum(d["pool"] for d in live)
+    if workers == 0:
+        return _component(False, f"running, but none of its {pool} detector worker processes is alive", comp["since"])
+    lags = [c["lag_s"] for c in det["cameras"].values() if c.get("lag_s") is not None]
+    comp.update(workers=workers, pool=pool, lag_s=max(lags) if lags else None)
+    return comp
+
+
 def _cameras(link) -> dict:
     cams = link.cameras()
     working = [c for c in cams if c.healthy]
@@ -83,7 +102,7 @@ def health_report(catalog: cat.Catalog, link, data_dir: Path, *, min_free_bytes:
     comps = {"database": _database(catalog), "disk": _disk(Path(data_dir), min_free_bytes)}
     if getattr(link, "connected", True):
         nodes = link.nodes()
-        comps.update(recorder=_recorder(nodes, link), detector=_nodes(nodes, "detector", "detector"),
+        comps.update(recorder=_recorder(nodes, link), detector=_detector(nodes, link),
                      workers=_nodes(nodes, "worker", "worker"), cameras=_cameras(link))
     else:
         comps.update({name: _component(None, "not attached (server started without the bus)")

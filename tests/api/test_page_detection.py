@@ -26,3 +26,16 @@ def test_each_camera_tile_shows_its_live_keypoints_and_lag(server):
             assert page.inner_text(".camera[data-camera='cam1'] .det") == ""  # no detection reported for cam1
         finally:
             browser.close()
+
+
+def test_health_names_a_detector_whose_worker_processes_are_all_gone(server):
+    import httpx
+
+    srv, _, link, _ = server
+    nodes = {"detector": {"workers": 2, "pool": 2, "age_s": 0.3, "stale": False}}
+    link.detection = lambda: {"nodes": nodes, "cameras": {"cam0": ROW}}
+    det = httpx.get(f"{srv.url}/health").json()["components"]["detector"]
+    assert det["ok"] is True and (det["workers"], det["pool"], det["lag_s"]) == (2, 2, 0.42)
+    nodes["detector"] = {**nodes["detector"], "workers": 0}
+    det = httpx.get(f"{srv.url}/health").json()["components"]["detector"]
+    assert det["ok"] is False and det["status"] == "running, but none of its 2 detector worker processes is alive"
