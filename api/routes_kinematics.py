@@ -57,11 +57,13 @@ def _status(request: Request, trial_id: str, stage: str) -> dict:
 
 def _key_value_norms(status: dict) -> dict:
     """Key value name -> its normal value (deg), SD where read (None for a range of motion), the percent of
-    the cycle and the normal range (mean +- 1.96 SD, None without an SD), from the band shown."""
+    the cycle and the normal range (mean +- 1.96 SD, None without an SD), from the band shown; a key value
+    whose angle's zero is not validated: ``no_reference`` (the sentence to show) and no normal value."""
     from gaitcap.reconstruction.jsonable import finite_or_none
-    from gaitcap.reconstruction.kinematics.key_norms import key_norms
+    from gaitcap.reconstruction.kinematics.key_norms import KEY_VALUES, key_norms, no_reference
 
-    out = {}
+    out = {name: {"normal_deg": None, "sd_deg": None, "at_pct": None, "normal_range_deg": None,
+                  "no_reference": no_reference(name)} for name in KEY_VALUES if no_reference(name)}
     for name, n in key_norms((status.get("norms") or {}).get("bands") or {}).items():
         band = n.band()
         out[name] = {"normal_deg": finite_or_none(n.normal_deg), "sd_deg": finite_or_none(n.sd_deg), "at_pct": n.at_pct,

@@ -96,7 +96,7 @@ function drawKinematics(k) {
     && (s.mean < nr.normal_range_deg[0] || s.mean > nr.normal_range_deg[1]);
   const cell = (s, nr) => (s && s.mean != null ? `${s.mean.toFixed(1)}${s.sd != null ? " ± " + s.sd.toFixed(1) : ""} (n=${s.n})`
     + (outside(s, nr) ? ' <strong class="out-flag">outside</strong>' : "") : "–");
-  const range = (nr) => !nr ? "no band" : nr.normal_range_deg ? `${nr.normal_range_deg[0].toFixed(1)}–${nr.normal_range_deg[1].toFixed(1)}`
+  const range = (nr) => !nr ? "no band" : nr.no_reference ? nr.no_reference : nr.normal_range_deg ? `${nr.normal_range_deg[0].toFixed(1)}–${nr.normal_range_deg[1].toFixed(1)}`
     : `${nr.normal_deg.toFixed(1)} (no SD for a range)`;
   $("#kinematics-keys").innerHTML = keys.length ? `<caption>Key values (degrees, mean ± SD over the cycles) against the band</caption>
     <thead><tr><th>Key value</th><th>Left</th><th>Right</th><th>Normal (95 %)</th></tr></thead><tbody>${keys.map((name) =>

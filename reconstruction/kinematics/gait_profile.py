@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from gaitcap.reconstruction.kinematics.key_norms import UNVALIDATED_ZERO
 
 #: Baker 2009's nine variables, as this package names them (foot progression has no such angle here).
 BAKER_VARIABLES = ("pelvis_tilt", "pelvis_obliquity", "pelvis_rotation", "hip_flexion", "hip_adduction",
@@ -61,6 +62,9 @@ def gait_profile(kinematics: Mapping[str, Any]) -> GaitProfile:
         band = _curve((bands.get(var) or {}).get("mean_deg"))
         if var in held:
             left_out[var] = f"not measured ({held[var]})"
+            continue
+        if var in UNVALIDATED_ZERO:
+            left_out[var] = f"zero not validated ({UNVALIDATED_ZERO[var]})"
             continue
         if var not in curves:
             left_out[var] = "not computed by this model"

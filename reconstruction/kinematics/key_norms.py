@@ -20,6 +20,23 @@ import numpy as np
 from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT, KEY_VALUES
 
 Z_OUTSIDE = 1.96
+NO_REFERENCE = "no reference: the zero of this angle is not validated"
+
+# variable -> why its zero is not the band's: its key values are shown, never compared with the band.
+# Hip flexion is the thigh against the pelvis, and the fit does not measure the pelvis's tilt (it is held
+# near 0, docs/kinematics.md): our hip flexion is the thigh against a pelvis assumed level. The sources
+# differ by just that: Schwartz 2008 (conventional gait model, pelvis tilted 11.6 deg forward on average)
+# reads 18.6 deg of mean hip flexion over the cycle, BioCV 4.8 deg (its knee and ankle agree with
+# Schwartz's within 1.1 deg); neither source's hip zero is known to be ours.
+UNVALIDATED_ZERO = {
+    "hip_flexion": "pelvic tilt not measured",
+}
+
+
+def no_reference(name: str) -> str | None:
+    """:data:`NO_REFERENCE` for a key value of a variable in :data:`UNVALIDATED_ZERO`, else None."""
+    var = KEY_VALUES.get(name, (None,))[0]
+    return NO_REFERENCE if var in UNVALIDATED_ZERO else None
 
 
 def _point_of(name: str, mean: np.ndarray, toe: int) -> int | None:
@@ -78,10 +95,13 @@ def key_norm(name: str, mean_deg, sd_deg, *, toe_off_pct: float = DEFAULT_TOE_OF
 
 
 def key_norms(bands: Mapping[str, Mapping[str, Any]]) -> dict[str, KeyNorm]:
-    """Key value name -> :class:`KeyNorm` for every key value whose variable has a band (``bands``: the
-    ``kinematics.json`` ``norms.bands`` form, variable -> {"mean_deg", "sd_deg"})."""
+    """Key value name -> :class:`KeyNorm` for every key value whose variable has a band and a validated
+    zero (not in :data:`UNVALIDATED_ZERO`) (``bands``: the ``kinematics.json`` ``norms.bands`` form,
+    variable -> {"mean_deg", "sd_deg"})."""
     out = {}
     for name, (var, _) in KEY_VALUES.items():
+        if var in UNVALIDATED_ZERO:
+            continue
         band = bands.get(var)
         if band and band.get("mean_deg") is not None and band.get("sd_deg") is not None:
             out[name] = key_norm(name, band["mean_deg"], band["sd_deg"])

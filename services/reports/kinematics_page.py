@@ -8,8 +8,14 @@ import io
 import math
 
 from fpdf.fonts import FontFace
-from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT
-from gaitcap.reconstruction.kinematics.key_norms import Z_OUTSIDE, key_norms
+from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT, KEY_VALUES
+from gaitcap.reconstruction.kinematics.key_norms import (
+    NO_REFERENCE,
+    UNVALIDATED_ZERO,
+    Z_OUTSIDE,
+    key_norms,
+    no_reference,
+)
 
 NORMAL_NOTE = (f"Normal: the key value read off the band's mean curve (toe-off taken at {DEFAULT_TOE_OFF_PCT:.0f} % "
                "of the cycle); Normal (95 %): +- 1.96 times the band's SD where the value is read; a range of "
@@ -37,9 +43,9 @@ def _side_cell(s: dict | None, norm) -> str:
     return text + (" !" if math.isfinite(z) and abs(z) > Z_OUTSIDE else "")
 
 
-def _range_cell(norm) -> str:
+def _range_cell(name: str, norm) -> str:
     if norm is None:
-        return "no band"
+        return "no reference" if no_reference(name) else "no band"
     band = norm.band()
     return f"{band[0]:.1f} to {band[1]:.1f}" if band else "no SD (range)"
 
@@ -65,8 +71,10 @@ def _key_table(pdf, k: dict) -> None:
             for side in ("left", "right"):
                 row.cell(pdf.latin1(_side_cell((kv.get(side) or {}).get(name), norm)))
             row.cell(f"{norm.normal_deg:.1f}" if norm is not None else "-")
-            row.cell(pdf.latin1(_range_cell(norm)))
-    pdf.para(NORMAL_NOTE, 7, height=3.3)
+            row.cell(pdf.latin1(_range_cell(name, norm)))
+    unvalidated = {KEY_VALUES[n][0] for n in names if no_reference(n)}
+    why = "; ".join(f"{var.replace('_', ' ')}: {UNVALIDATED_ZERO[var]}" for var in sorted(unvalidated))
+    pdf.para(NORMAL_NOTE + (f" {NO_REFERENCE[0].upper()}{NO_REFERENCE[1:]} ({why})." if why else ""), 7, height=3.3)
 
 
 def _notes(k: dict) -> list[str]:

@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT, KEY_VALUES, key_values
 from gaitcap.reconstruction.kinematics.cycles import CycleCurves
-from gaitcap.reconstruction.kinematics.key_norms import key_norm, key_norms
+from gaitcap.reconstruction.kinematics.key_norms import (
+    NO_REFERENCE,
+    UNVALIDATED_ZERO,
+    key_norm,
+    key_norms,
+    no_reference,
+)
 from gaitcap.services.kinematics.files import norms_for_age
 from gaitcap.services.reports.findings import key_value_findings
 
@@ -35,7 +41,8 @@ def test_the_sources_own_mean_curve_is_normal_with_z_zero_for_every_key_value(wh
     bands = norms["bands"]
     k = _kinematics_of({var: np.asarray(b["mean_deg"]) for var, b in bands.items()}, norms)
     by_name = key_norms(bands)
-    assert set(by_name) == {n for n, (var, _) in KEY_VALUES.items() if var in bands}
+    assert set(by_name) == {n for n, (var, _) in KEY_VALUES.items() if var in bands and var not in UNVALIDATED_ZERO}
+    shown = [n for n, (var, _) in KEY_VALUES.items() if var in bands and k["key_values"]["left"][n]["n"]]
     for name, norm in by_name.items():
         value = k["key_values"]["left"][name]["mean"]
         assert value == pytest.approx(norm.normal_deg, abs=1e-9), name
@@ -46,7 +53,7 @@ def test_the_sources_own_mean_curve_is_normal_with_z_zero_for_every_key_value(wh
     said = key_value_findings(k)
     point_values = [n for n in by_name if not n.endswith("_rom_deg")]
     assert said.findings == () and said.outside == 0
-    assert said.with_reference == 2 * len(point_values) and said.total == 2 * len(by_name)
+    assert said.with_reference == 2 * len(point_values) and said.total == 2 * len(shown)
     assert said.summary.endswith("none outside it.")
     # plantarflexion is positive on the band too (its mean curve goes below zero after toe-off)
     if "ankle_peak_plantarflexion_deg" in by_name:
@@ -71,6 +78,23 @@ def test_a_knee_bent_beyond_the_band_at_initial_contact_is_flagged_on_the_side_i
     assert "right" not in finding and "at 0 % of the cycle" in finding
 
 
+@pytest.mark.parametrize("who", ["children", "adults"])
+def test_hip_flexion_far_outside_the_band_raises_no_finding_its_zero_is_not_validated(who):
+    """The pelvis's tilt is not measured, and the sources' hip flexion differs by about their pelvic tilt:
+    hip flexion's key values are shown with "no reference", never judged; the knee still is."""
+    norms = _norm_set(who)
+    bands = norms["bands"]
+    hip = np.asarray(bands["hip_flexion"]["mean_deg"]) + 40.0
+    knee = np.asarray(bands["knee_flexion"]["mean_deg"]) + 40.0
+    said = key_value_findings(_kinematics_of({"hip_flexion": hip, "knee_flexion": knee}, norms))
+    assert said.findings and all(f.startswith("Knee") for f in said.findings)
+    hip_names = [n for n, (var, _) in KEY_VALUES.items() if var == "hip_flexion"]
+    assert not set(hip_names) & set(said.norms)
+    assert all(no_reference(n) == NO_REFERENCE == "no reference: the zero of this angle is not validated"
+               for n in hip_names)
+    assert no_reference("knee_flexion_initial_contact_deg") is None
+
+
 def test_a_key_value_without_a_rule_or_with_a_short_band_is_refused():
     with pytest.raises(ValueError, match="unknown key value"):
         key_norm("knee_twist_deg", np.zeros(101), np.ones(101))
@@ -89,6 +113,7 @@ def test_gait_profile_score_is_zero_on_the_band_and_names_what_it_leaves_out():
     profile = gait_profile(k)
     assert profile.overall_gps_deg == pytest.approx(0.0, abs=1e-9)
     assert profile.not_included["pelvis_tilt"].startswith("not measured")
+    assert profile.not_included["hip_flexion"].startswith("zero not validated")
     assert "foot_progression" in profile.not_included and set(profile.gvs_deg["left"]) <= set(bands)
     shifted = {**curves, "knee_flexion": {"left": {"mean_deg": [v + 6.0 for v in bands["knee_flexion"]["mean_deg"]]},
                                           "right": curves["knee_flexion"]["right"]}}
