@@ -29,7 +29,7 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from multiprocessing.connection import Connection, wait
 
 import numpy as np
@@ -61,6 +61,7 @@ class FrameTask:
     timestamp_ns: int
     sent_ns: int
     jpeg: bytes
+    queued_ns: int = 0  # monotonic clock of this host when the pool took it (the age limit: no clock skew)
 
 
 @dataclass(frozen=True)
@@ -211,8 +212,8 @@ class DetectorPool:
                      max_batch: int = 4, max_pending: int = 300, max_inflight: int | None = None,
                      max_age_s: float | None = None, start_timeout_s: float = START_TIMEOUT_S) -> DetectorPool:
         """``workers`` processes, each building its detector with ``factory`` (picklable; e.g. a detector
-        config's ``build``). ``max_age_s``: a frame sent by its camera node longer ago than this (s) is skipped
-        rather than detected (live keypoints stay fresh). RuntimeError naming the worker when one cannot build
+        config's ``build``). ``max_age_s``: a frame queued here longer than this (s) when a worker comes to it is
+        skipped rather than detected (live keypoints stay fresh). RuntimeError naming the worker when one cannot build
         its detector."""
         if workers < 1 or max_batch < 1:
             raise ValueError(f"detector pool: workers and max_batch must be >= 1, got {workers}, {max_batch}")
@@ -248,7 +249,7 @@ class DetectorPool:
             if len(worker.pending) >= self.max_pending:
                 old = worker.pending.popleft()
                 self.counts.skipped[old.camera] += 1
-            worker.pending.append(task)
+            worker.pending.append(replace(task, queued_ns=time.monotonic_ns()))
             self._cond.notify_all()
 
     def _worker_for(self, camera: str) -> _Worker | None:
@@ -302,7 +303,7 @@ class DetectorPool:
                     return
                 stride = self._stride(worker)
                 task = worker.pending.popleft()
-                too_old = self.max_age_ns is not None and time.time_ns() - task.sent_ns > self.max_age_ns
+                too_old = self.max_age_ns is not None and time.monotonic_ns() - task.queued_ns > self.max_age_ns
                 if too_old or task.frame_id % stride:
                     self.counts.skipped[task.camera] += 1  # too old to be live, or thinned out
                     continue

@@ -166,7 +166,7 @@ def detector_cmd(
         None, "--shard", help="K/N: detect only the cameras of shard K of N (several detector nodes share a rig)."),
     batch: int = typer.Option(4, "--batch", help="Frames a worker takes at once (batched by models that take a batch)."),
     max_lag_s: float = typer.Option(
-        2.0, "--max-lag-s", help="A frame older than this when a worker is free is skipped (counted; completed after "
+        2.0, "--max-lag-s", help="A frame queued longer than this when a worker is free is skipped (counted; completed after "
         "Stop): live keypoints stay fresh, s."),
     sim_preset: str = typer.Option("paper", "--sim-preset", help="Synthetic noise preset."),
     sim_seconds: float = typer.Option(6.0, "--sim-seconds", help="Synthetic trial length, s (>= 5)."),
