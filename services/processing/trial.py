@@ -26,6 +26,7 @@ A step left out by the options is named in :attr:`TrialResult.skipped` with the 
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import logging
 import time
@@ -37,7 +38,12 @@ import numpy as np
 from gaitcap.acquisition.keypoint_input import KeypointInput
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.services.processing.artifacts import TrialFiles
-from gaitcap.services.processing.checks import one_person_check, rig_check, stage_consistency
+from gaitcap.services.processing.checks import (
+    completion_check,
+    one_person_check,
+    rig_check,
+    stage_consistency,
+)
 from gaitcap.services.processing.completion import CompletionSettings
 from gaitcap.services.processing.pipeline import (
     NoUsableObservations,
@@ -243,54 +249,93 @@ def process_trial(data: TrialInput, options: TrialOptions = TrialOptions(), *, f
                   sink: TrialSink | None = None, fit_progress=None) -> TrialResult:
     """Process one trial (see the module docstring). ``files``: the trial's folder (None: nothing is
     written); ``sink``: where results go besides the files; ``fit_progress(done, total)`` during fits."""
-    sink = sink or NoSink()
-    timings: dict[str, float] = {}
-    skipped = _skipped(options, files)
-    check_usable(data.keypoints.recording.patient())  # before anything is written
-    t0 = time.perf_counter()
-    recording, layout = _layout(data, options)
-    timings["layout"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    if _people_in_view(recording) > 1:
-        sink.progress("finding the patient among the people in view", 0.07, None)
-    det, rig, selection = patient_input(recording, data.rig, files=files, choice=options.choice,
-                                        selector=options.selector)
-    timings["association"] = time.perf_counter() - t0
-    quality = trial_quality(data, recording, det, rig, options.criteria)
-    stages: dict[str, StageOutcome] = {}
+    run = _TrialRun(data, options, files, sink or NoSink(), fit_progress)
+    run.prepare()
     for index, plan in enumerate(options.stages):
-        if options.completion is not None and index == len(options.stages) - 1 and data.recorded is not None:
-            sink.progress("detecting the frames the live pass missed", _start(index, options), _last(stages))
-            t0 = time.perf_counter()
-            recording, det, rig, selection, quality = _completed(data, recording, quality, files, options)
-            timings["completion"] = time.perf_counter() - t0
-        sink.progress(_STARTING.get(plan.name, f"reconstruction: {plan.name}"), _start(index, options), _last(stages))
-        t0 = time.perf_counter()
-        traj, rec = run_stage(plan, det, rig, fit_progress=fit_progress, truth_mm=options.truth_mm)
-        if "completion" in quality.checks:
-            traj = replace(traj, method=f"{traj.method} (keypoints completed after Stop)")
-        timings[plan.name] = time.perf_counter() - t0
-        sink.check()
-        if index == 0:
-            quality = with_reprojection(quality, reprojection_px(traj.points_mm, det.keypoints, rig))
-        t0 = time.perf_counter()
-        viewers = (recording, rig) if _wants_viewers(options, index) else None
-        stages[plan.name] = _finish_stage(plan.name, traj, rec, det, files, sink, quality, viewers=viewers,
-                                          data=data, options=options)
-        timings[f"{plan.name} gait and files"] = time.perf_counter() - t0
+        if options.completion is not None and index == len(options.stages) - 1:
+            run.complete(index)
+        run.stage(index, plan)
         if index == 0 and options.checks:  # after the first result is stored: the page shows it meanwhile
-            sink.progress("checking the rig and the reconstruction", _start(index, options) + 0.05, plan.name)
-            t0 = time.perf_counter()
-            quality = checked_quality(quality, det, rig, traj.points_mm, options.checks)
-            sink.checked(quality)
-            timings["checks"] = time.perf_counter() - t0
-    kinematics = None
-    if options.kinematics and files is not None:
+            run.check(index, plan)
+    run.kinematics()
+    return run.result()
+
+
+class _TrialRun:
+    """The state of one :func:`process_trial`: what each step reads and leaves for the next."""
+
+    def __init__(self, data: TrialInput, options: TrialOptions, files: TrialFiles | None, sink: TrialSink,
+                 fit_progress) -> None:
+        self.data, self.options, self.files, self.sink, self.fit_progress = data, options, files, sink, fit_progress
+        self.timings: dict[str, float] = {}
+        self.stages: dict[str, StageOutcome] = {}
+        self.kinematics_done: bool | None = None
+
+    @contextlib.contextmanager
+    def timed(self, name: str):
         t0 = time.perf_counter()
-        kinematics = _kinematics(files, list(stages.values())[-1], options.age_years)
-        timings["kinematics"] = time.perf_counter() - t0
-    return TrialResult(data.source, layout, selection, tuple(det.camera_names), int(det.shape[1]), quality, stages,
-                       timings, skipped, kinematics)
+        yield
+        self.timings[name] = time.perf_counter() - t0
+
+    def prepare(self) -> None:
+        """Usable input, the layout, the patient, the recording's data quality."""
+        check_usable(self.data.keypoints.recording.patient())  # before anything is written
+        with self.timed("layout"):
+            self.recording, self.layout = _layout(self.data, self.options)
+        with self.timed("association"):
+            if _people_in_view(self.recording) > 1:
+                self.sink.progress("finding the patient among the people in view", 0.07, None)
+            self._choose_patient()
+        self.quality = trial_quality(self.data, self.recording, self.det, self.rig, self.options.criteria)
+
+    def _choose_patient(self) -> None:
+        self.det, self.rig, self.selection = patient_input(self.recording, self.data.rig, files=self.files,
+                                                           choice=self.options.choice, selector=self.options.selector)
+
+    def complete(self, index: int) -> None:
+        """The recorded frames without live keypoints detected from the images (a trial recording only)."""
+        if self.data.recorded is None:
+            return
+        self.sink.progress("detecting the frames the live pass missed", _start(index, self.options), _last(self.stages))
+        with self.timed("completion"):
+            self.recording, report = _completed(self.data, self.recording, self.files, self.options)
+            self._choose_patient()
+            self.quality = with_check(self.quality, "completion", completion_check(report))
+
+    def stage(self, index: int, plan: StagePlan) -> None:
+        """One reconstruction stage: its trajectory, then gait, files and the sink."""
+        self.sink.progress(_STARTING.get(plan.name, f"reconstruction: {plan.name}"), _start(index, self.options),
+                           _last(self.stages))
+        with self.timed(plan.name):
+            traj, rec = run_stage(plan, self.det, self.rig, fit_progress=self.fit_progress,
+                                  truth_mm=self.options.truth_mm)
+            if "completion" in self.quality.checks:
+                traj = replace(traj, method=f"{traj.method} (keypoints completed after Stop)")
+        self.sink.check()
+        if index == 0:
+            self.quality = with_reprojection(self.quality, reprojection_px(traj.points_mm, self.det.keypoints, self.rig))
+        viewers = (self.recording, self.rig) if _wants_viewers(self.options, index) else None
+        with self.timed(f"{plan.name} gait and files"):
+            self.stages[plan.name] = _finish_stage(plan.name, traj, rec, self.det, self.files, self.sink, self.quality,
+                                                   viewers=viewers, data=self.data, options=self.options)
+
+    def check(self, index: int, plan: StagePlan) -> None:
+        """The trial's checks of its results on the stage's points, then ``sink.checked``."""
+        self.sink.progress("checking the rig and the reconstruction", _start(index, self.options) + 0.05, plan.name)
+        with self.timed("checks"):
+            points = self.stages[plan.name].trajectory.points_mm
+            self.quality = checked_quality(self.quality, self.det, self.rig, points, self.options.checks)
+        self.sink.checked(self.quality)
+
+    def kinematics(self) -> None:
+        if self.options.kinematics and self.files is not None:
+            with self.timed("kinematics"):
+                self.kinematics_done = _kinematics(self.files, list(self.stages.values())[-1], self.options.age_years)
+
+    def result(self) -> TrialResult:
+        return TrialResult(self.data.source, self.layout, self.selection, tuple(self.det.camera_names),
+                           int(self.det.shape[1]), self.quality, self.stages, self.timings,
+                           _skipped(self.options, self.files, self.data), self.kinematics_done)
 
 
 _STARTING = {"preliminary": "first 3D reconstruction", "refined": "refining the 3D reconstruction"}
@@ -301,26 +346,23 @@ def _start(index: int, options: TrialOptions) -> float:
     return round(0.1 + 0.3 * index if len(options.stages) == 2 else 0.1 + 0.8 * index / len(options.stages), 3)
 
 
-def _completed(data: TrialInput, recording, quality: DataQuality, files: TrialFiles | None, options: TrialOptions):
-    """Every recorded frame without live keypoints detected from the recording's images (stored with its
-    provenance when ``files``), the patient chosen again on the complete keypoints; (recording, det, rig,
-    selection, quality with the ``completion`` check)."""
-    from gaitcap.services.processing.checks import completion_check
+def _completed(data: TrialInput, recording, files: TrialFiles | None, options: TrialOptions):
+    """Every recorded frame without live keypoints detected from the recording's images, stored with its
+    provenance when ``files``: (the complete keypoints, the CompletionReport)."""
     from gaitcap.services.processing.completion import complete_with, save_completion
 
     completed, report = complete_with(data.recorded.mcap, recording, options.completion)
     if files is not None:
         save_completion(files.root, completed, report)
-    det, rig, selection = patient_input(completed, data.rig, files=files, choice=options.choice,
-                                        selector=options.selector)
-    return completed, det, rig, selection, with_check(quality, "completion", completion_check(report))
+    return completed, report
 
 
 def _last(stages: dict[str, StageOutcome]) -> str | None:
     return list(stages)[-1] if stages else None
 
 
-def _skipped(options: TrialOptions, files: TrialFiles | None) -> dict[str, str]:
+def _skipped(options: TrialOptions, files: TrialFiles | None, data: TrialInput) -> dict[str, str]:
+    """{step: why} for each step the options (or the input) left out."""
     out = {}
     if not options.layout_check:
         out["layout check"] = "layout_check=False: the input's layout is used as it is"
@@ -329,6 +371,8 @@ def _skipped(options: TrialOptions, files: TrialFiles | None) -> dict[str, str]:
     out.update({f"{name} check": f"checks={list(options.checks)}" for name in CHECKS if name not in options.checks})
     if options.completion is None:
         out["completion"] = "completion=None: the stages use the live keypoints"
+    elif data.recorded is None:
+        out["completion"] = "the input is no trial recording: no images to complete the keypoints from"
     if files is None:
         out["files"] = "no output folder: nothing written"
     elif options.viewer_files is ViewerFiles.NONE:
