@@ -184,7 +184,8 @@ def process_specs(cfg: StackConfig, *, epoch_ns: int | None = None, parent_env=N
         _spec(cfg, parent_env, "recorder", "recorder", (*CLI, "node", "recorder", "--node", "recorder"),
               ready_text="ready"),
         _spec(cfg, parent_env, "detector", "detector", (*CLI, "node", "detector", "--node", "detector",
-                                                        "--detector", "simulated", *_sim_args(cfg))),
+                                                        "--detector", "simulated", *_sim_args(cfg),
+                                                        "--workers", "1")),  # a look-up: one process keeps up
     ]
     # several camera processes share one frame count from the stack's start (one process: its own start, and
     # a restarted one starts its counter again, as camera hardware does)
