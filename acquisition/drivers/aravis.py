@@ -327,9 +327,13 @@ class AravisCamera:
                         return
                     continue
                 timeouts = 0
+                incomplete = self._status.extra["incomplete"]
                 frame, offset = self._take(buf, ids, offset)
+                if frame is None and self._status.extra["incomplete"] == incomplete:
+                    complete_at = time.monotonic()  # whole, but before the synchronised start
+                    continue
                 if frame is None:
-                    if time.monotonic() - complete_at > stall_s and self._status.extra["incomplete"]:
+                    if time.monotonic() - complete_at > stall_s:
                         self._fail(f"no complete frame for {stall_s:.0f} s, {self._status.extra['incomplete']} "
                                    "incomplete (packets lost on the link: check the MTU, packet size and delay)")
                         return
