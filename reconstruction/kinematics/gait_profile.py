@@ -64,7 +64,7 @@ def gait_profile(kinematics: Mapping[str, Any]) -> GaitProfile:
             left_out[var] = f"not measured ({held[var]})"
             continue
         if var in UNVALIDATED_ZERO:
-            left_out[var] = f"zero not validated ({UNVALIDATED_ZERO[var]})"
+            left_out[var] = "zero not validated"
             continue
         if var not in curves:
             left_out[var] = "not computed by this model"

@@ -109,7 +109,7 @@ def test_report_has_a_kinematics_page_with_curves_band_source_and_key_values(ser
     assert "Pelvis tilt: not measured (held near 0" in page
     left = kin["key_values"]["left"]["knee_peak_flexion_swing_deg"]
     assert f"Knee peak flexion swing {left['mean']:.1f} ± {left['sd']:.1f} (n={left['n']})" in page
-    assert "No reference: the zero of this angle is not validated (hip flexion" in page
+    assert "No reference: the zero of this angle is not validated (" in page and "hip flexion: pelvic tilt" in page
     assert len(reader.pages[pages.index(page)].images) == 1  # the curves figure (no heel-trace plot stored)
     assert len(reader.pages) == 2
 
@@ -139,7 +139,7 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
         assert f"{kin['key_values']['right']['knee_peak_flexion_swing_deg']['mean']:.1f} ±" in row
         # each key value against the band like a spatiotemporal parameter: its normal range and a flag outside it
         kv_norms = client.get(f"/trials/{tid}/kinematics").json()["key_value_norms"]
-        for name, side_values in (("ankle_peak_dorsiflexion_stance_deg", kin["key_values"]),
+        for name, side_values in (("knee_flexion_initial_contact_deg", kin["key_values"]),
                                   ("knee_peak_flexion_swing_deg", kin["key_values"])):
             lo, hi = kv_norms[name]["normal_range_deg"]
             text = page.inner_text(f"#kinematics-keys tr[data-key='{name}']")

@@ -93,6 +93,7 @@ def test_hip_flexion_far_outside_the_band_raises_no_finding_its_zero_is_not_vali
     assert all(no_reference(n) == NO_REFERENCE == "no reference: the zero of this angle is not validated"
                for n in hip_names)
     assert no_reference("knee_flexion_initial_contact_deg") is None
+    assert no_reference("ankle_peak_plantarflexion_deg") == NO_REFERENCE  # the foot's zero neither
 
 
 def test_a_key_value_without_a_rule_or_with_a_short_band_is_refused():

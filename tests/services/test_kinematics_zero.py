@@ -84,4 +84,4 @@ def test_a_healthy_simulated_walk_raises_no_joint_angle_finding(fitted, age):
     if not shown["norms"]["bands"]:
         pytest.skip("normal bands not installed (deploy/bootstrap.sh)")
     said = key_value_findings(shown)
-    assert said.with_reference >= 8 and said.findings == (), said.findings
+    assert said.with_reference >= 4 and said.findings == (), said.findings  # the knee's, per side
