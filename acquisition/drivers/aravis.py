@@ -316,24 +316,28 @@ class AravisCamera:
         ids, offset, last = BlockIds(), None, None
         timeouts, stall_s = 0, self.options.stall_timeouts * self.options.frame_timeout_ms / 1000
         complete_at = time.monotonic()
+        # the first frame may take longer: the start may lie ahead, and a camera takes a moment to start
+        ahead_s = max(0.0, ((self._at_ns or 0) - time.time_ns()) / 1e9)
+        first_limit = self.options.stall_timeouts * 2 + int(ahead_s * 1000 / self.options.frame_timeout_ms)
+        seen = False
         try:
             while not self._stopped:
                 buf = self._stream.timeout_pop_buffer(self.options.frame_timeout_ms * 1000)
                 if buf is None:
                     timeouts += 1
-                    if timeouts >= self.options.stall_timeouts:
+                    if timeouts >= (self.options.stall_timeouts if seen else first_limit):
                         self._fail(f"no frame for {timeouts * self.options.frame_timeout_ms} ms (camera "
                                    f"unreachable, stopped or its stream blocked)")
                         return
                     continue
-                timeouts = 0
+                timeouts, seen = 0, True
                 incomplete = self._status.extra["incomplete"]
                 frame, offset = self._take(buf, ids, offset)
                 if frame is None and self._status.extra["incomplete"] == incomplete:
                     complete_at = time.monotonic()  # whole, but before the synchronised start
                     continue
                 if frame is None:
-                    if time.monotonic() - complete_at > stall_s:
+                    if time.monotonic() - complete_at > (stall_s if last is not None else 2 * stall_s + ahead_s):
                         self._fail(f"no complete frame for {stall_s:.0f} s, {self._status.extra['incomplete']} "
                                    "incomplete (packets lost on the link: check the MTU, packet size and delay)")
                         return
