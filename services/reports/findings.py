@@ -20,7 +20,8 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from gaitcap.reconstruction.gait.consistency import check_consistency
-from gaitcap.reconstruction.kinematics.key_norms import KeyNorm, key_norms
+from gaitcap.reconstruction.kinematics.clinical import KEY_VALUES
+from gaitcap.reconstruction.kinematics.key_norms import NO_REFERENCE, KeyNorm, key_norms, no_reference
 
 DEFAULT_FPS = 30.0
 SIDE_DIFFERENCE_PCT = 10.0  # symmetry index above which sides are said to differ
@@ -160,16 +161,20 @@ class KeyValueFindings:
     total: int
     outside: int
     norms: dict[str, KeyNorm]
+    no_reference: tuple[str, ...] = ()  # variables whose zero is not validated (key_norms.UNVALIDATED_ZERO)
 
     @property
     def summary(self) -> str:
         if not self.total:
             return ""
+        unvalidated = (f" {' and '.join(v.replace('_', ' ') for v in self.no_reference).capitalize()}: "
+                       f"{NO_REFERENCE}." if self.no_reference else "")
         if not self.with_reference:
-            return "Joint angles: no key value has a normal range (no band), none is called normal or abnormal."
+            return ("Joint angles: no key value has a normal range (no band), none is called normal or abnormal."
+                    + unvalidated)
         verdict = "none outside it" if not self.outside else f"{self.outside} outside it"
         return (f"Joint angles: {self.with_reference} of {self.total} key values (per side) have a normal range "
-                f"from the band; {verdict}.")
+                f"from the band; {verdict}.{unvalidated}")
 
 
 def key_value_label(name: str) -> str:
@@ -201,7 +206,10 @@ def key_value_findings(kinematics: Mapping[str, Any] | None) -> KeyValueFindings
             lo, hi = norm.band()
             out.append(f"{key_value_label(name)}: {', '.join(off)} deg, outside the normal range "
                        f"{lo:.1f}-{hi:.1f} deg of the band at {norm.at_pct} % of the cycle.")
-    return KeyValueFindings(tuple(out), referenced, total, outside, norms)
+    shown = [name for name in (kv.get("left") or kv.get("right") or {}) if no_reference(name)
+             and any(math.isfinite(_finite(((kv.get(s) or {}).get(name) or {}).get("mean"))) for s in ("left", "right"))]
+    unvalidated = tuple(dict.fromkeys(KEY_VALUES[name][0] for name in shown))
+    return KeyValueFindings(tuple(out), referenced, total, outside, norms, unvalidated)
 
 
 def _finite(x: Any) -> float:

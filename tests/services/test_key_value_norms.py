@@ -54,7 +54,7 @@ def test_the_sources_own_mean_curve_is_normal_with_z_zero_for_every_key_value(wh
     point_values = [n for n in by_name if not n.endswith("_rom_deg")]
     assert said.findings == () and said.outside == 0
     assert said.with_reference == 2 * len(point_values) and said.total == 2 * len(shown)
-    assert said.summary.endswith("none outside it.")
+    assert "none outside it." in said.summary and said.summary.endswith("no reference: the zero of this angle is not validated.")
     # plantarflexion is positive on the band too (its mean curve goes below zero after toe-off)
     if "ankle_peak_plantarflexion_deg" in by_name:
         assert by_name["ankle_peak_plantarflexion_deg"].normal_deg > 5.0
@@ -88,6 +88,8 @@ def test_hip_flexion_far_outside_the_band_raises_no_finding_its_zero_is_not_vali
     knee = np.asarray(bands["knee_flexion"]["mean_deg"]) + 40.0
     said = key_value_findings(_kinematics_of({"hip_flexion": hip, "knee_flexion": knee}, norms))
     assert said.findings and all(f.startswith("Knee") for f in said.findings)
+    assert said.no_reference == ("hip_flexion",)
+    assert said.summary.endswith("Hip flexion: no reference: the zero of this angle is not validated.")
     hip_names = [n for n, (var, _) in KEY_VALUES.items() if var == "hip_flexion"]
     assert not set(hip_names) & set(said.norms)
     assert all(no_reference(n) == NO_REFERENCE == "no reference: the zero of this angle is not validated"
