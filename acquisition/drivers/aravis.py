@@ -337,8 +337,9 @@ class AravisCamera:
                     complete_at = time.monotonic()  # whole, but before the synchronised start
                     continue
                 if frame is None:
-                    if time.monotonic() - complete_at > (stall_s if last is not None else 2 * stall_s + ahead_s):
-                        self._fail(f"no complete frame for {stall_s:.0f} s, {self._status.extra['incomplete']} "
+                    waited_s = time.monotonic() - complete_at
+                    if waited_s > (stall_s if last is not None else 2 * stall_s + ahead_s):
+                        self._fail(f"no complete frame for {waited_s:.0f} s, {self._status.extra['incomplete']} "
                                    "incomplete (packets lost on the link: check the MTU, packet size and delay)")
                         return
                     continue

@@ -7,6 +7,7 @@ timestamp, without it the camera that delivers only incomplete frames is named w
 with the reason, where namespaces cannot be made or Aravis is not installed."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -67,5 +68,5 @@ def test_a_lossy_slow_link_is_counted_and_named(lab):
         # the short queue drops the tail of every frame: nothing whole arrives, and the camera is named
         assert "pfifo 16 packets" in applied, applied
         assert lossy["state"] == "error" and lossy["frames"] == 0, lossy
-        assert lossy["error"].startswith("camera lossy (127.0.0.11): no complete frame for 3 s"), lossy["error"]
+        assert re.match(r"camera lossy \(127\.0\.0\.11\): no complete frame for \d+ s", lossy["error"]), lossy
         assert "packets lost on the link" in lossy["error"]
