@@ -207,6 +207,18 @@ def _per_camera(model: _Model, err_px: np.ndarray, rows: np.ndarray) -> dict[str
             for c, cam in enumerate(model.rig)}
 
 
+def _first_inliers(err_px: np.ndarray, cam: np.ndarray, num_cameras: int, config: PeopleBundleConfig) -> np.ndarray:
+    """Keypoints kept for the first round: judged against their own camera's median error, so a camera
+    that moved far (every keypoint of it off by tens of px) keeps its keypoints and can be pulled back."""
+    keep = np.zeros(len(err_px), dtype=bool)
+    for c in range(num_cameras):
+        mine = cam == c
+        if mine.any():
+            limit = max(config.outlier_sigmas * np.median(err_px[mine]) / RAYLEIGH_MEDIAN, config.min_outlier_px)
+            keep[mine] = err_px[mine] <= limit
+    return keep
+
+
 def refine_rig_from_people(trials: Sequence[Detections], prior: Rig, *,
                            config: PeopleBundleConfig = PeopleBundleConfig()) -> PeopleBundleResult:
     """Refine ``prior`` (a board calibration) from the people seen in ``trials`` (each (C, T, J, 3) px).
@@ -222,7 +234,7 @@ def refine_rig_from_people(trials: Sequence[Detections], prior: Rig, *,
     x = np.r_[np.zeros(model.c * model.n_cam), obs.points_mm.ravel()]
     all_rows = np.arange(len(obs.cam))
     err0 = np.linalg.norm(model.project(x, all_rows) - obs.uv_px, axis=-1)
-    inlier = err0 <= max(config.outlier_sigmas * np.median(err0) / RAYLEIGH_MEDIAN, config.min_outlier_px) * 3
+    inlier = _first_inliers(err0, obs.cam, model.c, config)
     for rnd in range(config.rounds):
         rows = np.flatnonzero(inlier)
         fit = least_squares(model.residual, x, args=(rows,), jac_sparsity=model.sparsity(rows, len(x)),
