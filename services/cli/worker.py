@@ -29,6 +29,8 @@ def register(app: typer.Typer) -> None:
         complete_param: list[str] = typer.Option([], "--complete-param", help="Its other config field KEY=VALUE."),
         complete_workers: int | None = typer.Option(None, "--complete-workers",
                                                     help="Its processes (default: one per CPU core)."),
+        max_rss_mb: float = typer.Option(3000.0, "--max-rss-mb", help="After a job, exit (code 75, to be restarted by "
+                                         "the supervisor or systemd) when resident memory is above this (MB)."),
         rerun_images_hz: float = typer.Option(5.0, "--rerun-images-hz",
                                               help="Images per second and camera in the trial's .rrd (0: none)."),
     ) -> None:
@@ -41,7 +43,7 @@ def register(app: typer.Typer) -> None:
             cfg = WorkerConfig(catalog_url=catalog_url(data_dir, catalog), data_dir=data_dir,
                                lease_s=lease_s, refine=not no_refine, rerun=RerunSettings(image_rate_hz=rerun_images_hz),
                                completion=completion_plan(complete_with, complete_model, complete_param,
-                                                          complete_workers),
+                                                          complete_workers), max_rss_mb=max_rss_mb,
                                **({"worker_id": worker_id} if worker_id else {}))
             session = None
             if not no_bus:  # the worker is alive on the bus (the API's health); its progress is in the catalog
@@ -60,6 +62,8 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"worker {cfg.worker_id}: warming up (compiling) ...", err=True)
             typer.echo(f"worker {cfg.worker_id}: warm in {warm_worker(cache_dir=data_dir / '.jax-cache'):.1f} s", err=True)
         typer.echo(f"worker {cfg.worker_id}: ready", err=True)
-        w.run(stop)
+        ended = w.run(stop)
         if session is not None:
             session.close()
+        if ended == "recycle":  # grown too big: a fresh process takes over (EX_TEMPFAIL, so systemd restarts it)
+            raise typer.Exit(75)

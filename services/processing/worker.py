@@ -53,7 +53,9 @@ class WorkerConfig:
     lease_s / 3; poll_s: how often the job table is polled (s); refine: run the implicit fit;
     rerun: the .rrd's settings (images per second and camera copied from the recording); completion:
     detect the recorded frames the live detector missed before the refined stage (None: the live
-    keypoints only)."""
+    keypoints only); max_rss_mb: after a job, a worker whose resident memory (MB) is above this stops
+    (:meth:`Worker.run` returns ``"recycle"``) to be started afresh by its supervisor, so code compiled for
+    every trial length seen does not pile up over a day."""
 
     catalog_url: str
     data_dir: Path
@@ -65,8 +67,11 @@ class WorkerConfig:
     criteria: QualityCriteria = QualityCriteria()
     rerun: RerunSettings = RerunSettings()
     completion: CompletionSettings | None = None
+    max_rss_mb: float = 3000.0
 
     def __post_init__(self) -> None:
+        if self.max_rss_mb <= 0:
+            raise ValueError(f"max_rss_mb: must be > 0 MB, got {self.max_rss_mb}")
         if self.lease_s < 1.0:
             raise ValueError(f"lease_s: must be >= 1 s, got {self.lease_s}")
         if self.poll_s <= 0:
@@ -135,12 +140,18 @@ class Worker:
         }
 
     # ------------------------------------------------------------------ loop
-    def run(self, stop: threading.Event) -> None:
-        """Process jobs until ``stop`` is set."""
+    def run(self, stop: threading.Event) -> str:
+        """Process jobs until ``stop`` is set (returns ``"stopped"``) or, between jobs, until the process has
+        grown past ``max_rss_mb`` (returns ``"recycle"``: start a fresh one)."""
         log.info("worker %s polling %s", self.config.worker_id, self.db.url)
         while not stop.is_set():
             if not self.run_once():
                 stop.wait(self.config.poll_s)
+            elif (rss := resident_mb()) > self.config.max_rss_mb:
+                log.warning("worker %s: %.0f MB resident after a job, above %.0f MB: stopping to be started afresh",
+                            self.config.worker_id, rss, self.config.max_rss_mb)
+                return "recycle"
+        return "stopped"
 
     def run_once(self) -> bool:
         """Take and process one job; False when there was none."""
@@ -251,6 +262,15 @@ class CatalogSink:
         """The trial's quality as it now stands, with the last stored stage's gait warnings."""
         cat.set_quality(self.worker.db, self.trial_id, "processing",
                         {**quality.to_dict(), "gait_warnings": self.gait_warnings, "stage": self.stage})
+
+
+def resident_mb() -> float:
+    """This process's resident memory now (MB), from /proc/self/statm (0 where there is none)."""
+    try:
+        pages = int(Path("/proc/self/statm").read_text().split()[1])
+    except (OSError, IndexError, ValueError):
+        return 0.0
+    return pages * os.sysconf("SC_PAGE_SIZE") / 1e6
 
 
 def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:

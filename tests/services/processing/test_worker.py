@@ -261,3 +261,17 @@ def test_the_frames_the_live_detector_missed_are_detected_before_the_refined_sta
     assert kp.keypoints.shape[:2] == live.shape
     errors = _step_length_errors(refined, walk.truth.steps)  # the refined numbers on the complete keypoints
     assert len(errors) >= 6 and np.abs(errors).max() < 3.0, errors
+
+
+def test_a_worker_grown_past_its_memory_limit_stops_after_the_job_to_be_started_afresh(tmp_path, walk):
+    import threading
+
+    from gaitcap.services.processing.worker import resident_mb
+
+    db, tid = _recorded_trial(tmp_path, walk)
+    assert 10 < resident_mb() < 1e6  # this process's resident memory, MB
+    w = Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False, max_rss_mb=1.0), db=db)
+    assert w.run(threading.Event()) == "recycle"  # after the job, never in the middle of one
+    assert cat.get_trial(db, tid).state in ("done", "done_with_warnings")
+    with pytest.raises(ValueError, match="max_rss_mb"):
+        WorkerConfig(catalog_url=db.url, data_dir=tmp_path, max_rss_mb=0)
