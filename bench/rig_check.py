@@ -200,8 +200,9 @@ def table(result: dict) -> str:
     if un:
         lines.append(f"Synthetic, rig as calibrated: {un['false_alarms']} false alarm(s) in {un['trials']} trials "
                      f"(largest field {un['max_field_px']} px; check {un['check_s']} s per trial)")
-    lines.append(f"{'synthetic case':18} {'detected':>8} {'others':>6} {'rot err':>8} {'MPJPE true':>10} "
-                 f"{'stale':>7} {'refined':>8} {'vs true':>8} {'cam back':>9} {'centre':>7}")
+    if result.get("synthetic_moved"):
+        lines.append(f"{'synthetic case':18} {'detected':>8} {'others':>6} {'rot err':>8} {'MPJPE true':>10} "
+                     f"{'stale':>7} {'refined':>8} {'vs true':>8} {'cam back':>9} {'centre':>7}")
     for label, r in result.get("synthetic_moved", {}).items():
         lines.append(f"{label:18} {r['detection_rate']:8.0%} {r['others_flagged']:6d} "
                      f"{r['rotation_error_deg_max']:7.2f}° {r['mpjpe_true_mm']:8.1f}mm {r['mpjpe_stale_mm']:5.1f}mm "
