@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-GENERIC = {"acquisition", "reconstruction", "services", "api"}
+GENERIC = {"acquisition", "reconstruction", "services", "api", "simulator"}
 
 
 @pytest.fixture(scope="module")
