@@ -59,6 +59,11 @@ class TrialFiles:
         return self.root / "tracks.npz"
 
     @property
+    def checks_json(self) -> Path:
+        """The trial's checks of its results (one person, the rig; written once every stage is stored)."""
+        return self.root / "checks.json"
+
+    @property
     def patient_choice_json(self) -> Path:
         """The clinician's choice of the patient's track (written by the API; wins over automatic)."""
         return self.root / "patient_choice.json"

@@ -14,12 +14,14 @@ steps run or in which order. The sequence:
    the trajectory (refused when no joint could be reconstructed), the reprojection error of the first
    stage into the quality block, gait (:func:`~gaitcap.services.processing.pipeline.gait_of`), the stage's
    data files, ``sink.stored``, its views (TRC, plot) and, by ``viewer_files``, its viewer files;
-   once the first stage is stored, the trial's checks of its results (one person, the rig:
-   :mod:`.checks`; ``sink.checked``), whose warnings the later stages' quality blocks carry; each stage's
-   consistency rules beside its numbers; with ``completion`` settings, before the last stage every
-   recorded frame the live detector missed is detected from the trial's images (the refined result then
-   rests on the complete keypoints and says so: its method and the quality block's ``completion`` check);
-6. joint kinematics of the last stage (option ``kinematics``; never fails the trial).
+   each stage's consistency rules beside its numbers; with ``completion`` settings, before the last
+   stage every recorded frame the live detector missed is detected from the trial's images (the refined
+   result then rests on the complete keypoints and says so: its method and the quality block's
+   ``completion`` check);
+6. once every stage is stored (the results are never held back by them), the trial's checks of its
+   results on the first stage's points (one person, the rig: :mod:`.checks`): into the trial's quality
+   (``sink.checked``) and ``checks.json`` in its folder;
+7. joint kinematics of the last stage (option ``kinematics``; never fails the trial).
 
 A step left out by the options is named in :attr:`TrialResult.skipped` with the option that left it out.
 """
@@ -255,8 +257,8 @@ def process_trial(data: TrialInput, options: TrialOptions = TrialOptions(), *, f
         if options.completion is not None and index == len(options.stages) - 1:
             run.complete(index)
         run.stage(index, plan)
-        if index == 0 and options.checks:  # after the first result is stored: the page shows it meanwhile
-            run.check(index, plan)
+    if options.checks:
+        run.check()
     run.kinematics()
     return run.result()
 
@@ -314,17 +316,20 @@ class _TrialRun:
         self.sink.check()
         if index == 0:
             self.quality = with_reprojection(self.quality, reprojection_px(traj.points_mm, self.det.keypoints, self.rig))
+            self.first = (self.det, self.rig, traj.points_mm)  # what the checks judge, completion or not
         viewers = (self.recording, self.rig) if _wants_viewers(self.options, index) else None
         with self.timed(f"{plan.name} gait and files"):
             self.stages[plan.name] = _finish_stage(plan.name, traj, rec, self.det, self.files, self.sink, self.quality,
                                                    viewers=viewers, data=self.data, options=self.options)
 
-    def check(self, index: int, plan: StagePlan) -> None:
-        """The trial's checks of its results on the stage's points, then ``sink.checked``."""
-        self.sink.progress("checking the rig and the reconstruction", _start(index, self.options) + 0.05, plan.name)
+    def check(self) -> None:
+        """The trial's checks of its results on the first stage's points: the quality, ``checks.json`` and
+        ``sink.checked``."""
+        self.sink.progress("checking the rig and the reconstruction", 0.96, _last(self.stages))
         with self.timed("checks"):
-            points = self.stages[plan.name].trajectory.points_mm
-            self.quality = checked_quality(self.quality, self.det, self.rig, points, self.options.checks)
+            self.quality = checked_quality(self.quality, *self.first, self.options.checks)
+        if self.files is not None:
+            write_checks(self.files, self.quality)
         self.sink.checked(self.quality)
 
     def kinematics(self) -> None:
@@ -396,6 +401,16 @@ def _people_in_view(recording) -> int:
 def _wants_viewers(options: TrialOptions, index: int) -> bool:
     last = index == len(options.stages) - 1
     return options.viewer_files is ViewerFiles.EVERY or (options.viewer_files is ViewerFiles.LAST and last)
+
+
+def write_checks(files: TrialFiles, quality: DataQuality) -> None:
+    """``checks.json`` in the trial's folder: each check of its results by name (JSON, written whole)."""
+    import json
+
+    from gaitcap.acquisition.fileio import atomic_write_text
+    from gaitcap.reconstruction.jsonable import json_ready
+
+    atomic_write_text(files.checks_json, json.dumps(json_ready(quality.checks), indent=1) + "\n")
 
 
 def checked_quality(quality: DataQuality, det, rig: Rig, points_mm: np.ndarray, checks) -> DataQuality:

@@ -70,6 +70,13 @@ def test_every_stage_file_is_the_same_in_the_clinic_and_offline(both, stage):
             np.testing.assert_array_equal(a[key], b[key], err_msg=key)
 
 
+def test_the_trials_checks_are_the_same_in_the_clinic_and_offline(both):
+    folder, _, out, summary = both
+    clinic = _json(folder / "checks.json")
+    assert set(clinic) == {"one_person", "rig"} and _json(out / "checks.json") == clinic
+    assert summary["data_quality"]["checks"] == clinic
+
+
 def test_the_kinematics_are_the_same_in_the_clinic_and_offline(both):
     folder, _, out, _ = both
     clinic, offline = (_json(f / "refined" / "kinematics" / "kinematics.json") for f in (folder, out))
@@ -89,8 +96,10 @@ def test_the_clinics_stored_numbers_are_the_files_numbers(both):
         assert len(stored["steps"]) == len(written["steps"]) > 0, stage
         assert [s["side"] for s in stored["steps"]] == [s["foot"] for s in written["steps"]], stage
         assert stored["data_quality"] == written["data_quality"], stage
-    # what gaitcap process says of the data is what the clinic says (the quality block, its warnings)
-    assert summary["data_quality"] == _json(folder / "refined" / "gait.json")["data_quality"]
+    # what gaitcap process says of the data is what the clinic says (the quality block with the trial's checks,
+    # its warnings)
+    assert {**_json(folder / "refined" / "gait.json")["data_quality"], "checks": {}} == {**summary["data_quality"],
+                                                                                       "checks": {}}
     assert set(summary["skipped"]) == {"completion"}  # every other step ran, as in the clinic's stack (no completion)
     for warning in summary["data_quality"]["warnings"]:
         assert warning in clinic["trial"]["warnings"], (warning, clinic["trial"]["warnings"])
