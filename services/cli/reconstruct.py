@@ -99,6 +99,8 @@ def reconstruct_command(
             typer.echo(f"{result.selection.tracks.num_tracks} people tracked:", err=True)
             for line in people_lines(result.selection, how=choice_reason(options.patient)):
                 typer.echo(f"  {line}", err=True)
+        for warning in result.quality.warnings:  # the data's problems and the checks' (a mix of two people, ...)
+            typer.echo(f"data quality: {warning}", err=True)
         rec, layout = result.last.reconstruction, result.layout
         write_npz(out, result.last.trajectory)  # the worker's result file (dense samples of a fit included)
         if trc is not None:

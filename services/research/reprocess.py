@@ -253,6 +253,8 @@ def compute_result(task: ReprocessTask) -> MethodResult:
     recording = data.keypoints.recording
     options = TrialOptions(stages=(StagePlan(task.spec.method, task.spec.config()),), kinematics=False,
                            viewer_files=ViewerFiles.NONE, choice=read_choice(TrialFiles(task.trial.folder)),
+                           checks=(),  # the trial's checks are the clinic's, once per trial: not per method
+
                            truth_mm=_truth_points(task.trial.folder, recording.people.shape[1], recording.skeleton))
     result = process_trial(data, options, files=None)
     stage = result.last
