@@ -188,7 +188,7 @@ def test_worker_killed_mid_fit_job_is_rerun(stack):
     db = cat.open_catalog(stack.cfg.catalog)
     with _client(stack) as c:
         tid = c.post("/trials", json={"subject_id": "P0200"}).json()["id"]
-        time.sleep(4)
+        time.sleep(8)  # long enough that every joint is seen by two cameras at some point of the looping walk
         c.post(f"/trials/{tid}/stop")
         _wait(lambda: _trial(c, tid)["stage"].startswith("refining"), 60,
               lambda: f"the refined fit to start: {_trial(c, tid)}\n{stack.supervisor.log_text('worker-0')[-2000:]}",

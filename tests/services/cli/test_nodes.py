@@ -133,7 +133,8 @@ def test_ten_cameras_through_separate_processes_into_mcap_and_replay(tmp_path, r
         procs["detector"].wait()
         wait_for(lambda: ("detector", False) in changes, 5, "killed detector seen gone")
 
-        # Replay as fast as the bus takes it; this test process counts what arrives.
+        # Replay at 4x real time (unpaced, a busy machine's bus may drop frames of a slow subscriber);
+        # this test process counts what arrives.
         counts = {"frames": 0, "keypoints": 0}
         lock = threading.Lock()
 
@@ -143,7 +144,7 @@ def test_ten_cameras_through_separate_processes_into_mcap_and_replay(tmp_path, r
 
         subs = [s.declare_subscriber(bus.keys.image(), lambda _s: bump("frames")),
                 s.declare_subscriber(bus.keys.keypoints(), lambda _s: bump("keypoints"))]
-        res = subprocess.run(CLI + ["replay", str(out), "--rate", "max", "--wait-for", "test"],
+        res = subprocess.run(CLI + ["replay", str(out), "--rate", "4", "--wait-for", "test"],
                              env=dict(os.environ, GAITCAP_BUS=str(tmp_path / "bus.json"), PYTHONPATH=str(ROOT)),
                              cwd=str(ROOT), capture_output=True, text=True, timeout=90)
         assert res.returncode == 0, res.stdout + res.stderr
