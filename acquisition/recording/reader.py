@@ -278,7 +278,12 @@ _MAX_FRAME_ID = 2**53  # a frame id this large (either sign) is stray without pl
 
 def frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
     """(T,) s since the first frame set: the median camera timestamp of each frame set ((C, T) ns, -1 where
-    missing), interpolated where no camera has one."""
+    missing), interpolated where no camera has one.
+
+    Always strictly increasing: where a frame set's median does not increase (a camera's frame stamped
+    more than half a period off its slot, e.g. a software-timed camera that ran late, with the other cameras
+    missing from that set), the frame sets are held to within 0.45 frame period of their frame grid (see
+    :func:`_onto_frame_grid`), with a warning; a recording whose times already increase is left as it is."""
     # Relative to the earliest stamp before going to float: float64 holds absolute ns only to 256 ns.
     ref = int(timestamps_ns[timestamps_ns >= 0].min()) if (timestamps_ns >= 0).any() else 0
     ts = np.where(timestamps_ns >= 0, timestamps_ns - ref, np.nan).astype(np.float64)
@@ -288,8 +293,45 @@ def frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
     if have.sum() == 0:
         raise ValueError("keypoints: no timestamps")
     idx = np.arange(ts.shape[1])
-    filled = np.interp(idx, idx[have], med[have]) if have.sum() > 1 else med[have][0] + idx * 1e9 / 30
+    if have.sum() == 1:
+        filled = med[have][0] + (idx - idx[have][0]) * 1e9 / 30
+        return (filled - filled[0]) / 1e9
+    known = med[have]
+    if np.any(np.diff(known) <= 0):
+        known = _onto_frame_grid(ts, idx[have], known)
+    filled = np.interp(idx, idx[have], known)
     return (filled - filled[0]) / 1e9
+
+
+_GRID_WINDOW = 15  # frame sets: the local frame grid follows a slow drift of the camera clocks
+_GRID_HOLD = 0.45  # frame periods a frame set's time may lie off its grid (under half: always increasing)
+
+
+def _onto_frame_grid(ts: np.ndarray, slots: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Frame sets' times (ns, relative) held to within 0.45 period of the local frame grid.
+
+    ts: (C, T) camera stamps (ns, relative, NaN where missing). slots: (K,) frame-set indices with a time.
+    times: (K,) their median stamps (ns). The period is the median over cameras of a frame's step in
+    time per frame slot; the grid's offset is a running median (15 frame sets) of ``time - period * slot``
+    so that it follows a slow drift."""
+    from scipy.ndimage import median_filter
+
+    steps = [np.diff(row[~np.isnan(row)]) / np.diff(np.flatnonzero(~np.isnan(row))) for row in ts]
+    steps = np.concatenate([s for s in steps if s.size]) if any(s.size for s in steps) else np.array([])
+    period = float(np.median(steps)) if steps.size and np.median(steps) > 0 else float(np.median(
+        np.diff(times) / np.diff(slots)))
+    if not period > 0:
+        raise ValueError("keypoints: frame timestamps do not advance (no frame period can be told)")
+    offset = times - period * slots
+    local = median_filter(offset, size=min(_GRID_WINDOW, offset.size), mode="nearest")
+    held = period * slots + local + np.clip(offset - local, -_GRID_HOLD * period, _GRID_HOLD * period)
+    if np.any(np.diff(held) <= 0):  # the offset itself jumps (a clock stepped): the straight grid
+        held = period * slots + float(np.median(offset))
+    moved = int(np.sum(np.abs(held - times) > 0.5))
+    log.warning("frame times do not increase from frame set to frame set: %d of %d frame sets held to their "
+                "frame grid (period %.3f ms; a camera stamped frames more than half a period off their slots)",
+                moved, times.size, period / 1e6)
+    return held
 
 
 def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) -> KeypointRecording:

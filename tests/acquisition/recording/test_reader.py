@@ -323,3 +323,28 @@ def test_a_joint_not_seen_recorded_as_nan_is_kept_and_a_confidence_outside_0_to_
     assert {c: i.unreadable for c, i in kp.ignored.items()} == {"cam1": {
         "'people' confidence not a number in 0..1": 1,
         "'people' x NaN with a confidence above 0 (a joint not seen has confidence 0)": 1}}
+
+
+def test_frame_times_always_increase_when_a_camera_stamps_a_frame_off_its_slot(caplog):
+    """Two software-timed cameras 0.4 period apart; one frame stamped 0.7 period late, alone in its frame set,
+    the next set's only frame from the other camera: the medians would go back; the times are held to the
+    frame grid and said, and a recording whose times increase is left to the ns."""
+    from gaitcap.acquisition.recording.reader import frame_times_s
+
+    period = 33_333_333
+    t0 = 1_700_000_000_000_000_000
+    stamps = np.full((2, 40), -1, dtype=np.int64)
+    stamps[:, :] = t0 + np.arange(40) * period + np.array([[0], [-int(0.4 * period)]])
+    on_grid = frame_times_s(stamps)
+    assert np.allclose(np.diff(on_grid), period / 1e9, atol=2e-9)
+    stamps[1, 10], stamps[0, 11] = -1, -1  # set 10: cam0 only, late; set 11: cam1 only, on time
+    stamps[0, 10] = t0 + int(10.7 * period)
+    stamps[1, 11] = t0 + 11 * period - int(0.4 * period)
+    with caplog.at_level("WARNING"):
+        times = frame_times_s(stamps)
+    assert np.all(np.diff(times) > 0), np.diff(times)
+    assert "held to their frame grid" in caplog.text and "of 40 frame sets" in caplog.text, caplog.text
+    # the two sets are held within 0.45 period of their slots; every other set keeps its median stamp
+    assert np.all(np.abs(times[10:12] - on_grid[10:12]) <= 0.45 * period / 1e9 + 1e-9)
+    others = np.r_[0:10, 12:40]
+    assert np.allclose(times[others], on_grid[others], atol=1e-6)
