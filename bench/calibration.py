@@ -20,6 +20,7 @@ simulate-board`` and ``gaitcap calibrate --compare`` do).
     python bench/calibration.py --real-only          # only the real recordings (below), about a minute
                                                      # + caliscope's 11-camera session: about 6 min more
     python bench/calibration.py --real-only --sync-every 20   # that session thinned as in the tests: a minute
+    python bench/calibration.py --small-board --sync-every 20 [--json]   # small boards, intrinsics from the clip
 
 Real recordings (installed by deploy/bootstrap.sh; skipped when absent): caliscope's 4-webcam session of
 a hand-held inverted ChArUco board (its own corner detections, calibrated here with caliscope's
@@ -234,6 +235,8 @@ def _real_session(name: str, known_intrinsics: bool, readout_ms: float = 0.0, sy
         "reference_pp_off_centre_deg": [_pp_off_centre_deg(ref[n]) for n in cmp.names],
         "principal_points_apart_deg": [_pp_apart_deg(res.rig[n], ref[n]) for n in cmp.names],
         "principal_point_held": [bool(np.allclose(c.matrix_px[:2, 2], np.asarray(c.size_px) / 2)) for c in res.rig],
+        "held": {q.name: list(q.held) for q in cams if q.held},
+        "focal_rel_std": [q.focal_rel_std for q in cams],
     }
     # a failed camera (or a NaN RMS) misses the targets: max() would pass over a NaN after a finite value
     rms_ok = bool(np.all(np.isfinite(out["rms_px"])) and max(out["rms_px"]) <= REAL_TARGET_RMS_PX)
@@ -342,6 +345,34 @@ def _real(sync_every: int = 1) -> dict:
         "intrinsics": _pose2sim_intrinsics(),
         "opencv": opencv_samples(),
     }
+
+
+def _small_board(sync_every: int) -> list[dict]:
+    """The real small-board sessions (the board in 10-28 % of the images), intrinsics from the clip alone:
+    what was held, refused or not, and each camera against the session's reference calibration."""
+    return [r for r in (_real_session(n, False, 0.0, sync_every if n in LARGE_SESSIONS else 1)
+                        for n in (*REAL_SESSIONS, *LARGE_SESSIONS)) if r is not None]
+
+
+def _small_board_table(sessions: list[dict]) -> str:
+    lines = ["small-board sessions, intrinsics from the clip alone, vs the session's reference calibration "
+             "(after a similarity alignment):"]
+    for s in sessions:
+        if "error" in s:
+            lines.append(f"  {s['recording']}: REFUSED: {s['error']}")
+            continue
+        state = f"REFUSED (cameras {s['failed']} failed)" if s["failed"] else "calibrated"
+        every = f", every {s['sync_every']}th sync index" if s["sync_every"] > 1 else ""
+        lines.append(f"  {s['recording']}{every}: {state}, {s['seconds']:.1f} s, scale {s['scale_vs_reference']:.4f}")
+        lines.append(f"    {'camera':<8} {'RMS px':>7} {'f std %':>8} {'centre mm':>10} {'rot deg':>8} {'ray deg':>8}  held")
+        for k, cam in enumerate(s["cameras"]):
+            held = "; ".join(s["held"].get(cam, [])) or "-"
+            lines.append(f"    {cam:<8} {s['rms_px'][k]:>7.3f} {100 * s['focal_rel_std'][k]:>8.1f} "
+                         f"{s['centre_diff_mm'][k]:>10.2f} {s['rotation_diff_deg'][k]:>8.3f} "
+                         f"{s['pointing_diff_deg'][k]:>8.3f}  {held}")
+        lines.append(f"    max: centre {max(s['centre_diff_mm']):.1f} mm, rotation {max(s['rotation_diff_deg']):.2f} deg "
+                     f"(ray deg: the rays through the image centre)")
+    return "\n".join(lines)
 
 
 def _real_table(r: dict) -> str:
@@ -469,8 +500,15 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--real-only", action="store_true", help="only the real recordings")
     ap.add_argument("--sync-every", type=int, default=1,
                     help="caliscope's 11-camera session: keep every N-th sync index (1 = all)")
+    ap.add_argument("--small-board", action="store_true",
+                    help="only the real small-board sessions, intrinsics from the clip (the 11-camera one every "
+                         "--sync-every th sync index)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
+    if args.small_board:
+        small = _small_board(args.sync_every)
+        print(json.dumps(jsonable({"small_board": small})) if args.json else _small_board_table(small))
+        return
     if args.real_only:
         real = _real(args.sync_every)
         print(json.dumps(jsonable({"real": real})) if args.json else _real_table(real))

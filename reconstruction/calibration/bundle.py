@@ -61,7 +61,9 @@ class BundleProblem:
         cam: (P,) camera index; frame: (P,) frame index; corner: (P,) corner id (true order);
         uv_px: (P, 2) observed px; object_points_mm: (N, 3) board corners; root: fixed camera;
         free_dist: indices into (k1, k2, p1, p2, k3) that are adjusted;
-        held_principal_point: (C,) cameras whose principal point stays where it starts (None: none).
+        held_principal_point: (C,) cameras whose principal point stays where it starts (None: none);
+        held_distortion: (C, 5) bool, distortion terms (k1, k2, p1, p2, k3) of a camera that stay where
+            they start although ``free_dist`` frees them (None: none).
     """
 
     cam: np.ndarray
@@ -74,6 +76,7 @@ class BundleProblem:
     root: int
     free_dist: tuple[int, ...]
     held_principal_point: np.ndarray | None = None
+    held_distortion: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -167,6 +170,9 @@ class _Layout:
             if self.prob.held_principal_point is not None:  # a zero column: LM never moves it
                 held = self.prob.held_principal_point[self.prob.cam[rows]]
                 d_intr[held, :, 2:4] = 0.0
+            if self.prob.held_distortion is not None:
+                held = self.prob.held_distortion[self.prob.cam[rows]][:, list(self.prob.free_dist)]  # (P, D)
+                d_intr[:, :, 4:] = np.where(held[:, None, :], 0.0, d_intr[:, :, 4:])
             blocks.append(d_intr)
         vals = np.concatenate(blocks, axis=-1)  # (P, 2, K)
         r = np.arange(len(rows))

@@ -57,7 +57,12 @@ class IntrinsicsConfig:
             the image centre, here and in the bundle adjustment: views bunched in part of the image cannot
             tell a shifted principal point from a turned camera (on caliscope's real webcam session the
             free principal point wandered 64 px, a 4 deg turn of the camera, with the board in 10-20 % of
-            the image).
+            the image); the distortion terms beyond k1 are then held at 0 too (such views do not determine
+            them: k1k2 and all five terms put that session's rig further from caliscope's, not nearer).
+        hold_undetermined: a camera whose focal length is uncertain by more than ``max_focal_rel_std``
+            with its principal point free is calibrated again with the principal point held at the image
+            centre and only k1 (fewer unknowns for the same views); only when it is still uncertain beyond
+            ``max_focal_rel_std`` is it refused, with both figures. False: refused at once.
     """
 
     distortion: DistortionModel = DistortionModel.K1
@@ -68,17 +73,24 @@ class IntrinsicsConfig:
     min_tilted_views: int = 3
     principal_point_min_coverage: float = 0.3
     coverage_grid: tuple[int, int] = (8, 5)
+    hold_undetermined: bool = True
 
 
 @dataclass(frozen=True, eq=False)
 class Intrinsics:
     """K (3, 3) px and dist (5,) of one camera, with calibrateCamera's RMS (px); principal_point_held: the
-    principal point was held at the image centre (too little of the image covered to estimate it)."""
+    principal point was held at the image centre; distortion_held: indices into (k1, k2, p1, p2, k3) held
+    at 0 although the model frees them; held: why, plain words (one line per decision);
+    focal_rel_std: the focal length's relative standard deviation from the camera's own views as finally
+    fitted (NaN: not estimated here)."""
 
     matrix_px: np.ndarray
     dist: np.ndarray
     rms_px: float
     principal_point_held: bool = False
+    distortion_held: tuple[int, ...] = ()
+    held: tuple[str, ...] = ()
+    focal_rel_std: float = float("nan")
 
 
 def _pick_views(frames: np.ndarray, counts: np.ndarray, max_views: int) -> np.ndarray:
@@ -115,8 +127,41 @@ def _calibrate(name: str, obj: list, img: list, size_px: tuple[int, int], k0: np
     return float(rms), np.asarray(k, dtype=np.float64), dist, std_intr
 
 
-def estimate_intrinsics(obs: BoardObservations, cam: int, config: IntrinsicsConfig) -> Intrinsics:
-    """Calibrate camera ``cam``'s intrinsics from its own board views (each view on its own)."""
+def _focal_rel_std(k: np.ndarray, std_intr: np.ndarray) -> float:
+    """The focal length's relative standard deviation from calibrateCameraExtended's stds (inf when NaN)."""
+    rel = float(np.max(std_intr.ravel()[:2]) / max(k[0, 0], 1e-9))
+    return rel if np.isfinite(rel) else float("inf")
+
+
+_TERMS = ("k1", "k2", "p1", "p2", "k3")
+
+
+def _held_fit(name, obj, img, size_px, k0, config: IntrinsicsConfig, why: str):
+    """Calibrate again with the principal point at the image centre and only k1 (what bunched views
+    cannot determine held): (rms, K, dist, focal rel std, distortion held, reasons)."""
+    dropped = tuple(i for i in config.distortion.free if i != 0)
+    flags = DistortionModel.K1.cv2_flags | cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_FIX_PRINCIPAL_POINT
+    rms, k, dist, std_intr = _calibrate(name, obj, img, size_px, k0, flags)
+    reasons = [f"principal point held at the image centre: {why}"]
+    if dropped:
+        reasons.append(f"distortion {', '.join(_TERMS[i] for i in dropped)} held at 0 (only k1 fitted): {why}")
+    return rms, k, dist, _focal_rel_std(k, std_intr), dropped, tuple(reasons)
+
+
+def _why_hold(focal_std: float, covered: float, config: IntrinsicsConfig) -> str | None:
+    """Why the camera's views cannot determine every intrinsic (None: they can)."""
+    if focal_std > config.max_focal_rel_std:
+        return (f"with it free the focal length was uncertain by {100 * focal_std:.1f} % "
+                f"(> {100 * config.max_focal_rel_std:.0f} %)")
+    if covered < config.principal_point_min_coverage:
+        return (f"the board covered {100 * covered:.0f} % of the image "
+                f"(< {100 * config.principal_point_min_coverage:.0f} %)")
+    return None
+
+
+def _views(obs: BoardObservations, cam: int, config: IntrinsicsConfig):
+    """The camera's chosen views as calibrateCamera takes them (object mm, image px); ValueError naming
+    the camera when too few or too flat."""
     name = obs.camera_names[cam]
     views = np.flatnonzero(obs.views()[cam])
     if len(views) < config.min_views:
@@ -131,21 +176,33 @@ def estimate_intrinsics(obs: BoardObservations, cam: int, config: IntrinsicsConf
     tilted = sum(view_tilt(o, i) > config.min_tilt for o, i in zip(obj, img, strict=True))
     if tilted < config.min_tilted_views:
         raise _degenerate(name, f"only {tilted} of {len(chosen)} views are tilted against the image plane")
+    return obj, img
+
+
+def estimate_intrinsics(obs: BoardObservations, cam: int, config: IntrinsicsConfig) -> Intrinsics:
+    """Calibrate camera ``cam``'s intrinsics from its own board views (each view on its own); what the
+    views cannot determine is held (``IntrinsicsConfig``), and the result says what and why."""
+    name = obs.camera_names[cam]
+    obj, img = _views(obs, cam, config)
     w, h = obs.image_sizes_px[cam]
     k0 = np.array([[max(w, h), 0, w / 2], [0, max(w, h), h / 2], [0, 0, 1]], dtype=np.float64)
     flags = config.distortion.cv2_flags | cv2.CALIB_USE_INTRINSIC_GUESS
     rms, k, dist, std_intr = _calibrate(name, obj, img, (w, h), k0, flags)
-    focal_rel_std = float(np.max(std_intr.ravel()[:2]) / max(k[0, 0], 1e-9))
-    if not np.isfinite(focal_rel_std) or focal_rel_std > config.max_focal_rel_std:
-        raise _degenerate(name, f"focal length uncertain by {100 * focal_rel_std:.1f} %")
-    covered = coverage(obs.corners_px[cam][seen], (w, h), config.coverage_grid)
-    hold_pp = covered < config.principal_point_min_coverage
-    if hold_pp:  # the focal length was judged with the principal point free: holding it hides no degeneracy
-        log.info("camera %s: board covers %.0f %% of the image: principal point held at the image centre",
-                 name, 100 * covered)
+    free_std = focal_std = _focal_rel_std(k, std_intr)
+    why = _why_hold(focal_std, coverage(obs.corners_px[cam][obs.seen()[cam]], (w, h), config.coverage_grid), config)
+    held_dist, held = (), ()
+    if why is not None and config.hold_undetermined:
+        rms, k, dist, focal_std, held_dist, held = _held_fit(name, obj, img, (w, h), k0, config, why)
+        log.info("camera %s: %s", name, "; ".join(held))
+    elif why is not None:  # strict: refused when uncertain; bunched views: the principal point alone held
+        if focal_std > config.max_focal_rel_std:
+            raise _degenerate(name, f"focal length uncertain by {100 * focal_std:.1f} %")
         rms, k, dist, _ = _calibrate(name, obj, img, (w, h), k0, flags | cv2.CALIB_FIX_PRINCIPAL_POINT)
+    if focal_std > config.max_focal_rel_std:
+        raise _degenerate(name, f"focal length uncertain by {100 * free_std:.1f} % with the principal point free, "
+                                f"{100 * focal_std:.1f} % with it held at the image centre and only k1")
     if not 0.1 * w < k[0, 0] < 20 * w:
         raise _degenerate(name, f"implausible focal length {k[0, 0]:.0f} px for a {w} px wide image")
     dist = np.asarray(dist, dtype=np.float64).ravel()[:5]
-    log.debug("camera %s: intrinsics rms %.3f px from %d views", name, rms, len(chosen))
-    return Intrinsics(k, np.pad(dist, (0, 5 - dist.size)), float(rms), hold_pp)
+    log.debug("camera %s: intrinsics rms %.3f px from %d views", name, rms, len(obj))
+    return Intrinsics(k, np.pad(dist, (0, 5 - dist.size)), float(rms), why is not None, held_dist, held, focal_std)

@@ -85,7 +85,7 @@ def _check_cameras(obs: BoardObservations, config: IntrinsicsConfig) -> None:
         )
 
 
-def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, ...], held_pp: np.ndarray):
+def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, ...], intr: list[Intrinsics]):
     """Flatten the usable views into a BundleProblem (frames compacted); returns it and the frame map."""
     syms = np.asarray(obs.board.symmetries)
     c_idx, f_idx = np.nonzero(init.symmetry >= 0)
@@ -102,9 +102,18 @@ def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, .
         uv.append(obs.corners_px[c, f][seen])
     prob = BundleProblem(
         np.concatenate(cams), np.concatenate(frs), np.concatenate(corners), np.concatenate(uv),
-        obs.board.object_points_mm, obs.shape[0], len(frames), init.root, free_dist, held_pp,
+        obs.board.object_points_mm, obs.shape[0], len(frames), init.root, free_dist,
+        np.array([i.principal_point_held for i in intr]), _held_distortion(intr),
     )
     return prob, frames
+
+
+def _held_distortion(intr: list[Intrinsics]) -> np.ndarray:
+    """(C, 5) bool: the distortion terms each camera holds at 0 although the model frees them."""
+    held = np.zeros((len(intr), 5), dtype=bool)
+    for c, i in enumerate(intr):
+        held[c, list(i.distortion_held)] = True
+    return held
 
 
 def _notes(n_left: int, n_undecidable: int) -> tuple[str, ...]:
@@ -116,20 +125,22 @@ def _notes(n_left: int, n_undecidable: int) -> tuple[str, ...]:
 
 
 def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThresholds, all_rms: float,
-                    others_rms: float, intrinsics_estimated: bool, whole: WholeViews, found: int) -> CameraQuality:
-    """One camera's figures and problems (coverage matters only where the intrinsics were estimated), on
-    its views kept (``whole``: the views left out as disagreeing as a whole); ``found``: its views as the
-    detector gave them (before pairing or readout removed any)."""
+                    others_rms: float, intr: Intrinsics | None, whole: WholeViews, found: int) -> CameraQuality:
+    """One camera's figures and problems, on its views kept (``whole``: the views left out as disagreeing
+    as a whole); ``intr``: its intrinsics as estimated from its views (None: given), where coverage matters
+    unless what the views could not determine was held; ``found``: its views as the detector gave them
+    (before pairing or readout removed any)."""
     mine = (prob.cam == c) & ~whole.left_out
     n_left = int(whole.views_left_out[c])
-    notes = _notes(n_left, int(whole.views_undecidable[c]))
+    held = intr.held if intr is not None else ()
+    notes = held + _notes(n_left, int(whole.views_undecidable[c]))
     err = np.linalg.norm(res.residual_px[mine & res.inlier], axis=-1)
     mean, p95, rms = error_stats(err)
     cov = coverage(prob.uv_px[mine & res.inlier], obs.image_sizes_px[c], thresholds.grid)
     problems = []
     if not p95 <= thresholds.max_p95_px:
         problems.append(f"reprojection p95 {p95:.2f} px > {thresholds.max_p95_px} px")
-    if intrinsics_estimated and cov < thresholds.min_coverage:
+    if intr is not None and not intr.held and cov < thresholds.min_coverage:
         problems.append(f"board covered {100 * cov:.0f} % of the image (< {100 * thresholds.min_coverage:.0f} %)")
     if _over_rms(all_rms, others_rms, thresholds):
         problems.append(f"reprojection RMS over all its corners {all_rms:.2f} px is {all_rms / others_rms:.1f} x "
@@ -144,7 +155,8 @@ def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThr
         obs.camera_names[c], n_views, int((mine & res.inlier).sum()), int((mine & ~res.inlier).sum()),
         mean, p95, rms, cov, not problems, tuple(problems), median_px=float(np.median(err)) if err.size else
         float("nan"), views_found=found, views_kept_fraction=n_views / found if found else 0.0,
-        views_left_out=n_left, views_undecidable=int(whole.views_undecidable[c]), notes=notes,
+        views_left_out=n_left, views_undecidable=int(whole.views_undecidable[c]), notes=notes, held=held,
+        focal_rel_std=intr.focal_rel_std if intr is not None else float("nan"),
     )
 
 
@@ -180,12 +192,14 @@ def _rms_per_camera(prob, res: BundleResult, n_cams: int, left_out: np.ndarray) 
     return out
 
 
-def _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole: WholeViews, found: np.ndarray) -> QualityReport:
+def _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole: WholeViews, found: np.ndarray,
+            intr: list[Intrinsics]) -> QualityReport:
     left_out = whole.left_out
     rms = _rms_per_camera(prob, res, obs.shape[0], left_out)
     others = _others_median(rms)
-    per_cam = tuple(_camera_quality(obs, prob, res, c, config.thresholds, rms[c], others[c],
-                                    config.known_intrinsics is None, whole, int(found[c])) for c in range(obs.shape[0]))
+    estimated = intr if config.known_intrinsics is None else [None] * obs.shape[0]
+    per_cam = tuple(_camera_quality(obs, prob, res, c, config.thresholds, rms[c], others[c], estimated[c], whole,
+                                    int(found[c])) for c in range(obs.shape[0]))
     mean, p95, rms = error_stats(np.linalg.norm(res.residual_px[res.inlier], axis=-1))
     ordered = np.full((obs.shape[0], len(frames), obs.board.num_corners, 2), np.nan)
     inl = res.inlier
@@ -260,8 +274,7 @@ def calibrate_from_observations(
     if no_pose:
         raise ValueError(f"cameras {no_pose}: no board view gave a consistent pose; check the board definition")
     init = initial_poses(poses, obs.camera_names)
-    held_pp = np.array([i.principal_point_held for i in intr])
-    prob, frames = _problem(obs, init, config.intrinsics.distortion.free, held_pp)
+    prob, frames = _problem(obs, init, config.intrinsics.distortion.free, intr)
     res = bundle_adjust(prob, _initial_state(intr, init, frames), config.bundle)
     whole = _whole_views(obs, config, prob, res, found)
     if whole.left_out.any():
@@ -283,7 +296,7 @@ def calibrate_from_observations(
                matrix_to_rodrigues(cams_r[c]), cams_t[c], serials.get(name, ""))
         for c, name in enumerate(obs.camera_names)
     ))
-    report = _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole, found)
+    report = _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole, found, intr)
     board_r = np.full((len(runs), 3, 3), np.nan)  # board -> world, for every frame given (still runs share)
     board_t = np.full((len(runs), 3), np.nan)
     board_r[:] = np.einsum("ji,fjk->fik", world.rotation, full_r)[runs]

@@ -38,7 +38,10 @@ class CameraQuality:
     median) and coverage; views_found: views the detector gave; views_kept_fraction: used / found;
     views_left_out: views left out as disagreeing with the other cameras as a whole (not used, not
     judged); views_undecidable: views disagreeing as a whole in frame sets that could not tell which camera
-    was wrong (kept and judged); notes: what was left out or kept and why, plain words."""
+    was wrong (kept and judged); notes: what was left out or kept and why, plain words; held: which
+    intrinsics were held because its views could not determine them, and why (also in notes);
+    focal_rel_std: its focal length's relative standard deviation from its own views (NaN: intrinsics
+    given, not estimated)."""
 
     name: str
     n_detections: int
@@ -56,6 +59,8 @@ class CameraQuality:
     views_left_out: int = 0
     notes: tuple[str, ...] = ()
     views_undecidable: int = 0
+    held: tuple[str, ...] = ()
+    focal_rel_std: float = float("nan")
 
 
 @dataclass(frozen=True)

@@ -111,6 +111,7 @@ def register(app: typer.Typer) -> None:
         sync_tolerance_ms: float | None = typer.Option(None, "--sync-tolerance-ms", help="Pair frames of different cameras closer than this in time (default: half a frame interval)."),
         readout_ms: float = typer.Option(0.0, "--readout-ms", help="Rolling-shutter readout of the cameras, ms (webcams: about 20): views whose board moved more than 1 px meanwhile tie no cameras together."),
         accept_failed: bool = typer.Option(False, "--accept-failed", help="Write the calibration even when a camera fails the quality checks."),
+        strict_intrinsics: bool = typer.Option(False, "--strict-intrinsics", help="Hold nothing the board views cannot determine: refuse a camera whose board covered too little of its image or whose focal length is uncertain, instead of holding its principal point at the image centre and only k1."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
         from gaitcap.acquisition.board_pairing import PairingConfig
@@ -142,7 +143,7 @@ def register(app: typer.Typer) -> None:
             flags_given = board_file is not None or any(
                 v is not None for v in (board, squares, square_mm, marker_mm, dictionary, inverted, legacy))
             config = CalibrationConfig(
-                intrinsics=IntrinsicsConfig(distortion=models[distortion]),
+                intrinsics=IntrinsicsConfig(distortion=models[distortion], hold_undetermined=not strict_intrinsics),
                 world=WorldFrameConfig(floor_frame=floor_frame),
                 known_intrinsics={c.name: (c.matrix_px, c.dist) for c in known.cameras} if known else None,
             )
