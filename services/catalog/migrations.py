@@ -98,7 +98,31 @@ def _v2_to_v3(conn: Connection) -> None:
     conn.exec_driver_sql("ALTER TABLE calibrations ADD COLUMN board TEXT NOT NULL DEFAULT ''")
 
 
-STEPS = {1: _v1_to_v2, 2: _v2_to_v3}  # from version -> the step to the next
+VERSIONS_V4_DDL = """
+CREATE TABLE IF NOT EXISTS calibration_versions (
+    calibration_id VARCHAR(64) NOT NULL,
+    replaces_id VARCHAR(64),
+    made_by VARCHAR(64) NOT NULL,
+    trials_json TEXT NOT NULL,
+    comparison_json TEXT NOT NULL,
+    created_at FLOAT NOT NULL,
+    applied_at FLOAT,
+    PRIMARY KEY (calibration_id),
+    FOREIGN KEY(calibration_id) REFERENCES calibrations (id),
+    FOREIGN KEY(replaces_id) REFERENCES calibrations (id)
+);
+CREATE INDEX IF NOT EXISTS ix_calibration_versions_replaces_id ON calibration_versions (replaces_id);
+"""  # the table of schema version 4, frozen
+
+
+def _v3_to_v4(conn: Connection) -> None:
+    """calibration_versions: which calibration a refined one replaces (older catalogs have none)."""
+    for statement in VERSIONS_V4_DDL.split(";"):
+        if statement.strip():
+            conn.exec_driver_sql(statement)
+
+
+STEPS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4}  # from version -> the step to the next
 
 
 def migration_problem(dialect: str, version: int, target: int) -> str | None:

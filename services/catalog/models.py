@@ -10,7 +10,8 @@ from __future__ import annotations
 from sqlalchemy import Float, ForeignKey, Index, Integer, String, Text, UniqueConstraint
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-SCHEMA_VERSION = 3  # 2: one calibration table; jobs of kind "process" (a trial) or "calibrate"; 3: calibrations.board
+SCHEMA_VERSION = 4  # 2: one calibration table; jobs of kind "process" (a trial) or "calibrate"; 3: calibrations.board;
+# 4: calibration_versions
 
 
 class Base(DeclarativeBase):
@@ -68,6 +69,23 @@ class Calibration(Base):
     progress: Mapped[float] = mapped_column(Float, default=0.0)
     error: Mapped[str] = mapped_column(Text, default="")
     board: Mapped[str] = mapped_column(Text, default="")
+
+
+class CalibrationVersion(Base):
+    """A calibration made from another one (refined from people): ``calibration_id`` is the new version (a
+    calibration record of its own, kept with every other), ``replaces_id`` the one it replaces; ``made_by``:
+    how (words: "refine-rig"); ``trials_json``: the trials whose keypoints made it (JSON list of ids or
+    paths); ``comparison_json``: per camera, how far it lies from the one it replaces (centre mm, rotation
+    deg, focal %); ``applied_at``: when its affected trials were queued again under it (None: not yet)."""
+
+    __tablename__ = "calibration_versions"
+    calibration_id: Mapped[str] = mapped_column(ForeignKey("calibrations.id"), primary_key=True)
+    replaces_id: Mapped[str | None] = mapped_column(ForeignKey("calibrations.id"), index=True, nullable=True)
+    made_by: Mapped[str] = mapped_column(String(64), default="")
+    trials_json: Mapped[str] = mapped_column(Text, default="[]")
+    comparison_json: Mapped[str] = mapped_column(Text, default="{}")
+    created_at: Mapped[float] = mapped_column(Float)
+    applied_at: Mapped[float | None] = mapped_column(Float, nullable=True)
 
 
 class Trial(Base):

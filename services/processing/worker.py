@@ -20,19 +20,21 @@ import socket
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
+from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services import catalog as cat
 from gaitcap.services.kinematics.shown import patient_age
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.calibration_job import fail_calibration, run_calibration
 from gaitcap.services.processing.completion import CompletionSettings
 from gaitcap.services.processing.outputs import steps_of, summary_of
-from gaitcap.services.processing.pipeline import Trajectory, enable_compile_cache, ring_rig, warm_up
+from gaitcap.services.processing.pipeline import enable_compile_cache, ring_rig, warm_up
 from gaitcap.services.processing.quality import DataQuality, QualityCriteria
 from gaitcap.services.processing.trial import (
     StageOutcome,
+    TrialInput,
     TrialOptions,
     default_stages,
     process_trial,
@@ -115,6 +117,19 @@ class JobKind:
 
     run: Callable[[cat.JobInfo, LeaseKeeper], None]
     fail: Callable[[cat.JobInfo, Exception], None]
+
+
+def with_calibration_version(db: cat.Catalog, trial_id: str, data: TrialInput) -> TrialInput:
+    """The trial's input under the calibration version it was assigned (a calibration refined from people,
+    :mod:`gaitcap.services.catalog.calibration_versions`); else as recorded, with its recording's own."""
+    from gaitcap.reconstruction.calibration_io import rig_from_toml_text
+    from gaitcap.services.catalog.calibration_versions import trial_version_toml
+
+    toml = trial_version_toml(db, trial_id)
+    if toml is None:
+        return data
+    rig = rig_from_toml_text(toml, source=f"trial {trial_id}'s calibration version")
+    return replace(data, rig=rig, keypoints=replace(data.keypoints, rig=rig))
 
 
 def recording_of(trial: cat.TrialInfo) -> Path:
@@ -206,7 +221,8 @@ class Worker:
         files = trial_files(self.config.data_dir, trial_id, recording_of(trial))
         self._report(trial_id, "reading the recording", 0.05)
         t0 = time.perf_counter()
-        data = recording_input(files.recording, fallback_calibration=self.config.fallback_calibration)
+        data = with_calibration_version(self.db, trial_id, recording_input(
+            files.recording, fallback_calibration=self.config.fallback_calibration))
         sink = CatalogSink(self, trial_id, lease, load_s=time.perf_counter() - t0)
         result = process_trial(data, self.options(age_years=patient_age(self.db, trial_id)), files=files, sink=sink)
         self._finish(trial_id, result.quality)
@@ -286,6 +302,6 @@ def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path
     warm_up(ring_rig(cameras), get_skeleton(skeleton))
     import numpy as np
 
-    traj = Trajectory("warm-up", np.zeros((3, 1, 3)), np.arange(3.0), ("left_heel",))
+    traj = Reconstruction("warm-up", np.zeros((3, 1, 3)), np.arange(3.0), ("left_heel",))
     report_png(traj, None, title="warm-up")
     return time.perf_counter() - t0

@@ -113,7 +113,7 @@ def test_audit_log_records_who_did_what(db):
 def test_schema_version_mismatch_is_refused(tmp_path):
     path = tmp_path / "old.sqlite"
     c = cat.open_catalog(path)
-    assert cat.schema_version(c) == 3
+    assert cat.schema_version(c) == 4
     with c.session() as s:
         s.execute(update(SchemaInfo).where(SchemaInfo.key == "version").values(value="999"))
     c.close()

@@ -29,7 +29,7 @@ def v2(tmp_path):
 def test_a_version_2_catalog_opens_upgraded_with_no_board_on_old_records(v2):
     path, run_id = v2
     db = cat.open_catalog(path)
-    assert cat.schema_version(db) == 3
+    assert cat.schema_version(db) == 4
     got = {c.id: c for c in cals.list_calibrations(db)}
     assert set(got) == {"C1-up", run_id}
     assert got["C1-up"].board is None and got[run_id].board is None
@@ -40,7 +40,7 @@ def test_a_version_2_catalog_opens_upgraded_with_no_board_on_old_records(v2):
     assert new.board == CHARUCO and cals.get_calibration(db, new.id).board == CHARUCO
     db.close()
     again = cat.open_catalog(path)
-    assert cat.schema_version(again) == 3 and cals.get_calibration(again, new.id).board == CHARUCO
+    assert cat.schema_version(again) == 4 and cals.get_calibration(again, new.id).board == CHARUCO
     with sqlite3.connect(path) as con:
         column = [r for r in con.execute("PRAGMA table_info(calibrations)") if r[1] == "board"]
     assert column and column[0][2] == "TEXT" and column[0][3] == 1  # TEXT NOT NULL
