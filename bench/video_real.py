@@ -17,7 +17,9 @@ the reference); ``best shift``: the time shift of ours (frames, sampled on the f
 median, and the median there: frame timing; ``files offset``: the whole-frame offset between the two
 packages' frame numbers that best aligns our robust triangulation with the reference (their frame i is
 our frame i + offset), and the fit's median at it; ``robust``: ours without the fit (closer to a per-frame
-reference partly because the reference keeps its own per-frame noise).
+reference partly because the reference keeps its own per-frame noise); ``walker frames``: frames in
+which the chosen track is seen by at least two cameras and its per-frame robust triangulation's hip
+midpoint lies within ``WALKER_MM`` of the reference's (the walker followed, not the other person).
 
 The data are installed by deploy/bootstrap.sh (install_pose2sim_demos).
 """
@@ -45,6 +47,7 @@ DEMOS = {
 ALIASES = {"left_foot_index": "left_big_toe", "right_foot_index": "right_big_toe"}
 SHIFTS_FRAMES = np.arange(-2.0, 2.01, 0.25)
 FILE_OFFSETS = range(-3, 4)
+WALKER_MM = 200.0  # hip midpoint this near the reference's: the walker (the other person is > 1 m away)
 OFFSET_JOINTS = ("left_hip", "right_hip", "left_ankle", "right_ankle", "left_heel", "right_heel")
 
 
@@ -64,7 +67,7 @@ def _ours(videos: Path) -> dict:
     fit = reconstruct(sel.detections, rig, method=METHODS["implicit"]())
     robust = reconstruct(sel.detections, rig, method=METHODS["robust"]())
     return {"fit": fit, "robust": robust, "tracks": int(sel.tracks.num_tracks), "detect_s": detect_s,
-            "frames": len(found.times_s)}
+            "frames": len(found.times_s), "seen": sel.tracks.views[sel.track_id] >= 2}
 
 
 def _reference(folder: Path, near_mm: np.ndarray):
@@ -148,9 +151,11 @@ def run_demo(name: str) -> dict:
     ro, rr, _ = _paired(ours["robust"].points_mm[:n], names, ref[:n], ref_names)
     robust_at = {k: float(np.nanmedian(np.linalg.norm(np.subtract(*_lagged(ro, rr, k)), axis=-1))) for k in FILE_OFFSETS}
     files = min(robust_at, key=robust_at.get)
+    hips_apart = np.linalg.norm(_hips(ours["robust"].points_mm[:n], names) - _hips(ref[:n], ref_names), axis=-1)
+    walker = ours["seen"][:n] & (hips_apart < WALKER_MM)
     local = _pelvis_offsets(o - r, o, joints)
     mean_local = np.nanmean(local, axis=0)
-    return {"frames": n, "tracks": ours["tracks"], "detect_s": round(ours["detect_s"], 1),
+    return {"frames": n, "walker_frames": int(walker.sum()), "tracks": ours["tracks"], "detect_s": round(ours["detect_s"], 1),
             "median_mm": float(np.nanmedian(dist)),
             "per_joint_mm": {j: float(np.nanmedian(dist[:, k])) for k, j in enumerate(joints)},
             "offset_removed_mm": _offset_removed(local),
@@ -173,7 +178,8 @@ def _table(r: dict) -> str:
     rows = (("all joints", "median_mm"), ("offset removed", "offset_removed_mm"),
             ("robust (no fit)", "robust_median_mm"), ("best shift", "best_shift_median_mm"),
             ("  at (frames)", "best_shift_frames"), ("files offset", "files_offset_median_mm"),
-            ("  at (frames)", "files_offset_frames"), ("tracks", "tracks"), ("frames", "frames"))
+            ("  at (frames)", "files_offset_frames"), ("tracks", "tracks"), ("walker frames", "walker_frames"),
+            ("frames", "frames"))
     for label, key in rows:
         lines.append(f"{label:<18}" + "".join(f"{r['demos'][d][key]:>10.2f}" if isinstance(r['demos'][d][key], float)
                                               else f"{r['demos'][d][key]:>10}" for d in demos))

@@ -62,6 +62,8 @@ class FramePeople:
         root_mm: (T, K, 3) mean of the person's association joints, NaN where absent.
         views: (T, K) number of cameras assigned to each person (0 where absent).
         joint_indices: (Ja,) skeleton indices of the association joints.
+        flipped: (C, T, P) bool: detection (c, t, p) is its person mirrored left/right (the detector
+            swapped the sides); None: not known (taken as False).
     """
 
     labels: np.ndarray
@@ -69,6 +71,7 @@ class FramePeople:
     root_mm: np.ndarray
     views: np.ndarray
     joint_indices: tuple[int, ...]
+    flipped: np.ndarray | None = None
 
 
 def associate_frames(multi: MultiPersonDetections, rig: Rig, config: AssociationConfig) -> FramePeople:
@@ -104,6 +107,7 @@ def _concatenate(parts: list[FramePeople]) -> FramePeople:
         root_mm=np.concatenate([pad(p.root_mm, np.nan) for p in parts]),
         views=np.concatenate([pad(p.views, 0) for p in parts]),
         joint_indices=parts[0].joint_indices,
+        flipped=np.concatenate([p.flipped for p in parts], axis=1),
     )
 
 
@@ -128,7 +132,8 @@ def _associate_chunk(multi: MultiPersonDetections, rig: Rig, config: Association
     cost, flipped = reprojection_cost(rig, rays, points, config)
     labels = assign_greedy(prefer_linked(cost, comp))
     final = labels.transpose(1, 0, 2).reshape(t_, c_ * p_)
-    points = triangulate_groups(rays, final, flipped=of_group(flipped, final), num_groups=points.shape[1],
+    mirrored = of_group(flipped, final)  # (C, T, P)
+    points = triangulate_groups(rays, final, flipped=mirrored, num_groups=points.shape[1],
                                  robust_iters=ROBUST_ITERS)
     views = np.stack([(labels == k).any(-1).sum(0) for k in range(points.shape[1])], -1)  # (T, K)
     absent = views < config.min_views
@@ -138,9 +143,11 @@ def _associate_chunk(multi: MultiPersonDetections, rig: Rig, config: Association
     views = np.where(absent, 0, views)
     with np.errstate(invalid="ignore"), quiet_warnings():
         root = np.nanmean(points, axis=2)
-    return FramePeople(labels=labels, points_mm=points, root_mm=root, views=views, joint_indices=jidx)
+    return FramePeople(labels=labels, points_mm=points, root_mm=root, views=views, joint_indices=jidx,
+                       flipped=mirrored & (labels >= 0))
 
 
 def _nobody(c_: int, t_: int, p_: int, ja: int, jidx) -> FramePeople:
     return FramePeople(labels=np.full((c_, t_, p_), -1), points_mm=np.full((t_, 0, ja, 3), np.nan),
-                       root_mm=np.full((t_, 0, 3), np.nan), views=np.zeros((t_, 0), int), joint_indices=jidx)
+                       root_mm=np.full((t_, 0, 3), np.nan), views=np.zeros((t_, 0), int), joint_indices=jidx,
+                       flipped=np.zeros((c_, t_, p_), bool))

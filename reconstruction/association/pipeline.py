@@ -5,8 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from gaitcap.reconstruction.association.completion import complete_tracks
 from gaitcap.reconstruction.association.crossview import AssociationConfig, associate_frames
 from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.association.orientation import face_forward
 from gaitcap.reconstruction.association.selection import TrackSelector, WalkwayTrack, patient_detections
 from gaitcap.reconstruction.association.tracking import TrackingConfig, Tracks, link_tracks
 from gaitcap.reconstruction.camera import Rig
@@ -15,10 +17,21 @@ from gaitcap.reconstruction.detections import Detections
 
 @dataclass(frozen=True)
 class PipelineConfig:
-    """Settings of :func:`associate` (per-frame association, then temporal linking)."""
+    """Settings of :func:`associate` (per-frame association, temporal linking, then track completion).
+
+    Attributes:
+        completion_gap_s: detections left unassigned by the per-frame association are given to the
+            track they continue (:mod:`.completion`) up to this long (s) before, after or between the
+            track's sightings; 0 turns completion off.
+    """
 
     association: AssociationConfig = field(default_factory=AssociationConfig)
     tracking: TrackingConfig = field(default_factory=TrackingConfig)
+    completion_gap_s: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not self.completion_gap_s >= 0:
+            raise ValueError(f"PipelineConfig.completion_gap_s must be >= 0, got {self.completion_gap_s}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,9 +50,16 @@ class PatientSelection:
 
 
 def associate(multi: MultiPersonDetections, rig: Rig, config: PipelineConfig = PipelineConfig()) -> Tracks:
-    """Per-frame cross-view association and temporal linking of every person in view."""
+    """Per-frame cross-view association, temporal linking and track completion of every person in view;
+    each track's frames turned the right way round (:func:`.orientation.face_forward`) when the up axis
+    is known (``config.tracking.up_axis``)."""
     people = associate_frames(multi, rig, config.association)
-    return link_tracks(people, multi.times_s, multi.camera_names, config.tracking)
+    tracks = link_tracks(people, multi.times_s, multi.camera_names, config.tracking)
+    if config.completion_gap_s > 0:
+        tracks = complete_tracks(multi, rig, tracks, config.association, max_gap_s=config.completion_gap_s)
+    if config.tracking.up_axis is None:
+        return tracks
+    return face_forward(tracks, multi.skeleton, up_axis=config.tracking.up_axis)
 
 
 def default_selector(rig: Rig, *, up_axis: int = 2, aim_height_mm: float = 900.0) -> WalkwayTrack:

@@ -10,6 +10,7 @@ from gaitcap.reconstruction.camera import Rig
 
 ROBUST_ITERS = 2  # reweightings of the final triangulation of each person
 ROBUST_SCALE_MM = 60.0  # Cauchy scale of the ray-to-point distance
+MIRROR_RATIO = 0.5  # a detection is taken as mirrored when that fits at least twice as well as straight
 
 
 def merge_disjoint_neighbours(points_mm: np.ndarray, comp: np.ndarray, c_: int, p_: int,
@@ -71,12 +72,14 @@ def reprojection_cost(rig: Rig, rays: Rays, points_mm: np.ndarray, config) -> tu
     detection's box diagonal; inf where fewer than ``min_joints`` joints compare or above the gate.
 
     A detection mirrored left/right by the detector is compared mirrored too (the smaller cost counts);
-    the second result (C, T, P, K) bool says where the mirrored comparison won.
+    the second result (C, T, P, K) bool says where the mirrored comparison won clearly (its error below
+    ``MIRROR_RATIO`` times the straight one's): a person seen from the side looks almost the same both
+    ways round, and noise must not turn them.
     """
     proj = rig.project(points_mm)  # (C, T, K, Ja, 2)
     straight = _median_cost(rays, proj, config)
     mirrored = _median_cost(rays, proj[..., rays.flip, :], config)
-    return np.minimum(straight, mirrored), mirrored < straight
+    return np.minimum(straight, mirrored), mirrored < MIRROR_RATIO * straight
 
 
 def nan_median_last(values: np.ndarray) -> np.ndarray:

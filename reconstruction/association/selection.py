@@ -164,7 +164,8 @@ class NearestStartTrack:
 
 
 def patient_detections(multi: MultiPersonDetections, tracks: Tracks, track_id: int) -> Detections:
-    """The chosen track's 2D keypoints per camera and frame (NaN where it is not seen)."""
+    """The chosen track's 2D keypoints per camera and frame (NaN where it is not seen); detections that
+    show the person mirrored (``tracks.flipped``: the detector swapped left and right) swapped back."""
     track_id = tracks.check_id(track_id)
     if tracks.camera_names != multi.camera_names:
         raise ValueError(f"tracks are for cameras {list(tracks.camera_names)}, detections for "
@@ -173,6 +174,8 @@ def patient_detections(multi: MultiPersonDetections, tracks: Tracks, track_id: i
     slot = np.argmax(hit, axis=-1)
     kp = np.take_along_axis(multi.keypoints, slot[:, :, None, None, None], axis=2)[:, :, 0]
     kp = np.where(hit.any(-1)[..., None, None], kp, np.nan)
+    mirrored = (tracks.mirrored() & hit).any(-1)  # (C, T)
+    kp = np.where(mirrored[..., None, None], kp[:, :, list(multi.skeleton.flip_permutation)], kp)
     return Detections(keypoints=kp, camera_names=multi.camera_names, times_s=multi.times_s,
                       skeleton=multi.skeleton)
 

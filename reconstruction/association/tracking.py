@@ -77,6 +77,9 @@ class Tracks:
         joint_indices: (Ja,) skeleton indices of the association joints.
         camera_names: (C,) camera order of ``detection_track``.
         times_s: (T,) frame times.
+        flipped: (C, T, P) bool: detection (c, t, p) shows its track mirrored left/right (the detector
+            swapped the sides; :func:`~gaitcap.reconstruction.association.selection.patient_detections`
+            swaps them back); None: not known (taken as False).
     Track ids are 0..M-1 in order of first appearance.
     """
 
@@ -87,6 +90,13 @@ class Tracks:
     joint_indices: tuple[int, ...]
     camera_names: tuple[str, ...]
     times_s: np.ndarray
+    flipped: np.ndarray | None = None
+
+    def mirrored(self) -> np.ndarray:
+        """(C, T, P) bool: :attr:`flipped`, all False when not known."""
+        if self.flipped is None:
+            return np.zeros(self.detection_track.shape, bool)
+        return self.flipped & (self.detection_track >= 0)
 
     @property
     def num_tracks(self) -> int:
@@ -267,5 +277,7 @@ def _build(people: FramePeople, track_of, m_, times_s, camera_names, config) -> 
     labels = people.labels
     frame = np.broadcast_to(np.arange(t_)[None, :, None], labels.shape)
     det_track = np.where(labels >= 0, track_of[frame, np.maximum(labels, 0)], -1)
+    flipped = None if people.flipped is None else people.flipped & (det_track >= 0)
     return Tracks(detection_track=det_track, root_mm=root, points_mm=points, views=views,
-                  joint_indices=people.joint_indices, camera_names=camera_names, times_s=times_s)
+                  joint_indices=people.joint_indices, camera_names=camera_names, times_s=times_s,
+                  flipped=flipped)
