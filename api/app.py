@@ -22,6 +22,7 @@ from gaitcap.api import (
     routes_people,
     routes_report,
     routes_results,
+    routes_rig_check,
     routes_trials,
 )
 from gaitcap.api.security import install_security, start_backups
@@ -89,6 +90,7 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
     app.include_router(routes_kinematics.router)
     app.include_router(routes_live.router)
     app.include_router(routes_calibrations.router)
+    app.include_router(routes_rig_check.router)
     app.include_router(routes_people.router)
     app.include_router(routes_report.router)
     app.include_router(routes_patients.router)

@@ -51,6 +51,7 @@ ROUTE_PERMISSIONS: dict[tuple[str, str], frozenset[str]] = {
     ("PUT", "/patients/{subject_id}"): frozenset({RECORD}),
     ("GET", "/calibrations"): frozenset({READ, CALIBRATE}),
     ("GET", "/calibrations/latest"): frozenset({READ, CALIBRATE}),
+    ("GET", "/rig-check/latest"): frozenset({READ, CALIBRATE}),
     ("GET", "/calibrations/{cal_id}"): frozenset({READ, CALIBRATE}),
     ("GET", "/calibrations/{cal_id}/toml"): frozenset({CALIBRATE, EXPORT}),
     ("POST", "/calibrations"): frozenset({CALIBRATE}),

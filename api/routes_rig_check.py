@@ -1,0 +1,20 @@
+"""The rig check of the latest processed trial, for the page's calibration section: did a camera move
+since calibration (named, with its rotation deg and shift mm), shown before the next patient."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Depends, HTTPException, Request
+from gaitcap.api.auth import require_user
+from gaitcap.api.deps import catalog_of
+from gaitcap.services.catalog.rig_checks import latest_rig_check
+
+router = APIRouter(tags=["calibrations"])
+
+
+@router.get("/rig-check/latest", summary="The latest processed trial's rig check (cameras moved since calibration)")
+def rig_check_latest(request: Request, user: str = Depends(require_user)) -> dict:
+    """404 when no processed trial has run a rig check yet."""
+    found = latest_rig_check(catalog_of(request))
+    if found is None:
+        raise HTTPException(status_code=404, detail="no processed trial has checked the rig yet")
+    return found

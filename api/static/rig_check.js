@@ -1,0 +1,38 @@
+// gaitcap clinic page: the rig check of the latest processed trial, in the calibration card, so a camera
+// bumped since calibration is seen before the next patient. Uses api(), esc(), fmtNum() and state from app.js.
+"use strict";
+
+const rigNum = (x, digits) => (x === null || x === undefined ? "–" : Number(x).toFixed(digits));
+
+function rigCheckRow(c) {
+  const result = !c.judged ? "not judged" : (c.moved ? "MOVED" : "in place");
+  return `<tr><td>${esc(c.name)}</td><td class="${c.moved ? "cal-fail" : (c.judged ? "cal-pass" : "")}">${result}</td>
+    <td>${rigNum(c.rotation_deg, 2)}</td><td>${rigNum(c.shift_mm, 1)}</td><td>${rigNum(c.field_px, 2)}</td></tr>`;
+}
+
+function rigCheckSummary(check) {
+  const when = new Date(check.checked_at * 1000).toLocaleString();
+  const seen = `trial ${check.trial_id} (patient ${check.subject_id}, checked ${when})`;
+  if (!check.flagged) return `No camera moved since calibration: ${seen}.`;
+  const moved = check.cameras.filter((c) => c.moved)
+    .map((c) => `${c.name} (about ${rigNum(c.rotation_deg, 1)} deg, ${rigNum(c.shift_mm, 0)} mm)`).join(", ");
+  return `Camera ${moved} moved since calibration, seen in ${seen}. Recalibrate, or refine the rig from `
+    + "people (gaitcap refine-rig), before the next patient.";
+}
+
+function showRigCheck(check) {
+  const box = document.querySelector("#rig-check");
+  box.hidden = !check;
+  if (!check) return;
+  const summary = document.querySelector("#rig-check-summary");
+  summary.textContent = rigCheckSummary(check);
+  summary.className = check.flagged ? "error" : "muted";
+  document.querySelector("#rig-check-table tbody").innerHTML = check.cameras.map(rigCheckRow).join("");
+}
+
+async function loadRigCheck() {
+  try { showRigCheck(await api("/rig-check/latest")); }
+  catch (e) { if (e.status === 404) showRigCheck(null); }
+}
+
+setInterval(() => { if (state.user && !document.querySelector("#app").hidden && !document.querySelector("#calibrate-card").hidden) loadRigCheck(); }, 3000);

@@ -1,0 +1,39 @@
+"""The latest trial's rig check (``processing.checks.rig`` of its quality record): what the page shows in
+its calibration section "before the next patient" (a camera moved since calibration, named with its
+estimated rotation deg and shift mm)."""
+
+from __future__ import annotations
+
+import json
+
+from gaitcap.services.catalog.db import Catalog
+from gaitcap.services.catalog.models import Trial, TrialQuality
+from gaitcap.services.catalog.states import FINISHED
+from sqlalchemy import select
+
+CAMERA_FIELDS = ("name", "judged", "moved", "rotation_deg", "shift_mm", "field_px", "residual_px", "expected_px",
+                 "points")
+
+
+def _summary(trial: Trial, checked_at: float, rig: dict) -> dict:
+    return {"trial_id": trial.id, "subject_id": trial.subject_id, "checked_at": checked_at,
+            "calibration_id": trial.calibration_id, "flagged": bool(rig.get("flagged")),
+            "moved": list(rig.get("moved", [])), "warnings": list(rig.get("warnings", [])),
+            "notes": list(rig.get("notes", [])),
+            "cameras": [{k: c.get(k) for k in CAMERA_FIELDS} for c in (rig.get("cameras") or {}).values()]}
+
+
+def latest_rig_check(catalog: Catalog, *, look_back: int = 20) -> dict | None:
+    """The rig check of the most recently processed trial that ran one (among the last ``look_back``
+    finished trials), or None: {trial_id, subject_id, checked_at (UNIX s), calibration_id, flagged, moved,
+    warnings, notes, cameras: [{name, judged, moved, rotation_deg, shift_mm, field_px (px), residual_px,
+    expected_px, points}]}."""
+    with catalog.reading() as s:
+        q = (select(Trial, TrialQuality).join(TrialQuality, TrialQuality.trial_id == Trial.id)
+             .where(Trial.state.in_([x.value for x in FINISHED])).order_by(TrialQuality.updated_at.desc())
+             .limit(look_back))
+        for trial, quality in s.execute(q):
+            rig = ((json.loads(quality.sections_json).get("processing") or {}).get("checks") or {}).get("rig") or {}
+            if rig.get("run"):
+                return _summary(trial, quality.updated_at, rig)
+    return None

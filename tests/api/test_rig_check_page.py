@@ -1,0 +1,70 @@
+"""The rig check on the clinic page (real uvicorn, real catalog, headless Chromium): the latest processed
+trial's rig check, computed by the worker's own check on a synthetic walk whose calibration is 2 deg off
+for one camera, is shown in the calibration card before the next patient: the camera named as moved with
+its rotation (deg) and shift (mm); the others in place."""
+
+import numpy as np
+from gaitcap.reconstruction.calibration.geometry import rvec_of
+from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
+from gaitcap.reconstruction.triangulation import robust_triangulate
+from gaitcap.services import catalog as cat
+from gaitcap.services.processing.checks import rig_check
+
+from .conftest import sign_in_page
+
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
+MOVED = "cam02"
+
+
+def _stale(rig: Rig) -> Rig:
+    cams = []
+    for cam in rig:
+        if cam.name == MOVED:
+            rot = rodrigues_to_matrix(np.radians(2.0) * np.array([0.0, 1.0, 0.0])) @ cam.rotation
+            cam = cam.replace(rvec=rvec_of(rot), tvec_mm=-rot @ cam.center_mm)
+        cams.append(cam)
+    return Rig(tuple(cams))
+
+
+def _processed_trial(db) -> str:
+    """A trial processed under a stale calibration, its quality record holding the worker's rig check."""
+    from gaitcap.simulator import make_trial
+
+    walk = make_trial("clean", seconds=8, cameras=5, people=1, seed=4, fps=30)
+    stale = _stale(walk.rig)
+    check = rig_check(walk.detections, stale, robust_triangulate(walk.detections, stale).points_mm)
+    t = cat.start_trial(db, subject_id="P7", session="s1", recording_path_for=lambda tid: f"/nowhere/{tid}.mcap")
+    for state in ("recorded", "processing", "done_with_warnings"):
+        cat.set_state(db, t.id, state)
+    cat.set_quality(db, t.id, "processing", {"warnings": check["warnings"], "checks": {"rig": check}})
+    return t.id
+
+
+def test_the_latest_trials_rig_check_names_the_moved_camera_on_the_page(server):
+    from playwright.sync_api import sync_playwright
+
+    srv, client, _, settings = server
+    assert client.get("/rig-check/latest").status_code == 404  # nothing processed yet
+    db = cat.open_catalog(settings.catalog_url)
+    tid = _processed_trial(db)
+    got = client.get("/rig-check/latest").json()
+    assert got["trial_id"] == tid and got["moved"] == [MOVED] and got["flagged"]
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
+        page = browser.new_page(viewport={"width": 1280, "height": 900})
+        page.set_default_timeout(30_000)
+        try:
+            sign_in_page(page, srv.url)
+            page.wait_for_selector("#rig-check:not([hidden])")
+            summary = page.locator("#rig-check-summary").inner_text()
+            header = page.locator("#rig-check-table thead th").all_inner_texts()
+            rows = {r.locator("td").first.inner_text(): r.locator("td").all_inner_texts()
+                    for r in page.locator("#rig-check-table tbody tr").all()}
+        finally:
+            browser.close()
+    assert summary.startswith(f"Camera {MOVED} (about ") and f"seen in trial {tid} (patient P7" in summary, summary
+    assert "before the next patient" in summary
+    result, rotation = header.index("Since calibration"), header.index("Rotation (deg)")
+    assert rows[MOVED][result] == "MOVED" and abs(float(rows[MOVED][rotation]) - 2.0) < 0.3, rows[MOVED]
+    assert [r[result] for n, r in rows.items() if n != MOVED] == ["in place"] * 4, rows
+    assert all(float(r[rotation]) < 0.3 for n, r in rows.items() if n != MOVED), rows
