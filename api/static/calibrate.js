@@ -51,7 +51,7 @@ function showCalibration(run) {
   const rows = (rep.cameras || []).map((c) => `<tr><td>${esc(c.name)}</td>
     <td class="${c.ok ? "cal-pass" : "cal-fail"}">${c.ok ? "pass" : "FAIL"}</td><td>${c.n_detections}</td>
     <td>${calNum(c.reprojection_mean_px)}</td><td>${calNum(c.reprojection_p95_px)}</td>
-    <td>${Math.round(100 * c.coverage)} %</td><td>${esc((c.problems || []).join("; "))}</td>
+    <td>${Number.isFinite(c.coverage) ? Math.round(100 * c.coverage) + " %" : "–"}</td><td>${esc((c.problems || []).join("; "))}</td>
     <td class="muted">${esc((c.notes || []).join("; "))}</td></tr>`);
   document.querySelector("#calibration-table tbody").innerHTML = rows.join("");
   const link = run.has_toml ? ` <a href="${withToken("/calibrations/" + encodeURIComponent(run.id) + "/toml")}">Download calibration (TOML)</a>` : "";
@@ -61,6 +61,21 @@ function showCalibration(run) {
   document.querySelector("#calibration-summary").innerHTML = esc(`${run.id}: ${board}${square}`
     + (rep.reprojection_rms_px !== undefined && rep.reprojection_rms_px !== null ? `reprojection RMS ${calNum(rep.reprojection_rms_px)} px.` : "")) + link;
   document.querySelector("#calibration-report").hidden = !rows.length && !run.has_toml;
+  showBoardFound(ok ? [] : rep.detections || []);
+}
+
+// A calibration refused before any camera was calibrated: what each camera saw of the board.
+function boardFoundRow(d) {
+  const seen = d.seen ? `${d.with_board} of ${d.frames} frames` : `not seen (${d.frames} frames searched)`;
+  const enough = d.usable >= d.needed;
+  return `<tr><td>${esc(d.name)}</td><td>${seen}</td><td>${d.usable} (need ${d.needed})</td>
+    <td class="${enough ? "cal-pass" : "cal-fail"}">${enough ? "enough views" : (d.seen ? "too few views" : "not seen")}</td>
+    <td>${esc((d.advice || []).join("; "))}</td></tr>`;
+}
+
+function showBoardFound(detections) {
+  document.querySelector("#calibration-found tbody").innerHTML = detections.map(boardFoundRow).join("");
+  document.querySelector("#calibration-found-wrap").hidden = !detections.length;
 }
 
 async function loadCalibrations() {

@@ -197,3 +197,14 @@ def finish_calibration(catalog: Catalog, cal_id: str, *, toml: str, report: dict
             row.state, row.done_at = DONE, time.time()
         s.flush()
         return _info(row)
+
+
+def refuse_calibration(catalog: Catalog, cal_id: str, *, error: str, report: dict) -> CalibrationInfo:
+    """The recording gave no calibration: ``failed`` with ``error`` and ``report`` (what was found per
+    camera), no TOML, never activated."""
+    with catalog.session() as s:
+        row = _row(s, cal_id, expect=CALIBRATING)
+        row.report_json = json.dumps(json_ready(report), default=float)
+        row.state, row.stage, row.progress, row.error = FAILED, "", 1.0, error
+        s.flush()
+        return _info(row)

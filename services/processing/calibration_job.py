@@ -22,6 +22,7 @@ from gaitcap.services.catalog.calibrations import (
     FAILED,
     finish_calibration,
     get_calibration,
+    refuse_calibration,
     update_calibration,
 )
 from gaitcap.services.processing.boards import board_used
@@ -62,20 +63,21 @@ def run_calibration(catalog: Catalog, cal_id: str, *, board=None, check: Callabl
         log.info("calibration %s is %s; nothing to do", cal_id, cal.state)
         return
     words = "none: the board recorded on the calibration is not a board"  # until board_used() read it
+    found, config = None, CalibrationConfig()
     try:
         board, words = (board, board.describe()) if board is not None else board_used(cal)
         update_calibration(catalog, cal_id, stage="finding the board", progress=0.0)
         found = find_board_views(cal.recording_path, board=board,
                                  progress=_progress(catalog, cal_id, cal.frames, check))
-        config = CalibrationConfig()
         found.check(config.intrinsics.min_views)  # per camera: what was found and what to change
         check()
         update_calibration(catalog, cal_id, stage="calibrating the cameras", progress=0.8)
         result = calibrate_from_observations(found.observations, config=config, views_removed=found.views_removed)
     except ValueError as exc:
         log.warning("calibration %s failed (board used: %s): %s", cal_id, words, exc)
-        update_calibration(catalog, cal_id, state=FAILED, stage="", progress=1.0,
-                           error=f"{exc} (board used: {words})")
+        seen = detections_report(found, config.intrinsics.min_views) if found is not None else []
+        refuse_calibration(catalog, cal_id, error=f"{without_table(str(exc))} (board used: {words})",
+                           report={"board_used": words, "detections": seen})
         return
     check()
     report = result.report
@@ -87,6 +89,22 @@ def run_calibration(catalog: Catalog, cal_id: str, *, board=None, check: Callabl
              list(report.failed_cameras))
 
 
+def without_table(message: str) -> str:
+    """``message`` without the detection table appended to it (the page shows it per camera)."""
+    from gaitcap.acquisition.board_diagnosis import HEADER
+
+    return message.split("\n\n" + HEADER)[0].strip()
+
+
+def detections_report(found, min_views: int) -> list[dict]:
+    """Per camera of a board recording: what the board detector found, for a failed calibration's
+    report (``seen``: the board was found in at least one frame; ``usable`` views against ``needed``;
+    ``advice``: what to change, empty when the camera had enough views)."""
+    return [{"name": c.name, "frames": c.frames, "with_board": c.with_board, "usable": c.usable(),
+             "needed": min_views, "seen": c.with_board > 0, "advice": c.advice(found.board, min_views)}
+            for c in found.cameras]
+
+
 def fail_calibration(catalog: Catalog, cal_id: str, exc: Exception) -> None:
     """The job crashed (not a refusal of the maths): the calibration must not stay ``calibrating``."""
     try:
@@ -96,4 +114,4 @@ def fail_calibration(catalog: Catalog, cal_id: str, exc: Exception) -> None:
         log.warning("calibration %s could not be marked failed", cal_id)
 
 
-__all__ = ["fail_calibration", "run_calibration"]
+__all__ = ["detections_report", "fail_calibration", "run_calibration", "without_table"]
