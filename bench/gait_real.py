@@ -7,7 +7,8 @@ on the same trajectory. Errors are detected minus annotated (ms; frames at 30 fp
 median, the mean and the 90th percentile of |e|); an annotated event
 is found when a detected event of that foot lies within 0.25 s; a detected event matching no annotation
 within the annotated span of that foot (and no excluded annotation) is invented. Stance and double
-support (% of the stride) come from the default detector's steps vs the annotated events.
+support (% of the stride) come from the default detector's steps vs the annotated events. The default
+detector's errors are also listed per walk and foot (every error of the 5 phases).
 
     python bench/gait_real.py                            # reconstruction: implicit (the default), a table
     python bench/gait_real.py --methods truth robust implicit explicit --json
@@ -54,14 +55,16 @@ def _match(detected: np.ndarray, annotated: np.ndarray, excluded: np.ndarray) ->
 def _score(events, walk) -> dict:
     out = {}
     for kind in ("heel_strike", "toe_off"):
-        errors, found, invented, annotated = [], 0, 0, 0
+        errors, found, invented, annotated, by_foot = [], 0, 0, 0, {}
         for side in ("left", "right"):
             truth = getattr(walk, f"{kind}_s")[side]
             excl = np.array([t for k, s, t, _ in walk.excluded if k == kind and s == side])
             e, f, i = _match(np.asarray(events[kind][side], dtype=float), truth, excl)
             errors += e
+            by_foot[side] = e
             found, invented, annotated = found + f, invented + i, annotated + len(truth)
-        out[kind] = {"errors_s": errors, "found": found, "annotated": annotated, "invented": invented}
+        out[kind] = {"errors_s": errors, "found": found, "annotated": annotated, "invented": invented,
+                     "by_foot": by_foot}
     return out
 
 
@@ -130,7 +133,7 @@ def run(*, methods: list[str], phases: int, seed: int) -> dict:
     walks = available_walks()
     if not walks:
         raise SystemExit("no real walks installed: run deploy/bootstrap.sh (install_gait_mocap)")
-    rows, temporal, info = [], {}, {}
+    rows, temporal, info, feet = [], {}, {}, []
     for method in methods:
         everything: dict = {}
         for name in walks:
@@ -138,6 +141,7 @@ def run(*, methods: list[str], phases: int, seed: int) -> dict:
             info[name] = {"source": walk.source, "seconds": walk.duration_s,
                           "excluded_annotations": [list(e) for e in walk.excluded]}
             pooled: dict = {}
+            foot_errors: dict = {}
             temp = {"stance_pct": [], "double_support_pct": []}
             for phase in range(phases):
                 r = run_walk(walk, method=method, phase=phase, seed=seed + phase)
@@ -148,8 +152,15 @@ def run(*, methods: list[str], phases: int, seed: int) -> dict:
                         for key in ("found", "annotated", "invented"):
                             p[key] += s[key]
                         p["errors_s"] += s["errors_s"]
+                        if det == "gaitcap":
+                            for side, e in s["by_foot"].items():
+                                foot_errors.setdefault((kind, side), []).extend(e)
                 for k in temp:
                     temp[k] += r["temporal"][k]
+            for (kind, side), e in foot_errors.items():
+                feet.append({"reconstruction": method, "walk": name, "event": kind, "foot": side,
+                             **{f"{k}_ms" if k != "n" else k: v for k, v in _summary(e).items()},
+                             "errors_ms": [round(1000.0 * x, 1) for x in e]})
             for (det, kind), p in pooled.items():
                 rows.append(_row(method, name, det, kind, p))
                 total = everything.setdefault((det, kind), {"errors_s": [], "found": 0, "annotated": 0,
@@ -158,7 +169,8 @@ def run(*, methods: list[str], phases: int, seed: int) -> dict:
                     total[key] += value
             temporal[f"{method}/{name}"] = {k: _summary(vals, scale=1.0) for k, vals in temp.items()}
         rows += [_row(method, "all", det, kind, p) for (det, kind), p in everything.items()]
-    return {"fps": FPS, "phases": phases, "seed": seed, "rows": rows, "temporal_pct": temporal, "walks": info}
+    return {"fps": FPS, "phases": phases, "seed": seed, "rows": rows, "by_foot": feet, "temporal_pct": temporal,
+            "walks": info}
 
 
 def _f(x, d=0) -> str:
@@ -177,6 +189,12 @@ def _table(r: dict) -> str:
             f"{_f(med):>10}{_f(med and med / ms_frame, 2):>6}{_f(signed):>10}"
             f"{_f(signed if signed is None else signed / ms_frame, 2):>6}{_f(row['bias_ms']):>8}{_f(p90):>8}"
             f"{_f(p90 and p90 / ms_frame, 2):>6}{row['found']:>5}/{row['annotated']:<3}{row['invented']:>9}")
+    lines.append("default detector per walk and foot (detected minus annotated, ms): n, signed median, median |e|, "
+                 "each error")
+    for f in r["by_foot"]:
+        lines.append(f"  {f['reconstruction']:<9}{f['walk']:<10}{f['event']:<12}{f['foot']:<6}{f['n']:>3}"
+                     f"{_f(f['median_ms']):>6}{_f(f['median_abs_ms']):>6}   "
+                     + " ".join(f"{e:+.0f}" for e in f["errors_ms"]))
     lines.append("temporal parameters of the default detector vs the annotations (percentage points of the stride)")
     for key, t in r["temporal_pct"].items():
         for name, s in t.items():
