@@ -222,8 +222,9 @@ function trialCells(t) {
 function renderCameras(cams, detection) {
   const grid = $("#cameras");
   const det = (detection && detection.cameras) || {};
-  const bad = cams.filter((c) => !c.healthy).length;
-  $("#camera-summary").textContent = cams.length ? `${cams.length} cameras, ${bad ? bad + " with a problem" : "all working"}` : "";
+  const words = cameraWords(cams);
+  $("#camera-summary").textContent = cams.length ? words.text : "";
+  noteCameraProblem(words, cams.length > 0);
   if (!cams.length) { grid.innerHTML = '<p class="muted">No cameras seen yet. Check that the cameras are switched on.</p>'; state.cameras = {}; return; }
   if (grid.querySelector("p")) grid.innerHTML = "";
   for (const c of cams) {
@@ -489,15 +490,40 @@ function rerunFinished(t) {
 const COMPONENT_NAMES = { database: "Database", disk: "Disk space", recorder: "Recorder", detector: "Detector",
   workers: "Processing workers", cameras: "Cameras" };
 const DOWN_GRACE_S = 3;
+// cameras: {text, since} while a listed camera has a problem; listed: the live status lists cameras
+const systemState = { items: [], cameras: null, listed: false };
 async function pollHealth() {
   let h = null;
   try { const r = await fetch("/health"); h = await r.json(); } catch (e) { /* the connection pill says it */ }
   const now = Date.now() / 1000, items = [];
   for (const [name, c] of Object.entries((h && h.components) || {})) {
-    if (c.ok !== false) continue;
+    if (c.ok !== false || (name === "cameras" && systemState.listed)) continue;  // from the camera list (below)
     if (c.since && now - c.since < DOWN_GRACE_S) continue;
     items.push(`<li data-component="${esc(name)}"><b>${esc(COMPONENT_NAMES[name] || name)}:</b> ${esc(c.status)}</li>`);
   }
+  systemState.items = items; renderSystem();
+}
+
+// The one camera count on the page: the Cameras heading and the system banner both say these words, made
+// from the same camera list (the live status), so they never disagree.
+function cameraWords(cams) {
+  const bad = cams.filter((c) => !c.healthy);
+  if (!bad.length) return { ok: true, text: `${cams.length} cameras, all working` };
+  const names = bad.map((c) => `${c.name} (${c.status})`).join(", ");
+  return { ok: false, text: `${cams.length - bad.length} of ${cams.length} cameras working; not working: ${names}` };
+}
+
+function noteCameraProblem(words, listed) {
+  systemState.listed = listed;
+  const since = systemState.cameras ? systemState.cameras.since : Date.now() / 1000;
+  systemState.cameras = words.ok ? null : { text: words.text, since };
+  renderSystem();
+}
+
+function renderSystem() {
+  const cams = systemState.cameras, items = [...systemState.items];
+  if (cams && Date.now() / 1000 - cams.since >= DOWN_GRACE_S)
+    items.push(`<li data-component="cameras"><b>${COMPONENT_NAMES.cameras}:</b> ${esc(cams.text)}</li>`);
   $("#system-list").innerHTML = items.join("");
   $("#system").hidden = !items.length;
 }
