@@ -133,7 +133,7 @@ def real(npz: Path) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
         report = trial_kinematics(traj.points_mm, times, traj.joint_names, out_dir=Path(tmp),
-                                  steps=gait.steps if gait is not None else (), quality=traj.num_views)
+                                  steps=gait.steps if gait is not None else (), quality=traj.quality)
         secs = time.perf_counter() - t0
         mot_times, coords, _ = parse_mot((Path(tmp) / FILES["mot"]).read_text())
     from gaitcap.reconstruction.kinematics.report import with_zero_offsets

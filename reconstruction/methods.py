@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
@@ -27,19 +27,15 @@ from gaitcap.reconstruction.fits.memory import check_memory, fit_bytes, triangul
 from gaitcap.reconstruction.fits.optim import Progress
 from gaitcap.reconstruction.metrics import compute_metrics, reprojection_errors_px
 from gaitcap.reconstruction.result import Reconstruction
-from gaitcap.reconstruction.triangulation import TriangulationResult, dlt_triangulate, robust_triangulate
+from gaitcap.reconstruction.triangulation import dlt_triangulate, robust_triangulate
 
 log = logging.getLogger(__name__)
 
 FIT_WEIGHT_SCALE_PX = 20.0  # reported view weights after a fit: exp(-reprojection px / 20) x confidence
 
 
-def _from_triangulation(name: str, det: Detections, tri: TriangulationResult, seconds: float) -> Reconstruction:
-    return Reconstruction(
-        method=name, points_mm=tri.points_mm, times_s=det.times_s, joint_names=det.skeleton.joint_names,
-        camera_names=det.camera_names, camera_weights=tri.camera_weights, quality=tri.quality,
-        losses={"seconds": seconds},
-    )
+def _from_triangulation(name: str, tri: Reconstruction, seconds: float) -> Reconstruction:
+    return replace(tri, method=name, losses={"seconds": seconds})
 
 
 class _TriangulationMethod:
@@ -52,7 +48,7 @@ class _TriangulationMethod:
     def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
         t0 = time.perf_counter()
         tri = self.triangulate(detections, rig)
-        return _from_triangulation(self.name, detections, tri, time.perf_counter() - t0)
+        return _from_triangulation(self.name, tri, time.perf_counter() - t0)
 
 
 @dataclass(frozen=True)
@@ -62,7 +58,7 @@ class DLT(_TriangulationMethod):
     min_confidence: float = 0.0
     name = "dlt"
 
-    def triangulate(self, detections: Detections, rig: Rig) -> TriangulationResult:
+    def triangulate(self, detections: Detections, rig: Rig) -> Reconstruction:
         return dlt_triangulate(detections, rig, min_confidence=self.min_confidence)
 
 
@@ -74,7 +70,7 @@ class Robust(_TriangulationMethod):
     sigma_mm: float = 150.0
     name = "robust"
 
-    def triangulate(self, detections: Detections, rig: Rig) -> TriangulationResult:
+    def triangulate(self, detections: Detections, rig: Rig) -> Reconstruction:
         return robust_triangulate(detections, rig, gamma=self.gamma, sigma_mm=self.sigma_mm)
 
 

@@ -1,4 +1,5 @@
-"""The result of a reconstruction (its file: :func:`gaitcap.services.processing.outputs.write_npz`)."""
+"""The one trajectory type: the result of a reconstruction, of any method, as every stage, file reader and
+viewer uses it (its file: :func:`gaitcap.services.processing.outputs.write_npz`)."""
 
 from __future__ import annotations
 
@@ -17,25 +18,28 @@ class Reconstruction:
         points_mm: (T, J, 3) mm; NaN where a triangulation had fewer than 2 usable views.
         times_s: (T,) s.
         joint_names: (J,) names (skeleton order).
-        camera_names: (C,) names (order of ``camera_weights``).
+        camera_names: (C,) names (order of ``camera_weights``; empty when unknown).
         camera_weights: (C, T, J) weight of each view: robust-triangulation weights, or for fits
-            exp(-reprojection px / 20) x confidence.
-        quality: (T, J) effective number of agreeing views (sum of camera weights; 0 where NaN).
+            exp(-reprojection px / 20) x confidence; None when unknown (a file, a chunked triangulation).
+        quality: (T, J) effective number of agreeing views (sum of camera weights; 0 where NaN); None
+            for a continuous result as the trial's stages keep it, whose points are samples of a function.
         losses: final loss terms of a fit ({} for triangulations), plus "steps" and "seconds".
         metrics: see :func:`gaitcap.reconstruction.metrics.compute_metrics`.
-        trajectory: for implicit fits, times_s (K,) -> (K, J, 3) mm; None otherwise.
+        trajectory: for continuous (implicit) results, times_s (K,) -> (K, J, 3) mm; None otherwise.
+        elapsed_s: compute time of the stage that made it, s (0 when unknown).
     """
 
     method: str
     points_mm: np.ndarray
     times_s: np.ndarray
     joint_names: tuple[str, ...]
-    camera_names: tuple[str, ...]
-    camera_weights: np.ndarray
-    quality: np.ndarray
+    camera_names: tuple[str, ...] = ()
+    camera_weights: np.ndarray | None = None
+    quality: np.ndarray | None = None
     losses: dict = field(default_factory=dict)
     metrics: dict = field(default_factory=dict)
     trajectory: Callable[[np.ndarray], np.ndarray] | None = None
+    elapsed_s: float = 0.0
 
     def sample(self, times_s) -> np.ndarray:
         """Points (K, J, 3) mm at arbitrary times within the trial.

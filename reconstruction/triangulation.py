@@ -18,7 +18,6 @@ A point with fewer than two usable views (or a degenerate geometry) is NaN, neve
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 from functools import partial
 from itertools import combinations
 
@@ -28,25 +27,13 @@ import numpy as np
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.projection import CameraArrays, camera_arrays, undistort_pixels
+from gaitcap.reconstruction.result import Reconstruction
 
 log = logging.getLogger(__name__)
 
 MM_PER_M = 1000.0
 MIN_VIEW_WEIGHT = 1e-3  # a view counts as usable in the final DLT above this weight
 DET_REL_TOL = 1e-7  # det(M) / trace(M)^3 below this: degenerate (near-parallel rays)
-
-
-@dataclass(frozen=True, eq=False)
-class TriangulationResult:
-    """Attributes:
-    points_mm: (T, J, 3) mm, NaN where not triangulable.
-    camera_weights: (C, T, J) weight each view had in the final DLT (0 = unused).
-    quality: (T, J) effective number of agreeing views = sum of camera weights (0 where NaN).
-    """
-
-    points_mm: np.ndarray
-    camera_weights: np.ndarray
-    quality: np.ndarray
 
 
 # ----------------------------------------------------------------------------- closed-form DLT
@@ -291,7 +278,9 @@ def _aligned(detections: Detections, rig: Rig) -> tuple[np.ndarray, CameraArrays
     return kp.reshape(c, t * j, 3), camera_arrays(sub)
 
 
-def _result(detections: Detections, pts, cam_w) -> TriangulationResult:
+def _result(method: str, detections: Detections, pts, cam_w) -> Reconstruction:
+    """The triangulation as a :class:`Reconstruction`: ``camera_weights`` (C, T, J) the weight each view had
+    in the final DLT (0 = unused); ``quality`` (T, J) their sum where a point was found (else 0)."""
     c, t, j = detections.shape
     points = np.asarray(pts, dtype=np.float64).reshape(t, j, 3)
     weights = np.asarray(cam_w, dtype=np.float64).reshape(c, t, j)
@@ -300,23 +289,24 @@ def _result(detections: Detections, pts, cam_w) -> TriangulationResult:
     if missing.any():
         names = [detections.skeleton.joint_names[i] for i in np.flatnonzero(missing)]
         log.warning("joints never triangulated (fewer than 2 usable views in every frame): %s", names)
-    return TriangulationResult(points, weights, quality)
+    return Reconstruction(method, points, detections.times_s, detections.skeleton.joint_names,
+                          camera_names=detections.camera_names, camera_weights=weights, quality=quality)
 
 
-def dlt_triangulate(detections: Detections, rig: Rig, *, min_confidence: float = 0.0) -> TriangulationResult:
+def dlt_triangulate(detections: Detections, rig: Rig, *, min_confidence: float = 0.0) -> Reconstruction:
     """Confidence-weighted DLT (the paper's equation); views with confidence <= min_confidence unused."""
     kp, cams = _aligned(detections, rig)
     conf = np.nan_to_num(kp[..., 2])
     w = np.where(conf > min_confidence, conf, 0.0)
     pts = dlt_arrays(jnp.asarray(kp, jnp.float32), cams, jnp.asarray(w, jnp.float32))
     w_used = np.where(np.isfinite(np.asarray(pts)[:, 0])[None], w, 0.0)
-    return _result(detections, pts, w_used)
+    return _result("dlt", detections, pts, w_used)
 
 
 def robust_triangulate(
     detections: Detections, rig: Rig, *, gamma: float = 0.5, sigma_mm: float = 150.0
-) -> TriangulationResult:
+) -> Reconstruction:
     """The paper's robust triangulation of every frame and joint (see the module docstring)."""
     kp, cams = _aligned(detections, rig)
     pts, cam_w = robust_arrays(jnp.asarray(kp, jnp.float32), cams, gamma=gamma, sigma_mm=sigma_mm)
-    return _result(detections, pts, cam_w)
+    return _result("robust", detections, pts, cam_w)

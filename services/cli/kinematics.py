@@ -72,7 +72,7 @@ def register(app: typer.Typer) -> None:
                 typer.echo(f"note: no gait cycles ({problem}); joint angles only", err=True)
             try:
                 trial_kinematics(traj.points_mm, traj.times_s, traj.joint_names,
-                                 steps=gait.steps if gait is not None else (), quality=traj.num_views,
+                                 steps=gait.steps if gait is not None else (), quality=traj.quality,
                                  out_dir=folder, age_years=age, config=KinematicsConfig(mass_kg=mass_kg))
             except KinematicsUnavailable as exc:
                 typer.echo(f"error: kinematics are unavailable: {exc}", err=True)

@@ -10,8 +10,8 @@ from __future__ import annotations
 import json
 import logging
 
+from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
-from gaitcap.services.processing.pipeline import Trajectory
 
 log = logging.getLogger(__name__)
 
@@ -21,7 +21,7 @@ def _steps(files: TrialFiles, stage: str) -> list[dict]:
     return json.loads(path.read_text()).get("steps", []) if path.is_file() else []
 
 
-def kinematics_step(files: TrialFiles, stage: str, traj: Trajectory, *, age_years: int | None = None) -> bool:
+def kinematics_step(files: TrialFiles, stage: str, traj: Reconstruction, *, age_years: int | None = None) -> bool:
     """Fit, report and export the stage's joint kinematics; True when they were computed. ``age_years``:
     the patient's age at the trial (None when not recorded) picks the normal-gait band of the files."""
     from gaitcap.services.kinematics import KinematicsUnavailable
@@ -30,7 +30,7 @@ def kinematics_step(files: TrialFiles, stage: str, traj: Trajectory, *, age_year
     out = files.stage_file(stage, "kinematics_json").parent
     try:
         trial_kinematics(traj.points_mm, traj.times_s, traj.joint_names, steps=_steps(files, stage),
-                         quality=traj.num_views, out_dir=out, age_years=age_years)
+                         quality=traj.quality, out_dir=out, age_years=age_years)
     except KinematicsUnavailable as exc:
         log.warning("%s %s: kinematics are unavailable: %s", files.root.name, stage, exc)
         return False

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.keypoint_files import read_keypoints_input
 from gaitcap.acquisition.keypoint_input import KeypointInput, make_input
+from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
-from gaitcap.services.processing.pipeline import Trajectory
 from gaitcap.services.processing.trial import (
     TrialInput,
     TrialOptions,
@@ -78,7 +78,7 @@ class OfflineOptions:
 
 def result_summary(result: TrialResult, *, chosen_how: str) -> dict:
     """JSON-ready summary of a processed input (the ``--json`` output): layout, people, each stage's
-    summary, the data-quality block, timings and the steps left out."""
+    summary, the data-quality block, timings, the steps left out and the later stages the data refused."""
     from gaitcap.services.processing.outputs import summary_of
 
     people = None
@@ -94,7 +94,7 @@ def result_summary(result: TrialResult, *, chosen_how: str) -> dict:
                               "missing_frames_per_joint": s.missing, "missing_frames": missing_frames(s.trajectory),
                               "files": s.files, "summary": summary_of(s.report) if s.report is not None else {}}
                        for name, s in result.stages.items()},
-            "skipped": dict(result.skipped), "timings_s": {k: round(v, 3) for k, v in result.timings_s.items()}}
+            "skipped": dict(result.skipped), "failed": dict(result.failed), "timings_s": {k: round(v, 3) for k, v in result.timings_s.items()}}
 
 
 def people_lines(selection, *, how: str) -> list[str]:
@@ -131,7 +131,7 @@ def missing_by_joint(points_mm: np.ndarray, joint_names) -> dict[str, np.ndarray
     return {n: np.flatnonzero(gone[:, j]) for j, n in enumerate(joint_names) if gone[:, j].any()}
 
 
-def missing_frames(traj: Trajectory) -> dict[str, str]:
+def missing_frames(traj: Reconstruction) -> dict[str, str]:
     """Joint name -> the frames (ranges) where the trajectory has no point, for joints with some."""
     return {n: frame_ranges(f) for n, f in missing_by_joint(traj.points_mm, traj.joint_names).items()}
 

@@ -13,8 +13,9 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.fileio import atomic_savez, atomic_write_bytes, atomic_write_text
 from gaitcap.reconstruction.jsonable import finite_or_none, json_ready
+from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
-from gaitcap.services.processing.pipeline import Trajectory, dense_grid, spline_sampler
+from gaitcap.services.processing.pipeline import dense_grid, spline_sampler
 
 log = logging.getLogger(__name__)
 
@@ -46,22 +47,22 @@ def summary_of(report) -> dict[str, dict]:
     return out
 
 
-def write_npz(path, traj: Trajectory) -> None:
+def write_npz(path, traj: Reconstruction) -> None:
     """The one result file of the worker, ``gaitcap process`` and ``gaitcap reconstruct``: ``points_mm``
     (T, J, 3), ``times_s`` (T,), ``joint_names``, ``num_views`` (T, J; empty for a continuous fit),
     ``method``, ``camera_names`` and, for a continuous fit, its dense samples ``dense_times_s`` (G,) and
     ``dense_points_mm`` (G, J, 3) on which the gait events are found (read back by :func:`read_npz`)."""
     dense = {}
-    if traj.sample is not None:
+    if traj.trajectory is not None:
         grid = dense_grid(traj.times_s)
         dense = {"dense_times_s": grid, "dense_points_mm": np.asarray(traj.sample(grid))}
     atomic_savez(path, points_mm=traj.points_mm, times_s=traj.times_s, joint_names=np.array(traj.joint_names),
-                 num_views=traj.num_views if traj.num_views is not None else np.zeros(0),
+                 num_views=traj.quality if traj.quality is not None else np.zeros(0),
                  method=np.array(traj.method), camera_names=np.array(traj.camera_names, dtype=str), **dense)
 
 
-def read_npz(path: Path) -> tuple[Trajectory, np.ndarray | None]:
-    """A result file as a :class:`Trajectory` (sampled as it was computed when it holds dense samples) and
+def read_npz(path: Path) -> tuple[Reconstruction, np.ndarray | None]:
+    """A result file as a :class:`~gaitcap.reconstruction.result.Reconstruction` (sampled as it was computed when it holds dense samples) and
     its per-point reprojection error (T, J) px, or None. Also reads the older files: the worker's (no
     method, cameras or dense samples) and ``gaitcap reconstruct``'s (``quality`` for the agreeing views)."""
     if not path.is_file():
@@ -79,7 +80,8 @@ def read_npz(path: Path) -> tuple[Trajectory, np.ndarray | None]:
         sample = _dense_sampler_of(path, data, num_joints=len(names))
         method = str(data["method"]) if "method" in data.files else path.name
         cameras = tuple(str(n) for n in data["camera_names"]) if "camera_names" in data.files else ()
-    return Trajectory(method, points, times, names, num_views=views, camera_names=cameras, sample=sample), reproj
+    return Reconstruction(method, points, times, names, camera_names=cameras, quality=views,
+                          trajectory=sample), reproj
 
 
 def _dense_sampler_of(path: Path, data, *, num_joints: int):
@@ -92,7 +94,7 @@ def _dense_sampler_of(path: Path, data, *, num_joints: int):
     return spline_sampler(grid, dense)
 
 
-def report_png(traj: Trajectory, report, *, title: str) -> bytes:
+def report_png(traj: Reconstruction, report, *, title: str) -> bytes:
     """The gait module's heel-trace plot when there is a report; else heel height and position over
     time for both feet (so a trial without steps still shows what was measured)."""
     if report is not None:
@@ -133,7 +135,7 @@ def report_png(traj: Trajectory, report, *, title: str) -> bytes:
     return buf.getvalue()
 
 
-def write_data(files: TrialFiles, stage: str, traj: Trajectory, report, *,
+def write_data(files: TrialFiles, stage: str, traj: Reconstruction, report, *,
                data_quality: dict | None = None, consistency: dict | None = None) -> dict[str, str]:
     """The stage's trajectory (npz) and gait report (JSON, steps CSV, per-side summary CSV): quick, written
     before the result is stored in the catalog; artifact key -> path of each file written. ``data_quality``
@@ -154,7 +156,7 @@ def write_data(files: TrialFiles, stage: str, traj: Trajectory, report, *,
     return {k: str(files.stage_file(stage, k)) for k in written}
 
 
-def write_views(files: TrialFiles, stage: str, traj: Trajectory, report, *, trial_id: str) -> dict[str, str]:
+def write_views(files: TrialFiles, stage: str, traj: Reconstruction, report, *, trial_id: str) -> dict[str, str]:
     """The TRC export and the report plot (slower; written right after the result is stored); artifact
     key -> path of each."""
     from gaitcap.reconstruction.trc import to_trc

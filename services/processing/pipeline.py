@@ -14,43 +14,17 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.readers import load_rig
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.result import Reconstruction
 
 log = logging.getLogger(__name__)
 FRAME_CHUNK = 256  # robust triangulation runs on chunks of this many frames: one compiled shape
-
-
-@dataclass(frozen=True, eq=False)
-class Trajectory:
-    """One reconstruction of a trial.
-
-    Attributes:
-        method: what produced it (words).
-        points_mm: (T, J, 3) mm, NaN where unknown.
-        times_s: (T,) s.
-        joint_names: (J,) names.
-        num_views: (T, J) views that agreed (0 where NaN), or None.
-        camera_names: the cameras it was reconstructed from (empty when unknown).
-        sample: continuous trajectory ``sample(times_s (N,)) -> (N, J, 3)`` mm, or None.
-        metrics: method's quality metrics (GC_d, losses, ...), JSON-ready.
-        elapsed_s: compute time s.
-    """
-
-    method: str
-    points_mm: np.ndarray
-    times_s: np.ndarray
-    joint_names: tuple[str, ...]
-    num_views: np.ndarray | None = None
-    camera_names: tuple[str, ...] = ()
-    sample: Callable[[np.ndarray], np.ndarray] | None = None
-    metrics: dict | None = None
-    elapsed_s: float = 0.0
 
 
 def recorded_rig(mcap_path: Path, *, fallback_calibration: Path | None = None) -> Rig:
@@ -86,7 +60,7 @@ def frame_chunks(det: Detections, chunk: int = FRAME_CHUNK):
         yield start, pad_detections(part, chunk)
 
 
-def preliminary(det: Detections, rig: Rig) -> Trajectory:
+def preliminary(det: Detections, rig: Rig) -> Reconstruction:
     """Robust triangulation (the paper's), chunk by chunk to reuse one compiled shape."""
     from gaitcap.reconstruction.triangulation import robust_triangulate
 
@@ -98,11 +72,11 @@ def preliminary(det: Detections, rig: Rig) -> Trajectory:
         n = min(FRAME_CHUNK, t - start)
         points[start:start + n] = np.asarray(result.points_mm)[:n]
         views[start:start + n] = np.asarray(result.quality)[:n]
-    return Trajectory("robust triangulation", points, det.times_s, det.skeleton.joint_names,
-                      num_views=views, camera_names=tuple(det.camera_names), metrics={}, elapsed_s=time.perf_counter() - t0)
+    return Reconstruction("robust triangulation", points, det.times_s, det.skeleton.joint_names,
+                          camera_names=tuple(det.camera_names), quality=views, elapsed_s=time.perf_counter() - t0)
 
 
-def refined(det: Detections, rig: Rig, *, progress=None) -> Trajectory:
+def refined(det: Detections, rig: Rig, *, progress=None) -> Reconstruction:
     """The default implicit trajectory fit (continuous in time); ``progress(done, total)`` as it runs."""
     from gaitcap.reconstruction.methods import Implicit, reconstruct
 
@@ -111,28 +85,29 @@ def refined(det: Detections, rig: Rig, *, progress=None) -> Trajectory:
     return trajectory_of(rec, method="implicit trajectory fit", elapsed_s=time.perf_counter() - t0)
 
 
-def trajectory_of(rec, *, method: str | None = None, elapsed_s: float = 0.0) -> Trajectory:
-    """A :class:`~gaitcap.reconstruction.result.Reconstruction` of any method as a :class:`Trajectory`
-    (continuous fits get the :func:`dense_sampler`; triangulations keep their agreeing views)."""
+def trajectory_of(rec: Reconstruction, *, method: str | None = None, elapsed_s: float = 0.0) -> Reconstruction:
+    """A method's reconstruction as the trial's stages keep it: a continuous fit sampled through the
+    :func:`dense_sampler` (what its file holds, so a result read back is the same) and without agreeing views
+    (its points are samples of a function); triangulations keep theirs; metrics JSON-ready."""
     points, times = np.asarray(rec.points_mm), np.asarray(rec.times_s)
     continuous = rec.trajectory is not None
-    return Trajectory(method or rec.method, points, times, tuple(rec.joint_names),
-                      num_views=None if continuous else np.asarray(rec.quality),
-                      camera_names=tuple(str(n) for n in rec.camera_names),
-                      sample=dense_sampler(rec.sample, times) if continuous else None,
-                      metrics=_plain_metrics(rec.metrics), elapsed_s=elapsed_s)
+    return replace(rec, method=method or rec.method, points_mm=points, times_s=times,
+                   joint_names=tuple(rec.joint_names), camera_names=tuple(str(n) for n in rec.camera_names),
+                   quality=None if continuous else np.asarray(rec.quality),
+                   trajectory=dense_sampler(rec.sample, times) if continuous else None,
+                   metrics=_plain_metrics(rec.metrics), elapsed_s=elapsed_s)
 
 
-def gait_of(traj: Trajectory, *, reprojection_px: np.ndarray | None = None):
+def gait_of(traj: Reconstruction, *, reprojection_px: np.ndarray | None = None):
     """Gait analysis of a trajectory: (GaitReport or None, the reason there is none ("" when there is)).
     ``reprojection_px``: (T, J) px per point when known (a result file's), else unknown."""
     from gaitcap.reconstruction.gait import TrajectoryQuality, analyze_gait
 
-    quality = None if traj.num_views is None else TrajectoryQuality(
-        num_views=traj.num_views,
-        reprojection_px=np.full(traj.num_views.shape, np.nan) if reprojection_px is None else reprojection_px)
+    quality = None if traj.quality is None else TrajectoryQuality(
+        num_views=traj.quality,
+        reprojection_px=np.full(traj.quality.shape, np.nan) if reprojection_px is None else reprojection_px)
     try:
-        return analyze_gait(traj.points_mm, traj.times_s, list(traj.joint_names), sample=traj.sample,
+        return analyze_gait(traj.points_mm, traj.times_s, list(traj.joint_names), sample=traj.trajectory,
                             quality=quality), ""
     except ValueError as exc:
         return None, str(exc)

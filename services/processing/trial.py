@@ -39,6 +39,7 @@ from typing import Protocol
 import numpy as np
 from gaitcap.acquisition.keypoint_input import KeypointInput
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
 from gaitcap.services.processing.checks import (
     completion_check,
@@ -49,7 +50,6 @@ from gaitcap.services.processing.checks import (
 from gaitcap.services.processing.completion import CompletionSettings
 from gaitcap.services.processing.pipeline import (
     NoUsableObservations,
-    Trajectory,
     check_usable,
     gait_of,
     patient_input,
@@ -175,7 +175,7 @@ class StageOutcome:
     :class:`~gaitcap.reconstruction.result.Reconstruction` when it ran unchunked (metrics, losses)."""
 
     name: str
-    trajectory: Trajectory
+    trajectory: Reconstruction
     report: object | None
     problem: str
     missing: dict[str, int]
@@ -188,8 +188,8 @@ class StageOutcome:
 @dataclass(frozen=True, eq=False)
 class TrialResult:
     """A processed trial: the layout chosen, the patient's selection (None with one person in view), the
-    cameras and frames used, the data quality, each stage's outcome, timings (s), and the steps the
-    options left out ({step: why})."""
+    cameras and frames used, the data quality, each stage's outcome, timings (s), the steps the options
+    left out ({step: why}) and the later stages the data refused ({stage: why}; the earlier results stand)."""
 
     source: str
     layout: object  # LayoutChoice, or None without the layout check
@@ -201,6 +201,7 @@ class TrialResult:
     timings_s: dict[str, float]
     skipped: dict[str, str]
     kinematics: bool | None = None  # computed (True), unavailable (False), not run (None)
+    failed: dict[str, str] = field(default_factory=dict)
 
     @property
     def last(self) -> StageOutcome:
@@ -256,7 +257,8 @@ def process_trial(data: TrialInput, options: TrialOptions = TrialOptions(), *, f
     for index, plan in enumerate(options.stages):
         if options.completion is not None and index == len(options.stages) - 1:
             run.complete(index)
-        run.stage(index, plan)
+        if not run.stage_or_keep_earlier(index, plan):
+            break
     if options.checks:
         run.check()
     run.kinematics()
@@ -271,6 +273,7 @@ class _TrialRun:
         self.data, self.options, self.files, self.sink, self.fit_progress = data, options, files, sink, fit_progress
         self.timings: dict[str, float] = {}
         self.stages: dict[str, StageOutcome] = {}
+        self.failed: dict[str, str] = {}  # later stages the data refused: {stage: why}
         self.kinematics_done: bool | None = None
 
     @contextlib.contextmanager
@@ -303,6 +306,27 @@ class _TrialRun:
             self.recording, report = _completed(self.data, self.recording, self.files, self.options)
             self._choose_patient()
             self.quality = with_check(self.quality, "completion", completion_check(report))
+
+    def stage_or_keep_earlier(self, index: int, plan: StagePlan) -> bool:
+        """:meth:`stage`; a later stage that the data refuse (ValueError: e.g. a fit that refuses a joint
+        seen by one camera) leaves the earlier stages' results standing, says so in the trial's quality
+        (a warning: the trial is not ``done``) and ends the stages (False). The first stage's failure is
+        the trial's."""
+        if index == 0:
+            self.stage(index, plan)
+            return True
+        try:
+            self.stage(index, plan)
+            return True
+        except ValueError as exc:
+            kept = _last(self.stages)
+            log.error("%s stage failed, the %s results stand: %s", plan.name, kept, exc)
+            self.failed[plan.name] = str(exc)
+            self.quality = with_check(self.quality, "stages", {
+                "warnings": [f"The {plan.name} reconstruction failed ({exc}); the {kept} results are shown"],
+                "notes": [], "failed": dict(self.failed)})
+            self.sink.checked(self.quality)
+            return False
 
     def stage(self, index: int, plan: StagePlan) -> None:
         """One reconstruction stage: its trajectory, then gait, files and the sink."""
@@ -340,7 +364,7 @@ class _TrialRun:
     def result(self) -> TrialResult:
         return TrialResult(self.data.source, self.layout, self.selection, tuple(self.det.camera_names),
                            int(self.det.shape[1]), self.quality, self.stages, self.timings,
-                           _skipped(self.options, self.files, self.data), self.kinematics_done)
+                           _skipped(self.options, self.files, self.data), self.kinematics_done, dict(self.failed))
 
 
 _STARTING = {"preliminary": "first 3D reconstruction", "refined": "refining the 3D reconstruction"}
@@ -435,7 +459,7 @@ def trial_quality(data: TrialInput, recording, det, rig: Rig, criteria: QualityC
                              restarts=recording.restarts, ignored=recording.ignored, criteria=criteria)
 
 
-def run_stage(plan: StagePlan, det, rig: Rig, *, fit_progress=None, truth_mm=None) -> tuple[Trajectory, object]:
+def run_stage(plan: StagePlan, det, rig: Rig, *, fit_progress=None, truth_mm=None) -> tuple[Reconstruction, Reconstruction | None]:
     """The stage's trajectory and the method's Reconstruction (None when chunked); NoUsableObservations
     when no joint could be reconstructed in any frame."""
     from gaitcap.reconstruction.methods import reconstruct
@@ -453,7 +477,7 @@ def run_stage(plan: StagePlan, det, rig: Rig, *, fit_progress=None, truth_mm=Non
     return traj, rec
 
 
-def _finish_stage(name: str, traj: Trajectory, rec, det, files: TrialFiles | None, sink: TrialSink,
+def _finish_stage(name: str, traj: Reconstruction, rec, det, files: TrialFiles | None, sink: TrialSink,
                   quality: DataQuality, *, viewers, data: TrialInput, options: TrialOptions) -> StageOutcome:
     """Gait, the stage's data files, ``sink.stored``, then its views and viewer files."""
     from gaitcap.services.processing.outputs import write_data, write_views
@@ -488,7 +512,7 @@ def _finish_stage(name: str, traj: Trajectory, rec, det, files: TrialFiles | Non
     return replace(outcome, files=written)
 
 
-def _viewer_files(files: TrialFiles, name: str, traj: Trajectory, det, report, viewers, data: TrialInput,
+def _viewer_files(files: TrialFiles, name: str, traj: Reconstruction, det, report, viewers, data: TrialInput,
                   options: TrialOptions) -> dict[str, str]:
     from gaitcap.services.processing.viewers.files import trial_view, write_viewer_files
 
@@ -499,7 +523,7 @@ def _viewer_files(files: TrialFiles, name: str, traj: Trajectory, det, report, v
     return {k: str(p) for k, p in write_viewer_files(files, name, view, options.rerun).items()}
 
 
-def missing_counts(traj: Trajectory) -> dict[str, int]:
+def missing_counts(traj: Reconstruction) -> dict[str, int]:
     """Joint name -> frames where the trajectory has no point, for joints with some."""
     gone = ~np.isfinite(traj.points_mm).all(-1)  # (T, J)
     return {n: int(gone[:, j].sum()) for j, n in enumerate(traj.joint_names) if gone[:, j].any()}

@@ -261,7 +261,7 @@ def compute_result(task: ReprocessTask) -> MethodResult:
     rec, traj = stage.reconstruction, stage.trajectory  # the worker's trajectory: its sampler and gait analysis
     points, times, names = traj.points_mm, traj.times_s, list(traj.joint_names)
     gait = _gait(stage)
-    residuals = _residuals(task.trial, points, times, names, traj.sample)
+    residuals = _residuals(task.trial, points, times, names, traj.trajectory)
     metrics = {k: v for k, v in rec.metrics.items()}
     metrics.update({f"fit.{k}": float(v) for k, v in rec.losses.items() if np.isscalar(v) and k != "seconds"})
     result = MethodResult(task.trial.trial_id, task.spec.method, task.spec.key, task.spec.to_dict(), "ok",

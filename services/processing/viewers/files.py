@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
 from gaitcap.services.processing.viewers.rerun_trial import RerunSettings, write_trial_rrd
 from gaitcap.services.processing.viewers.results_mcap import write_results_mcap
@@ -19,14 +21,14 @@ log = logging.getLogger(__name__)
 VIEWER_FILES = ("rerun_rrd", "results_mcap")
 
 
-def trial_view(trial_id: str, traj, *, detections, keypoints, rig: Rig, report, recording: Path | None,
+def trial_view(trial_id: str, traj: Reconstruction, *, detections, keypoints, rig: Rig, report, recording: Path | None,
                bones) -> TrialView:
     """A :class:`TrialView` of one stage: its trajectory, the patient's detections (for per-joint
     confidence), everyone's keypoints and the recording (for images and 2D), the rig and gait report."""
-    points = np.asarray(traj.points_mm, dtype=np.float64)
-    return TrialView(trial_id=trial_id, points_mm=points, times_s=np.asarray(traj.times_s, dtype=np.float64),
-                     joint_names=tuple(traj.joint_names), bones=np.asarray(bones, dtype=np.int64), rig=rig,
-                     start_ns=start_ns_of(keypoints), confidence=joint_confidence(detections, points.shape[0]),
+    traj = replace(traj, points_mm=np.asarray(traj.points_mm, dtype=np.float64),
+                   times_s=np.asarray(traj.times_s, dtype=np.float64), joint_names=tuple(traj.joint_names))
+    return TrialView(trial_id=trial_id, trajectory=traj, bones=np.asarray(bones, dtype=np.int64), rig=rig,
+                     start_ns=start_ns_of(keypoints), confidence=joint_confidence(detections, traj.points_mm.shape[0]),
                      report=report, recording=recording, keypoints=keypoints)
 
 

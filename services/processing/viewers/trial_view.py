@@ -13,15 +13,17 @@ from typing import Any
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.result import Reconstruction
 
 
 @dataclass(frozen=True, eq=False)
 class TrialView:
-    """Attributes:
+    """One stage's trajectory and what the viewers show around it.
+
+    Attributes:
     trial_id: the trial.
-    points_mm: (T, J, 3) 3D joints, mm, NaN where unknown.
-    times_s: (T,) s since ``start_ns``.
-    joint_names: (J,).
+    trajectory: the stage's :class:`~gaitcap.reconstruction.result.Reconstruction`: ``points_mm``
+        (T, J, 3) mm, NaN where unknown; ``times_s`` (T,) s since ``start_ns``; ``joint_names`` (J,).
     bones: (B, 2) joint index pairs to draw.
     rig: the calibrated cameras.
     start_ns: camera timestamp of ``times_s == 0``, ns.
@@ -33,9 +35,7 @@ class TrialView:
     """
 
     trial_id: str
-    points_mm: np.ndarray
-    times_s: np.ndarray
-    joint_names: tuple[str, ...]
+    trajectory: Reconstruction
     bones: np.ndarray
     rig: Rig
     start_ns: int
@@ -43,6 +43,20 @@ class TrialView:
     report: Any = None
     recording: Path | None = None
     keypoints: Any = None
+
+    @property
+    def points_mm(self) -> np.ndarray:
+        """(T, J, 3) mm."""
+        return self.trajectory.points_mm
+
+    @property
+    def times_s(self) -> np.ndarray:
+        """(T,) s since ``start_ns``."""
+        return self.trajectory.times_s
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(self.trajectory.joint_names)
 
     def __post_init__(self) -> None:
         t, j = self.points_mm.shape[:2]

@@ -82,7 +82,7 @@ def test_gait_reads_an_older_worker_trajectory_npz(tmp_path):
     np.savez(npz, points_mm=walk.points_mm, times_s=walk.times_s, joint_names=np.array(walk.joint_names),
              num_views=np.zeros(0))
     traj, reproj = read_npz(npz)
-    assert traj.num_views is None and traj.sample is None and reproj is None
+    assert traj.quality is None and traj.trajectory is None and reproj is None
     assert traj.method == "trajectory.npz" and traj.camera_names == ()
     report = _gait_json(npz)
     assert len(report["steps"]) >= 5 and abs(report["steps"][0]["step_length_mm"] - 650.0) < 1.0
@@ -99,7 +99,7 @@ def test_gait_reads_an_older_reconstruct_npz(tmp_path):
              camera_names=np.array(["cam0", "cam1", "cam2"]), camera_weights=np.ones((3, t, j)),
              quality=np.full((t, j), 3.0), method=np.array("robust"))
     traj, _ = read_npz(npz)
-    assert traj.method == "robust" and traj.camera_names == ("cam0", "cam1", "cam2") and traj.sample is None
-    assert traj.num_views.shape == (t, j) and np.all(traj.num_views == 3.0)
+    assert traj.method == "robust" and traj.camera_names == ("cam0", "cam1", "cam2") and traj.trajectory is None
+    assert traj.quality.shape == (t, j) and np.all(traj.quality == 3.0)
     report = _gait_json(npz)
     assert len(report["steps"]) >= 5 and abs(report["steps"][0]["step_length_mm"] - 650.0) < 1.0

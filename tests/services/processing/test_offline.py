@@ -214,13 +214,13 @@ def test_reconstruct_command_chooses_and_reports_the_patient(tmp_path):
 
 
 def test_missing_frames_are_named_as_ranges():
+    from gaitcap.reconstruction.result import Reconstruction
     from gaitcap.services.processing.offline import frame_ranges, missing_by_joint, missing_frames
-    from gaitcap.services.processing.pipeline import Trajectory
 
     assert frame_ranges(np.array([0, 1, 2, 5, 7, 8])) == "0-2, 5, 7-8"
     points = np.zeros((6, 2, 3))
     points[[1, 2, 4], 1] = np.nan
-    traj = Trajectory("t", points, np.arange(6) / 30, ("left_heel", "right_heel"))
+    traj = Reconstruction("t", points, np.arange(6) / 30, ("left_heel", "right_heel"))
     assert missing_frames(traj) == {"right_heel": "1-2, 4"}
     points[3, 0, 2] = np.inf  # one coordinate not finite is a missing point
     missing = missing_by_joint(points, traj.joint_names)

@@ -18,8 +18,8 @@ from gaitcap.acquisition.recording.reader import read_keypoints
 from gaitcap.acquisition.recording.writer import TrialWriter
 from gaitcap.reconstruction.calibration_io import rig_to_toml_text
 from gaitcap.reconstruction.gait import analyze_gait
+from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
-from gaitcap.services.processing.pipeline import Trajectory
 from gaitcap.services.processing.viewers.files import trial_view, write_viewer_files
 from gaitcap.services.processing.viewers.foxglove_layout import SHIPPED_CAMERAS, layout_for, layout_json
 from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
@@ -54,7 +54,7 @@ def processed(tmp_path_factory):
             w.add_annotations(cam, image_annotations(msg), timestamp_ns=ts, frame_id=i)
     w.finish({})
     keypoints = read_keypoints(files.recording)
-    traj = Trajectory("truth", trial.points_mm, keypoints.times_s, trial.skeleton.joint_names)
+    traj = Reconstruction("truth", trial.points_mm, keypoints.times_s, trial.skeleton.joint_names)
     report = analyze_gait(traj.points_mm, traj.times_s, list(traj.joint_names))
     view = trial_view("t1", traj, detections=keypoints.patient(), keypoints=keypoints, rig=trial.rig,
                       report=report, recording=files.recording, bones=trial.skeleton.bone_indices)

@@ -227,6 +227,33 @@ def test_a_camera_moved_since_calibration_flags_the_trial_and_its_checks_are_sto
     assert stored == gait["consistency"] and stored["rules_checked"] and stored["comparisons"] > 0, stored
 
 
+def test_a_refined_fit_the_data_refuse_leaves_the_preliminary_results_and_flags_the_trial(tmp_path, walk):
+    """A joint seen by one camera only in every frame: the preliminary triangulation stores the other joints,
+    the refined fit refuses (nothing to fit that joint to); the trial keeps its preliminary results, ends
+    ``done_with_warnings`` saying why, and is never ``failed`` with a result in hand."""
+    from dataclasses import replace
+
+    kp = walk.detections.keypoints.copy()
+    j = walk.detections.skeleton.joint_names.index("left_shoulder")
+    kp[1:, :, j, 2] = 0.0  # every camera but the first: not seen
+    one_view = replace(walk, detections=replace(walk.detections, keypoints=kp))
+    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+    t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
+    write_trial_mcap(one_view, Path(t.recording_path))
+    cat.set_state(db, t.id, "recorded")
+    cat.enqueue_job(db, t.id)
+    assert Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=True, lease_s=5), db=db).run_once()
+    trial = cat.get_trial(db, t.id)
+    assert trial.state == "done_with_warnings", (trial.state, trial.error)
+    assert cat.get_result(db, t.id, "preliminary").method == "robust triangulation"
+    assert cat.get_result(db, t.id, "refined") is None
+    warnings = cat.warnings_of(cat.get_quality(db, t.id))
+    said = [w for w in warnings if w.startswith("The refined reconstruction failed")]
+    assert len(said) == 1 and "left_shoulder" in said[0] and "the preliminary results are shown" in said[0], warnings
+    checks = json.loads(trial_files(tmp_path, t.id).checks_json.read_text())
+    assert "left_shoulder" in checks["stages"]["failed"]["refined"], checks["stages"]
+
+
 def test_the_frames_the_live_detector_missed_are_detected_before_the_refined_stage(tmp_path):
     """Completion in the one path: a recording whose live keypoints miss a third of one camera's frames and
     a 2 s stretch of another's is completed from its images (the simulated detector, which looks the
