@@ -8,8 +8,10 @@ step width, step and stride time, stance, swing, single and double support) aged
 McDade EM, Petersen RC, Gait & Posture 2011;34(1):111-118. Under 70 no other parameter has a row ("no
 reference"). Each row names its source; the file's comments carry the full citations (printed in the
 report) and how the values were taken from the publications.
-Columns: ``parameter, sex, age_min, age_max, mean, sd, unit, source``; lines starting with ``#`` are
-comments. A bad row is refused with its line and column named.
+Columns: ``parameter, sex, age_min, age_max, mean, sd, unit, source`` and, optional, ``sd_checked``
+(``yes``/``no``, default yes): a row whose SD could not be checked against its source (``no``: the
+shipped Bohannon 1997 rows) gives no normal range, no z-score and no finding (:meth:`NormTable.find`
+skips it). Lines starting with ``#`` are comments. A bad row is refused with its line and column named.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from pathlib import Path
 COLUMNS = ("parameter", "sex", "age_min", "age_max", "mean", "sd", "unit", "source")
 SEXES = ("female", "male")
 CONVERT = {"age_min": int, "age_max": int, "mean": float, "sd": float}
+CHECKED = {"yes": True, "no": False}  # the optional column sd_checked
 
 
 @dataclass(frozen=True)
@@ -40,6 +43,7 @@ class NormRow:
     sd: float
     unit: str
     source: str
+    sd_checked: bool = True
 
     def z(self, value: float) -> float:
         """The z-score of ``value`` against this row."""
@@ -64,7 +68,14 @@ class NormTable:
     origin: str
 
     def find(self, parameter: str, *, sex: str, age: int | None) -> NormRow | None:
-        """The row for ``parameter`` of this sex and age, None when the table has none (or sex/age unknown)."""
+        """The normal range (a row with a checked SD) for ``parameter`` of this sex and age; None when the
+        table has none, only one whose SD is not checked (mean only: no range, no z-score), or sex/age
+        are unknown."""
+        row = self.row_for(parameter, sex=sex, age=age)
+        return row if row is not None and row.sd_checked else None
+
+    def row_for(self, parameter: str, *, sex: str, age: int | None) -> NormRow | None:
+        """The table's row for ``parameter`` of this sex and age, checked SD or not (None: none)."""
         if not sex or age is None:
             return None
         for row in self.rows:
@@ -88,9 +99,16 @@ def _cell(cells: dict, column: str, where: str, convert=str):
     return value
 
 
+def _checked(cells: dict, where: str) -> bool:
+    raw = (cells.get("sd_checked") or "yes").strip().lower()
+    if raw not in CHECKED:
+        raise NormsError(f"{where}, column sd_checked: {raw!r}: use yes or no")
+    return CHECKED[raw]
+
+
 def _row(cells: dict, where: str, units: Mapping[str, str] | None) -> NormRow:
     values = {c: _cell(cells, c, where, CONVERT.get(c, str)) for c in COLUMNS}
-    row = NormRow(**{**values, "sex": values["sex"].lower()})
+    row = NormRow(**{**values, "sex": values["sex"].lower()}, sd_checked=_checked(cells, where))
     checks = (
         ("parameter", units is not None and row.parameter not in units,
          f"unknown parameter {row.parameter!r} (known: {', '.join(units or ())})"),

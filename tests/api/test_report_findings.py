@@ -131,6 +131,9 @@ def test_under_70_gait_speed_is_a_percentage_of_the_age_sex_mean_and_the_rest_ha
     ref = js["gait_speed_reference"]
     assert ref["mean_m_s"] == 1.43 and ref["z"] is None and (ref["age_from"], ref["age_to"]) == (40, 49)
     assert ref["pct_of_mean"] == pytest.approx(100 * speed["mean"] / 1.43, abs=0.1)
+    # Bohannon 1997's row for men 40-49 has no checked SD: mean only, no range, no z-score, no finding
+    assert speed["normal_range"] is None and speed["z"] is None and speed["norm_source"] is None
+    assert js["norm_summary"].startswith("None of the") and not any("Gait speed" in f for f in js["flags"])
     others = [p for p in js["parameters"] if p["name"] not in ("gait_speed_m_s",)]
     assert all(p["normal_range"] is None and p["z"] is None for p in others)
     text = " ".join(_pdf_pages(client, tid))

@@ -22,8 +22,9 @@ def test_shipped_table_covers_adults_by_age_group_and_sex_with_its_sources():
     norms = load_norms(units=NORM_UNITS)
     for sex in ("female", "male"):
         for age in (20, 35, 47, 52, 68, 72, 79, 84, 89):
-            row = norms.find("gait_speed_m_s", sex=sex, age=age)
+            row = norms.row_for("gait_speed_m_s", sex=sex, age=age)
             assert row is not None and 0.9 < row.mean < 1.6 and 0.05 < row.sd < 0.3, (sex, age)
+            assert (norms.find("gait_speed_m_s", sex=sex, age=age) is not None) == (age >= 70), (sex, age)
         for name in set(PARAMETERS) - ABSOLUTE_PHASES:  # every other parameter of the report, 70-89 years
             for age in (70, 77, 83, 88):
                 assert norms.find(name, sex=sex, age=age) is not None, (name, sex, age)
@@ -42,11 +43,12 @@ def test_under_70_only_gait_speed_has_a_row_and_only_what_the_abstract_prints_is
     # in their seventies to 146.2 cm/s for men in their forties"; its table (the other means, every SD) could
     # not be read, so those rows say "unverified" in the source the page and the report show.
     norms = load_norms(units=NORM_UNITS)
-    men_40s = norms.find("gait_speed_m_s", sex="male", age=45)
+    men_40s = norms.row_for("gait_speed_m_s", sex="male", age=45)
     assert men_40s.mean * 100 == pytest.approx(146.2) and men_40s.source.endswith("(mean from the abstract; SD unverified)")
     bohannon = [r for r in norms.rows if r.source.startswith("Bohannon")]
     assert len(bohannon) == 10 and {(r.age_min, r.age_max) for r in bohannon} == {(a, a + 9) for a in range(20, 70, 10)}
     assert all(r.source.endswith("(unverified)") for r in bohannon if r is not men_40s)
+    assert not any(r.sd_checked for r in bohannon)  # no SD checked: no range, no z-score (below)
     assert "146.2 cm/s" in " ".join(norms.citations) and "PubMed 9143432" in " ".join(norms.citations)
     for name in set(PARAMETERS) - {"gait_speed_m_s"}:  # no published value readable here: "no reference"
         assert not [(sex, age) for sex in ("female", "male") for age in range(18, 70) if norms.find(name, sex=sex, age=age)]
@@ -138,6 +140,30 @@ def test_a_clinic_table_gives_z_scores_bands_and_flags(tmp_path):
     flags = " ".join(flags_of(tuple(rows.values())))
     assert "Cadence 90.0 steps/min is below the normal range" in flags
     assert "Step length differs between sides: left 500, right 620 mm" in flags
+
+
+def test_a_row_whose_sd_is_not_checked_gives_no_range_no_z_and_no_finding():
+    """Under 70 the shipped gait speed rows (Bohannon 1997) have unchecked SDs: a very slow walker of 45 gets
+    no z-score, no band and no finding from them, and is counted as having no normal range; the same
+    speed at 75 (Hollman 2011, checked) is a finding."""
+    from gaitcap.services.reports.findings import findings_of
+
+    norms = load_norms(units=NORM_UNITS)
+    summary = {"num_steps": 16, "gait_speed_m_s": 0.40, "cadence_steps_min": 80.0}
+    young = {r.name: r for r in rows_of(summary, norms, sex="male", age=45)}
+    assert young["gait_speed_m_s"].norm is None and math.isnan(young["gait_speed_m_s"].z)
+    said = findings_of(tuple(young.values()), {}, PARAMETERS)
+    assert said.with_reference == 0 and not said.findings and "no value is called normal" in said.norm_summary
+    old = {r.name: r for r in rows_of(summary, norms, sex="male", age=75)}
+    assert old["gait_speed_m_s"].z < -1.96
+    assert any(f.startswith("Gait speed 0.40 m/s is below") for f in findings_of(tuple(old.values()), {}, PARAMETERS).findings)
+    clinic = parse_norms("# Source: x\n" + HEAD.strip() + ",sd_checked\ncadence_steps_min,female,60,69,110,8,steps/min,x,no\n"
+                         "step_length_mm,female,60,69,600,50,mm,x,yes\n", "clinic.csv", units=NORM_UNITS)
+    assert clinic.find("cadence_steps_min", sex="female", age=64) is None
+    assert clinic.row_for("cadence_steps_min", sex="female", age=64).mean == 110
+    assert clinic.find("step_length_mm", sex="female", age=64).sd == 50
+    with pytest.raises(NormsError, match="line 2, column sd_checked: 'maybe': use yes or no"):
+        parse_norms(HEAD.strip() + ",sd_checked\nstep_length_mm,female,60,69,600,50,mm,x,maybe\n", "c.csv")
 
 
 @pytest.mark.parametrize(("body", "words"), [
