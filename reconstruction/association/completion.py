@@ -14,10 +14,12 @@ detections. Detections already assigned keep their track.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from gaitcap.reconstruction.association.config import AssociationConfig
 from gaitcap.reconstruction.association.multi import MultiPersonDetections
-from gaitcap.reconstruction.association.rays import make_rays, quiet_warnings
+from gaitcap.reconstruction.association.rays import Rays, make_rays, quiet_warnings
 from gaitcap.reconstruction.association.refine import (
     ROBUST_ITERS,
     assign_greedy,
@@ -61,36 +63,58 @@ def _distance_to_nearest(times_s: np.ndarray, sightings_s: np.ndarray) -> np.nda
 
 def complete_tracks(multi: MultiPersonDetections, rig: Rig, tracks: Tracks, config: AssociationConfig, *,
                     max_gap_s: float) -> Tracks:
-    """Give unassigned detections to the tracks they continue (see the module docstring)."""
+    """Give unassigned detections to the tracks they continue (see the module docstring). Only frames
+    with an unassigned detection are looked at."""
     m_ = tracks.num_tracks
     if m_ == 0:
         return tracks
     rig = rig.subset(multi.camera_names)
-    c_, t_, p_, _ = multi.shape
     rays = make_rays(multi, rig, tracks.joint_indices, config)
-    pred = predicted_points(tracks.points_mm, tracks.times_s, max_gap_s=max_gap_s)  # (M, T, Ja, 3)
-    cost, flipped = reprojection_cost(rig, rays, pred.transpose(1, 0, 2, 3), config)  # (C, T, P, M)
     old = tracks.detection_track
-    cost = np.where((old >= 0)[..., None], np.inf, cost)  # assigned detections stay where they are
-    has = (old[..., None] == np.arange(m_)).any(2)  # (C, T, M): camera already sees the track
-    cost = np.where(has[:, :, None, :], np.inf, cost)
-    new = assign_greedy(cost)
-    track = np.where(old >= 0, old, new)
-    views = (track[..., None] == np.arange(m_)).any(2).sum(0).T  # (M, T)
-    gained = (views >= config.min_views) & (views > tracks.views)  # (M, T)
-    frame_ok = gained.T[np.arange(t_)[None, :, None], np.maximum(new, 0)]  # (C, T, P)
-    track = np.where((old < 0) & (new >= 0) & frame_ok, new, old)
-    if (track == old).all():
+    frames = np.flatnonzero(((old < 0) & rays.mask.any(-1)).any(axis=(0, 2)))
+    if frames.size == 0:
         return tracks
-    groups = track.transpose(1, 0, 2).reshape(t_, c_ * p_)
-    mirrored = np.where(track != old, of_group(flipped, groups), tracks.mirrored())  # (C, T, P)
+    rays = _at_frames(rays, frames)
+    pred = predicted_points(tracks.points_mm, tracks.times_s, max_gap_s=max_gap_s)[:, frames]  # (M, F, Ja, 3)
+    cost, flipped = reprojection_cost(rig, rays, pred.transpose(1, 0, 2, 3), config)  # (C, F, P, M)
+    before = old[:, frames]
+    mine = before[..., None] == np.arange(m_)  # (C, F, P, M)
+    cost = np.where((before >= 0)[..., None] | mine.any(2, keepdims=True), np.inf, cost)  # one per camera
+    new = assign_greedy(cost)
+    after = np.where(before >= 0, before, new)
+    views = (after[..., None] == np.arange(m_)).any(2).sum(0).T  # (M, F)
+    gained = (views >= config.min_views) & (views > tracks.views[:, frames])
+    take = (new >= 0) & (before < 0) & gained.T[np.arange(len(frames))[None, :, None], np.maximum(new, 0)]
+    if not take.any():
+        return tracks
+    after = np.where(take, new, before)
+    c_, f_, p_ = after.shape
+    groups = after.transpose(1, 0, 2).reshape(f_, c_ * p_)
+    mirrored = np.where(take, of_group(flipped, groups), tracks.mirrored()[:, frames])
     points = triangulate_groups(rays, groups, flipped=mirrored, num_groups=m_,
-                                robust_iters=ROBUST_ITERS).transpose(1, 0, 2, 3)  # (M, T, Ja, 3)
-    changed_mt = ((track[..., None] == np.arange(m_)) != (old[..., None] == np.arange(m_))).any(axis=(0, 2)).T
-    points = np.where(changed_mt[..., None, None], points, tracks.points_mm)
-    views = np.where(changed_mt, (track[..., None] == np.arange(m_)).any(2).sum(0).T, tracks.views)
+                                robust_iters=ROBUST_ITERS).transpose(1, 0, 2, 3)  # (M, F, Ja, 3)
+    grown = ((after[..., None] == np.arange(m_)) & take[..., None]).any(axis=(0, 2)).T  # (M, F)
+    return _with_frames(tracks, frames, grown, after, mirrored, points)
+
+
+def _at_frames(rays: Rays, frames: np.ndarray) -> Rays:
+    """``rays`` of the given frames only."""
+    return dataclasses.replace(rays, dirs=rays.dirs[:, frames], mask=rays.mask[:, frames],
+                               pixels_px=rays.pixels_px[:, frames], scale_px=rays.scale_px[:, frames])
+
+
+def _with_frames(tracks: Tracks, frames: np.ndarray, grown: np.ndarray, detection_track: np.ndarray,
+                 mirrored: np.ndarray, points_mm: np.ndarray) -> Tracks:
+    """``tracks`` with ``frames``' detections, flags and, for the tracks ``grown`` (M, F) there, points
+    (M, F, Ja, 3) mm, roots and views replaced."""
+    m_ = tracks.num_tracks
+    det, flip = tracks.detection_track.copy(), tracks.mirrored().copy()
+    det[:, frames], flip[:, frames] = detection_track, mirrored
+    points, views, root = tracks.points_mm.copy(), tracks.views.copy(), tracks.root_mm.copy()
+    new_views = (detection_track[..., None] == np.arange(m_)).any(2).sum(0).T  # (M, F)
+    points[:, frames] = np.where(grown[..., None, None], points_mm, points[:, frames])
+    views[:, frames] = np.where(grown, new_views, views[:, frames])
     with quiet_warnings():
-        root = np.where(changed_mt[..., None], np.nanmean(points, axis=2), tracks.root_mm)
-    return Tracks(detection_track=track, root_mm=root, points_mm=points, views=views,
-                  joint_indices=tracks.joint_indices, camera_names=tracks.camera_names, times_s=tracks.times_s,
-                  flipped=mirrored)
+        root[:, frames] = np.where(grown[..., None], np.nanmean(points_mm, axis=2), root[:, frames])
+    return dataclasses.replace(tracks, detection_track=det, points_mm=points, views=views, root_mm=root,
+                               flipped=flip)
