@@ -11,11 +11,22 @@ serial number, device id or IP address (a device that never answers is named wit
 off), frame rate, pixel format, region, packet size and inter-packet delay, and reads back what the
 camera took; :meth:`~AravisCamera.start` starts the stream; :meth:`~AravisCamera.frames` yields
 complete frames with the device timestamp (ns) and a frame id from the device's block id (16-bit GigE
-Vision 1.x ids unwrapped); incomplete frames are counted and dropped, so they show as frame-id gaps. A
+Vision 1.x ids unwrapped); incomplete frames are counted and dropped, so they show as frame-id gaps
+(``incomplete``; those whose packets came before the synchronised start are not trial frames and are
+counted apart, ``incomplete_before_start``; a buffer Aravis hands back unfilled, status CLEARED, carries no
+frame at all and is counted as ``empty_buffers``). A
 device whose timestamps show more frame periods passing than its block ids (a camera that skipped frames
 itself, as the software fake camera does on a loaded host) has its frame ids advanced by the periods, the
 skipped ones counted (``device_skipped``), so frame ids stay one per period on every camera (a frame up to
 1.5 periods late is taken as late, not as a skip; only on a device clock on the host's epoch).
+
+Receiving on a loaded host (:class:`StreamTuning`): the stream's socket receive buffer is set to several
+frames (Aravis leaves the system default, 208 KiB, less than one 512 x 512 frame: a receiver thread
+descheduled for a moment overflows it and packets are lost; the kernel caps the size at
+``net.core.rmem_max``, and the status says what was asked and the cap), and an unfinished frame is kept for
+several frame periods (Aravis: 100 ms) before it is given up, so a frame whose sender or receiver was
+descheduled mid-frame is not declared incomplete while its packets are still coming. (As root, Aravis
+receives through a packet socket with its own 32 MiB ring, and the socket buffer does not matter.)
 
 Synchronised start: Aravis 0.8 sends no scheduled action command, so the start is a software start.
 When the device clock is on the host's epoch (PTP-synchronised to the same grandmaster as the host, or
@@ -35,6 +46,7 @@ import logging
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -51,7 +63,9 @@ START_SYNC = ("software start (Aravis 0.8 sends no scheduled action command); fr
               "device timestamps")
 _STREAM_COUNTERS = {"n_missing_packets": "missing_packets", "n_resend_requests": "resend_requests",
                     "n_resent_packets": "resent_packets", "n_received_packets": "received_packets",
-                    "n_timeouts": "stream_timeouts", "n_missing_frames": "missing_frames"}
+                    "n_timeouts": "stream_timeouts", "n_missing_frames": "missing_frames",
+                    "n_underruns": "underruns", "n_ignored_packets": "ignored_packets"}
+RMEM_MAX_PATH = Path("/proc/sys/net/core/rmem_max")
 
 
 class AravisMissing(ValueError):
@@ -107,6 +121,46 @@ def _is_ipv4(text: str) -> bool:
 
 
 @dataclass(frozen=True)
+class StreamTuning:
+    """How the GVSP stream receives, for a host that may be loaded.
+
+    Attributes:
+        socket_buffer_frames: the stream socket's receive buffer holds this many frames (payload bytes;
+            capped by the kernel at ``net.core.rmem_max``: raise it for many or large cameras,
+            docs/lab-setup.md).
+        frame_retention_periods: an unfinished frame is given up (incomplete) after no packet for this many
+            frame periods, and never sooner than ``min_frame_retention_ms``.
+        min_frame_retention_ms: the least wait for a frame's missing packets (Aravis's own: 100 ms).
+    """
+
+    socket_buffer_frames: int = 4
+    frame_retention_periods: float = 4.0
+    min_frame_retention_ms: int = 100
+
+    def __post_init__(self) -> None:
+        if self.socket_buffer_frames < 1 or self.frame_retention_periods <= 0 or self.min_frame_retention_ms < 1:
+            raise ValueError(f"stream tuning: socket_buffer_frames >= 1, frame_retention_periods > 0 and "
+                             f"min_frame_retention_ms >= 1 needed, got {self.socket_buffer_frames}, "
+                             f"{self.frame_retention_periods}, {self.min_frame_retention_ms}")
+
+    def socket_buffer_bytes(self, payload_bytes: int) -> int:
+        """The receive buffer asked for, in bytes."""
+        return int(self.socket_buffer_frames * payload_bytes)
+
+    def frame_retention_us(self, period_ns: int) -> int:
+        """How long an unfinished frame is kept after its last packet, in us."""
+        return int(max(self.min_frame_retention_ms * 1000, self.frame_retention_periods * period_ns / 1000))
+
+
+def rmem_max_bytes() -> int | None:
+    """The kernel's cap on a socket receive buffer (``net.core.rmem_max``, bytes; None where unreadable)."""
+    try:
+        return int(RMEM_MAX_PATH.read_text().strip())
+    except (OSError, ValueError):
+        return None
+
+
+@dataclass(frozen=True)
 class AravisOptions:
     """GigE Vision transport and imaging options beyond :class:`CaptureSettings`.
 
@@ -121,6 +175,7 @@ class AravisOptions:
         buffers: stream buffers queued to Aravis.
         packet_resend: ask the camera to resend lost packets (GVCP PACKETRESEND).
         max_frames: end the stream after this many delivered frames (None: until stopped).
+        tuning: how the stream receives (:class:`StreamTuning`).
     """
 
     packet_size_bytes: int | None = 1400
@@ -131,6 +186,7 @@ class AravisOptions:
     buffers: int = 16
     packet_resend: bool = True
     max_frames: int | None = None
+    tuning: StreamTuning = StreamTuning()
 
     def __post_init__(self) -> None:
         if self.packet_size_bytes is not None and not 576 <= self.packet_size_bytes <= 16000:
@@ -179,11 +235,13 @@ class AravisCamera:
         self._arv = aravis
         self._cam = self._stream = self._failed_stream = None
         self._settings = CaptureSettings()
-        self._status = DriverStatus(camera=name, extra={"device": device, "incomplete": 0, "frame_id_gaps": 0, "device_skipped": 0,
-                                                        **{v: 0 for v in _STREAM_COUNTERS.values()}})
+        self._status = DriverStatus(camera=name, extra={
+            "device": device, "incomplete": 0, "incomplete_before_start": 0, "empty_buffers": 0, "frame_id_gaps": 0,
+            "device_skipped": 0, **{v: 0 for v in _STREAM_COUNTERS.values()}})
         self._stopped = False
         self._at_ns: int | None = None
         self._on_host_epoch = False
+        self._last_system_ns = 0  # host arrival time (ns) of the newest frame leader seen
 
     # -- set-up -----------------------------------------------------------------------------------
     def open(self) -> None:
@@ -303,12 +361,29 @@ class AravisCamera:
         resend = arv.GvStreamPacketResend.ALWAYS if opt.packet_resend else arv.GvStreamPacketResend.NEVER
         self._stream.set_property("packet-resend", resend)
         payload = self._cam.get_payload()
+        self._tune_stream(payload)
         for _ in range(opt.buffers):
             self._stream.push_buffer(arv.Buffer.new_allocate(payload))
         self._at_ns, self._stopped = at_ns, False
         self._cam.start_acquisition()
         self._status.state = "running"
         self._status.started_wall_s = (at_ns or time.time_ns()) / 1e9
+
+    def _tune_stream(self, payload_bytes: int) -> None:
+        """Socket receive buffer and frame retention of :class:`StreamTuning`, recorded in the status."""
+        tuning, stream = self.options.tuning, self._stream
+        asked = tuning.socket_buffer_bytes(payload_bytes)
+        stream.set_property("socket-buffer", self._arv.GvStreamSocketBuffer.FIXED)
+        stream.set_property("socket-buffer-size", asked)
+        retention_us = tuning.frame_retention_us(self._settings.period_ns)
+        stream.set_property("frame-retention", retention_us)
+        cap = rmem_max_bytes()
+        self._status.extra.update(socket_buffer_bytes=asked, rmem_max_bytes=cap,
+                                  frame_retention_ms=round(retention_us / 1000, 1))
+        if cap is not None and cap < asked:
+            log.warning("camera %s: stream socket buffer capped at net.core.rmem_max = %d bytes (%.1f frames; asked "
+                        "%d): raise it (sysctl -w net.core.rmem_max=%d) where the receiver may lose packets", self.name,
+                        cap, cap / payload_bytes, asked, asked)
 
     def frames(self) -> Iterator[Frame]:
         if self._stream is None:
@@ -331,9 +406,8 @@ class AravisCamera:
                         return
                     continue
                 timeouts, seen = 0, True
-                incomplete = self._status.extra["incomplete"]
-                frame, offset = self._take(buf, ids, offset)
-                if frame is None and self._status.extra["incomplete"] == incomplete:
+                frame, offset, whole = self._take(buf, ids, offset)
+                if frame is None and whole:
                     complete_at = time.monotonic()  # whole, but before the synchronised start
                     continue
                 if frame is None:
@@ -355,14 +429,17 @@ class AravisCamera:
             self._refresh_counters()
             self._end()
 
-    def _take(self, buf, ids: BlockIds, offset: int | None) -> tuple[Frame | None, int | None]:
-        """Frame of one popped buffer (None: incomplete or before the start) and the frame id offset."""
+    def _take(self, buf, ids: BlockIds, offset: int | None) -> tuple[Frame | None, int | None, bool]:
+        """Frame of one popped buffer (None: incomplete or before the start), the frame id offset and
+        whether the buffer held a whole frame."""
         try:
-            if buf.get_status() != self._arv.BufferStatus.SUCCESS:
+            status = buf.get_status()
+            if status != self._arv.BufferStatus.SUCCESS:
                 # not counted into the block ids: a buffer that lost its leader may carry id 0; the next
                 # whole frame shows the gap
-                self._status.extra["incomplete"] += 1
-                return None, offset
+                self._count_unfinished(buf, status)
+                return None, offset, False
+            self._last_system_ns = max(self._last_system_ns, int(buf.get_system_timestamp()))
             ts = int(buf.get_timestamp())
             count = ids.next(int(buf.get_frame_id()))
             image = self._image(buf)
@@ -374,7 +451,7 @@ class AravisCamera:
             self._status.extra["device_clock"] = "host epoch" if on_host_epoch else "own epoch (frame ids from the first frame)"
             if on_host_epoch and self._at_ns is not None:
                 if ts < self._at_ns - period // 2:
-                    return None, None  # before the synchronised start
+                    return None, None, True  # before the synchronised start
                 offset = int(round((ts - self._at_ns) / period)) - count
             else:
                 offset = -count
@@ -389,7 +466,34 @@ class AravisCamera:
             self._status.extra["device_skipped"] += skipped
         if self._status.frames % 30 == 0:
             self._refresh_counters()
-        return Frame(camera=self.name, image=image, timestamp_ns=ts, frame_id=frame_id, ptp_jump=jump), offset
+        return Frame(camera=self.name, image=image, timestamp_ns=ts, frame_id=frame_id, ptp_jump=jump), offset, True
+
+    def _count_unfinished(self, buf, status) -> None:
+        """Count a buffer that holds no whole frame: ``empty_buffers`` (CLEARED: Aravis never filled it, no
+        frame), ``incomplete_before_start`` (its packets came before the synchronised start: not a trial
+        frame) or ``incomplete``."""
+        ex = self._status.extra
+        if status == self._arv.BufferStatus.CLEARED:
+            ex["empty_buffers"] += 1
+            log.info("camera %s: an empty stream buffer (no frame in it)", self.name)
+            return
+        before = self._before_start(int(buf.get_system_timestamp()))
+        ex["incomplete_before_start" if before else "incomplete"] += 1
+        log.info("camera %s: incomplete frame (%s)%s", self.name, status.value_nick,
+                 " before the synchronised start" if before else "")
+
+    def _before_start(self, system_ns: int) -> bool:
+        """Whether an unfinished frame came before the synchronised start, judged on the host clock: its
+        leader's arrival time where Aravis stamped it for this frame (later than any frame seen before;
+        a buffer whose leader was lost keeps an older stamp), else the time it is handed over (its
+        packets all came before). A frame within half a period of the start counts as a trial frame."""
+        if self._at_ns is None:
+            return False
+        limit = self._at_ns - self._settings.period_ns // 2
+        if system_ns > self._last_system_ns:
+            self._last_system_ns = system_ns
+            return system_ns < limit
+        return time.time_ns() < limit
 
     def _image(self, buf) -> np.ndarray:
         w, h = int(buf.get_image_width()), int(buf.get_image_height())

@@ -135,6 +135,9 @@ def test_a_trial_on_fake_gige_cameras_with_a_camera_killed_and_a_lossy_link(tmp_
     assert (error["time_ns"] - killed_ns) / 1e9 < 5.0, (error["time_ns"] - killed_ns) / 1e9
     assert _first_error(statuses["cam01"]) is None and _first_error(statuses["cam03"]) is None
     last = {c: statuses[c][-1] for c in NAMES}
+    # frames that came incomplete before the synchronised start (the cameras stream from the node's start,
+    # while the host is busiest) are not trial frames: counted apart, never as the trial's incomplete frames
+    assert all("incomplete_before_start" in last[c]["extra"] for c in NAMES), last
     assert last["cam01"]["frames"] == FRAMES and last["cam01"]["extra"]["incomplete"] == 0, last["cam01"]
     # on the clean link, gaps only where the software fake camera ran late or a whole frame was missed on a
     # loaded host (no incomplete frame, no packet lost)
@@ -142,8 +145,9 @@ def test_a_trial_on_fake_gige_cameras_with_a_camera_killed_and_a_lossy_link(tmp_
     # the lossy link: incomplete frames, missing packets and resend requests counted, frames lost
     lossy = last["cam03"]["extra"]
     assert lossy["incomplete"] > 0 and lossy["missing_packets"] > 0 and lossy["resend_requests"] > 0, lossy
-    # (incomplete frames also before the synchronised start, when the camera already streams: not all are gaps)
-    assert last["cam03"]["frames"] == FRAMES and last["cam03"]["drops"] > 0, last["cam03"]
+    # every incomplete trial frame is a gap (gaps may also be periods the fake camera skipped, or whole
+    # frames missed on a loaded host); those before the start are not
+    assert last["cam03"]["frames"] == FRAMES and 0 < lossy["incomplete"] <= last["cam03"]["drops"], last["cam03"]
     # nothing recorded is lost: every published frame is in the recording, each with its keypoints
     times = read_image_times(path)
     assert {c: len(times[c]) for c in NAMES} == {c: last[c]["published"] for c in NAMES}, summary

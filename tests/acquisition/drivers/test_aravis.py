@@ -158,6 +158,36 @@ def test_lost_packets_make_incomplete_frames_counted_and_never_delivered(lossy_c
     cam.close()
 
 
+@needs_aravis
+def test_incomplete_frames_before_a_synchronised_start_are_counted_apart(lossy_camera):
+    cam = AravisCamera("127.0.0.1", "cam09")
+    cam.open()
+    cam.configure(CaptureSettings(fps=30.0, exposure_us=8000.0, pixel_format="Mono8"))  # 188 packets: ~40 % lost
+    at = time.time_ns() + 1_500_000_000  # 45 frame periods streamed before the start
+    frames = _stream(cam, 30, at)
+    st = cam.status().to_dict()
+    assert st["incomplete_before_start"] > 0 and st["incomplete"] > 0, st
+    # each incomplete trial frame is a gap (or lies before the first whole trial frame); none of those before
+    # the start is, and no delivered frame lies before it
+    ids = [f.frame_id for f in frames]
+    assert st["incomplete"] <= st["drops"] + ids[0] + 1, (ids, st)
+    assert all(f.timestamp_ns >= at - SETTINGS.period_ns // 2 for f in frames)
+    # the stream was tuned: a socket buffer of several frames, frames kept several periods for their packets
+    assert st["socket_buffer_bytes"] == 4 * 512 * 512 and st["frame_retention_ms"] == 133.3, st
+    cam.close()
+
+
+def test_stream_tuning_is_sized_by_the_frame_and_its_period():
+    from gaitcap.acquisition.drivers.aravis import StreamTuning
+
+    tuning = StreamTuning()
+    assert tuning.socket_buffer_bytes(262_144) == 1_048_576
+    assert tuning.frame_retention_us(int(1e9 / 15)) == 266_666  # 4 periods at 15 fps
+    assert tuning.frame_retention_us(int(1e9 / 120)) == 100_000  # never below Aravis's 100 ms
+    with pytest.raises(ValueError, match="socket_buffer_frames >= 1"):
+        StreamTuning(socket_buffer_frames=0)
+
+
 def test_the_source_names_what_is_missing():
     from gaitcap.acquisition.drivers.sources import AravisSource
 
