@@ -105,8 +105,10 @@ class CameraDetection:
 
     def line(self) -> str:
         variants = ", ".join(f"{k}: {v}" for k, v in self.variants.items()) or "-"
+        px = f"{self.marker_px:>10.1f}" if np.isfinite(self.marker_px) else f"{'-':>10}"  # no marker: no size
+        ratio = f"{self.marker_ratio:>7.2f}" if np.isfinite(self.marker_ratio) else f"{'-':>7}"
         return (f"{self.name:<10} {self.frames:>7} {self.with_markers:>8} {self.with_board:>7} {self.moving:>7} "
-                f"{self.marker_px:>10.1f} {self.marker_ratio:>7.2f}  {variants}")
+                f"{px} {ratio}  {variants}")
 
 
 HEADER = f"{'camera':<10} {'frames':>7} {'markers':>8} {'board':>7} {'moving':>7} {'marker px':>10} {'ratio':>7}  found as"

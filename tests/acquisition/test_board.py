@@ -52,3 +52,19 @@ def test_bad_board_definitions_are_named():
         make_board(BoardConfig.charuco(dictionary="DICT_NOPE"))
     with pytest.raises(ValueError, match="square corner grid"):
         make_board(BoardConfig.checkerboard(5, 5))
+
+
+@pytest.mark.parametrize("px_per_mm", [0.025, 0.03, 0.04])
+def test_a_small_image_with_squares_of_3_to_4_px_is_searched_enlarged(px_per_mm):
+    """The demo's 240 x 180 px cameras see the 110 mm squares 2-5 px wide: findChessboardCornersSB misses
+    such a board as it is but finds it enlarged; the corners come back in the image's own pixels."""
+    board = make_board(BoardConfig.checkerboard())
+    img, corner0 = board.texture(1.0)
+    small = cv2.resize(img, None, fx=px_per_mm, fy=px_per_mm, interpolation=cv2.INTER_AREA)
+    frame = np.full((180, 240), 120, np.uint8)
+    frame[60:60 + small.shape[0], 70:70 + small.shape[1]] = small
+    assert board._find(frame) is None  # as it is: not found
+    found = board.detect(frame)
+    expected = (corner0 + board.geometry.object_points_mm[:, :2] + 0.5) * px_per_mm - 0.5 + [70, 60]
+    assert found is not None
+    assert min(np.abs(found - expected[list(p)]).max() for p in board.geometry.symmetries) < 0.25
