@@ -3,8 +3,9 @@
 Frames of the sports2d demo video (installed by deploy/bootstrap.sh), centre-cropped to 4:3 and resized
 to 640x480, go through MediaPipe Pose (lite / full / heavy) in tracking mode (one pose, one camera,
 consecutive frames: the person detector runs only when the pose is lost), in image mode (one pose,
-detector + landmarks on every frame) and with the default options (everyone: up to 4 poses, each tracked,
-the person detector on every frame for newcomers), and through the ONNX detector's pre/post-processing with a trivial model (the crop, the
+detector + landmarks on every frame), with the default options (everyone: up to 4 poses, each tracked,
+the person detector every 5th frame for newcomers while someone is tracked) and with the person detector
+on every frame (``search_every=1``, MediaPipe's own way), and through the ONNX detector's pre/post-processing with a trivial model (the crop, the
 normalisation and onnxruntime's call overhead, not a real network). Wall time and CPU time per frame.
 
     python bench/detectors.py                # a table
@@ -87,10 +88,13 @@ def run(*, frames: int, threads: int) -> dict:
 
     imgs = load_frames(frames)
     rows = []
-    modes = (("tracking", True, 1), ("image", False, 1), ("everyone", True, MediaPipeConfig.num_poses))
+    poses, every = MediaPipeConfig.num_poses, MediaPipeConfig.search_every
+    modes = (("tracking", True, 1, every), ("image", False, 1, every), ("everyone (default)", True, poses, every),
+             ("everyone, search every frame", True, poses, 1))
     for model in ("lite", "full", "heavy"):
-        for mode, consecutive, poses in modes:
-            det = MediaPipeConfig(model=model, num_threads=threads, num_poses=poses).build()
+        for mode, consecutive, num_poses, search_every in modes:
+            det = MediaPipeConfig(model=model, num_threads=threads, num_poses=num_poses,
+                                  search_every=search_every).build()
             res = time_detector(det, imgs, consecutive=consecutive)
             rows.append({"detector": f"mediapipe-{model}", "mode": mode, **res})
     with tempfile.TemporaryDirectory() as tmp:
@@ -121,9 +125,9 @@ def main() -> None:
         return
     print(f"2D detectors at {SIZE[0]}x{SIZE[1]}, {result['frames']} frames of the sports2d demo, "
           f"{args.threads} threads ({result['note']})")
-    print(f"{'detector':42s} {'mode':12s} {'ms/frame':>9s} {'cpu ms':>8s} {'found':>6s}")
+    print(f"{'detector':42s} {'mode':29s} {'ms/frame':>9s} {'cpu ms':>8s} {'found':>6s}")
     for r in result["rows"]:
-        print(f"{r['detector']:42s} {r['mode']:12s} {r['ms_per_frame']:9.1f} {r['cpu_ms_per_frame']:8.1f} "
+        print(f"{r['detector']:42s} {r['mode']:29s} {r['ms_per_frame']:9.1f} {r['cpu_ms_per_frame']:8.1f} "
               f"{100 * r['found_fraction']:5.0f}%")
 
 

@@ -210,6 +210,36 @@ def test_everyone_by_default_finds_the_walker_once_in_every_frame():
 
 
 @needs_models
+def test_with_someone_tracked_the_person_detector_looks_for_newcomers_every_search_every_frames(monkeypatch):
+    """Several poses (the default): while the walker is tracked, the person detector runs on every 5th frame
+    of a camera only (each camera counted alone; a camera with nobody tracked searches every frame), and
+    the walker is still found in every frame; search_every=1 is MediaPipe's every frame."""
+    frames = _frames(FIRST, 20)
+    for every, searches in ((5, [0, 5, 10, 15]), (1, list(range(20)))):
+        det = MediaPipeConfig(search_every=every).build()
+        calls = []
+        real = det.find_people
+        monkeypatch.setattr(det, "find_people", lambda rgb, calls=calls, real=real: calls.append(1) or real(rgb))
+        searched = []
+        for i, frame in enumerate(frames):
+            before = len(calls)
+            assert len(det.detect(frame, camera="a", frame_id=i, timestamp_ns=0)) == 1, (every, i)
+            if len(calls) > before:
+                searched.append(i)
+        assert searched == searches, (every, searched)
+    blank = np.full((480, 640, 3), 127, np.uint8)
+    det = MediaPipeConfig().build()
+    calls = []
+    real = det.find_people
+    monkeypatch.setattr(det, "find_people", lambda rgb: calls.append(1) or real(rgb))
+    for i in range(3):  # nobody to track: every frame
+        det.detect(blank, camera="empty", frame_id=i, timestamp_ns=0)
+    assert len(calls) == 3
+    with pytest.raises(ValueError, match="search_every"):
+        MediaPipeConfig(search_every=0)
+
+
+@needs_models
 def test_lite_model_by_path_agrees_with_full(walk):
     kp_full, _ = walk
     lite = MediaPipeConfig(model=str(default_model_dir() / "pose_landmark_lite.tflite")).build()
