@@ -3,16 +3,20 @@ camera 1's stream through the lab's shaping (``netem`` loss and delay where the 
 ``htb`` rate limit with a short ``pfifo`` queue, which drops the tail of every frame's packet burst). The
 Aravis driver, run in the namespace, counts what the link did: incomplete frames, missing packets, resend
 requests; the clean camera is untouched; with netem the delay shows in the latency from the device
-timestamp, without it the camera that delivers only incomplete frames is named with the cause. Skipped,
-with the reason, where namespaces cannot be made or Aravis is not installed."""
+timestamp, without it the camera that delivers only incomplete frames is named with the cause. Which
+branch ran is logged and recorded as the test's ``link_shaping`` property (``--junitxml``); the
+development machine's kernel has no netem, so there the pfifo branch runs. Skipped, with the reason,
+where namespaces cannot be made or Aravis is not installed."""
 
 import json
+import logging
 import re
 import subprocess
 import sys
 
 import pytest
 
+log = logging.getLogger(__name__)
 PROBE = r"""
 import json, sys, threading, time
 from gaitcap.acquisition.drivers.aravis import AravisCamera, AravisOptions
@@ -51,8 +55,10 @@ def lab(tmp_path):
         yield lab
 
 
-def test_a_lossy_slow_link_is_counted_and_named(lab):
+def test_a_lossy_slow_link_is_counted_and_named(lab, record_property):
     applied = lab.shape(source=lab.addresses[0], loss_percent=0.05, delay_ms=20.0, rate_mbit=100.0, queue_packets=16)
+    record_property("link_shaping", applied)
+    log.warning("lossy link test: %s", applied)  # which branch ran: netem, or pfifo where the kernel lacks netem
     r = subprocess.run([*lab.exec_prefix, sys.executable, "-c", PROBE, ",".join(lab.addresses)],
                        capture_output=True, text=True, timeout=90)
     assert r.returncode == 0, r.stderr[-3000:]

@@ -10,7 +10,6 @@ the test fails.
 
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -29,51 +28,28 @@ SIM_ARGS = ["--sim-preset", SIM["preset"], "--sim-seconds", str(SIM["seconds"]),
 FRAMES = 240
 
 
-def _ip(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=20)
-
-
-def _netns_unavailable() -> str:
-    if os.geteuid() != 0:
-        return "needs root to create network namespaces"
-    if shutil.which("ip") is None:
-        return "the 'ip' command (iproute2) is not installed"
-    probe = f"gcprobe{os.getpid()}"
-    r = _ip("netns", "add", probe)
-    if r.returncode != 0:
-        return f"'ip netns add' failed: {r.stderr.strip()}"
-    try:
-        r = _ip("netns", "exec", probe, "true")
-        return "" if r.returncode == 0 else f"'ip netns exec' failed: {r.stderr.strip()}"
-    finally:
-        _ip("netns", "del", probe)
-
-
 @pytest.fixture
 def two_hosts():
     """(acq namespace, proc namespace, acq address, proc address); removed afterwards."""
-    reason = _netns_unavailable()
+    from gaitcap.simulator import netns
+
+    reason = netns.namespace_unavailable()
     if reason:
         pytest.skip(reason)
     tag = f"{os.getpid() % 100000}"
-    acq, proc, veth_a, veth_p = f"gcacq{tag}", f"gcproc{tag}", f"gca{tag}", f"gcp{tag}"
+    acq, proc = f"gcacq{tag}", f"gcproc{tag}"
     subnet = 10 + os.getpid() % 200
-    addr_a, addr_p = f"10.231.{subnet}.1", f"10.231.{subnet}.2"
+    end_a = netns.VethEnd(f"gca{tag}", acq, (f"10.231.{subnet}.1/24",))
+    end_p = netns.VethEnd(f"gcp{tag}", proc, (f"10.231.{subnet}.2/24",))
     try:
-        for cmd in (["netns", "add", acq], ["netns", "add", proc],
-                    ["link", "add", veth_a, "type", "veth", "peer", "name", veth_p],
-                    ["link", "set", veth_a, "netns", acq], ["link", "set", veth_p, "netns", proc],
-                    ["-n", acq, "addr", "add", f"{addr_a}/24", "dev", veth_a],
-                    ["-n", proc, "addr", "add", f"{addr_p}/24", "dev", veth_p],
-                    ["-n", acq, "link", "set", veth_a, "up"], ["-n", proc, "link", "set", veth_p, "up"],
-                    ["-n", acq, "link", "set", "lo", "up"], ["-n", proc, "link", "set", "lo", "up"]):
-            r = _ip(*cmd)
-            assert r.returncode == 0, f"ip {' '.join(cmd)}: {r.stderr}"
-        yield acq, proc, addr_a, addr_p
+        for ns in (acq, proc):
+            netns.add_namespace(ns, what="two hosts")
+        netns.add_veth(end_a, end_p, what="two hosts")
+        yield acq, proc, end_a.address, end_p.address
     finally:
         for ns in (acq, proc):
-            _ip("netns", "del", ns)
-        _ip("link", "del", veth_a)  # only if it never left the root namespace
+            netns.delete_namespace(ns)
+        netns.delete_veth(end_a)  # only if it never left the root namespace
 
 
 class Processes:
@@ -82,7 +58,9 @@ class Processes:
 
     def start(self, name: str, ns: str, argv: list[str], **kwargs) -> subprocess.Popen:
         out = open(self.log_dir / f"{name}.log", "wb")  # noqa: SIM115  (closed with the process)
-        p = subprocess.Popen(["ip", "netns", "exec", ns, *argv], env=self.env, cwd=str(ROOT),
+        from gaitcap.simulator.netns import exec_prefix
+
+        p = subprocess.Popen([*exec_prefix(ns), *argv], env=self.env, cwd=str(ROOT),
                              stdout=kwargs.pop("stdout", out), stderr=out, start_new_session=True, **kwargs)
         self.procs[name] = p
         return p
