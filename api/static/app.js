@@ -490,18 +490,13 @@ function rerunFinished(t) {
 const COMPONENT_NAMES = { database: "Database", disk: "Disk space", recorder: "Recorder", detector: "Detector",
   workers: "Processing workers", cameras: "Cameras" };
 const DOWN_GRACE_S = 3;
-// cameras: {text, since} while a listed camera has a problem; listed: the live status lists cameras
-const systemState = { items: [], cameras: null, listed: false };
+// health: the last /health components; cameras: {text, since} while a listed camera has a problem;
+// listed: the live status lists cameras (then they, not /health, give the banner's camera line)
+const systemState = { health: {}, cameras: null, listed: false };
 async function pollHealth() {
   let h = null;
   try { const r = await fetch("/health"); h = await r.json(); } catch (e) { /* the connection pill says it */ }
-  const now = Date.now() / 1000, items = [];
-  for (const [name, c] of Object.entries((h && h.components) || {})) {
-    if (c.ok !== false || (name === "cameras" && systemState.listed)) continue;  // from the camera list (below)
-    if (c.since && now - c.since < DOWN_GRACE_S) continue;
-    items.push(`<li data-component="${esc(name)}"><b>${esc(COMPONENT_NAMES[name] || name)}:</b> ${esc(c.status)}</li>`);
-  }
-  systemState.items = items; renderSystem();
+  systemState.health = (h && h.components) || {}; renderSystem();
 }
 
 // The one camera count on the page: the Cameras heading and the system banner both say these words, made
@@ -521,10 +516,17 @@ function noteCameraProblem(words, listed) {
 }
 
 function renderSystem() {
-  const cams = systemState.cameras, items = [...systemState.items];
-  if (cams && Date.now() / 1000 - cams.since >= DOWN_GRACE_S)
+  const now = Date.now() / 1000, items = [];
+  for (const [name, c] of Object.entries(systemState.health)) {
+    if (c.ok !== false || (name === "cameras" && systemState.listed)) continue;  // from the camera list (below)
+    if (c.since && now - c.since < DOWN_GRACE_S) continue;
+    items.push(`<li data-component="${esc(name)}"><b>${esc(COMPONENT_NAMES[name] || name)}:</b> ${esc(c.status)}</li>`);
+  }
+  const cams = systemState.cameras;
+  if (cams && now - cams.since >= DOWN_GRACE_S)
     items.push(`<li data-component="cameras"><b>${COMPONENT_NAMES.cameras}:</b> ${esc(cams.text)}</li>`);
-  $("#system-list").innerHTML = items.join("");
+  const html = items.join("");  // rewritten only when it changes: the alert is not announced again and again
+  if ($("#system-list").innerHTML !== html) $("#system-list").innerHTML = html;
   $("#system").hidden = !items.length;
 }
 
