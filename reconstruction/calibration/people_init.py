@@ -50,14 +50,16 @@ class PeopleCalibrationConfig:
         min_shared: a camera needs this many keypoints shared with a placed camera to be placed.
         ransac_px: RANSAC threshold of the essential matrix, px.
         start_baseline_mm: the first baseline's length before the height scales the rig, mm.
-        bundle: the refinement (its prior is loose: the poses come from the people themselves).
+        bundle: the refinement (its prior is loose: the poses come from the people themselves); up to 400
+            frames of the walk (on the synthetic clinic's 20 s walk: centres within 13.5 mm of the truth, 16.0 mm
+            with 150 frames, one seed).
     """
 
     min_confidence: float = 0.5
     min_shared: int = 100
     ransac_px: float = 4.0
     start_baseline_mm: float = 3000.0
-    bundle: PeopleBundleConfig = PeopleBundleConfig(prior_rotation_deg=5.0, prior_shift_mm=300.0)
+    bundle: PeopleBundleConfig = PeopleBundleConfig(prior_rotation_deg=5.0, prior_shift_mm=300.0, max_frames=400)
 
 
 @dataclass(frozen=True, eq=False)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import logging
+from dataclasses import replace
 from pathlib import Path
 
 import typer
@@ -122,14 +123,15 @@ def _store_version(db, rig, report, replaces: str, trials: list[Path]) -> str:
     return new_id
 
 
-def _from_people(dets, rig, height_mm: float, max_frames: int):
-    from gaitcap.reconstruction.calibration.people_bundle import PeopleBundleConfig
+def _from_people(dets, rig, height_mm: float, max_frames: int | None):
     from gaitcap.reconstruction.calibration.people_init import PeopleCalibrationConfig, calibrate_from_people
 
     if len(dets) != 1:
         raise ValueError(f"--height-mm: calibrating from people alone takes one walk, got {len(dets)} trials")
-    bundle = PeopleBundleConfig(prior_rotation_deg=5.0, prior_shift_mm=300.0, max_frames=max_frames)
-    return calibrate_from_people(dets[0][1], rig, height_mm=height_mm, config=PeopleCalibrationConfig(bundle=bundle))
+    config = PeopleCalibrationConfig()
+    if max_frames is not None:
+        config = replace(config, bundle=replace(config.bundle, max_frames=max_frames))
+    return calibrate_from_people(dets[0][1], rig, height_mm=height_mm, config=config)
 
 
 def register(app: typer.Typer) -> None:
@@ -140,7 +142,7 @@ def register(app: typer.Typer) -> None:
         out: Path | None = typer.Option(None, "--out", help="Refined calibration to write (.toml or .json); its report beside it (.report.json)."),
         focal: bool = typer.Option(False, "--focal", help="Also refine each camera's focal length."),
         check: bool = typer.Option(False, "--check", help="Only check the rig against each trial (which camera moved, by how much); write nothing."),
-        max_frames: int = typer.Option(150, "--max-frames", help="Frames used at most per trial."),
+        max_frames: int | None = typer.Option(None, "--max-frames", help="Frames used at most per trial (default 150; with --height-mm 400)."),
         height_mm: float | None = typer.Option(None, "--height-mm", help="Calibrate from people alone (no board): the subject's standing height, mm, sets the scale; only the calibration's intrinsics are used (one trial: a walk)."),
         data_dir: Path | None = typer.Option(None, "--data-dir", envvar="GAITCAP_DATA_DIR", help="Store the refined calibration in this data folder's catalog as a new version (trials may then be named by id)."),
         catalog: str = typer.Option("", "--catalog", envvar="GAITCAP_CATALOG", help="SQLite path or SQLAlchemy URL (default DATA_DIR/catalog.sqlite)."),
@@ -180,7 +182,7 @@ def register(app: typer.Typer) -> None:
                 typer.echo(f"wrote {out} and {report_file}")
                 return
             result = refine_rig_from_people([d for _, d in dets], rig,
-                                            config=PeopleBundleConfig(refine_focal=focal, max_frames=max_frames))
+                                            config=PeopleBundleConfig(refine_focal=focal, max_frames=max_frames or 150))
             typer.echo(_refine_table(result.report))
             if db is not None:
                 _store_version(db, result.rig, result.report, replaced, trials)
