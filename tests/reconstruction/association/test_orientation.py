@@ -5,7 +5,9 @@ import dataclasses
 import numpy as np
 from gaitcap.reconstruction.association import (
     AssociationConfig,
+    ManualTrack,
     TrackingConfig,
+    associate_and_select,
     link_tracks,
     patient_detections,
 )
@@ -67,3 +69,21 @@ def test_face_forward_turns_the_track_and_its_detections_and_the_patient_is_swap
     swapped = patient_detections(scene.multi, turned, 0).keypoints
     assert np.array_equal(swapped[:, 5:15], straight[:, 5:15][:, :, list(SKELETON.flip_permutation)], equal_nan=True)
     assert np.array_equal(swapped[:, 15:], straight[:, 15:], equal_nan=True)
+
+
+def test_a_view_the_detector_mirrored_is_swapped_back_and_no_other_is_turned():
+    scene = make_scene(frames=30, people=2, seed=4)
+    kp = scene.multi.keypoints.copy()
+    patient = scene.identity == 0  # (C, T, P)
+    turn = np.zeros_like(patient)
+    turn[2, 10:20] = patient[2, 10:20]  # camera 2 shows the patient mirrored for 10 frames
+    kp[turn] = kp[turn][:, list(SKELETON.flip_permutation)]
+    multi = dataclasses.replace(scene.multi, keypoints=kp)
+    tracks = associate_and_select(multi, scene.rig).tracks
+    patient_track = int(np.bincount(tracks.detection_track[patient & (tracks.detection_track >= 0)]).argmax())
+    chosen = associate_and_select(multi, scene.rig, ManualTrack(patient_track))
+    truth = np.take_along_axis(scene.multi.keypoints, np.argmax(patient, -1)[..., None, None, None], 2)[:, :, 0]
+    got = chosen.detections.keypoints
+    seen = np.isfinite(got[..., 0]).all(-1)  # (C, T)
+    assert seen[2, 10:20].all() and seen.mean() > 0.95
+    assert np.array_equal(got[seen], truth[seen])  # the mirrored view swapped back, every other one as it was
