@@ -176,13 +176,15 @@ class Checkerboard:
     def _find_small(self, gray: np.ndarray) -> np.ndarray | None:
         """A small image (under ``SMALL_WIDTH_PX`` wide): as it is, else enlarged ``ENLARGE`` x (the
         demo's 240 x 180 px cameras see the board's squares 2-5 px wide: in 6.5 s of the short clip at
-        30 fps the board was found in 504 of 1950 camera frames, 149 as they are), corners mapped back to
-        the image's pixels."""
+        30 fps the board was found in 499 of 1950 camera frames, 149 as they are), corners mapped back to
+        the image's pixels. One plain ``findChessboardCornersSB`` search there (no accuracy pass, no
+        retries: 45 ms a 240 x 180 frame against 170 ms with the accuracy flag, corners of a flat board
+        within 0.2 px either way)."""
         corners = self._find(gray)
         if corners is not None:
             return corners
         big = cv2.resize(gray, None, fx=ENLARGE, fy=ENLARGE, interpolation=cv2.INTER_CUBIC)
-        corners = self._find(big)
+        corners = self._search(big, 0)
         return None if corners is None else (corners + 0.5) / ENLARGE - 0.5  # pixel centres at integers
 
     def _find(self, gray: np.ndarray) -> np.ndarray | None:
