@@ -32,7 +32,7 @@ log = logging.getLogger(__name__)
 CHARUCO_MIN_CORNERS = 6
 COARSE_WIDTH_PX = 1280  # wider images are searched for a checkerboard at half size first
 CROP_MARGIN_PX = 40
-SMALL_WIDTH_PX = 640  # narrower images are searched again enlarged when the board is not found as they are
+SMALL_WIDTH_PX = 400  # narrower images (the demo's 240 px) are searched again enlarged when the board is not found
 ENLARGE = 3  # by this factor (bicubic): findChessboardCornersSB misses squares of 2-5 px that it finds enlarged
 
 
