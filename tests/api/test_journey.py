@@ -166,6 +166,7 @@ def _history_and_compare(page, tid: str, earlier: list[str]) -> None:
     step = page.inner_text("#compare-table tbody tr:nth-child(3)").split("\t")
     assert step[0] == "Step length (mm)" and step[-3:] == ["0", "0", "0"], step  # the same walk: per side "0"
     assert page.is_disabled(f"#history-table tr[data-trial='{tid}'] .cmp")  # the void visit is not compared
+    assert "Void: walked with the wrong shoes" in page.inner_text(f"#trials tr.voided[data-trial='{tid}']")  # the list
 
 
 def _print_and_pdf(page, client, tid: str) -> None:
@@ -187,6 +188,7 @@ def _print_and_pdf(page, client, tid: str) -> None:
     assert 1 <= len(pages) <= 2, len(pages)
     assert all("VOID" in p for p in pages)
     text = " ".join(pages)
+    assert re.search(r"\d+ of \d+ parameters have a normal range for age and sex", text)  # counted, never assumed
     assert not re.search(r"\b\d*(1[123]|[04-9])st\b|\b\d*[23]th\b|\b\d*1th\b", text)  # 41st, 43rd, never 43th
 
 
