@@ -15,6 +15,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from gaitcap.api import (
+    routes_calibration_versions,
     routes_calibrations,
     routes_kinematics,
     routes_live,
@@ -91,6 +92,7 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
     app.include_router(routes_live.router)
     app.include_router(routes_calibrations.router)
     app.include_router(routes_rig_check.router)
+    app.include_router(routes_calibration_versions.router)
     app.include_router(routes_people.router)
     app.include_router(routes_report.router)
     app.include_router(routes_patients.router)

@@ -52,6 +52,8 @@ ROUTE_PERMISSIONS: dict[tuple[str, str], frozenset[str]] = {
     ("GET", "/calibrations"): frozenset({READ, CALIBRATE}),
     ("GET", "/calibrations/latest"): frozenset({READ, CALIBRATE}),
     ("GET", "/rig-check/latest"): frozenset({READ, CALIBRATE}),
+    ("GET", "/calibrations/{cal_id}/version"): frozenset({READ, CALIBRATE}),
+    ("POST", "/calibrations/{cal_id}/apply"): frozenset({CALIBRATE}),
     ("GET", "/calibrations/{cal_id}"): frozenset({READ, CALIBRATE}),
     ("GET", "/calibrations/{cal_id}/toml"): frozenset({CALIBRATE, EXPORT}),
     ("POST", "/calibrations"): frozenset({CALIBRATE}),
