@@ -35,4 +35,42 @@ async function loadRigCheck() {
   catch (e) { if (e.status === 404) showRigCheck(null); }
 }
 
-setInterval(() => { if (state.user && !document.querySelector("#app").hidden && !document.querySelector("#calibrate-card").hidden) loadRigCheck(); }, 3000);
+// A calibration refined from people that is in use but not applied yet: how far each camera moved, and the
+// one button that reprocesses the trials that used the calibration it replaces.
+function showCalibrationVersion(version) {
+  const box = document.querySelector("#calibration-version");
+  const open = !!version && version.applied_at === null && version.trials_using_replaced.length > 0;
+  box.hidden = !open;
+  if (!open) return;
+  const moved = Object.entries(version.comparison)
+    .map(([name, c]) => `${name} ${rigNum(c.rotation_deg, 2)} deg, ${rigNum(c.centre_mm, 1)} mm`).join("; ");
+  document.querySelector("#calibration-version-text").textContent =
+    `Calibration ${version.id} (refined from people, replacing ${version.replaces}) is in use: ${moved}. `
+    + `${version.trials_using_replaced.length} earlier trial(s) used ${version.replaces}.`;
+  const button = document.querySelector("#calibration-version-apply");
+  button.dataset.id = version.id;
+  button.textContent = `Reprocess ${version.trials_using_replaced.length} trial(s) with it`;
+}
+
+async function loadCalibrationVersion() {
+  try {
+    const active = await api("/calibrations/latest");
+    showCalibrationVersion(await api("/calibrations/" + encodeURIComponent(active.id) + "/version"));
+  } catch (e) { if (e.status === 404) showCalibrationVersion(null); }
+}
+
+async function applyCalibrationVersion() {
+  const button = document.querySelector("#calibration-version-apply");
+  const status = document.querySelector("#calibration-version-status");
+  button.disabled = true;
+  try {
+    const r = await api("/calibrations/" + encodeURIComponent(button.dataset.id) + "/apply", { method: "POST" });
+    status.textContent = `${r.queued.length} trial(s) queued for processing again`
+      + (r.skipped.length ? `; not finished yet: ${r.skipped.join(", ")}` : "") + ".";
+  } catch (e) { status.textContent = e.message; }
+  button.disabled = false;
+}
+
+document.querySelector("#calibration-version-apply").onclick = applyCalibrationVersion;
+
+setInterval(() => { if (state.user && !document.querySelector("#app").hidden && !document.querySelector("#calibrate-card").hidden) { loadRigCheck(); loadCalibrationVersion(); } }, 3000);
