@@ -67,9 +67,10 @@ function showCalibration(run) {
 // A calibration refused before any camera was calibrated: what each camera saw of the board.
 function boardFoundRow(d) {
   const seen = d.seen ? `${d.with_board} of ${d.frames} frames` : `not seen (${d.frames} frames searched)`;
-  const enough = d.usable >= d.needed;
+  const result = !d.seen ? "not seen" : d.usable < d.needed ? "too few views"
+    : d.positions < d.needed ? `too few positions (${d.positions})` : "enough views";
   return `<tr><td>${esc(d.name)}</td><td>${seen}</td><td>${d.usable} (need ${d.needed})</td>
-    <td class="${enough ? "cal-pass" : "cal-fail"}">${enough ? "enough views" : (d.seen ? "too few views" : "not seen")}</td>
+    <td class="${result === "enough views" ? "cal-pass" : "cal-fail"}">${result}</td>
     <td>${esc((d.advice || []).join("; "))}</td></tr>`;
 }
 

@@ -43,6 +43,7 @@ def test_a_board_not_seen_enough_is_shown_per_camera_without_nan(server):
     assert not found["cam02"]["seen"] and found["cam02"]["with_board"] == 0 and found["cam02"]["frames"] == 8
     assert found["cam01"]["usable"] >= found["cam01"]["needed"] and not found["cam01"]["advice"]
     assert found["cam02"]["usable"] == 0 and found["cam02"]["advice"]
+    assert found["cam01"]["positions"] >= found["cam01"]["needed"] and found["cam02"]["positions"] == 0
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
         page = browser.new_page(viewport={"width": 1280, "height": 900})
