@@ -28,8 +28,12 @@ several frame periods (Aravis: 100 ms) before it is given up, so a frame whose s
 descheduled mid-frame is not declared incomplete while its packets are still coming. (As root, Aravis
 receives through a packet socket with its own 32 MiB ring, and the socket buffer does not matter.)
 
-Synchronised start: Aravis 0.8 sends no scheduled action command, so the start is a software start.
-When the device clock is on the host's epoch (PTP-synchronised to the same grandmaster as the host, or
+Synchronised start (:mod:`gaitcap.acquisition.drivers.aravis_action`): where the device takes scheduled
+action commands (its GVCP capabilities, action features, the Action1 trigger and a timestamp latch, all
+read from it), acquisition start is armed on the action and one scheduled action command, sent by gaitcap
+over GVCP (Aravis 0.8.26 has no sender), starts it at the start instant on the device clock; otherwise
+(the fake camera) the start is a software start, and the status says which and why (``start_sync``,
+``action_commands``). When the device clock is on the host's epoch (PTP-synchronised to the same grandmaster as the host, or
 the fake camera, whose clock is the host's), frames stamped before ``at_ns`` are discarded and frame
 ids count camera periods from ``at_ns``, so every camera numbers the same instant alike; otherwise frame
 ids count from the first frame and the status says so. PTP is enabled and reported where the device has
@@ -50,6 +54,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from gaitcap.acquisition.drivers.aravis_action import ActionSupport, action_support, scheduled_start
 from gaitcap.acquisition.drivers.base import CaptureSettings, DriverStatus, Frame, is_ptp_jump
 from gaitcap.acquisition.drivers.flir import to_bgr
 
@@ -59,8 +64,9 @@ SUPPORTED_FORMATS = ("BayerRG8", "BayerBG8", "BayerGR8", "BayerGB8", "Mono8", "R
 GEV1_BLOCK_IDS = 65535  # GigE Vision 1.x block ids: 16 bits, 0 reserved, 65535 wraps to 1
 CLOCK_ON_HOST_EPOCH_NS = 2_000_000_000  # a device clock within 2 s of the host's shares its epoch
 _PTP_FEATURES = (("PtpEnable", "PtpStatus"), ("GevIEEE1588", "GevIEEE1588Status"))
-START_SYNC = ("software start (Aravis 0.8 sends no scheduled action command); frame ids aligned on the "
-              "device timestamps")
+HEARTBEAT_TIMEOUT_REGISTER = 0x0938  # GigE Vision bootstrap register (GevHeartbeatTimeout), ms, on every device
+START_SYNC = ("software start (the device takes no scheduled action command: see action_commands); frame ids "
+              "aligned on the device timestamps")
 _STREAM_COUNTERS = {"n_missing_packets": "missing_packets", "n_resend_requests": "resend_requests",
                     "n_resent_packets": "resent_packets", "n_received_packets": "received_packets",
                     "n_timeouts": "stream_timeouts", "n_missing_frames": "missing_frames",
@@ -176,6 +182,11 @@ class AravisOptions:
         packet_resend: ask the camera to resend lost packets (GVCP PACKETRESEND).
         max_frames: end the stream after this many delivered frames (None: until stopped).
         tuning: how the stream receives (:class:`StreamTuning`).
+        heartbeat_timeout_ms: the camera keeps this host in control while it hears from it within this
+            long (GevHeartbeatTimeout; Aravis reads the control register every second). Cameras default to
+            3000 ms: a loaded host whose heartbeat thread is descheduled longer loses control and the
+            camera stops streaming. Longer: a crashed node holds the camera that long before another may
+            open it.
     """
 
     packet_size_bytes: int | None = 1400
@@ -187,12 +198,15 @@ class AravisOptions:
     packet_resend: bool = True
     max_frames: int | None = None
     tuning: StreamTuning = StreamTuning()
+    heartbeat_timeout_ms: int | None = 10_000
 
     def __post_init__(self) -> None:
         if self.packet_size_bytes is not None and not 576 <= self.packet_size_bytes <= 16000:
             raise ValueError(f"packet_size_bytes: expected 576..16000 bytes, got {self.packet_size_bytes}")
         if self.packet_delay_ns < 0:
             raise ValueError(f"packet_delay_ns: must be >= 0, got {self.packet_delay_ns}")
+        if self.heartbeat_timeout_ms is not None and not 500 <= self.heartbeat_timeout_ms <= 600_000:
+            raise ValueError(f"heartbeat_timeout_ms: expected 500..600000 ms, got {self.heartbeat_timeout_ms}")
         if self.frame_timeout_ms <= 0 or self.stall_timeouts < 1 or self.buffers < 2:
             raise ValueError(f"frame_timeout_ms > 0, stall_timeouts >= 1 and buffers >= 2 needed, got "
                              f"{self.frame_timeout_ms}, {self.stall_timeouts}, {self.buffers}")
@@ -242,6 +256,7 @@ class AravisCamera:
         self._at_ns: int | None = None
         self._on_host_epoch = False
         self._last_system_ns = 0  # host arrival time (ns) of the newest frame leader seen
+        self._action: ActionSupport | None = None  # what the device offers for a scheduled start (configure)
 
     # -- set-up -----------------------------------------------------------------------------------
     def open(self) -> None:
@@ -265,8 +280,31 @@ class AravisCamera:
             raise ValueError(f"camera {self.name}: device {self.device} is not a GigE Vision camera")
         ex = self._status.extra
         ex.update(serial=self._cam.get_device_serial_number() or "", model=self._cam.get_model_name() or "",
-                  vendor=self._cam.get_vendor_name() or "", address=self._address())
+                  vendor=self._cam.get_vendor_name() or "", address=self._address(),
+                  heartbeat_timeout_ms=self._heartbeat())
         self._status.state = "open"
+
+    def _heartbeat(self) -> int:
+        """Set the heartbeat timeout (:attr:`AravisOptions.heartbeat_timeout_ms`; the bootstrap register
+        every GigE Vision device has) and return the value it took (ms)."""
+        dev = self._cam.get_device()
+        if self.options.heartbeat_timeout_ms is not None:
+            self._set("heartbeat timeout", dev.write_register, HEARTBEAT_TIMEOUT_REGISTER,
+                      self.options.heartbeat_timeout_ms)
+        try:
+            return int(dev.read_register(HEARTBEAT_TIMEOUT_REGISTER))
+        except Exception as exc:  # GLib.GError
+            raise ValueError(f"camera {self.name} ({self.device}): heartbeat timeout: {_gerror_text(exc)}") from None
+
+    def _control_lost(self) -> str:
+        """Why a camera may have stopped: a note when this host lost control of it ("" otherwise)."""
+        try:
+            lost = not self._cam.get_device().is_controller()
+        except Exception:  # noqa: BLE001  (informative only)
+            return ""
+        timeout = self._status.extra.get("heartbeat_timeout_ms")
+        return (f"; control of the camera lost: it heard no heartbeat from this host for {timeout} ms (a host "
+                "too loaded, or another application took it)" if lost else "")
 
     def _address(self) -> str:
         try:
@@ -313,6 +351,7 @@ class AravisCamera:
             self._set("packet size", cam.gv_set_packet_size, int(opt.packet_size_bytes))
         self._set("packet delay", cam.gv_set_packet_delay, int(opt.packet_delay_ns))
         self._settings = settings
+        self._action = action_support(cam)
         self._read_back()
         self._status.state = "configured"
 
@@ -325,14 +364,8 @@ class AravisCamera:
             exposure_us=round(float(cam.get_exposure_time()), 1) if cam.is_exposure_time_available() else None,
             gain_db=round(float(cam.get_gain()), 2) if cam.is_gain_available() else None,
             packet_size_bytes=int(cam.gv_get_packet_size()), packet_delay_ns=int(cam.gv_get_packet_delay()),
-            ptp=self._ptp(), start_sync=START_SYNC, action_commands=self._actions(),
+            ptp=self._ptp(), start_sync=START_SYNC, action_commands=self._action.describe(),
             trigger_sources=list(cam.dup_available_trigger_sources() or []))
-
-    def _actions(self) -> str:
-        """Whether the device takes GigE Vision action commands (Aravis 0.8 sends none either way)."""
-        has = self._available("ActionDeviceKey") and self._available("ActionGroupKey")
-        return ("supported by the device, not sent (Aravis 0.8 has no action command sender)" if has
-                else "not supported by the device")
 
     def _ptp(self) -> str:
         """Enable PTP where the device has it and return its state, or say the device has none."""
@@ -357,7 +390,7 @@ class AravisCamera:
             self._stream = self._cam.create_stream(None, None)
         except Exception as exc:
             raise ValueError(f"camera {self.name} ({self.device}): cannot open the stream: "
-                             f"{_gerror_text(exc)}") from None
+                             f"{_gerror_text(exc)}{self._control_lost()}") from None
         resend = arv.GvStreamPacketResend.ALWAYS if opt.packet_resend else arv.GvStreamPacketResend.NEVER
         self._stream.set_property("packet-resend", resend)
         payload = self._cam.get_payload()
@@ -365,9 +398,20 @@ class AravisCamera:
         for _ in range(opt.buffers):
             self._stream.push_buffer(arv.Buffer.new_allocate(payload))
         self._at_ns, self._stopped = at_ns, False
-        self._cam.start_acquisition()
+        self._start_acquisition(at_ns)
         self._status.state = "running"
-        self._status.started_wall_s = (at_ns or time.time_ns()) / 1e9
+        self._status.started_wall_s = max(at_ns or 0, time.time_ns()) / 1e9  # a start set in the past: now
+
+    def _start_acquisition(self, at_ns: int | None) -> None:
+        """A scheduled action command at ``at_ns`` where the device takes one, else a software start now."""
+        if at_ns is None or self._action is None or not self._action.usable:
+            self._cam.start_acquisition()
+            return
+        address = self.device if _is_ipv4(self.device) else self._status.extra["address"].rsplit(":", 1)[0]
+        try:
+            self._status.extra["start_sync"] = scheduled_start(self._cam, address, at_ns, self._action)
+        except Exception as exc:  # GLib.GError from the device, OSError from the socket
+            raise ValueError(f"camera {self.name} ({self.device}): scheduled start: {_gerror_text(exc)}") from None
 
     def _tune_stream(self, payload_bytes: int) -> None:
         """Socket receive buffer and frame retention of :class:`StreamTuning`, recorded in the status."""
@@ -402,7 +446,7 @@ class AravisCamera:
                     timeouts += 1
                     if timeouts >= (self.options.stall_timeouts if seen else first_limit):
                         self._fail(f"no frame for {timeouts * self.options.frame_timeout_ms} ms (camera "
-                                   f"unreachable, stopped or its stream blocked)")
+                                   f"unreachable, stopped or its stream blocked){self._control_lost()}")
                         return
                     continue
                 timeouts, seen = 0, True

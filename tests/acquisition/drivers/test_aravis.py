@@ -75,7 +75,9 @@ def test_discovers_configures_and_streams_device_ids_and_ns_timestamps(fake_came
     ex = cam.status().to_dict()
     assert (ex["serial"], ex["pixel_format"], ex["size_px"], ex["fps_set"]) == ("GC001", "BayerRG8", [320, 240], 30.0)
     assert (ex["exposure_us"], ex["gain_db"], ex["packet_size_bytes"]) == (8000.0, 2.0, 1400)
-    assert ex["ptp"] == ex["action_commands"] == "not supported by the device" and "software start" in ex["start_sync"]
+    assert ex["ptp"] == "not supported by the device" and ex["start_sync"].startswith("software start")
+    assert ex["action_commands"].startswith("not supported by the device (it lacks ACTION_CMD"), ex["action_commands"]
+    assert ex["heartbeat_timeout_ms"] == 10_000
     assert "Software" in ex["trigger_sources"], ex["trigger_sources"]  # what the fake camera offers, reported
     at = time.time_ns() + 200_000_000
     frames = _stream(cam, 45, at)
@@ -186,6 +188,54 @@ def test_stream_tuning_is_sized_by_the_frame_and_its_period():
     assert tuning.frame_retention_us(int(1e9 / 120)) == 100_000  # never below Aravis's 100 ms
     with pytest.raises(ValueError, match="socket_buffer_frames >= 1"):
         StreamTuning(socket_buffer_frames=0)
+
+
+HELD = r"""
+import sys
+from gaitcap.acquisition.drivers.aravis import AravisCamera, AravisOptions
+from gaitcap.acquisition.drivers.base import CaptureSettings
+
+options = AravisOptions(max_frames=10, heartbeat_timeout_ms=int(sys.argv[1]) if len(sys.argv) > 1 else 10_000)
+cam = AravisCamera("127.0.0.1", "cam01", options=options)
+cam.open()
+cam.configure(CaptureSettings(fps=15.0, exposure_us=8000.0, pixel_format="Mono8"))
+print("configured", cam.status().to_dict()["heartbeat_timeout_ms"], flush=True)
+sys.stdin.readline()
+try:
+    cam.start(None)
+    print("frames", len(list(cam.frames())), cam.status().error, flush=True)
+except ValueError as exc:
+    print("refused", exc, flush=True)
+"""
+
+
+def _held_for(seconds: float, *args: str) -> str:
+    """A camera node-like process opens the camera, is stopped (SIGSTOP: a host too loaded to run it) for
+    ``seconds``, then streams; what it printed."""
+    import signal
+    import subprocess
+
+    p = subprocess.Popen([sys.executable, "-c", HELD, *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                         stderr=subprocess.DEVNULL, text=True)
+    try:
+        first = p.stdout.readline()
+        p.send_signal(signal.SIGSTOP)
+        time.sleep(seconds)
+        p.send_signal(signal.SIGCONT)
+        out, _ = p.communicate("go\n", timeout=60)
+    finally:
+        p.kill()
+    return first + out
+
+
+@needs_aravis
+def test_a_controller_stalled_longer_than_the_camera_default_heartbeat_keeps_control(fake_camera):
+    # 5 s unheard: past the cameras' usual 3 s heartbeat timeout, within the driver's 10 s
+    out = _held_for(5.0)
+    assert out.startswith("configured 10000") and "frames 10 None" in out, out
+    # with the camera's usual 3 s, control is lost and the camera refuses, the cause named
+    out = _held_for(5.0, "3000")
+    assert "refused" in out and "Controller privilege required" in out and "control of the camera lost" in out, out
 
 
 def test_the_source_names_what_is_missing():
