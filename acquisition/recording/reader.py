@@ -273,6 +273,10 @@ def iter_frames(path: str | os.PathLike, camera: str | None = None) -> Iterator[
         yield RecordedFrame(layout.camera_of_topic(topic), int(message.sequence), img.timestamp_ns, img.jpeg)
 
 
+class NoKeypointsRecorded(ValueError):
+    """A recording without one usable keypoint message (its images, if any, are still there)."""
+
+
 _MAX_FRAME_ID = 2**53  # a frame id this large (either sign) is stray without placing it (exact in float64)
 
 
@@ -362,7 +366,7 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
         per_cam.setdefault(camera, []).append((fid, ts, ppl, skeleton))
     per_cam = _one_joint_count(per_cam, unreadable)
     if not per_cam:
-        raise ValueError(f"{path}: no keypoints recorded" + (
+        raise NoKeypointsRecorded(f"{path}: no keypoints recorded" + (
             f" with a usable frame id and timestamp ({sum(map(len, unplaceable.values()))} messages have a "
             "frame id beyond +-2**53 or a timestamp outside 0..2**63 ns)" if unplaceable else "") + (
             f"; keypoint messages that could not be read: {unreadable}" if unreadable else ""))

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.keypoint_files import read_keypoints_input
 from gaitcap.acquisition.keypoint_input import KeypointInput, make_input
+from gaitcap.acquisition.recording.reader import NoKeypointsRecorded
 from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
 from gaitcap.services.processing.trial import (
@@ -28,6 +29,7 @@ from gaitcap.services.processing.trial import (
     is_trial_recording,
     process_trial,
     recorded_facts,
+    recording_input,
 )
 
 log = logging.getLogger(__name__)
@@ -167,7 +169,13 @@ def load_input(path: Path, *, calibration: Path | None, options: OfflineOptions,
         if videos != path:  # a Pose2Sim project before its pose estimation: its calibration
             data = replace(data, rig=pose2sim_calibration(path))
     else:
-        data = read_keypoints_input(path, rig=user_rig, fps=options.fps, skeleton=options.skeleton)
+        try:
+            data = read_keypoints_input(path, rig=user_rig, fps=options.fps, skeleton=options.skeleton)
+        except NoKeypointsRecorded:  # a trial MCAP whose live pass caught nothing: detected from its images
+            if options.completion is None or not is_trial_recording(path):
+                raise
+            whole = recording_input(path, fallback_calibration=calibration, completion=options.completion)
+            return replace(whole, rig=user_rig) if user_rig is not None else whole
     rig = user_rig or data.rig
     if rig is None:
         raise ValueError(f"{path} ({data.source}) carries no calibration: give --calibration")

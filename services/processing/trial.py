@@ -76,11 +76,13 @@ log = logging.getLogger(__name__)
 class RecordedFacts:
     """What only a trial recording made by the recorder tells: ``mcap`` (its path, for the viewer files'
     images), ``summary`` (the recorder's, Start to Stop: ``duration_s``, cameras) and ``images`` (the images
-    it holds per camera)."""
+    it holds per camera); ``completed_first``: the CompletionReport when the live pass recorded no keypoints
+    at all and every recorded frame was detected from the images before anything else (else None)."""
 
     mcap: Path
     summary: dict
     images: RecordedImages
+    completed_first: object | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -292,14 +294,29 @@ class _TrialRun:
                 self.sink.progress("finding the patient among the people in view", 0.07, None)
             self._choose_patient()
         self.quality = trial_quality(self.data, self.recording, self.det, self.rig, self.options.criteria)
+        first = self.data.recorded.completed_first if self.data.recorded is not None else None
+        if first is not None:
+            self._completed_first(first)
+
+    def _completed_first(self, report) -> None:
+        """A recording without live keypoints, detected whole from its images: said and stored."""
+        from gaitcap.services.processing.completion import save_completion
+
+        check = completion_check(report)
+        said = ("No live keypoints were recorded (the live detector caught nothing): every frame was detected "
+                "from the recorded images after Stop")
+        self.quality = with_check(self.quality, "completion", {**check, "warnings": [said, *check["warnings"]]})
+        if self.files is not None:
+            save_completion(self.files.root, self.recording, report)
 
     def _choose_patient(self) -> None:
         self.det, self.rig, self.selection = patient_input(self.recording, self.data.rig, files=self.files,
                                                            choice=self.options.choice, selector=self.options.selector)
 
     def complete(self, index: int) -> None:
-        """The recorded frames without live keypoints detected from the images (a trial recording only)."""
-        if self.data.recorded is None:
+        """The recorded frames without live keypoints detected from the images (a trial recording only;
+        not again for one detected whole before processing)."""
+        if self.data.recorded is None or self.data.recorded.completed_first is not None:
             return
         self.sink.progress("detecting the frames the live pass missed", _start(index, self.options), _last(self.stages))
         with self.timed("completion"):
@@ -536,16 +553,31 @@ def _kinematics(files: TrialFiles, stage: StageOutcome, age_years: int | None) -
 
 
 # ---------------------------------------------------------------------------------------------- inputs
-def recording_input(mcap: Path, *, fallback_calibration: Path | None = None) -> TrialInput:
+def recording_input(mcap: Path, *, fallback_calibration: Path | None = None,
+                    completion: CompletionSettings | None = None) -> TrialInput:
     """A trial recording made by the recorder as a :class:`TrialInput` (the worker's): everyone's
-    keypoints, the calibration recorded in it (else ``fallback_calibration``), what the recorder measured."""
-    from gaitcap.acquisition.recording.reader import read_keypoints
+    keypoints, the calibration recorded in it (else ``fallback_calibration``), what the recorder measured.
+
+    A recording whose live pass recorded no keypoint at all (the detector node down for the whole trial)
+    is detected from its images with ``completion`` (the trial then says so); without it the error says
+    that the images are kept and how to detect them."""
+    from gaitcap.acquisition.recording.reader import NoKeypointsRecorded, read_keypoints
+    from gaitcap.services.processing.completion import complete_with
     from gaitcap.services.processing.pipeline import recorded_rig
 
-    recording = read_keypoints(mcap)  # first: a file that is no recording is named as such
+    first = None
+    try:
+        recording = read_keypoints(mcap)  # first: a file that is no recording is named as such
+    except NoKeypointsRecorded as exc:
+        if completion is None:
+            raise NoKeypointsRecorded(f"{exc}; its images are kept: a worker with --complete-with, or gaitcap "
+                                      "redetect, detects them") from None
+        log.warning("%s: no live keypoints recorded: detecting every recorded frame with %s", mcap,
+                    completion.detector_name)
+        recording, first = complete_with(mcap, None, completion)
     rig = recorded_rig(mcap, fallback_calibration=fallback_calibration)
     keypoints = KeypointInput(recording, recording.skeleton, rig, "trial MCAP")
-    return TrialInput(keypoints, rig, recorded_facts(mcap, recording))
+    return TrialInput(keypoints, rig, replace(recorded_facts(mcap, recording), completed_first=first))
 
 
 def recorded_facts(mcap: Path, recording) -> RecordedFacts:

@@ -222,7 +222,7 @@ class Worker:
         self._report(trial_id, "reading the recording", 0.05)
         t0 = time.perf_counter()
         data = with_calibration_version(self.db, trial_id, recording_input(
-            files.recording, fallback_calibration=self.config.fallback_calibration))
+            files.recording, fallback_calibration=self.config.fallback_calibration, completion=self.config.completion))
         sink = CatalogSink(self, trial_id, lease, load_s=time.perf_counter() - t0)
         result = process_trial(data, self.options(age_years=patient_age(self.db, trial_id)), files=files, sink=sink)
         self._finish(trial_id, result.quality)

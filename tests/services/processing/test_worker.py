@@ -292,6 +292,48 @@ def test_the_frames_the_live_detector_missed_are_detected_before_the_refined_sta
     assert len(errors) >= 6 and np.abs(errors).max() < 3.0, errors
 
 
+def test_a_trial_whose_live_detector_caught_nothing_is_detected_from_its_images_and_says_so(tmp_path):
+    """The detector node down for the whole trial: no keypoint message, every image recorded. Without a
+    completion detector the trial fails saying the images are kept and how to detect them; with one, every
+    frame is detected from the images before the first stage, both stages rest on them and say so, and the
+    trial is flagged (never ``done`` as if the live pass had worked)."""
+    from gaitcap.acquisition.detectors.simulated import SimulatedConfig
+    from gaitcap.services.processing.completion import CompletionSettings
+    from gaitcap.simulator import make_trial
+    from gaitcap.simulator.recording import write_keypoint_recording
+
+    walk = make_trial("clean", seconds=6, cameras=3, people=1, seed=4, fps=30)
+    nothing = np.zeros(walk.detections.keypoints.shape[:2], bool)
+    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+    ids = []
+    for _ in range(2):
+        t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
+        write_keypoint_recording(walk, Path(t.recording_path), stills=True, live=nothing)
+        cat.set_state(db, t.id, "recorded")
+        ids.append(t.id)
+    cat.enqueue_job(db, ids[0])
+    assert Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db).run_once()
+    failed = cat.get_trial(db, ids[0])
+    assert failed.state == "failed" and "no keypoints recorded" in failed.error, failed.error
+    assert "images are kept" in failed.error and "--complete-with" in failed.error, failed.error
+    assert Path(failed.recording_path).is_file()  # the recording is never lost
+    cat.enqueue_job(db, ids[1])
+    completion = CompletionSettings(SimulatedConfig(walk), workers=0)
+    cfg = WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=True, completion=completion)
+    assert Worker(cfg, db=db).run_once()
+    trial = cat.get_trial(db, ids[1])
+    assert trial.state == "done_with_warnings", (trial.state, trial.error)
+    for stage in ("preliminary", "refined"):
+        result = cat.get_result(db, ids[1], stage)
+        assert result.method.endswith("(keypoints completed after Stop)"), result.method
+        errors = _step_length_errors(result, walk.truth.steps)
+        assert len(errors) >= 3 and np.abs(errors).max() < 3.0, (stage, errors)
+    done = cat.get_quality(db, ids[1])["processing"]["checks"]["completion"]
+    assert done["frames"]["completed"] == done["frames"]["recorded"] == nothing.size, done["frames"]
+    assert done["warnings"][0].startswith("No live keypoints were recorded"), done["warnings"]
+    assert (trial_files(tmp_path, ids[1]).root / "keypoints_complete.npz").is_file()
+
+
 def test_a_worker_grown_past_its_memory_limit_stops_after_the_job_to_be_started_afresh(tmp_path, walk):
     import threading
 
