@@ -70,7 +70,7 @@ def test_calibrate_from_the_page_gives_the_active_calibration(stack, client, tmp
             page.wait_for_function("() => document.querySelector('#calibration-status').textContent"
                                    ".startsWith('Calibration ')", timeout=300_000)  # passed / failed
             cells = page.locator("#calibration-table tbody tr td:nth-child(2)").all_inner_texts()
-            assert cells == ["pass"] * CAMERAS, page.inner_text("#calibration-card")
+            assert cells == ["pass"] * CAMERAS, page.inner_text("#calibrate-card")
             assert "next trials use it" in page.inner_text("#calibration-status")
         finally:
             page.screenshot(path=str(tmp_path / "calibration.png"), full_page=True)
