@@ -31,11 +31,12 @@ from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.installed import share_path
-from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg, rvec_of
+from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.reconstruction.calibration.people_bundle import refine_rig_from_people
 from gaitcap.reconstruction.calibration.rig_check import RigCheck, check_rig
 from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
 from gaitcap.reconstruction.triangulation import robust_triangulate
+from gaitcap.simulator.rig_faults import with_camera_moved
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import emit  # noqa: E402
@@ -51,16 +52,8 @@ REAL_TRIAL = (share_path("testdata", "pose2sim") / "S00_Demo_BatchSession" / "S0
 def stale_rig(rig: Rig, name: str, *, rotation_deg: float, shift_mm: float, seed: int) -> Rig:
     """The calibration camera ``name`` had before it turned by ``rotation_deg`` about a random axis and its
     centre moved by ``shift_mm`` in a random direction (the cameras themselves are ``rig``)."""
-    rng = np.random.default_rng(seed)
-    axis, direction = (v / np.linalg.norm(v) for v in rng.normal(size=(2, 3)))
-    cams = []
-    for cam in rig:
-        if cam.name == name:
-            rot = rodrigues_to_matrix(np.radians(rotation_deg) * axis) @ cam.rotation
-            centre = cam.center_mm + shift_mm * direction
-            cam = cam.replace(rvec=rvec_of(rot), tvec_mm=-rot @ centre)
-        cams.append(cam)
-    return Rig(tuple(cams))
+    axis, direction = np.random.default_rng(seed).normal(size=(2, 3))
+    return with_camera_moved(rig, name, rotation_deg=rotation_deg, shift_mm=shift_mm, axis=axis, direction=direction)
 
 
 def _rotation_error_deg(check: RigCheck, truth: Rig, stale: Rig, name: str) -> float:

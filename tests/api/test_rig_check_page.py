@@ -3,12 +3,11 @@ trial's rig check, computed by the worker's own check on a synthetic walk whose 
 for one camera, is shown in the calibration card before the next patient: the camera named as moved with
 its rotation (deg) and shift (mm); the others in place."""
 
-import numpy as np
-from gaitcap.reconstruction.calibration.geometry import rvec_of
-from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
+from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.triangulation import robust_triangulate
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.checks import rig_check
+from gaitcap.simulator.rig_faults import with_camera_moved
 
 from .conftest import sign_in_page
 
@@ -17,13 +16,7 @@ MOVED = "cam02"
 
 
 def _stale(rig: Rig) -> Rig:
-    cams = []
-    for cam in rig:
-        if cam.name == MOVED:
-            rot = rodrigues_to_matrix(np.radians(2.0) * np.array([0.0, 1.0, 0.0])) @ cam.rotation
-            cam = cam.replace(rvec=rvec_of(rot), tvec_mm=-rot @ cam.center_mm)
-        cams.append(cam)
-    return Rig(tuple(cams))
+    return with_camera_moved(rig, MOVED, rotation_deg=2.0)
 
 
 def _processed_trial(db) -> str:

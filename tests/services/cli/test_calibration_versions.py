@@ -8,15 +8,15 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-import numpy as np
 import pytest
-from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg, rvec_of
+from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text, rig_to_toml_text
-from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
+from gaitcap.reconstruction.camera import Rig
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibration_versions as versions
 from gaitcap.services.cli import app
 from gaitcap.services.processing.worker import Worker, WorkerConfig
+from gaitcap.simulator.rig_faults import with_camera_moved
 from typer.testing import CliRunner
 
 from ..conftest import write_trial_mcap
@@ -26,13 +26,7 @@ MOVED = "cam02"
 
 def _stale(rig: Rig) -> Rig:
     """The rig as calibrated before ``MOVED`` was turned 2 deg (its calibration is now 2 deg off)."""
-    cams = []
-    for cam in rig:
-        if cam.name == MOVED:
-            rot = rodrigues_to_matrix(np.radians(2.0) * np.array([0.0, 1.0, 0.0])) @ cam.rotation
-            cam = cam.replace(rvec=rvec_of(rot), tvec_mm=-rot @ cam.center_mm)
-        cams.append(cam)
-    return Rig(tuple(cams))
+    return with_camera_moved(rig, MOVED, rotation_deg=2.0)
 
 
 def _rig_check(db, trial_id: str) -> dict:

@@ -5,26 +5,20 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 from gaitcap.acquisition.readers import load_rig
 from gaitcap.acquisition.writers import save_rig
-from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg, rvec_of
-from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
+from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
+from gaitcap.reconstruction.camera import Rig
 from gaitcap.services.cli import app
 from gaitcap.simulator import make_trial, save_trial
+from gaitcap.simulator.rig_faults import with_camera_moved
 from typer.testing import CliRunner
 
 MOVED = "cam02"
 
 
 def _stale(rig: Rig) -> Rig:
-    cams = []
-    for cam in rig:
-        if cam.name == MOVED:
-            rot = rodrigues_to_matrix(np.radians(2.0) * np.array([0.0, 1.0, 0.0])) @ cam.rotation
-            cam = cam.replace(rvec=rvec_of(rot), tvec_mm=-rot @ cam.center_mm)
-        cams.append(cam)
-    return Rig(tuple(cams))
+    return with_camera_moved(rig, MOVED, rotation_deg=2.0)
 
 
 def test_refine_rig_checks_and_refines(tmp_path):

@@ -200,17 +200,14 @@ def test_a_camera_moved_since_calibration_flags_the_trial_and_its_checks_are_sto
     one person; each stage's consistency rules travel with its numbers."""
     from dataclasses import replace
 
-    from gaitcap.reconstruction.calibration.geometry import rvec_of
-    from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
     from gaitcap.simulator import make_trial
+    from gaitcap.simulator.rig_faults import with_camera_moved
 
     walk = make_trial(preset="paper", seconds=10.0, cameras=6, seed=3)
-    turn = rodrigues_to_matrix(np.radians(2.0) * np.array([0.0, 1.0, 0.0]))
-    cams = [c.replace(rvec=rvec_of(turn @ c.rotation), tvec_mm=-(turn @ c.rotation) @ c.center_mm)
-            if c.name == "cam03" else c for c in walk.rig]
     db = cat.open_catalog(tmp_path / "catalog.sqlite")
     t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
-    write_trial_mcap(replace(walk, rig=Rig(tuple(cams))), Path(t.recording_path))  # the stale calibration
+    write_trial_mcap(replace(walk, rig=with_camera_moved(walk.rig, "cam03", rotation_deg=2.0)),
+                     Path(t.recording_path))  # the stale calibration
     cat.set_state(db, t.id, "recorded")
     cat.enqueue_job(db, t.id)
     assert Worker(WorkerConfig(catalog_url=db.url, data_dir=tmp_path, refine=False), db=db).run_once()
