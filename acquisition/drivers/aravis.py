@@ -25,8 +25,11 @@ frames (Aravis leaves the system default, 208 KiB, less than one 512 x 512 frame
 descheduled for a moment overflows it and packets are lost; the kernel caps the size at
 ``net.core.rmem_max``, and the status says what was asked and the cap), and an unfinished frame is kept for
 several frame periods (Aravis: 100 ms) before it is given up, so a frame whose sender or receiver was
-descheduled mid-frame is not declared incomplete while its packets are still coming. (As root, Aravis
-receives through a packet socket with its own 32 MiB ring, and the socket buffer does not matter.)
+descheduled mid-frame is not declared incomplete while its packets are still coming. The stream always
+receives through its UDP socket: as root, Aravis 0.8.26 would use a packet socket (AF_PACKET) instead,
+which takes every packet on the interface between its bind and its filter; the first of them sets the
+stream's frame count, so a stray one (the bus, another camera's control traffic) made Aravis hand back
+empty buffers or discard the camera's real frames as late for seconds.
 
 Synchronised start (:mod:`gaitcap.acquisition.drivers.aravis_action`): where the device takes scheduled
 action commands (its GVCP capabilities, action features, the Action1 trigger and a timestamp latch, all
@@ -47,6 +50,8 @@ Aravis (PyGObject and the ``Aravis-0.8`` typelib) is imported lazily; a missing 
 from __future__ import annotations
 
 import logging
+import os
+import socket
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -234,6 +239,28 @@ def _gerror_text(exc: Exception) -> str:
     return getattr(exc, "message", None) or str(exc)
 
 
+def _size_receive_buffer(port: int, size_bytes: int) -> int | None:
+    """Set SO_RCVBUF of this process's UDP socket bound to ``port`` (the stream's) now, before its first
+    frame: Aravis sizes it only when that frame's first packet is read, and the burst of a frame overflows
+    the system default before that (the first frame came incomplete). Returns what the kernel granted
+    (bytes, as it reports it: twice the size asked, capped at ``net.core.rmem_max``), None if no such
+    socket was found."""
+    for name in os.listdir("/proc/self/fd"):
+        try:
+            sock = socket.socket(fileno=os.dup(int(name)))
+        except OSError:
+            continue
+        with sock:
+            try:
+                if sock.type != socket.SOCK_DGRAM or sock.family != socket.AF_INET or sock.getsockname()[1] != port:
+                    continue
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, size_bytes)
+                return int(sock.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF))
+            except OSError:
+                continue
+    return None
+
+
 class AravisCamera:
     """One GigE Vision camera through Aravis, behind the camera driver protocol.
 
@@ -278,6 +305,9 @@ class AravisCamera:
                              f"({_gerror_text(exc)})") from None
         if not self._cam.is_gv_device():
             raise ValueError(f"camera {self.name}: device {self.device} is not a GigE Vision camera")
+        # the UDP socket, also as root (see StreamTuning): Aravis's packet socket takes every packet on the
+        # interface until its filter is set, and one stray packet there sets the stream's frame count
+        self._cam.gv_set_stream_options(self._arv.GvStreamOption.PACKET_SOCKET_DISABLED)
         ex = self._status.extra
         ex.update(serial=self._cam.get_device_serial_number() or "", model=self._cam.get_model_name() or "",
                   vendor=self._cam.get_vendor_name() or "", address=self._address(),
@@ -422,7 +452,8 @@ class AravisCamera:
         retention_us = tuning.frame_retention_us(self._settings.period_ns)
         stream.set_property("frame-retention", retention_us)
         cap = rmem_max_bytes()
-        self._status.extra.update(socket_buffer_bytes=asked, rmem_max_bytes=cap,
+        granted = _size_receive_buffer(int(stream.get_port()), asked)
+        self._status.extra.update(socket_buffer_bytes=asked, socket_buffer_granted_bytes=granted, rmem_max_bytes=cap,
                                   frame_retention_ms=round(retention_us / 1000, 1))
         if cap is not None and cap < asked:
             log.warning("camera %s: stream socket buffer capped at net.core.rmem_max = %d bytes (%.1f frames; asked "

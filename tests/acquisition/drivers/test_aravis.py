@@ -233,9 +233,11 @@ def test_a_controller_stalled_longer_than_the_camera_default_heartbeat_keeps_con
     # 5 s unheard: past the cameras' usual 3 s heartbeat timeout, within the driver's 10 s
     out = _held_for(5.0)
     assert out.startswith("configured 10000") and "frames 10 None" in out, out
-    # with the camera's usual 3 s, control is lost and the camera refuses, the cause named
+    # with the camera's usual 3 s, control is lost: the camera refuses the stream, or (the loss seen a moment
+    # later) streams nothing; either way the cause is named
     out = _held_for(5.0, "3000")
-    assert "refused" in out and "Controller privilege required" in out and "control of the camera lost" in out, out
+    assert ("refused" in out and "Controller privilege required" in out) or "frames 0" in out, out
+    assert "control of the camera lost: it heard no heartbeat from this host for 3000 ms" in out, out
 
 
 def test_the_source_names_what_is_missing():
