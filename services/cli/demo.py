@@ -38,6 +38,10 @@ def register(app: typer.Typer) -> None:
                                          "this long after Stop in all (s)."),
         plain_bus: bool = typer.Option(False, "--plain-bus", help="A plain TCP bus on loopback: no TLS, passwords "
                                        "or access control, any local process can use it (default: secured)."),
+        gige: bool = typer.Option(False, "--gige", help="The --cameras are fake GigE Vision cameras "
+                                  "(arv-fake-gv-camera-0.8, the real protocol, behind a link in a network namespace: "
+                                  "needs root) through the Aravis driver; their test pattern has nobody in it, so "
+                                  "the keypoints come from the simulated detector."),
     ) -> None:
         """Bring up the whole clinic stack (simulated rig) and print the web page's URL."""
         import logging
@@ -49,18 +53,21 @@ def register(app: typer.Typer) -> None:
         with user_errors():
             cfg = StackConfig(data_dir=data_dir, token=new_token(), port=port, bus_base_port=bus_port,
                               cameras=cameras, camera_nodes=camera_nodes, size=size, workers=workers, refine=refine,
-                              sim_people=people, board_clip=board_clip, plain_bus=plain_bus)
+                              sim_people=people, board_clip=board_clip, plain_bus=plain_bus, gige=gige)
             limits = WaitLimits(stall_s=wait_stall, overall_s=wait_limit)
         logging.getLogger("httpx").setLevel(logging.WARNING)
         stack = Stack(cfg)
         stop = stop_on_signals()
-        typer.echo(f"starting gaitcap ({cameras} simulated cameras, detector, recorder, {workers} worker(s), "
+        kind = ("fake GigE Vision cameras (keypoints from the simulated detector)" if gige
+                else "simulated cameras")
+        typer.echo(f"starting gaitcap ({cameras} {kind}, detector, recorder, {workers} worker(s), "
                    f"API); logs in {stack.supervisor.log_dir}", err=True)
         typer.echo("bus: PLAIN TCP on loopback (--plain-bus): no authentication, any local process can use it"
                    if plain_bus else f"bus: mutual TLS, passwords and access control (keys in {bus_keys_dir(cfg)})",
                    err=True)
         try:
-            stack.start()
+            with user_errors():
+                stack.start()
             typer.echo(f"gaitcap clinic page: {stack.page_url}")
             typer.echo(f"sign in as: demo / {cfg.token}  (this terminal only; not logged)")
             typer.echo(f"API docs: {cfg.url}/docs")

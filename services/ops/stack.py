@@ -16,6 +16,16 @@ The simulated world is a ``sim_seconds`` long walk in the paper's room; the came
 again and again with no pause (``--sim-loop``), frame ids counting on. Several camera processes count
 from the stack's start (``--cycle-epoch-ns``), so they, also a restarted one joining mid-walk, keep one
 synchronised frame count.
+
+With ``gige`` the cameras are fake GigE Vision cameras instead (``arv-fake-gv-camera-0.8``, one process
+each, speaking the real protocol: :class:`gaitcap.simulator.fake_gige.FakeGigELab` behind a veth link with
+jumbo frames, in a network namespace of their own, so it needs root), driven by the camera processes
+through the Aravis driver (``--source aravis``) from this host like a real rig. Their frame ids count
+frame periods from the stack's start on the cameras' clock (``--start-at-ns``; the fake cameras' clock is
+the host's), one count for every camera process and a restarted one. The fake cameras film a test
+pattern with nobody in it: the trial's keypoints come from the simulated detector (by camera and frame
+id, the simulated walk), so this exercises acquisition over the GigE Vision protocol, the bus,
+recording and processing, not detection; the page's Calibrate (the simulated board) has no board to see.
 """
 
 from __future__ import annotations
@@ -27,6 +37,7 @@ import os
 import sys
 import threading
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -70,6 +81,7 @@ class StackConfig:
     catalog_url: str = ""
     extra_env: dict[str, str] = field(default_factory=dict)
     plain_bus: bool = False  # plain TCP bus, no authentication: only when asked for by name
+    gige: bool = False  # fake GigE Vision cameras through the Aravis driver (module docstring), not simulated ones
 
     def __post_init__(self) -> None:
         if len(self.token) < 12:
@@ -149,6 +161,42 @@ def _camera_args(cfg: StackConfig) -> list[str]:
     return [*_sim_args(cfg), "--sim-loop"]  # the walk starts over with no pause
 
 
+GIGE_CAMERA_ARGS = ("--pixel-format", "BayerRG8", "--packet-size", "9000", "--exposure-us", "8000")
+
+
+def gige_unavailable() -> str:
+    """Why the stack cannot run on fake GigE Vision cameras here ("" when it can): Aravis, the fake camera
+    program or network namespaces missing."""
+    from gaitcap.acquisition.drivers.aravis import AravisMissing, import_aravis
+    from gaitcap.simulator.fake_gige import fake_camera_binary, namespace_unavailable
+
+    try:
+        import_aravis()
+        fake_camera_binary()
+    except (AravisMissing, ValueError) as exc:
+        return str(exc)
+    reason = namespace_unavailable()
+    return f"the fake cameras' network namespace: {reason}" if reason else ""
+
+
+def _camera_argv(cfg: StackConfig, node: str, cameras: list[str], *, epoch_ns: int | None,
+                 devices: Mapping[str, str] | None) -> tuple[str, ...]:
+    """A camera process's command: simulated cameras, or with ``cfg.gige`` the fake GigE Vision cameras at
+    ``devices`` (camera name -> address) counting frames from ``epoch_ns``."""
+    head, names = (*CLI, "node", "camera", "--node", node), ("--cameras", ",".join(cameras))
+    if not cfg.gige:
+        epoch = ["--cycle-epoch-ns", str(int(epoch_ns))] if epoch_ns is not None and cfg.camera_nodes > 1 else []
+        return (*head, "--source", "simulated", *names, "--size", cfg.size, "--board-clip", cfg.board_clip,
+                *_camera_args(cfg), *epoch)
+    missing = [c for c in cameras if c not in (devices or {})]
+    if missing:
+        raise ValueError(f"gige: no GigE Vision device address for cameras {missing} (Stack.start starts the "
+                         "fake cameras and passes them)")
+    start = ["--start-at-ns", str(int(epoch_ns))] if epoch_ns is not None else []
+    return (*head, "--source", "aravis", *names, "--devices", ",".join(devices[c] for c in cameras),
+            "--fps", str(cfg.fps), *GIGE_CAMERA_ARGS, *start)
+
+
 def bus_file(cfg: StackConfig) -> Path:
     """The stack's bus file (every node reads it through ``GAITCAP_BUS``)."""
     return Path(cfg.data_dir).resolve() / "bus.json"
@@ -174,10 +222,12 @@ def _spec(cfg: StackConfig, parent_env, role: str, name: str, argv: tuple[str, .
     return ProcessSpec(name, argv, env=child_environment(role, parent_env, stack_set_env(cfg, role)), **kw)
 
 
-def process_specs(cfg: StackConfig, *, epoch_ns: int | None = None, parent_env=None) -> list[ProcessSpec]:
+def process_specs(cfg: StackConfig, *, epoch_ns: int | None = None, parent_env=None,
+                  devices: Mapping[str, str] | None = None) -> list[ProcessSpec]:
     """The processes of the stack, in start order; ``epoch_ns``: the camera processes' synchronised start
     (wall clock ns; None: each its own); ``parent_env``: the environment the children's are drawn from
-    (default ``os.environ``; each child gets only what it needs, :func:`child_environment`)."""
+    (default ``os.environ``; each child gets only what it needs, :func:`child_environment`); ``devices``:
+    with ``cfg.gige``, each camera's GigE Vision device address."""
     parent_env = os.environ if parent_env is None else parent_env
     data = str(Path(cfg.data_dir).resolve())
     specs = [
@@ -187,14 +237,12 @@ def process_specs(cfg: StackConfig, *, epoch_ns: int | None = None, parent_env=N
                                                         "--detector", "simulated", *_sim_args(cfg),
                                                         "--workers", "1")),  # a look-up: one process keeps up
     ]
-    # several camera processes share one frame count from the stack's start (one process: its own start, and
-    # a restarted one starts its counter again, as camera hardware does)
-    epoch = ["--cycle-epoch-ns", str(int(epoch_ns))] if epoch_ns is not None and cfg.camera_nodes > 1 else []
+    # several camera processes share one frame count from the stack's start (one simulated process: its own
+    # start, and a restarted one starts its counter again, as camera hardware does)
     for node, cameras in cfg.camera_shares().items():
         # The simulated cameras stand in for camera hardware: rendering them must not slow processing.
-        specs.append(_spec(cfg, parent_env, "camera", node, (
-            *CLI, "node", "camera", "--node", node, "--source", "simulated", "--cameras", ",".join(cameras), "--size",
-            cfg.size, "--board-clip", cfg.board_clip, *_camera_args(cfg), *epoch), nice=cfg.camera_nice))
+        specs.append(_spec(cfg, parent_env, "camera", node,
+                           _camera_argv(cfg, node, cameras, epoch_ns=epoch_ns, devices=devices), nice=cfg.camera_nice))
     for name in cfg.worker_names():
         argv = [*CLI, "worker", "--node", name, "--id", name, "--data-dir", data, "--catalog", cfg.catalog,
                 "--lease", str(cfg.lease_s)]
@@ -234,6 +282,8 @@ class Stack:
         self.bus_file = bus_file(cfg)
         self.epoch_ns = time.time_ns()  # the camera processes' synchronised start
         self.supervisor = Supervisor(self.data_dir / "logs", base_env={})  # each spec: its whole environment
+        self.gige_lab = None  # the fake GigE Vision cameras (cfg.gige), started by start()
+        self.devices: dict[str, str] | None = None  # camera name -> GigE Vision device address (cfg.gige)
         self._stop_supervising = threading.Event()
         self._supervising: threading.Thread | None = None
 
@@ -265,7 +315,9 @@ class Stack:
         if held:  # names only, never values
             log.info("not passed to the camera, detector and recorder processes: %s", ", ".join(held))
         try:
-            for spec in process_specs(self.cfg, epoch_ns=self.epoch_ns):
+            if self.cfg.gige:
+                self._start_gige_cameras()
+            for spec in process_specs(self.cfg, epoch_ns=self.epoch_ns, devices=self.devices):
                 self.supervisor.start(spec)
             self.wait_ready(timeout_s=timeout_s)
         except BaseException:
@@ -274,10 +326,27 @@ class Stack:
         self._supervising = threading.Thread(target=self._supervise, name="stack-supervisor", daemon=True)
         self._supervising.start()
 
+    def _start_gige_cameras(self) -> None:
+        """The fake GigE Vision cameras behind their link (ValueError saying why where they cannot run)."""
+        from gaitcap.simulator.fake_gige import FakeGigELab
+        from gaitcap.simulator.room import build_rig
+
+        reason = gige_unavailable()
+        if reason:
+            raise ValueError(f"gige: fake GigE Vision cameras cannot run here: {reason}")
+        log_dir = self.data_dir / "logs"
+        log_dir.mkdir(parents=True, exist_ok=True)
+        self.gige_lab = FakeGigELab(self.cfg.cameras, host_link=True, log_dir=log_dir)
+        self.gige_lab.start()
+        self.devices = dict(zip(build_rig(self.cfg.cameras).names, self.gige_lab.addresses, strict=True))
+        log.info("fake GigE Vision cameras %s behind a link in namespace %s (this host: %s)",
+                 ", ".join(f"{c} at {a}" for c, a in self.devices.items()), self.gige_lab.namespace,
+                 self.gige_lab.host_address)
+
     def wait_ready(self, *, timeout_s: float) -> None:
         """Until every process logged ready, the API answers, all cameras are seen and keypoints flow."""
         deadline = time.monotonic() + timeout_s
-        for spec in process_specs(self.cfg):
+        for spec in process_specs(self.cfg, devices=self.devices):
             if spec.ready_text:
                 self.supervisor.wait_ready(spec.name, max(1.0, deadline - time.monotonic()))
         self._wait_cameras(deadline)
@@ -353,3 +422,5 @@ class Stack:
         if self._supervising is not None:
             self._supervising.join(10)
         self.supervisor.stop()
+        if self.gige_lab is not None:
+            self.gige_lab.close()
