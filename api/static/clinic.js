@@ -314,11 +314,16 @@ function saveClinicalFields(trialId) {
 }
 
 function fillCorrection(r) {
+  // a results update while the clinician types a correction keeps what they typed (same trial, edited)
   const box = $("#correct-box");
   box.hidden = !$("#record") || $("#record").hidden;  // correcting needs the recording permission
+  const editing = box.dataset.trial === r.trial_id && box.dataset.edited === "yes";
   box.dataset.trial = r.trial_id;
-  $("#fix-subject").value = r.subject_id; $("#fix-session").value = r.session; $("#fix-reason").value = "";
-  for (const [key, id] of Object.entries(FIX_INPUTS)) $(`#${id}`).value = r.details[key] || "";
+  if (!editing) {
+    box.dataset.edited = "no";
+    $("#fix-subject").value = r.subject_id; $("#fix-session").value = r.session; $("#fix-reason").value = "";
+    for (const [key, id] of Object.entries(FIX_INPUTS)) $(`#${id}`).value = r.details[key] || "";
+  }
   $("#void-button").disabled = r.voided;
   if (r.voided) $("#correct-status").textContent = `This trial is void: ${r.void_reason}`;  // else keep "Saved: ..."
 }
@@ -338,6 +343,7 @@ async function submitCorrection(ev) {
   for (const [key, id] of Object.entries(FIX_INPUTS)) body[key] = $(`#${id}`).value.trim();
   try {
     const r = await api(`/trials/${encodeURIComponent(trialId)}/correct`, { method: "POST", body });
+    $("#correct-box").dataset.edited = "no";  // saved: the next update shows what the server holds
     const changed = Object.keys(r.changed);
     status.textContent = changed.length ? `Saved: ${changed.join(", ").replace(/_/g, " ")} changed.` : "Nothing was changed.";
     if (changed.length) loadSides(trialId);
@@ -356,6 +362,7 @@ async function markVoid() {
 }
 
 $("#correct-form").onsubmit = submitCorrection;
+$("#correct-form").addEventListener("input", () => { $("#correct-box").dataset.edited = "yes"; });
 $("#void-button").onclick = markVoid;
 function fillPatientDetails(h) {
   const form = $("#patient-details");

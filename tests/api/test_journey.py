@@ -122,6 +122,9 @@ def _correct(page, client, tid: str) -> None:
     _tab_to(page, "#correct-box summary", limit=150)
     page.keyboard.press("Enter")
     _type_into(page, "#fix-aid", "cane")
+    page.evaluate("id => loadSides(id)", tid)  # the results updated meanwhile: what was typed stays
+    assert page.input_value("#fix-aid") == "cane"
+    _tab_to(page, "#fix-aid", limit=150)
     page.keyboard.press("Escape")  # the field's suggestions (a datalist) closed: Enter then submits
     page.keyboard.press("Enter")  # no reason: refused, the cursor put in the reason
     _wait_text(page, "#correct-status", "give the reason")
