@@ -90,6 +90,26 @@ def sign_in_page(page, url: str, user: str = "alice", password: str = PASSWORD) 
     page.wait_for_selector("#app:not([hidden])")
 
 
+BROWSER_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
+
+
+@contextlib.contextmanager
+def signed_in_page(url: str, *, width: int = 1280, height: int = 900, timeout_ms: int = 30_000):
+    """A headless Chromium page of ``width`` x ``height`` px, signed in to the page at ``url``; the
+    browser is closed afterwards, whatever happens."""
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=BROWSER_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": width, "height": height})
+            page.set_default_timeout(timeout_ms)
+            sign_in_page(page, url)
+            yield page
+        finally:
+            browser.close()
+
+
 @pytest.fixture
 def server(tmp_path):
     make_accounts(tmp_path / "data", alice=ALL_ROLES)

@@ -8,9 +8,8 @@ from gaitcap.acquisition.drivers.simulated import SimTrialSpec
 from gaitcap.simulator.board import write_board_mcap
 from gaitcap.simulator.board_scene import BoardScene, board_scene_config
 
-from .conftest import sign_in_page
+from .conftest import signed_in_page
 
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
 SIZE = (576, 360)
 WIDTHS = ((1280, 900), (768, 1024), (390, 844))
 
@@ -26,8 +25,6 @@ def _board_recording(path) -> None:
 def test_a_board_not_seen_enough_is_shown_per_camera_without_nan(server):
     from gaitcap.services import catalog as cat
     from gaitcap.services.processing.worker import Worker, WorkerConfig
-    from playwright.sync_api import sync_playwright
-
     srv, c, link, settings = server
     run = c.post("/calibrations/record/start").json()
     _board_recording(link.calls[-1][2])
@@ -44,29 +41,22 @@ def test_a_board_not_seen_enough_is_shown_per_camera_without_nan(server):
     assert found["cam01"]["usable"] >= found["cam01"]["needed"] and not found["cam01"]["advice"]
     assert found["cam02"]["usable"] == 0 and found["cam02"]["advice"]
     assert found["cam01"]["positions"] >= found["cam01"]["needed"] and found["cam02"]["positions"] == 0
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
-        page = browser.new_page(viewport={"width": 1280, "height": 900})
-        page.set_default_timeout(30_000)
-        try:
-            sign_in_page(page, srv.url)
-            page.evaluate("id => { cal.id = id; followCalibration(); }", run["id"])
-            page.wait_for_function("() => document.querySelector('#calibration-status').textContent"
-                                   ".startsWith('Calibration failed')")
-            for width, height in WIDTHS:
-                page.set_viewport_size({"width": width, "height": height})
-                card = page.inner_text("#calibrate-card")
-                assert "nan" not in card.lower(), (width, card)
-                error = page.locator("#calibration-error")
-                assert error.is_visible() and "too few board views" in error.inner_text()
-                lines = error.inner_text().splitlines()
-                assert len(lines) >= 2 and lines[1].startswith("camera 'cam02'"), lines  # a line per camera
-                assert page.locator("#calibration-found").is_visible(), width
-                rows = {r.locator("td").first.inner_text(): r.locator("td").all_inner_texts()
-                        for r in page.locator("#calibration-found tbody tr").all()}
-                assert sorted(rows) == ["cam01", "cam02"]
-                assert rows["cam02"][1].startswith("not seen") and rows["cam02"][3] == "not seen", rows
-                assert rows["cam01"][1] == "8 of 8 frames" and rows["cam01"][3] == "enough views", rows
-                assert page.evaluate("document.documentElement.scrollWidth") <= width
-        finally:
-            browser.close()
+    with signed_in_page(srv.url) as page:
+        page.evaluate("id => { cal.id = id; followCalibration(); }", run["id"])
+        page.wait_for_function("() => document.querySelector('#calibration-status').textContent"
+                               ".startsWith('Calibration failed')")
+        for width, height in WIDTHS:
+            page.set_viewport_size({"width": width, "height": height})
+            card = page.inner_text("#calibrate-card")
+            assert "nan" not in card.lower(), (width, card)
+            error = page.locator("#calibration-error")
+            assert error.is_visible() and "too few board views" in error.inner_text()
+            lines = error.inner_text().splitlines()
+            assert len(lines) >= 2 and lines[1].startswith("camera 'cam02'"), lines  # a line per camera
+            assert page.locator("#calibration-found").is_visible(), width
+            rows = {r.locator("td").first.inner_text(): r.locator("td").all_inner_texts()
+                    for r in page.locator("#calibration-found tbody tr").all()}
+            assert sorted(rows) == ["cam01", "cam02"]
+            assert rows["cam02"][1].startswith("not seen") and rows["cam02"][3] == "not seen", rows
+            assert rows["cam01"][1] == "8 of 8 frames" and rows["cam01"][3] == "enough views", rows
+            assert page.evaluate("document.documentElement.scrollWidth") <= width

@@ -5,9 +5,8 @@ words ("9 of 10 cameras working; not working: cam03 (no frames)"), never "10 cam
 
 from gaitcap.services.live.protocols import CameraHealth
 
-from .conftest import sign_in_page
+from .conftest import signed_in_page
 
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
 WIDTHS = ((1280, 900), (768, 1024), (390, 844))
 DOWN = "9 of 10 cameras working; not working: cam03 (no frames)"
 
@@ -23,28 +22,19 @@ def _banner_cameras(page) -> str:
 
 
 def test_the_heading_and_the_banner_count_the_cameras_alike(server):
-    from playwright.sync_api import sync_playwright
-
     srv, _, link, _ = server
     link.camera_list = _rig("cam03")
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
-        page = browser.new_page(viewport={"width": 1280, "height": 900})
-        page.set_default_timeout(15_000)
-        try:
-            sign_in_page(page, srv.url)
-            page.wait_for_selector('#system-list li[data-component="cameras"]')  # after the 3 s grace
-            for width, height in WIDTHS:
-                page.set_viewport_size({"width": width, "height": height})
-                assert page.inner_text("#camera-summary") == DOWN
-                assert _banner_cameras(page) == f"Cameras: {DOWN}"
-                assert page.locator("#system").is_visible() and page.locator("#camera-summary").is_visible()
-                assert "all working" not in page.inner_text("body")
-            link.camera_list = _rig(None)
-            page.wait_for_function("() => !document.querySelector('#system-list li[data-component=\"cameras\"]')")
-            for width, height in WIDTHS:
-                page.set_viewport_size({"width": width, "height": height})
-                assert page.inner_text("#camera-summary") == "10 cameras, all working"
-                assert "of 10" not in page.inner_text("body")
-        finally:
-            browser.close()
+    with signed_in_page(srv.url, timeout_ms=15_000) as page:
+        page.wait_for_selector('#system-list li[data-component="cameras"]')  # after the 3 s grace
+        for width, height in WIDTHS:
+            page.set_viewport_size({"width": width, "height": height})
+            assert page.inner_text("#camera-summary") == DOWN
+            assert _banner_cameras(page) == f"Cameras: {DOWN}"
+            assert page.locator("#system").is_visible() and page.locator("#camera-summary").is_visible()
+            assert "all working" not in page.inner_text("body")
+        link.camera_list = _rig(None)
+        page.wait_for_function("() => !document.querySelector('#system-list li[data-component=\"cameras\"]')")
+        for width, height in WIDTHS:
+            page.set_viewport_size({"width": width, "height": height})
+            assert page.inner_text("#camera-summary") == "10 cameras, all working"
+            assert "of 10" not in page.inner_text("body")

@@ -9,9 +9,8 @@ from gaitcap.services import catalog as cat
 from gaitcap.services.processing.checks import rig_check
 from gaitcap.simulator.rig_faults import with_camera_moved
 
-from .conftest import sign_in_page
+from .conftest import signed_in_page
 
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
 MOVED = "cam02"
 
 
@@ -34,27 +33,18 @@ def _processed_trial(db) -> str:
 
 
 def test_the_latest_trials_rig_check_names_the_moved_camera_on_the_page(server):
-    from playwright.sync_api import sync_playwright
-
     srv, client, _, settings = server
     assert client.get("/rig-check/latest").status_code == 404  # nothing processed yet
     db = cat.open_catalog(settings.catalog_url)
     tid = _processed_trial(db)
     got = client.get("/rig-check/latest").json()
     assert got["trial_id"] == tid and got["moved"] == [MOVED] and got["flagged"]
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
-        page = browser.new_page(viewport={"width": 1280, "height": 900})
-        page.set_default_timeout(30_000)
-        try:
-            sign_in_page(page, srv.url)
-            page.wait_for_selector("#rig-check:not([hidden])")
-            summary = page.locator("#rig-check-summary").inner_text()
-            header = page.locator("#rig-check-table thead th").all_inner_texts()
-            rows = {r.locator("td").first.inner_text(): r.locator("td").all_inner_texts()
-                    for r in page.locator("#rig-check-table tbody tr").all()}
-        finally:
-            browser.close()
+    with signed_in_page(srv.url) as page:
+        page.wait_for_selector("#rig-check:not([hidden])")
+        summary = page.locator("#rig-check-summary").inner_text()
+        header = page.locator("#rig-check-table thead th").all_inner_texts()
+        rows = {r.locator("td").first.inner_text(): r.locator("td").all_inner_texts()
+                for r in page.locator("#rig-check-table tbody tr").all()}
     assert summary.startswith(f"Camera {MOVED} (about ") and f"seen in trial {tid} (patient P7" in summary, summary
     assert "before the next patient" in summary
     result, rotation = header.index("Since calibration"), header.index("Rotation (deg)")

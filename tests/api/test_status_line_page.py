@@ -7,9 +7,8 @@ them (the states' compare-and-set)."""
 import pytest
 from gaitcap.services import catalog as cat
 
-from .conftest import sign_in_page
+from .conftest import signed_in_page
 
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"]
 ENDS = {"done": ({}, "Ready for the next walk. Enter the patient ID"),
         "done_with_warnings": ({}, "carry data-quality warnings"),
         "failed": ({"error": "triangulation: no camera pair saw the patient"}, "Processing of the last walk failed")}
@@ -21,17 +20,11 @@ def _status(page) -> str:
 
 @pytest.mark.parametrize("end", list(ENDS))
 def test_the_status_line_leaves_computing_for_the_end_state(server, end):
-    from playwright.sync_api import sync_playwright
-
     srv, client, _, settings = server
     fields, words = ENDS[end]
     db = cat.open_catalog(settings.catalog_url)
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
-        page = browser.new_page(viewport={"width": 1280, "height": 900})
-        page.set_default_timeout(15_000)
-        try:
-            sign_in_page(page, srv.url)
+    try:
+        with signed_in_page(srv.url, timeout_ms=15_000) as page:
             page.fill("#subject", "P0007")
             page.once("dialog", lambda d: d.accept())  # the rig check's question (one in-test camera is slow)
             page.click("#start")
@@ -48,6 +41,5 @@ def test_the_status_line_leaves_computing_for_the_end_state(server, end):
             assert "Computing" not in _status(page)
             if end == "failed":
                 assert fields["error"] in page.inner_text("#results-stage")
-        finally:
-            browser.close()
-            db.close()
+    finally:
+        db.close()
