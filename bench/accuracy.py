@@ -29,9 +29,14 @@ COLUMNS = ("GC_5", "GC_10", "GC_20", "L_reproj", "L_skeleton", "L_smooth", "MPJP
 
 
 def anipose_group(rig):
-    """Our Rig as an aniposelib CameraGroup (mm stays mm)."""
-    from aniposelib.cameras import Camera as ACamera
-    from aniposelib.cameras import CameraGroup
+    """Our Rig as an aniposelib CameraGroup (mm stays mm); SystemExit naming the missing package and the
+    way round it when aniposelib is not installed."""
+    try:
+        from aniposelib.cameras import Camera as ACamera
+        from aniposelib.cameras import CameraGroup
+    except ImportError:
+        raise SystemExit("aniposelib is not installed: pip install -e '.[bench]' for the comparison, or run "
+                         "without it (bench/speed.py --no-anipose)") from None
 
     return CameraGroup([ACamera(matrix=c.matrix_px, dist=c.dist, size=c.size_px, rvec=c.rvec, tvec=c.tvec_mm,
                                 name=c.name) for c in rig.cameras])
