@@ -50,8 +50,8 @@ def executors(workers: int) -> dict:
 
 def run_one(name: str, executor, data_dir: Path, specs) -> dict:
     from gaitcap.services import catalog as cat
+    from gaitcap.services.catalog.method_results import list_results
     from gaitcap.services.research.reprocess import TrialSelection, plan_reprocess, run_plan
-    from gaitcap.services.research.store import list_results
 
     db = cat.open_catalog(data_dir / "catalog.sqlite")
     cache = None if name == "inline" else data_dir / ".jax-cache"

@@ -122,7 +122,45 @@ def _v3_to_v4(conn: Connection) -> None:
             conn.exec_driver_sql(statement)
 
 
-STEPS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4}  # from version -> the step to the next
+METHOD_RESULTS_V5_DDL = """
+CREATE TABLE IF NOT EXISTS method_results (
+    id INTEGER NOT NULL,
+    trial_id VARCHAR(64) NOT NULL,
+    method VARCHAR(32) NOT NULL,
+    params_key VARCHAR(32) NOT NULL,
+    spec_json TEXT NOT NULL,
+    config_json TEXT NOT NULL,
+    status VARCHAR(16) NOT NULL,
+    error TEXT NOT NULL,
+    created_at FLOAT NOT NULL,
+    elapsed_s FLOAT NOT NULL,
+    worker VARCHAR(128) NOT NULL,
+    skeleton VARCHAR(32) NOT NULL,
+    metrics_json TEXT NOT NULL,
+    gait_json TEXT NOT NULL,
+    residuals_json TEXT NOT NULL,
+    artifacts_json TEXT NOT NULL,
+    PRIMARY KEY (id),
+    UNIQUE (trial_id, method, params_key)
+);
+CREATE INDEX IF NOT EXISTS ix_method_results_trial_id ON method_results (trial_id);
+CREATE INDEX IF NOT EXISTS ix_method_results_params_key ON method_results (params_key);
+"""  # the table of schema version 5, frozen (as research reprocessing created it before: its rows are kept)
+
+
+def _v4_to_v5(conn: Connection) -> None:
+    """One results store: ``results`` keyed by method and parameters (older rows: '', their parameters were
+    not recorded) and ``method_results`` a catalog table (created here where research never ran)."""
+    present = {row[1] for row in conn.exec_driver_sql("PRAGMA table_info(results)")}
+    for column in ("method_name VARCHAR(32) NOT NULL DEFAULT ''", "params_key VARCHAR(32) NOT NULL DEFAULT ''"):
+        if column.split()[0] not in present:  # a catalog made by this gaitcap and marked older has them
+            conn.exec_driver_sql(f"ALTER TABLE results ADD COLUMN {column}")
+    for statement in METHOD_RESULTS_V5_DDL.split(";"):
+        if statement.strip():
+            conn.exec_driver_sql(statement)
+
+
+STEPS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5}  # from version -> the step to the next
 
 
 def migration_problem(dialect: str, version: int, target: int) -> str | None:

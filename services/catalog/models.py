@@ -10,8 +10,8 @@ from __future__ import annotations
 from sqlalchemy import Float, ForeignKey, Index, Integer, String, Text, UniqueConstraint
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-SCHEMA_VERSION = 4  # 2: one calibration table; jobs of kind "process" (a trial) or "calibrate"; 3: calibrations.board;
-# 4: calibration_versions
+SCHEMA_VERSION = 5  # 2: one calibration table; jobs of kind "process" (a trial) or "calibrate"; 3: calibrations.board;
+# 4: calibration_versions; 5: results keyed by method and parameters, method_results a catalog table
 
 
 class Base(DeclarativeBase):
@@ -143,7 +143,10 @@ class Job(Base):
 
 
 class Result(Base):
-    """Gait metrics of one processing stage (``preliminary`` or ``refined``) of a trial."""
+    """Gait metrics of one processing stage (``preliminary`` or ``refined``) of a trial. ``method``: the
+    method in words; ``method_name`` (a :data:`gaitcap.reconstruction.methods.METHODS` name) and
+    ``params_key`` (:func:`gaitcap.services.catalog.method_keys.params_key` of its config): the key research
+    reads it under (:mod:`gaitcap.services.catalog.method_results`); '' on rows stored before schema 5."""
 
     __tablename__ = "results"
     __table_args__ = (UniqueConstraint("trial_id", "stage"),)
@@ -151,6 +154,8 @@ class Result(Base):
     trial_id: Mapped[str] = mapped_column(ForeignKey("trials.id"), index=True)
     stage: Mapped[str] = mapped_column(String(16))
     method: Mapped[str] = mapped_column(String(128), default="")
+    method_name: Mapped[str] = mapped_column(String(32), default="")
+    params_key: Mapped[str] = mapped_column(String(32), default="")
     created_at: Mapped[float] = mapped_column(Float)
     elapsed_s: Mapped[float] = mapped_column(Float, default=0.0)
     report_json: Mapped[str] = mapped_column(Text, default="{}")
@@ -180,6 +185,30 @@ class Summary(Base):
     value: Mapped[float | None] = mapped_column(Float, nullable=True)
     sd: Mapped[float | None] = mapped_column(Float, nullable=True)
     unit: Mapped[str] = mapped_column(String(16), default="")
+
+
+class MethodResultRow(Base):
+    """A research result of one trial under one method config, keyed by (trial, method, params_key) and
+    written once (the first write wins): metrics, gait summary, residuals against a reference, files (JSON)."""
+
+    __tablename__ = "method_results"
+    __table_args__ = (UniqueConstraint("trial_id", "method", "params_key"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    trial_id: Mapped[str] = mapped_column(String(64), index=True)
+    method: Mapped[str] = mapped_column(String(32))
+    params_key: Mapped[str] = mapped_column(String(32), index=True)
+    spec_json: Mapped[str] = mapped_column(Text)
+    config_json: Mapped[str] = mapped_column(Text)
+    status: Mapped[str] = mapped_column(String(16))  # ok | failed
+    error: Mapped[str] = mapped_column(Text, default="")
+    created_at: Mapped[float] = mapped_column(Float)
+    elapsed_s: Mapped[float] = mapped_column(Float, default=0.0)
+    worker: Mapped[str] = mapped_column(String(128), default="")
+    skeleton: Mapped[str] = mapped_column(String(32), default="")
+    metrics_json: Mapped[str] = mapped_column(Text, default="{}")
+    gait_json: Mapped[str] = mapped_column(Text, default="{}")
+    residuals_json: Mapped[str] = mapped_column(Text, default="{}")
+    artifacts_json: Mapped[str] = mapped_column(Text, default="{}")
 
 
 class AuditEntry(Base):

@@ -10,6 +10,7 @@ from gaitcap.reconstruction.jsonable import finite_or_none
 from gaitcap.services.catalog.db import Catalog
 from gaitcap.services.catalog.models import Result, Step, Summary
 from sqlalchemy import delete, select
+from sqlalchemy.orm import Session
 
 STAGES = ("preliminary", "refined")
 
@@ -42,10 +43,13 @@ def _summary_rows(summary: dict) -> list[Summary]:
 def store_result(
     catalog: Catalog, *, trial_id: str, stage: str, method: str, steps: list[dict], summary: dict,
     report: dict | None = None, quality: dict | None = None, artifacts: dict | None = None,
-    elapsed_s: float = 0.0,
+    elapsed_s: float = 0.0, method_name: str = "", params_key: str = "",
 ) -> None:
-    """Store (or replace) the result of one stage. ``steps``: dicts with ``side``, ``time_s`` and the
-    step's parameters (units in the keys); ``summary``: name -> number or {mean, sd, unit}."""
+    """Store (or replace) the result of one stage. ``method``: the method in words; ``method_name`` and
+    ``params_key``: the key it is read under with research's results
+    (:mod:`gaitcap.services.catalog.method_results`; '' when no method config computed it). ``steps``: dicts
+    with ``side``, ``time_s`` and the step's parameters (units in the keys); ``summary``: name -> number or
+    {mean, sd, unit}."""
     if stage not in STAGES:
         raise ValueError(f"stage: must be one of {STAGES}, got {stage!r}")
     with catalog.session() as s:
@@ -55,7 +59,8 @@ def store_result(
             s.execute(delete(Summary).where(Summary.result_id == old.id))
             s.delete(old)
             s.flush()
-        res = Result(trial_id=trial_id, stage=stage, method=method, created_at=time.time(),
+        res = Result(trial_id=trial_id, stage=stage, method=method, method_name=method_name, params_key=params_key,
+                     created_at=time.time(),
                      elapsed_s=float(elapsed_s), report_json=json.dumps(report or {}, default=float),
                      quality_json=json.dumps(quality or {}, default=float),
                      artifacts_json=json.dumps(artifacts or {}))
@@ -90,12 +95,16 @@ def get_result(catalog: Catalog, trial_id: str, stage: str | None = None) -> Res
                 continue
             steps = [json.loads(r.values_json) for r in
                      s.scalars(select(Step).where(Step.result_id == res.id).order_by(Step.index))]
-            summary = {r.name: {"mean": r.value, "sd": r.sd, "unit": r.unit} for r in
-                       s.scalars(select(Summary).where(Summary.result_id == res.id).order_by(Summary.id))}
             return ResultInfo(res.trial_id, res.stage, res.method, res.created_at, res.elapsed_s,
                               json.loads(res.report_json), json.loads(res.quality_json),
-                              json.loads(res.artifacts_json), steps, summary)
+                              json.loads(res.artifacts_json), steps, summary_of_row(s, res.id))
     return None
+
+
+def summary_of_row(s: Session, result_id: int) -> dict[str, dict]:
+    """A stored result's summary: name -> {mean, sd, unit}, in the order stored."""
+    return {r.name: {"mean": r.value, "sd": r.sd, "unit": r.unit} for r in
+            s.scalars(select(Summary).where(Summary.result_id == result_id).order_by(Summary.id))}
 
 
 def best_means_of(catalog: Catalog, trial_ids: list[str]) -> dict[str, dict[str, float | None]]:

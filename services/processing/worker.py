@@ -25,6 +25,7 @@ from pathlib import Path
 
 from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog.method_keys import params_key
 from gaitcap.services.kinematics.shown import patient_age
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.calibration_job import fail_calibration, run_calibration
@@ -221,10 +222,13 @@ class Worker:
         files = trial_files(self.config.data_dir, trial_id, recording_of(trial))
         self._report(trial_id, "reading the recording", 0.05)
         t0 = time.perf_counter()
-        data = with_calibration_version(self.db, trial_id, recording_input(
-            files.recording, fallback_calibration=self.config.fallback_calibration, completion=self.config.completion))
-        sink = CatalogSink(self, trial_id, lease, load_s=time.perf_counter() - t0)
-        result = process_trial(data, self.options(age_years=patient_age(self.db, trial_id)), files=files, sink=sink)
+        recorded = recording_input(files.recording, fallback_calibration=self.config.fallback_calibration,
+                                   completion=self.config.completion)
+        data = with_calibration_version(self.db, trial_id, recorded)
+        options = self.options(age_years=patient_age(self.db, trial_id))
+        inputs = {} if data is recorded else {"calibration": str(trial.calibration_id)}
+        sink = CatalogSink(self, trial_id, lease, load_s=time.perf_counter() - t0, options=options, inputs=inputs)
+        result = process_trial(data, options, files=files, sink=sink)
         self._finish(trial_id, result.quality)
 
     def options(self, *, age_years: int | None) -> TrialOptions:
@@ -244,10 +248,14 @@ class Worker:
 
 class CatalogSink:
     """The clinic's sink: each stage's result row, quality and files into the catalog, progress on the
-    trial's record, the job's lease checked between steps."""
+    trial's record, the job's lease checked between steps. Each row is keyed by its stage's method and the
+    parameters key of its config (the key research reads it under); ``inputs``: what the trial was processed
+    from besides its recording (a calibration version), folded into the key."""
 
-    def __init__(self, worker: Worker, trial_id: str, lease: LeaseKeeper, *, load_s: float) -> None:
+    def __init__(self, worker: Worker, trial_id: str, lease: LeaseKeeper, *, load_s: float, options: TrialOptions,
+                 inputs: dict[str, str]) -> None:
         self.worker, self.trial_id, self.lease, self.load_s = worker, trial_id, lease, load_s
+        self.plans, self.inputs = {plan.name: plan for plan in options.stages}, inputs
         self.gait_warnings, self.stage = [], ""  # the last stored stage's
 
     def progress(self, step: str, fraction: float, result: str | None) -> None:
@@ -265,10 +273,13 @@ class CatalogSink:
                  "consistency": outcome.consistency,
                  "load_s": round(self.load_s, 3), "compute_s": round(traj.elapsed_s, 3),
                  "gait_s": round(outcome.gait_s, 3)}
+        config = self.plans[outcome.name].method
+        completed = {"keypoints": "completed after Stop"} if "completion" in quality.checks else {}
         cat.store_result(db, trial_id=self.trial_id, stage=outcome.name, method=traj.method,
                          steps=steps_of(report) if report else [], summary=summary_of(report) if report else {},
                          report=extra, quality=traj.metrics or {}, artifacts=outcome.files,
-                         elapsed_s=traj.elapsed_s + outcome.gait_s)
+                         elapsed_s=traj.elapsed_s + outcome.gait_s, method_name=config.name,
+                         params_key=params_key(config, inputs={**self.inputs, **completed} or None))
         log.info("trial %s: %s results stored (%s)", self.trial_id, outcome.name, extra)
 
     def files_added(self, stage: str, files: dict[str, str]) -> None:

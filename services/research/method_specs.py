@@ -11,20 +11,22 @@ parameter overrides. Overrides are dotted paths into the frozen config (``fit.so
     robust:sigma_mm=100            explicit@paper:fit.solver.steps=2000
 
 The identity of a result is ``(trial, method, params_key)``: ``params_key`` hashes the FULL resolved
-config (every field, nested, with the class of each part), so two spellings of the same config share
-results, and a changed default gives a new key instead of a stale result.
+config (every field, nested, with the class of each part; :mod:`gaitcap.services.catalog.method_keys`, which
+keys the clinic's stages too), so two spellings of the same config share results, and a changed default
+gives a new key instead of a stale result.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
 import math
 from dataclasses import dataclass, field
 from typing import Any
 
 from gaitcap.reconstruction.methods import METHODS
+from gaitcap.services.catalog.method_keys import canonical, params_key
+
+__all__ = ["ALIASES", "MethodSpec", "canonical", "parse_method"]
 
 #: short names -> dotted paths tried in order (the first that exists in the config is used).
 ALIASES: dict[str, tuple[str, ...]] = {
@@ -69,9 +71,9 @@ class MethodSpec:
 
     @property
     def key(self) -> str:
-        """Stable hash (16 hex) of the full resolved config."""
-        text = json.dumps(canonical(self.config()), sort_keys=True, separators=(",", ":"))
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
+        """Stable hash (16 hex) of the full resolved config (:func:`~gaitcap.services.catalog.method_keys.params_key`,
+        the key the clinic's stages are stored under too)."""
+        return params_key(self.config())
 
     @property
     def name(self) -> str:
@@ -157,19 +159,3 @@ def _set_path(cfg, path: str, value: Any, name: str):
         return dataclasses.replace(cfg, **{head: new})
     except (TypeError, ValueError) as exc:
         raise ValueError(f"parameter {name}: {exc}") from None
-
-
-def canonical(obj: Any) -> Any:
-    """A JSON-ready description of a config: dataclasses as {"type": class, fields...}, recursively."""
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {"type": type(obj).__name__, **{f.name: canonical(getattr(obj, f.name))
-                                               for f in dataclasses.fields(obj)}}
-    if isinstance(obj, list | tuple):
-        return [canonical(v) for v in obj]
-    if isinstance(obj, dict):
-        return {str(k): canonical(v) for k, v in obj.items()}
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return str(obj)
-    if obj is None or isinstance(obj, bool | int | float | str):
-        return obj
-    return repr(obj)

@@ -1,7 +1,7 @@
 """Batch reprocessing: re-run reconstruction + gait analysis of recorded trials under given methods.
 
 A plan (:func:`plan_reprocess`) pairs every selected trial with every :class:`MethodSpec`, leaving out
-pairs already stored in the catalog (``gaitcap.services.research.store``); :func:`run_plan` hands the tasks to an
+pairs research already stored in the catalog (``gaitcap.services.catalog.method_results``); :func:`run_plan` hands the tasks to an
 executor (``gaitcap.services.research.executors``: inline, local process pool, Ray) and counts what came back. Each task
 (:func:`run_task`, run in a worker process) checks the store again, computes, writes its files (temp +
 rename) and inserts its row idempotently. Nothing is held in memory between tasks, so a run that
@@ -37,9 +37,15 @@ import numpy as np
 from gaitcap.acquisition.fileio import atomic_write_bytes
 from gaitcap.reconstruction.jsonable import finite_or_none, json_ready
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog.method_results import (
+    MethodResult,
+    delete_failed,
+    done_keys,
+    is_done,
+    put_result,
+)
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.research.method_specs import MethodSpec, canonical
-from gaitcap.services.research.store import MethodResult, delete_failed, done_keys, get_result, put_result
 
 log = logging.getLogger(__name__)
 
@@ -219,7 +225,7 @@ def run_task(task: ReprocessTask) -> TaskOutcome:
     _use_compile_cache(task.compile_cache)
     db = _catalog(task.catalog_url)
     spec, key, worker = task.spec, task.spec.key, f"{socket.gethostname()}-{os.getpid()}"
-    if get_result(db, task.trial.trial_id, spec.method, key) is not None:
+    if is_done(db, task.trial.trial_id, spec.method, key):
         return TaskOutcome(task.trial.trial_id, spec.method, key, "skipped", worker=worker)
     t0 = time.perf_counter()
     try:

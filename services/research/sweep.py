@@ -156,7 +156,7 @@ def _sigma_iqr(values) -> float | None:
 
 
 def summary_row(spec: MethodSpec, results: list) -> dict:
-    """The table row of one method from its stored results (``reprocess_store.MethodResult``)."""
+    """The table row of one method from its stored results (``gaitcap.services.catalog.method_results.MethodResult``)."""
     ok = [r for r in results if r.ok]
     row = {"keypoints": ", ".join(sorted({r.skeleton for r in ok})) or None, "method": spec.name,
            "params_key": spec.key, "trials": len(ok), "failed": len(results) - len(ok)}
@@ -179,7 +179,7 @@ def summary_row(spec: MethodSpec, results: list) -> dict:
 
 def summarize(db, trial_ids, specs) -> SweepTable:
     """The sweep table of ``specs`` over ``trial_ids`` from the results stored in the catalog."""
-    from gaitcap.services.research.store import list_results
+    from gaitcap.services.catalog.method_results import list_results
 
     trial_ids = list(trial_ids)
     stored = list_results(db, trial_ids=trial_ids, params_keys=[s.key for s in specs])

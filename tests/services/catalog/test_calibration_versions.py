@@ -28,7 +28,7 @@ def test_a_version_3_catalog_opens_with_the_versions_table(tmp_path):
         con.execute("DROP TABLE calibration_versions")
         con.execute("UPDATE schema_info SET value = '3' WHERE key = 'version'")
     db = cat.open_catalog(path, create=False)
-    assert cat.schema_version(db) == SCHEMA_VERSION == 4
+    assert cat.schema_version(db) == SCHEMA_VERSION == 5
     new = versions.add_version(db, toml="[new]", replaces_id="C-old", made_by="refine-rig", trials=["T1"],
                                comparison={"cam01": {"centre_mm": 1.0, "rotation_deg": 2.0, "focal_pct": 0.0}})
     assert versions.get_version(db, new).comparison["cam01"]["rotation_deg"] == 2.0

@@ -4,7 +4,7 @@ import threading
 
 import pytest
 from gaitcap.services import catalog as cat
-from gaitcap.services.catalog.models import SchemaInfo
+from gaitcap.services.catalog.models import SCHEMA_VERSION, SchemaInfo
 from sqlalchemy import update
 
 
@@ -113,7 +113,7 @@ def test_audit_log_records_who_did_what(db):
 def test_schema_version_mismatch_is_refused(tmp_path):
     path = tmp_path / "old.sqlite"
     c = cat.open_catalog(path)
-    assert cat.schema_version(c) == 4
+    assert cat.schema_version(c) == SCHEMA_VERSION == 5
     with c.session() as s:
         s.execute(update(SchemaInfo).where(SchemaInfo.key == "version").values(value="999"))
     c.close()

@@ -7,6 +7,7 @@ import sqlite3
 import pytest
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
+from gaitcap.services.catalog.models import SCHEMA_VERSION
 
 CHARUCO = {"kind": "charuco", "squares": [4, 5], "square_mm": 54.0, "dictionary": "DICT_4X4_50"}
 
@@ -29,7 +30,7 @@ def v2(tmp_path):
 def test_a_version_2_catalog_opens_upgraded_with_no_board_on_old_records(v2):
     path, run_id = v2
     db = cat.open_catalog(path)
-    assert cat.schema_version(db) == 4
+    assert cat.schema_version(db) == SCHEMA_VERSION
     got = {c.id: c for c in cals.list_calibrations(db)}
     assert set(got) == {"C1-up", run_id}
     assert got["C1-up"].board is None and got[run_id].board is None
@@ -40,7 +41,7 @@ def test_a_version_2_catalog_opens_upgraded_with_no_board_on_old_records(v2):
     assert new.board == CHARUCO and cals.get_calibration(db, new.id).board == CHARUCO
     db.close()
     again = cat.open_catalog(path)
-    assert cat.schema_version(again) == 4 and cals.get_calibration(again, new.id).board == CHARUCO
+    assert cat.schema_version(again) == SCHEMA_VERSION and cals.get_calibration(again, new.id).board == CHARUCO
     with sqlite3.connect(path) as con:
         column = [r for r in con.execute("PRAGMA table_info(calibrations)") if r[1] == "board"]
     assert column and column[0][2] == "TEXT" and column[0][3] == 1  # TEXT NOT NULL

@@ -7,6 +7,7 @@ import sqlite3
 import pytest
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
+from gaitcap.services.catalog.models import SCHEMA_VERSION
 
 V1_TABLES = """
 DROP TABLE jobs; DROP TABLE calibrations;
@@ -53,7 +54,7 @@ def v1(tmp_path):
 def test_a_version_1_catalog_opens_upgraded_with_everything_kept(v1):
     path, tid = v1
     db = cat.open_catalog(path)
-    assert cat.schema_version(db) == 4
+    assert cat.schema_version(db) == SCHEMA_VERSION
     assert cat.latest_calibration(db) == ("C2-board", "[board]")  # still the active one
     got = {c.id: c for c in cals.list_calibrations(db)}
     assert [c.id for c in cals.list_calibrations(db)] == ["C3-bad", "C2-board", "C1-up"]
@@ -75,7 +76,7 @@ def test_a_version_1_catalog_opens_upgraded_with_everything_kept(v1):
         cals.start_board_recording(db, recording_path_for=lambda c: f"/d/{c}.mcap")
     db.close()
     again = cat.open_catalog(path)
-    assert cat.schema_version(again) == 4 and len(cals.list_calibrations(again)) == 5
+    assert cat.schema_version(again) == SCHEMA_VERSION and len(cals.list_calibrations(again)) == 5
     with sqlite3.connect(path) as con:
         tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
     assert "calibration_runs" not in tables and "jobs_v1" not in tables

@@ -8,10 +8,10 @@ import time
 
 import pytest
 import ray  # a dev dependency: without it this test fails rather than skips
+from gaitcap.services.catalog.method_results import list_results
 from gaitcap.services.cli import app
 from gaitcap.services.research.executors import LocalPool, RayCluster
 from gaitcap.services.research.reprocess import TrialSelection, plan_reprocess, run_plan
-from gaitcap.services.research.store import list_results
 from gaitcap.services.research.sweep import summarize
 from typer.testing import CliRunner
 

@@ -10,11 +10,11 @@ import time
 
 import numpy as np
 import pytest
+from gaitcap.services.catalog.method_results import list_results
 from gaitcap.services.cli import app
 from gaitcap.services.research.executors import Inline, LocalPool
 from gaitcap.services.research.method_specs import parse_method
 from gaitcap.services.research.reprocess import TrialSelection, plan_reprocess, run_plan
-from gaitcap.services.research.store import list_results
 from typer.testing import CliRunner
 
 from .reprocess_trials import make_walks, recorded_catalog
