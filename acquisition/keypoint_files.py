@@ -42,7 +42,6 @@ from gaitcap.acquisition.keypoint_input import (
 from gaitcap.acquisition.openpose_json import openpose_people
 from gaitcap.acquisition.readers import read_keypoint_arrays
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import validate_keypoints
 
 log = logging.getLogger(__name__)
 
@@ -53,16 +52,14 @@ DEFAULT_FPS = 30.0
 def read_npz(path: Path, *, fps: float, camera_names: list[str] | None = None) -> KeypointInput:
     """A keypoint NPZ (:func:`gaitcap.acquisition.readers.read_keypoint_arrays`); without ``times_s`` the frames
     are ``fps`` apart, without ``skeleton`` the layout is recognised later. Checked as the loaders check
-    (:func:`gaitcap.reconstruction.detections.validate_keypoints`: confidences in 0..1, times increasing,
+    (:class:`~gaitcap.reconstruction.keypoints.MultiViewKeypoints`: confidences in 0..1, times increasing,
     camera names distinct), errors naming the file."""
     kp, names, times, layout = read_keypoint_arrays(path, optional=("times_s", "skeleton"))
     times = np.arange(kp.shape[1]) / fps if times is None else times
-    data = make_input(kp, names, times, layout=layout, rig=None, source="keypoints NPZ")
     try:
-        validate_keypoints(data.recording.people, names, times, data.recording.skeleton, layout="(C, T, P, J, 3)")
+        return make_input(kp, names, times, layout=layout, rig=None, source="keypoints NPZ")
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
-    return data
 
 
 def read_mcap(path: Path, *, fps: float, camera_names: list[str] | None = None) -> KeypointInput:
@@ -73,7 +70,7 @@ def read_mcap(path: Path, *, fps: float, camera_names: list[str] | None = None) 
         rig = read_calibration(path)
     except (ValueError, KeyError):
         rig = None
-    return KeypointInput(rec, rec.skeleton, rig, "trial MCAP")
+    return KeypointInput(rec, rec.skeleton.name, rig, "trial MCAP")
 
 
 # ---------------------------------------------------------------------------------------------- OpenPose
@@ -124,10 +121,10 @@ def read_keypoints_input(
                          "folder (Pose2Sim, anipose, FreeMoCap, MMPose JSON or OpenPose JSON)")
     data = reader.read(path, fps=fps, camera_names=list(rig.names) if rig is not None else None)
     log.info("%s: read as a %s (%d cameras, %d frames, up to %d people)", path, data.source,
-             *data.recording.people.shape[:3])
+             *data.recording.shape[:3])
     if skeleton:
         rec = data.recording
-        name = provisional_skeleton(rec.people.shape[-2], skeleton)
+        name = provisional_skeleton(rec.shape[-1], skeleton)
         rec = replace(rec, skeleton=name)
         data = KeypointInput(rec, name, data.rig, data.source)
     return data

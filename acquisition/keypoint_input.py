@@ -8,8 +8,8 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
-from gaitcap.acquisition.keypoints import KeypointRecording
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.skeletons import get_skeleton
 
 log = logging.getLogger(__name__)
@@ -20,15 +20,15 @@ class KeypointInput:
     """Everyone's keypoints read from an input.
 
     Attributes:
-        recording: people (C, T, P, J, 3) x px, y px, confidence (most confident first per camera
-            frame), camera names, times s; its ``skeleton`` is provisional when ``layout`` is None.
+        recording: everyone's keypoints (most confident first per camera frame); its ``skeleton`` is
+            provisional when ``layout`` is None.
         layout: the layout the input names (file metadata, the tool's config, ``--skeleton``), or None
             when it has to be recognised from the keypoints.
         rig: the calibration the input carries (trial MCAP, tool folders), or None.
         source: what was read (words, for messages).
     """
 
-    recording: KeypointRecording
+    recording: MultiViewKeypoints
     layout: str | None
     rig: Rig | None
     source: str
@@ -40,17 +40,6 @@ def sort_people(people: np.ndarray) -> np.ndarray:
         return people
     order = np.argsort(-np.nan_to_num(people[..., 2]).mean(-1), axis=-1, kind="stable")  # (C, T, P)
     return np.take_along_axis(people, order[..., None, None], axis=2)
-
-
-def as_recording(people: np.ndarray, camera_names, times_s: np.ndarray, skeleton: str) -> KeypointRecording:
-    """A :class:`KeypointRecording` of file keypoints (frame ids 0..T-1, timestamps from ``times_s``)."""
-    people = np.asarray(people, dtype=np.float64)
-    if people.ndim == 4:
-        people = people[:, :, None]
-    c, t = people.shape[:2]
-    stamps = np.broadcast_to((np.asarray(times_s) * 1e9).astype(np.int64), (c, t)).copy()
-    return KeypointRecording(tuple(str(n) for n in camera_names), np.arange(t), np.asarray(times_s, np.float64),
-                             skeleton, sort_people(people), stamps)
 
 
 def provisional_skeleton(num_joints: int, layout: str | None) -> str:
@@ -66,9 +55,17 @@ def provisional_skeleton(num_joints: int, layout: str | None) -> str:
 
 
 def make_input(people, camera_names, times_s, *, layout: str | None, rig: Rig | None, source: str) -> KeypointInput:
+    """File keypoints (C, T, J, 3) or (C, T, P, J, 3) as input, most confident first per camera frame
+    (frame ids 0..T-1, timestamps from ``times_s``, every frame live); ValueError naming the field that is
+    wrong."""
     people = np.asarray(people, dtype=np.float64)
+    if people.ndim == 4:
+        people = people[:, :, None]
+    if people.ndim != 5 or people.shape[-1] != 3:
+        raise ValueError(f"keypoints: expected shape (C, T, J, 3) or (C, T, P, J, 3), got {people.shape}")
     skel = provisional_skeleton(people.shape[-2], layout)
-    return KeypointInput(as_recording(people, camera_names, times_s, skel), layout and skel, rig, source)
+    keypoints = MultiViewKeypoints(sort_people(people), tuple(str(n) for n in camera_names), times_s, skel)
+    return KeypointInput(keypoints, layout and skel, rig, source)
 
 
 def match_cameras(folders: list[str], camera_names: list[str] | None) -> list[str]:

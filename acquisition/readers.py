@@ -18,11 +18,11 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.calibration_io import rig_from_text
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.gait.walkway import WalkwayTrial, walkway_from_csv_text
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 KEYS = ("keypoints", "camera_names", "times_s", "skeleton")
 
@@ -80,13 +80,13 @@ def read_keypoint_arrays(path: str | os.PathLike, *, optional: tuple[str, ...] =
     return KeypointArrays(kp, names, times, skeleton)
 
 
-def load_multi_npz(path: str | os.PathLike) -> MultiPersonDetections:
+def load_multi_npz(path: str | os.PathLike) -> MultiViewKeypoints:
     """Read a multi-person keypoint file (ValueError naming the file and a missing key or bad array)."""
     kp, names, times, skeleton = read_keypoint_arrays(path)
     if kp.ndim == 4:
         kp = kp[:, :, None]  # one person per camera and frame
     try:
-        return MultiPersonDetections(keypoints=kp, camera_names=names, times_s=times, skeleton=skeleton)
+        return MultiViewKeypoints(keypoints=kp, camera_names=names, times_s=times, skeleton=skeleton)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
 

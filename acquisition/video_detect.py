@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.drivers.base import CaptureSettings
 from gaitcap.acquisition.drivers.video import VideoCamera
 from gaitcap.acquisition.keypoint_input import sort_people
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 log = logging.getLogger(__name__)
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm")
@@ -38,20 +38,10 @@ def find_videos(folder: str | Path) -> list[Path]:
     return files
 
 
-@dataclass(frozen=True, eq=False)
-class VideoKeypoints:
-    """Attributes: people (C, T, P, J, 3); camera_names (C,); times_s (T,); skeleton name; fps."""
-
-    people: np.ndarray
-    camera_names: tuple[str, ...]
-    times_s: np.ndarray
-    skeleton: str
-    fps: float
-
-
 def detect_videos(files: list[Path], detector, *, fps: float | None = None,
-                  on_frame: Callable[[], None] | None = None) -> VideoKeypoints:
-    """Run ``detector`` on every frame of every file (camera = file stem)."""
+                  on_frame: Callable[[], None] | None = None) -> MultiViewKeypoints:
+    """Run ``detector`` on every frame of every file (camera = file stem); the frames are ``fps`` apart
+    (default: the files' frame rate)."""
     per_cam: list[list[np.ndarray]] = []
     rates = []
     for path in files:
@@ -83,4 +73,4 @@ def detect_videos(files: list[Path], detector, *, fps: float | None = None,
         for i, people in enumerate(frames):
             out[c, i, : len(people)] = people
     rate = float(rates[0])
-    return VideoKeypoints(sort_people(out), tuple(f.stem for f in files), np.arange(t) / rate, detector.skeleton.name, rate)
+    return MultiViewKeypoints(sort_people(out), tuple(f.stem for f in files), np.arange(t) / rate, detector.skeleton)

@@ -13,11 +13,11 @@ from typing import Any
 import numpy as np
 from gaitcap.acquisition.fileio import atomic_savez, atomic_write_text
 from gaitcap.acquisition.readers import KEYS
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.calibration_io import rig_to_text
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.gait.walkway import WalkwayTrial, walkway_csv_text
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 
 def save_rig(rig: Rig, path: str | os.PathLike, *, metadata: dict[str, Any] | None = None) -> Path:
@@ -26,7 +26,7 @@ def save_rig(rig: Rig, path: str | os.PathLike, *, metadata: dict[str, Any] | No
     return atomic_write_text(path, rig_to_text(rig, suffix=path.suffix, metadata=metadata, where=str(path)))
 
 
-def save_multi_npz(multi: MultiPersonDetections, path: str | os.PathLike) -> Path:
+def save_multi_npz(multi: MultiViewKeypoints, path: str | os.PathLike) -> Path:
     """Write a multi-person keypoint file (read by :func:`gaitcap.acquisition.readers.load_multi_npz`)."""
     return atomic_savez(path, keypoints=multi.keypoints, camera_names=np.array(multi.camera_names),
                         times_s=multi.times_s, skeleton=np.array(multi.skeleton.name))

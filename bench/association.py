@@ -30,7 +30,6 @@ def _mpjpe(points_mm: np.ndarray, truth_mm: np.ndarray) -> float:
 
 def run(*, frames: int, cameras: int, people: int, seed: int, repeats: int, mpjpe: bool) -> dict:
     from gaitcap.reconstruction.association import (
-        MultiPersonDetections,
         associate,
         default_selector,
         patient_detections,
@@ -40,8 +39,7 @@ def run(*, frames: int, cameras: int, people: int, seed: int, repeats: int, mpjp
 
     fps = 30.0
     trial = make_trial(preset="paper", seconds=frames / fps, cameras=cameras, people=people, seed=seed)
-    multi = MultiPersonDetections(trial.multi.keypoints, trial.detections.camera_names, trial.times_s,
-                                  trial.skeleton)
+    multi = trial.multi.observed
     c_, t_, p_, j_ = multi.shape
     assoc_s, assoc_cpu_s, select_s = [], [], []
     for _ in range(repeats):

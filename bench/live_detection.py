@@ -161,7 +161,7 @@ def reference(video: Path, model: str) -> np.ndarray:
     from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig
     from gaitcap.acquisition.video_detect import detect_videos
 
-    return detect_videos([video], MediaPipeConfig(model=model, num_threads=1).build()).people[0]
+    return detect_videos([video], MediaPipeConfig(model=model, num_threads=1).build()).keypoints[0]
 
 
 def agreement_px(people: np.ndarray, frame_ids: np.ndarray, ref: np.ndarray, keep: np.ndarray,
@@ -198,7 +198,8 @@ def _median_px(a: np.ndarray, b: np.ndarray, min_conf: float) -> float | None:
 def run(*, cameras: int, seconds: float, workers: int, model: str, check: bool, redetect_all: bool = False) -> dict:
     from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig
     from gaitcap.acquisition.recording.reader import read_keypoints
-    from gaitcap.services.processing.completion import COMPLETED, LIVE, complete_keypoints
+    from gaitcap.reconstruction.keypoints import COMPLETED, LIVE
+    from gaitcap.services.processing.completion import complete_keypoints
 
     with tempfile.TemporaryDirectory(prefix="livedet-") as tmp:
         out = Path(tmp)
@@ -217,7 +218,7 @@ def run(*, cameras: int, seconds: float, workers: int, model: str, check: bool, 
         agree = None
         if check:
             ref = reference(files[0], model)
-            agree = {name: agreement_px(kp.people, kp.frame_ids, ref, report.provenance == code)
+            agree = {name: agreement_px(kp.keypoints, kp.frame_ids, ref, kp.provenance == code)
                      for name, code in (("completed", COMPLETED), ("live", LIVE))}
     rows = {}
     status = live["status"]

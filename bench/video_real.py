@@ -55,14 +55,13 @@ def _ours(videos: Path) -> dict:
     from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig
     from gaitcap.acquisition.tool_folders import read_qca
     from gaitcap.acquisition.video_detect import detect_videos, find_videos
-    from gaitcap.reconstruction.association import associate_keypoints
+    from gaitcap.reconstruction.association import associate_and_select
     from gaitcap.reconstruction.methods import METHODS, reconstruct
 
     t0 = time.perf_counter()
     found = detect_videos(find_videos(videos / "videos"), MediaPipeConfig().build())
     rig = read_qca(videos / "calibration" / "Calib.qca.txt")
-    sel = associate_keypoints(found.people, rig=rig, camera_names=found.camera_names, times_s=found.times_s,
-                              skeleton="mediapipe33")
+    sel = associate_and_select(found, rig)
     detect_s = time.perf_counter() - t0
     fit = reconstruct(sel.detections, rig, method=METHODS["implicit"]())
     robust = reconstruct(sel.detections, rig, method=METHODS["robust"]())
@@ -74,19 +73,16 @@ def _reference(folder: Path, near_mm: np.ndarray):
     """Pose2Sim's 2D keypoints of the trial, the track nearest ``near_mm`` (T, 3) hips, triangulated:
     ((T, J, 3) mm, joint names)."""
     from gaitcap.acquisition.keypoint_files import read_keypoints_input
-    from gaitcap.reconstruction.association import ManualTrack, associate_keypoints
+    from gaitcap.reconstruction.association import ManualTrack, associate_and_select
     from gaitcap.reconstruction.methods import METHODS, reconstruct
-    from gaitcap.reconstruction.skeletons import get_skeleton
 
     data = read_keypoints_input(folder)
     rec = data.recording
-    skeleton = get_skeleton(str(getattr(rec.skeleton, "name", rec.skeleton)))
-    names = list(skeleton.joint_names)
-    args = dict(rig=data.rig, camera_names=rec.camera_names, times_s=rec.times_s, skeleton=skeleton.name)
-    sel = associate_keypoints(rec.people, **args)
+    names = list(rec.skeleton.joint_names)
+    sel = associate_and_select(rec, data.rig)
     best, best_d = None, np.inf
     for track in sel.tracks.ids:
-        det = associate_keypoints(rec.people, selector=ManualTrack(int(track)), **args).detections
+        det = associate_and_select(rec, data.rig, ManualTrack(int(track))).detections
         pts = reconstruct(det, data.rig, method=METHODS["robust"]()).points_mm
         d = float(np.nanmedian(np.linalg.norm(_hips(pts, names) - near_mm, axis=-1)))
         if d < best_d:

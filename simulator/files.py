@@ -54,7 +54,7 @@ def save_trial(trial, out_dir: str | os.PathLike) -> dict[str, Path]:
         "jitter_ns": trial.jitter_ns,
     }
     if trial.multi is not None:
-        kp["multi_keypoints"] = trial.multi.keypoints
+        kp["multi_keypoints"] = trial.multi.observed.keypoints
         kp["multi_identity"] = trial.multi.identity
     _atomic_savez(out / KEYPOINTS, **kp)
     t = trial.truth

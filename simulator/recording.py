@@ -57,7 +57,7 @@ def _patient(trial, c: int, i: int) -> list:
 
 
 def _everyone(trial, c: int, i: int) -> list:
-    kp, identity = trial.multi.keypoints[c, i], trial.multi.identity[c, i]
+    kp, identity = trial.multi.observed.keypoints[c, i], trial.multi.identity[c, i]
     return [np.nan_to_num(kp[p]).round(2).tolist() for p in range(kp.shape[0]) if identity[p] >= 0]
 
 

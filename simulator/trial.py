@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints, missing_keypoints
 from gaitcap.reconstruction.skeletons import Skeleton, get_skeleton
 from gaitcap.simulator.noise import NoisePreset, clock_model, detect, get_preset, occlusion_mask
 from gaitcap.simulator.params import WalkParams
@@ -24,31 +25,24 @@ MAX_PEOPLE = 3
 @dataclass(frozen=True, eq=False)
 class SyntheticPeople:
     """Everyone's detections per camera, in arbitrary per-frame slot order (like a real detector), with the
-    ground truth of who is who (association's input without the truth is
-    :class:`gaitcap.reconstruction.association.multi.MultiPersonDetections`).
+    ground truth of who is who.
 
-    keypoints: (C, T, P, J, 3) x px, y px, confidence (empty slots NaN / 0).
+    observed: what the detector reports, (C, T, P, J, 3) x px, y px, confidence (empty slots NaN / 0):
+        association's input.
     identity: (C, T, P) int, ground-truth person of each slot (-1 = empty); person 0 is the patient.
     points_mm: (P, T, J, 3) ground truth of every person.
     """
 
-    keypoints: np.ndarray
+    observed: MultiViewKeypoints
     identity: np.ndarray
     points_mm: np.ndarray
-    camera_names: tuple[str, ...]
-    times_s: np.ndarray
-
-    def __array__(self, dtype=None, copy=None):
-        """The keypoints (C, T, P, J, 3), so ``np.asarray(trial.multi)`` works like a plain array."""
-        return np.asarray(self.keypoints, dtype=dtype)
 
     def person(self, p: int) -> np.ndarray:
         """(C, T, J, 3) detections of person ``p`` gathered from the slots (NaN / 0 where not detected)."""
-        c, t, n, j, _ = self.keypoints.shape
-        out = np.full((c, t, j, 3), np.nan)
-        out[..., 2] = 0.0
+        kp = self.observed.keypoints
+        out = missing_keypoints((*kp.shape[:2], kp.shape[3]))
         ci, ti, si = np.nonzero(self.identity == p)
-        out[ci, ti] = self.keypoints[ci, ti, si]
+        out[ci, ti] = kp[ci, ti, si]
         return out
 
 
@@ -76,6 +70,13 @@ class SyntheticTrial:
     @property
     def num_frames(self) -> int:
         return int(self.times_s.shape[0])
+
+    def everyone(self) -> MultiViewKeypoints:
+        """Every person's detections as a detector reports them: :attr:`multi`'s, or the patient alone."""
+        if self.multi is not None:
+            return self.multi.observed
+        det = self.detections
+        return MultiViewKeypoints(det.keypoints[:, :, None], det.camera_names, det.times_s, det.skeleton)
 
     @property
     def all_points_mm(self) -> np.ndarray:
@@ -173,7 +174,7 @@ def make_trial(
             det = detected[ci, ti, who]
             keypoints[:, :, slot] = np.where(det[..., None, None], stacked[ci, ti, who], keypoints[:, :, slot])
             identity[:, :, slot] = np.where(det, who, -1)
-        multi = SyntheticPeople(keypoints, identity, all_pts, tuple(rig.names), times)
+        multi = SyntheticPeople(MultiViewKeypoints(keypoints, tuple(rig.names), times, skel), identity, all_pts)
 
     return SyntheticTrial(
         preset=noise, seed=seed, fps=float(fps), rig=rig, skeleton=skel, times_s=times, points_mm=points,

@@ -16,9 +16,8 @@ from gaitcap.acquisition.detectors.base import DetectorConfig, empty_keypoints, 
 @register_detector
 @dataclass(frozen=True, eq=False)
 class SimulatedConfig(DetectorConfig):
-    """Detections of a synthetic trial (``gaitcap.simulator.make_trial(...)``): ``.detections``
-    (a :class:`gaitcap.reconstruction.detections.Detections`, one person) and, for several people, ``.multi``
-    with all people's keypoints per camera (C, T, P, J, 3)."""
+    """Detections of a synthetic trial (``gaitcap.simulator.make_trial(...)``): ``.everyone()``, every
+    person's keypoints per camera (a :class:`gaitcap.reconstruction.keypoints.MultiViewKeypoints`)."""
 
     kind = "simulated"
     trial: Any
@@ -36,18 +35,10 @@ class SimulatedDetector:
     """
 
     def __init__(self, trial: Any):
-        det = trial.detections
-        self.skeleton = det.skeleton
-        self._cameras = tuple(det.camera_names)
-        multi = getattr(trial, "multi", None)
-        # (C, T, P, J, 3) for all people, or the single person as P = 1.
-        people = np.asarray(multi, dtype=np.float64) if multi is not None else det.keypoints[:, :, None]
-        if people.ndim != 5 or people.shape[:2] != det.keypoints.shape[:2] or people.shape[3:] != det.keypoints.shape[2:]:
-            raise ValueError(
-                f"simulated trial: multi-person keypoints must have shape (C, T, P, J, 3) matching "
-                f"detections {det.keypoints.shape}, got {people.shape}"
-            )
-        self._people = people
+        everyone = trial.everyone()
+        self.skeleton = everyone.skeleton
+        self._cameras = everyone.camera_names
+        self._people = everyone.keypoints  # (C, T, P, J, 3)
 
     @property
     def camera_names(self) -> tuple[str, ...]:

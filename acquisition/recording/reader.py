@@ -20,13 +20,14 @@ from typing import Any
 import numpy as np
 from gaitcap.acquisition.encoding import parse_image_message
 from gaitcap.acquisition.keypoint_message import KeypointMessageError, parse_keypoint_message
-from gaitcap.acquisition.keypoints import KeypointRecording, missing_keypoints
 from gaitcap.acquisition.recording import layout
 from gaitcap.acquisition.recording.frame_slots import SlotReport, align_frame_slots
-from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.ignored_keypoints import IgnoredKeypoints
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints, missing_keypoints
+from gaitcap.reconstruction.skeletons import get_skeleton
 from mcap.exceptions import McapError
 from mcap.opcode import Opcode
 from mcap.reader import SeekingReader
@@ -338,7 +339,7 @@ def _onto_frame_grid(ts: np.ndarray, slots: np.ndarray, times: np.ndarray) -> np
     return held
 
 
-def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) -> KeypointRecording:
+def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) -> MultiViewKeypoints:
     """All keypoints, frame sets aligned by frame id; cameras in calibration order (else sorted).
 
     A camera whose frame counter restarted within the recording (a camera or camera node restarted) has
@@ -385,7 +386,9 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
     first, last = min(fids), max(fids)  # at most 2 x the frame sets + SLACK_FRAMES apart (frame_slots)
     frame_ids = np.arange(first, last + 1)
     most = max((len(p) for cam in slotted.values() for _, p in cam.values()), default=0)
-    joints = next((p.shape[1] for cam in slotted.values() for _, p in cam.values() if len(p)), 0)
+    skeleton = skeletons.pop()
+    joints = next((p.shape[1] for cam in slotted.values() for _, p in cam.values() if len(p)),
+                  get_skeleton(skeleton).num_joints)
     people = missing_keypoints((len(names), frame_ids.size, most, joints))
     stamps = np.full((len(names), frame_ids.size), -1, dtype=np.int64)
     for c, name in enumerate(names):
@@ -393,8 +396,9 @@ def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) ->
             stamps[c, fid - first] = ts
             if len(ppl):
                 people[c, fid - first, : len(ppl)] = ppl
-    return KeypointRecording(tuple(names), frame_ids, frame_times_s(stamps), skeletons.pop(), people, stamps,
-                             report.restarts, _ignored(strays, report, unreadable))
+    return MultiViewKeypoints(people, tuple(names), frame_times_s(stamps), skeleton, frame_ids=frame_ids,
+                              timestamps_ns=stamps, restarts=report.restarts,
+                              ignored=_ignored(strays, report, unreadable))
 
 
 def _ignored(strays: dict[str, tuple[int, ...]], report: SlotReport,

@@ -18,7 +18,6 @@ import dataclasses
 
 import numpy as np
 from gaitcap.reconstruction.association.config import AssociationConfig
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.association.rays import Rays, make_rays, quiet_warnings
 from gaitcap.reconstruction.association.refine import (
     ROBUST_ITERS,
@@ -29,6 +28,7 @@ from gaitcap.reconstruction.association.refine import (
 )
 from gaitcap.reconstruction.association.tracking import Tracks
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 __all__ = ["complete_tracks", "predicted_points"]
 
@@ -61,7 +61,7 @@ def _distance_to_nearest(times_s: np.ndarray, sightings_s: np.ndarray) -> np.nda
     return np.minimum(np.abs(times_s - before), np.abs(after - times_s))
 
 
-def complete_tracks(multi: MultiPersonDetections, rig: Rig, tracks: Tracks, config: AssociationConfig, *,
+def complete_tracks(multi: MultiViewKeypoints, rig: Rig, tracks: Tracks, config: AssociationConfig, *,
                     max_gap_s: float) -> Tracks:
     """Give unassigned detections to the tracks they continue (see the module docstring). Only frames
     with an unassigned detection are looked at."""

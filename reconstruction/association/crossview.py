@@ -33,7 +33,6 @@ from gaitcap.reconstruction.association.hypotheses import (
     linked_components,
     pair_hypotheses,
 )
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.association.rays import make_rays, quiet_warnings
 from gaitcap.reconstruction.association.refine import (
     ROBUST_ITERS,
@@ -46,6 +45,7 @@ from gaitcap.reconstruction.association.refine import (
     triangulate_groups,
 )
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 __all__ = ["DEFAULT_ASSOCIATION_JOINTS", "AssociationConfig", "FramePeople", "associate_frames"]
 
@@ -74,7 +74,7 @@ class FramePeople:
     flipped: np.ndarray | None = None
 
 
-def associate_frames(multi: MultiPersonDetections, rig: Rig, config: AssociationConfig) -> FramePeople:
+def associate_frames(multi: MultiViewKeypoints, rig: Rig, config: AssociationConfig) -> FramePeople:
     """Group each frame's detections into people (see the module docstring for the method).
 
     Frames are independent here; long clips with many detections per frame are done in chunks of
@@ -87,7 +87,7 @@ def associate_frames(multi: MultiPersonDetections, rig: Rig, config: Association
     parts = []
     for start in range(0, t_, chunk):
         sl = slice(start, min(start + chunk, t_))
-        part = MultiPersonDetections(multi.keypoints[:, sl], multi.camera_names, multi.times_s[sl],
+        part = MultiViewKeypoints(multi.keypoints[:, sl], multi.camera_names, multi.times_s[sl],
                                      multi.skeleton)
         parts.append(_associate_chunk(part, rig, config))
     return _concatenate(parts)
@@ -111,7 +111,7 @@ def _concatenate(parts: list[FramePeople]) -> FramePeople:
     )
 
 
-def _associate_chunk(multi: MultiPersonDetections, rig: Rig, config: AssociationConfig) -> FramePeople:
+def _associate_chunk(multi: MultiViewKeypoints, rig: Rig, config: AssociationConfig) -> FramePeople:
     rig = rig.subset(multi.camera_names)
     jidx = config.joint_indices(multi.skeleton)
     rays = make_rays(multi, rig, jidx, config)

@@ -7,12 +7,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from gaitcap.reconstruction.association.completion import complete_tracks
 from gaitcap.reconstruction.association.crossview import AssociationConfig, associate_frames
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.association.orientation import face_forward
 from gaitcap.reconstruction.association.selection import TrackSelector, WalkwayTrack, patient_detections
 from gaitcap.reconstruction.association.tracking import TrackingConfig, Tracks, link_tracks
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 
 @dataclass(frozen=True)
@@ -49,7 +49,7 @@ class PatientSelection:
     detections: Detections
 
 
-def associate(multi: MultiPersonDetections, rig: Rig, config: PipelineConfig = PipelineConfig()) -> Tracks:
+def associate(multi: MultiViewKeypoints, rig: Rig, config: PipelineConfig = PipelineConfig()) -> Tracks:
     """Per-frame cross-view association, temporal linking and track completion of every person in view;
     each track's frames turned the right way round (:func:`.orientation.face_forward`) when the up axis
     is known (``config.tracking.up_axis``)."""
@@ -106,7 +106,7 @@ def walkway_from_rig(
 
 
 def associate_and_select(
-    multi: MultiPersonDetections,
+    multi: MultiViewKeypoints,
     rig: Rig,
     selector: TrackSelector | None = None,
     config: PipelineConfig = PipelineConfig(),
@@ -118,19 +118,3 @@ def associate_and_select(
     return PatientSelection(tracks=tracks, track_id=chosen,
                             detections=patient_detections(multi, tracks, chosen))
 
-
-def associate_keypoints(
-    keypoints: np.ndarray,
-    *,
-    rig: Rig,
-    camera_names,
-    times_s: np.ndarray,
-    skeleton: str = "halpe26",
-    selector: TrackSelector | None = None,
-    config: PipelineConfig = PipelineConfig(),
-) -> PatientSelection:
-    """:func:`associate_and_select` on raw arrays: ``keypoints`` (C, T, P, J, 3) x px, y px, confidence
-    in any per-frame order, ``camera_names`` (C,), ``times_s`` (T,). ValueError on bad input."""
-    multi = MultiPersonDetections(keypoints=keypoints, camera_names=tuple(camera_names), times_s=times_s,
-                                  skeleton=skeleton)
-    return associate_and_select(multi, rig, selector, config)

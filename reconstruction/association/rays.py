@@ -10,8 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 from gaitcap.reconstruction.association.config import AssociationConfig
 from gaitcap.reconstruction.association.geometry import pixel_rays
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 
 @dataclass(frozen=True)
@@ -32,7 +32,7 @@ def quiet_warnings() -> Iterator[None]:
         yield
 
 
-def make_rays(multi: MultiPersonDetections, rig: Rig, jidx, config: AssociationConfig) -> Rays:
+def make_rays(multi: MultiViewKeypoints, rig: Rig, jidx, config: AssociationConfig) -> Rays:
     conf_all = multi.confident(config.confidence_threshold)  # (C, T, P, J)
     kp = multi.keypoints
     xy = np.where(conf_all[..., None], kp[..., :2], np.nan)

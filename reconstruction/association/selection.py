@@ -19,9 +19,9 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.association.tracking import Tracks
 from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 
 class TrackSelector(Protocol):
@@ -163,7 +163,7 @@ class NearestStartTrack:
         return int(np.argmin(self.distances(tracks)))
 
 
-def patient_detections(multi: MultiPersonDetections, tracks: Tracks, track_id: int) -> Detections:
+def patient_detections(multi: MultiViewKeypoints, tracks: Tracks, track_id: int) -> Detections:
     """The chosen track's 2D keypoints per camera and frame (NaN where it is not seen); detections that
     show the person mirrored (``tracks.flipped``: the detector swapped left and right) swapped back."""
     track_id = tracks.check_id(track_id)
@@ -181,7 +181,7 @@ def patient_detections(multi: MultiPersonDetections, tracks: Tracks, track_id: i
 
 
 def select_track_at_pixel(
-    multi: MultiPersonDetections,
+    multi: MultiViewKeypoints,
     tracks: Tracks,
     *,
     camera: str,

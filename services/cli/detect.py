@@ -86,19 +86,19 @@ def register(app: typer.Typer) -> None:
             "chosen in each camera on its own: only for recordings with one person in view."),
     ) -> None:
         """2D keypoints of everyone in existing multi-view videos -> NPZ for `gaitcap reconstruct` / `process`."""
+        from dataclasses import replace
+
         import numpy as np
         from gaitcap.acquisition.video_detect import detect_videos, find_videos
         from gaitcap.acquisition.writers import save_multi_npz
-        from gaitcap.reconstruction.association.multi import MultiPersonDetections
 
         with user_errors():
             files = find_videos(videos)
             det = build_detector(detector, model, param)
             with progress(total=frame_count(files) or None, desc="detect", unit="frame") as bar:
                 result = detect_videos(files, det, fps=fps, on_frame=lambda: bar.update(1))
-            people = result.people[:, :, :1] if one_per_camera else result.people
-            save_multi_npz(MultiPersonDetections(people, result.camera_names, result.times_s, result.skeleton), out)
-        seen = (np.nan_to_num(result.people[..., 2]) > 0.5).any(-1)  # (C, T, P)
-        typer.echo(f"{out}: {len(files)} cameras x {result.people.shape[1]} frames ({result.fps:g} fps), "
-                   f"{result.skeleton}, up to {int(seen.sum(-1).max())} people per camera frame"
+            save_multi_npz(replace(result, keypoints=result.keypoints[:, :, :1]) if one_per_camera else result, out)
+        seen = (np.nan_to_num(result.keypoints[..., 2]) > 0.5).any(-1)  # (C, T, P)
+        typer.echo(f"{out}: {len(files)} cameras x {result.shape[1]} frames ({result.fps_hz:g} fps), "
+                   f"{result.skeleton.name}, up to {int(seen.sum(-1).max())} people per camera frame"
                    + (" (kept the most confident per camera)" if one_per_camera else ""))

@@ -65,7 +65,7 @@ def _one(trial: Path, out: Path, settings, only_missing: bool, name: str) -> Non
                                     workers=settings.workers, redetect_all=not only_missing)
     files = save_completion(out, kp, report)
     frames = report.to_dict()["frames"]
-    typer.echo(f"{files.keypoints}: {len(kp.camera_names)} cameras x {kp.frame_ids.size} frames, {kp.skeleton}; "
+    typer.echo(f"{files.keypoints}: {len(kp.camera_names)} cameras x {kp.frame_ids.size} frames, {kp.skeleton.name}; "
                f"{frames['recorded']} recorded, {frames['live']} live, {frames['completed']} detected, "
                f"{frames['corrupt']} corrupt in {report.seconds:.1f} s")
     typer.echo(f"{files.report}: " + json.dumps({c: {k: v for k, v in row.items() if k in ("coverage", "corrupt")}

@@ -6,8 +6,9 @@ every frame, ``redetect_all``) to a :class:`~gaitcap.acquisition.detectors.pool.
 detector (built in each worker process by a picklable factory; it may be heavier than the live one), and
 returns the complete keypoints with a :class:`CompletionReport`: per camera the frames recorded, detected
 live, completed now, the corrupt images (named, skipped and counted; nothing else is lost) and the frames
-still without keypoints; the detector; the provenance of every frame (:data:`LIVE`, :data:`COMPLETED`,
-:data:`MISSING`). :func:`save_completion` stores both with the trial's files.
+still without keypoints; the detector; the provenance of every frame (live, completed or missing: the
+codes of :mod:`gaitcap.reconstruction.keypoints`), which the keypoints carry too. :func:`save_completion`
+stores both with the trial's files.
 
 Frames are placed on the recording's frame grid by frame id (the image's MCAP sequence); a camera whose
 frame counter restarted within the recording is placed by time, from its live keypoints' timestamps.
@@ -29,13 +30,11 @@ import numpy as np
 from gaitcap.acquisition.detectors.base import DetectorConfig
 from gaitcap.acquisition.detectors.pool import DetectorPool, DetectResult, FrameTask, default_workers
 from gaitcap.acquisition.fileio import atomic_savez, atomic_write_text
-from gaitcap.acquisition.keypoints import KeypointRecording
 from gaitcap.acquisition.recording.reader import frame_times_s, iter_frames
+from gaitcap.reconstruction.keypoints import COMPLETED, LIVE, MISSING, MultiViewKeypoints
 
 log = logging.getLogger(__name__)
 
-MISSING, LIVE, COMPLETED = 0, 1, 2
-PROVENANCE = {MISSING: "missing", LIVE: "live", COMPLETED: "completed"}
 KEYPOINTS_FILE = "keypoints_complete.npz"
 REPORT_FILE = "completion.json"
 QUEUED_PER_WORKER = 32  # frames read ahead of the workers (bounds memory: JPEGs wait in this process)
@@ -72,7 +71,8 @@ class CameraCompletion:
 @dataclass(frozen=True, eq=False)
 class CompletionReport:
     """What the completion did. ``provenance``: (C, T) uint8 per camera and frame of ``frame_ids``:
-    :data:`MISSING`, :data:`LIVE` or :data:`COMPLETED`; ``seconds``: wall time of the completion (s)."""
+    ``MISSING``, ``LIVE`` or ``COMPLETED`` (:mod:`gaitcap.reconstruction.keypoints`); ``seconds``: wall time
+    of the completion (s)."""
 
     detector: str
     redetected_all: bool
@@ -110,7 +110,7 @@ def _runs(ids: np.ndarray) -> list[list[int]]:
 class _Placer:
     """Where an image lands on the live keypoints' frame grid, and whether it has live keypoints there."""
 
-    def __init__(self, recording: KeypointRecording | None) -> None:
+    def __init__(self, recording: MultiViewKeypoints | None) -> None:
         self.rec = recording
         self.index = {} if recording is None else {c: i for i, c in enumerate(recording.camera_names)}
         self.by_time = {} if recording is None else {c: self._time_grid(c) for c in recording.restarts
@@ -167,14 +167,14 @@ def _frame_name(camera: str, frame_id: int) -> str:
 
 def complete_keypoints(
     mcap_path: str | os.PathLike,
-    recording: KeypointRecording | None,
+    recording: MultiViewKeypoints | None,
     detector_factory: Callable[[], object],
     *,
     detector_name: str,
     workers: int = 1,
     redetect_all: bool = False,
     max_batch: int = 4,
-) -> tuple[KeypointRecording, CompletionReport]:
+) -> tuple[MultiViewKeypoints, CompletionReport]:
     """Detect the recorded frames of ``mcap_path`` that have no keypoints in ``recording`` (its live
     keypoints, :func:`~gaitcap.acquisition.recording.reader.read_keypoints`; None when it has none), or
     all of them (``redetect_all``), with ``detector_factory()`` in ``workers`` processes (0: in this process).
@@ -188,8 +188,8 @@ def complete_keypoints(
             if workers > 0 else DetectorPool.in_process(detector_factory(), got, max_batch=max_batch,
                                                         max_pending=2**31))
     try:
-        if recording is not None and not redetect_all and recording.skeleton != pool.skeleton:
-            raise ValueError(f"{mcap_path}: the live keypoints are {recording.skeleton}, the completion detector "
+        if recording is not None and not redetect_all and recording.skeleton.name != pool.skeleton:
+            raise ValueError(f"{mcap_path}: the live keypoints are {recording.skeleton.name}, the completion detector "
                              f"{detector_name} gives {pool.skeleton}: re-detect every frame instead")
         _feed(mcap_path, placer, pool, got, max(1, workers))
         _drain(pool)
@@ -227,8 +227,8 @@ def _drain(pool: DetectorPool) -> None:
         time.sleep(0.01)
 
 
-def _assemble(recording: KeypointRecording | None, got: _Collected, skeleton: str, *, detector_name: str,
-              redetect_all: bool, workers: int) -> tuple[KeypointRecording, CompletionReport]:
+def _assemble(recording: MultiViewKeypoints | None, got: _Collected, skeleton: str, *, detector_name: str,
+              redetect_all: bool, workers: int) -> tuple[MultiViewKeypoints, CompletionReport]:
     """The keypoints on one grid holding every live frame and recorded image, and the report."""
     live_names = list(recording.camera_names) if recording is not None else []
     names = live_names + sorted(set(got.images) - set(live_names))
@@ -240,7 +240,7 @@ def _assemble(recording: KeypointRecording | None, got: _Collected, skeleton: st
     first, last = min(slots), max(slots)
     frame_ids = np.arange(first, last + 1)
     joints = _joints(recording, got)
-    most = max([len(p) for p in got.found.values()] + ([recording.people.shape[2]] if recording is not None else []))
+    most = max([len(p) for p in got.found.values()] + ([recording.shape[2]] if recording is not None else []))
     people = np.full((len(names), frame_ids.size, most, joints, 3), np.nan)
     people[..., 2] = 0.0
     stamps = np.full((len(names), frame_ids.size), -1, dtype=np.int64)
@@ -249,26 +249,26 @@ def _assemble(recording: KeypointRecording | None, got: _Collected, skeleton: st
         t0 = int(recording.frame_ids[0]) - first
         span = slice(t0, t0 + recording.frame_ids.size)
         c = len(live_names)
-        if recording.people.shape[2]:  # no live person at all: (C, T, 0, 0, 3)
-            people[:c, span, : recording.people.shape[2]] = recording.people
+        people[:c, span, : recording.shape[2]] = recording.keypoints
         stamps[:c, span] = recording.timestamps_ns
-        prov[:c, span] = np.where(recording.timestamps_ns >= 0, LIVE, MISSING)
+        prov[:c, span] = recording.provenance
     for (cam, slot), found in got.found.items():
         c, t = names.index(cam), slot - first
         people[c, t, : len(found)] = found
         stamps[c, t] = got.images[cam][slot]
         prov[c, t] = COMPLETED
-    out = KeypointRecording(tuple(names), frame_ids, frame_times_s(stamps), skeleton, people, stamps,
-                            dict(recording.restarts) if recording is not None else {},
-                            dict(recording.ignored) if recording is not None else {})
+    out = MultiViewKeypoints(people, tuple(names), frame_times_s(stamps), skeleton, frame_ids=frame_ids,
+                             timestamps_ns=stamps, provenance=prov,
+                             restarts=dict(recording.restarts) if recording is not None else {},
+                             ignored=dict(recording.ignored) if recording is not None else {})
     cams = tuple(_camera_row(cam, names.index(cam), got, prov, first) for cam in names)
     return out, CompletionReport(detector_name, redetect_all, workers, 0.0, cams, tuple(names), frame_ids, prov)
 
 
-def _joints(recording: KeypointRecording | None, got: _Collected) -> int:
+def _joints(recording: MultiViewKeypoints | None, got: _Collected) -> int:
     found = next((p.shape[1] for p in got.found.values() if p.ndim == 3 and p.shape[1]), None)
     if found is None and recording is not None:
-        return recording.people.shape[3]
+        return recording.shape[3]
     if found is None:
         raise ValueError("no keypoints: nothing was detected live and no recorded image could be detected")
     return found
@@ -308,16 +308,16 @@ class CompletionSettings:
         return " ".join([self.detector.kind, *changed])
 
 
-def complete_with(mcap_path: str | os.PathLike, recording: KeypointRecording | None,
-                  settings: CompletionSettings) -> tuple[KeypointRecording, CompletionReport]:
+def complete_with(mcap_path: str | os.PathLike, recording: MultiViewKeypoints | None,
+                  settings: CompletionSettings) -> tuple[MultiViewKeypoints, CompletionReport]:
     """:func:`complete_keypoints` with ``settings`` (the one processing path's completion step)."""
     workers = default_workers() if settings.workers is None else settings.workers
     return complete_keypoints(mcap_path, recording, settings.detector.build, detector_name=settings.detector_name,
                               workers=workers, max_batch=settings.max_batch, redetect_all=settings.redetect_all)
 
 
-def complete_trial(mcap_path: str | os.PathLike, recording: KeypointRecording | None, folder: str | os.PathLike,
-                   settings: CompletionSettings) -> tuple[KeypointRecording, CompletionReport, CompletionFiles]:
+def complete_trial(mcap_path: str | os.PathLike, recording: MultiViewKeypoints | None, folder: str | os.PathLike,
+                   settings: CompletionSettings) -> tuple[MultiViewKeypoints, CompletionReport, CompletionFiles]:
     """:func:`complete_with`, then :func:`save_completion` into the trial's ``folder``."""
     keypoints, report = complete_with(mcap_path, recording, settings)
     return keypoints, report, save_completion(folder, keypoints, report)
@@ -334,7 +334,8 @@ class CompletionFiles:
         return {"keypoints": str(self.keypoints), "report": str(self.report)}
 
 
-def save_completion(folder: str | os.PathLike, keypoints: KeypointRecording, report: CompletionReport) -> CompletionFiles:
+def save_completion(folder: str | os.PathLike, keypoints: MultiViewKeypoints, report: CompletionReport
+                    ) -> CompletionFiles:
     """Store the complete keypoints with their provenance and the report in the trial's ``folder``, each file
     written whole or not at all.
 
@@ -344,9 +345,10 @@ def save_completion(folder: str | os.PathLike, keypoints: KeypointRecording, rep
     2 completed) and ``detector``; ``completion.json`` is :meth:`CompletionReport.to_dict`."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    npz = atomic_savez(folder / KEYPOINTS_FILE, keypoints=keypoints.people, camera_names=np.array(keypoints.camera_names),
-                       times_s=keypoints.times_s, skeleton=np.array(keypoints.skeleton), frame_ids=keypoints.frame_ids,
-                       timestamps_ns=keypoints.timestamps_ns, provenance=report.provenance,
+    npz = atomic_savez(folder / KEYPOINTS_FILE, keypoints=keypoints.keypoints,
+                       camera_names=np.array(keypoints.camera_names), times_s=keypoints.times_s,
+                       skeleton=np.array(keypoints.skeleton.name), frame_ids=keypoints.frame_ids,
+                       timestamps_ns=keypoints.timestamps_ns, provenance=keypoints.provenance,
                        detector=np.array(report.detector))
     js = atomic_write_text(folder / REPORT_FILE, json.dumps(report.to_dict(), indent=1))
     return CompletionFiles(npz, js)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.keypoint_files import read_keypoints_input
-from gaitcap.acquisition.keypoint_input import KeypointInput, make_input
+from gaitcap.acquisition.keypoint_input import KeypointInput
 from gaitcap.acquisition.recording.reader import NoKeypointsRecorded
 from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
@@ -150,8 +150,7 @@ def detect_input(path: Path, detector, *, fps: float | None, on_frame: Callable[
     from gaitcap.acquisition.video_detect import detect_videos, find_videos
 
     found = detect_videos(find_videos(path), detector, fps=fps, on_frame=on_frame)
-    return make_input(found.people, found.camera_names, found.times_s, layout=found.skeleton, rig=None,
-                      source=f"videos ({found.fps:g} fps, {found.skeleton})")
+    return KeypointInput(found, found.skeleton.name, None, f"videos ({found.fps_hz:g} fps, {found.skeleton.name})")
 
 
 def load_input(path: Path, *, calibration: Path | None, options: OfflineOptions, detector_factory=None,

@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.fileio import atomic_savez, atomic_write_bytes
-from gaitcap.reconstruction.association import ManualTrack, MultiPersonDetections, PatientSelection, Tracks
+from gaitcap.reconstruction.association import ManualTrack, PatientSelection, Tracks
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.services.processing.artifacts import TrialFiles
 
 log = logging.getLogger(__name__)
@@ -55,13 +56,8 @@ def most_people_in_view(people: np.ndarray, *, threshold: float = IN_VIEW_CONFID
     return int(seen.any(-1).sum(-1).max())
 
 
-def multi_of(recording) -> MultiPersonDetections:
-    """A :class:`~gaitcap.acquisition.keypoints.KeypointRecording` as association input."""
-    return MultiPersonDetections(keypoints=recording.people, camera_names=recording.camera_names,
-                                 times_s=recording.times_s, skeleton=recording.skeleton)
-
-
-def select_patient(recording, rig: Rig, choice: PatientChoice | None, selector=None) -> PatientSelection:
+def select_patient(recording: MultiViewKeypoints, rig: Rig, choice: PatientChoice | None, selector=None
+                   ) -> PatientSelection:
     """Associate everyone in ``recording`` and choose the patient: ``selector`` (a track selector, e.g.
     ``--person`` / ``--patient-near``) wins, then ``choice`` (the clinician's), else automatic.
 
@@ -69,11 +65,10 @@ def select_patient(recording, rig: Rig, choice: PatientChoice | None, selector=N
     """
     from gaitcap.reconstruction.association import associate_and_select
 
-    multi = multi_of(recording)
     if selector is None and choice is not None:
         selector = ManualTrack(choice.track_id)
     try:
-        return associate_and_select(multi, rig.subset(multi.camera_names), selector)
+        return associate_and_select(recording, rig.subset(recording.camera_names), selector)
     except ValueError as exc:
         if choice is None:
             raise
@@ -81,11 +76,11 @@ def select_patient(recording, rig: Rig, choice: PatientChoice | None, selector=N
                          f"{choice.track_id}): {exc}") from None
 
 
-def patient_detections_of(recording, rig: Rig, files: TrialFiles, *, selector=None
+def patient_detections_of(recording: MultiViewKeypoints, rig: Rig, files: TrialFiles, *, selector=None
                           ) -> tuple[Detections, PatientSelection | None]:
     """The patient's detections: the only person of a single-person recording (nothing else is done), or
     the chosen track of several people in view (then ``people.json`` and ``tracks.npz`` are written)."""
-    if most_people_in_view(recording.people) <= 1:
+    if most_people_in_view(recording.keypoints) <= 1:
         return recording.patient(), None
     choice = read_choice(files)
     selection = select_patient(recording, rig, choice, selector)
@@ -93,23 +88,24 @@ def patient_detections_of(recording, rig: Rig, files: TrialFiles, *, selector=No
     busiest = busiest_frame(selection.tracks)
     how = "requested" if selector is not None else "clinician" if choice is not None else "automatic"
     write_people(files, selection, chosen_by=how, first_frame_id=int(recording.frame_ids[0]), image_sizes_px=sizes,
-                 busiest=busiest, boxes=boxes_in_frame(multi_of(recording), selection.tracks, busiest))
+                 busiest=busiest, boxes=boxes_in_frame(recording, selection.tracks, busiest))
     log.info("%s: %d people tracked; patient is track %d (%s)", files.root.name, selection.tracks.num_tracks,
              selection.track_id, how)
     return selection.detections, selection
 
 
-def patient_selection(recording, rig: Rig, choice: PatientChoice | None = None, *, selector=None
+def patient_selection(recording: MultiViewKeypoints, rig: Rig, choice: PatientChoice | None = None, *,
+                      selector=None
                       ) -> tuple[Detections, PatientSelection | None]:
     """The patient's detections as :func:`patient_detections_of` finds them, and the selection (None with
     one person in view); writes nothing."""
-    if most_people_in_view(recording.people) <= 1:
+    if most_people_in_view(recording.keypoints) <= 1:
         return recording.patient(), None
     selection = select_patient(recording, rig, choice, selector)
     return selection.detections, selection
 
 
-def patient_of(recording, rig: Rig, choice: PatientChoice | None = None) -> Detections:
+def patient_of(recording: MultiViewKeypoints, rig: Rig, choice: PatientChoice | None = None) -> Detections:
     """The patient's detections as :func:`patient_detections_of` finds them, writing nothing."""
     return patient_selection(recording, rig, choice)[0]
 
@@ -120,7 +116,7 @@ def busiest_frame(tracks: Tracks) -> int:
     return int(np.argmax(tracks.seen().sum(0) * 1000 + tracks.views.sum(0)))
 
 
-def boxes_in_frame(multi: MultiPersonDetections, tracks: Tracks, frame: int) -> dict[str, list[dict]]:
+def boxes_in_frame(multi: MultiViewKeypoints, tracks: Tracks, frame: int) -> dict[str, list[dict]]:
     """Per camera, each tracked person's keypoint box in ``frame``: ``[{"track_id", "box_px": [x0, y0,
     x1, y1]}]`` (for marking the people on that frame's images)."""
     ok = multi.confident(IN_VIEW_CONFIDENCE)[:, frame]  # (C, P, J)
@@ -202,7 +198,7 @@ def track_at_click(files: TrialFiles, *, camera: str, frame: int, x_px: float, y
     tracks = load_tracks(files.tracks_npz)
     if camera not in tracks.camera_names:
         raise KeyError(f"camera {camera!r} is not in this trial (cameras: {list(tracks.camera_names)})")
-    multi = multi_of(read_keypoints(files.recording, list(tracks.camera_names)))
+    multi = read_keypoints(files.recording, list(tracks.camera_names))
     return select_track_at_pixel(multi, tracks, camera=camera, frame=frame, x_px=x_px, y_px=y_px)
 
 

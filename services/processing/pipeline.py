@@ -152,7 +152,7 @@ def resolve_layout(recording, rig: Rig, *, named: str | None):
     from gaitcap.services.processing.people import patient_of
 
     scores, problems = [], []
-    for skel in candidate_layouts(recording.people.shape[-2]):
+    for skel in candidate_layouts(recording.shape[-1]):
         rec = replace(recording, skeleton=skel.name)
         try:
             det, sub = patient_of(rec, rig).aligned_to(rig)
@@ -161,7 +161,7 @@ def resolve_layout(recording, rig: Rig, *, named: str | None):
             log.info("layout %s: not scored (%s)", skel.name, exc)
             problems.append(f"{skel.name}: {exc}")
     if not scores:
-        raise ValueError(f"keypoint layout: no layout with {recording.people.shape[-2]} keypoints could be scored "
+        raise ValueError(f"keypoint layout: no layout with {recording.shape[-1]} keypoints could be scored "
                          f"({'; '.join(problems)}); check that the calibration matches the images")
     choice = choose_layout(scores, explicit=named)
     log.info("%s", choice.evidence())

@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
+from gaitcap.reconstruction.ignored_keypoints import IgnoredKeypoints
 
 CONFIDENT = 0.3  # a keypoint above this confidence counts as detected
 TAIL_S = 1.0  # the trial's last second is not judged per camera (keypoints still on their way at Stop)
@@ -219,7 +219,7 @@ def recording_quality(*, camera_names, timestamps_ns: np.ndarray, patient_confid
     missing for recorded frames are the detector's; ``recovered``: the recording was recovered after a
     recorder crash; ``recorder_dropped``: {camera: images the recorder dropped, its queue full};
     ``ignored``: {camera: its keypoint messages the reader ignored} (the reader's
-    :class:`~gaitcap.acquisition.recording.ignored.IgnoredKeypoints`: frame ids far outside the recording,
+    :class:`~gaitcap.reconstruction.ignored_keypoints.IgnoredKeypoints`: frame ids far outside the recording,
     timestamps far from their frame's, messages that could not be read; a camera with only such messages
     is not in ``camera_names`` and is named for that, not as absent)."""
     stamps = np.asarray(timestamps_ns, dtype=np.int64)

@@ -11,8 +11,8 @@ import os
 from dataclasses import dataclass, field
 
 import numpy as np
-from gaitcap.acquisition.keypoints import KeypointRecording
 from gaitcap.acquisition.recording.reader import read_image_times
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.services.processing.quality import images_on_grid, recorded_frame_ids
 
 
@@ -27,7 +27,7 @@ class RecordedImages:
     dropped: dict[str, int] = field(default_factory=dict)
 
 
-def recorded_images(path: str | os.PathLike, summary: dict, recording: KeypointRecording) -> RecordedImages:
+def recorded_images(path: str | os.PathLike, summary: dict, recording: MultiViewKeypoints) -> RecordedImages:
     """The images of ``path`` per camera (``summary``: its :func:`read_summary`; ``recording``: its keypoints)."""
     cameras = summary.get("cameras") or {}
     by_time = None if not cameras else sorted(set(recording.restarts) | {c for c, t in cameras.items() if t.get("restarts")})

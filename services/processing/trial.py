@@ -436,7 +436,7 @@ def _layout(data: TrialInput, options: TrialOptions):
 def _people_in_view(recording) -> int:
     from gaitcap.services.processing.people import most_people_in_view
 
-    return most_people_in_view(recording.people)
+    return most_people_in_view(recording.keypoints)
 
 
 def _wants_viewers(options: TrialOptions, index: int) -> bool:
@@ -576,7 +576,7 @@ def recording_input(mcap: Path, *, fallback_calibration: Path | None = None,
                     completion.detector_name)
         recording, first = complete_with(mcap, None, completion)
     rig = recorded_rig(mcap, fallback_calibration=fallback_calibration)
-    keypoints = KeypointInput(recording, recording.skeleton, rig, "trial MCAP")
+    keypoints = KeypointInput(recording, recording.skeleton.name, rig, "trial MCAP")
     return TrialInput(keypoints, rig, replace(recorded_facts(mcap, recording), completed_first=first))
 
 

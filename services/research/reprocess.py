@@ -261,7 +261,7 @@ def compute_result(task: ReprocessTask) -> MethodResult:
                            viewer_files=ViewerFiles.NONE, choice=read_choice(TrialFiles(task.trial.folder)),
                            checks=(),  # the trial's checks are the clinic's, once per trial: not per method
 
-                           truth_mm=_truth_points(task.trial.folder, recording.people.shape[1], recording.skeleton))
+                           truth_mm=_truth_points(task.trial.folder, recording.shape[1], recording.skeleton.name))
     result = process_trial(data, options, files=None)
     stage = result.last
     rec, traj = stage.reconstruction, stage.trajectory  # the worker's trajectory: its sampler and gait analysis
@@ -271,7 +271,7 @@ def compute_result(task: ReprocessTask) -> MethodResult:
     metrics = {k: v for k, v in rec.metrics.items()}
     metrics.update({f"fit.{k}": float(v) for k, v in rec.losses.items() if np.isscalar(v) and k != "seconds"})
     result = MethodResult(task.trial.trial_id, task.spec.method, task.spec.key, task.spec.to_dict(), "ok",
-                          skeleton=result.layout.skeleton if result.layout else recording.skeleton,
+                          skeleton=result.layout.skeleton if result.layout else recording.skeleton.name,
                           metrics=json_ready(metrics), gait=gait, residuals=residuals)
     if task.write_files:
         result = MethodResult(**{**result.__dict__, "artifacts": _write_files(task, result, traj)})

@@ -13,17 +13,16 @@ from gaitcap.acquisition.readers import (
     read_walkway_csv,
 )
 from gaitcap.acquisition.writers import save_detections_npz, save_multi_npz, save_rig
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.camera import Camera, Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 
-def _multi() -> MultiPersonDetections:
+def _multi() -> MultiViewKeypoints:
     """2 cameras, 5 frames, 3 people, halpe26; one empty slot (NaN)."""
     rng = np.random.default_rng(3)
     kp = np.concatenate([rng.uniform(0, 1000, (2, 5, 3, 26, 2)), rng.uniform(0.2, 1, (2, 5, 3, 26, 1))], -1)
     kp[1, 2, 2] = np.nan
-    return MultiPersonDetections(kp, ("cam_a", "cam_b"), np.arange(5) / 30, "halpe26")
+    return MultiViewKeypoints(kp, ("cam_a", "cam_b"), np.arange(5) / 30, "halpe26")
 
 
 def test_multi_and_single_round_trip(tmp_path):
@@ -34,7 +33,7 @@ def test_multi_and_single_round_trip(tmp_path):
     np.testing.assert_array_equal(back.keypoints, multi.keypoints)
     np.testing.assert_array_equal(back.times_s, multi.times_s)
     assert back.camera_names == multi.camera_names and back.skeleton.name == "halpe26"
-    det = Detections(multi.keypoints[:, :, 0], multi.camera_names, multi.times_s, "halpe26")
+    det = multi.patient()
     save_detections_npz(det, tmp_path / "one.npz", track_id=3)
     one = load_detections_npz(tmp_path / "one.npz")
     np.testing.assert_array_equal(one.keypoints, det.keypoints)

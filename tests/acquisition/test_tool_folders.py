@@ -70,7 +70,7 @@ def test_anipose_folder_dlc_csv_mm_calibration(tmp_path):
     data = read_keypoints_input(tmp_path)
     assert data.source == "anipose folder" and data.layout == "halpe26"
     assert data.recording.camera_names == ("A", "B", "C")  # by the name at the end of each file's name
-    np.testing.assert_allclose(data.recording.people[:, :, 0], kp[[1, 2, 0]], atol=1e-9)
+    np.testing.assert_allclose(data.recording.keypoints[:, :, 0], kp[[1, 2, 0]], atol=1e-9)
     for cam in rig.cameras:  # the mm translations were recognised as mm
         np.testing.assert_allclose(data.rig.cameras[data.rig.names.index(cam.name)].tvec_mm, cam.tvec_mm, atol=1e-6)
 
@@ -84,8 +84,8 @@ def test_freemocap_recording_folder(tmp_path):
     xy[1, 2, 5] = np.nan  # not seen
     np.save(raw / "mediapipe_2dData_numCams_numFrames_numTrackedPoints_pixelXY.npy", xy)
     data = read_keypoints_input(tmp_path)
-    assert data.layout == "mediapipe33" and data.recording.people.shape == (2, 6, 1, 33, 3)
-    people = data.recording.people[:, :, 0]
+    assert data.layout == "mediapipe33" and data.recording.keypoints.shape == (2, 6, 1, 33, 3)
+    people = data.recording.keypoints[:, :, 0]
     np.testing.assert_allclose(people[..., :2], xy[:, :, :33])
     assert people[1, 2, 5, 2] == 0 and people[0, 0, 0, 2] == 1
     np.testing.assert_allclose(data.rig.cameras[1].tvec_mm, rig.cameras[1].tvec_mm, atol=1e-6)
@@ -109,14 +109,14 @@ def test_mmpose_json_both_layouts(tmp_path):
     data = read_keypoints_input(demo, rig=_rig(["cam0", "cam1"]), fps=25)
     assert data.layout == "coco17" and "coco" in data.source
     assert data.recording.camera_names == ("cam0", "cam1")  # results_cam0.json holds camera 1 of the array
-    np.testing.assert_allclose(data.recording.people, people[[1, 0]], atol=1e-9)  # most confident first again
+    np.testing.assert_allclose(data.recording.keypoints, people[[1, 0]], atol=1e-9)  # most confident first again
     assert data.recording.times_s[1] == pytest.approx(1 / 25)
     frames = [[{"keypoints": p[:, :2].tolist(), "keypoint_scores": p[:, 2].tolist()} for p in people[0, t]]
               for t in range(4)]
     (tmp_path / "inferencer.json").write_text(json.dumps(frames))
     single = read_keypoints_input(tmp_path / "inferencer.json")
-    assert single.layout is None and single.recording.skeleton == "coco17"  # no dataset name: recognised later
-    np.testing.assert_allclose(single.recording.people[0], people[0], atol=1e-9)
+    assert single.layout is None and single.recording.skeleton.name == "coco17"  # no dataset name: recognised later
+    np.testing.assert_allclose(single.recording.keypoints[0], people[0], atol=1e-9)
     (tmp_path / "bad.json").write_text(json.dumps([[{"keypoints": [[1, 2]], "keypoint_scores": [0.5, 0.4]}]]))
     with pytest.raises(ValueError, match="1 keypoints but 2 keypoint_scores"):
         read_keypoints_input(tmp_path / "bad.json")
@@ -139,7 +139,7 @@ def test_pose2sim_folder_config_inherited_and_unknown_model(tmp_path):
     data = read_keypoints_input(trial)
     assert data.layout == "halpe26" and data.recording.times_s[1] == pytest.approx(1 / 50)
     assert data.recording.camera_names == ("cam01", "cam02") and list(data.rig.names) == ["cam01", "cam02"]
-    assert (data.recording.people[1, ..., 2] == 0).all()  # cam02 saw nobody
+    assert (data.recording.keypoints[1, ..., 2] == 0).all()  # cam02 saw nobody
     (session / "Config.toml").write_text('[pose]\npose_model = "ANIMAL2D_17"\n')
     with pytest.raises(ValueError, match="pose_model 'ANIMAL2D_17' is not supported"):
         read_keypoints_input(trial)
@@ -160,7 +160,7 @@ def test_anipose_folder_with_the_deeplabcut_h5_files_anipose_writes(tmp_path):
                                                                key="df_with_missing", format="table", mode="w")
     data = read_keypoints_input(tmp_path)
     assert data.source == "anipose folder" and data.layout == "halpe26"
-    np.testing.assert_allclose(data.recording.people[:, :, 0], kp, atol=1e-9)
+    np.testing.assert_allclose(data.recording.keypoints[:, :, 0], kp, atol=1e-9)
     (tmp_path / "pose-2d" / "walk-camB.h5").write_bytes(b"not hdf5")
     with pytest.raises(ValueError, match="walk-camB.h5: not a readable DeepLabCut .h5"):
         read_keypoints_input(tmp_path)

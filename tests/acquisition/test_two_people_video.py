@@ -10,8 +10,7 @@ from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig, default_mod
 from gaitcap.acquisition.installed import share_path
 from gaitcap.acquisition.tool_folders import read_qca
 from gaitcap.acquisition.video_detect import detect_videos, find_videos
-from gaitcap.reconstruction.association import associate_keypoints
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.association import associate_and_select
 from gaitcap.reconstruction.methods import METHODS, reconstruct
 from gaitcap.reconstruction.people_check import check_one_person
 from gaitcap.reconstruction.skeletons import get_skeleton
@@ -28,8 +27,7 @@ def demo():
     """Everyone detected with the default options, the rig, and the association's patient."""
     found = detect_videos(find_videos(DEMO / "videos"), MediaPipeConfig().build())
     rig = read_qca(DEMO / "calibration" / "Calib.qca.txt")
-    selection = associate_keypoints(found.people, rig=rig, camera_names=found.camera_names,
-                                    times_s=found.times_s, skeleton=SKELETON.name)
+    selection = associate_and_select(found, rig)
     return found, rig, selection
 
 
@@ -40,7 +38,7 @@ def _hips(points_mm):
 
 def test_everyone_is_detected_and_tracked_by_default(demo):
     found, _, selection = demo
-    seen = (np.nan_to_num(found.people[..., 2]) > 0.5).sum(-1) >= 4  # (C, T, P) people with 4 joints
+    seen = (np.nan_to_num(found.keypoints[..., 2]) > 0.5).sum(-1) >= 4  # (C, T, P) people with 4 joints
     per_image = seen.sum(-1)
     assert (per_image == 2).mean() > 0.5  # both people, in most images (measured 0.87)
     assert (per_image > 2).mean() < 0.02  # a third pose between the two: rare (measured 3 of 400 images)
@@ -81,7 +79,7 @@ def test_the_walker_is_seen_by_two_cameras_in_every_frame(demo):
 
 def test_each_camera_s_most_confident_person_is_a_mix_and_said_so(demo):
     found, rig, _ = demo
-    first = Detections(found.people[:, :, 0], found.camera_names, found.times_s, SKELETON)
+    first = found.patient()
     rec = reconstruct(first, rig, method=METHODS["robust"]())
     check = check_one_person(first, rig, rec.points_mm)
     assert check.mixed and "cam04" in check.message, check.message  # the other person close to cam04

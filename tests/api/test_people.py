@@ -44,7 +44,7 @@ def _closest(client, tid, pair) -> int:
 
 def _click_on(pair, person: int) -> dict:
     """A click on a confident keypoint of ``person`` in some camera image."""
-    ident, kp = pair.multi.identity, pair.multi.keypoints
+    ident, kp = pair.multi.identity, pair.multi.observed.keypoints
     c, t, slot = (int(v[0]) for v in np.nonzero(ident[:, 60:] == person))
     t += 60
     j = int(np.argmax(kp[c, t, slot, :, 2]))
@@ -130,7 +130,7 @@ def _still_click(pair, people: dict, person: int) -> tuple[str, float, float]:
     for c, cam in enumerate(pair.rig.names):
         slots = np.flatnonzero(pair.multi.identity[c, t] == person)
         if slots.size:
-            kp = pair.multi.keypoints[c, t, slots[0]]
+            kp = pair.multi.observed.keypoints[c, t, slots[0]]
             j = int(np.argmax(kp[:, 2]))
             w, h = people["image_sizes_px"][cam]
             return cam, kp[j, 0] / w, kp[j, 1] / h

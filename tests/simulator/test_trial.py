@@ -141,7 +141,7 @@ def test_confidence_correlates_with_error(paper_trial):
 def test_multi_person_identity_is_consistent(multi_trial):
     tr = multi_trial
     m = tr.multi
-    c, t, p, j, _ = m.keypoints.shape
+    c, t, p, j = m.observed.shape
     assert (c, p, j) == (6, 3, 26) and m.points_mm.shape == (3, t, 26, 3)
     assert np.array_equal(m.points_mm[0], tr.points_mm)
     ident = m.identity
@@ -150,7 +150,8 @@ def test_multi_person_identity_is_consistent(multi_trial):
     for who in range(3):
         assert np.all((ident == who).sum(-1) <= 1)
     empty = ident < 0
-    assert np.all(np.isnan(m.keypoints[empty][..., 0])) and np.all(m.keypoints[empty][..., 2] == 0)
+    kp = m.observed.keypoints
+    assert np.all(np.isnan(kp[empty][..., 0])) and np.all(kp[empty][..., 2] == 0)
     # the patient's slots are exactly trial.detections
     assert np.array_equal(m.person(0), tr.detections.keypoints, equal_nan=True)
     # slots are shuffled: the patient is not always in slot 0
@@ -162,7 +163,7 @@ def test_multi_person_identity_is_consistent(multi_trial):
         err = np.linalg.norm(kp[..., :2] - proj, axis=-1)
         good = np.isfinite(err) & (kp[..., 2] > 0.5)
         assert np.median(err[good]) < 10
-    assert np.asarray(m).shape == m.keypoints.shape
+    assert m.observed.camera_names == tuple(tr.rig.names) and tr.everyone() is m.observed
 
 
 def test_occluded_joints_can_be_detected_on_another_person():

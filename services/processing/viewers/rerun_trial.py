@@ -109,8 +109,8 @@ def _log_keypoints_2d(rec, view: TrialView) -> None:
     kp = view.keypoints
     index = [rr.TimeColumn("time", duration=np.asarray(kp.times_s, dtype=np.float64))]
     for c, camera in enumerate(kp.camera_names):
-        for p in range(kp.people.shape[2]):
-            person = kp.people[c, :, p]  # (T, J, 3)
+        for p in range(kp.shape[2]):
+            person = kp.keypoints[c, :, p]  # (T, J, 3)
             shown = np.isfinite(person).all(axis=2) & (person[..., 2] > 0)
             if not shown.any():
                 continue

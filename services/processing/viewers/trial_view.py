@@ -31,7 +31,7 @@ class TrialView:
         the joint; 0 where none did), or None.
     report: the ``GaitReport``, or None when no gait parameters could be computed.
     recording: the trial MCAP (images and 2D keypoints), or None.
-    keypoints: the recording's ``KeypointRecording`` (everyone's 2D keypoints), or None.
+    keypoints: the recording's ``MultiViewKeypoints`` (everyone's 2D keypoints), or None.
     """
 
     trial_id: str
@@ -79,7 +79,7 @@ class TrialView:
 
 
 def start_ns_of(keypoints) -> int:
-    """Camera timestamp (ns) of ``times_s == 0`` of a ``KeypointRecording``: the median camera
+    """Camera timestamp (ns) of ``times_s == 0`` of a ``MultiViewKeypoints``: the median camera
     timestamp of the first frame set that has one, less its time since the start."""
     stamps = np.asarray(keypoints.timestamps_ns)
     seen = np.flatnonzero((stamps >= 0).any(axis=0))

@@ -38,7 +38,7 @@ def test_single_person_matches_the_trial(trials):
 def test_several_people_and_empty_slots(trials):
     _, three = trials
     det = SimulatedConfig(trial=three).build()
-    multi = np.asarray(three.multi)
+    multi = three.multi.observed.keypoints
     counts = []
     for c, cam in enumerate(three.rig.names):
         for f in range(0, three.num_frames, 7):

@@ -33,8 +33,8 @@ def test_detections_aligned_by_frame_id_with_missing_as_nan(trial_mcap):
 
 def test_all_people_and_camera_subset(trial_mcap):
     kp = read_keypoints(trial_mcap, cameras=["cam2", "cam0"])
-    assert kp.camera_names == ("cam2", "cam0") and kp.people.shape == (2, FRAMES, 2, J, 3)
-    np.testing.assert_allclose(kp.people[0, 3, 1], people_for(2, 3)[1])
+    assert kp.camera_names == ("cam2", "cam0") and kp.keypoints.shape == (2, FRAMES, 2, J, 3)
+    np.testing.assert_allclose(kp.keypoints[0, 3, 1], people_for(2, 3)[1])
     with pytest.raises(ValueError, match="camX"):
         read_keypoints(trial_mcap, cameras=["camX"])
 
@@ -162,8 +162,8 @@ def test_a_camera_restart_within_the_trial_is_read_by_time_not_refused(tmp_path,
     np.testing.assert_allclose(np.diff(kp.times_s), PERIOD_NS / 1e9, atol=1e-5)
     for c in range(3):  # frame k of every camera is in frame set k, restarted or not
         for k in (0, 39, 50, 79):
-            np.testing.assert_allclose(kp.people[c, k, :2], people_for(c, k))
-    assert np.isnan(kp.people[0, 40:50, 0, :, 0]).all() and not np.isnan(kp.people[2, 40:50, 0, :, 0]).any()
+            np.testing.assert_allclose(kp.keypoints[c, k, :2], people_for(c, k))
+    assert np.isnan(kp.keypoints[0, 40:50, 0, :, 0]).all() and not np.isnan(kp.keypoints[2, 40:50, 0, :, 0]).any()
     assert "camera cam0: frame counter restarted 1 time within" in caplog.text and "cam2: frame" not in caplog.text
     assert kp.restarts == {"cam0": 1, "cam1": 1}
 
@@ -171,7 +171,7 @@ def test_a_camera_restart_within_the_trial_is_read_by_time_not_refused(tmp_path,
 def test_every_camera_restarted_together_is_placed_after_the_gap(tmp_path):
     kp = read_keypoints(_write_restart(tmp_path / "all.mcap", restarted=CAMS, first_id=0))
     assert kp.frame_ids.size == 80 and np.all(np.diff(kp.times_s) > 0)
-    np.testing.assert_allclose(kp.people[1, 60, :2], people_for(1, 60))
+    np.testing.assert_allclose(kp.keypoints[1, 60, :2], people_for(1, 60))
     assert kp.restarts == {"cam0": 1, "cam1": 1, "cam2": 1}
 
 
@@ -265,7 +265,7 @@ def test_malformed_keypoint_messages_are_ignored_and_counted_with_why(tmp_path, 
     have = kp.timestamps_ns >= 0
     assert have[0].tolist() == [k != 5 for k in range(FRAMES)]
     assert have[1].tolist() == [k not in (3, 7, 9) for k in range(FRAMES)]
-    np.testing.assert_allclose(kp.people[1, 8, :2], people_for(1, 8))
+    np.testing.assert_allclose(kp.keypoints[1, 8, :2], people_for(1, 8))
     with pytest.raises(ValueError, match=r"cameras \['cam2'\].*missing 'timestamp_ns'"):
         read_keypoints(tmp_path / "bad.mcap", cameras=["cam0", "cam2"])
 
@@ -273,8 +273,8 @@ def test_malformed_keypoint_messages_are_ignored_and_counted_with_why(tmp_path, 
 def test_keypoint_messages_no_frame_grid_can_hold_are_ignored_counted_and_logged(tmp_path, caplog):
     """A frame id beyond +-2**53 or a timestamp outside 0..2**63 ns: left out before placing, counted as
     strays of the camera (mistimed when the frame id is the recording's), and said in the log."""
-    from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
     from gaitcap.acquisition.recording.writer import TrialWriter
+    from gaitcap.reconstruction.ignored_keypoints import IgnoredKeypoints
 
     w = TrialWriter(tmp_path / "far.mcap")
     w.start(metadata={"trial_id": "far"}, calibration_toml=rig_to_toml_text(tiny_rig()), time_ns=T0_NS)
@@ -317,8 +317,8 @@ def test_a_joint_not_seen_recorded_as_nan_is_kept_and_a_confidence_outside_0_to_
                                              "people": people.tolist()}).encode(), timestamp_ns=ts, frame_id=k)
     kp = read_keypoints(w.finish({}))
     assert kp.camera_names == ("cam0", "cam1") and (kp.timestamps_ns[0] >= 0).all()
-    assert np.isnan(kp.people[0, 4, 0, 7, :2]).all() and kp.people[0, 4, 0, 7, 2] == 0
-    np.testing.assert_allclose(kp.people[0, 4, 0, 8], people_for(0, 4)[0, 8])
+    assert np.isnan(kp.keypoints[0, 4, 0, 7, :2]).all() and kp.keypoints[0, 4, 0, 7, 2] == 0
+    np.testing.assert_allclose(kp.keypoints[0, 4, 0, 8], people_for(0, 4)[0, 8])
     assert (kp.timestamps_ns[1] >= 0).tolist() == [k not in (6, 8) for k in range(FRAMES)]
     assert {c: i.unreadable for c, i in kp.ignored.items()} == {"cam1": {
         "'people' confidence not a number in 0..1": 1,

@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.camera import Camera, Rig
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.skeletons import get_skeleton
 
 # Stick-figure offsets (mm) of the Halpe-26 joints from the pelvis: x forward, y left, z up.
@@ -64,7 +64,7 @@ def person_points(root_xy_mm: np.ndarray, heading: np.ndarray, phase: np.ndarray
 @dataclass
 class Scene:
     rig: Rig
-    multi: MultiPersonDetections
+    multi: MultiViewKeypoints
     identity: np.ndarray  # (C, T, P) ground-truth person id, -1 empty
     points_mm: np.ndarray  # (people, T, J, 3)
 
@@ -107,7 +107,7 @@ def make_scene(*, frames=60, people=3, num_cameras=8, noise_px=1.5, seed=0, fps=
     order = np.argsort(rng.random((c_, t_, n_)), axis=-1)
     kp = np.take_along_axis(kp, order[..., None, None], 2)
     ident = np.take_along_axis(ident, order, 2)
-    multi = MultiPersonDetections(kp, rig.names, t, "halpe26")
+    multi = MultiViewKeypoints(kp, rig.names, t, "halpe26")
     return Scene(rig=rig, multi=multi, identity=ident, points_mm=pts)
 
 
@@ -143,5 +143,5 @@ def six_scene() -> Scene:
     order = np.argsort(rng.random((c_, t_, n_)), axis=-1)
     kp = np.take_along_axis(kp, order[..., None, None], 2)
     ident = np.take_along_axis(ident, order, 2)
-    return Scene(rig=rig, multi=MultiPersonDetections(kp, rig.names, t, "halpe26"), identity=ident,
+    return Scene(rig=rig, multi=MultiViewKeypoints(kp, rig.names, t, "halpe26"), identity=ident,
                  points_mm=pts)

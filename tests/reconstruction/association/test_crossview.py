@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 from gaitcap.reconstruction.association.crossview import AssociationConfig, associate_frames
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 
 def _purity(labels, identity):
@@ -29,7 +29,7 @@ def test_people_missing_from_some_views_and_empty_frames(scene3):
     kp = scene3.multi.keypoints.copy()
     kp[:, 3] = np.nan  # nobody detected in frame 3
     kp[:5, 4] = np.nan  # only 3 of 8 cameras in frame 4
-    multi = MultiPersonDetections(kp, scene3.multi.camera_names, scene3.multi.times_s, "halpe26")
+    multi = MultiViewKeypoints(kp, scene3.multi.camera_names, scene3.multi.times_s, "halpe26")
     people = associate_frames(multi, scene3.rig, AssociationConfig())
     assert np.all(people.labels[:, 3] == -1) and np.all(people.views[3] == 0)
     ident = np.where(np.isfinite(kp[..., 0, 0]), scene3.identity, -1)
@@ -39,7 +39,7 @@ def test_people_missing_from_some_views_and_empty_frames(scene3):
 
 def test_camera_order_of_the_detections_need_not_match_the_rig(scene3):
     order = np.arange(len(scene3.rig))[::-1]
-    multi = MultiPersonDetections(scene3.multi.keypoints[order], [scene3.rig.names[i] for i in order],
+    multi = MultiViewKeypoints(scene3.multi.keypoints[order], [scene3.rig.names[i] for i in order],
                                   scene3.multi.times_s, "halpe26")
     people = associate_frames(multi, scene3.rig, AssociationConfig())
     bad, missed = _purity(people.labels, scene3.identity[order])
@@ -47,7 +47,7 @@ def test_camera_order_of_the_detections_need_not_match_the_rig(scene3):
 
 
 def test_unknown_camera_and_bad_config_are_named(scene3):
-    multi = MultiPersonDetections(scene3.multi.keypoints, ["x", *scene3.rig.names[1:]],
+    multi = MultiViewKeypoints(scene3.multi.keypoints, ["x", *scene3.rig.names[1:]],
                                   scene3.multi.times_s, "halpe26")
     with pytest.raises(ValueError, match="'x'"):
         associate_frames(multi, scene3.rig, AssociationConfig())

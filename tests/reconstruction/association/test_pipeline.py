@@ -5,7 +5,6 @@ import pytest
 from gaitcap.reconstruction.association import (
     BoxConfig,
     ManualTrack,
-    MultiPersonDetections,
     associate_and_select,
     person_boxes,
     score_association,
@@ -18,10 +17,6 @@ from gaitcap.simulator import make_trial
 SECONDS = 12.0
 
 
-def _multi(trial) -> MultiPersonDetections:
-    return MultiPersonDetections(trial.multi.keypoints, trial.rig.names, trial.times_s, trial.skeleton)
-
-
 def _mpjpe(points_mm, truth_mm) -> float:
     return float(np.nanmean(np.linalg.norm(points_mm - truth_mm, axis=-1)))
 
@@ -29,7 +24,7 @@ def _mpjpe(points_mm, truth_mm) -> float:
 @pytest.fixture(scope="module")
 def three():
     trial = make_trial(preset="paper", seconds=SECONDS, cameras=10, people=3, seed=0)
-    return trial, associate_and_select(_multi(trial), trial.rig)
+    return trial, associate_and_select(trial.multi.observed, trial.rig)
 
 
 def test_everyone_is_tracked_without_identity_switches(three):
@@ -59,13 +54,13 @@ def test_the_patient_is_chosen_and_reconstructed_as_well_as_alone_with_no_step_l
 
 def test_a_click_on_a_preview_selects_the_person_under_it(three):
     trial, chosen = three
-    multi = _multi(trial)
+    multi = trial.multi.observed
     c, frame = 4, 100
     for person in range(3):
         slots = np.flatnonzero(trial.multi.identity[c, frame] == person)
         if slots.size == 0:
             continue
-        kp = trial.multi.keypoints[c, frame, slots[0]]
+        kp = trial.multi.observed.keypoints[c, frame, slots[0]]
         j = int(np.argmax(kp[:, 2]))
         track = select_track_at_pixel(multi, chosen.tracks, camera=trial.rig.names[c], frame=frame,
                                       x_px=kp[j, 0], y_px=kp[j, 1])
@@ -87,7 +82,7 @@ def test_boxes_from_the_chosen_reconstruction_hold_the_patient(three):
 
 def test_manual_choice_of_the_therapist_gives_the_therapists_detections():
     trial = make_trial(preset="paper", seconds=6.0, cameras=10, people=2, seed=1)
-    multi = _multi(trial)
+    multi = trial.multi.observed
     auto = associate_and_select(multi, trial.rig)
     score = score_association(auto.tracks.detection_track, trial.multi.identity)
     assert auto.track_id == score.main_track[0]
@@ -103,16 +98,12 @@ def test_manual_choice_of_the_therapist_gives_the_therapists_detections():
     assert turned.sum() < 0.1 * np.isfinite(mine).any(-1).sum()  # the simulated swaps are rare
 
 
-def test_raw_arrays_entry_point_and_its_errors(scene3):
-    from gaitcap.reconstruction.association import associate_keypoints
+def test_associate_and_select_finds_the_patient(scene3):
+    from gaitcap.reconstruction.association import associate_and_select
 
-    got = associate_keypoints(scene3.multi.keypoints, rig=scene3.rig, camera_names=scene3.rig.names,
-                              times_s=scene3.multi.times_s)
+    got = associate_and_select(scene3.multi, scene3.rig)
     patient = int(np.bincount(got.tracks.detection_track[scene3.identity == 0]).argmax())
     assert got.track_id == patient and got.detections.shape == (8, 60, 26)
-    with pytest.raises(ValueError, match="camera_names"):
-        associate_keypoints(scene3.multi.keypoints, rig=scene3.rig, camera_names=["a"],
-                            times_s=scene3.multi.times_s)
 
 
 def test_close_companion_and_a_person_crossing_between_cameras(crossing_scene):

@@ -1,7 +1,7 @@
 import numpy as np
 from gaitcap.reconstruction.association.config import AssociationConfig
-from gaitcap.reconstruction.association.multi import MultiPersonDetections
 from gaitcap.reconstruction.association.rays import make_rays
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 
 def test_rays_mask_mirror_and_box_size(scene3):
@@ -9,7 +9,7 @@ def test_rays_mask_mirror_and_box_size(scene3):
     kp = scene3.multi.keypoints.copy()
     kp[0, 0, 0, :, 2] = 0.1  # not confident: no rays
     kp[1, 0, 0, 5:, 2] = 0.1  # only the face: one association joint (the nose) < min_joints
-    multi = MultiPersonDetections(kp, scene3.multi.camera_names, scene3.multi.times_s, "halpe26")
+    multi = MultiViewKeypoints(kp, scene3.multi.camera_names, scene3.multi.times_s, "halpe26")
     jidx = cfg.joint_indices(multi.skeleton)
     rays = make_rays(multi, scene3.rig, jidx, cfg)
     assert rays.dirs.shape == (8, 60, 3, len(jidx), 3) and rays.origins_mm.shape == (8, 3)

@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.readers import load_detections_npz
 from gaitcap.acquisition.writers import save_multi_npz, save_rig
-from gaitcap.reconstruction.association import MultiPersonDetections
 from gaitcap.services.cli import app
 from gaitcap.simulator import make_trial
 from typer.testing import CliRunner
@@ -14,8 +13,7 @@ from typer.testing import CliRunner
 def files(tmp_path_factory):
     root = tmp_path_factory.mktemp("associate")
     trial = make_trial(preset="paper", seconds=5.0, cameras=6, people=3, seed=3)
-    save_multi_npz(MultiPersonDetections(trial.multi.keypoints, trial.rig.names, trial.times_s, "halpe26"),
-                   root / "multi.npz")
+    save_multi_npz(trial.multi.observed, root / "multi.npz")
     save_rig(trial.rig, root / "calib.toml")
     return root, trial
 

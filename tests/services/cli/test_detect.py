@@ -9,7 +9,6 @@ from gaitcap.acquisition.detectors.base import DETECTOR_CONFIGS, DetectorConfig
 from gaitcap.acquisition.installed import share_path
 from gaitcap.acquisition.readers import load_multi_npz
 from gaitcap.acquisition.video_detect import detect_videos, find_videos
-from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
@@ -44,7 +43,7 @@ class BlobConfig(DetectorConfig):
 def _one_person(path):
     """The first (most confident) person of a detect output as one person's detections."""
     multi = load_multi_npz(path)
-    return Detections(multi.keypoints[:, :, 0], multi.camera_names, multi.times_s, multi.skeleton)
+    return multi.patient()
 
 
 def _video(path, n, fps, dx):
@@ -94,7 +93,7 @@ def test_bad_folders_and_rates(tmp_path):
     _video(tmp_path / "b.avi", 3, 15, 0)
     with pytest.raises(ValueError, match="different frame rates"):
         detect_videos(find_videos(tmp_path), BlobDetector())
-    assert detect_videos(find_videos(tmp_path), BlobDetector(), fps=30).fps == 30
+    assert detect_videos(find_videos(tmp_path), BlobDetector(), fps=30).fps_hz == pytest.approx(30, rel=1e-12)
 
 
 def _demo_clips(folder, first=100, count=12, size=(640, 360)):

@@ -7,8 +7,8 @@ import time
 import numpy as np
 import pytest
 from gaitcap.acquisition.recording import layout
-from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
 from gaitcap.acquisition.recording.reader import iter_messages
+from gaitcap.reconstruction.ignored_keypoints import IgnoredKeypoints
 from gaitcap.services.bus.control import RecorderClient, RecorderError
 from gaitcap.services.bus.messages import ImageFrame, Keypoints
 from gaitcap.services.bus.session import BusConfig, alive_nodes, open_session
@@ -81,7 +81,7 @@ def test_a_stray_keypoint_frame_id_is_ignored_and_counted_not_allocated(tmp_path
     kp = read_keypoints(path)
     assert time.monotonic() - t0 < 5
     assert kp.frame_ids.tolist() == list(range(10)) and kp.camera_names == ("cam01", "cam02")
-    assert (kp.timestamps_ns >= 0).all() and not np.isnan(kp.people[..., 0]).any()
+    assert (kp.timestamps_ns >= 0).all() and not np.isnan(kp.keypoints[..., 0]).any()
     assert kp.ignored == {"cam01": IgnoredKeypoints(strays=1, stray_frame_ids=(2**40,), mistimed=0)}
     assert kp.restarts == {}  # the stray in the camera's series is not taken for a counter restart
 

@@ -11,14 +11,9 @@ from gaitcap.acquisition.installed import share_path
 from gaitcap.acquisition.readers import load_multi_npz
 from gaitcap.acquisition.recording.reader import read_keypoints
 from gaitcap.acquisition.recording.writer import TrialWriter
+from gaitcap.reconstruction.keypoints import COMPLETED, LIVE, MISSING, MultiViewKeypoints, missing_keypoints
 from gaitcap.reconstruction.skeletons import get_skeleton
-from gaitcap.services.processing.completion import (
-    COMPLETED,
-    LIVE,
-    MISSING,
-    complete_keypoints,
-    save_completion,
-)
+from gaitcap.services.processing.completion import complete_keypoints, save_completion
 
 T0, PERIOD = 1_700_000_000_000_000_000, 33_333_333
 VIDEO = share_path("testdata", "sports2d-demo.mp4")
@@ -70,15 +65,16 @@ def test_missing_frames_are_completed_the_live_ones_kept_and_a_corrupt_image_nam
     assert (cam0.recorded, cam0.live, cam0.completed, cam0.corrupt_frame_ids) == (12, 4, 8, ())
     assert (cam1.recorded, cam1.live, cam1.completed, cam1.corrupt_frame_ids) == (12, 1, 10, (5,))
     assert cam1.missing_frame_ids == (5,) and not report.complete
-    np.testing.assert_allclose(kp.people[0, 2:6, 0], np.broadcast_to(live_person[0], (4, 17, 3)))  # live kept
+    np.testing.assert_allclose(kp.keypoints[0, 2:6, 0], np.broadcast_to(live_person[0], (4, 17, 3)))  # live kept
     for c, cam in enumerate(kp.camera_names):
         for f in range(12):
             if report.provenance[c, f] == COMPLETED:
                 want = decode_jpeg(images[cam][f]).mean()
-                assert kp.people[c, f, 0, 0, :2].tolist() == pytest.approx([want, f])
+                assert kp.keypoints[c, f, 0, 0, :2].tolist() == pytest.approx([want, f])
                 assert kp.timestamps_ns[c, f] == T0 + f * PERIOD
     assert report.provenance[1, 5] == MISSING and report.provenance[1, 3] == LIVE
-    assert np.isnan(kp.people[1, 5]).all() or (kp.people[1, 5, ..., 2] == 0).all()
+    assert kp.provenance.tolist() == report.provenance.tolist()  # the keypoints say where each frame came from
+    assert np.isnan(kp.keypoints[1, 5]).all() or (kp.keypoints[1, 5, ..., 2] == 0).all()
     assert np.allclose(np.diff(kp.times_s), PERIOD / 1e9)
     body = report.to_dict()
     assert body["frames"] == {"recorded": 24, "live": 5, "completed": 18, "corrupt": 1}
@@ -87,7 +83,7 @@ def test_missing_frames_are_completed_the_live_ones_kept_and_a_corrupt_image_nam
 
     files = save_completion(tmp_path / "trial", kp, report)
     multi = load_multi_npz(files.keypoints)  # readable as a multi-person keypoint file
-    assert multi.keypoints.shape == kp.people.shape and list(multi.camera_names) == ["cam0", "cam1"]
+    assert multi.keypoints.shape == kp.keypoints.shape and list(multi.camera_names) == ["cam0", "cam1"]
     with np.load(files.keypoints) as z:
         assert z["provenance"].tolist() == report.provenance.tolist() and str(z["detector"]) == "brightness"
     assert json.loads(files.report.read_text())["cameras"]["cam1"]["missing"] == 1
@@ -97,7 +93,7 @@ def test_redetect_all_ignores_the_live_keypoints_and_works_without_any(tmp_path)
     images = {"cam0": {f: _grey(30 + f) for f in range(5)}}
     path = _write(tmp_path / "t.mcap", images, {})
     kp, report = complete_keypoints(path, None, Brightness, detector_name="brightness", workers=0, redetect_all=True)
-    assert (report.provenance == COMPLETED).all() and report.complete and kp.skeleton == "coco17"
+    assert (report.provenance == COMPLETED).all() and report.complete and kp.skeleton.name == "coco17"
     assert report.cameras[0].completed == 5 and report.cameras[0].live == 0
 
 
@@ -105,7 +101,8 @@ def test_a_live_skeleton_other_than_the_detectors_is_refused(tmp_path):
     images = {"cam0": {f: _grey(30) for f in range(3)}}
     path = _write(tmp_path / "t.mcap", images, {"cam0": {0: []}})
     rec = read_keypoints(path)
-    rec = type(rec)(rec.camera_names, rec.frame_ids, rec.times_s, "halpe26", rec.people, rec.timestamps_ns)
+    rec = MultiViewKeypoints(missing_keypoints((1, rec.shape[1], 0, 26)), rec.camera_names, rec.times_s, "halpe26",
+                             frame_ids=rec.frame_ids, timestamps_ns=rec.timestamps_ns)
     with pytest.raises(ValueError, match="live keypoints are halpe26, the completion detector brightness gives coco17"):
         complete_keypoints(path, rec, Brightness, detector_name="brightness", workers=0)
 
@@ -129,8 +126,8 @@ def test_real_mediapipe_in_two_worker_processes_equals_the_detector_on_the_same_
         for f, jpeg in enumerate(jpegs):
             want = det.detect(decode_jpeg(jpeg), camera=cam, frame_id=f, timestamp_ns=0)
             assert len(want) >= 1, "the walker is in these frames"
-            np.testing.assert_allclose(kp.people[c, f, : len(want)], want, atol=1e-6)
-            assert (kp.people[c, f, len(want):, :, 2] == 0).all()
+            np.testing.assert_allclose(kp.keypoints[c, f, : len(want)], want, atol=1e-6)
+            assert (kp.keypoints[c, f, len(want):, :, 2] == 0).all()
 
 
 def test_complete_trial_with_settings_stores_the_files(tmp_path):
@@ -174,4 +171,4 @@ def test_settings_can_redetect_every_frame_the_live_ones_too(tmp_path):
     kp, report, _ = complete_trial(path, read_keypoints(path), tmp_path / "trial",
                                    CompletionSettings(BrightnessConfig(), workers=0, redetect_all=True))
     assert report.provenance.tolist() == [[2, 2, 2, 2]] and report.redetected_all
-    assert kp.people[0, 1, 0, 0, 0] == pytest.approx(decode_jpeg(images["cam0"][1]).mean())
+    assert kp.keypoints[0, 1, 0, 0, 0] == pytest.approx(decode_jpeg(images["cam0"][1]).mean())

@@ -190,7 +190,7 @@ def test_real_videos_of_two_people_give_one_consistent_walker(tmp_path):
         out.release()
     rig = scaled_rig(read_qca(DEMOS / "Demo_MultiPerson" / "calibration" / "Calib.qca.txt"), 0.5)
     data = detect_input(tmp_path, build_detector("mediapipe", None, ["num_poses=3"]), fps=None, on_frame=None)
-    seen = (np.nan_to_num(data.recording.people[..., 2]) > 0.3).any(-1).sum(-1)  # (C, T) people per image
+    seen = (np.nan_to_num(data.recording.keypoints[..., 2]) > 0.3).any(-1).sum(-1)  # (C, T) people per image
     assert seen.max() == 2 and (seen == 2).sum() >= 16  # both people kept, in many camera frames
     recording, layout = resolve_layout(data.recording, rig, named=data.layout)
     det, used, _ = patient_input(recording, rig)

@@ -115,14 +115,10 @@ def test_the_same_real_keypoints_read_by_two_importers_give_the_same_files(tmp_p
     ``gaitcap process`` as the Pose2Sim folder and as the NPZ keypoint file holding the same keypoints: the
     importers give the one keypoints type, so every file of every stage is the same."""
     from gaitcap.acquisition.writers import save_multi_npz, save_rig
-    from gaitcap.reconstruction.association.multi import MultiPersonDetections
-    from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.services.processing.offline import OfflineOptions, load_input
 
     data = load_input(POSE2SIM_TRIAL, calibration=None, options=OfflineOptions())
-    rec = data.keypoints.recording
-    save_multi_npz(MultiPersonDetections(rec.people, rec.camera_names, rec.times_s, get_skeleton(rec.skeleton)),
-                   tmp_path / "keypoints.npz")
+    save_multi_npz(data.keypoints.recording, tmp_path / "keypoints.npz")
     save_rig(data.rig, tmp_path / "calibration.toml")
     gaitcap = Path(sys.executable).with_name("gaitcap")
     runs = {"folder": [str(POSE2SIM_TRIAL)],

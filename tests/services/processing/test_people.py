@@ -91,7 +91,7 @@ def test_a_choice_of_a_track_that_does_not_exist_fails_the_trial_with_the_reason
 
 
 def test_people_in_view_and_choice_validation(pair):
-    assert most_people_in_view(pair.multi.keypoints) == 2
+    assert most_people_in_view(pair.multi.observed.keypoints) == 2
     assert most_people_in_view(pair.detections.keypoints[:, :, None]) == 1
     with pytest.raises(ValueError, match="track_id"):
         PatientChoice(track_id=-1)

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.recording.ignored import IgnoredKeypoints
+from gaitcap.reconstruction.ignored_keypoints import IgnoredKeypoints
 from gaitcap.services.processing.pipeline import ring_rig
 from gaitcap.services.processing.quality import (
     QualityCriteria,

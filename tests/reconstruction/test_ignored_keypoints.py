@@ -3,7 +3,7 @@
 import json
 
 import pytest
-from gaitcap.acquisition.recording.ignored import STRAY_EXAMPLES, IgnoredKeypoints
+from gaitcap.reconstruction.ignored_keypoints import STRAY_EXAMPLES, IgnoredKeypoints
 
 
 def test_of_counts_every_stray_and_names_the_first_few_and_to_dict_is_json():

@@ -1,0 +1,105 @@
+"""The one multi-view keypoints type: everyone's 2D keypoints seen by C cameras over T frames
+(:class:`MultiViewKeypoints`).
+
+The trial recording's reader (:func:`gaitcap.acquisition.recording.reader.read_keypoints`), every importer
+of other tools' files (:mod:`gaitcap.acquisition.keypoint_files`), the video detector, the completion after
+Stop and the simulator return it; association takes it as input; reconstruction takes the patient's
+:class:`~gaitcap.reconstruction.detections.Detections` of it (:meth:`MultiViewKeypoints.patient`, or the
+patient chosen among several people). The bus message (:mod:`gaitcap.acquisition.keypoint_message`) is the
+wire format, parsed once by the reader."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from gaitcap.reconstruction.detections import Detections, set_validated_fields
+from gaitcap.reconstruction.ignored_keypoints import IgnoredKeypoints
+from gaitcap.reconstruction.skeletons import Skeleton
+
+MISSING, LIVE, COMPLETED = 0, 1, 2  # provenance of a camera's frame
+PROVENANCE = {MISSING: "missing", LIVE: "live", COMPLETED: "completed"}
+
+
+@dataclass(frozen=True, eq=False)
+class MultiViewKeypoints:
+    """Everyone's keypoints from a recording, an imported file, videos or a simulation.
+
+    Attributes:
+        keypoints: (C, T, P, J, 3) float: x px, y px, confidence in [0, 1]; P = most people seen in one
+            camera frame, in no particular order across cameras and frames (readers put the most confident
+            first in each camera frame). Empty slots are NaN or have confidence 0.
+        camera_names: (C,) names, matched to the calibration by name.
+        times_s: (T,) frame times in s (strictly increasing; a recording's: since its first frame set,
+            the median camera timestamp per frame id).
+        skeleton: the keypoint layout (J joints); a registry name is accepted.
+        frame_ids: (T,) int consecutive frame ids; default 0..T-1.
+        timestamps_ns: (C, T) int camera timestamps, -1 where the camera's frame is missing; default
+            ``times_s`` in ns for every camera.
+        provenance: (C, T) uint8 per camera frame: :data:`MISSING` (no frame), :data:`LIVE` (keypoints as
+            detected when the frame was taken, or as read from a file) or :data:`COMPLETED` (detected after
+            Stop from the recorded image); default LIVE where the frame has a timestamp, else MISSING.
+        restarts: {camera: times its frame counter started again within the recording}; those frames are
+            placed by timestamp.
+        ignored: {camera: its keypoint messages left out (stray frame ids, timestamps far off, unreadable)}
+            for the cameras that had any; a camera with no message left is not in ``camera_names``.
+    """
+
+    keypoints: np.ndarray
+    camera_names: tuple[str, ...]
+    times_s: np.ndarray
+    skeleton: Skeleton
+    frame_ids: np.ndarray | None = None
+    timestamps_ns: np.ndarray | None = None
+    provenance: np.ndarray | None = None
+    restarts: dict[str, int] = field(default_factory=dict)
+    ignored: dict[str, IgnoredKeypoints] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        set_validated_fields(self, layout="(C, T, P, J, 3)")
+        c, t = self.keypoints.shape[:2]
+        ids = np.arange(t) if self.frame_ids is None else np.asarray(self.frame_ids)
+        if ids.shape != (t,) or not np.issubdtype(ids.dtype, np.integer):
+            raise ValueError(f"frame_ids: expected {t} integer ids (one per frame), got {ids.dtype} {ids.shape}")
+        stamps = (np.broadcast_to(np.round(self.times_s * 1e9).astype(np.int64), (c, t)).copy()
+                  if self.timestamps_ns is None else np.asarray(self.timestamps_ns))
+        if stamps.shape != (c, t) or not np.issubdtype(stamps.dtype, np.integer):
+            raise ValueError(f"timestamps_ns: expected ({c}, {t}) integer ns (cameras, frames), got "
+                             f"{stamps.dtype} {stamps.shape}")
+        prov = (np.where(stamps >= 0, LIVE, MISSING).astype(np.uint8) if self.provenance is None
+                else np.asarray(self.provenance))
+        if prov.shape != (c, t) or not np.isin(prov, list(PROVENANCE)).all():
+            raise ValueError(f"provenance: expected ({c}, {t}) codes in {PROVENANCE} (cameras, frames), got "
+                             f"{prov.shape} with {sorted(set(np.unique(prov).tolist()) - set(PROVENANCE))[:5]}")
+        for name, value in (("frame_ids", ids.astype(np.int64)), ("timestamps_ns", stamps.astype(np.int64)),
+                            ("provenance", prov.astype(np.uint8))):
+            object.__setattr__(self, name, value)
+
+    @property
+    def shape(self) -> tuple[int, int, int, int]:
+        """(C, T, P, J)."""
+        c, t, p, j, _ = self.keypoints.shape
+        return c, t, p, j
+
+    @property
+    def fps_hz(self) -> float:
+        """Frames per second: 1 / the median frame period (NaN with fewer than two frames)."""
+        return 1.0 / float(np.median(np.diff(self.times_s))) if self.times_s.size > 1 else float("nan")
+
+    def confident(self, threshold: float) -> np.ndarray:
+        """(C, T, P, J) bool: finite x, y and confidence > threshold."""
+        kp = self.keypoints
+        return np.isfinite(kp).all(-1) & (np.nan_to_num(kp[..., 2]) > threshold)
+
+    def patient(self) -> Detections:
+        """keypoints[:, :, 0] of every frame (the first person) as reconstruction input."""
+        c, t, p, j = self.shape
+        kp = self.keypoints[:, :, 0] if p else missing_keypoints((c, t, j))
+        return Detections(kp, self.camera_names, self.times_s, self.skeleton)
+
+
+def missing_keypoints(shape: tuple[int, ...]) -> np.ndarray:
+    """Keypoints of ``shape`` + (3,) that were not seen: NaN pixels, confidence 0."""
+    out = np.full((*shape, 3), np.nan)
+    out[..., 2] = 0.0
+    return out

@@ -1,0 +1,77 @@
+"""The one multi-view keypoints type: its checks, its defaults and the patient of it."""
+
+import numpy as np
+import pytest
+from gaitcap.reconstruction.keypoints import COMPLETED, LIVE, MISSING, MultiViewKeypoints
+
+
+def _kp(c=2, t=3, p=2, j=26):
+    return np.full((c, t, p, j, 3), 0.5)
+
+
+def test_valid_input_and_confident_mask():
+    kp = _kp()
+    kp[0, 1, 1, 4] = np.nan
+    multi = MultiViewKeypoints(kp, ("a", "b"), np.arange(3) / 30, "halpe26")
+    assert multi.shape == (2, 3, 2, 26)
+    assert multi.confident(0.3).sum() == kp[..., 0].size - 1
+
+
+@pytest.mark.parametrize(
+    ("kp", "names", "times", "message"),
+    [
+        (np.zeros((2, 3, 26, 3)), ("a", "b"), np.arange(3), "expected shape"),
+        (_kp(), ("a",), np.arange(3), "camera_names"),
+        (_kp(), ("a", "a"), np.arange(3), "duplicates"),
+        (_kp(j=17), ("a", "b"), np.arange(3), "17 joints"),
+        (_kp(), ("a", "b"), np.arange(4), "times_s"),
+        (_kp(), ("a", "b"), np.array([0, 2, 1]), "increasing"),
+    ],
+)
+def test_bad_input_is_named(kp, names, times, message):
+    with pytest.raises(ValueError, match=message):
+        MultiViewKeypoints(kp, names, times, "halpe26")
+
+
+def test_confidence_out_of_range_is_rejected():
+    kp = _kp()
+    kp[1, 0, 0, 0, 2] = 1.5
+    with pytest.raises(ValueError, match="confidence"):
+        MultiViewKeypoints(kp, ("a", "b"), np.arange(3), "halpe26")
+
+
+def test_recording_facts_default_to_a_file_of_frames_and_are_checked():
+    kp = MultiViewKeypoints(_kp(), ("a", "b"), np.arange(3) / 30, "halpe26")
+    assert kp.skeleton.name == "halpe26" and kp.frame_ids.tolist() == [0, 1, 2]
+    assert kp.timestamps_ns.tolist() == [[0, 33_333_333, 66_666_667]] * 2
+    assert (kp.provenance == LIVE).all() and kp.provenance.dtype == np.uint8
+    assert kp.fps_hz == pytest.approx(30, rel=1e-9)
+    stamps = np.array([[0, -1, 20], [0, 10, 20]])
+    rec = MultiViewKeypoints(_kp(), ("a", "b"), np.arange(3) / 100, "halpe26", frame_ids=np.arange(7, 10),
+                             timestamps_ns=stamps)
+    assert rec.frame_ids.tolist() == [7, 8, 9] and rec.provenance.tolist() == [[LIVE, MISSING, LIVE], [LIVE] * 3]
+    done = MultiViewKeypoints(_kp(), ("a", "b"), np.arange(3), "halpe26", timestamps_ns=stamps,
+                              provenance=[[LIVE, COMPLETED, LIVE], [LIVE] * 3])
+    assert done.provenance[0, 1] == COMPLETED
+
+
+@pytest.mark.parametrize(("facts", "message"), [
+    ({"frame_ids": np.arange(4)}, "frame_ids: expected 3 integer ids"),
+    ({"frame_ids": np.arange(3) / 2}, "frame_ids: expected 3 integer ids"),
+    ({"timestamps_ns": np.zeros((3, 3), np.int64)}, r"timestamps_ns: expected \(2, 3\)"),
+    ({"provenance": np.zeros((2, 2), np.uint8)}, r"provenance: expected \(2, 3\)"),
+    ({"provenance": np.full((2, 3), 7)}, r"provenance: .* with \[7\]"),
+])
+def test_bad_recording_facts_are_named(facts, message):
+    with pytest.raises(ValueError, match=message):
+        MultiViewKeypoints(_kp(), ("a", "b"), np.arange(3), "halpe26", **facts)
+
+
+def test_the_patient_is_the_first_person_or_nobody():
+    kp = _kp()
+    kp[:, :, 1, :, 0] = 7.0
+    det = MultiViewKeypoints(kp, ("a", "b"), np.arange(3), "halpe26").patient()
+    assert det.shape == (2, 3, 26) and (det.keypoints[..., 0] == 0.5).all()
+    nobody = MultiViewKeypoints(np.zeros((2, 3, 0, 26, 3)), ("a", "b"), np.arange(3), "halpe26").patient()
+    assert nobody.shape == (2, 3, 26) and np.isnan(nobody.keypoints[..., 0]).all()
+    assert (nobody.keypoints[..., 2] == 0).all()
