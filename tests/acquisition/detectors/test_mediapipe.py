@@ -81,6 +81,30 @@ def test_heatmap_refinement_moves_to_the_peak():
     np.testing.assert_allclose(xy[1], [0.5, 0.5])  # nothing confident there: unchanged
 
 
+def _refined_one_by_one(xy_norm, heatmaps, kernel=7, min_conf=0.5):
+    """MediaPipe's refinement written out landmark by landmark (the window cut at the border)."""
+    h, w, _ = heatmaps.shape
+    out, half = xy_norm.copy(), (kernel - 1) // 2
+    for i, (x, y) in enumerate(xy_norm):
+        col, row = int(x * w), int(y * h)
+        if not (0 <= col < w and 0 <= row < h):
+            continue
+        r0, c0 = max(0, row - half), max(0, col - half)
+        conf = 1 / (1 + np.exp(-heatmaps[r0 : row + half + 1, c0 : col + half + 1, i].astype(float)))
+        if conf.max() >= min_conf:
+            rr, cc = np.mgrid[r0 : r0 + conf.shape[0], c0 : c0 + conf.shape[1]]
+            out[i] = ((cc * conf).sum() / conf.sum() / w, (rr * conf).sum() / conf.sum() / h)
+    return out
+
+
+def test_heatmap_refinement_of_all_landmarks_at_once_is_the_one_by_one_refinement():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        heat = rng.normal(-1, 3, (64, 64, 39)).astype(np.float32)
+        xy = rng.uniform(-0.1, 1.1, (39, 2))  # some outside the crop, many windows cut at its border
+        np.testing.assert_allclose(refine_from_heatmaps(xy, heat), _refined_one_by_one(xy, heat), atol=1e-12)
+
+
 def test_same_person():
     a = np.zeros((33, 3))
     a[:, 0], a[:, 1] = np.linspace(0, 100, 33), np.linspace(0, 200, 33)
