@@ -25,6 +25,7 @@ from gaitcap.reconstruction.gait.walkway import WalkwayTrial, walkway_from_csv_t
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 KEYS = ("keypoints", "camera_names", "times_s", "skeleton")
+FRAME_FACTS = ("frame_ids", "timestamps_ns", "provenance")  # optional in a multi-person keypoint file
 
 
 def load_rig(path: str | os.PathLike) -> Rig:
@@ -81,12 +82,15 @@ def read_keypoint_arrays(path: str | os.PathLike, *, optional: tuple[str, ...] =
 
 
 def load_multi_npz(path: str | os.PathLike) -> MultiViewKeypoints:
-    """Read a multi-person keypoint file (ValueError naming the file and a missing key or bad array)."""
+    """Read a multi-person keypoint file, with its :data:`FRAME_FACTS` where it has them (ValueError naming
+    the file and a missing key or bad array)."""
     kp, names, times, skeleton = read_keypoint_arrays(path)
     if kp.ndim == 4:
         kp = kp[:, :, None]  # one person per camera and frame
+    with np.load(path, allow_pickle=False) as data:
+        facts = {k: data[k] for k in FRAME_FACTS if k in data.files}
     try:
-        return MultiViewKeypoints(keypoints=kp, camera_names=names, times_s=times, skeleton=skeleton)
+        return MultiViewKeypoints(kp, names, times, skeleton, **facts)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
 

@@ -26,10 +26,12 @@ def save_rig(rig: Rig, path: str | os.PathLike, *, metadata: dict[str, Any] | No
     return atomic_write_text(path, rig_to_text(rig, suffix=path.suffix, metadata=metadata, where=str(path)))
 
 
-def save_multi_npz(multi: MultiViewKeypoints, path: str | os.PathLike) -> Path:
-    """Write a multi-person keypoint file (read by :func:`gaitcap.acquisition.readers.load_multi_npz`)."""
+def save_multi_npz(multi: MultiViewKeypoints, path: str | os.PathLike, **extra: np.ndarray) -> Path:
+    """Write a multi-person keypoint file with its frame ids, camera timestamps and provenance, plus ``extra``
+    arrays (e.g. ``detector``; read by :func:`gaitcap.acquisition.readers.load_multi_npz`)."""
     return atomic_savez(path, keypoints=multi.keypoints, camera_names=np.array(multi.camera_names),
-                        times_s=multi.times_s, skeleton=np.array(multi.skeleton.name))
+                        times_s=multi.times_s, skeleton=np.array(multi.skeleton.name), frame_ids=multi.frame_ids,
+                        timestamps_ns=multi.timestamps_ns, provenance=multi.provenance, **extra)
 
 
 def save_detections_npz(detections: Detections, path: str | os.PathLike, **extra: np.ndarray) -> Path:

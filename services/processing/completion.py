@@ -29,8 +29,9 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.detectors.base import DetectorConfig
 from gaitcap.acquisition.detectors.pool import DetectorPool, DetectResult, FrameTask, default_workers
-from gaitcap.acquisition.fileio import atomic_savez, atomic_write_text
+from gaitcap.acquisition.fileio import atomic_write_text
 from gaitcap.acquisition.recording.reader import frame_times_s, iter_frames
+from gaitcap.acquisition.writers import save_multi_npz
 from gaitcap.reconstruction.keypoints import COMPLETED, LIVE, MISSING, MultiViewKeypoints
 
 log = logging.getLogger(__name__)
@@ -339,16 +340,12 @@ def save_completion(folder: str | os.PathLike, keypoints: MultiViewKeypoints, re
     """Store the complete keypoints with their provenance and the report in the trial's ``folder``, each file
     written whole or not at all.
 
-    ``keypoints_complete.npz`` has the arrays of a multi-person keypoint file (``keypoints`` (C, T, P, J, 3),
-    ``camera_names``, ``times_s``, ``skeleton``: readable by ``load_multi_npz`` and ``gaitcap reconstruct``)
-    plus ``frame_ids`` (T,), ``timestamps_ns`` (C, T) and ``provenance`` (C, T: 0 missing, 1 live,
-    2 completed) and ``detector``; ``completion.json`` is :meth:`CompletionReport.to_dict`."""
+    ``keypoints_complete.npz`` is a multi-person keypoint file (``save_multi_npz``: ``keypoints`` (C, T, P,
+    J, 3), ``camera_names``, ``times_s``, ``skeleton``, ``frame_ids`` (T,), ``timestamps_ns`` (C, T) and
+    ``provenance`` (C, T: 0 missing, 1 live, 2 completed); ``load_multi_npz`` and ``gaitcap reconstruct``
+    read it) plus ``detector``; ``completion.json`` is :meth:`CompletionReport.to_dict`."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    npz = atomic_savez(folder / KEYPOINTS_FILE, keypoints=keypoints.keypoints,
-                       camera_names=np.array(keypoints.camera_names), times_s=keypoints.times_s,
-                       skeleton=np.array(keypoints.skeleton.name), frame_ids=keypoints.frame_ids,
-                       timestamps_ns=keypoints.timestamps_ns, provenance=keypoints.provenance,
-                       detector=np.array(report.detector))
+    npz = save_multi_npz(keypoints, folder / KEYPOINTS_FILE, detector=np.array(report.detector))
     js = atomic_write_text(folder / REPORT_FILE, json.dumps(report.to_dict(), indent=1))
     return CompletionFiles(npz, js)

@@ -14,15 +14,21 @@ from gaitcap.acquisition.readers import (
 )
 from gaitcap.acquisition.writers import save_detections_npz, save_multi_npz, save_rig
 from gaitcap.reconstruction.camera import Camera, Rig
-from gaitcap.reconstruction.keypoints import MultiViewKeypoints
+from gaitcap.reconstruction.keypoints import COMPLETED, LIVE, MISSING, MultiViewKeypoints
 
 
 def _multi() -> MultiViewKeypoints:
-    """2 cameras, 5 frames, 3 people, halpe26; one empty slot (NaN)."""
+    """2 cameras, 5 frames (ids 100..104), 3 people, halpe26; one empty slot (NaN); cam_b's frame 101 missing,
+    its frame 103 completed after Stop."""
     rng = np.random.default_rng(3)
     kp = np.concatenate([rng.uniform(0, 1000, (2, 5, 3, 26, 2)), rng.uniform(0.2, 1, (2, 5, 3, 26, 1))], -1)
     kp[1, 2, 2] = np.nan
-    return MultiViewKeypoints(kp, ("cam_a", "cam_b"), np.arange(5) / 30, "halpe26")
+    stamps = np.tile(np.arange(5) * 33_333_333 + 7, (2, 1))
+    stamps[1, 1] = -1
+    provenance = np.where(stamps >= 0, LIVE, MISSING)
+    provenance[1, 3] = COMPLETED
+    return MultiViewKeypoints(kp, ("cam_a", "cam_b"), np.arange(5) / 30, "halpe26", frame_ids=np.arange(100, 105),
+                              timestamps_ns=stamps, provenance=provenance)
 
 
 def test_multi_and_single_round_trip(tmp_path):
@@ -33,6 +39,8 @@ def test_multi_and_single_round_trip(tmp_path):
     np.testing.assert_array_equal(back.keypoints, multi.keypoints)
     np.testing.assert_array_equal(back.times_s, multi.times_s)
     assert back.camera_names == multi.camera_names and back.skeleton.name == "halpe26"
+    for fact in ("frame_ids", "timestamps_ns", "provenance"):  # where the keypoints came from, kept
+        np.testing.assert_array_equal(getattr(back, fact), getattr(multi, fact), err_msg=fact)
     det = multi.patient()
     save_detections_npz(det, tmp_path / "one.npz", track_id=3)
     one = load_detections_npz(tmp_path / "one.npz")
@@ -64,6 +72,10 @@ def test_missing_file_missing_arrays_and_bad_arrays_are_named(tmp_path):
              skeleton=np.array("halpe26"))
     with pytest.raises(ValueError, match="inf.npz: keypoints of camera 'b' are infinite"):
         load_detections_npz(tmp_path / "inf.npz")
+    np.savez(tmp_path / "prov.npz", keypoints=np.zeros((2, 3, 26, 3)), camera_names=np.array(["a", "b"]),
+             times_s=np.arange(3) / 30, skeleton=np.array("halpe26"), provenance=np.full((2, 3), 9))
+    with pytest.raises(ValueError, match=r"prov.npz: provenance: .* with \[9\]"):
+        load_multi_npz(tmp_path / "prov.npz")
 
 
 def test_calibration_read_back_and_bad_files_named(tmp_path):

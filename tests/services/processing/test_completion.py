@@ -82,10 +82,12 @@ def test_missing_frames_are_completed_the_live_ones_kept_and_a_corrupt_image_nam
     assert body["cameras"]["cam0"]["completed_frame_ids"] == [[0, 1], [6, 11]]
 
     files = save_completion(tmp_path / "trial", kp, report)
-    multi = load_multi_npz(files.keypoints)  # readable as a multi-person keypoint file
+    multi = load_multi_npz(files.keypoints)  # a multi-person keypoint file: where each frame came from too
     assert multi.keypoints.shape == kp.keypoints.shape and list(multi.camera_names) == ["cam0", "cam1"]
+    assert multi.provenance.tolist() == report.provenance.tolist()
+    assert multi.frame_ids.tolist() == kp.frame_ids.tolist() and (multi.timestamps_ns == kp.timestamps_ns).all()
     with np.load(files.keypoints) as z:
-        assert z["provenance"].tolist() == report.provenance.tolist() and str(z["detector"]) == "brightness"
+        assert str(z["detector"]) == "brightness"
     assert json.loads(files.report.read_text())["cameras"]["cam1"]["missing"] == 1
 
 
