@@ -12,15 +12,24 @@ detector's errors are also listed per walk and foot (every error of the 5 phases
 
     python bench/gait_real.py                            # reconstruction: implicit (the default), a table
     python bench/gait_real.py --methods truth robust implicit explicit --json
+    python bench/gait_real.py --criteria --methods markers truth robust implicit
+
+``--criteria`` compares heel-strike criteria instead (``CRITERIA``): each is evaluated on the approach of
+every contact the default detector finds (its rest points, the same continuous trajectory), per walk and
+foot, on the inputs named by ``--methods`` (``markers``: the 150 Hz markers themselves, no rig) and on the
+simulated walker (``bench/gait.py``'s 20 s paper trial, ground-truth frames, its true heel strikes; its
+default, slow, Parkinsonian and hemiparetic patterns).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import sys
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -86,13 +95,15 @@ def _temporal_errors(report, walk) -> dict:
     return errors
 
 
-def run_walk(walk, *, method: str, phase: int, seed: int) -> dict:
-    from gaitcap.reconstruction.gait import analyze_gait
-    from gaitcap.reconstruction.gait.baselines import BASELINES
-    from gaitcap.reconstruction.gait.tracks import FootTracks
+def _trajectory(walk, *, method: str, phase: int, seed: int):
+    """(times_s, points_mm, joint names, continuous sample or None, reconstruction s) of one walk seen at
+    30 fps from ``phase`` and reconstructed by ``method`` (``truth``: the sampled markers; ``markers``:
+    every marker frame, no rig)."""
     from gaitcap.reconstruction.methods import METHODS, reconstruct
-    from gaitcap.simulator.mocap import rig_view
+    from gaitcap.simulator.mocap import SKELETON, halpe26_points, rig_view
 
+    if method == "markers":
+        return walk.times_s, halpe26_points(walk), SKELETON.joint_names, None, 0.0
     view = rig_view(walk, phase=phase, seed=seed)
     names = view.detections.skeleton.joint_names
     t0 = time.perf_counter()
@@ -101,9 +112,17 @@ def run_walk(walk, *, method: str, phase: int, seed: int) -> dict:
     else:
         rec = reconstruct(view.detections, view.rig, method=METHODS[method]())
         points, sample = rec.points_mm, rec.trajectory
-    seconds = time.perf_counter() - t0
-    report = analyze_gait(points, view.times_s, names, sample=sample)
-    tracks = FootTracks.from_points(points, view.times_s, names, sample=sample)
+    return view.times_s, points, names, sample, time.perf_counter() - t0
+
+
+def run_walk(walk, *, method: str, phase: int, seed: int) -> dict:
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.gait.baselines import BASELINES
+    from gaitcap.reconstruction.gait.tracks import FootTracks
+
+    times, points, names, sample, seconds = _trajectory(walk, method=method, phase=phase, seed=seed)
+    report = analyze_gait(points, times, names, sample=sample)
+    tracks = FootTracks.from_points(points, times, names, sample=sample)
     scores = {"gaitcap": _score(_default_events(report), walk)}
     for name, fn in BASELINES.items():
         scores[name] = _score(fn(tracks), walk)
@@ -173,6 +192,199 @@ def run(*, methods: list[str], phases: int, seed: int) -> dict:
             "walks": info}
 
 
+# Heel-strike criteria compared on the same contacts (``--criteria``).
+APPROACH_BEFORE_S = 0.25  # each contact's approach: from this long before the default heel strike ...
+APPROACH_AFTER_S = 0.3  # ... to this long after it, or to the foot arriving
+ARRIVED_MM = 5.0  # the foot has arrived once heel or toe is this close to its rest point
+GRID_S = 0.001
+
+
+@dataclass(frozen=True, eq=False)
+class Approach:
+    """One contact's approach on a ``GRID_S`` grid: times (N,) s; heel and toe (N, 3) mm and where they
+    rest in the contact (3,) mm; the trial's walking speed (mm/s); the default detector's heel strike (s);
+    ``arrived``: the grid index where heel or toe first comes within ``ARRIVED_MM`` of its rest point (the
+    criteria look no later)."""
+
+    times_s: np.ndarray
+    heel_mm: np.ndarray
+    toe_mm: np.ndarray
+    heel_rest_mm: np.ndarray
+    toe_rest_mm: np.ndarray
+    walking_speed_mm_s: float
+    default_s: float
+    arrived: int
+
+    @property
+    def distance_mm(self) -> np.ndarray:
+        """(N,) distance of the nearer of heel and toe from its rest point (mm)."""
+        return np.minimum(np.linalg.norm(self.heel_mm - self.heel_rest_mm, axis=1),
+                          np.linalg.norm(self.toe_mm - self.toe_rest_mm, axis=1))
+
+
+def _last_fall(a: Approach, values: np.ndarray, level: float) -> float:
+    """Time (s) where ``values`` last falls below ``level`` before the foot arrives (interpolated); NaN
+    when it is below over the whole approach."""
+    above = np.flatnonzero(values[: a.arrived + 1] >= level)
+    if len(above) == 0:
+        return float("nan")
+    j = above[-1]
+    if j + 1 >= len(values):
+        return float(a.times_s[j])
+    f0, f1 = values[j] - level, values[j + 1] - level
+    return float(a.times_s[j] + (f0 / (f0 - f1) if f0 != f1 else 0.0) * GRID_S)
+
+
+def _distance(level_mm: float):
+    return lambda a: _last_fall(a, a.distance_mm, level_mm)
+
+
+def _heel_speed_half(a: Approach) -> float:
+    """The heel's horizontal speed falls below half the walking speed (a foot-velocity criterion)."""
+    speed = np.linalg.norm(np.gradient(a.heel_mm[:, :2], a.times_s, axis=0), axis=1)
+    return _last_fall(a, speed, 0.5 * a.walking_speed_mm_s)
+
+
+def _heel_impact(a: Approach) -> float:
+    """The peak of the heel's vertical acceleration from 0.1 s before the default to the foot's arrival
+    (Hreljac & Marshall 2000)."""
+    vz = np.gradient(a.heel_mm[:, 2], a.times_s)
+    az = np.gradient(vz, a.times_s)
+    lo = int(np.searchsorted(a.times_s, a.default_s - 0.1))
+    return float(a.times_s[lo + int(np.argmax(az[lo:a.arrived + 1]))]) if a.arrived > lo else float("nan")
+
+
+def _time_to_rest(a: Approach) -> float:
+    """The foot, at its current speed towards its rest point, would reach it within 35 ms (the first such
+    time within 80 mm of it)."""
+    d = a.distance_mm
+    closing = np.maximum(-np.gradient(d, a.times_s), 0.0)
+    inside = np.flatnonzero((d - 0.035 * closing <= 0) & (d < 80.0))
+    inside = inside[inside <= a.arrived]
+    return _last_fall(dataclasses.replace(a, arrived=int(inside[0])), d - 0.035 * closing, 0.0) \
+        if len(inside) else float("nan")
+
+
+def _heel_rocker(a: Approach) -> float:
+    """The heel within the distance it still rolls on the heel rocker: 80 mm x the foot's pitch above its
+    stance pitch (rad) + 10 mm."""
+    foot = a.toe_mm - a.heel_mm
+    pitch = np.arctan2(foot[:, 2], np.linalg.norm(foot[:, :2], axis=1))
+    rest = a.toe_rest_mm - a.heel_rest_mm
+    stance = np.arctan2(rest[2], np.linalg.norm(rest[:2]))
+    heel = np.linalg.norm(a.heel_mm - a.heel_rest_mm, axis=1)
+    return _last_fall(a, heel - (80.0 * (pitch - stance) + 10.0), 0.0)
+
+
+CRITERIA = {
+    "default detector": lambda a: a.default_s,
+    "distance 30 mm": _distance(30.0),
+    "distance 20 mm": _distance(20.0),
+    "heel speed < speed/2": _heel_speed_half,
+    "heel impact (az peak)": _heel_impact,
+    "time to rest 35 ms": _time_to_rest,
+    "heel rocker (pitch)": _heel_rocker,
+}
+
+
+def _approaches(times, points, names, sample) -> tuple[dict, list]:
+    """The default detector's contacts of one trajectory as (foot, default heel strike s, Approach)."""
+    from gaitcap.reconstruction.gait import analyze_gait
+    from gaitcap.reconstruction.gait.analysis import walking_speed_mm_s
+    from gaitcap.reconstruction.gait.bouts import find_bouts
+    from gaitcap.reconstruction.gait.tracks import HEEL, TOE, FootTracks
+
+    report = analyze_gait(points, times, names, sample=sample)
+    tracks = FootTracks.from_points(points, times, names, sample=sample)
+    speed = walking_speed_mm_s(find_bouts(tracks))
+    out = []
+    for c in report.contacts:
+        if not np.isfinite(c.heel_strike_s):
+            continue
+        grid = np.arange(max(times[0], c.heel_strike_s - APPROACH_BEFORE_S),
+                         min(times[-1], c.heel_strike_s + APPROACH_AFTER_S), GRID_S)
+        pts = tracks.sampler(grid)
+        a = Approach(grid, pts[:, HEEL[c.foot]], pts[:, TOE[c.foot]], np.asarray(c.heel_mm),
+                     np.asarray(c.toe_mm), speed, c.heel_strike_s, len(grid) - 1)
+        near = np.flatnonzero(a.distance_mm < ARRIVED_MM)
+        out.append((c.foot, c.heel_strike_s, dataclasses.replace(a, arrived=int(near[0])) if len(near) else a))
+    return out
+
+
+def _criteria_errors(approaches, truth: dict, into: dict, walk: str) -> None:
+    """Add each criterion's (error ms, fell back) at every true heel strike matched (within ``MATCH_S``) by a
+    default contact of that foot to ``into[(criterion, walk, foot)]``: detected minus true; where the
+    criterion finds no time in the approach (e.g. a contact at the recording's start) the default's time
+    stands in, as the detector's own fallbacks do."""
+    for side in ("left", "right"):
+        mine = [(t, a) for foot, t, a in approaches if foot == side]
+        for t_true in truth[side]:
+            if not mine:
+                continue
+            t, a = min(mine, key=lambda m: abs(m[0] - t_true))
+            if abs(t - t_true) > MATCH_S:
+                continue
+            for name, criterion in CRITERIA.items():
+                found = criterion(a)
+                into.setdefault((name, walk, side), []).append(
+                    (1000.0 * ((found if np.isfinite(found) else t) - t_true), not np.isfinite(found)))
+
+
+def run_criteria(*, methods: list[str], phases: int, seed: int) -> dict:
+    """Errors of every heel-strike criterion (``CRITERIA``) per input, walk and foot (see the module
+    docstring); the walker's patterns (simulated, ground-truth frames) as input ``walker``."""
+    from gaitcap.simulator import make_trial
+    from gaitcap.simulator.mocap import available_walks, load_walk
+    from gaitcap.simulator.params import WalkParams
+
+    # the walker's patterns: its default (30 mm heel roll), and the slow, Parkinsonian (flat contacts,
+    # 15 mm roll) and hemiparetic (paretic foot toe first) gaits of WalkParams
+    WALKERS = {"default": WalkParams, "slow": WalkParams.slow, "parkinsonian": WalkParams.parkinsonian,
+               "hemiparetic": WalkParams.hemiparetic}
+    walks = {name: load_walk(name) for name in available_walks()}
+    if not walks:
+        raise SystemExit("no real walks installed: run deploy/bootstrap.sh (install_gait_mocap)")
+    errors: dict = {}
+    for method in methods:
+        into = errors.setdefault(method, {})
+        for name, walk in walks.items():
+            for phase in range(1 if method == "markers" else phases):
+                times, points, names, sample, _ = _trajectory(walk, method=method, phase=phase, seed=seed + phase)
+                _criteria_errors(_approaches(times, points, names, sample), walk.heel_strike_s, into, name)
+    for name, params in WALKERS.items():
+        trial = make_trial("paper", seconds=20.0, seed=seed, walk=params())
+        _criteria_errors(_approaches(trial.times_s, trial.points_mm, trial.skeleton.joint_names, None),
+                         trial.truth.heel_strike_s, errors.setdefault("walker", {}), name)
+    rows = []
+    for method, into in errors.items():
+        for criterion in CRITERIA:
+            groups: dict = {"all": []}
+            for (c, walk, foot), e in into.items():
+                if c == criterion:
+                    for key in ("all", walk, f"{walk}/{foot}"):
+                        groups.setdefault(key, []).extend(e)
+            cells = {}
+            for key, e in groups.items():
+                cells[key] = {**_summary([x for x, _ in e], scale=1.0), "fallbacks": sum(f for _, f in e)}
+            rows.append({"input": method, "criterion": criterion, "groups": cells})
+    return {"fps": FPS, "phases": phases, "seed": seed, "rows": rows}
+
+
+def _criteria_table(r: dict) -> str:
+    lines = ["heel-strike criteria on the default detector's contacts, detected minus annotated (ms): signed "
+             "median / median |e|, n (of which the default's time stood in);",
+             f"30 fps inputs over {r['phases']} sampling phases, markers once at their own rate; per walk, "
+             "then per walk and foot (L, R)"]
+    for row in r["rows"]:
+        cells = []
+        for key, g in row["groups"].items():
+            label = key.replace("/left", " L").replace("/right", " R")
+            cells.append(f"{label} {_f(g['median']):>4}/{_f(g['median_abs']):<3}"
+                         + (f" n {g['n']} ({g['fallbacks']})" if "/" not in key else ""))
+        lines.append(f"{row['input']:<9}{row['criterion']:<24}" + "  ".join(cells))
+    return "\n".join(lines)
+
+
 def _f(x, d=0) -> str:
     return "-" if x is None else f"{x:.{d}f}"
 
@@ -209,19 +421,24 @@ def _table(r: dict) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--methods", nargs="+", default=["implicit"],
-                    choices=["truth", "dlt", "robust", "explicit", "implicit"])
+                    choices=["truth", "dlt", "robust", "explicit", "implicit", "markers"],
+                    help="markers: the 150 Hz markers without the rig (--criteria only)")
+    ap.add_argument("--criteria", action="store_true", help="compare heel-strike criteria (CRITERIA)")
     ap.add_argument("--phases", type=int, default=5, choices=range(1, 6))
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr)
-    result = run(methods=args.methods, phases=args.phases, seed=args.seed)
+    if "markers" in args.methods and not args.criteria:
+        ap.error("--methods markers: only with --criteria")
+    runner, table = (run_criteria, _criteria_table) if args.criteria else (run, _table)
+    result = runner(methods=args.methods, phases=args.phases, seed=args.seed)
     if args.json:
         from _common import jsonable
 
         print(json.dumps(jsonable(result)))
     else:
-        print(_table(result))
+        print(table(result))
     return 0
 
 

@@ -18,7 +18,9 @@ from gaitcap.reconstruction.gait.walkway import AlignmentConfig, WalkwayTrial, a
 log = logging.getLogger(__name__)
 
 
-def _walking_speed(bouts: Bouts, config: GaitConfig) -> float:
+def walking_speed_mm_s(bouts: Bouts, config: GaitConfig = GaitConfig()) -> float:
+    """The trial's walking speed (mm/s): the median speed of its straight passes (the speed the event
+    thresholds scale with). ValueError saying why when there is no pass."""
     if not bouts.passes:
         kinds = {s.kind for s in bouts.segments}
         if kinds <= {"standing", "gap"}:
@@ -103,7 +105,7 @@ def analyze_gait(
         raise ValueError(f"quality: shape {quality.num_views.shape} does not match points_mm "
                          f"{np.shape(points_mm)[:2]}")
     bouts = find_bouts(tracks, config)
-    speed = _walking_speed(bouts, config)
+    speed = walking_speed_mm_s(bouts, config)
     contacts = detect_contacts(tracks, speed, config)
     confidence = _confidences(contacts, tracks, joint_names, quality, config)
     steps, passes, warnings = _steps(bouts, contacts, confidence, config)
@@ -140,7 +142,7 @@ def compare_with_walkway(
     tracks, rest = [], []
     for (points, times, names), sample in zip(trials, samples, strict=True):
         t = FootTracks.from_points(points, times, names, sample=sample, config=config)
-        speed = _walking_speed(find_bouts(t, config), config)
+        speed = walking_speed_mm_s(find_bouts(t, config), config)
         tracks.append(t)
         rest.append(rest_speed_mm_s(speed, config, t.rest_noise_mm_s()))
     return align_walkway(tracks, walkway, rest, alignment)
