@@ -37,6 +37,11 @@ def validate_keypoints(keypoints, camera_names, times_s, skeleton: Skeleton | st
     return kp, names, times, skel
 
 
+def confident_mask(keypoints: np.ndarray, threshold: float) -> np.ndarray:
+    """(..., J) bool of keypoints (..., J, 3): finite x, y and confidence > threshold."""
+    return np.isfinite(keypoints).all(-1) & (np.nan_to_num(keypoints[..., 2]) > threshold)
+
+
 def set_validated_fields(obj, *, layout: str) -> None:
     """Validate a frozen dataclass's keypoints, camera_names, times_s and skeleton and store the
     normalised values (arrays as float64, names as a tuple, the skeleton as a :class:`Skeleton`)."""
@@ -81,5 +86,4 @@ class Detections:
 
     def confident(self, threshold: float = 0.5) -> np.ndarray:
         """(C, T, J) bool: finite x, y and confidence > threshold."""
-        kp = self.keypoints
-        return np.isfinite(kp).all(-1) & (np.nan_to_num(kp[..., 2]) > threshold)
+        return confident_mask(self.keypoints, threshold)

@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from gaitcap.reconstruction.detections import Detections, set_validated_fields
+from gaitcap.reconstruction.detections import Detections, confident_mask, set_validated_fields
 from gaitcap.reconstruction.ignored_keypoints import IgnoredKeypoints
 from gaitcap.reconstruction.skeletons import Skeleton
 
@@ -88,8 +88,7 @@ class MultiViewKeypoints:
 
     def confident(self, threshold: float) -> np.ndarray:
         """(C, T, P, J) bool: finite x, y and confidence > threshold."""
-        kp = self.keypoints
-        return np.isfinite(kp).all(-1) & (np.nan_to_num(kp[..., 2]) > threshold)
+        return confident_mask(self.keypoints, threshold)
 
     def patient(self) -> Detections:
         """keypoints[:, :, 0] of every frame (the first person) as reconstruction input."""

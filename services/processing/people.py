@@ -48,12 +48,9 @@ class PatientChoice:
             raise ValueError(f"track_id: must be an integer >= 0, got {self.track_id!r}")
 
 
-def most_people_in_view(people: np.ndarray, *, threshold: float = IN_VIEW_CONFIDENCE) -> int:
-    """Most people seen by one camera in one frame; ``people`` (C, T, P, J, 3) x px, y px, confidence."""
-    if people.shape[2] == 0:
-        return 0
-    seen = (np.nan_to_num(people[..., 2]) > threshold) & np.isfinite(people[..., :2]).all(-1)
-    return int(seen.any(-1).sum(-1).max())
+def most_people_in_view(keypoints: MultiViewKeypoints, *, threshold: float = IN_VIEW_CONFIDENCE) -> int:
+    """Most people seen (a joint above ``threshold``) by one camera in one frame."""
+    return int(keypoints.confident(threshold).any(-1).sum(-1).max(initial=0))
 
 
 def select_patient(recording: MultiViewKeypoints, rig: Rig, choice: PatientChoice | None, selector=None
@@ -80,7 +77,7 @@ def patient_detections_of(recording: MultiViewKeypoints, rig: Rig, files: TrialF
                           ) -> tuple[Detections, PatientSelection | None]:
     """The patient's detections: the only person of a single-person recording (nothing else is done), or
     the chosen track of several people in view (then ``people.json`` and ``tracks.npz`` are written)."""
-    if most_people_in_view(recording.keypoints) <= 1:
+    if most_people_in_view(recording) <= 1:
         return recording.patient(), None
     choice = read_choice(files)
     selection = select_patient(recording, rig, choice, selector)
@@ -99,7 +96,7 @@ def patient_selection(recording: MultiViewKeypoints, rig: Rig, choice: PatientCh
                       ) -> tuple[Detections, PatientSelection | None]:
     """The patient's detections as :func:`patient_detections_of` finds them, and the selection (None with
     one person in view); writes nothing."""
-    if most_people_in_view(recording.keypoints) <= 1:
+    if most_people_in_view(recording) <= 1:
         return recording.patient(), None
     selection = select_patient(recording, rig, choice, selector)
     return selection.detections, selection

@@ -436,7 +436,7 @@ def _layout(data: TrialInput, options: TrialOptions):
 def _people_in_view(recording) -> int:
     from gaitcap.services.processing.people import most_people_in_view
 
-    return most_people_in_view(recording.keypoints)
+    return most_people_in_view(recording)
 
 
 def _wants_viewers(options: TrialOptions, index: int) -> bool:

@@ -2,6 +2,7 @@
 association, the automatic (or the clinician's) choice, and the reconstruction against ground truth."""
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -91,8 +92,9 @@ def test_a_choice_of_a_track_that_does_not_exist_fails_the_trial_with_the_reason
 
 
 def test_people_in_view_and_choice_validation(pair):
-    assert most_people_in_view(pair.multi.observed.keypoints) == 2
-    assert most_people_in_view(pair.detections.keypoints[:, :, None]) == 1
+    assert most_people_in_view(pair.multi.observed) == 2
+    assert most_people_in_view(replace(pair.multi.observed, keypoints=pair.detections.keypoints[:, :, None])) == 1
+    assert most_people_in_view(replace(pair.multi.observed, keypoints=pair.multi.observed.keypoints[:, :, :0])) == 0
     with pytest.raises(ValueError, match="track_id"):
         PatientChoice(track_id=-1)
 
