@@ -12,8 +12,11 @@ import pytest
 from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text, rig_to_toml_text
 from gaitcap.reconstruction.camera import Rig
+from gaitcap.reconstruction.methods import Robust
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibration_versions as versions
+from gaitcap.services.catalog import method_results as store
+from gaitcap.services.catalog.method_keys import params_key
 from gaitcap.services.cli import app
 from gaitcap.services.processing.worker import Worker, WorkerConfig
 from gaitcap.simulator.rig_faults import with_camera_moved
@@ -58,6 +61,8 @@ def clinic(tmp_path_factory):
 def test_a_refined_version_replaces_the_stale_one_and_the_trials_are_reprocessed_under_it(clinic):
     db, tmp, old, trials, truth = clinic
     assert [_rig_check(db, t)["moved"] for t in trials] == [[MOVED], [MOVED]]
+    recorded = params_key(Robust())  # processed from the recording alone: the key research computes
+    assert [store.get_result(db, t, "robust", recorded).stage for t in trials] == ["preliminary"] * 2
     assert versions.trials_using(db, old) == trials
     runner = CliRunner()
     res = runner.invoke(app, ["refine-rig", trials[0], "--data-dir", str(tmp), "--max-frames", "60"])
@@ -81,6 +86,10 @@ def test_a_refined_version_replaces_the_stale_one_and_the_trials_are_reprocessed
         assert cat.get_trial(db, t).state in ("done", "done_with_warnings")
         assert _rig_check(db, t)["moved"] == [], _rig_check(db, t)  # processed with the refined version
     assert versions.get_version(db, new).applied_at is not None
+    under_new = params_key(Robust(), inputs={"calibration": new})  # never the key of the recording alone
+    for t in trials:
+        assert store.get_result(db, t, "robust", recorded) is None
+        assert store.get_result(db, t, "robust", under_new).stage == "preliminary"
     again = runner.invoke(app, ["apply-calibration", new, "--data-dir", str(tmp)])
     assert again.exit_code == 0 and "0 trial(s) queued" in again.output  # none uses the old one any more
 
