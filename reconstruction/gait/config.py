@@ -39,9 +39,12 @@ class GaitConfig:
         min_stance_s: shortest foot contact kept (s).
         min_swing_s: shorter swings are treated as a noise blip inside one contact (s).
         min_foot_travel_mm: consecutive contacts of a foot closer than this are one contact (mm).
-        contact_distance_mm: heel strike is the first time heel or toe comes within this distance of where
-            it rests in stance (mm; 0: speed thresholds only, for both events). Real heels land moving and
-            roll 20-40 mm to rest (heel rocker); see events.
+        contact_walking_s: heel strike is the first time heel or toe comes within the distance walked in
+            this time (s, at the trial's walking speed; 30 mm at 1.2 m/s) of where it rests in stance, at
+            least ``contact_distance_mm``. Real heels land moving and roll to rest (heel rocker); a heel
+            arrives, and rolls, slower in a slower gait (see events).
+        contact_distance_mm: the least such distance (mm; above the rest point's noise and a fit's rounding
+            of the heel's stop; 0: speed thresholds only, for both events).
         toe_off_distance_mm: toe off is the last time the toe is within this distance of where it rested
             (mm); the toe off is then refined to the toe's farthest point behind the body centre within
             ``toe_off_window_s`` of that (Zeni et al. 2008).
@@ -76,7 +79,8 @@ class GaitConfig:
     min_stance_s: float = 0.12
     min_swing_s: float = 0.12
     min_foot_travel_mm: float = 100.0
-    contact_distance_mm: float = 30.0
+    contact_walking_s: float = 0.025
+    contact_distance_mm: float = 20.0
     toe_off_distance_mm: float = 30.0
     toe_off_window_s: float = 0.1
     event_resolution_s: float = 0.001

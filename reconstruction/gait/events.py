@@ -11,12 +11,17 @@ inside it; the other is NaN. A stance whose end alone is in the recording is als
 staying near where it is at the first frame (its speed may not look still: a rolling toe, a fit's edge).
 
 Heel strike (initial contact, the first instant of ground contact): real feet reach the floor still
-moving; the heel rolls 20-40 mm over the heel rocker and comes to rest 60-130 ms later (see
-``gaitcap.simulator.foot``), so the moment the foot comes to rest is 2-3 frames late at
-30 fps. The heel strike is the first time heel or toe comes within ``contact_distance_mm`` (30 mm) of
-where it rests in this contact, located on the continuous trajectory (the caller's sampler, else a cubic
-spline through the frames) at ``event_resolution_s``. A position threshold is also far less sensitive to
-noise than a speed threshold. Where no such crossing exists in the window (a contact without a clear
+moving; the heel rolls over the heel rocker and comes to rest 60-130 ms later (see
+``gaitcap.simulator.foot``), so the moment the foot comes to rest is 2-3 frames late at 30 fps. How far
+it rolls is its speed at contact times that time, and the heel arrives slower in a slower gait (at the
+annotated contacts of two real walks, median 26 mm from rest at 1.25 m/s, 17 mm at 0.65 m/s). The heel strike is the first time heel or
+toe comes within the distance walked in ``contact_walking_s`` (25 ms: 30 mm at 1.2 m/s, at least
+``contact_distance_mm``, 20 mm) of where it rests in this contact (``contact_distance``), located on the
+continuous trajectory (the caller's sampler, else a cubic spline through the frames) at
+``event_resolution_s``. A fixed 30 mm found the contacts of slow and shuffling gaits early by the time
+their heels took to cover the difference (the walker's Parkinsonian and hemiparetic patterns -40 and
+-29 ms, now -15 and 0 ms). A position threshold is also far less sensitive to noise than a speed
+threshold. Where no such crossing exists in the window (a contact without a clear
 approach) the older speed criterion is the fallback: where the foot's speed falls below the event speed
 (3 x the noise at rest, at least ``min_event_speed_mm_s``), extrapolated to zero speed on a caller's
 continuous trajectory. Toe-first contacts are located by the toe in the same way.
@@ -29,9 +34,10 @@ about 15 ms). Fallbacks: midway between that distance crossing and the first tim
 exceeds ``toe_off_peak_fraction`` of the following swing's peak, else the speed crossing.
 
 Known biases (30 fps): on the synthetic walker (heel_roll_mm 30, ground-truth frames) heel strike 0 ms,
-toe off +15 ms; feet that roll less than 30 mm after contact are found early by the time they take to
-cover the difference (flat-foot and shuffling contacts: -30 to -40 ms on the walker's Parkinsonian and
-hemiparetic patterns). On the real walks of ``bench/gait_real.py`` see docs/gait.md. Noise raises the
+toe off +15 ms; feet that roll less than that distance after contact are found early by the time they
+take to cover the difference, feet that roll more late (the walker's Parkinsonian pattern, 15 mm at
+0.78 m/s: -15 ms; slow, 25 mm at 0.83 m/s: +9 ms). On the real walks of ``bench/gait_real.py`` see
+docs/gait.md. Noise raises the
 rest points' spread; noisy frames are smoothed (``smoothing_window_s``), which blurs the events; so does a
 trajectory fit that rounds the foot's stop and push-off.
 """
@@ -112,6 +118,13 @@ def rest_speed_mm_s(walking_speed_mm_s: float, config: GaitConfig, noise_mm_s: f
     speed noise floor ``noise_mm_s`` at rest (see ``FootTracks.rest_noise_mm_s``)."""
     return max(config.min_rest_speed_mm_s, config.rest_speed_fraction * walking_speed_mm_s,
                config.rest_noise_factor * noise_mm_s)
+
+
+def contact_distance(walking_speed_mm_s: float, config: GaitConfig = GaitConfig()) -> float:
+    """Distance (mm) from its rest point within which a foot arriving at a trial walked at
+    ``walking_speed_mm_s`` is in contact: the distance walked in ``contact_walking_s``, at least
+    ``contact_distance_mm`` (see the module docstring)."""
+    return max(config.contact_distance_mm, config.contact_walking_s * walking_speed_mm_s)
 
 
 def _clean(mask: np.ndarray, times_s: np.ndarray, min_false_s: float, min_true_s: float) -> np.ndarray:
@@ -270,13 +283,13 @@ def _first_below(grid: np.ndarray, dist: np.ndarray, level: float, anchor: int) 
 
 
 def _near_rest(tracks: FootTracks, side: str, run: tuple[int, int], heel_mm, toe_mm, config: GaitConfig, *,
-               limit_s: float) -> tuple[float, float]:
+               contact_mm: float, limit_s: float) -> tuple[float, float]:
     """(heel strike, toe off) of one contact by distance from the rest points (see the module docstring):
-    the first time heel or toe comes within ``contact_distance_mm`` of where it rests, and the last time
-    the toe is within it. NaN where that crossing is not inside the data (or the window)."""
+    the first time heel or toe comes within ``contact_mm`` of where it rests, and the last time the toe is
+    within ``toe_off_distance_mm`` of it. NaN where that crossing is not inside the data (or the window)."""
     times = tracks.times_s
     a, b = run
-    d = config.contact_distance_mm
+    d = contact_mm
     res = config.event_resolution_s
     lo = max(times[0], times[a] - config.event_window_s)
     grid = np.arange(lo, times[min(a + 2, b)] + res / 2, res)
@@ -316,7 +329,7 @@ def _toe_behind(tracks: FootTracks, side: str, t_s: float, heel_mm, toe_mm, conf
 
 
 def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: np.ndarray, v_rest: float,
-                 config: GaitConfig, rest_points) -> tuple[np.ndarray, np.ndarray]:
+                 config: GaitConfig, rest_points, *, contact_mm: float) -> tuple[np.ndarray, np.ndarray]:
     """(R,) heel strike and toe off times (s) of the runs (see the module docstring); NaN where the event
     is not inside the trial. The speed-threshold events are the fallback where the distance crossing is
     not found inside a run's window (a contact too short or too noisy for its rest point)."""
@@ -341,7 +354,8 @@ def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: n
         return hs_all, to_all
     for i, (run, (heel_mm, toe_mm)) in enumerate(zip(runs, rest_points, strict=True)):
         limit = times[runs[i + 1][0]] if i + 1 < len(runs) else times[-1]
-        near_hs, near_to = _near_rest(tracks, side, run, heel_mm, toe_mm, config, limit_s=limit)
+        near_hs, near_to = _near_rest(tracks, side, run, heel_mm, toe_mm, config, contact_mm=contact_mm,
+                                      limit_s=limit)
         at_start, at_end = run[0] == 0, run[1] == last
         # a foot near its rest point when the data start may still be rolling in after a contact just
         # before or inside the data (speed fallback); one within d/3 of it is at rest: no heel strike
@@ -397,7 +411,8 @@ def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
         points = [(_rest_point(frames[a:b + 1, h], speed[a:b + 1, h], v_rest),
                    _rest_point(frames[a:b + 1, t], speed[a:b + 1, t], v_rest)[0]) for a, b in runs]
         hs, to = _event_times(tracks, side, runs, speed, rest, v_rest, config,
-                              [(heel, toe) for (heel, _), toe in points])
+                              [(heel, toe) for (heel, _), toe in points],
+                              contact_mm=contact_distance(walking_speed_mm_s, config))
         for (a, b), t_hs, t_to, ((heel, spread), toe) in zip(runs, hs, to, points, strict=True):
             ok = bool(np.isfinite(t_hs) and tracks.is_valid(times[a] - 4 * dt, times[b] + 4 * dt, (h, t)))
             contacts.append(Contact(side, float(t_hs), float(t_to), tuple(map(float, heel)),

@@ -3,7 +3,10 @@ import io
 
 import numpy as np
 import pytest
-from gaitcap.reconstruction.gait import TrajectoryQuality, analyze_gait
+from gaitcap.reconstruction.gait import GaitConfig, TrajectoryQuality, analyze_gait
+from gaitcap.reconstruction.gait.events import contact_distance
+from gaitcap.simulator import make_trial
+from gaitcap.simulator.params import WalkParams
 
 
 def _match(report, walk):
@@ -48,7 +51,8 @@ def test_continuous_sampler_gives_sub_frame_events(walker):
     walk = walker()
     report = analyze_gait(walk.points_mm, walk.times_s, walk.joint_names, sample=walk.sample)
     errors = [c.heel_strike_s - walk.hs_s[k] for c, k in _match(report, walk) if np.isfinite(walk.hs_s[k])]
-    # Landing at 0.9 m/s that rolls 35 mm to rest: detected when within 30 mm, a few ms late.
+    # Landing at 0.9 m/s that rolls 35 mm to rest: detected when within 30 mm (25 ms of walking at
+    # 1.18 m/s), a few ms late.
     assert max(abs(e) for e in errors) < 0.015
 
 
@@ -232,3 +236,26 @@ def test_per_side_summary_and_symmetry_index_of_a_hemiparetic_walk():
     data = report.to_dict()["summary"]
     assert data["parameters"]["double_support_pct"]["right"]["n"] >= 2
     assert data["asymmetry_pct"]["step_width_mm"] is not None
+
+
+def test_contact_distance_is_the_distance_walked_in_25_ms_at_least_20_mm():
+    assert contact_distance(1200.0) == pytest.approx(30.0)
+    assert contact_distance(600.0) == pytest.approx(20.0)
+    assert contact_distance(600.0, GaitConfig(contact_distance_mm=10.0)) == pytest.approx(15.0)
+
+
+@pytest.mark.parametrize("pattern", ["slow", "parkinsonian", "hemiparetic"])
+def test_heel_strikes_of_slow_and_shuffling_gaits_are_not_early(pattern):
+    """The walker's slower patterns (0.70-0.83 m/s, heels rolling 15-25 mm after initial contact; ground
+    truth frames): heel strikes within half a frame of the true initial contacts as a rule (a fixed 30 mm
+    contact distance found the Parkinsonian ones 40 ms, the hemiparetic ones 29 ms early)."""
+    trial = make_trial("paper", seconds=20.0, seed=0, walk=getattr(WalkParams, pattern)())
+    report = analyze_gait(trial.points_mm, trial.times_s, trial.skeleton.joint_names)
+    errors = []
+    for c in report.contacts:
+        true = np.asarray(trial.truth.heel_strike_s[c.foot])
+        e = c.heel_strike_s - true[np.argmin(np.abs(true - c.heel_strike_s))] if len(true) else np.nan
+        if abs(e) < 0.25:
+            errors.append(e)
+    assert len(errors) >= 15, f"{pattern}: {len(errors)} heel strikes matched"
+    assert abs(np.median(errors)) <= 0.5 / 30, f"{pattern}: signed median {1000 * np.median(errors):+.0f} ms"
