@@ -7,7 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from gaitcap.reconstruction.kinematics.report import curves_csv
+from gaitcap.reconstruction.methods import Implicit, Robust
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog import method_results as store
+from gaitcap.services.catalog.method_keys import params_key
 from gaitcap.services.catalog.patients import update_patient
 from gaitcap.services.kinematics import availability
 from gaitcap.services.kinematics.files import norms_for_age
@@ -16,6 +19,8 @@ from gaitcap.services.processing.worker import Worker, WorkerConfig
 from mcap.reader import make_reader
 
 from ..conftest import write_trial_mcap
+
+COMPLETED = {"keypoints": "completed after Stop"}  # what the worker folds into the key of such a result
 
 
 @pytest.fixture(scope="module")
@@ -283,6 +288,10 @@ def test_the_frames_the_live_detector_missed_are_detected_before_the_refined_sta
     assert done["frames"]["completed"] == int((~live).sum()) and done["complete"], done["frames"]
     assert done["cameras"]["cam02"]["live"] == int(live[1].sum()) and done["warnings"] == [], done
     assert "completion" not in prelim.report["data_quality"]["checks"]
+    live_key, completed_key = params_key(Implicit()), params_key(Implicit(), inputs=COMPLETED)
+    assert store.get_result(db, t.id, "robust", params_key(Robust())).stage == "preliminary"  # the live keypoints
+    assert store.get_result(db, t.id, "implicit", live_key) is None  # never the key of the live keypoints alone
+    assert store.get_result(db, t.id, "implicit", completed_key).stage == "refined"
     kp = load_multi_npz(trial_files(tmp_path, t.id).root / "keypoints_complete.npz")
     assert kp.keypoints.shape[:2] == live.shape
     errors = _step_length_errors(refined, walk.truth.steps)  # the refined numbers on the complete keypoints
