@@ -10,9 +10,9 @@ pre- and post-processing below follows MediaPipe's pose graphs:
    scale point -> a rotated square region of interest (2 x their distance x 1.25);
 2. landmark model on that region (256x256, RGB in [0, 1]) -> 39 points (33 landmarks + 2 alignment
    points + ...), visibility = sigmoid, refined on the 64x64 heatmaps, mapped back to image px;
-3. tracking: the next frame of the same camera reuses each person's region from the alignment landmarks
-   33/34; the detector runs again for one pose only when it is lost, for several poses on every frame
-   (for people coming into view).
+3. tracking: the next frame of the same camera (up to ``track_gap_frames`` frame ids on) reuses each
+   person's region from the alignment landmarks 33/34; the detector runs again for one pose only when it
+   is lost, for several poses every ``search_every``-th frame (for people coming into view).
 Confidence = min(visibility, presence), both sigmoid outputs of the landmark model.
 """
 
@@ -56,6 +56,11 @@ class MediaPipeConfig(DetectorConfig):
         min_detection_confidence: person detector score threshold.
         min_tracking_confidence: pose presence below this drops tracking and re-runs the detector.
         tracking: reuse the previous frame's region for consecutive frames of the same camera.
+        track_gap_frames: a camera's regions are reused for a frame up to this many frame ids after the last
+            one detected (1: the next frame only, as MediaPipe; 2: one frame may be missing between, as when
+            the frames between the live detector's are completed after Stop, or the live pool detects every
+            2nd frame id: a walker moves a few px in 2 frames, the region is 2.5 x the torso). A longer gap
+            runs the person detector again.
         num_poses: at most this many people per image (default 4: everyone in a clinic's view; who the
             patient is is decided across cameras by the association, never per image). Tracking the
             previous frame's regions are reused; > 1 also runs the person detector for newcomers.
@@ -75,6 +80,7 @@ class MediaPipeConfig(DetectorConfig):
     num_poses: int = 4
     search_every: int = 5
     num_threads: int = 2
+    track_gap_frames: int = 2
 
     def __post_init__(self) -> None:
         if str(self.model) not in LANDMARK_MODELS and not str(self.model).endswith(".tflite"):
@@ -83,6 +89,8 @@ class MediaPipeConfig(DetectorConfig):
             raise ValueError(f"mediapipe num_poses must be >= 1, got {self.num_poses}")
         if self.search_every < 1:
             raise ValueError(f"mediapipe search_every must be >= 1 frame, got {self.search_every}")
+        if self.track_gap_frames < 1:
+            raise ValueError(f"mediapipe track_gap_frames must be >= 1 frame, got {self.track_gap_frames}")
 
     def build(self) -> MediaPipeDetector:
         return MediaPipeDetector(self)
@@ -324,7 +332,7 @@ class MediaPipeDetector:
         if not self.config.tracking or camera not in self._tracks:
             return ()
         last_id, rois = self._tracks[camera]
-        return rois if frame_id == last_id + 1 else ()
+        return rois if 0 < frame_id - last_id <= self.config.track_gap_frames else ()
 
     def find_people(self, bgr: np.ndarray) -> list[Roi]:
         """Person detector on a BGR image -> regions of interest, best first."""

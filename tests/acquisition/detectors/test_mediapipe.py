@@ -217,6 +217,27 @@ def test_tracking_reuses_the_region_and_blank_image_finds_nobody(monkeypatch):
     det.detect(frames[0], camera="b", frame_id=0, timestamp_ns=0)  # another camera: its own track
     det.detect(frames[0], camera="a", frame_id=10, timestamp_ns=0)  # a gap: detect again
     assert len(calls) == 3
+
+
+@needs_models
+def test_tracking_holds_over_one_missing_frame_and_restarts_after_a_longer_gap(monkeypatch):
+    """Completing the frames between live ones after Stop: a camera's frames 0, 1, 3, 4 (2 detected live)
+    keep the walker's region; with ``track_gap_frames=1`` (MediaPipe's own way) frame 3 searches again, and
+    frames 4 -> 7 is a gap of 3: searched again with the default too."""
+    frames = _frames(120, 8)
+    for gap, searches in ((2, [0, 7]), (1, [0, 3, 7])):
+        det = MediaPipeConfig(num_poses=1, track_gap_frames=gap).build()
+        calls, now = [], [0]  # the frame ids the person detector ran on; the frame being detected
+        real = det.find_people
+        monkeypatch.setattr(det, "find_people", lambda bgr, calls=calls, now=now, real=real: calls.append(now[0])
+                            or real(bgr))
+        found = []
+        for i in (0, 1, 3, 4, 7):
+            now[0] = i
+            found.append(len(det.detect(frames[i], camera="a", frame_id=i, timestamp_ns=0)))
+        assert found == [1] * 5 and calls == searches, (gap, calls)
+    with pytest.raises(ValueError, match="track_gap_frames"):
+        MediaPipeConfig(track_gap_frames=0)
     blank = np.full((480, 640, 3), 127, np.uint8)
     assert det.detect(blank, camera="c", frame_id=0, timestamp_ns=0).shape == (0, 33, 3)
 
