@@ -14,17 +14,18 @@ Heel strike (initial contact, the first instant of ground contact): real feet re
 moving; the heel rolls over the heel rocker and comes to rest 60-130 ms later (see
 ``gaitcap.simulator.foot``), so the moment the foot comes to rest is 2-3 frames late at 30 fps. How far
 it rolls is its speed at contact times that time, and the heel arrives slower in a slower gait (at the
-annotated contacts of two real walks, median 26 mm from rest at 1.25 m/s, 17 mm at 0.65 m/s). The heel strike is the first time heel or
-toe comes within the distance walked in ``contact_walking_s`` (25 ms: 30 mm at 1.2 m/s, at least
-``contact_distance_mm``, 20 mm) of where it rests in this contact (``contact_distance``), located on the
-continuous trajectory (the caller's sampler, else a cubic spline through the frames) at
-``event_resolution_s``. A fixed 30 mm found the contacts of slow and shuffling gaits early by the time
-their heels took to cover the difference (the walker's Parkinsonian and hemiparetic patterns -40 and
--29 ms, now -15 and 0 ms). A position threshold is also far less sensitive to noise than a speed
-threshold. Where no such crossing exists in the window (a contact without a clear
-approach) the older speed criterion is the fallback: where the foot's speed falls below the event speed
-(3 x the noise at rest, at least ``min_event_speed_mm_s``), extrapolated to zero speed on a caller's
-continuous trajectory. Toe-first contacts are located by the toe in the same way.
+annotated contacts of two real walks, a median 26 mm from rest at 1.25 m/s, 17 mm at 0.65 m/s). The
+heel strike is the first time heel or toe comes within the distance walked in ``contact_walking_s``
+(25 ms: 30 mm at 1.2 m/s), at least ``contact_distance_mm`` (20 mm), of where it rests in this contact
+(``contact_distance``), located on the continuous trajectory (the caller's sampler, else a cubic spline
+through the frames) at ``event_resolution_s``. A fixed 30 mm found the contacts of slow and shuffling
+gaits early by the time their heels took to cover the difference (the walker's Parkinsonian and
+hemiparetic patterns: -40 and -29 ms; with the distance scaled: -15 and 0 ms). A position threshold is
+also far less sensitive to noise than a speed threshold. Where no such crossing exists in the window (a
+contact without a clear approach) the older speed criterion is the fallback: where the foot's speed
+falls below the event speed (3 x the noise at rest, at least ``min_event_speed_mm_s``), extrapolated to
+zero speed on a caller's continuous trajectory. Toe-first contacts are located by the toe in the same
+way.
 
 Toe off (the last instant of contact): the last time the toe is within ``toe_off_distance_mm`` of its
 rest point, refined to the moment the toe is farthest behind the body centre along the foot's direction
@@ -37,9 +38,8 @@ Known biases (30 fps): on the synthetic walker (heel_roll_mm 30, ground-truth fr
 toe off +15 ms; feet that roll less than that distance after contact are found early by the time they
 take to cover the difference, feet that roll more late (the walker's Parkinsonian pattern, 15 mm at
 0.78 m/s: -15 ms; slow, 25 mm at 0.83 m/s: +9 ms). On the real walks of ``bench/gait_real.py`` see
-docs/gait.md. Noise raises the
-rest points' spread; noisy frames are smoothed (``smoothing_window_s``), which blurs the events; so does a
-trajectory fit that rounds the foot's stop and push-off.
+docs/gait.md. Noise raises the rest points' spread; noisy frames are smoothed (``smoothing_window_s``),
+which blurs the events; so does a trajectory fit that rounds the foot's stop and push-off.
 """
 
 from __future__ import annotations
