@@ -1,1 +1,2 @@
-"""Camera drivers, synchronisation, encoding, detectors and recording (the synthetic world is `gaitcap.simulator`)."""
+"""Camera drivers, synchronisation, encoding, detectors and recording; calibration boards in images
+(:mod:`.boards`) and other tools' files (:mod:`.importers`). The synthetic world is `gaitcap.simulator`."""

@@ -7,7 +7,7 @@ keys: ``keypoints`` (C, T, P, J, 3) x px, y px, confidence; ``camera_names`` (C,
 ``skeleton`` (str). A single-person file has ``keypoints`` (C, T, J, 3) and the same other keys, plus
 whatever extra arrays the writer adds (e.g. ``track_id``). One reader of these files,
 :func:`read_keypoint_arrays`, for the loaders here and for ``gaitcap process`` on an NPZ
-(:mod:`gaitcap.acquisition.keypoint_files`, where ``times_s`` and ``skeleton`` may be left out and the
+(:mod:`gaitcap.acquisition.importers.keypoint_files`, where ``times_s`` and ``skeleton`` may be left out and the
 camera names may be under ``cameras``).
 """
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.drivers.base import CaptureSettings
 from gaitcap.acquisition.drivers.video import VideoCamera
-from gaitcap.acquisition.keypoint_input import sort_people
+from gaitcap.acquisition.importers.keypoint_input import sort_people
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 log = logging.getLogger(__name__)

@@ -21,9 +21,9 @@ STEREO_DISTORTIONS = ("k1", "k1k2p1p2k3")  # the paper's model, and OpenCV's fiv
 
 
 def _stereo(distortion: str) -> dict | None:
-    from gaitcap.acquisition.board import BoardConfig
-    from gaitcap.acquisition.board_recording import calibrate_from_recording
-    from gaitcap.acquisition.opencv_samples import opencv_stereo_calibration, read_opencv_camera
+    from gaitcap.acquisition.boards.detection import BoardConfig
+    from gaitcap.acquisition.boards.recording import calibrate_from_recording
+    from gaitcap.acquisition.importers.opencv_samples import opencv_stereo_calibration, read_opencv_camera
     from gaitcap.reconstruction.calibration import CalibrationConfig, IntrinsicsConfig
     from gaitcap.reconstruction.calibration.compare import stereo_difference
     from gaitcap.reconstruction.calibration.intrinsics import DistortionModel
@@ -57,8 +57,8 @@ def _stereo(distortion: str) -> dict | None:
 
 def _charuco_photo() -> dict | None:
     import cv2
-    from gaitcap.acquisition.board import BoardConfig, make_board
-    from gaitcap.acquisition.opencv_samples import read_opencv_camera
+    from gaitcap.acquisition.boards.detection import BoardConfig, make_board
+    from gaitcap.acquisition.importers.opencv_samples import read_opencv_camera
 
     folder = share_path("testdata", "calibration", "opencv-charuco")
     if not (folder / "choriginal.jpg").exists():

@@ -58,7 +58,7 @@ FLOOR_SPOTS_MM = ((1500.0, 1500.0), (-1500.0, 1200.0), (1000.0, -1500.0))  # boa
 
 def _calibration(board_kind: str, frames: int, floor_frames: int, noise_px: float, seed: int,
                  still_floor: bool = False) -> dict:
-    from gaitcap.acquisition.board import BoardConfig, make_board
+    from gaitcap.acquisition.boards.detection import BoardConfig, make_board
     from gaitcap.reconstruction.calibration import calibrate_from_observations
     from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
     from gaitcap.reconstruction.triangulation import robust_triangulate
@@ -99,7 +99,7 @@ def _calibration(board_kind: str, frames: int, floor_frames: int, noise_px: floa
 
 
 def _detector(board_kind: str, frames: int, scale: float, seed: int) -> dict:
-    from gaitcap.acquisition.board import BoardConfig, make_board
+    from gaitcap.acquisition.boards.detection import BoardConfig, make_board
     from gaitcap.simulator.board import (
         BoardMotion,
         board_trajectory,
@@ -140,8 +140,8 @@ def _end_to_end(board_kind: str, frames: int, scale: float, seed: int) -> dict:
     import tempfile
     from pathlib import Path
 
-    from gaitcap.acquisition.board import BoardConfig
-    from gaitcap.acquisition.board_recording import calibrate_from_recording
+    from gaitcap.acquisition.boards.detection import BoardConfig
+    from gaitcap.acquisition.boards.recording import calibrate_from_recording
     from gaitcap.reconstruction.calibration.compare import compare_rigs
     from gaitcap.reconstruction.camera import Rig
     from gaitcap.simulator.board_clip import BoardClipConfig, write_board_clip
@@ -200,8 +200,8 @@ LARGE_SESSIONS = {"caliscope-11cam": "caliscope larger_calibration_post_monocal 
 def _real_session(name: str, known_intrinsics: bool, readout_ms: float = 0.0, sync_every: int = 1) -> dict | None:
     """A caliscope 4-webcam ChArUco session, calibrated here and compared with caliscope's calibration
     (readout_ms: views whose board moved more than 1 px within this rolling-shutter readout tie no cameras)."""
-    from gaitcap.acquisition.board_pairing import PairingConfig
-    from gaitcap.acquisition.caliscope import read_session
+    from gaitcap.acquisition.boards.pairing import PairingConfig
+    from gaitcap.acquisition.importers.caliscope import read_session
     from gaitcap.reconstruction.calibration import CalibrationConfig, calibrate_from_observations
     from gaitcap.reconstruction.calibration.compare import compare_similar
 
@@ -248,8 +248,8 @@ def _real_session(name: str, known_intrinsics: bool, readout_ms: float = 0.0, sy
 def _reference_fit(name: str, readout_ms: float) -> dict | None:
     """caliscope's own calibration (its camera_array.toml, intrinsics and poses held) on the same corners:
     each frame set's board pose fitted with its cameras fixed, then reprojected, as our report computes it."""
-    from gaitcap.acquisition.board_pairing import PairingConfig
-    from gaitcap.acquisition.caliscope import read_session
+    from gaitcap.acquisition.boards.pairing import PairingConfig
+    from gaitcap.acquisition.importers.caliscope import read_session
     from gaitcap.reconstruction.calibration.refit import fit_board_to_rig
 
     folder = _testdata() / name
@@ -279,7 +279,7 @@ def _pp_off_centre_deg(cam) -> float:
 def _real_images(name: str, pattern: str, board) -> dict | None:
     """How many of a folder's real board images the detector finds, and how fast."""
     import cv2
-    from gaitcap.acquisition.board import make_board
+    from gaitcap.acquisition.boards.detection import make_board
 
     paths = sorted(_testdata().glob(pattern))
     if not paths:
@@ -298,8 +298,8 @@ def _pose2sim_intrinsics() -> dict | None:
     each camera's intrinsics (k1) from its views, and the focal length against Qualisys's calibration of
     the same cameras."""
     import cv2
-    from gaitcap.acquisition.board import BoardConfig, make_board
-    from gaitcap.acquisition.tool_folders import read_qca
+    from gaitcap.acquisition.boards.detection import BoardConfig, make_board
+    from gaitcap.acquisition.importers.tool_folders import read_qca
     from gaitcap.reconstruction.calibration import BoardObservations, IntrinsicsConfig
     from gaitcap.reconstruction.calibration.intrinsics import estimate_intrinsics
 
@@ -329,7 +329,7 @@ def _pose2sim_intrinsics() -> dict | None:
 
 
 def _real(sync_every: int = 1) -> dict:
-    from gaitcap.acquisition.board import BoardConfig
+    from gaitcap.acquisition.boards.detection import BoardConfig
 
     return {
         "sessions": [r for r in (_real_session(n, k, ro) for n in REAL_SESSIONS for k, ro in REAL_VARIANTS)

@@ -53,7 +53,7 @@ def _recognise(recording, rig, truth: str) -> dict:
 
 
 def synthetic_layouts() -> dict:
-    from gaitcap.acquisition.keypoint_input import make_input
+    from gaitcap.acquisition.importers.keypoint_input import make_input
     from gaitcap.reconstruction.skeletons import SKELETONS
     from gaitcap.simulator import make_trial
     from gaitcap.simulator.layouts import points_in_layout
@@ -71,8 +71,8 @@ def synthetic_layouts() -> dict:
 
 
 def real_layouts() -> dict:
-    from gaitcap.acquisition.keypoint_files import read_keypoints_input
-    from gaitcap.acquisition.tool_folders import read_qca
+    from gaitcap.acquisition.importers.keypoint_files import read_keypoints_input
+    from gaitcap.acquisition.importers.tool_folders import read_qca
 
     rig = read_qca(SESSION / "S00_Calibration" / "Calib.qca.txt")
     out = {}
@@ -83,7 +83,7 @@ def real_layouts() -> dict:
 
 
 def two_people() -> dict:
-    from gaitcap.acquisition.keypoint_files import read_keypoints_input
+    from gaitcap.acquisition.importers.keypoint_files import read_keypoints_input
     from gaitcap.reconstruction.association import ManualTrack
     from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.services.processing.pipeline import patient_input, preliminary, resolve_layout

@@ -53,7 +53,7 @@ OFFSET_JOINTS = ("left_hip", "right_hip", "left_ankle", "right_ankle", "left_hee
 
 def _ours(videos: Path) -> dict:
     from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig
-    from gaitcap.acquisition.tool_folders import read_qca
+    from gaitcap.acquisition.importers.tool_folders import read_qca
     from gaitcap.acquisition.video_detect import detect_videos, find_videos
     from gaitcap.reconstruction.association import associate_and_select
     from gaitcap.reconstruction.methods import METHODS, reconstruct
@@ -72,7 +72,7 @@ def _ours(videos: Path) -> dict:
 def _reference(folder: Path, near_mm: np.ndarray):
     """Pose2Sim's 2D keypoints of the trial, the track nearest ``near_mm`` (T, 3) hips, triangulated:
     ((T, J, 3) mm, joint names)."""
-    from gaitcap.acquisition.keypoint_files import read_keypoints_input
+    from gaitcap.acquisition.importers.keypoint_files import read_keypoints_input
     from gaitcap.reconstruction.association import ManualTrack, associate_and_select
     from gaitcap.reconstruction.methods import METHODS, reconstruct
 

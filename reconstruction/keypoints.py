@@ -2,7 +2,7 @@
 (:class:`MultiViewKeypoints`).
 
 The trial recording's reader (:func:`gaitcap.acquisition.recording.reader.read_keypoints`), every importer
-of other tools' files (:mod:`gaitcap.acquisition.keypoint_files`), the video detector, the completion after
+of other tools' files (:mod:`gaitcap.acquisition.importers.keypoint_files`), the video detector, the completion after
 Stop and the simulator return it; association takes it as input; reconstruction takes the patient's
 :class:`~gaitcap.reconstruction.detections.Detections` of it (:meth:`MultiViewKeypoints.patient`, or the
 patient chosen among several people). The bus message (:mod:`gaitcap.acquisition.keypoint_message`) is the

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from gaitcap.acquisition.board import Board
+from gaitcap.acquisition.boards.detection import Board
 from gaitcap.reconstruction.calibration.geometry import BoardGeometry, BoardObservations
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.simulator.board_render import BoardRenderer, camera_at

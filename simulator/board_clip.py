@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.acquisition.encoding import encode_jpeg
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.simulator.board import (

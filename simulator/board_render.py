@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from gaitcap.acquisition.board import Board
+from gaitcap.acquisition.boards.detection import Board
 from gaitcap.reconstruction.camera import Camera
 from gaitcap.simulator.room import safe_project
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.simulator.board import FLOOR_SPOTS_MM, BoardMotion, board_trajectory
 from gaitcap.simulator.board_render import BoardRenderer

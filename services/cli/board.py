@@ -37,8 +37,8 @@ def board_from_options(board_file: Path | None, kind: str | None, squares: str |
                        marker_mm: float | None, dictionary: str | None, inverted: bool | None,
                        legacy: bool | None):
     """The board from a board file or from flags (not both: ValueError)."""
-    from gaitcap.acquisition.board import BoardConfig, make_board
-    from gaitcap.acquisition.board_file import read_board_file
+    from gaitcap.acquisition.boards.detection import BoardConfig, make_board
+    from gaitcap.acquisition.boards.file import read_board_file
 
     flags = {"--board": kind, "--squares": squares, "--square-mm": square_mm, "--marker-mm": marker_mm,
              "--dictionary": dictionary, "--inverted": inverted, "--legacy-layout": legacy}
@@ -63,7 +63,7 @@ def board_page(config) -> tuple[np.ndarray, float]:
     """The printable page (uint8 grey) and its resolution in dots per inch: the board at true scale, its
     parameters and a 100 mm scale bar below it."""
     import cv2
-    from gaitcap.acquisition.board import make_board
+    from gaitcap.acquisition.boards.detection import make_board
 
     px_per_mm = round(config.square_mm * PX_PER_MM) / config.square_mm  # whole pixels per square
     board_img, _ = make_board(config).texture(px_per_mm)  # an inverted ChArUco comes out inverted
@@ -106,7 +106,7 @@ def register(app: typer.Typer) -> None:
         dictionary: str | None = DICTIONARY, inverted: bool | None = INVERTED, legacy: bool | None = LEGACY,
     ) -> None:
         """Draw a calibration board at true scale, and write its board file (OUT with .toml) beside it."""
-        from gaitcap.acquisition.board_file import board_to_toml
+        from gaitcap.acquisition.boards.file import board_to_toml
         from gaitcap.acquisition.fileio import atomic_write_text
 
         with user_errors():

@@ -66,8 +66,8 @@ def _stereo(diff, first: str, second: str) -> str:
 def _load_calibration(path: Path):
     """A calibration file: caliscope's camera_array.toml, or any other gaitcap reads (Qualisys .qca.txt,
     Pose2Sim/aniposelib .toml, gaitcap .json)."""
-    from gaitcap.acquisition.caliscope import is_camera_array, read_camera_array
-    from gaitcap.acquisition.tool_folders import load_calibration
+    from gaitcap.acquisition.importers.caliscope import is_camera_array, read_camera_array
+    from gaitcap.acquisition.importers.tool_folders import load_calibration
 
     return read_camera_array(path) if is_camera_array(path) else load_calibration(path)
 
@@ -75,8 +75,8 @@ def _load_calibration(path: Path):
 def _views(recording: Path, cfg, flags_given: bool, selection, pairing, progress_bar):
     """Board observations and a line (or table) on what was found: a recording, or a caliscope session
     folder (its corner detections; its board unless one is given)."""
-    from gaitcap.acquisition.board_recording import find_board_views
-    from gaitcap.acquisition.caliscope import is_session, read_session
+    from gaitcap.acquisition.boards.recording import find_board_views
+    from gaitcap.acquisition.importers.caliscope import is_session, read_session
 
     if is_session(recording):
         if selection.max_frames is not None:
@@ -114,8 +114,8 @@ def register(app: typer.Typer) -> None:
         strict_intrinsics: bool = typer.Option(False, "--strict-intrinsics", help="Hold nothing the board views cannot determine: refuse a camera whose board covered too little of its image or whose focal length is uncertain, instead of holding its principal point at the image centre and only k1."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
-        from gaitcap.acquisition.board_pairing import PairingConfig
-        from gaitcap.acquisition.board_recording import FrameSelection
+        from gaitcap.acquisition.boards.pairing import PairingConfig
+        from gaitcap.acquisition.boards.recording import FrameSelection
         from gaitcap.acquisition.fileio import atomic_write_text
         from gaitcap.acquisition.writers import save_rig
         from gaitcap.reconstruction.calibration import (

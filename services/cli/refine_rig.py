@@ -21,7 +21,7 @@ log = logging.getLogger(__name__)
 def _patient(path: Path, rig):
     """The patient's detections of one trial (a trial .mcap or a keypoint folder another tool wrote),
     aligned to ``rig``."""
-    from gaitcap.acquisition.keypoint_files import read_keypoints_input
+    from gaitcap.acquisition.importers.keypoint_files import read_keypoints_input
     from gaitcap.services.processing.pipeline import patient_input, resolve_layout
 
     data = read_keypoints_input(path, rig=rig)
@@ -87,7 +87,7 @@ def _trial_paths(db, trials: list[Path]) -> list[Path]:
 
 def _prior(db, calibration: Path | None, replaces: str | None):
     """(rig, id it replaces or None): ``--calibration`` if given, else the catalog's calibration it replaces."""
-    from gaitcap.acquisition.tool_folders import load_calibration
+    from gaitcap.acquisition.importers.tool_folders import load_calibration
     from gaitcap.reconstruction.calibration_io import rig_from_toml_text
     from gaitcap.services import catalog as cat
 

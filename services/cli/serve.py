@@ -13,15 +13,15 @@ def board_fields(path: Path) -> dict:
     ValueError naming the file and field when it is not a board."""
     import tomllib
 
-    from gaitcap.acquisition.board_file import board_to_toml, read_board_file
+    from gaitcap.acquisition.boards.file import board_to_toml, read_board_file
 
     return tomllib.loads(board_to_toml(read_board_file(path)))["board"]
 
 
 def board_words(board: dict | None, path: Path | None) -> str:
     """The board serve records on board recordings, in one line naming where it came from."""
-    from gaitcap.acquisition.board import BoardConfig
-    from gaitcap.acquisition.board_file import board_from_dict
+    from gaitcap.acquisition.boards.detection import BoardConfig
+    from gaitcap.acquisition.boards.file import board_from_dict
 
     if board is None:
         return f"{BoardConfig().describe()} (the default board: no --board-file)"

@@ -48,7 +48,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Render a calibration board carried through the synthetic room, seen by every camera, as a
         recording (then: gaitcap calibrate OUT/board.mcap --out calib.toml --compare OUT/true_calibration.toml)."""
-        from gaitcap.acquisition.board import BoardConfig
+        from gaitcap.acquisition.boards.detection import BoardConfig
         from gaitcap.acquisition.writers import save_rig
         from gaitcap.simulator.board_clip import BoardClipConfig, write_board_clip
 

@@ -11,7 +11,7 @@ def check_board(board: dict) -> None:
     """ValueError naming what is wrong when ``board`` (a board file's ``[board]`` fields) is not a board the
     worker can search for (an unknown dictionary, markers as large as the squares, ...): checked when the
     board recording starts, not after the board has been filmed."""
-    from gaitcap.acquisition.board_file import board_from_dict
+    from gaitcap.acquisition.boards.file import board_from_dict
 
     board_from_dict({"board": board}, source="board")
 
@@ -19,8 +19,8 @@ def check_board(board: dict) -> None:
 def board_used(cal: CalibrationInfo):
     """(BoardConfig, words naming it) of a calibration: its recorded board, else the default board.
     ValueError naming the field when the recorded description is not a board."""
-    from gaitcap.acquisition.board import BoardConfig
-    from gaitcap.acquisition.board_file import board_from_dict
+    from gaitcap.acquisition.boards.detection import BoardConfig
+    from gaitcap.acquisition.boards.file import board_from_dict
 
     if cal.board is None:
         board = BoardConfig()

@@ -3,7 +3,7 @@
 Finds the board in the recording's MCAP, calibrates every camera and stores the calibration with its
 quality report in the catalog (:mod:`gaitcap.services.catalog.calibrations`); progress goes to the
 calibration's ``stage`` / ``progress``. Too few board views: the error names, per camera, what was found
-and the likely cause (:mod:`gaitcap.acquisition.board_diagnosis`); any other recording the maths refuses
+and the likely cause (:mod:`gaitcap.acquisition.boards.diagnosis`); any other recording the maths refuses
 (a camera that failed the quality checks, ...) fails naming the reason. The board searched for is the
 one recorded on the calibration when its recording started (the clinic's board file, or the board given
 to Start); a record without one uses the default board. The report and every failure name the board used.
@@ -55,7 +55,7 @@ def run_calibration(catalog: Catalog, cal_id: str, *, board=None, check: Callabl
     ``board``: a BoardConfig overriding the calibration's recorded board (:func:`board_used`). A recording
     the maths refuses fails the calibration naming why and the board used (never raises ValueError);
     ``check()`` is called as images are read (the worker's lease check: raises when the job was lost)."""
-    from gaitcap.acquisition.board_recording import find_board_views
+    from gaitcap.acquisition.boards.recording import find_board_views
     from gaitcap.reconstruction.calibration import CalibrationConfig, calibrate_from_observations
 
     cal = get_calibration(catalog, cal_id)
@@ -91,7 +91,7 @@ def run_calibration(catalog: Catalog, cal_id: str, *, board=None, check: Callabl
 
 def without_table(message: str) -> str:
     """``message`` without the detection table appended to it (the page shows it per camera)."""
-    from gaitcap.acquisition.board_diagnosis import HEADER
+    from gaitcap.acquisition.boards.diagnosis import HEADER
 
     return message.split("\n\n" + HEADER)[0].strip()
 

@@ -16,8 +16,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.keypoint_files import read_keypoints_input
-from gaitcap.acquisition.keypoint_input import KeypointInput
+from gaitcap.acquisition.importers.keypoint_files import read_keypoints_input
+from gaitcap.acquisition.importers.keypoint_input import KeypointInput
 from gaitcap.acquisition.recording.reader import NoKeypointsRecorded
 from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
@@ -157,7 +157,11 @@ def load_input(path: Path, *, calibration: Path | None, options: OfflineOptions,
                on_frame: Callable[[], None] | None = None) -> TrialInput:
     """The input as the one path takes it (``calibration`` wins over one carried by the input); a trial
     MCAP comes with what its recorder measured, so it is judged as the clinic judges it."""
-    from gaitcap.acquisition.tool_folders import load_calibration, pose2sim_calibration, pose2sim_videos
+    from gaitcap.acquisition.importers.tool_folders import (
+        load_calibration,
+        pose2sim_calibration,
+        pose2sim_videos,
+    )
 
     user_rig = load_calibration(calibration) if calibration is not None else None
     videos = path if _has_videos(path) else pose2sim_videos(path)

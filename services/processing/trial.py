@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Protocol
 
 import numpy as np
-from gaitcap.acquisition.keypoint_input import KeypointInput
+from gaitcap.acquisition.importers.keypoint_input import KeypointInput
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles

@@ -7,8 +7,8 @@ The videos and calibration are installed by deploy/bootstrap.sh (install_pose2si
 import numpy as np
 import pytest
 from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig, default_model_dir
+from gaitcap.acquisition.importers.tool_folders import read_qca
 from gaitcap.acquisition.installed import share_path
-from gaitcap.acquisition.tool_folders import read_qca
 from gaitcap.acquisition.video_detect import detect_videos, find_videos
 from gaitcap.reconstruction.association import associate_and_select
 from gaitcap.reconstruction.methods import METHODS, reconstruct

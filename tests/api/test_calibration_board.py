@@ -7,7 +7,7 @@ API gave the recorder)."""
 
 import httpx
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.api.server import serve_in_thread
 from gaitcap.api.settings import Settings
 from gaitcap.services import catalog as cat

@@ -3,7 +3,7 @@ calibration in a trial MCAP; no image frames, which the worker does not read).""
 
 from pathlib import Path
 
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.simulator.board import BoardMotion, board_trajectory, render_board_images, scaled_rig
 from gaitcap.simulator.recording import write_keypoint_recording
 from gaitcap.simulator.room import build_rig

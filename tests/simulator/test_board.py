@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.simulator.board import (
     FLOOR_ROTATION,
     BoardMotion,

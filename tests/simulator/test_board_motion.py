@@ -4,8 +4,8 @@ smeared during the readout are found by their speed."""
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.board_pairing import smeared_views
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
+from gaitcap.acquisition.boards.pairing import smeared_views
 from gaitcap.reconstruction.calibration import calibrate_from_observations
 from gaitcap.reconstruction.calibration.compare import compare_rigs
 from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board, scaled_rig

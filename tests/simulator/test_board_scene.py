@@ -5,7 +5,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.acquisition.drivers.simulated import SimTrialSpec, simulated_rig
 from gaitcap.simulator.board_scene import BoardScene, BoardSceneConfig, SceneSwitch
 

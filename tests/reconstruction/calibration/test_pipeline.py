@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.acquisition.readers import load_rig
 from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.calibration import BoardObservations, calibrate_from_observations

@@ -4,7 +4,7 @@ detector reports a checkerboard's corners in a symmetric order; a camera turned 
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.reconstruction.calibration.refit import fit_board_to_rig
 from gaitcap.reconstruction.camera import Rig, matrix_to_rodrigues
 from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board

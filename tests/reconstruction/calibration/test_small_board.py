@@ -6,7 +6,7 @@ nearer the truth than with its principal point left free (measured 2.4 mm / 0.27
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.reconstruction.calibration import (
     BoardObservations,
     CalibrationConfig,

@@ -8,7 +8,7 @@ focal length 5 % off is refused, and the other cameras keep every view."""
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.reconstruction.calibration import (
     BoardObservations,
     CalibrationConfig,

@@ -4,8 +4,8 @@ import re
 
 import cv2
 import numpy as np
-from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.board_file import read_board_file
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
+from gaitcap.acquisition.boards.file import read_board_file
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
 

@@ -7,9 +7,9 @@ import json
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig
+from gaitcap.acquisition.boards.detection import BoardConfig
+from gaitcap.acquisition.importers.opencv_samples import opencv_stereo_calibration, read_opencv_camera
 from gaitcap.acquisition.installed import share_path
-from gaitcap.acquisition.opencv_samples import opencv_stereo_calibration, read_opencv_camera
 from gaitcap.acquisition.readers import load_rig
 from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.calibration.compare import stereo_difference

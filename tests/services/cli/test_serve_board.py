@@ -2,7 +2,7 @@
 board recorded on board recordings, as a board file's ``[board]`` fields; a bad file stops serve at once."""
 
 import gaitcap.api.server
-from gaitcap.acquisition.board_file import board_from_dict, read_board_file
+from gaitcap.acquisition.boards.file import board_from_dict, read_board_file
 from gaitcap.services.cli import app
 from gaitcap.services.cli.serve import board_fields
 from typer.testing import CliRunner

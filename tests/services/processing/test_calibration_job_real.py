@@ -4,7 +4,7 @@ is too few, and the failed calibration says so per camera, from what the board f
 
 import cv2
 import pytest
-from gaitcap.acquisition.board import BoardConfig
+from gaitcap.acquisition.boards.detection import BoardConfig
 from gaitcap.acquisition.installed import share_path
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.importers.keypoint_files import read_keypoints_input
 from gaitcap.acquisition.installed import share_path
-from gaitcap.acquisition.keypoint_files import read_keypoints_input
 from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.services.cli import app
@@ -40,8 +40,8 @@ def limb_sd_mm(points_mm: np.ndarray, skeleton: str) -> float:
 @needs_demos
 def test_qualisys_calibration_is_converted_as_pose2sim_does(tmp_path):
     """Pose2Sim's own conversion of this calibration ships beside it (its cam_01 is a moving camera)."""
+    from gaitcap.acquisition.importers.tool_folders import read_qca
     from gaitcap.acquisition.readers import load_rig
-    from gaitcap.acquisition.tool_folders import read_qca
 
     ours = read_qca(SESSION / "S00_Calibration" / "Calib.qca.txt")
     text = (SESSION / "S00_Calibration" / "Calib_qualisys_multi.test").read_text()
@@ -83,7 +83,7 @@ def test_two_real_people_the_patient_stays_the_same_person(tmp_path):
 @needs_demos
 def test_real_body25b_without_a_config_is_recognised(tmp_path, caplog):
     """The issue's case: OpenPose BODY_25B JSON with nothing saying so is not read as BODY_25."""
-    from gaitcap.acquisition.tool_folders import read_qca
+    from gaitcap.acquisition.importers.tool_folders import read_qca
 
     shutil.copytree(ONE_PERSON / "pose", tmp_path / "pose")
     save_rig(read_qca(SESSION / "S00_Calibration" / "Calib.qca.txt"), tmp_path / "calib.toml")
@@ -168,7 +168,7 @@ def test_real_videos_of_two_people_give_one_consistent_walker(tmp_path):
     is reconstructed in every frame, limbs consistent."""
     import cv2
     from gaitcap.acquisition.detectors.mediapipe import default_model_dir
-    from gaitcap.acquisition.tool_folders import read_qca
+    from gaitcap.acquisition.importers.tool_folders import read_qca
     from gaitcap.services.cli.detect import build_detector
     from gaitcap.services.processing.offline import detect_input
     from gaitcap.simulator.board import scaled_rig

@@ -6,8 +6,8 @@ import csv
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board_pairing import PairingConfig
-from gaitcap.acquisition.caliscope import read_camera_array, read_session
+from gaitcap.acquisition.boards.pairing import PairingConfig
+from gaitcap.acquisition.importers.caliscope import read_camera_array, read_session
 from gaitcap.acquisition.installed import share_path
 from gaitcap.reconstruction.calibration import (
     CalibrationConfig,

@@ -1,7 +1,7 @@
 """Pairing unsynchronised cameras' frames by time, and the board speed that marks moving views."""
 
 import numpy as np
-from gaitcap.acquisition.board_pairing import (
+from gaitcap.acquisition.boards.pairing import (
     MISSING,
     board_speed_px_s,
     default_tolerance_ns,
@@ -63,7 +63,7 @@ def test_readout_marks_smeared_views_of_synchronised_cameras_but_never_most_of_a
 
 def test_pairing_config_names_bad_values():
     import pytest
-    from gaitcap.acquisition.board_pairing import PairingConfig
+    from gaitcap.acquisition.boards.pairing import PairingConfig
 
     with pytest.raises(ValueError, match="readout_ms"):
         PairingConfig(readout_ms=-1)

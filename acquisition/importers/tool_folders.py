@@ -1,4 +1,4 @@
-"""Other tools' project folders as keypoint inputs (see :mod:`gaitcap.acquisition.keypoint_files`).
+"""Other tools' project folders as keypoint inputs (see :mod:`gaitcap.acquisition.importers.keypoint_files`).
 
 - **Pose2Sim** (a trial folder, or a project whose ``Config.toml`` is in it or in a parent): 2D keypoints in
   ``pose/<camera>_json/`` (OpenPose JSON, one file per frame, every person); the layout from the nearest
@@ -27,8 +27,8 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.keypoint_input import KeypointInput, make_input, match_cameras
-from gaitcap.acquisition.openpose_json import openpose_people
+from gaitcap.acquisition.importers.keypoint_input import KeypointInput, make_input, match_cameras
+from gaitcap.acquisition.importers.openpose_json import openpose_people
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 from gaitcap.reconstruction.skeletons import SKELETONS
 

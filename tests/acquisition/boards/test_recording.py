@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.board_recording import FrameSelection, detect_recording
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
+from gaitcap.acquisition.boards.recording import FrameSelection, detect_recording
 from gaitcap.simulator.board import (
     BoardMotion,
     board_trajectory,
@@ -86,8 +86,8 @@ def test_frames_are_paired_by_time_not_by_order(recordings, truth, tmp_path):
 def test_views_of_a_board_moving_between_exposures_are_left_out(recordings, truth, tmp_path):
     import shutil
 
-    from gaitcap.acquisition.board_pairing import PairingConfig
-    from gaitcap.acquisition.board_recording import find_board_views
+    from gaitcap.acquisition.boards.pairing import PairingConfig
+    from gaitcap.acquisition.boards.recording import find_board_views
 
     folder, _ = recordings
     copy = shutil.copytree(folder, tmp_path / "offset")
@@ -129,8 +129,8 @@ def test_times_that_do_not_increase_fall_back_to_order(recordings, truth, tmp_pa
 def test_options_that_need_frame_times_are_refused_on_frames_paired_by_order(recordings, tmp_path):
     import shutil
 
-    from gaitcap.acquisition.board_pairing import PairingConfig
-    from gaitcap.acquisition.board_recording import find_board_views
+    from gaitcap.acquisition.boards.pairing import PairingConfig
+    from gaitcap.acquisition.boards.recording import find_board_views
 
     folder, _ = recordings  # image folders without a timestamps.csv: paired by order
     untimed = r"carry no timestamps, so the cameras are paired by order"
@@ -157,8 +157,8 @@ def test_options_that_need_frame_times_are_refused_on_frames_paired_by_order(rec
 def test_views_smeared_during_the_readout_are_handed_to_the_calibration_as_views_found():
     """The views ``--readout-ms`` leaves out still count among a camera's views found, so a camera judged
     on less than half of them is refused (``calibrate_from_observations(views_removed=...)``)."""
-    from gaitcap.acquisition.board_diagnosis import CameraDetection
-    from gaitcap.acquisition.board_recording import BoardDetections
+    from gaitcap.acquisition.boards.diagnosis import CameraDetection
+    from gaitcap.acquisition.boards.recording import BoardDetections
 
     cams = tuple(CameraDetection.from_finds(name, [], min_corners=4, smeared=k)
                  for name, k in (("cam01", 24), ("cam02", 0), ("cam03", 1)))

@@ -4,7 +4,7 @@
 import cv2
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.acquisition.installed import share_path
 
 FRAMES = share_path("testdata", "calibration", "caliscope-chessboard")
@@ -35,7 +35,7 @@ def test_intrinsics_from_real_views_agree_with_qualisys():
     """Pose2Sim's demo camera 2 (1088x1920): the board found in hand-held views (the 5th turned in the
     image: found by the exhaustive search only), and the focal length from them within 1 % of
     Qualisys's calibration of the same camera."""
-    from gaitcap.acquisition.tool_folders import read_qca
+    from gaitcap.acquisition.importers.tool_folders import read_qca
     from gaitcap.reconstruction.calibration import BoardObservations, IntrinsicsConfig
     from gaitcap.reconstruction.calibration.intrinsics import estimate_intrinsics
 

@@ -6,9 +6,9 @@ pixels turned, inverted or cut; the readers' errors name what is wrong."""
 import cv2
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
+from gaitcap.acquisition.importers.opencv_samples import read_opencv_camera
 from gaitcap.acquisition.installed import share_path
-from gaitcap.acquisition.opencv_samples import read_opencv_camera
 from gaitcap.reconstruction.calibration.compare import stereo_difference
 from gaitcap.reconstruction.camera import Camera, Rig
 

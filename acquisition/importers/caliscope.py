@@ -19,8 +19,8 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.board_pairing import (
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
+from gaitcap.acquisition.boards.pairing import (
     MISSING,
     PairingConfig,
     default_tolerance_ns,
@@ -250,7 +250,7 @@ def read_session(folder: str | os.PathLike, points: str | None = None,
     """A caliscope session folder: (board, observations, caliscope's calibration, views left out moving);
     the board from its ``charuco.toml`` unless given; the detections from ``points`` (a path in the
     folder; default: the one of :data:`SESSION_POINTS` it has), every ``sync_every``-th sync index."""
-    from gaitcap.acquisition.board_file import read_board_file
+    from gaitcap.acquisition.boards.file import read_board_file
 
     folder = Path(folder)
     path = folder / points if points is not None else session_points(folder)

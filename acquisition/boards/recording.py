@@ -1,10 +1,10 @@
 """Board observations from a calibration recording: a trial MCAP written by the recorder, or a folder
-with one sub-folder of images or one video per camera (see :mod:`gaitcap.acquisition.board_sources`).
+with one sub-folder of images or one video per camera (see :mod:`gaitcap.acquisition.boards.sources`).
 
-Frames are paired across cameras by time (:mod:`gaitcap.acquisition.board_pairing`; by order when a
+Frames are paired across cameras by time (:mod:`gaitcap.acquisition.boards.pairing`; by order when a
 folder has no times), the pairs subsampled and searched for the board, views of a board that moved
 between the cameras' exposures left out, and what was found summarised per camera
-(:mod:`gaitcap.acquisition.board_diagnosis`); then :func:`calibrate_from_recording` calibrates.
+(:mod:`gaitcap.acquisition.boards.diagnosis`); then :func:`calibrate_from_recording` calibrates.
 """
 
 from __future__ import annotations
@@ -18,21 +18,21 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from gaitcap.acquisition.board import BoardConfig, BoardFind, make_board
-from gaitcap.acquisition.board_diagnosis import (
+from gaitcap.acquisition.boards.detection import BoardConfig, BoardFind, make_board
+from gaitcap.acquisition.boards.diagnosis import (
     CameraDetection,
     detection_table,
     too_few_positions_error,
     too_few_views_error,
 )
-from gaitcap.acquisition.board_pairing import (
+from gaitcap.acquisition.boards.pairing import (
     MISSING,
     PairingConfig,
     default_tolerance_ns,
     pair_by_time,
     separate_moving,
 )
-from gaitcap.acquisition.board_sources import TIMESTAMPS_FILE, folder_sources
+from gaitcap.acquisition.boards.sources import TIMESTAMPS_FILE, folder_sources
 from gaitcap.reconstruction.calibration import (
     BoardObservations,
     CalibrationConfig,

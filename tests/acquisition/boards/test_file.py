@@ -3,8 +3,8 @@
 import json
 
 import pytest
-from gaitcap.acquisition.board import BoardConfig
-from gaitcap.acquisition.board_file import board_to_toml, read_board_file
+from gaitcap.acquisition.boards.detection import BoardConfig
+from gaitcap.acquisition.boards.file import board_to_toml, read_board_file
 from gaitcap.acquisition.installed import share_path
 
 REAL = share_path("testdata", "calibration")

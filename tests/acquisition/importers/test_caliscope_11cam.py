@@ -9,9 +9,9 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from gaitcap.acquisition.board_file import read_board_file
-from gaitcap.acquisition.board_pairing import PairingConfig
-from gaitcap.acquisition.caliscope import SESSION_POINTS, is_session, read_points, read_session
+from gaitcap.acquisition.boards.file import read_board_file
+from gaitcap.acquisition.boards.pairing import PairingConfig
+from gaitcap.acquisition.importers.caliscope import SESSION_POINTS, is_session, read_points, read_session
 from gaitcap.acquisition.installed import share_path
 from gaitcap.reconstruction.calibration import CalibrationConfig, calibrate_from_observations
 from gaitcap.reconstruction.calibration.compare import compare_similar

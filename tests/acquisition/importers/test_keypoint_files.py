@@ -3,9 +3,9 @@ import logging
 
 import numpy as np
 import pytest
+from gaitcap.acquisition.importers.keypoint_files import read_keypoints_input
+from gaitcap.acquisition.importers.keypoint_input import sort_people
 from gaitcap.acquisition.installed import share_path
-from gaitcap.acquisition.keypoint_files import read_keypoints_input
-from gaitcap.acquisition.keypoint_input import sort_people
 from gaitcap.reconstruction.camera import Camera, Rig
 from gaitcap.reconstruction.keypoints import LIVE, MISSING, MultiViewKeypoints
 

@@ -32,7 +32,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 
 CM_PER_UNIT = {"cm": 1.0, "inch": 2.54, "mm": 0.1, "m": 100.0}
 

@@ -1,7 +1,7 @@
 import cv2
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 
 PX_PER_MM = 1.0
 

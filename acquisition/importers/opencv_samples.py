@@ -19,7 +19,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from gaitcap.acquisition.board import BoardConfig
+from gaitcap.acquisition.boards.detection import BoardConfig
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 
 SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)

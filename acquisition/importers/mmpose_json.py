@@ -18,7 +18,7 @@ import json
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.keypoint_input import KeypointInput, make_input, match_cameras
+from gaitcap.acquisition.importers.keypoint_input import KeypointInput, make_input, match_cameras
 from gaitcap.reconstruction.skeletons import get_skeleton
 
 DATASET_LAYOUTS = {"coco": "coco17", "halpe": "halpe136", "halpe26": "halpe26", "coco_wholebody": "wholebody133",

@@ -7,7 +7,7 @@ import tomllib
 import numpy as np
 import pytest
 import tomli_w
-from gaitcap.acquisition.keypoint_files import read_keypoints_input
+from gaitcap.acquisition.importers.keypoint_files import read_keypoints_input
 from gaitcap.reconstruction.calibration_io import rig_to_toml_text
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
 from gaitcap.reconstruction.skeletons import get_skeleton

@@ -8,7 +8,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
-from gaitcap.acquisition.board import BoardConfig, BoardFind
+from gaitcap.acquisition.boards.detection import BoardConfig, BoardFind
 
 SMALL_MARKER_PX = 15.0  # ArUco decoding gets unreliable below this marker side
 RATIO_TOLERANCE = 0.1  # relative disagreement of the measured marker/square ratio that blames the sizes

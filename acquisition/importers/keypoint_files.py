@@ -7,11 +7,11 @@ Supported inputs (:func:`read_keypoints_input` asks each :class:`Reader` in turn
   y px, confidence, or (C, T, P, J, 3) with several people; ``camera_names`` (or ``cameras``) (C,) names;
   optional ``times_s`` (T,) and ``skeleton`` (layout name).
 - A trial MCAP written by the recorder (layout and calibration recorded in it).
-- Other tools' folders (:mod:`gaitcap.acquisition.tool_folders`): a Pose2Sim project or trial folder
+- Other tools' folders (:mod:`gaitcap.acquisition.importers.tool_folders`): a Pose2Sim project or trial folder
   (``Config.toml`` ``pose_model``, ``calibration/`` TOML or Qualisys ``.qca.txt``, ``pose/`` OpenPose
   JSON), an anipose/aniposelib folder (``calibration.toml`` + DeepLabCut CSV per camera), a FreeMoCap
   recording folder (``*_camera_calibration.toml`` + ``mediapipe_2dData...npy``).
-- MMPose/RTMLib JSON (:mod:`gaitcap.acquisition.mmpose_json`): a ``.json`` file or a folder of them, one
+- MMPose/RTMLib JSON (:mod:`gaitcap.acquisition.importers.mmpose_json`): a ``.json`` file or a folder of them, one
   per camera (camera = file stem).
 - A folder with one sub-folder of OpenPose-format JSON files per camera (what OpenPose writes): one file
   per frame, ``people[i].pose_keypoints_2d`` = J x (x, y, confidence); frames matched across cameras by
@@ -32,14 +32,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition import mmpose_json, tool_folders
-from gaitcap.acquisition.keypoint_input import (
+from gaitcap.acquisition.importers import mmpose_json, tool_folders
+from gaitcap.acquisition.importers.keypoint_input import (
     KeypointInput,
     make_input,
     match_cameras,
     provisional_skeleton,
 )
-from gaitcap.acquisition.openpose_json import openpose_people
+from gaitcap.acquisition.importers.openpose_json import openpose_people
 from gaitcap.acquisition.readers import read_keypoint_arrays
 from gaitcap.reconstruction.camera import Rig
 

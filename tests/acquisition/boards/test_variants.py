@@ -4,8 +4,8 @@ and named; the marker-to-square ratio measured from the markers; diagnosis that 
 import cv2
 import numpy as np
 import pytest
-from gaitcap.acquisition.board import BoardConfig, make_board
-from gaitcap.acquisition.board_diagnosis import CameraDetection, too_few_views_error
+from gaitcap.acquisition.boards.detection import BoardConfig, make_board
+from gaitcap.acquisition.boards.diagnosis import CameraDetection, too_few_views_error
 
 BOARD = dict(kind="charuco", squares_x=4, squares_y=6, square_mm=54.0, marker_mm=40.5, dictionary="DICT_4X4_1000")
 
@@ -103,7 +103,7 @@ def test_views_smeared_by_the_readout_do_not_count_for_the_intrinsics():
 
 
 def test_a_fixed_variant_that_finds_nothing_is_probed():
-    from gaitcap.acquisition.board_recording import _detect
+    from gaitcap.acquisition.boards.recording import _detect
 
     said = BoardConfig(**BOARD, inverted=False)
     frames = iter([(0, i, photo(BoardConfig(**BOARD, inverted=True), seed=i)) for i in range(2)])
@@ -123,7 +123,7 @@ def test_an_inverted_checkerboard_is_found_too():
 def test_the_issues_recording_webcam_videos_of_an_inverted_board(tmp_path):
     """The issue's case: videos of a 4 x 5 inverted DICT_4X4_1000 board, described without --inverted
     (the second camera's video one frame shorter), paired by the containers' frame times."""
-    from gaitcap.acquisition.board_recording import find_board_views
+    from gaitcap.acquisition.boards.recording import find_board_views
 
     printed = BoardConfig("charuco", 4, 5, 54.0, 40.5, "DICT_4X4_1000", inverted=True)
     for cam, n in (("cam_a", 6), ("cam_b", 5)):
