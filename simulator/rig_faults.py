@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from gaitcap.reconstruction.calibration.geometry import rvec_of
 from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
+from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.triangulation import robust_triangulate
 
 
 def with_camera_moved(rig: Rig, name: str, *, rotation_deg: float, shift_mm: float = 0.0,
@@ -23,3 +25,17 @@ def with_camera_moved(rig: Rig, name: str, *, rotation_deg: float, shift_mm: flo
             cam = cam.replace(rvec=rvec_of(rot), tvec_mm=-rot @ centre)
         cams.append(cam)
     return Rig(tuple(cams))
+
+
+def seen_from(det: Detections, rig: Rig, moved: Rig, name: str) -> Detections:
+    """Real or simulated detections ``det`` (seen by the cameras ``rig``) as camera ``name`` would have seen
+    them from its pose in ``moved``: each of its keypoints displaced by the image motion (px) of its point
+    triangulated from all cameras, so the detector's own placement of each joint is kept. A reference trial
+    recorded before a camera moved, made from one recorded after."""
+    pts = robust_triangulate(det, rig).points_mm.reshape(-1, 3)
+    ok = np.isfinite(pts).all(-1)
+    shift = np.zeros((len(pts), 2))
+    shift[ok] = moved[name].project(pts[ok])[:, :2] - rig[name].project(pts[ok])[:, :2]
+    kp = det.keypoints.copy()
+    kp[list(det.camera_names).index(name), ..., :2] += shift.reshape(det.shape[1], det.shape[2], 2)
+    return Detections(kp, det.camera_names, det.times_s, det.skeleton)

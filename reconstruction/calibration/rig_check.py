@@ -53,6 +53,11 @@ class RigCheckConfig:
         rig_ratio: and this many times the median field of the other cameras, judged without it: where
             detector biases leave every camera a field of its own (real detectors, a person who barely
             moves), one camera must stand out from the rest.
+        rejudge_views: once a camera is flagged, the others are judged again without it only where each
+            still has this many other cameras to triangulate from (otherwise their first judgement, with
+            the flagged camera, stands, unflagged): from two views a point has no redundancy, so either
+            camera's detector bias shows as a field of the one judged, and a 4-camera rig would see a
+            second camera "move" with the first.
         min_rotation_deg / min_shift_mm: a flagged camera's estimate must reach one of these.
         robust_scale_px: scale of the soft-L1 loss of the pose refit, px.
         triangulation_sigma_mm: the robust triangulation's sigma (mm) for the leave-one-out points.
@@ -67,6 +72,7 @@ class RigCheckConfig:
     rig_ratio: float = 2.5
     min_rotation_deg: float = 0.3
     min_shift_mm: float = 10.0
+    rejudge_views: int = 3
     robust_scale_px: float = 3.0
     triangulation_sigma_mm: float = 150.0
 
@@ -195,11 +201,12 @@ def refit_pose(cam: Camera, points_mm: np.ndarray, uv_px: np.ndarray, *, scale_p
     return PoseFit(rodrigues_batch(params[:3]), params[3:].copy())
 
 
-def _field_px(cam: Camera, fit: PoseFit, points_mm: np.ndarray) -> float:
-    """Median image displacement (px) of ``points_mm`` between the refitted and the calibrated pose."""
-    params = np.r_[rvec_of(fit.turn), fit.shift_mm]
-    moved = _project_moved(cam, params, points_mm)
-    return float(np.median(np.linalg.norm(moved - cam.project(points_mm), axis=-1)))
+def _field_px(cam: Camera, fit: PoseFit, points_mm: np.ndarray, reference: PoseFit) -> float:
+    """Median image displacement (px) of ``points_mm`` between the refitted pose and the reference pose
+    (the calibrated one turned and shifted as on the reference trial; the calibrated one without)."""
+    moved = _project_moved(cam, np.r_[rvec_of(fit.turn), fit.shift_mm], points_mm)
+    ref = _project_moved(cam, np.r_[rvec_of(reference.turn), reference.shift_mm], points_mm)
+    return float(np.median(np.linalg.norm(moved - ref, axis=-1)))
 
 
 def _frames(num_frames: int, max_frames: int) -> np.ndarray:
@@ -245,30 +252,43 @@ def _evidence(det: Detections, c: int, loo: np.ndarray, cam: Camera, config: Rig
 
 
 def _judge(cam: Camera, ev: _Evidence, points_all: np.ndarray, uv_all: np.ndarray, expected: float | None,
-           num_frames: int, config: RigCheckConfig) -> CameraCheck:
+           num_frames: int, config: RigCheckConfig, reference: CameraCheck | None = None) -> CameraCheck:
+    """One camera's check; with ``reference`` (the same camera's check on a trial with the calibration as
+    is, judged) the field, rotation and shift are the change since that trial, and the field's standard
+    error includes the reference's."""
     n = len(ev.points_mm)
     if n < config.min_points:
         nan = float("nan")
         return CameraCheck(cam.name, False, n, _median_error(cam, ev.points_mm, ev.uv_px),
                            _median_error(cam, points_all, uv_all), nan, expected, nan, nan, nan, nan, False)
     fit = refit_pose(cam, ev.points_mm, ev.uv_px, scale_px=config.robust_scale_px)
-    field = _field_px(cam, fit, ev.points_mm)
+    base = _reference_fit(reference)
+    field = _field_px(cam, fit, ev.points_mm, base)
     block = np.minimum((ev.frame * config.blocks) // max(num_frames, 1), config.blocks - 1)
     jackknife = []
     for b in range(config.blocks):
         sel = block != b
         part = refit_pose(cam, ev.points_mm[sel], ev.uv_px[sel], scale_px=config.robust_scale_px)
         jackknife.append(_project_moved(cam, np.r_[rvec_of(part.turn), part.shift_mm], ev.points_mm))
-    se = _field_se_px(jackknife)
+    se = float(np.hypot(_field_se_px(jackknife), reference.field_se_px if reference is not None else 0.0))
     refit_cam = fit.apply(cam)
-    big = fit.rotation_deg >= config.min_rotation_deg or float(np.linalg.norm(fit.shift_mm)) >= config.min_shift_mm
+    change = PoseFit(fit.turn @ base.turn.T, fit.shift_mm - base.shift_mm)
+    big = change.rotation_deg >= config.min_rotation_deg or float(np.linalg.norm(change.shift_mm)) >= config.min_shift_mm
     moved = bool(field >= config.min_field_px and field >= config.significance * se and big)  # rig_ratio: later
     return CameraCheck(
         cam.name, True, n, _median_error(cam, ev.points_mm, ev.uv_px), _median_error(cam, points_all, uv_all),
-        _median_error(refit_cam, ev.points_mm, ev.uv_px), expected, field, se, fit.rotation_deg,
-        float(np.linalg.norm(fit.shift_mm)), moved, tuple(float(v) for v in np.degrees(rvec_of(fit.turn))),
-        tuple(float(v) for v in fit.shift_mm),
+        _median_error(refit_cam, ev.points_mm, ev.uv_px), expected, field, se, change.rotation_deg,
+        float(np.linalg.norm(change.shift_mm)), moved, tuple(float(v) for v in np.degrees(rvec_of(change.turn))),
+        tuple(float(v) for v in change.shift_mm),
     )
+
+
+def _reference_fit(reference: CameraCheck | None) -> PoseFit:
+    """The pose offset (turn, shift) a camera showed on the reference trial; none without one."""
+    if reference is None:
+        return PoseFit(np.eye(3), np.zeros(3))
+    return PoseFit(rodrigues_batch(np.radians(np.asarray(reference.turn_deg, dtype=np.float64))),
+                   np.asarray(reference.shift_vector_mm, dtype=np.float64))
 
 
 def _field_se_px(jackknife: list[np.ndarray]) -> float:
@@ -289,32 +309,44 @@ class _Judge:
     """Judges cameras against points triangulated without them and without the cameras already flagged."""
 
     def __init__(self, det: Detections, rig: Rig, points_mm: np.ndarray, expected: dict[str, float],
-                 num_frames: int, config: RigCheckConfig):
+                 config: RigCheckConfig, reference: _Judge | None = None):
         self.det, self.rig, self.points_mm, self.expected = det, rig, points_mm, expected
-        self.num_frames, self.config = num_frames, config
+        self.num_frames, self.config, self.reference = det.shape[1], config, reference
         self.final: dict[int, CameraCheck] = {}
 
     def one(self, c: int, left_out: list[int]) -> CameraCheck:
+        """Camera ``c`` judged against the points of the cameras other than it and ``left_out``; with a
+        reference trial, against the field it showed there with the same cameras left out."""
         cam = self.rig[c]
         loo = _loo_points(self.det, self.rig, left_out + [c], self.config)
         ev = _evidence(self.det, c, loo, cam, self.config)
         pts_all, uv_all = _all_points(self.det, c, self.points_mm, self.config)
-        return _judge(cam, ev, pts_all, uv_all, self.expected.get(cam.name), self.num_frames, self.config)
+        ref = self.reference.one(c, left_out) if self.reference is not None else None
+        return _judge(cam, ev, pts_all, uv_all, self.expected.get(cam.name), self.num_frames, self.config,
+                      ref if ref is not None and ref.judged else None)
 
     def all_but(self, left_out: list[int]) -> dict[int, CameraCheck]:
-        if len(self.rig) - len(left_out) < 3:  # too few left to triangulate without the one judged
+        """Every camera but ``left_out`` judged without them; {} where too few cameras are left: 2 views
+        to triangulate on the first pass, ``config.rejudge_views`` once a camera is flagged."""
+        views = self.config.rejudge_views if left_out else 2
+        if len(self.rig) - len(left_out) - 1 < views:
             return {}
         return {c: self.one(c, left_out) for c in range(len(self.rig)) if c not in left_out}
 
 
 def check_rig(detections: Detections, rig: Rig, points_mm: np.ndarray, *,
-              expected_px: Mapping[str, float] | None = None,
+              expected_px: Mapping[str, float] | None = None, baseline: Detections | None = None,
               config: RigCheckConfig = RigCheckConfig()) -> RigCheck:
     """Check every camera of ``rig`` against the patient seen in ``detections`` (C, T, J, 3) px.
 
     ``points_mm`` (T, J, 3) mm: the trial's triangulated points (all cameras), used for the trial's own
     reprojection figure per camera. ``expected_px``: the calibration's own reprojection figure per camera
-    name (px), reported beside the trial's. Needs at least 3 cameras (2 to triangulate without the one
+    name (px), reported beside the trial's. ``baseline``: the patient's detections (C', T', J, 3) px of a
+    reference trial recorded with the calibration as is (no camera moved since; the same cameras and
+    keypoint layout): each camera is then judged by the change of its field since that trial (the
+    reference judged with the same cameras left out), so a field the detector's bias leaves with the calibration as is
+    (real detectors place joints differently in each view) is not taken for a move; the estimated rotation
+    and shift are the change since the reference. Needs at least 3 cameras (2 to triangulate without the one
     judged); ValueError naming what is wrong otherwise.
     """
     det, sub = detections.aligned_to(rig)
@@ -328,7 +360,7 @@ def check_rig(detections: Detections, rig: Rig, points_mm: np.ndarray, *,
     det = _subset(det, frames)
     points_mm = points_mm[frames]
     expected = dict(expected_px or {})
-    judge = _Judge(det, sub, points_mm, expected, len(frames), config)
+    judge = _Judge(det, sub, points_mm, expected, config, _reference_judge(baseline, sub, j_count, config))
     flagged: list[int] = []
     current = judge.all_but(flagged)
     while True:
@@ -351,6 +383,27 @@ def check_rig(detections: Detections, rig: Rig, points_mm: np.ndarray, *,
     checks = judge.final
     cams = tuple(checks[c] for c in range(c_count))
     return RigCheck(cams, tuple(_warning(chk) for chk in cams if chk.moved) + _unjudged(cams))
+
+
+def _reference_judge(baseline: Detections | None, rig: Rig, trial_joints: int,
+                     config: RigCheckConfig) -> _Judge | None:
+    """The judge of the reference trial with the trial's cameras ``rig`` (its own triangulated points,
+    its frames thinned alike); None without one. ValueError naming what differs when it lacks a camera of
+    the trial or has another keypoint count."""
+    if baseline is None:
+        return None
+    names = list(baseline.camera_names)
+    missing = [n for n in rig.names if n not in names]
+    if missing:
+        raise ValueError(f"rig check: the baseline trial lacks camera(s) {missing} of the trial (it has {names})")
+    if baseline.shape[2] != trial_joints:
+        raise ValueError(f"rig check: the baseline trial has {baseline.shape[2]} keypoints per person, the trial "
+                         f"{trial_joints}")
+    order = [names.index(n) for n in rig.names]
+    det = Detections(baseline.keypoints[order], tuple(rig.names), baseline.times_s, baseline.skeleton)
+    det = _subset(det, _frames(det.shape[1], config.max_frames))
+    points = robust_triangulate(det, rig).points_mm
+    return _Judge(det, rig, points, {}, config)
 
 
 def _warning(chk: CameraCheck) -> str:
