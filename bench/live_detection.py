@@ -8,7 +8,8 @@ keypoints detected from the MCAP's images (``complete_keypoints``, MediaPipe ove
 
 Reports per camera: frames recorded, detected live (coverage), skipped by the live pool, the live lag (s,
 camera node send -> keypoints published; the latest and the most seen); Stop -> complete detection (s);
-final coverage; and the check against ``gaitcap detect`` on the same video with the same detector (the
+the completion's CPU per completed frame (ms: this process's and its worker processes', not wall time, which
+a shared machine makes noisy) and the load average at Stop and at the end; final coverage; and the check against ``gaitcap detect`` on the same video with the same detector (the
 final keypoints of every camera frame vs the reference of that video frame: median joint distance, px;
 they differ by the JPEG compression of the recorded images and the tracking state, not by the frame).
 
@@ -22,6 +23,7 @@ import argparse
 import json
 import math
 import os
+import resource
 import signal
 import subprocess
 import sys
@@ -195,6 +197,12 @@ def _median_px(a: np.ndarray, b: np.ndarray, min_conf: float) -> float | None:
     return float(np.median(np.hypot(*(a[ok, :2] - b[ok, :2]).T))) if ok.any() else None
 
 
+def _children_cpu_s() -> float:
+    """User + system CPU s of this process's finished children (the completion's workers once its pool closed)."""
+    used = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return used.ru_utime + used.ru_stime
+
+
 def run(*, cameras: int, seconds: float, workers: int, model: str, check: bool, redetect_all: bool = False) -> dict:
     from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig
     from gaitcap.acquisition.recording.reader import read_keypoints
@@ -204,7 +212,8 @@ def run(*, cameras: int, seconds: float, workers: int, model: str, check: bool, 
     with tempfile.TemporaryDirectory(prefix="livedet-") as tmp:
         out = Path(tmp)
         path, live, files = live_trial(cameras=cameras, seconds=seconds, workers=workers, model=model, out=out)
-        t0 = time.perf_counter()
+        t0, load_at_stop = time.perf_counter(), os.getloadavg()[0]
+        cpu0, workers0 = time.process_time(), _children_cpu_s()
         try:
             recording = read_keypoints(path)
         except ValueError:  # nothing detected live
@@ -213,6 +222,8 @@ def run(*, cameras: int, seconds: float, workers: int, model: str, check: bool, 
                                         detector_name=f"mediapipe {model}", workers=workers,
                                         redetect_all=redetect_all)
         stop_to_complete = time.perf_counter() - t0
+        cpu = {"parent": time.process_time() - cpu0, "workers": _children_cpu_s() - workers0}
+        load_at_end = os.getloadavg()[0]
         live_counts = {} if recording is None else {
             c: int((recording.timestamps_ns[i] >= 0).sum()) for i, c in enumerate(recording.camera_names)}
         agree = None
@@ -231,12 +242,15 @@ def run(*, cameras: int, seconds: float, workers: int, model: str, check: bool, 
                             "corrupt": len(cam.corrupt_frame_ids), "final_coverage": cam.coverage,
                             "missing": len(cam.missing_frame_ids)}
     recorded = sum(r["recorded"] for r in rows.values())
+    completed = sum(r["completed"] for r in rows.values())
     return {"cameras": cameras, "seconds": seconds, "workers": workers, "model": model, "cpus": os.cpu_count(),
             "completion": "every frame" if redetect_all else "frames without live keypoints",
             "frames_recorded": recorded, "frames_live": sum(r["live"] for r in rows.values()),
             "live_coverage": sum(r["live"] for r in rows.values()) / max(recorded, 1),
             "final_coverage": 1 - sum(r["missing"] for r in rows.values()) / max(recorded, 1),
             "stop_to_complete_s": stop_to_complete, "per_camera": rows, "agreement_with_detect": agree,
+            "completion_cpu_ms_per_frame": {k: 1e3 * v / max(1, completed) for k, v in cpu.items()},
+            "load_average": {"stop": load_at_stop, "end": load_at_end},
             "targets_met": {"final_coverage_100pct": report.complete}}
 
 
@@ -250,9 +264,12 @@ def table(r: dict) -> str:
         mx = "-" if row["max_lag_s"] is None else f"{row['max_lag_s']:.2f}"
         lines.append(f"{cam:8} {row['recorded']:8d} {row['live']:6d} {100 * row['live_coverage']:6.1f}% "
                      f"{row['skipped_live']:8d} {lag:>6} {mx:>8} {row['completed']:9d} {100 * row['final_coverage']:7.1f}%")
+    cpu, load = r["completion_cpu_ms_per_frame"], r["load_average"]
     lines.append(f"all: {r['frames_recorded']} frames recorded, live coverage {100 * r['live_coverage']:.1f} %, "
                  f"final coverage {100 * r['final_coverage']:.1f} %; Stop -> complete detection "
                  f"{r['stop_to_complete_s']:.1f} s ({r['completion']})")
+    lines.append(f"completion CPU per completed frame: {cpu['parent']:.1f} ms this process + {cpu['workers']:.1f} ms "
+                 f"workers (start-up included); load average {load['stop']:.1f} at Stop, {load['end']:.1f} at the end")
     for name, a in (r["agreement_with_detect"] or {}).items():
         if not a["frames_compared"]:
             continue
