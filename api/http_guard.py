@@ -45,10 +45,6 @@ def _reject_constant(value: str) -> None:
     raise ValueError(f"{value} is not a number JSON allows")
 
 
-class _TooLarge(Exception):
-    pass
-
-
 class HttpGuard:
     def __init__(self, app, *, max_body_bytes: int, tls: bool, expensive_limiter) -> None:
         self.app, self.max_body_bytes, self.tls = app, max_body_bytes, tls

@@ -62,14 +62,3 @@ HOLDS_SLOT = frozenset({S.RECORDING, S.STOPPING})
 def sources_of(new: TrialState) -> frozenset[TrialState]:
     """The states from which ``new`` may be reached."""
     return frozenset(cur for cur, nxt in ALLOWED.items() if new in nxt)
-
-
-def check_transition(trial_id: str, current: str, new: str) -> TrialState:
-    """Return ``new`` as a TrialState if ``current -> new`` is allowed, else raise IllegalTransition."""
-    try:
-        cur, nxt = TrialState(current), TrialState(new)
-    except ValueError as exc:
-        raise IllegalTransition(f"trial {trial_id}: unknown state in {current!r} -> {new!r}") from exc
-    if nxt not in ALLOWED[cur]:
-        raise IllegalTransition(f"trial {trial_id}: cannot go from {cur.value} to {nxt.value}")
-    return nxt

@@ -29,12 +29,6 @@ def _stat(s: dict | None) -> str:
     return f"{s['mean']:.1f}{sd} (n={s.get('n', '?')})"
 
 
-def normal_key_value(name: str, bands: dict) -> float:
-    """A key value (degrees) on the normal band's mean curve, NaN without a band for its variable."""
-    norm = key_norms(bands).get(name)
-    return norm.normal_deg if norm is not None else math.nan
-
-
 def _side_cell(s: dict | None, norm) -> str:
     """The side's value, marked "!" when outside the normal range (|z| > 1.96)."""
     text = _stat(s)
