@@ -59,8 +59,8 @@ class MediaPipeConfig(DetectorConfig):
         track_gap_frames: a camera's regions are reused for a frame up to this many frame ids after the last
             one detected (1: the next frame only, as MediaPipe; 2: one frame may be missing between, as when
             the frames between the live detector's are completed after Stop, or the live pool detects every
-            2nd frame id: a walker moves a few px in 2 frames, the region is 2.5 x the torso). A longer gap
-            runs the person detector again.
+            2nd frame id; the walker of the sports2d video moves about 20 px in 2 frames, well inside the
+            region). A longer gap runs the person detector again.
         num_poses: at most this many people per image (default 4: everyone in a clinic's view; who the
             patient is is decided across cameras by the association, never per image). Tracking the
             previous frame's regions are reused; > 1 also runs the person detector for newcomers.
