@@ -192,6 +192,9 @@ class _Model:
         cam_p, _ = self.split(x)
         cams = []
         for c, cam in enumerate(self.rig):
+            if not cam_p[c].any():  # not adjusted: the calibration exactly, not a round trip through R
+                cams.append(cam)
+                continue
             rot = rodrigues_batch(cam_p[c, :3]) @ self.r0[c]
             centre = self.c0[c] + cam_p[c, 3:6]
             k = cam.matrix_px.copy()
@@ -219,28 +222,51 @@ def _first_inliers(err_px: np.ndarray, cam: np.ndarray, num_cameras: int, config
     return keep
 
 
-def refine_rig_from_people(trials: Sequence[Detections], prior: Rig, *,
+def _with_fixed(residual, x: np.ndarray, free: np.ndarray):
+    """``residual`` of the free parameters alone, the others kept at their values in ``x``."""
+
+    def fun(x_free: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        full = x.copy()
+        full[free] = x_free
+        return residual(full, rows)
+
+    return fun
+
+
+def refine_rig_from_people(trials: Sequence[Detections], prior: Rig, *, moved: Sequence[str] | None = None,
                            config: PeopleBundleConfig = PeopleBundleConfig()) -> PeopleBundleResult:
     """Refine ``prior`` (a board calibration) from the people seen in ``trials`` (each (C, T, J, 3) px).
 
+    ``moved``: the cameras known to have moved since ``prior`` (the rig check's): only they are adjusted;
+    every other camera keeps its calibration exactly. A prior (robust or Gaussian) of a board calibration's
+    own accuracy cannot hold a camera against thousands of keypoints, so a detector's own bias would pull
+    cameras that never moved (on Pose2Sim's real demo about 1 deg), and the moved camera with them. None
+    (default): every camera is adjusted under its robust prior, any may leave it.
     Returns the refined rig and a report comparing it with ``prior``. ValueError when no keypoint is seen
-    by enough cameras, naming the threshold.
+    by enough cameras, naming the threshold, or when a camera of ``moved`` is not in ``prior``.
     """
     t0 = time.perf_counter()
     if not trials:
         raise ValueError("refinement from people: no trial given")
+    unknown = sorted(set(moved or ()) - set(prior.names))
+    if unknown:
+        raise ValueError(f"refinement from people: moved camera(s) {unknown} not in the calibration ({list(prior.names)})")
     obs = _observations(trials, prior, config)
     model = _Model(prior, obs, config)
     x = np.r_[np.zeros(model.c * model.n_cam), obs.points_mm.ravel()]
     all_rows = np.arange(len(obs.cam))
     err0 = np.linalg.norm(model.project(x, all_rows) - obs.uv_px, axis=-1)
     inlier = _first_inliers(err0, obs.cam, model.c, config)
+    free = np.ones(len(x), dtype=bool)
+    free[: model.c * model.n_cam] = np.repeat([moved is None or cam.name in moved for cam in prior], model.n_cam)
     for rnd in range(config.rounds):
         rows = np.flatnonzero(inlier)
-        fit = least_squares(model.residual, x, args=(rows,), jac_sparsity=model.sparsity(rows, len(x)),
-                            loss="soft_l1", f_scale=config.robust_scale_px, method="trf", tr_solver="lsmr",
-                            x_scale="jac", max_nfev=50)
-        x = fit.x
+        fit = least_squares(_with_fixed(model.residual, x, free), x[free], args=(rows,),
+                            jac_sparsity=model.sparsity(rows, len(x)).tocsc()[:, free], loss="soft_l1",
+                            f_scale=config.robust_scale_px, method="trf", tr_solver="lsmr", x_scale="jac",
+                            max_nfev=50)
+        x = x.copy()
+        x[free] = fit.x
         err = np.linalg.norm(model.project(x, all_rows) - obs.uv_px, axis=-1)
         limit = max(config.outlier_sigmas * np.median(err[inlier]) / RAYLEIGH_MEDIAN, config.min_outlier_px)
         keep = err <= limit

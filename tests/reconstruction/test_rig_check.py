@@ -145,3 +145,19 @@ def test_real_demo_turned_camera_is_blamed_on_it_against_the_sessions_static_tri
     check = check_rig(det, calib, robust_triangulate(det, calib).points_mm,
                       baseline=seen_from(static, rig, calib, "cam_02"))
     assert check.moved == ("cam_02",), [(c.name, c.field_px, c.field_se_px) for c in check.cameras]
+
+
+def test_refinement_of_the_flagged_camera_alone_keeps_the_others(trial):
+    """With the camera the check flagged named as moved, only it is adjusted: every other camera keeps its
+    calibration exactly, and the moved one comes back as close as with every camera adjusted."""
+    calib = stale(trial.rig, MOVED, rotation_deg=2.0, shift_mm=20.0)
+    result = refine_rig_from_people([trial.detections], calib, moved=(MOVED,),
+                                    config=PeopleBundleConfig(max_frames=60))
+    for cam in calib:
+        if cam.name != MOVED:
+            np.testing.assert_array_equal(result.rig[cam.name].rvec, cam.rvec)
+            np.testing.assert_array_equal(result.rig[cam.name].tvec_mm, cam.tvec_mm)
+    assert rotation_angle_deg(result.rig[MOVED].rotation, trial.rig[MOVED].rotation) < 0.3
+    assert np.linalg.norm(result.rig[MOVED].center_mm - trial.rig[MOVED].center_mm) < 20.0
+    with pytest.raises(ValueError, match="moved camera.*'cam99'.*not in the calibration"):
+        refine_rig_from_people([trial.detections], calib, moved=("cam99",))
