@@ -1,17 +1,23 @@
 """The rig check from the walking patient and the refinement of a rig from people.
 
-    python bench/rig_check.py [--json] [--seeds 20] [--moved-seeds 3] [--seconds 20] [--sections unmoved,moved,real,people]
+    python bench/rig_check.py [--json] [--seeds 20] [--moved-seeds 3] [--real-axes 3] [--seconds 20]
+        [--sections unmoved,moved,real,people]
 
 1. Synthetic clinic (10 cameras, "paper" detector noise): ``--seeds`` trials with the rig as calibrated
    (false alarms), and ``--moved-seeds`` trials per case with one camera turned by 0.5, 1, 2 or 5 deg (about
    a random axis) or its centre moved by 20 mm after calibration: detection rate (the moved camera named,
    and no other), error of the estimated rotation (deg: angle between the estimated and the true turn),
    MPJPE (mm) of the robust triangulation with the true rig, the stale rig and the rig refined from the
-   trial's people (the stale rig as prior), and how far the refined camera is from the truth (deg, mm).
+   trial's people (the stale rig as prior; only the flagged camera adjusted, every camera where none was
+   flagged; and, for comparison, every camera adjusted), and how far the refined camera is from the
+   truth (deg, mm).
 2. Real Pose2Sim demo (4 real cameras, Qualisys calibration, OpenPose BODY_25B detections of one person
    balancing, 100 frames at 60 fps): the rig as given, and with one camera's calibration perturbed the same
-   ways: flagged cameras, rotation error, median reprojection error (px, all cameras) before and after
-   refinement, and the refined camera's rotation from its original (deg).
+   ways about ``--real-axes`` random axes: flagged cameras without and with a baseline (the same
+   participant's static trial of the session, recorded with the calibration as is: its detections of the
+   perturbed camera are displaced to where the camera stood when calibrated), rotation error, median
+   reprojection error (px, all cameras) before and after refinement, and the refined camera's rotation
+   from its original (deg).
 3. From people alone (synthetic, 10 cameras, a 20 s walk, no board): camera centres (mm) and rotations
    (deg) against the truth once the walk's world frame is aligned to the room's, the scale error (%) from
    the entered height, the floor's tilt (deg).
@@ -36,7 +42,7 @@ from gaitcap.reconstruction.calibration.people_bundle import refine_rig_from_peo
 from gaitcap.reconstruction.calibration.rig_check import RigCheck, check_rig
 from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
 from gaitcap.reconstruction.triangulation import robust_triangulate
-from gaitcap.simulator.rig_faults import with_camera_moved
+from gaitcap.simulator.rig_faults import seen_from, with_camera_moved
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import emit  # noqa: E402
@@ -45,8 +51,9 @@ log = logging.getLogger("bench.rig_check")
 
 CASES = {"rotated 0.5 deg": (0.5, 0.0), "rotated 1 deg": (1.0, 0.0), "rotated 2 deg": (2.0, 0.0),
          "rotated 5 deg": (5.0, 0.0), "moved 20 mm": (0.0, 20.0)}
-REAL_TRIAL = (share_path("testdata", "pose2sim") / "S00_Demo_BatchSession" / "S00_P00_SingleParticipant"
-              / "S00_P00_T01_BalancingTrial")
+REAL_PARTICIPANT = share_path("testdata", "pose2sim") / "S00_Demo_BatchSession" / "S00_P00_SingleParticipant"
+REAL_TRIAL = REAL_PARTICIPANT / "S00_P00_T01_BalancingTrial"
+REAL_BASELINE = REAL_PARTICIPANT / "S00_P00_T00_StaticTrial"
 
 
 def stale_rig(rig: Rig, name: str, *, rotation_deg: float, shift_mm: float, seed: int) -> Rig:
@@ -66,8 +73,21 @@ def _mpjpe_mm(trial, rig: Rig) -> float:
     return float(np.nanmean(np.linalg.norm(pts - trial.points_mm, axis=-1)))
 
 
-def _check(det, rig: Rig) -> RigCheck:
-    return check_rig(det, rig, robust_triangulate(det, rig).points_mm)
+def _check(det, rig: Rig, *, baseline=None) -> RigCheck:
+    return check_rig(det, rig, robust_triangulate(det, rig).points_mm, baseline=baseline)
+
+
+def _refined(det, stale: Rig, truth: Rig, name: str, check: RigCheck) -> dict:
+    """Camera ``name`` after the refinement from people with every camera adjusted (``all``) and with only
+    the flagged ones (``flagged``; none flagged: as ``all``): rotation (deg) and centre (mm) from ``truth``,
+    the rig, the solve time (s)."""
+    out = {}
+    for key, moved in (("all", None), ("flagged", check.moved or None)):
+        refined = refine_rig_from_people([det], stale, moved=moved)
+        out[key] = {"rig": refined.rig, "time_s": refined.report.solve_time_s,
+                    "rotation_deg": float(rotation_angle_deg(refined.rig[name].rotation, truth[name].rotation)),
+                    "centre_mm": float(np.linalg.norm(refined.rig[name].center_mm - truth[name].center_mm))}
+    return out
 
 
 def synthetic_unmoved(seeds: int, seconds: float) -> dict:
@@ -96,16 +116,17 @@ def synthetic_moved(seeds: int, seconds: float) -> dict:
             name = trial.rig.names[seed % len(trial.rig)]
             stale = stale_rig(trial.rig, name, rotation_deg=rot, shift_mm=shift, seed=seed)
             check = _check(trial.detections, stale)
-            refined = refine_rig_from_people([trial.detections], stale)
+            ref = _refined(trial.detections, stale, trial.rig, name, check)
             rows.append({
                 "detected": check.moved == (name,), "others_flagged": len(set(check.moved) - {name}),
                 "rotation_error_deg": _rotation_error_deg(check, trial.rig, stale, name),
                 "estimated_shift_mm": check.camera(name).shift_mm,
                 "mpjpe_true_mm": _mpjpe_mm(trial, trial.rig), "mpjpe_stale_mm": _mpjpe_mm(trial, stale),
-                "mpjpe_refined_mm": _mpjpe_mm(trial, refined.rig),
-                "refined_rotation_deg": float(rotation_angle_deg(refined.rig[name].rotation, trial.rig[name].rotation)),
-                "refined_centre_mm": float(np.linalg.norm(refined.rig[name].center_mm - trial.rig[name].center_mm)),
-                "refine_s": refined.report.solve_time_s,
+                "mpjpe_refined_mm": _mpjpe_mm(trial, ref["flagged"]["rig"]),
+                "mpjpe_refined_all_mm": _mpjpe_mm(trial, ref["all"]["rig"]),
+                "refined_rotation_deg": ref["flagged"]["rotation_deg"], "refined_centre_mm": ref["flagged"]["centre_mm"],
+                "refined_all_rotation_deg": ref["all"]["rotation_deg"], "refined_all_centre_mm": ref["all"]["centre_mm"],
+                "refine_s": ref["flagged"]["time_s"],
             })
         out[label] = _summary(rows)
     return out
@@ -123,11 +144,11 @@ def _summary(rows: list[dict]) -> dict:
     return out
 
 
-def _real_input():
-    from gaitcap.acquisition.keypoint_files import read_keypoints_input
+def _real_input(trial: Path):
+    from gaitcap.acquisition.importers.keypoint_files import read_keypoints_input
     from gaitcap.services.processing.pipeline import patient_input, resolve_layout
 
-    data = read_keypoints_input(REAL_TRIAL)
+    data = read_keypoints_input(trial)
     recording, layout = resolve_layout(data.recording, data.rig, named=data.layout)
     det, rig, _ = patient_input(recording, data.rig)
     return det, rig
@@ -140,25 +161,39 @@ def _median_reprojection_px(det, rig: Rig) -> float:
     return float(np.median(err[ok]))
 
 
-def real_demo() -> dict:
-    det, rig = _real_input()
+def real_demo(axes: int) -> dict:
+    det, rig = _real_input(REAL_TRIAL)
+    reference, _ = _real_input(REAL_BASELINE)
     name = rig.names[1]
     as_given = _check(det, rig)
-    out = {"cameras": len(rig), "frames": det.shape[1], "perturbed_camera": name,
+    out = {"cameras": len(rig), "frames": det.shape[1], "perturbed_camera": name, "axes": axes,
+           "baseline_frames": reference.shape[1],
            "as_given": {"flagged": list(as_given.moved), "reprojection_px": round(_median_reprojection_px(det, rig), 2),
-                        "fields_px": {c.name: round(c.field_px, 1) for c in as_given.cameras}}}
+                        "fields_px": {c.name: round(c.field_px, 1) for c in as_given.cameras},
+                        "flagged_with_baseline": list(_check(det, rig, baseline=reference).moved)}}
     for label, (rot, shift) in CASES.items():
-        stale = stale_rig(rig, name, rotation_deg=rot, shift_mm=shift, seed=0)
-        check = _check(det, stale)
-        refined = refine_rig_from_people([det], stale)
-        out[label] = {
-            "flagged": list(check.moved), "detected": check.moved == (name,),
-            "rotation_error_deg": round(_rotation_error_deg(check, rig, stale, name), 3),
-            "reprojection_stale_px": round(_median_reprojection_px(det, stale), 2),
-            "reprojection_refined_px": round(_median_reprojection_px(det, refined.rig), 2),
-            "refined_rotation_deg": round(float(rotation_angle_deg(refined.rig[name].rotation, rig[name].rotation)), 3),
-            "refined_centre_mm": round(float(np.linalg.norm(refined.rig[name].center_mm - rig[name].center_mm)), 1),
-        }
+        rows = []
+        for seed in range(axes):
+            stale = stale_rig(rig, name, rotation_deg=rot, shift_mm=shift, seed=seed)
+            plain = _check(det, stale)
+            check = _check(det, stale, baseline=seen_from(reference, rig, stale, name))
+            ref = _refined(det, stale, rig, name, check)
+            rows.append({
+                "flagged_plain": list(plain.moved), "flagged": list(check.moved), "detected": check.moved == (name,),
+                "rotation_error_deg": _rotation_error_deg(check, rig, stale, name),
+                "reprojection_stale_px": _median_reprojection_px(det, stale),
+                "reprojection_refined_px": _median_reprojection_px(det, ref["flagged"]["rig"]),
+                "refined_rotation_deg": ref["flagged"]["rotation_deg"], "refined_centre_mm": ref["flagged"]["centre_mm"],
+                "refined_all_rotation_deg": ref["all"]["rotation_deg"], "refined_all_centre_mm": ref["all"]["centre_mm"],
+            })
+        out[label] = {"detection_rate": float(np.mean([r["detected"] for r in rows])),
+                      "flagged_plain": [",".join(r["flagged_plain"]) or "-" for r in rows],
+                      "flagged": [",".join(r["flagged"]) or "-" for r in rows],
+                      **{key: round(float(np.max([r[key] for r in rows])), 3)
+                         for key in ("rotation_error_deg", "refined_rotation_deg", "refined_centre_mm",
+                                     "refined_all_rotation_deg", "refined_all_centre_mm")},
+                      **{key: round(float(np.mean([r[key] for r in rows])), 2)
+                         for key in ("reprojection_stale_px", "reprojection_refined_px")}}
     return out
 
 
@@ -195,25 +230,31 @@ def table(result: dict) -> str:
                      f"(largest field {un['max_field_px']} px; check {un['check_s']} s per trial)")
     if result.get("synthetic_moved"):
         lines.append(f"{'synthetic case':18} {'detected':>8} {'others':>6} {'rot err':>8} {'MPJPE true':>10} "
-                     f"{'stale':>7} {'refined':>8} {'vs true':>8} {'cam back':>9} {'centre':>7}")
+                     f"{'stale':>7} {'refined':>8} {'vs true':>8} {'cam back':>9} {'centre':>7}   "
+                     f"{'all free: MPJPE':>15} {'cam back':>9} {'centre':>7}")
     for label, r in result.get("synthetic_moved", {}).items():
         lines.append(f"{label:18} {r['detection_rate']:8.0%} {r['others_flagged']:6d} "
                      f"{r['rotation_error_deg_max']:7.2f}° {r['mpjpe_true_mm']:8.1f}mm {r['mpjpe_stale_mm']:5.1f}mm "
                      f"{r['mpjpe_refined_mm']:6.1f}mm {r['refined_vs_true_pct']:7.1f}% {r['refined_rotation_deg_max']:8.2f}° "
-                     f"{r['refined_centre_mm_max']:5.1f}mm")
+                     f"{r['refined_centre_mm_max']:5.1f}mm   {r['mpjpe_refined_all_mm']:13.1f}mm "
+                     f"{r['refined_all_rotation_deg_max']:8.2f}° {r['refined_all_centre_mm_max']:5.1f}mm")
     real = result.get("real")
     if real:
         given = real["as_given"]
-        lines.append(f"\nReal Pose2Sim demo ({real['cameras']} cameras, {real['frames']} frames): as given flagged "
-                     f"{given['flagged'] or 'none'}; median reprojection {given['reprojection_px']} px; fields "
-                     f"{given['fields_px']}")
-        lines.append(f"{'real case':18} {'flagged':>20} {'rot err':>8} {'reproj stale':>12} {'refined':>8} "
-                     f"{'cam back':>9} {'centre':>7}")
+        lines.append(f"\nReal Pose2Sim demo ({real['cameras']} cameras, {real['frames']} frames; baseline: the static "
+                     f"trial, {real['baseline_frames']} frames): as given flagged {given['flagged'] or 'none'}, with the "
+                     f"baseline {given['flagged_with_baseline'] or 'none'}; median reprojection {given['reprojection_px']} "
+                     f"px; fields {given['fields_px']}")
+        lines.append(f"{'real case':16} {'no baseline':>26} {'with baseline':>26} {'rot err':>8} {'reproj stale':>12} "
+                     f"{'refined':>8} {'cam back':>9} {'centre':>7}   {'all free: back':>14} {'centre':>7}   "
+                     f"({real['axes']} axes; max over them)")
         for label in CASES:
             r = real[label]
-            lines.append(f"{label:18} {','.join(r['flagged']) or '-':>20} {r['rotation_error_deg']:7.2f}° "
-                         f"{r['reprojection_stale_px']:10.2f}px {r['reprojection_refined_px']:6.2f}px "
-                         f"{r['refined_rotation_deg']:8.2f}° {r['refined_centre_mm']:5.1f}mm")
+            lines.append(f"{label:16} {' '.join(r['flagged_plain']):>26} {' '.join(r['flagged']):>26} "
+                         f"{r['rotation_error_deg']:7.2f}° {r['reprojection_stale_px']:10.2f}px "
+                         f"{r['reprojection_refined_px']:6.2f}px {r['refined_rotation_deg']:8.2f}° "
+                         f"{r['refined_centre_mm']:5.1f}mm   {r['refined_all_rotation_deg']:13.2f}° "
+                         f"{r['refined_all_centre_mm']:5.1f}mm")
     people = result.get("people_only")
     if people:
         lines.append(f"\nFrom people alone ({people['cameras']} cameras, {people['seconds']:g} s walk, no board): centres "
@@ -228,6 +269,7 @@ def main() -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--seeds", type=int, default=20, help="unperturbed synthetic trials (false alarms)")
     parser.add_argument("--moved-seeds", type=int, default=3, help="synthetic trials per perturbation")
+    parser.add_argument("--real-axes", type=int, default=3, help="random axes per perturbation of the real demo")
     parser.add_argument("--seconds", type=float, default=20.0, help="length of each synthetic trial, s")
     parser.add_argument("--sections", default="unmoved,moved,real,people",
                         help="comma-separated: unmoved, moved, real (the Pose2Sim demo), people (no board)")
@@ -240,7 +282,7 @@ def main() -> None:
     if "moved" in wanted:
         result["synthetic_moved"] = synthetic_moved(args.moved_seeds, args.seconds)
     if "real" in wanted:
-        result["real"] = real_demo() if REAL_TRIAL.exists() else None
+        result["real"] = real_demo(args.real_axes) if REAL_TRIAL.exists() else None
     if "people" in wanted:
         result["people_only"] = people_only(max(args.seconds, 20.0))
     emit(result, as_json=args.json, table=table)
