@@ -1,6 +1,7 @@
 """``gaitcap refine-rig TRIAL... --calibration CALIB --out NEW.toml``: refine a calibration from the people
 filmed in trials (bundle adjustment of the camera poses, the given calibration as prior and its scale kept),
-and say how far each camera moved; ``--check`` only checks the rig against each trial (moved cameras).
+and say how far each camera moved (``--moved CAM``: only those cameras adjusted); ``--check`` only checks the rig
+against each trial (moved cameras), with ``--baseline TRIAL`` against a trial recorded with the calibration as is.
 With ``--data-dir``/``--catalog`` the trials may be named by id and the refined calibration is stored as a
 new calibration version replacing ``--replaces`` (default: the active calibration), its prior unless
 ``--calibration`` is given; ``gaitcap apply-calibration`` then reprocesses the trials that used the old one."""
@@ -142,6 +143,8 @@ def register(app: typer.Typer) -> None:
         out: Path | None = typer.Option(None, "--out", help="Refined calibration to write (.toml or .json); its report beside it (.report.json)."),
         focal: bool = typer.Option(False, "--focal", help="Also refine each camera's focal length."),
         check: bool = typer.Option(False, "--check", help="Only check the rig against each trial (which camera moved, by how much); write nothing."),
+        baseline: Path | None = typer.Option(None, "--baseline", help="With --check: a trial recorded with the calibration as is (e.g. the session's static trial); each camera is judged by the change of its field since it."),
+        moved: list[str] = typer.Option([], "--moved", help="Adjust only this camera (repeat for several; e.g. the ones --check flagged); every other camera keeps its calibration exactly."),
         max_frames: int | None = typer.Option(None, "--max-frames", help="Frames used at most per trial (default 150; with --height-mm 400)."),
         height_mm: float | None = typer.Option(None, "--height-mm", help="Calibrate from people alone (no board): the subject's standing height, mm, sets the scale; only the calibration's intrinsics are used (one trial: a walk)."),
         data_dir: Path | None = typer.Option(None, "--data-dir", envvar="GAITCAP_DATA_DIR", help="Store the refined calibration in this data folder's catalog as a new version (trials may then be named by id)."),
@@ -166,10 +169,13 @@ def register(app: typer.Typer) -> None:
                 raise ValueError(f"--out {out}: use a .toml or .json file name")
             rig, replaced = _prior(db, calibration, replaces)
             dets = [(path, _patient(path, rig)) for path in _trial_paths(db, trials)]
+            if baseline is not None and not check:
+                raise ValueError("--baseline: only with --check")
             if check:
+                reference = _patient(baseline, rig) if baseline is not None else None
                 for path, det in dets:
                     sub = rig.subset(det.camera_names)
-                    result = check_rig(det, sub, robust_triangulate(det, sub).points_mm)
+                    result = check_rig(det, sub, robust_triangulate(det, sub).points_mm, baseline=reference)
                     typer.echo(_check_table(str(path), result))
                 return
             if height_mm is not None:
@@ -181,7 +187,7 @@ def register(app: typer.Typer) -> None:
                 typer.echo(_refine_table(result.report))
                 typer.echo(f"wrote {out} and {report_file}")
                 return
-            result = refine_rig_from_people([d for _, d in dets], rig,
+            result = refine_rig_from_people([d for _, d in dets], rig, moved=moved or None,
                                             config=PeopleBundleConfig(refine_focal=focal, max_frames=max_frames or 150))
             typer.echo(_refine_table(result.report))
             if db is not None:
