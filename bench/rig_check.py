@@ -1,7 +1,7 @@
 """The rig check from the walking patient and the refinement of a rig from people.
 
     python bench/rig_check.py [--json] [--seeds 20] [--moved-seeds 3] [--real-axes 3] [--seconds 20]
-        [--sections unmoved,moved,real,people]
+        [--sections unmoved,moved,baseline,real,people]
 
 1. Synthetic clinic (10 cameras, "paper" detector noise): ``--seeds`` trials with the rig as calibrated
    (false alarms), and ``--moved-seeds`` trials per case with one camera turned by 0.5, 1, 2 or 5 deg (about
@@ -18,7 +18,10 @@
    perturbed camera are displaced to where the camera stood when calibrated), rotation error, median
    reprojection error (px, all cameras) before and after refinement, and the refined camera's rotation
    from its original (deg).
-3. From people alone (synthetic, 10 cameras, a 20 s walk, no board): camera centres (mm) and rotations
+3. ``--sections baseline`` (not run by default): the synthetic check against a baseline, each trial's first
+   half as the reference recorded before the camera moved, the second half checked: false alarms in
+   ``--seeds`` trials, detection rate and rotation error per case.
+4. From people alone (synthetic, 10 cameras, a 20 s walk, no board): camera centres (mm) and rotations
    (deg) against the truth once the walk's world frame is aligned to the room's, the scale error (%) from
    the entered height, the floor's tilt (deg).
 
@@ -132,6 +135,38 @@ def synthetic_moved(seeds: int, seconds: float) -> dict:
     return out
 
 
+def _halves(det):
+    mid = det.shape[1] // 2
+    return tuple(type(det)(det.keypoints[:, part], det.camera_names, det.times_s[part], det.skeleton)
+                 for part in (slice(None, mid), slice(mid, None)))
+
+
+def synthetic_baseline(seeds: int, moved_seeds: int, seconds: float) -> dict:
+    """The check against a baseline on the synthetic clinic: each trial's first half is the reference
+    (recorded before the camera moved: seen from its calibrated pose), the second half is checked; false
+    alarms over ``seeds`` trials as calibrated, detection and rotation error per case."""
+    from gaitcap.simulator import make_trial
+
+    flagged = []
+    for seed in range(seeds):
+        trial = make_trial(preset="paper", seconds=seconds, cameras=10, seed=seed)
+        first, second = _halves(trial.detections)
+        flagged += [f"seed {seed}: {n}" for n in _check(second, trial.rig, baseline=first).moved]
+    out = {"trials": seeds, "false_alarms": len(flagged), "flagged": flagged}
+    for label, (rot, shift) in CASES.items():
+        rows = []
+        for seed in range(moved_seeds):
+            trial = make_trial(preset="paper", seconds=seconds, cameras=10, seed=100 + seed)
+            name = trial.rig.names[seed % len(trial.rig)]
+            stale = stale_rig(trial.rig, name, rotation_deg=rot, shift_mm=shift, seed=seed)
+            first, second = _halves(trial.detections)
+            check = _check(second, stale, baseline=seen_from(first, trial.rig, stale, name))
+            rows.append((check.moved == (name,), _rotation_error_deg(check, trial.rig, stale, name)))
+        out[label] = {"detection_rate": float(np.mean([r[0] for r in rows])),
+                      "rotation_error_deg_max": round(float(max(r[1] for r in rows)), 3)}
+    return out
+
+
 def _summary(rows: list[dict]) -> dict:
     out = {"trials": len(rows), "detection_rate": float(np.mean([r["detected"] for r in rows])),
            "others_flagged": int(sum(r["others_flagged"] for r in rows))}
@@ -238,6 +273,12 @@ def table(result: dict) -> str:
                      f"{r['mpjpe_refined_mm']:6.1f}mm {r['refined_vs_true_pct']:7.1f}% {r['refined_rotation_deg_max']:8.2f}° "
                      f"{r['refined_centre_mm_max']:5.1f}mm   {r['mpjpe_refined_all_mm']:13.1f}mm "
                      f"{r['refined_all_rotation_deg_max']:8.2f}° {r['refined_all_centre_mm_max']:5.1f}mm")
+    base = result.get("synthetic_baseline")
+    if base:
+        cases = "; ".join(f"{label} {base[label]['detection_rate']:.0%}, rotation within "
+                          f"{base[label]['rotation_error_deg_max']:.2f} deg" for label in CASES)
+        lines.append(f"\nSynthetic, second half against the first as baseline: {base['false_alarms']} false alarm(s) "
+                     f"in {base['trials']} trials; {cases}")
     real = result.get("real")
     if real:
         given = real["as_given"]
@@ -272,7 +313,8 @@ def main() -> None:
     parser.add_argument("--real-axes", type=int, default=3, help="random axes per perturbation of the real demo")
     parser.add_argument("--seconds", type=float, default=20.0, help="length of each synthetic trial, s")
     parser.add_argument("--sections", default="unmoved,moved,real,people",
-                        help="comma-separated: unmoved, moved, real (the Pose2Sim demo), people (no board)")
+                        help="comma-separated: unmoved, moved, baseline (synthetic, against the first half), real (the "
+                             "Pose2Sim demo), people (no board)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
     wanted = set(args.sections.split(","))
@@ -281,6 +323,8 @@ def main() -> None:
         result["synthetic_unmoved"] = synthetic_unmoved(args.seeds, args.seconds)
     if "moved" in wanted:
         result["synthetic_moved"] = synthetic_moved(args.moved_seeds, args.seconds)
+    if "baseline" in wanted:
+        result["synthetic_baseline"] = synthetic_baseline(args.seeds, args.moved_seeds, args.seconds)
     if "real" in wanted:
         result["real"] = real_demo(args.real_axes) if REAL_TRIAL.exists() else None
     if "people" in wanted:
