@@ -171,7 +171,7 @@ def agreement_px(people: np.ndarray, frame_ids: np.ndarray, ref: np.ndarray, kee
     """Per camera frame: the median distance (px) between the final first person and the nearest person of the
     reference, over the joints both see; frames where only one of them finds someone counted apart. ``keep``
     (C, T) bool: the camera frames compared."""
-    dists, one_sided = [], 0
+    dists, here_only, reference_only = [], 0, 0
     for c in range(people.shape[0]):
         for t, fid in enumerate(frame_ids):
             if not 0 <= fid < ref.shape[0] or not keep[c, t]:
@@ -179,8 +179,8 @@ def agreement_px(people: np.ndarray, frame_ids: np.ndarray, ref: np.ndarray, kee
             a = people[c, t, 0]
             others = [b for b in ref[fid] if (b[:, 2] > min_conf).any()]
             has_a = (a[:, 2] > min_conf).any()
-            if has_a != bool(others):
-                one_sided += 1
+            here_only += has_a and not others
+            reference_only += bool(others) and not has_a
             if has_a and others:
                 found = [_median_px(a, b, min_conf) for b in others]
                 found = [d for d in found if d is not None]
@@ -189,7 +189,8 @@ def agreement_px(people: np.ndarray, frame_ids: np.ndarray, ref: np.ndarray, kee
     d = np.array(dists)
     return {"frames_compared": int(d.size), "median_px": float(np.median(d)) if d.size else None,
             "p95_px": float(np.percentile(d, 95)) if d.size else None,
-            "within_2px": float((d <= 2).mean()) if d.size else None, "found_by_one_only": one_sided}
+            "within_2px": float((d <= 2).mean()) if d.size else None, "found_by_one_only": here_only + reference_only,
+            "found_here_only": here_only, "found_by_reference_only": reference_only}
 
 
 def _median_px(a: np.ndarray, b: np.ndarray, min_conf: float) -> float | None:
@@ -275,7 +276,8 @@ def table(r: dict) -> str:
             continue
         lines.append(f"vs gaitcap detect on the video, {name} frames: {a['frames_compared']} camera frames, median "
                      f"{a['median_px']:.2f} px, p95 {a['p95_px']:.2f} px, {100 * a['within_2px']:.0f} % within 2 px, "
-                     f"{a['found_by_one_only']} found by only one")
+                     f"{a['found_by_one_only']} found by only one "
+                     f"({a['found_here_only']} here only, {a['found_by_reference_only']} by gaitcap detect only)")
     return "\n".join(lines)
 
 

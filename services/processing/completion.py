@@ -1,10 +1,10 @@
 """Completion after Stop: every recorded frame without live keypoints, detected from the recording's images.
 
 The live detector keeps up as far as it can; the recorder keeps every image. :func:`complete_keypoints`
-reads the trial's JPEG images from its MCAP in one pass, sends each frame that has no live keypoints (or
-every frame, ``redetect_all``) to a :class:`~gaitcap.acquisition.detectors.pool.DetectorPool` of the offline
-detector (built in each worker process by a picklable factory; it may be heavier than the live one), and
-returns the complete keypoints with a :class:`CompletionReport`: per camera the frames recorded, detected
+reads the trial's JPEG images from its MCAP in one pass, sends each frame that has no live keypoints (none
+received, or nobody found in it; or every frame, ``redetect_all``) to a
+:class:`~gaitcap.acquisition.detectors.pool.DetectorPool` of the offline detector (built in each worker
+process by a picklable factory; it may be heavier than the live one), and returns the complete keypoints with a :class:`CompletionReport`: per camera the frames recorded, detected
 live, completed now, the corrupt images (named, skipped and counted; nothing else is lost) and the frames
 still without keypoints; the detector; the provenance of every frame (live, completed or missing: the
 codes of :mod:`gaitcap.reconstruction.keypoints`), which the keypoints carry too. :func:`save_completion`
@@ -135,10 +135,14 @@ class _Placer:
         return int(frame_id)
 
     def has_live(self, camera: str, slot: int) -> bool:
+        """Whether the live pass left keypoints of someone at this camera frame: a frame it detected and found
+        nobody in is detected again (the offline detector, tracking through the frames around it, often finds
+        the walker the live pass lost when it thinned its frames)."""
         if self.rec is None or camera not in self.index:
             return False
-        t = slot - int(self.rec.frame_ids[0])
-        return 0 <= t < self.rec.frame_ids.size and self.rec.timestamps_ns[self.index[camera], t] >= 0
+        c, t = self.index[camera], slot - int(self.rec.frame_ids[0])
+        return (0 <= t < self.rec.frame_ids.size and self.rec.timestamps_ns[c, t] >= 0
+                and bool(np.any(self.rec.keypoints[c, t, :, :, 2] > 0)))
 
 
 @dataclass

@@ -70,3 +70,14 @@ def test_systemd_units_run_valid_gaitcap_commands(unit):
     node = ctx.params["node"]
     assert node in load_bus_config(DEPLOY / "zenoh" / "multi-host.json5").nodes, node
     assert ctx.params["bus"] is not None
+
+
+def test_the_clinic_worker_completes_every_trial_with_the_live_detectors_kind():
+    env = _env()
+    unit = DEPLOY / "systemd" / "gaitcap-worker@.service"
+    parser = configparser.ConfigParser(strict=False, interpolation=None)
+    parser.read(unit)
+    text = re.sub(r"\$\{(\w+)\}", lambda m: env[m.group(1)], parser["Service"]["ExecStart"])
+    ctx = _parse(typer.main.get_command(app), shlex.split(text.replace("%i", "0").replace("%H", "host"))[1:])
+    assert ctx.params["complete_with"] == env["GAITCAP_DETECTOR"] != "none"
+    assert env["GAITCAP_DETECTOR_PARAM"] == f"model_path={ctx.params['complete_model']}"

@@ -49,12 +49,13 @@ def _write(path, images, keypoints):
     return w.finish({})
 
 
-def test_missing_frames_are_completed_the_live_ones_kept_and_a_corrupt_image_named(tmp_path):
+def test_missing_frames_and_live_frames_with_nobody_are_completed_the_live_ones_kept_and_a_corrupt_image_named(
+        tmp_path):
     levels = {"cam0": 40, "cam1": 200}
     images = {c: {f: _grey(lv + f) for f in range(12)} for c, lv in levels.items()}
     images["cam1"][5] = b"\xff\xd8 not a jpeg"  # a corrupt image in the recording
     live_person = [[[1.0, 2.0, 0.5]] * 17]
-    live = {"cam0": {f: live_person for f in range(2, 6)}, "cam1": {3: []}}  # cam1 frame 3: nobody seen
+    live = {"cam0": {f: live_person for f in range(2, 6)}, "cam1": {3: []}}  # cam1 frame 3: live found nobody
     path = _write(tmp_path / "t.mcap", images, live)
     recording = read_keypoints(path)
     assert recording.frame_ids.tolist() == [2, 3, 4, 5]  # what the live pass caught
@@ -63,7 +64,7 @@ def test_missing_frames_are_completed_the_live_ones_kept_and_a_corrupt_image_nam
     assert kp.frame_ids.tolist() == list(range(12)) and kp.camera_names == ("cam0", "cam1")
     cam0, cam1 = report.cameras
     assert (cam0.recorded, cam0.live, cam0.completed, cam0.corrupt_frame_ids) == (12, 4, 8, ())
-    assert (cam1.recorded, cam1.live, cam1.completed, cam1.corrupt_frame_ids) == (12, 1, 10, (5,))
+    assert (cam1.recorded, cam1.live, cam1.completed, cam1.corrupt_frame_ids) == (12, 0, 11, (5,))  # 3 again
     assert cam1.missing_frame_ids == (5,) and not report.complete
     np.testing.assert_allclose(kp.keypoints[0, 2:6, 0], np.broadcast_to(live_person[0], (4, 17, 3)))  # live kept
     for c, cam in enumerate(kp.camera_names):
@@ -72,12 +73,13 @@ def test_missing_frames_are_completed_the_live_ones_kept_and_a_corrupt_image_nam
                 want = decode_jpeg(images[cam][f]).mean()
                 assert kp.keypoints[c, f, 0, 0, :2].tolist() == pytest.approx([want, f])
                 assert kp.timestamps_ns[c, f] == T0 + f * PERIOD
-    assert report.provenance[1, 5] == MISSING and report.provenance[1, 3] == LIVE
+    assert report.provenance[1, 5] == MISSING and report.provenance[1, 3] == COMPLETED
+    assert report.provenance[0, 2] == LIVE
     assert kp.provenance.tolist() == report.provenance.tolist()  # the keypoints say where each frame came from
     assert np.isnan(kp.keypoints[1, 5]).all() or (kp.keypoints[1, 5, ..., 2] == 0).all()
     assert np.allclose(np.diff(kp.times_s), PERIOD / 1e9)
     body = report.to_dict()
-    assert body["frames"] == {"recorded": 24, "live": 5, "completed": 18, "corrupt": 1}
+    assert body["frames"] == {"recorded": 24, "live": 4, "completed": 19, "corrupt": 1}
     assert body["cameras"]["cam1"]["corrupt_frame_ids"] == [5]
     assert body["cameras"]["cam0"]["completed_frame_ids"] == [[0, 1], [6, 11]]
 
@@ -147,7 +149,7 @@ def test_complete_trial_with_settings_stores_the_files(tmp_path):
             return Brightness()
 
     images = {"cam0": {f: _grey(60 + f) for f in range(4)}}
-    path = _write(tmp_path / "t.mcap", images, {"cam0": {1: []}})
+    path = _write(tmp_path / "t.mcap", images, {"cam0": {1: [[[1.0, 2.0, 0.5]] * 17]}})
     settings = CompletionSettings(BrightnessConfig(gain=2.0), workers=0)
     assert settings.detector_name == "brightness gain=2.0"
     kp, report, files = complete_trial(path, read_keypoints(path), tmp_path / "trial", settings)
