@@ -137,7 +137,8 @@ class _Placer:
     def has_live(self, camera: str, slot: int) -> bool:
         """Whether the live pass left keypoints of someone at this camera frame: a frame it detected and found
         nobody in is detected again (the offline detector, tracking through the frames around it, often finds
-        the walker the live pass lost when it thinned its frames)."""
+        the walker the live pass lost when it thinned its frames); where it finds nobody either, the frame stays
+        live."""
         if self.rec is None or camera not in self.index:
             return False
         c, t = self.index[camera], slot - int(self.rec.frame_ids[0])
@@ -259,6 +260,8 @@ def _assemble(recording: MultiViewKeypoints | None, got: _Collected, skeleton: s
         prov[:c, span] = recording.provenance
     for (cam, slot), found in got.found.items():
         c, t = names.index(cam), slot - first
+        if not redetect_all and prov[c, t] == LIVE and not _anyone(found):
+            continue  # the live pass found nobody here and neither did the completion: the frame stays live
         people[c, t, : len(found)] = found
         stamps[c, t] = got.images[cam][slot]
         prov[c, t] = COMPLETED
@@ -268,6 +271,11 @@ def _assemble(recording: MultiViewKeypoints | None, got: _Collected, skeleton: s
                              ignored=dict(recording.ignored) if recording is not None else {})
     cams = tuple(_camera_row(cam, names.index(cam), got, prov, first) for cam in names)
     return out, CompletionReport(detector_name, redetect_all, workers, 0.0, cams, tuple(names), frame_ids, prov)
+
+
+def _anyone(found: np.ndarray) -> bool:
+    """Whether detections (P, J, 3) hold anyone: a joint with confidence above 0."""
+    return bool(found.size) and bool(np.any(np.nan_to_num(found[..., 2]) > 0))
 
 
 def _joints(recording: MultiViewKeypoints | None, got: _Collected) -> int:
