@@ -147,17 +147,23 @@ class Supervisor:
         now = time.monotonic()
         with self._lock:
             for name, child in self.children.items():
-                if child.restart_due is None:
-                    code = child.proc.poll()
-                    if code is None:
-                        continue
-                    self._crashed(child, code, now)
+                if not self._exited(child, now):
+                    continue
                 if now >= child.restart_due:
                     child.proc, child.log_path, child.log_offset = self._spawn(child.spec)
                     child.started, child.since, child.restart_due = now, time.time(), None
                     child.restarts += 1
                     restarted.append(name)
         return restarted
+
+    def _exited(self, child: _Child, now: float) -> bool:
+        """Whether the child has exited (its crash recorded once, with its restart due, when first seen)."""
+        if child.restart_due is None:
+            code = child.proc.poll()
+            if code is None:
+                return False
+            self._crashed(child, code, now)
+        return True
 
     @staticmethod
     def _crashed(child: _Child, code: int, now: float) -> None:
@@ -172,7 +178,7 @@ class Supervisor:
         """Every child's state now (for health reports)."""
         now_mono, now = time.monotonic(), time.time()
         with self._lock:
-            return [ChildState(name, "waiting" if c.restart_due is not None or c.proc.poll() is not None else "running",
+            return [ChildState(name, "waiting" if self._exited(c, now_mono) else "running",
                                c.proc.pid, c.restarts, c.crashes_in_a_row, c.last_exit_code, c.since,
                                None if c.restart_due is None else now + (c.restart_due - now_mono))
                     for name, c in self.children.items()]
