@@ -45,18 +45,26 @@ def detector_config(kind: str, model: Path | None, param: list[str]):
     return cls(**params)
 
 
-def completion_plan(kind: str, model: Path | None, param: list[str], workers: int | None):
-    """``--complete-with KIND [--complete-model PATH] [--complete-param K=V] [--complete-workers N]`` as the
-    one path's :class:`~gaitcap.services.processing.completion.CompletionSettings`; None for kind ``none``."""
+def completion_plan(kind: str, model: Path | None, param: list[str], workers: int | None, *,
+                    only_missing: bool = False):
+    """``--complete-with KIND [--complete-model PATH] [--complete-param K=V] [--complete-workers N]
+    [--complete-only-missing]`` as the one path's
+    :class:`~gaitcap.services.processing.completion.CompletionSettings`; None for kind ``none``. Every recorded
+    frame is detected again unless ``only_missing``: the refined result then does not depend on what the live
+    pass happened to catch, and is the same wherever the recording is processed."""
     from gaitcap.services.processing.completion import CompletionSettings
 
     if kind == "none":
         return None
-    return CompletionSettings(detector_config(kind, model, param), workers=workers)
+    return CompletionSettings(detector_config(kind, model, param), workers=workers, redetect_all=not only_missing)
 
 
-COMPLETE_WITH_HELP = ("Detect the recorded frames the live detector missed, before the refined stage, with this "
-                      "detector kind (mediapipe | onnx; none: the live keypoints only).")
+COMPLETE_WITH_HELP = ("Detect the recorded frames from their images before the refined stage with this detector "
+                      "kind (mediapipe | onnx; none: the live keypoints only): every frame, so the refined result "
+                      "does not depend on what the live pass caught (--complete-only-missing: only the frames "
+                      "without live keypoints).")
+ONLY_MISSING_HELP = ("Complete only the frames without live keypoints (faster by the live coverage; the refined "
+                     "result then rests on the live keypoints too).")
 
 
 def frame_count(files: list[Path]) -> int:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 from gaitcap.services.cli._common import progress, user_errors
-from gaitcap.services.cli.detect import COMPLETE_WITH_HELP, completion_plan
+from gaitcap.services.cli.detect import COMPLETE_WITH_HELP, ONLY_MISSING_HELP, completion_plan
 
 
 def _echo_summary(result, out: Path, chosen_how: str) -> None:
@@ -79,6 +79,7 @@ def register(app: typer.Typer) -> None:
         complete_model: Path | None = typer.Option(None, "--complete-model", help="Its model."),
         complete_param: list[str] = typer.Option([], "--complete-param", help="Its other config field KEY=VALUE."),
         complete_workers: int | None = typer.Option(None, "--complete-workers", help="Its processes."),
+        complete_only_missing: bool = typer.Option(False, "--complete-only-missing", help=ONLY_MISSING_HELP),
         kinematics: bool = typer.Option(True, "--kinematics/--no-kinematics",
                                         help="Joint kinematics of the last stage (OpenSim model fit)."),
         as_json: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),
@@ -101,7 +102,7 @@ def register(app: typer.Typer) -> None:
             options = OfflineOptions(skeleton=skeleton, fps=fps, refine=refine,
                                      patient=patient_request(person, patient_near), kinematics=kinematics,
                                      completion=completion_plan(complete_with, complete_model, complete_param,
-                                                                complete_workers))
+                                                                complete_workers, only_missing=complete_only_missing))
             t0 = time.perf_counter()
             with progress(desc="detect", unit="frame") as bar:
                 data = load_input(source, calibration=calibration, options=options,

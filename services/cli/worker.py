@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR, catalog_url
 from gaitcap.services.cli._common import stop_on_signals, user_errors
-from gaitcap.services.cli.detect import COMPLETE_WITH_HELP, completion_plan
+from gaitcap.services.cli.detect import COMPLETE_WITH_HELP, ONLY_MISSING_HELP, completion_plan
 
 
 def register(app: typer.Typer) -> None:
@@ -29,6 +29,7 @@ def register(app: typer.Typer) -> None:
         complete_param: list[str] = typer.Option([], "--complete-param", help="Its other config field KEY=VALUE."),
         complete_workers: int | None = typer.Option(None, "--complete-workers",
                                                     help="Its processes (default: one per CPU core)."),
+        complete_only_missing: bool = typer.Option(False, "--complete-only-missing", help=ONLY_MISSING_HELP),
         max_rss_mb: float = typer.Option(3000.0, "--max-rss-mb", help="After a job, exit (code 75, to be restarted by "
                                          "the supervisor or systemd) when resident memory is above this (MB)."),
         rerun_images_hz: float = typer.Option(5.0, "--rerun-images-hz",
@@ -43,7 +44,7 @@ def register(app: typer.Typer) -> None:
             cfg = WorkerConfig(catalog_url=catalog_url(data_dir, catalog), data_dir=data_dir,
                                lease_s=lease_s, refine=not no_refine, rerun=RerunSettings(image_rate_hz=rerun_images_hz),
                                completion=completion_plan(complete_with, complete_model, complete_param,
-                                                          complete_workers), max_rss_mb=max_rss_mb,
+                                                          complete_workers, only_missing=complete_only_missing), max_rss_mb=max_rss_mb,
                                **({"worker_id": worker_id} if worker_id else {}))
             session = None
             if not no_bus:  # the worker is alive on the bus (the API's health); its progress is in the catalog

@@ -81,3 +81,4 @@ def test_the_clinic_worker_completes_every_trial_with_the_live_detectors_kind():
     ctx = _parse(typer.main.get_command(app), shlex.split(text.replace("%i", "0").replace("%H", "host"))[1:])
     assert ctx.params["complete_with"] == env["GAITCAP_DETECTOR"] != "none"
     assert env["GAITCAP_DETECTOR_PARAM"] == f"model_path={ctx.params['complete_model']}"
+    assert ctx.params["complete_only_missing"] is False  # every recorded frame detected again: no live luck

@@ -178,3 +178,12 @@ def test_detect_onnx_model_by_path(tmp_path):
     assert np.all((x >= left[:, None] - crop_px) & (x <= left[:, None] + SQ - 1 + crop_px))
     assert np.all((y >= 20 - crop_px) & (y <= 20 + SQ - 1 + crop_px))
     assert 6 <= x[-1, 0] - x[0, 0] <= 14  # it follows the square 10 px to the right
+
+
+def test_the_completion_detects_every_recorded_frame_unless_told_only_the_missing():
+    from gaitcap.services.cli.detect import completion_plan
+
+    assert completion_plan("none", None, [], None) is None
+    every = completion_plan("mediapipe", None, ["model=lite"], 2)
+    assert every.redetect_all and every.workers == 2 and every.detector.model == "lite"
+    assert not completion_plan("mediapipe", None, [], None, only_missing=True).redetect_all
