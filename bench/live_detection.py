@@ -456,7 +456,7 @@ def _agreement_lines(ref_name: str, against: dict) -> list[str]:
                      f"median {a['median_px']:.2f} px, p95 {a['p95_px']:.2f} px, {100 * a['within_2px']:.0f} % within "
                      f"2 px, {100 * a['identical']:.0f} % identical, {a['found_by_one_only']} found by only one "
                      f"({a['found_here_only']} here only, {a['found_by_reference_only']} by gaitcap detect only)")
-    by = ", ".join(f"{k:+d}: {'-' if v is None else f'{v:.2f}'}" for k, v in frames["median_px_by_offset"].items())
+    by = ", ".join(f"{int(k):+d}: {'-' if v is None else f'{v:.2f}'}" for k, v in frames["median_px_by_offset"].items())
     lines.append(f"  frame for frame: median px to its frame shifted by ({by}); nearest at offset "
                  f"{frames['best_offset']}")
     return lines
