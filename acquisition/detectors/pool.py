@@ -22,6 +22,7 @@ most ``MAX_RESPAWNS`` times) and takes cameras from the busiest workers.
 from __future__ import annotations
 
 import collections
+import dataclasses
 import functools
 import logging
 import multiprocessing
@@ -49,6 +50,17 @@ def default_workers() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not on Linux
         return max(1, os.cpu_count() or 1)
+
+
+def shared_cores(config, workers: int):
+    """``config`` (a detector's typed config) as each of ``workers`` pool processes runs it: a detector with
+    interpreter threads (a ``num_threads`` field) left at its default gets ``max(1, cores // workers)`` of
+    them, so the pool's processes use each core once (two TFLite threads in each of one process per core cost
+    7-8 % more CPU a frame: ``bench/completion_cpu.py``); a value set by the user is kept."""
+    field_ = next((f for f in dataclasses.fields(config) if f.name == "num_threads"), None)
+    if field_ is None or config.num_threads != field_.default or workers < 1:
+        return config
+    return replace(config, num_threads=max(1, default_workers() // workers))
 
 
 @dataclass(frozen=True)

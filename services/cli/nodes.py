@@ -178,7 +178,7 @@ def detector_cmd(
     """Detect 2D keypoints on every frame of the bus and publish them."""
     import gaitcap.acquisition.detectors  # noqa: F401  (registers the detector kinds)
     from gaitcap.acquisition.detectors.base import config_class
-    from gaitcap.acquisition.detectors.pool import DetectorPool, default_workers
+    from gaitcap.acquisition.detectors.pool import DetectorPool, default_workers, shared_cores
     from gaitcap.services.bus.session import default_bus_config, open_session
     from gaitcap.services.nodes.detector import CameraSelection, DetectorNode
 
@@ -190,8 +190,8 @@ def detector_cmd(
         config = cls(**params)
         selection = CameraSelection.parse(cameras, shard)
         cfg = default_bus_config(bus)
-        pool = DetectorPool.of_processes(config.build, workers or default_workers(), max_batch=batch,
-                                         max_age_s=max_lag_s)
+        size = workers or default_workers()
+        pool = DetectorPool.of_processes(shared_cores(config, size).build, size, max_batch=batch, max_age_s=max_lag_s)
         session = open_session(cfg, node)
     stopper = stop_on_signals()
     det_node = DetectorNode(session, cfg, node, pool, cameras=selection)

@@ -56,12 +56,13 @@ def register(app: typer.Typer) -> None:
 
 
 def _one(trial: Path, out: Path, settings, only_missing: bool, name: str) -> None:
+    from gaitcap.acquisition.detectors.pool import shared_cores
     from gaitcap.acquisition.recording.reader import read_keypoints, resolve_recording
     from gaitcap.services.processing.completion import complete_keypoints, save_completion
 
     path = resolve_recording(trial)
     live = _live_keypoints(path, read_keypoints) if only_missing else None
-    kp, report = complete_keypoints(path, live, settings.detector.build, detector_name=name,
+    kp, report = complete_keypoints(path, live, shared_cores(settings.detector, settings.workers).build, detector_name=name,
                                     workers=settings.workers, redetect_all=not only_missing)
     files = save_completion(out, kp, report)
     frames = report.to_dict()["frames"]

@@ -28,7 +28,13 @@ from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.detectors.base import DetectorConfig
-from gaitcap.acquisition.detectors.pool import DetectorPool, DetectResult, FrameTask, default_workers
+from gaitcap.acquisition.detectors.pool import (
+    DetectorPool,
+    DetectResult,
+    FrameTask,
+    default_workers,
+    shared_cores,
+)
 from gaitcap.acquisition.fileio import atomic_write_text
 from gaitcap.acquisition.recording.reader import frame_times_s, iter_frames
 from gaitcap.acquisition.writers import save_multi_npz
@@ -325,7 +331,8 @@ def complete_with(mcap_path: str | os.PathLike, recording: MultiViewKeypoints | 
                   settings: CompletionSettings) -> tuple[MultiViewKeypoints, CompletionReport]:
     """:func:`complete_keypoints` with ``settings`` (the one processing path's completion step)."""
     workers = default_workers() if settings.workers is None else settings.workers
-    return complete_keypoints(mcap_path, recording, settings.detector.build, detector_name=settings.detector_name,
+    detector = shared_cores(settings.detector, workers)
+    return complete_keypoints(mcap_path, recording, detector.build, detector_name=settings.detector_name,
                               workers=workers, max_batch=settings.max_batch, redetect_all=settings.redetect_all)
 
 

@@ -203,3 +203,17 @@ def test_a_live_pool_behind_thins_out_the_same_frame_ids_on_every_camera():
         assert sum(pool.counts.skipped.values()) == 3 * 64 - sum(len(v) for v in ids.values())
     finally:
         pool.close()
+
+
+def test_a_pool_shares_the_cores_out_between_its_detectors_interpreter_threads(monkeypatch):
+    from gaitcap.acquisition.detectors import pool as pool_module
+    from gaitcap.acquisition.detectors.mediapipe import MediaPipeConfig
+    from gaitcap.acquisition.detectors.onnx import OnnxConfig
+
+    monkeypatch.setattr(pool_module, "default_workers", lambda: 8)
+    assert pool_module.shared_cores(MediaPipeConfig(model="lite"), 4).num_threads == 2
+    assert pool_module.shared_cores(MediaPipeConfig(), 8).num_threads == 1
+    assert pool_module.shared_cores(MediaPipeConfig(), 16).num_threads == 1
+    assert pool_module.shared_cores(MediaPipeConfig(num_threads=3), 8).num_threads == 3  # the user's is kept
+    assert pool_module.shared_cores(MediaPipeConfig(), 0).num_threads == 2  # in this process: unchanged
+    assert pool_module.shared_cores(OnnxConfig(model_path="m.onnx"), 2).num_threads == 4
