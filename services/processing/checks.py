@@ -51,7 +51,7 @@ def completion_check(report) -> dict:
     coverage per camera; corrupt images (named, skipped) and recorded frames still without keypoints are
     warnings, what was completed a note."""
     data = report.to_dict()
-    warnings, frames = [], data["frames"]
+    warnings = []
     for camera, row in data["cameras"].items():
         if row["corrupt"]:
             warnings.append(f"Camera {camera}: {row['corrupt']} recorded image(s) could not be read and were skipped "
@@ -59,9 +59,19 @@ def completion_check(report) -> dict:
         if row["missing"] - row["corrupt"] > 0:
             warnings.append(f"Camera {camera}: {row['missing'] - row['corrupt']} recorded frame(s) still have no "
                             f"keypoints after completion with {data['detector']}")
-    note = (f"{frames['completed']} of {frames['recorded']} recorded frames had no live keypoints and were detected "
-            f"after Stop with {data['detector']} in {data['seconds']:.1f} s")
-    return {**data, "warnings": warnings, "notes": [note]}
+    return {**data, "warnings": warnings, "notes": [_completion_note(data)]}
+
+
+def _completion_note(data: dict) -> str:
+    """What the completion did, in words, with the live pass's coverage where its keypoints were read."""
+    frames, by = data["frames"], f"with {data['detector']} in {data['seconds']:.1f} s"
+    live = ("" if frames.get("live_pass") is None else
+            f" (the live pass had detected {frames['live_pass']}: "
+            f"{100 * frames['live_pass'] / max(1, frames['recorded']):.1f} % live coverage)")
+    if data["redetected_all"]:
+        return f"{frames['completed']} of {frames['recorded']} recorded frames were detected again after Stop {by}{live}"
+    return (f"{frames['completed']} of {frames['recorded']} recorded frames had no live keypoints and were detected "
+            f"after Stop {by}{live}")
 
 
 def stage_consistency(report, times_s: np.ndarray) -> dict:

@@ -23,7 +23,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import MISSING as MISSING_FIELD
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -52,7 +52,8 @@ NAMED_AT_MOST = 50  # corrupt / missing frame ids named per camera in the report
 class CameraCompletion:
     """One camera: ``recorded`` images; of their frames ``live`` had live keypoints, ``completed`` were
     detected now; ``corrupt_frame_ids`` could not be decoded or detected (skipped); ``missing_frame_ids``
-    are still without keypoints (corrupt, or lost with a worker that died)."""
+    are still without keypoints (corrupt, or lost with a worker that died); ``live_pass``: frames the live
+    pass had detected (its coverage, whether or not they were detected again; None: its keypoints not read)."""
 
     camera: str
     recorded: int
@@ -60,6 +61,7 @@ class CameraCompletion:
     completed: int
     corrupt_frame_ids: tuple[int, ...] = ()
     missing_frame_ids: tuple[int, ...] = ()
+    live_pass: int | None = None
 
     @property
     def coverage(self) -> float:
@@ -68,7 +70,9 @@ class CameraCompletion:
 
     def to_dict(self) -> dict:
         return {"recorded": self.recorded, "live": self.live, "completed": self.completed,
-                "live_coverage": round(self.live / self.recorded, 4) if self.recorded else None,
+                "live_pass": self.live_pass,
+                "live_coverage": round(self.live_pass / self.recorded, 4) if self.recorded and self.live_pass is not None
+                else None,
                 "coverage": round(self.coverage, 4), "corrupt": len(self.corrupt_frame_ids),
                 "corrupt_frame_ids": list(self.corrupt_frame_ids[:NAMED_AT_MOST]),
                 "missing": len(self.missing_frame_ids),
@@ -101,7 +105,9 @@ class CompletionReport:
                 "frames": {"recorded": sum(c.recorded for c in self.cameras),
                            "live": sum(c.live for c in self.cameras),
                            "completed": sum(c.completed for c in self.cameras),
-                           "corrupt": sum(len(c.corrupt_frame_ids) for c in self.cameras)},
+                           "corrupt": sum(len(c.corrupt_frame_ids) for c in self.cameras),
+                           "live_pass": (None if any(c.live_pass is None for c in self.cameras)
+                                         else sum(c.live_pass for c in self.cameras))},
                 "cameras": {c.camera: {**c.to_dict(), "completed_frame_ids": _runs(
                     self.frame_ids[self.provenance[i] == COMPLETED])} for i, c in enumerate(self.cameras)}}
 
@@ -208,7 +214,8 @@ def complete_keypoints(
     finally:
         pool.close()
     keypoints, report = _assemble(recording if not redetect_all else None, got, pool.skeleton,
-                                  detector_name=detector_name, redetect_all=redetect_all, workers=workers)
+                                  detector_name=detector_name, redetect_all=redetect_all, workers=workers,
+                                  live_pass=live_pass_counts(recording))
     report = _with_seconds(report, time.perf_counter() - t0)
     log.info("completion of %s with %s: %d frames recorded, %d live, %d completed, %d corrupt in %.1f s",
              mcap_path, detector_name, *(report.to_dict()["frames"][k] for k in ("recorded", "live", "completed",
@@ -240,8 +247,10 @@ def _drain(pool: DetectorPool) -> None:
 
 
 def _assemble(recording: MultiViewKeypoints | None, got: _Collected, skeleton: str, *, detector_name: str,
-              redetect_all: bool, workers: int) -> tuple[MultiViewKeypoints, CompletionReport]:
-    """The keypoints on one grid holding every live frame and recorded image, and the report."""
+              redetect_all: bool, workers: int, live_pass: dict[str, int]) -> tuple[MultiViewKeypoints,
+                                                                                   CompletionReport]:
+    """The keypoints on one grid holding every live frame and recorded image, and the report
+    (``live_pass``: {camera: frames the live pass detected})."""
     live_names = list(recording.camera_names) if recording is not None else []
     names = live_names + sorted(set(got.images) - set(live_names))
     slots = [s for per in got.images.values() for s in per]
@@ -275,8 +284,16 @@ def _assemble(recording: MultiViewKeypoints | None, got: _Collected, skeleton: s
                              timestamps_ns=stamps, provenance=prov,
                              restarts=dict(recording.restarts) if recording is not None else {},
                              ignored=dict(recording.ignored) if recording is not None else {})
-    cams = tuple(_camera_row(cam, names.index(cam), got, prov, first) for cam in names)
+    cams = tuple(replace(_camera_row(cam, names.index(cam), got, prov, first), live_pass=live_pass.get(cam))
+                 for cam in names)
     return out, CompletionReport(detector_name, redetect_all, workers, 0.0, cams, tuple(names), frame_ids, prov)
+
+
+def live_pass_counts(recording: MultiViewKeypoints | None) -> dict[str, int]:
+    """{camera: frames the live pass detected} ({} without its keypoints)."""
+    if recording is None:
+        return {}
+    return {cam: int((recording.provenance[c] == LIVE).sum()) for c, cam in enumerate(recording.camera_names)}
 
 
 def _anyone(found: np.ndarray) -> bool:
@@ -301,8 +318,6 @@ def _camera_row(cam: str, c: int, got: _Collected, prov: np.ndarray, first: int)
 
 
 def _with_seconds(report: CompletionReport, seconds: float) -> CompletionReport:
-    from dataclasses import replace
-
     return replace(report, seconds=seconds)
 
 

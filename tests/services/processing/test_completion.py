@@ -79,7 +79,7 @@ def test_missing_frames_and_live_frames_with_nobody_are_completed_the_live_ones_
     assert np.isnan(kp.keypoints[1, 5]).all() or (kp.keypoints[1, 5, ..., 2] == 0).all()
     assert np.allclose(np.diff(kp.times_s), PERIOD / 1e9)
     body = report.to_dict()
-    assert body["frames"] == {"recorded": 24, "live": 4, "completed": 19, "corrupt": 1}
+    assert body["frames"] == {"recorded": 24, "live": 4, "completed": 19, "corrupt": 1, "live_pass": 5}
     assert body["cameras"]["cam1"]["corrupt_frame_ids"] == [5]
     assert body["cameras"]["cam0"]["completed_frame_ids"] == [[0, 1], [6, 11]]
 
@@ -176,3 +176,10 @@ def test_settings_can_redetect_every_frame_the_live_ones_too(tmp_path):
                                    CompletionSettings(BrightnessConfig(), workers=0, redetect_all=True))
     assert report.provenance.tolist() == [[2, 2, 2, 2]] and report.redetected_all
     assert kp.keypoints[0, 1, 0, 0, 0] == pytest.approx(decode_jpeg(images["cam0"][1]).mean())
+    row = report.to_dict()["cameras"]["cam0"]  # the live pass's coverage survives the frames detected again
+    assert (row["live"], row["completed"], row["live_pass"], row["live_coverage"]) == (0, 4, 1, 0.25)
+
+    from gaitcap.services.processing.checks import completion_check
+
+    note = completion_check(report)["notes"][0]
+    assert "4 of 4 recorded frames were detected again after Stop" in note and "25.0 % live coverage" in note
