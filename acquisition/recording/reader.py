@@ -288,7 +288,19 @@ def frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
     Always strictly increasing: where a frame set's median does not increase (a camera's frame stamped
     more than half a period off its slot, e.g. a software-timed camera that ran late, with the other cameras
     missing from that set), the frame sets are held to within 0.45 frame period of their frame grid (see
-    :func:`_onto_frame_grid`), with a warning; a recording whose times already increase is left as it is."""
+    :func:`_onto_frame_grid`), with a warning (:func:`frame_sets_held` counts them for the trial's quality);
+    a recording whose times already increase is left as it is."""
+    return _frame_times(timestamps_ns)[0]
+
+
+def frame_sets_held(timestamps_ns: np.ndarray) -> int:
+    """How many frame sets of (C, T) camera timestamps (ns, -1 where missing) :func:`frame_times_s` moves
+    onto their frame grid (0: their times increase as stamped)."""
+    return _frame_times(timestamps_ns)[1]
+
+
+def _frame_times(timestamps_ns: np.ndarray) -> tuple[np.ndarray, int]:
+    """(frame times s (T,), frame sets held to their grid)."""
     # Relative to the earliest stamp before going to float: float64 holds absolute ns only to 256 ns.
     ref = int(timestamps_ns[timestamps_ns >= 0].min()) if (timestamps_ns >= 0).any() else 0
     ts = np.where(timestamps_ns >= 0, timestamps_ns - ref, np.nan).astype(np.float64)
@@ -300,20 +312,20 @@ def frame_times_s(timestamps_ns: np.ndarray) -> np.ndarray:
     idx = np.arange(ts.shape[1])
     if have.sum() == 1:
         filled = med[have][0] + (idx - idx[have][0]) * 1e9 / 30
-        return (filled - filled[0]) / 1e9
-    known = med[have]
+        return (filled - filled[0]) / 1e9, 0
+    known, moved = med[have], 0
     if np.any(np.diff(known) <= 0):
-        known = _onto_frame_grid(ts, idx[have], known)
+        known, moved = _onto_frame_grid(ts, idx[have], known)
     filled = np.interp(idx, idx[have], known)
-    return (filled - filled[0]) / 1e9
+    return (filled - filled[0]) / 1e9, moved
 
 
 _GRID_WINDOW = 15  # frame sets: the local frame grid follows a slow drift of the camera clocks
 _GRID_HOLD = 0.45  # frame periods a frame set's time may lie off its grid (under half: always increasing)
 
 
-def _onto_frame_grid(ts: np.ndarray, slots: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """Frame sets' times (ns, relative) held to within 0.45 period of the local frame grid.
+def _onto_frame_grid(ts: np.ndarray, slots: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, int]:
+    """Frame sets' times (ns, relative) held to within 0.45 period of the local frame grid, and how many moved.
 
     ts: (C, T) camera stamps (ns, relative, NaN where missing). slots: (K,) frame-set indices with a time.
     times: (K,) their median stamps (ns). The period is the median over cameras of a frame's step in
@@ -336,7 +348,7 @@ def _onto_frame_grid(ts: np.ndarray, slots: np.ndarray, times: np.ndarray) -> np
     log.warning("frame times do not increase from frame set to frame set: %d of %d frame sets held to their "
                 "frame grid (period %.3f ms; a camera stamped frames more than half a period off their slots)",
                 moved, times.size, period / 1e6)
-    return held
+    return held, moved
 
 
 def read_keypoints(path: str | os.PathLike, cameras: list[str] | None = None) -> MultiViewKeypoints:

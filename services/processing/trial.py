@@ -465,15 +465,24 @@ def checked_quality(quality: DataQuality, det, rig: Rig, points_mm: np.ndarray, 
 def trial_quality(data: TrialInput, recording, det, rig: Rig, criteria: QualityCriteria) -> DataQuality:
     """The recording's data quality: cameras, timing, the patient's detections; a recorder's recording
     also judges the cameras by the images it holds and says when it was recovered."""
+    from gaitcap.acquisition.recording.reader import frame_sets_held
+
     recorded = data.recorded
     images = recorded.images if recorded is not None else None
-    return recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
+    quality = recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
                              patient_confidence=det.keypoints[..., 2], expected_cameras=rig.names,
                              recorded_s=recorded.summary.get("duration_s") if recorded else None,
                              frame_ids=recording.frame_ids, recorded_frames=images.frames if images else None,
                              recovered=images.recovered if images else False,
                              recorder_dropped=images.dropped if images else None,
                              restarts=recording.restarts, ignored=recording.ignored, criteria=criteria)
+    held = frame_sets_held(recording.timestamps_ns)
+    if not held:
+        return quality
+    return with_check(quality, "frame_times", {"held_frame_sets": held, "warnings": [], "notes": [
+        f"{held} of {recording.frame_ids.size} frame sets were stamped out of order (a camera's frame more than "
+        "half a frame period off its slot): their times were held to the frame grid, moved by at most 0.45 "
+        "frame period"]})
 
 
 def run_stage(plan: StagePlan, det, rig: Rig, *, fit_progress=None, truth_mm=None) -> tuple[Reconstruction, Reconstruction | None]:

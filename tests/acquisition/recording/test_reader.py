@@ -348,3 +348,14 @@ def test_frame_times_always_increase_when_a_camera_stamps_a_frame_off_its_slot(c
     assert np.all(np.abs(times[10:12] - on_grid[10:12]) <= 0.45 * period / 1e9 + 1e-9)
     others = np.r_[0:10, 12:40]
     assert np.allclose(times[others], on_grid[others], atol=1e-6)
+
+
+def test_frame_sets_held_to_their_grid_are_counted():
+    from gaitcap.acquisition.recording.reader import frame_sets_held
+
+    period, t0 = 33_333_333, 1_700_000_000_000_000_000
+    stamps = t0 + np.arange(40) * period + np.array([[0], [-int(0.4 * period)]])
+    assert frame_sets_held(stamps) == 0
+    stamps[1, 10], stamps[0, 11] = -1, -1  # as above: two frame sets stamped out of order
+    stamps[0, 10], stamps[1, 11] = t0 + int(10.7 * period), t0 + 11 * period - int(0.4 * period)
+    assert frame_sets_held(stamps) == 1  # the late one moved back; the next set keeps its stamp

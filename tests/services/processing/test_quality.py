@@ -302,3 +302,27 @@ def test_keypoint_messages_left_out_for_their_timestamp_are_said_to_be_so():
         "the camera has no keypoints")
     assert {n: i.mistimed for n, i in with_reprojection(q, {}).ignored_keypoints.items()} \
         == {"cam1": 1, "cam2": 2, "cam9": 2}
+
+
+def test_frame_sets_held_to_their_grid_are_said_in_the_trials_quality_not_warned():
+    from types import SimpleNamespace
+
+    from gaitcap.acquisition.recording.reader import frame_times_s
+    from gaitcap.reconstruction.keypoints import MultiViewKeypoints
+    from gaitcap.services.processing.trial import trial_quality
+
+    period, t0 = 33_333_333, 1_700_000_000_000_000_000
+    stamps = t0 + np.arange(40) * period + np.array([[0], [-int(0.4 * period)]])
+    people, rig = np.full((2, 40, 1, 17, 3), 0.9), SimpleNamespace(names=("cam0", "cam1"))
+
+    def quality():
+        kp = MultiViewKeypoints(people, ("cam0", "cam1"), frame_times_s(stamps), "coco17", timestamps_ns=stamps)
+        return trial_quality(SimpleNamespace(recorded=None), kp, kp.patient(), rig, QualityCriteria())
+
+    assert "frame_times" not in quality().checks
+    stamps[1, 10], stamps[0, 11] = -1, -1  # a late frame alone in its set, the next set's from the other camera
+    stamps[0, 10], stamps[1, 11] = t0 + int(10.7 * period), t0 + 11 * period - int(0.4 * period)
+    q = quality()
+    check = q.checks["frame_times"]
+    assert check["held_frame_sets"] == 1 and "1 of 40 frame sets were stamped out of order" in check["notes"][0]
+    assert not any("stamped out of order" in w for w in q.warnings)  # said, not a warning: moved < half a frame
