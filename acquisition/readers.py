@@ -20,7 +20,6 @@ from typing import NamedTuple
 import numpy as np
 from gaitcap.reconstruction.calibration_io import rig_from_text
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.gait.walkway import WalkwayTrial, walkway_from_csv_text
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
@@ -95,10 +94,10 @@ def load_multi_npz(path: str | os.PathLike) -> MultiViewKeypoints:
         raise ValueError(f"{path}: {exc}") from None
 
 
-def load_detections_npz(path: str | os.PathLike) -> Detections:
+def load_detections_npz(path: str | os.PathLike) -> MultiViewKeypoints:
     """Read a single-person keypoint file written by :func:`gaitcap.acquisition.writers.save_detections_npz`."""
     kp, names, times, skeleton = read_keypoint_arrays(path)
     try:
-        return Detections(keypoints=kp, camera_names=names, times_s=times, skeleton=skeleton)
+        return MultiViewKeypoints.of_one_person(keypoints=kp, camera_names=names, times_s=times, skeleton=skeleton)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None

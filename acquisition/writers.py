@@ -15,7 +15,6 @@ from gaitcap.acquisition.fileio import atomic_savez, atomic_write_text
 from gaitcap.acquisition.readers import KEYS
 from gaitcap.reconstruction.calibration_io import rig_to_text
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.gait.walkway import WalkwayTrial, walkway_csv_text
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
@@ -34,13 +33,13 @@ def save_multi_npz(multi: MultiViewKeypoints, path: str | os.PathLike, **extra: 
                         timestamps_ns=multi.timestamps_ns, provenance=multi.provenance, **extra)
 
 
-def save_detections_npz(detections: Detections, path: str | os.PathLike, **extra: np.ndarray) -> Path:
+def save_detections_npz(detections: MultiViewKeypoints, path: str | os.PathLike, **extra: np.ndarray) -> Path:
     """Write one person's detections plus ``extra`` arrays (e.g. ``track_id``; read by
     :func:`gaitcap.acquisition.readers.load_detections_npz`)."""
     clash = sorted(set(extra) & set(KEYS))
     if clash:
         raise ValueError(f"extra arrays may not be named {clash}")
-    return atomic_savez(path, keypoints=detections.keypoints, camera_names=np.array(detections.camera_names),
+    return atomic_savez(path, keypoints=detections.one_person, camera_names=np.array(detections.camera_names),
                         times_s=detections.times_s, skeleton=np.array(detections.skeleton.name), **extra)
 
 

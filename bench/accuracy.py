@@ -44,7 +44,7 @@ def anipose_group(rig):
 
 def anipose_points(det, gamma: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
     """(C, T, J, 2) px with views at or below gamma set to NaN, and the scores (C, T, J)."""
-    kp = det.keypoints
+    kp = det.one_person
     conf = np.nan_to_num(kp[..., 2])
     pts = np.where((conf > gamma)[..., None], kp[..., :2], np.nan)
     return pts, conf
@@ -68,11 +68,11 @@ def run_anipose(det, rig, *, optim: bool):
 
 
 def _clip(trial, seconds: float):
-    from gaitcap.reconstruction.detections import Detections
+    from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
     n = max(2, int(round(seconds * trial.fps)))
     d = trial.detections
-    return Detections(d.keypoints[:, :n], d.camera_names, d.times_s[:n], d.skeleton), trial.points_mm[:n]
+    return MultiViewKeypoints.of_one_person(d.one_person[:, :n], d.camera_names, d.times_s[:n], d.skeleton), trial.points_mm[:n]
 
 
 def run(*, preset: str, seconds: float, cameras: int, seed: int, anipose: bool, paper_steps: int,
@@ -105,7 +105,7 @@ def run(*, preset: str, seconds: float, cameras: int, seed: int, anipose: bool, 
         row.pop("camera_error_px", None)
     return {
         "setup": {"preset": preset, "seconds": seconds, "cameras": cameras, "seed": seed,
-                  "frames": int(det.shape[1]), "joints": int(det.shape[2])},
+                  "frames": int(det.shape[1]), "joints": int(det.shape[3])},
         "methods": rows,
         "targets": targets(rows),
     }

@@ -48,7 +48,7 @@ def keypoint_payloads(cameras: int, frames: int, people: int) -> tuple[list[list
     from gaitcap.simulator import make_trial
 
     trial = make_trial("paper", seconds=max(frames / 30.0, 5.0), cameras=cameras, people=1, seed=3, fps=30.0)
-    kp = trial.detections.keypoints  # (C, T, J, 3)
+    kp = trial.detections.one_person  # (C, T, J, 3)
     out = []
     for f in range(frames):
         row = []

@@ -62,7 +62,7 @@ def run(*, frames: int, cameras: int, people: int, seed: int, repeats: int, mpjp
         "identity_switches": score.identity_switches,
         "wrong_fraction": score.wrong_fraction, "missed_fraction": score.missed_fraction,
         "patient_chosen": bool(score.main_track[0] == chosen),
-        "patient_frames_covered": float(np.mean(np.isfinite(patient.keypoints[..., 0]).any((0, 2)))),
+        "patient_frames_covered": float(np.mean(np.isfinite(patient.one_person[..., 0]).any((0, 2)))),
     }
     if mpjpe:
         from gaitcap.reconstruction.triangulation import robust_triangulate

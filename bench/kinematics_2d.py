@@ -60,7 +60,7 @@ def run(*, preset: str, seconds: float, cameras: int, seed: int) -> dict:
     rows["default fit (implicit)"] = {"angles": errors(keypoint_angles(rec.points_mm, names), truth),
                                       "seconds": time.perf_counter() - t0}
     start = fill_gaps(reject_spikes(tri.points_mm), det.times_s, names)  # the default fit's start, too
-    fit = fit_angles_2d(det.keypoints, names, trial.rig, det.camera_names, start, weights=tri.camera_weights)
+    fit = fit_angles_2d(det.one_person, names, trial.rig, det.camera_names, start, weights=tri.camera_weights)
     rows["2D chain fit (from the robust triangulation)"] = {"angles": errors(fit.angles_deg, truth),
                                                            "seconds": fit.seconds, "loss": fit.loss}
     return {"setup": {"preset": preset, "seconds": seconds, "cameras": cameras, "seed": seed,

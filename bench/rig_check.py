@@ -137,7 +137,7 @@ def synthetic_moved(seeds: int, seconds: float) -> dict:
 
 def _halves(det):
     mid = det.shape[1] // 2
-    return tuple(type(det)(det.keypoints[:, part], det.camera_names, det.times_s[part], det.skeleton)
+    return tuple(type(det).of_one_person(det.one_person[:, part], det.camera_names, det.times_s[part], det.skeleton)
                  for part in (slice(None, mid), slice(mid, None)))
 
 
@@ -191,8 +191,8 @@ def _real_input(trial: Path):
 
 def _median_reprojection_px(det, rig: Rig) -> float:
     pts = robust_triangulate(det, rig).points_mm
-    ok = det.confident(0.5) & np.isfinite(pts).all(-1)[None]
-    err = np.linalg.norm(rig.project(pts)[..., :2] - det.keypoints[..., :2], axis=-1)
+    ok = det.confident(0.5)[:, :, 0] & np.isfinite(pts).all(-1)[None]
+    err = np.linalg.norm(rig.project(pts)[..., :2] - det.one_person[..., :2], axis=-1)
     return float(np.median(err[ok]))
 
 

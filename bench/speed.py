@@ -31,15 +31,15 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 def pad_to_halpe136(det, seed: int = 0):
     """136-joint detections: the 26 body joints, then 110 copies of random body joints moved a few px."""
-    from gaitcap.reconstruction.detections import Detections
+    from gaitcap.reconstruction.keypoints import MultiViewKeypoints
     from gaitcap.reconstruction.skeletons import get_skeleton
 
     rng = np.random.default_rng(seed)
     src = rng.integers(0, 26, 110)
-    extra = det.keypoints[:, :, src].copy()
+    extra = det.one_person[:, :, src].copy()
     extra[..., :2] += rng.normal(0, 8, (1, 1, 110, 2))
-    kp = np.concatenate([det.keypoints, extra], axis=2)
-    return Detections(kp, det.camera_names, det.times_s, get_skeleton("halpe136"))
+    kp = np.concatenate([det.one_person, extra], axis=2)
+    return MultiViewKeypoints.of_one_person(kp, det.camera_names, det.times_s, get_skeleton("halpe136"))
 
 
 def _timed(fn, repeats: int = 1) -> tuple[float, float]:
@@ -112,7 +112,7 @@ def run(*, seconds: float, cameras: int, repeats: int, anipose: bool, paper_step
         out["anipose ransac"] = {key: dt, "ratio_to_robust": dt / rob}
         _, dt = run_anipose(clip, rig, optim=True)
         out["anipose optim"] = {key: dt, "ratio_to_implicit_incl_compile": dt / imp}
-    c, t, _ = det26.shape
+    c, t, _, _ = det26.shape
     return {"setup": {"frames": t, "cameras": c, "seconds": seconds, "cpu_count": os.cpu_count()}, **out}
 
 

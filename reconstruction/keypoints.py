@@ -4,8 +4,8 @@
 The trial recording's reader (:func:`gaitcap.acquisition.recording.reader.read_keypoints`), every importer
 of other tools' files (:mod:`gaitcap.acquisition.importers.keypoint_files`), the video detector, the completion after
 Stop and the simulator return it; association takes it as input; reconstruction takes the patient's
-:class:`~gaitcap.reconstruction.detections.Detections` of it (:meth:`MultiViewKeypoints.patient`, or the
-patient chosen among several people). The bus message (:mod:`gaitcap.acquisition.keypoint_message`) is the
+keypoints of one person (P == 1: :meth:`MultiViewKeypoints.patient`, or the patient chosen among several
+people) and reads them as :attr:`MultiViewKeypoints.one_person`. The bus message (:mod:`gaitcap.acquisition.keypoint_message`) is the
 wire format, parsed once by the reader."""
 
 from __future__ import annotations
@@ -13,12 +13,53 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from gaitcap.reconstruction.detections import Detections, confident_mask, set_validated_fields
+from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.ignored_keypoints import IgnoredKeypoints
-from gaitcap.reconstruction.skeletons import Skeleton
+from gaitcap.reconstruction.skeletons import Skeleton, get_skeleton
 
 MISSING, LIVE, COMPLETED = 0, 1, 2  # provenance of a camera's frame
 PROVENANCE = {MISSING: "missing", LIVE: "live", COMPLETED: "completed"}
+
+
+def validate_keypoints(keypoints, camera_names, times_s, skeleton: Skeleton | str, *, layout: str
+                       ) -> tuple[np.ndarray, tuple[str, ...], np.ndarray, Skeleton]:
+    """Check keypoints laid out as ``layout`` ("(C, T, J, 3)" or "(C, T, P, J, 3)") against their
+    camera names (C,), frame times (T,) s and skeleton; ValueError naming the field that is wrong."""
+    kp = np.asarray(keypoints, dtype=np.float64)
+    names = tuple(str(n) for n in camera_names)
+    skel = get_skeleton(skeleton) if isinstance(skeleton, str) else skeleton
+    ndim = layout.count(",") + 1
+    if kp.ndim != ndim or kp.shape[-1] != 3:
+        raise ValueError(f"keypoints: expected shape {layout}, got {kp.shape}")
+    c, t, j = kp.shape[0], kp.shape[1], kp.shape[-2]
+    if len(names) != c:
+        raise ValueError(f"camera_names: {len(names)} names for {c} cameras in keypoints")
+    if len(set(names)) != c:
+        raise ValueError(f"camera_names: duplicates in {list(names)}")
+    if j != skel.num_joints:
+        raise ValueError(f"keypoints: {j} joints but skeleton {skel.name} has {skel.num_joints}")
+    times = np.asarray(times_s, dtype=np.float64).reshape(-1)
+    if times.shape != (t,):
+        raise ValueError(f"times_s: expected {t} times (one per frame), got {times.shape[0]}")
+    if t > 1 and not np.all(np.diff(times) > 0):
+        raise ValueError("times_s: must be strictly increasing")
+    conf = kp[..., 2]
+    if np.any(np.isfinite(conf) & ((conf < 0) | (conf > 1))):
+        raise ValueError("keypoints: confidence (last channel) must lie in [0, 1]")
+    return kp, names, times, skel
+
+
+def confident_mask(keypoints: np.ndarray, threshold: float) -> np.ndarray:
+    """(..., J) bool of keypoints (..., J, 3): finite x, y and confidence > threshold."""
+    return np.isfinite(keypoints).all(-1) & (np.nan_to_num(keypoints[..., 2]) > threshold)
+
+
+def set_validated_fields(obj, *, layout: str) -> None:
+    """Validate a frozen dataclass's keypoints, camera_names, times_s and skeleton and store the
+    normalised values (arrays as float64, names as a tuple, the skeleton as a :class:`Skeleton`)."""
+    values = validate_keypoints(obj.keypoints, obj.camera_names, obj.times_s, obj.skeleton, layout=layout)
+    for name, value in zip(("keypoints", "camera_names", "times_s", "skeleton"), values, strict=True):
+        object.__setattr__(obj, name, value)
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,15 +127,38 @@ class MultiViewKeypoints:
         """Frames per second: 1 / the median frame period (NaN with fewer than two frames)."""
         return 1.0 / float(np.median(np.diff(self.times_s))) if self.times_s.size > 1 else float("nan")
 
-    def confident(self, threshold: float) -> np.ndarray:
+    @property
+    def one_person(self) -> np.ndarray:
+        """(C, T, J, 3) keypoints of the one person that reconstruction takes; ValueError unless P == 1."""
+        if self.keypoints.shape[2] != 1:
+            raise ValueError(f"keypoints: reconstruction takes one person (P == 1), got P = {self.keypoints.shape[2]}")
+        return self.keypoints[:, :, 0]
+
+    @classmethod
+    def of_one_person(cls, keypoints, camera_names, times_s, skeleton: Skeleton | str, **facts) -> MultiViewKeypoints:
+        """One person's keypoints (C, T, J, 3) as P == 1; ``facts`` are the other fields (frame_ids, ...)."""
+        kp = np.asarray(keypoints, dtype=np.float64)
+        if kp.ndim != 4:
+            raise ValueError(f"keypoints: expected shape (C, T, J, 3), got {kp.shape}")
+        return cls(kp[:, :, None], camera_names, times_s, skeleton, **facts)
+
+    def confident(self, threshold: float = 0.5) -> np.ndarray:
         """(C, T, P, J) bool: finite x, y and confidence > threshold."""
         return confident_mask(self.keypoints, threshold)
 
-    def patient(self) -> Detections:
-        """keypoints[:, :, 0] of every frame (the first person) as reconstruction input."""
+    def aligned_to(self, rig: Rig) -> tuple[MultiViewKeypoints, Rig]:
+        """These keypoints and the rig restricted to their cameras, in their order; ValueError naming the
+        cameras that are not in the calibration."""
+        return self, rig.subset(self.camera_names)
+
+    def patient(self) -> MultiViewKeypoints:
+        """keypoints[:, :, :1] of every frame (the first person, P == 1) as reconstruction input, with the
+        frame ids, timestamps and provenance kept."""
         c, t, p, j = self.shape
         kp = self.keypoints[:, :, 0] if p else missing_keypoints((c, t, j))
-        return Detections(kp, self.camera_names, self.times_s, self.skeleton)
+        return self.of_one_person(kp, self.camera_names, self.times_s, self.skeleton, frame_ids=self.frame_ids,
+                                  timestamps_ns=self.timestamps_ns, provenance=self.provenance,
+                                  restarts=self.restarts, ignored=self.ignored)
 
 
 def missing_keypoints(shape: tuple[int, ...]) -> np.ndarray:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.skeletons import SKELETONS, Skeleton, get_skeleton
 
 log = logging.getLogger(__name__)
@@ -110,20 +110,20 @@ def candidate_layouts(num_joints: int) -> tuple[Skeleton, ...]:
     return found
 
 
-def sample_points(det: Detections, rig: Rig, *, max_frames: int = 90, min_confidence: float = 0.3) -> np.ndarray:
+def sample_points(det: MultiViewKeypoints, rig: Rig, *, max_frames: int = 90, min_confidence: float = 0.3) -> np.ndarray:
     """Triangulated points (T', J, 3) mm of up to ``max_frames`` frames, chosen evenly among the frames
     where the most joints are seen by two cameras or more (confidence-weighted least-squares ray
     intersection of the views above ``min_confidence``; plain numpy, no compilation)."""
     from gaitcap.reconstruction.association.geometry import pixel_rays, triangulate_rays
 
-    conf = np.where(np.isfinite(det.keypoints[..., :2]).all(-1), np.nan_to_num(det.keypoints[..., 2]), 0.0)
+    conf = np.where(np.isfinite(det.one_person[..., :2]).all(-1), np.nan_to_num(det.one_person[..., 2]), 0.0)
     conf = np.where(conf > min_confidence, conf, 0.0)  # (C, T, J)
     counts = ((conf > 0).sum(0) >= 2).sum(-1)  # (T,)
     good = np.flatnonzero(counts >= max(1, int(0.5 * counts.max())))
     if counts.max() == 0:
         raise ValueError(f"layout: no frame has a joint seen by two cameras with confidence > {min_confidence}")
     pick = good[np.linspace(0, good.size - 1, min(max_frames, good.size)).round().astype(int)]
-    origins, dirs = pixel_rays(rig.subset(det.camera_names), det.keypoints[:, pick, :, :2])
+    origins, dirs = pixel_rays(rig.subset(det.camera_names), det.one_person[:, pick, :, :2])
     points, _ = triangulate_rays(origins, np.moveaxis(dirs, 0, 1), np.moveaxis(conf[:, pick], 0, 1)[:, None])
     return points[:, 0]
 

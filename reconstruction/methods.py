@@ -19,12 +19,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.fits.common import fill_gaps, fit_problem, reject_spikes
 from gaitcap.reconstruction.fits.explicit import ExplicitFit
 from gaitcap.reconstruction.fits.implicit import ImplicitFit
 from gaitcap.reconstruction.fits.memory import check_memory, fit_bytes, triangulation_bytes
 from gaitcap.reconstruction.fits.optim import Progress
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.metrics import compute_metrics, reprojection_errors_px
 from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.reconstruction.triangulation import dlt_triangulate, robust_triangulate
@@ -41,11 +41,12 @@ def _from_triangulation(name: str, tri: Reconstruction, seconds: float) -> Recon
 class _TriangulationMethod:
     """Shared by the per-frame methods: ``self.triangulate``, timed, as a Reconstruction."""
 
-    def memory_bytes(self, detections: Detections) -> int:
+    def memory_bytes(self, detections: MultiViewKeypoints) -> int:
         """Estimated peak memory of the reconstruction, bytes."""
-        return triangulation_bytes(*detections.shape)
+        c, t, _, j = detections.shape
+        return triangulation_bytes(c, t, j)
 
-    def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
+    def run(self, detections: MultiViewKeypoints, rig: Rig, progress: Progress | None = None) -> Reconstruction:
         t0 = time.perf_counter()
         tri = self.triangulate(detections, rig)
         return _from_triangulation(self.name, tri, time.perf_counter() - t0)
@@ -58,7 +59,7 @@ class DLT(_TriangulationMethod):
     min_confidence: float = 0.0
     name = "dlt"
 
-    def triangulate(self, detections: Detections, rig: Rig) -> Reconstruction:
+    def triangulate(self, detections: MultiViewKeypoints, rig: Rig) -> Reconstruction:
         return dlt_triangulate(detections, rig, min_confidence=self.min_confidence)
 
 
@@ -70,17 +71,17 @@ class Robust(_TriangulationMethod):
     sigma_mm: float = 150.0
     name = "robust"
 
-    def triangulate(self, detections: Detections, rig: Rig) -> Reconstruction:
+    def triangulate(self, detections: MultiViewKeypoints, rig: Rig) -> Reconstruction:
         return robust_triangulate(detections, rig, gamma=self.gamma, sigma_mm=self.sigma_mm)
 
 
-def _run_fit(name, fit, robust: Robust, use_confidence: bool, det: Detections, rig: Rig, progress):
+def _run_fit(name, fit, robust: Robust, use_confidence: bool, det: MultiViewKeypoints, rig: Rig, progress):
     """Robust triangulation -> gap-filled start -> fit -> Reconstruction (with reported view weights)."""
     t0 = time.perf_counter()
     if det.shape[1] < 2:
         raise ValueError(f"times_s: a trajectory fit needs at least 2 frames, got {det.shape[1]}")
     tri = robust.triangulate(det, rig)
-    conf = np.nan_to_num(det.keypoints[..., 2])
+    conf = np.nan_to_num(det.one_person[..., 2])
     weights = conf if use_confidence else tri.camera_weights
     problem = fit_problem(det, rig, weights, gamma=robust.gamma)
     init = fill_gaps(reject_spikes(tri.points_mm), det.times_s, det.skeleton.joint_names)
@@ -98,18 +99,18 @@ def _run_fit(name, fit, robust: Robust, use_confidence: bool, det: Detections, r
 class _FitMethod:
     """Shared by the trajectory fits: robust triangulation, then ``self.fit`` on the paper's loss."""
 
-    def run(self, detections: Detections, rig: Rig, progress: Progress | None = None) -> Reconstruction:
+    def run(self, detections: MultiViewKeypoints, rig: Rig, progress: Progress | None = None) -> Reconstruction:
         return _run_fit(self.name, self.fit, self.robust, self.use_confidence, detections, rig, progress)
 
-    def memory_bytes(self, detections: Detections) -> int:
+    def memory_bytes(self, detections: MultiViewKeypoints) -> int:
         """Estimated peak memory of the reconstruction, bytes (the time model's arrays included)."""
-        c, t, j = detections.shape
+        c, t, _, j = detections.shape
         model = getattr(self.fit, "model", None)
         extra = model.model_bytes(t, _duration_s(detections), j) if model is not None else 0
         return fit_bytes(c, t, j, extra)
 
 
-def _duration_s(detections: Detections) -> float:
+def _duration_s(detections: MultiViewKeypoints) -> float:
     times = detections.times_s
     return float(times[-1] - times[0]) if len(times) > 1 else 0.0
 
@@ -151,7 +152,7 @@ METHODS: dict[str, type] = {cls.name: cls for cls in (DLT, Robust, Explicit, Imp
 
 
 def reconstruct(
-    detections: Detections,
+    detections: MultiViewKeypoints,
     rig: Rig,
     *,
     method: Method | None = None,
@@ -174,7 +175,7 @@ def reconstruct(
     method = Implicit() if method is None else method
     if not hasattr(method, "run"):
         raise ValueError(f"method: expected one of {sorted(METHODS)} configs, got {method!r}")
-    c, t, j = detections.shape
+    c, t, _, j = detections.shape
     check_memory(method.memory_bytes(detections), what=(
         f"reconstructing {_duration_s(detections):.0f} s ({t} frames x {c} cameras x {j} joints) with the "
         f"{method.name} method"))

@@ -15,24 +15,24 @@ import warnings
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.losses import LossConfig
 
 GC_THRESHOLDS_PX = (5, 10, 20)
 CONFIDENT = 0.5
 
 
-def reprojection_errors_px(points_mm: np.ndarray, detections: Detections, rig: Rig) -> np.ndarray:
+def reprojection_errors_px(points_mm: np.ndarray, detections: MultiViewKeypoints, rig: Rig) -> np.ndarray:
     """(C, T, J) px distance between the reprojected points (T, J, 3) and the detections (NaN-aware)."""
     sub = rig.subset(detections.camera_names)
     proj = sub.project(points_mm)  # (C, T, J, 2)
-    return np.linalg.norm(proj - detections.keypoints[..., :2], axis=-1)
+    return np.linalg.norm(proj - detections.one_person[..., :2], axis=-1)
 
 
-def geometric_consistency(err_px: np.ndarray, detections: Detections, *, threshold: float = CONFIDENT):
+def geometric_consistency(err_px: np.ndarray, detections: MultiViewKeypoints, *, threshold: float = CONFIDENT):
     """{"GC_5": ..., "GC_10": ..., "GC_20": ...} on the OpenPose-body joints."""
-    body = list(detections.skeleton.openpose_body_indices) or list(range(detections.shape[2]))
-    conf = np.nan_to_num(detections.keypoints[..., 2])[..., body]
+    body = list(detections.skeleton.openpose_body_indices) or list(range(detections.shape[3]))
+    conf = np.nan_to_num(detections.one_person[..., 2])[..., body]
     e = np.where(np.isfinite(err_px[..., body]), err_px[..., body], np.inf)
     sel = conf > threshold
     n = max(int(sel.sum()), 1)
@@ -48,9 +48,9 @@ def huber_np(d_px: np.ndarray, cfg: LossConfig) -> np.ndarray:
     return out
 
 
-def reprojection_loss_np(err_px, detections: Detections, *, gamma: float = CONFIDENT, cfg=LossConfig()):
+def reprojection_loss_np(err_px, detections: MultiViewKeypoints, *, gamma: float = CONFIDENT, cfg=LossConfig()):
     """Mean Huber over confident keypoints with a finite reconstruction."""
-    sel = (np.nan_to_num(detections.keypoints[..., 2]) > gamma) & np.isfinite(err_px)
+    sel = (np.nan_to_num(detections.one_person[..., 2]) > gamma) & np.isfinite(err_px)
     return float(huber_np(err_px[sel], cfg).mean()) if sel.any() else float("nan")
 
 
@@ -72,8 +72,8 @@ def skeleton_loss_np(points_mm: np.ndarray, limbs) -> float:
     return float(np.sqrt(np.nanmean(var))) if np.isfinite(var).any() else float("nan")
 
 
-def per_camera_error_px(err_px: np.ndarray, detections: Detections, *, threshold: float = CONFIDENT):
-    conf = np.nan_to_num(detections.keypoints[..., 2])
+def per_camera_error_px(err_px: np.ndarray, detections: MultiViewKeypoints, *, threshold: float = CONFIDENT):
+    conf = np.nan_to_num(detections.one_person[..., 2])
     out = {}
     for c, name in enumerate(detections.camera_names):
         e = err_px[c][(conf[c] > threshold) & np.isfinite(err_px[c])]
@@ -101,7 +101,7 @@ def ground_truth_errors(points_mm: np.ndarray, truth_mm: np.ndarray, joint_names
 
 
 def compute_metrics(
-    points_mm: np.ndarray, detections: Detections, rig: Rig, *, truth_mm: np.ndarray | None = None
+    points_mm: np.ndarray, detections: MultiViewKeypoints, rig: Rig, *, truth_mm: np.ndarray | None = None
 ) -> dict:
     """All metrics as a flat JSON-friendly dict (per-camera errors under "camera_error_px")."""
     err = reprojection_errors_px(points_mm, detections, rig)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.metrics import reprojection_errors_px
 
 
@@ -83,10 +83,10 @@ class PersonCheck:
                 "limit_px": nan_none(self.limit_px)}
 
 
-def _frame_errors(detections: Detections, rig: Rig, points_mm: np.ndarray, config: PersonCheckConfig):
+def _frame_errors(detections: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray, config: PersonCheckConfig):
     """(C, T) median reprojection error over confident joints, (C, T) limit px, (C, T) judged mask."""
     err = reprojection_errors_px(points_mm, detections, rig)  # (C, T, J)
-    kp = detections.keypoints
+    kp = detections.one_person
     ok = np.isfinite(kp).all(-1) & (np.nan_to_num(kp[..., 2]) >= config.min_confidence) & np.isfinite(err)
     judged = ok.sum(-1) >= config.min_joints
     err = np.where(ok, err, np.nan)
@@ -98,14 +98,14 @@ def _frame_errors(detections: Detections, rig: Rig, points_mm: np.ndarray, confi
     return frame_err, limit, judged
 
 
-def check_one_person(detections: Detections, rig: Rig, points_mm: np.ndarray, *,
+def check_one_person(detections: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray, *,
                      config: PersonCheckConfig = PersonCheckConfig()) -> PersonCheck:
     """Whether ``points_mm`` (T, J, 3, mm; NaN where not reconstructed) is one person seen by every view
     of ``detections`` (C, T, J; the patient's keypoints, px) through ``rig`` (see the module docstring).
 
     Raises ValueError naming what does not match (frames, joints, a camera missing from the rig)."""
     points = np.asarray(points_mm, dtype=np.float64)
-    c, t, j = detections.shape
+    c, t, _, j = detections.shape
     if points.shape != (t, j, 3):
         raise ValueError(f"points_mm: expected shape ({t}, {j}, 3) for the detections' frames and joints, "
                          f"got {points.shape}")

@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.projection import CameraArrays, camera_arrays, undistort_pixels
 from gaitcap.reconstruction.result import Reconstruction
 
@@ -265,12 +265,12 @@ def _pair_table(c: int) -> np.ndarray:
 # ----------------------------------------------------------------------------- public API
 
 
-def _aligned(detections: Detections, rig: Rig) -> tuple[np.ndarray, CameraArrays]:
+def _aligned(detections: MultiViewKeypoints, rig: Rig) -> tuple[np.ndarray, CameraArrays]:
     """Check the inputs and return keypoints (C, T*J, 3) and the matching camera arrays."""
     sub = rig.subset(detections.camera_names)  # ValueError naming cameras not in the calibration
     if len(sub) < 2:
         raise ValueError(f"triangulation needs at least 2 cameras, got {list(detections.camera_names)}")
-    kp = detections.keypoints
+    kp = detections.one_person
     if np.isinf(kp).any():
         cam = detections.camera_names[int(np.argwhere(np.isinf(kp))[0, 0])]
         raise ValueError(f"keypoints: camera {cam!r} has infinite values")
@@ -278,10 +278,10 @@ def _aligned(detections: Detections, rig: Rig) -> tuple[np.ndarray, CameraArrays
     return kp.reshape(c, t * j, 3), camera_arrays(sub)
 
 
-def _result(method: str, detections: Detections, pts, cam_w) -> Reconstruction:
+def _result(method: str, detections: MultiViewKeypoints, pts, cam_w) -> Reconstruction:
     """The triangulation as a :class:`Reconstruction`: ``camera_weights`` (C, T, J) the weight each view had
     in the final DLT (0 = unused); ``quality`` (T, J) their sum where a point was found (else 0)."""
-    c, t, j = detections.shape
+    c, t, _, j = detections.shape
     points = np.asarray(pts, dtype=np.float64).reshape(t, j, 3)
     weights = np.asarray(cam_w, dtype=np.float64).reshape(c, t, j)
     quality = np.where(np.isfinite(points[..., 0]), weights.sum(0), 0.0)
@@ -293,7 +293,7 @@ def _result(method: str, detections: Detections, pts, cam_w) -> Reconstruction:
                           camera_names=detections.camera_names, camera_weights=weights, quality=quality)
 
 
-def dlt_triangulate(detections: Detections, rig: Rig, *, min_confidence: float = 0.0) -> Reconstruction:
+def dlt_triangulate(detections: MultiViewKeypoints, rig: Rig, *, min_confidence: float = 0.0) -> Reconstruction:
     """Confidence-weighted DLT (the paper's equation); views with confidence <= min_confidence unused."""
     kp, cams = _aligned(detections, rig)
     conf = np.nan_to_num(kp[..., 2])
@@ -304,7 +304,7 @@ def dlt_triangulate(detections: Detections, rig: Rig, *, min_confidence: float =
 
 
 def robust_triangulate(
-    detections: Detections, rig: Rig, *, gamma: float = 0.5, sigma_mm: float = 150.0
+    detections: MultiViewKeypoints, rig: Rig, *, gamma: float = 0.5, sigma_mm: float = 150.0
 ) -> Reconstruction:
     """The paper's robust triangulation of every frame and joint (see the module docstring)."""
     kp, cams = _aligned(detections, rig)

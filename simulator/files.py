@@ -25,7 +25,7 @@ from gaitcap.acquisition.fileio import atomic_path
 from gaitcap.acquisition.readers import load_rig
 from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 CALIBRATION = "calibration.toml"
 KEYPOINTS = "keypoints.npz"
@@ -46,7 +46,7 @@ def save_trial(trial, out_dir: str | os.PathLike) -> dict[str, Path]:
         metadata={"source": "gaitcap synthetic", "preset": trial.preset.name, "seed": int(trial.seed)},
     )
     kp = {
-        "keypoints": trial.detections.keypoints,
+        "keypoints": trial.detections.one_person,
         "cameras": np.array(trial.rig.names, dtype=str),
         "times_s": trial.times_s,
         "skeleton": np.array(trial.skeleton.name),
@@ -83,7 +83,7 @@ class SimulationFiles:
     """What ``load_trial_files`` reads back: the rig, the patient's detections and the raw arrays."""
 
     rig: Rig
-    detections: Detections
+    detections: MultiViewKeypoints
     keypoints: dict[str, np.ndarray]
     ground_truth: dict[str, np.ndarray] | None
 
@@ -103,13 +103,13 @@ def _load_npz(path: Path) -> dict[str, np.ndarray]:
         return {k: z[k] for k in z.files}
 
 
-def load_keypoints(path: str | os.PathLike) -> Detections:
-    """keypoints.npz -> Detections of the patient."""
+def load_keypoints(path: str | os.PathLike) -> MultiViewKeypoints:
+    """keypoints.npz -> MultiViewKeypoints of the patient."""
     kp = _load_npz(Path(path))
     for key in ("keypoints", "cameras", "times_s", "skeleton"):
         if key not in kp:
             raise ValueError(f"{path}: missing array {key!r}")
-    return Detections(kp["keypoints"], tuple(str(c) for c in kp["cameras"]), kp["times_s"], str(kp["skeleton"]))
+    return MultiViewKeypoints.of_one_person(kp["keypoints"], tuple(str(c) for c in kp["cameras"]), kp["times_s"], str(kp["skeleton"]))
 
 
 def load_trial_files(directory: str | os.PathLike, *, ground_truth: bool = True) -> SimulationFiles:

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.installed import share_path
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.simulator.noise import detect, get_preset
 from gaitcap.simulator.path import Room
@@ -209,7 +209,7 @@ class RigView:
 
     times_s: np.ndarray
     points_mm: np.ndarray
-    detections: Detections
+    detections: MultiViewKeypoints
     rig: Rig
 
 
@@ -236,4 +236,4 @@ def rig_view(walk: MocapWalk, *, fps: float = 30.0, phase: int = 0, preset: str 
     velocity = np.gradient(points, times, axis=0)
     height = 1.0 / 0.53 * float(np.median(points[:, SKELETON.index("pelvis"), 2]))
     keypoints = detect(rig, points, velocity, height, noise, np.zeros((len(rig), len(times))), rng)
-    return RigView(times, points, Detections(keypoints, tuple(rig.names), times, SKELETON), rig)
+    return RigView(times, points, MultiViewKeypoints.of_one_person(keypoints, tuple(rig.names), times, SKELETON), rig)

@@ -52,7 +52,7 @@ def write_keypoint_recording(trial, path: str | Path, *, metadata: dict | None =
 
 
 def _patient(trial, c: int, i: int) -> list:
-    kp = trial.detections.keypoints[c, i]  # the detections' cameras are the rig's, in its order
+    kp = trial.detections.one_person[c, i]  # the detections' cameras are the rig's, in its order
     return [np.nan_to_num(kp).round(2).tolist()] if np.isfinite(kp[:, 2]).any() else []
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from gaitcap.reconstruction.calibration.geometry import rvec_of
 from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.triangulation import robust_triangulate
 
 
@@ -27,7 +27,7 @@ def with_camera_moved(rig: Rig, name: str, *, rotation_deg: float, shift_mm: flo
     return Rig(tuple(cams))
 
 
-def seen_from(det: Detections, rig: Rig, moved: Rig, name: str) -> Detections:
+def seen_from(det: MultiViewKeypoints, rig: Rig, moved: Rig, name: str) -> MultiViewKeypoints:
     """Real or simulated detections ``det`` (seen by the cameras ``rig``) as camera ``name`` would have seen
     them from its pose in ``moved``: each of its keypoints displaced by the image motion (px) of its point
     triangulated from all cameras, so the detector's own placement of each joint is kept. A reference trial
@@ -36,6 +36,6 @@ def seen_from(det: Detections, rig: Rig, moved: Rig, name: str) -> Detections:
     ok = np.isfinite(pts).all(-1)
     shift = np.zeros((len(pts), 2))
     shift[ok] = moved[name].project(pts[ok])[:, :2] - rig[name].project(pts[ok])[:, :2]
-    kp = det.keypoints.copy()
-    kp[list(det.camera_names).index(name), ..., :2] += shift.reshape(det.shape[1], det.shape[2], 2)
-    return Detections(kp, det.camera_names, det.times_s, det.skeleton)
+    kp = det.one_person.copy()
+    kp[list(det.camera_names).index(name), ..., :2] += shift.reshape(det.shape[1], det.shape[3], 2)
+    return MultiViewKeypoints.of_one_person(kp, det.camera_names, det.times_s, det.skeleton)

@@ -7,7 +7,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints, missing_keypoints
 from gaitcap.reconstruction.skeletons import Skeleton, get_skeleton
 from gaitcap.simulator.noise import NoisePreset, clock_model, detect, get_preset, occlusion_mask
@@ -57,7 +56,7 @@ class SyntheticTrial:
     skeleton: Skeleton
     times_s: np.ndarray  # (T,)
     points_mm: np.ndarray  # (T, J, 3) patient ground truth
-    detections: Detections  # patient, (C, T, J, 3)
+    detections: MultiViewKeypoints  # patient, (C, T, 1, J, 3)
     truth: GaitTruth
     params: WalkParams
     body: Body
@@ -75,8 +74,7 @@ class SyntheticTrial:
         """Every person's detections as a detector reports them: :attr:`multi`'s, or the patient alone."""
         if self.multi is not None:
             return self.multi.observed
-        det = self.detections
-        return MultiViewKeypoints(det.keypoints[:, :, None], det.camera_names, det.times_s, det.skeleton)
+        return self.detections
 
     @property
     def all_points_mm(self) -> np.ndarray:
@@ -153,7 +151,7 @@ def make_trial(
         others = np.delete(all_pts, p, axis=0) if len(everyone) > 1 else None
         kp = detect(rig, all_pts[p], _velocity(all_pts[p], times), heights[p], noise, dt, rng_det, occ, others)
         per_person.append(kp)
-    detections = Detections(per_person[0], tuple(rig.names), times, skel)
+    detections = MultiViewKeypoints.of_one_person(per_person[0], tuple(rig.names), times, skel)
 
     multi = None
     if people > 1:

@@ -24,7 +24,6 @@ from gaitcap.acquisition.recording import layout
 from gaitcap.acquisition.recording.frame_slots import SlotReport, align_frame_slots
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.ignored_keypoints import IgnoredKeypoints
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints, missing_keypoints
 from gaitcap.reconstruction.skeletons import get_skeleton
@@ -480,6 +479,6 @@ def _camera_order(path, per_cam: dict, cameras: list[str] | None, strays: dict[s
     return order + sorted(set(per_cam) - set(order))
 
 
-def read_detections(path: str | os.PathLike, cameras: list[str] | None = None) -> Detections:
-    """The patient's keypoints (C, T, J, 3) as :class:`~gaitcap.reconstruction.detections.Detections`."""
+def read_detections(path: str | os.PathLike, cameras: list[str] | None = None) -> MultiViewKeypoints:
+    """The patient's keypoints (P == 1, with the frame facts) as reconstruction input."""
     return read_keypoints(path, cameras).patient()

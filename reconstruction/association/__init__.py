@@ -3,7 +3,7 @@
 Input: :class:`~gaitcap.reconstruction.keypoints.MultiViewKeypoints` (C, T, P, J, 3) with people in arbitrary order per camera and
 frame. :func:`associate` -> :class:`Tracks`; a selector (:class:`WalkwayTrack`,
 :class:`NearestStartTrack`, :class:`ManualTrack`) picks the patient; :func:`patient_detections` gives
-the :class:`~gaitcap.reconstruction.detections.Detections` that reconstruction uses; :func:`person_boxes`
+the one person's :class:`~gaitcap.reconstruction.keypoints.MultiViewKeypoints` (P == 1) that reconstruction uses; :func:`person_boxes`
 reprojects a 3D reconstruction into per-camera boxes for top-down detectors.
 """
 

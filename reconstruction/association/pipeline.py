@@ -11,7 +11,6 @@ from gaitcap.reconstruction.association.orientation import face_forward
 from gaitcap.reconstruction.association.selection import TrackSelector, WalkwayTrack, patient_detections
 from gaitcap.reconstruction.association.tracking import TrackingConfig, Tracks, link_tracks
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 
@@ -46,7 +45,7 @@ class PatientSelection:
 
     tracks: Tracks
     track_id: int
-    detections: Detections
+    detections: MultiViewKeypoints
 
 
 def associate(multi: MultiViewKeypoints, rig: Rig, config: PipelineConfig = PipelineConfig()) -> Tracks:

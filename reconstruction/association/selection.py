@@ -20,7 +20,6 @@ from typing import Protocol
 
 import numpy as np
 from gaitcap.reconstruction.association.tracking import Tracks
-from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 
@@ -163,7 +162,7 @@ class NearestStartTrack:
         return int(np.argmin(self.distances(tracks)))
 
 
-def patient_detections(multi: MultiViewKeypoints, tracks: Tracks, track_id: int) -> Detections:
+def patient_detections(multi: MultiViewKeypoints, tracks: Tracks, track_id: int) -> MultiViewKeypoints:
     """The chosen track's 2D keypoints per camera and frame (NaN where it is not seen); detections that
     show the person mirrored (``tracks.flipped``: the detector swapped left and right) swapped back."""
     track_id = tracks.check_id(track_id)
@@ -176,8 +175,8 @@ def patient_detections(multi: MultiViewKeypoints, tracks: Tracks, track_id: int)
     kp = np.where(hit.any(-1)[..., None, None], kp, np.nan)
     mirrored = (tracks.mirrored() & hit).any(-1)  # (C, T)
     kp = np.where(mirrored[..., None, None], kp[:, :, list(multi.skeleton.flip_permutation)], kp)
-    return Detections(keypoints=kp, camera_names=multi.camera_names, times_s=multi.times_s,
-                      skeleton=multi.skeleton)
+    return MultiViewKeypoints.of_one_person(kp, multi.camera_names, multi.times_s, multi.skeleton, frame_ids=multi.frame_ids,
+                                            timestamps_ns=multi.timestamps_ns, provenance=multi.provenance)
 
 
 def select_track_at_pixel(

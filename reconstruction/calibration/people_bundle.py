@@ -26,7 +26,7 @@ from gaitcap.reconstruction.calibration.bundle import RAYLEIGH_MEDIAN
 from gaitcap.reconstruction.calibration.compare import RigComparison, compare_rigs
 from gaitcap.reconstruction.calibration.geometry import rodrigues_batch, rvec_of
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.triangulation import robust_triangulate
 from scipy.optimize import least_squares
 from scipy.sparse import coo_matrix
@@ -112,15 +112,15 @@ class _Observations:
     frames: int
 
 
-def _observations(trials: Sequence[Detections], rig: Rig, config: PeopleBundleConfig) -> _Observations:
+def _observations(trials: Sequence[MultiViewKeypoints], rig: Rig, config: PeopleBundleConfig) -> _Observations:
     cams, pts, uvs, starts, frames = [], [], [], [], 0
     for det in trials:
         order = rig.index_of(det.camera_names)  # ValueError naming cameras not in the calibration
-        c, t, _ = det.shape
+        c, t, _, _ = det.shape
         sel = np.arange(0, t, max(1, int(np.ceil(t / config.max_frames))))
-        part = Detections(det.keypoints[:, sel], det.camera_names, det.times_s[sel], det.skeleton)
+        part = MultiViewKeypoints.of_one_person(det.one_person[:, sel], det.camera_names, det.times_s[sel], det.skeleton)
         start = robust_triangulate(part, rig.subset(det.camera_names), gamma=config.min_confidence).points_mm
-        seen = part.confident(config.min_confidence)  # (C, T', J)
+        seen = part.confident(config.min_confidence)[:, :, 0]  # (C, T', J)
         usable = (seen.sum(0) >= config.min_views) & np.isfinite(start).all(-1)
         index = np.full(usable.shape, -1)
         index[usable] = np.arange(usable.sum()) + sum(len(s) for s in starts)
@@ -128,7 +128,7 @@ def _observations(trials: Sequence[Detections], rig: Rig, config: PeopleBundleCo
         ci, ti, ji = np.nonzero(obs)
         cams.append(np.asarray(order)[ci])
         pts.append(index[ti, ji])
-        uvs.append(part.keypoints[ci, ti, ji, :2])
+        uvs.append(part.one_person[ci, ti, ji, :2])
         starts.append(start[usable])
         frames += len(sel)
     if not starts or not sum(len(s) for s in starts):
@@ -233,7 +233,7 @@ def _with_fixed(residual, x: np.ndarray, free: np.ndarray):
     return fun
 
 
-def refine_rig_from_people(trials: Sequence[Detections], prior: Rig, *, moved: Sequence[str] | None = None,
+def refine_rig_from_people(trials: Sequence[MultiViewKeypoints], prior: Rig, *, moved: Sequence[str] | None = None,
                            config: PeopleBundleConfig = PeopleBundleConfig()) -> PeopleBundleResult:
     """Refine ``prior`` (a board calibration) from the people seen in ``trials`` (each (C, T, J, 3) px).
 

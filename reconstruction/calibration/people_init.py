@@ -32,7 +32,7 @@ from gaitcap.reconstruction.calibration.people_bundle import (
 )
 from gaitcap.reconstruction.calibration.walk_frame import reframe_rig, world_from_walk
 from gaitcap.reconstruction.camera import Rig, matrix_to_rodrigues
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.triangulation import robust_triangulate
 
 log = logging.getLogger(__name__)
@@ -77,11 +77,11 @@ class PeopleCalibration:
                 "refinement": self.report.to_dict()}
 
 
-def _normalized(rig: Rig, det: Detections, c: int) -> np.ndarray:
+def _normalized(rig: Rig, det: MultiViewKeypoints, c: int) -> np.ndarray:
     """Undistorted normalised image coordinates (T, J, 2) of camera c's keypoints (NaN where not confident)."""
     cam = rig[c]
-    kp = det.keypoints[c, ..., :2]
-    ok = det.confident()[c]
+    kp = det.one_person[c, ..., :2]
+    ok = det.confident()[c, :, 0]
     out = np.full(kp.shape, np.nan)
     if ok.any():
         pts = cv2.undistortPoints(kp[ok].reshape(-1, 1, 2).astype(np.float64), cam.matrix_px, cam.dist)
@@ -106,7 +106,7 @@ def _rig_of(rig: Rig, poses: dict[int, tuple[np.ndarray, np.ndarray]]) -> Rig:
     return Rig(tuple(rig[c].replace(rvec=matrix_to_rodrigues(r), tvec_mm=t) for c, (r, t) in sorted(poses.items())))
 
 
-def _place(det: Detections, rig: Rig, norm: dict[int, np.ndarray], poses: dict, c: int, via: int,
+def _place(det: MultiViewKeypoints, rig: Rig, norm: dict[int, np.ndarray], poses: dict, c: int, via: int,
            config: PeopleCalibrationConfig) -> tuple[np.ndarray, np.ndarray]:
     """World -> camera pose of camera ``c`` from its relative pose to the placed camera ``via``."""
     ok = _shared(norm, via, c)
@@ -118,11 +118,11 @@ def _place(det: Detections, rig: Rig, norm: dict[int, np.ndarray], poses: dict, 
     # scale: depths in camera `via` of the points the placed rig triangulates, against the pair's own
     placed = _rig_of(rig, poses)
     names = [rig[k].name for k in sorted(poses)]
-    sub = Detections(det.keypoints[sorted(poses)], tuple(names), det.times_s, det.skeleton)
+    sub = MultiViewKeypoints.of_one_person(det.one_person[sorted(poses)], tuple(names), det.times_s, det.skeleton)
     pts = robust_triangulate(sub, placed).points_mm
     unit = config.start_baseline_mm * rel_t  # the pair's baseline, before its scale is known
     pair = _rig_of(rig, {via: (np.eye(3), np.zeros(3)), c: (rel_r, unit)})
-    pair_det = Detections(det.keypoints[[via, c] if via < c else [c, via]], tuple(pair.names), det.times_s, det.skeleton)
+    pair_det = MultiViewKeypoints.of_one_person(det.one_person[[via, c] if via < c else [c, via]], tuple(pair.names), det.times_s, det.skeleton)
     pair_pts = robust_triangulate(pair_det, pair).points_mm  # in camera via's frame
     depth_rig = (pts @ r_via.T + t_via)[..., 2]
     depth_pair = pair_pts[..., 2]
@@ -134,7 +134,7 @@ def _place(det: Detections, rig: Rig, norm: dict[int, np.ndarray], poses: dict, 
     return rot, rel_r @ t_via + scale * unit
 
 
-def initial_poses(det: Detections, rig: Rig, config: PeopleCalibrationConfig) -> Rig:
+def initial_poses(det: MultiViewKeypoints, rig: Rig, config: PeopleCalibrationConfig) -> Rig:
     """The rig's cameras placed from the keypoints alone (arbitrary frame and scale); ValueError naming a
     camera that shares too few keypoints with the others."""
     c_count = det.shape[0]
@@ -154,7 +154,7 @@ def initial_poses(det: Detections, rig: Rig, config: PeopleCalibrationConfig) ->
     return _rig_of(rig, poses)
 
 
-def stature_mm(points_mm: np.ndarray, det: Detections) -> float:
+def stature_mm(points_mm: np.ndarray, det: MultiViewKeypoints) -> float:
     """Standing height (mm) from the stature chain (ankle-knee-hip-neck-head): each segment's median length
     over the frames, summed, the two sides averaged, divided by ``STATURE_CHAIN_RATIO``; ValueError when a
     joint is missing from the skeleton or a segment is never reconstructed."""
@@ -177,7 +177,7 @@ def _scaled(rig: Rig, factor: float) -> Rig:
     return Rig(tuple(c.replace(tvec_mm=c.tvec_mm * factor) for c in rig))
 
 
-def _frame(rig: Rig, det: Detections) -> Rig:
+def _frame(rig: Rig, det: MultiViewKeypoints) -> Rig:
     sk = det.skeleton
     pts = robust_triangulate(det, rig).points_mm
     feet = pts[:, [sk.index(f"{s}_{n}") for s in ("left", "right") for n in ("heel", "big_toe")]]
@@ -185,7 +185,7 @@ def _frame(rig: Rig, det: Detections) -> Rig:
     return reframe_rig(rig, world_from_walk(feet, pelvis))
 
 
-def calibrate_from_people(det: Detections, intrinsics: Rig, *, height_mm: float,
+def calibrate_from_people(det: MultiViewKeypoints, intrinsics: Rig, *, height_mm: float,
                           config: PeopleCalibrationConfig = PeopleCalibrationConfig()) -> PeopleCalibration:
     """A rig from one walk of a subject of standing height ``height_mm`` (mm), seen in ``det`` (C, T, J, 3)
     px; ``intrinsics``: the cameras (their intrinsics are used, their poses ignored)."""

@@ -31,7 +31,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 from gaitcap.reconstruction.calibration.geometry import rodrigues_batch, rotation_angle_deg, rvec_of
 from gaitcap.reconstruction.camera import Camera, Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.triangulation import robust_triangulate
 
 log = logging.getLogger(__name__)
@@ -214,17 +214,17 @@ def _frames(num_frames: int, max_frames: int) -> np.ndarray:
     return np.arange(0, num_frames, step)
 
 
-def _subset(det: Detections, frames: np.ndarray) -> Detections:
-    return Detections(det.keypoints[:, frames], det.camera_names, det.times_s[frames], det.skeleton)
+def _subset(det: MultiViewKeypoints, frames: np.ndarray) -> MultiViewKeypoints:
+    return MultiViewKeypoints.of_one_person(det.one_person[:, frames], det.camera_names, det.times_s[frames], det.skeleton)
 
 
-def _without(det: Detections, cameras: list[int]) -> Detections:
-    kp = det.keypoints.copy()
+def _without(det: MultiViewKeypoints, cameras: list[int]) -> MultiViewKeypoints:
+    kp = det.one_person.copy()
     kp[cameras, ..., 2] = 0.0
-    return Detections(kp, det.camera_names, det.times_s, det.skeleton)
+    return MultiViewKeypoints.of_one_person(kp, det.camera_names, det.times_s, det.skeleton)
 
 
-def _loo_points(det: Detections, rig: Rig, left_out: list[int], config: RigCheckConfig) -> np.ndarray:
+def _loo_points(det: MultiViewKeypoints, rig: Rig, left_out: list[int], config: RigCheckConfig) -> np.ndarray:
     """Points (T, J, 3) mm triangulated without the cameras ``left_out`` (NaN where < 2 views)."""
     sub = _without(det, left_out)
     return robust_triangulate(sub, rig, gamma=config.min_confidence, sigma_mm=config.triangulation_sigma_mm).points_mm
@@ -243,9 +243,9 @@ class _Evidence:
     frame: np.ndarray  # (N,) frame index in the used frames
 
 
-def _evidence(det: Detections, c: int, loo: np.ndarray, cam: Camera, config: RigCheckConfig) -> _Evidence:
-    kp = det.keypoints[c]
-    ok = det.confident(config.min_confidence)[c] & np.isfinite(loo).all(-1)
+def _evidence(det: MultiViewKeypoints, c: int, loo: np.ndarray, cam: Camera, config: RigCheckConfig) -> _Evidence:
+    kp = det.one_person[c]
+    ok = det.confident(config.min_confidence)[c, :, 0] & np.isfinite(loo).all(-1)
     ok &= cam.depth_mm(np.nan_to_num(loo)) > 0
     t_idx, _ = np.nonzero(ok)
     return _Evidence(loo[ok], kp[ok][:, :2], t_idx)
@@ -300,15 +300,15 @@ def _field_se_px(jackknife: list[np.ndarray]) -> float:
     return float(np.median(spread))
 
 
-def _all_points(det: Detections, c: int, points_mm: np.ndarray, config: RigCheckConfig):
-    ok = det.confident(config.min_confidence)[c] & np.isfinite(points_mm).all(-1)
-    return points_mm[ok], det.keypoints[c][ok][:, :2]
+def _all_points(det: MultiViewKeypoints, c: int, points_mm: np.ndarray, config: RigCheckConfig):
+    ok = det.confident(config.min_confidence)[c, :, 0] & np.isfinite(points_mm).all(-1)
+    return points_mm[ok], det.one_person[c][ok][:, :2]
 
 
 class _Judge:
     """Judges cameras against points triangulated without them and without the cameras already flagged."""
 
-    def __init__(self, det: Detections, rig: Rig, points_mm: np.ndarray, expected: dict[str, float],
+    def __init__(self, det: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray, expected: dict[str, float],
                  config: RigCheckConfig, reference: _Judge | None = None):
         self.det, self.rig, self.points_mm, self.expected = det, rig, points_mm, expected
         self.num_frames, self.config, self.reference = det.shape[1], config, reference
@@ -334,8 +334,8 @@ class _Judge:
         return {c: self.one(c, left_out) for c in range(len(self.rig)) if c not in left_out}
 
 
-def check_rig(detections: Detections, rig: Rig, points_mm: np.ndarray, *,
-              expected_px: Mapping[str, float] | None = None, baseline: Detections | None = None,
+def check_rig(detections: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray, *,
+              expected_px: Mapping[str, float] | None = None, baseline: MultiViewKeypoints | None = None,
               config: RigCheckConfig = RigCheckConfig()) -> RigCheck:
     """Check every camera of ``rig`` against the patient seen in ``detections`` (C, T, J, 3) px.
 
@@ -350,7 +350,7 @@ def check_rig(detections: Detections, rig: Rig, points_mm: np.ndarray, *,
     judged); ValueError naming what is wrong otherwise.
     """
     det, sub = detections.aligned_to(rig)
-    c_count, t_count, j_count = det.shape
+    c_count, t_count, _, j_count = det.shape
     points_mm = np.asarray(points_mm, dtype=np.float64)
     if points_mm.shape != (t_count, j_count, 3):
         raise ValueError(f"rig check: points_mm must be (T, J, 3) = ({t_count}, {j_count}, 3), got {points_mm.shape}")
@@ -385,7 +385,7 @@ def check_rig(detections: Detections, rig: Rig, points_mm: np.ndarray, *,
     return RigCheck(cams, tuple(_warning(chk) for chk in cams if chk.moved) + _unjudged(cams))
 
 
-def _reference_judge(baseline: Detections | None, rig: Rig, trial_joints: int,
+def _reference_judge(baseline: MultiViewKeypoints | None, rig: Rig, trial_joints: int,
                      config: RigCheckConfig) -> _Judge | None:
     """The judge of the reference trial with the trial's cameras ``rig`` (its own triangulated points,
     its frames thinned alike); None without one. ValueError naming what differs when it lacks a camera of
@@ -396,11 +396,11 @@ def _reference_judge(baseline: Detections | None, rig: Rig, trial_joints: int,
     missing = [n for n in rig.names if n not in names]
     if missing:
         raise ValueError(f"rig check: the baseline trial lacks camera(s) {missing} of the trial (it has {names})")
-    if baseline.shape[2] != trial_joints:
-        raise ValueError(f"rig check: the baseline trial has {baseline.shape[2]} keypoints per person, the trial "
+    if baseline.shape[3] != trial_joints:
+        raise ValueError(f"rig check: the baseline trial has {baseline.shape[3]} keypoints per person, the trial "
                          f"{trial_joints}")
     order = [names.index(n) for n in rig.names]
-    det = Detections(baseline.keypoints[order], tuple(rig.names), baseline.times_s, baseline.skeleton)
+    det = MultiViewKeypoints.of_one_person(baseline.one_person[order], tuple(rig.names), baseline.times_s, baseline.skeleton)
     det = _subset(det, _frames(det.shape[1], config.max_frames))
     points = robust_triangulate(det, rig).points_mm
     return _Judge(det, rig, points, {}, config)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import jax.numpy as jnp
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.losses import Problem, make_observations
 from gaitcap.reconstruction.projection import camera_arrays
 
@@ -27,16 +27,16 @@ class FitOutput:
 
 
 def fit_problem(
-    detections: Detections, rig: Rig, weights: np.ndarray, *, gamma: float = 0.5
+    detections: MultiViewKeypoints, rig: Rig, weights: np.ndarray, *, gamma: float = 0.5
 ) -> Problem:
     """Observations weighted by ``weights`` (C, T, J) (robust weights or confidences), with views at
     or below confidence ``gamma`` given weight 0 (as the authors' code)."""
-    conf = np.nan_to_num(detections.keypoints[..., 2])
+    conf = np.nan_to_num(detections.one_person[..., 2])
     w = np.where(conf > gamma, np.nan_to_num(weights), 0.0)
     skel = detections.skeleton
     limbs = np.array(skel.limb_indices, dtype=np.int32).reshape(-1, 2)
     return Problem(
-        obs=make_observations(detections.keypoints, w),
+        obs=make_observations(detections.one_person, w),
         cams=camera_arrays(rig.subset(detections.camera_names)),
         limb_a=jnp.asarray(limbs[:, 0]),
         limb_b=jnp.asarray(limbs[:, 1]),

@@ -17,12 +17,12 @@ import logging
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
 log = logging.getLogger(__name__)
 
 
-def one_person_check(det: Detections, rig: Rig, points_mm: np.ndarray) -> dict:
+def one_person_check(det: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray) -> dict:
     """``check_one_person`` of the patient's detections (C, T, J, 3) px and points (T, J, 3) mm, with the
     mix as a warning."""
     from gaitcap.reconstruction.people_check import check_one_person
@@ -31,7 +31,7 @@ def one_person_check(det: Detections, rig: Rig, points_mm: np.ndarray) -> dict:
     return {**verdict.to_dict(), "warnings": [verdict.message] if verdict.mixed else [], "notes": []}
 
 
-def rig_check(det: Detections, rig: Rig, points_mm: np.ndarray) -> dict:
+def rig_check(det: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray) -> dict:
     """``check_rig`` of the patient's detections and points: a moved camera is a warning (named, with its
     rotation deg and shift mm); a camera that could not be judged, or a rig too small to check, a note."""
     from gaitcap.reconstruction.calibration.rig_check import check_rig

@@ -27,7 +27,6 @@ import numpy as np
 from gaitcap.acquisition.fileio import atomic_savez, atomic_write_bytes
 from gaitcap.reconstruction.association import ManualTrack, PatientSelection, Tracks
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.services.processing.artifacts import TrialFiles
 
@@ -74,7 +73,7 @@ def select_patient(recording: MultiViewKeypoints, rig: Rig, choice: PatientChoic
 
 
 def patient_detections_of(recording: MultiViewKeypoints, rig: Rig, files: TrialFiles, *, selector=None
-                          ) -> tuple[Detections, PatientSelection | None]:
+                          ) -> tuple[MultiViewKeypoints, PatientSelection | None]:
     """The patient's detections: the only person of a single-person recording (nothing else is done), or
     the chosen track of several people in view (then ``people.json`` and ``tracks.npz`` are written)."""
     if most_people_in_view(recording) <= 1:
@@ -93,7 +92,7 @@ def patient_detections_of(recording: MultiViewKeypoints, rig: Rig, files: TrialF
 
 def patient_selection(recording: MultiViewKeypoints, rig: Rig, choice: PatientChoice | None = None, *,
                       selector=None
-                      ) -> tuple[Detections, PatientSelection | None]:
+                      ) -> tuple[MultiViewKeypoints, PatientSelection | None]:
     """The patient's detections as :func:`patient_detections_of` finds them, and the selection (None with
     one person in view); writes nothing."""
     if most_people_in_view(recording) <= 1:
@@ -102,7 +101,7 @@ def patient_selection(recording: MultiViewKeypoints, rig: Rig, choice: PatientCh
     return selection.detections, selection
 
 
-def patient_of(recording: MultiViewKeypoints, rig: Rig, choice: PatientChoice | None = None) -> Detections:
+def patient_of(recording: MultiViewKeypoints, rig: Rig, choice: PatientChoice | None = None) -> MultiViewKeypoints:
     """The patient's detections as :func:`patient_detections_of` finds them, writing nothing."""
     return patient_selection(recording, rig, choice)[0]
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from gaitcap.acquisition.readers import load_rig
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.result import Reconstruction
 
 log = logging.getLogger(__name__)
@@ -39,33 +39,35 @@ def recorded_rig(mcap_path: Path, *, fallback_calibration: Path | None = None) -
         return load_rig(fallback_calibration)
 
 
-def pad_detections(det: Detections, num_frames: int) -> Detections:
+def pad_detections(det: MultiViewKeypoints, num_frames: int) -> MultiViewKeypoints:
     """Append frames with no observations (confidence 0, NaN pixels) up to ``num_frames``."""
-    c, t, j = det.shape
+    c, t, _, j = det.shape
     if num_frames <= t:
         return det
     dt = float(np.median(np.diff(det.times_s))) if t > 1 else 1 / 30
     pad = np.full((c, num_frames - t, j, 3), np.nan)
     pad[..., 2] = 0.0
     times = np.concatenate([det.times_s, det.times_s[-1] + dt * np.arange(1, num_frames - t + 1)])
-    return replace(det, keypoints=np.concatenate([det.keypoints, pad], axis=1), times_s=times)
+    return MultiViewKeypoints.of_one_person(np.concatenate([det.one_person, pad], axis=1), det.camera_names, times,
+                                           det.skeleton)
 
 
-def frame_chunks(det: Detections, chunk: int = FRAME_CHUNK):
-    """Yield (start, Detections of ``chunk`` frames); the last chunk is padded with empty frames."""
-    _, t, _ = det.shape
+def frame_chunks(det: MultiViewKeypoints, chunk: int = FRAME_CHUNK):
+    """Yield (start, MultiViewKeypoints of ``chunk`` frames); the last chunk is padded with empty frames."""
+    t = det.shape[1]
     for start in range(0, t, chunk):
         stop = min(start + chunk, t)
-        part = replace(det, keypoints=det.keypoints[:, start:stop], times_s=det.times_s[start:stop])
+        part = MultiViewKeypoints.of_one_person(det.one_person[:, start:stop], det.camera_names,
+                                               det.times_s[start:stop], det.skeleton)
         yield start, pad_detections(part, chunk)
 
 
-def preliminary(det: Detections, rig: Rig) -> Reconstruction:
+def preliminary(det: MultiViewKeypoints, rig: Rig) -> Reconstruction:
     """Robust triangulation (the paper's), chunk by chunk to reuse one compiled shape."""
     from gaitcap.reconstruction.triangulation import robust_triangulate
 
     t0 = time.perf_counter()
-    c, t, j = det.shape
+    c, t, _, j = det.shape
     points, views = np.full((t, j, 3), np.nan), np.zeros((t, j))
     for start, part in frame_chunks(det):
         result = robust_triangulate(part, rig)
@@ -76,7 +78,7 @@ def preliminary(det: Detections, rig: Rig) -> Reconstruction:
                           camera_names=tuple(det.camera_names), quality=views, elapsed_s=time.perf_counter() - t0)
 
 
-def refined(det: Detections, rig: Rig, *, progress=None) -> Reconstruction:
+def refined(det: MultiViewKeypoints, rig: Rig, *, progress=None) -> Reconstruction:
     """The default implicit trajectory fit (continuous in time); ``progress(done, total)`` as it runs."""
     from gaitcap.reconstruction.methods import Implicit, reconstruct
 
@@ -121,10 +123,10 @@ class NoUsableObservations(ValueError):
     """The input has nothing to reconstruct (the message says what is missing)."""
 
 
-def check_usable(det: Detections, *, min_confidence: float = USABLE_CONFIDENCE) -> None:
+def check_usable(det: MultiViewKeypoints, *, min_confidence: float = USABLE_CONFIDENCE) -> None:
     """NoUsableObservations naming what is missing: no camera frame has a joint above ``min_confidence``
     (which cameras), or no joint is seen by two cameras in any frame (which joints each camera sees)."""
-    kp = det.keypoints
+    kp = det.one_person
     seen = (np.nan_to_num(kp[..., 2]) > min_confidence) & np.isfinite(kp[..., :2]).all(-1)  # (C, T, J)
     empty = [n for n, s in zip(det.camera_names, seen.any((1, 2)), strict=True) if not s]
     if len(empty) == len(det.camera_names):
@@ -170,7 +172,7 @@ def resolve_layout(recording, rig: Rig, *, named: str | None):
     return replace(recording, skeleton=choice.skeleton), choice
 
 
-def patient_input(recording, rig: Rig, *, files=None, choice=None, selector=None) -> tuple[Detections, Rig, object]:
+def patient_input(recording, rig: Rig, *, files=None, choice=None, selector=None) -> tuple[MultiViewKeypoints, Rig, object]:
     """The patient's detections aligned to the rig's cameras, checked usable, and the selection (None with
     one person in view). ``files``: the trial's :class:`~gaitcap.services.processing.artifacts.TrialFiles`
     (then ``people.json`` / ``tracks.npz`` are written when several people are in view); ``selector``: how
@@ -237,7 +239,7 @@ def warm_up(rig: Rig, skeleton, *, frames: tuple[int, ...] = (FRAME_CHUNK,)) -> 
         pts = rng.uniform(-300, 300, (t * j, 3)) + np.array([0.0, 0.0, 900.0])
         xy = np.stack([cam.project(pts) for cam in rig.cameras]).reshape(c, t, j, 2)
         kp = np.concatenate([xy, np.ones((c, t, j, 1))], axis=-1)
-        det = Detections(kp, rig.names, np.arange(t) / 30.0, skeleton)
+        det = MultiViewKeypoints.of_one_person(kp, rig.names, np.arange(t) / 30.0, skeleton)
         preliminary(det, rig)
     return time.perf_counter() - t0
 

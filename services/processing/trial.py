@@ -356,7 +356,7 @@ class _TrialRun:
                 traj = replace(traj, method=f"{traj.method} (keypoints completed after Stop)")
         self.sink.check()
         if index == 0:
-            self.quality = with_reprojection(self.quality, reprojection_px(traj.points_mm, self.det.keypoints, self.rig))
+            self.quality = with_reprojection(self.quality, reprojection_px(traj.points_mm, self.det.one_person, self.rig))
             self.first = (self.det, self.rig, traj.points_mm)  # what the checks judge, completion or not
         viewers = (self.recording, self.rig) if _wants_viewers(self.options, index) else None
         with self.timed(f"{plan.name} gait and files"):
@@ -470,7 +470,7 @@ def trial_quality(data: TrialInput, recording, det, rig: Rig, criteria: QualityC
     recorded = data.recorded
     images = recorded.images if recorded is not None else None
     quality = recording_quality(camera_names=recording.camera_names, timestamps_ns=recording.timestamps_ns,
-                             patient_confidence=det.keypoints[..., 2], expected_cameras=rig.names,
+                             patient_confidence=det.one_person[..., 2], expected_cameras=rig.names,
                              recorded_s=recorded.summary.get("duration_s") if recorded else None,
                              frame_ids=recording.frame_ids, recorded_frames=images.frames if images else None,
                              recovered=images.recovered if images else False,

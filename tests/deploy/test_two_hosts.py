@@ -147,6 +147,6 @@ def test_trial_recorded_and_processed_across_two_hosts(tmp_path, two_hosts):
         from gaitcap.acquisition.recording.reader import read_detections
 
         det = read_detections(Path(trial.recording_path))
-        assert det.shape == (SIM["cameras"], FRAMES, 26)
+        assert det.shape == (SIM["cameras"], FRAMES, 1, 26)
     finally:
         procs.stop_all()

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.skeletons import get_skeleton
 
 
@@ -62,7 +62,7 @@ def scene():
         rig = _ring_rig(cameras)
         gt = _walk(frames, fps, seed, rigid)
         kp = _detect(rig, gt, noise_px=noise_px, outliers=outliers, seed=seed)
-        det = Detections(kp, rig.names, np.arange(frames) / fps, get_skeleton("halpe26"))
+        det = MultiViewKeypoints.of_one_person(kp, rig.names, np.arange(frames) / fps, get_skeleton("halpe26"))
         return rig, det, gt
 
     return make

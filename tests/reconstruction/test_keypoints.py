@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from gaitcap.reconstruction.keypoints import COMPLETED, LIVE, MISSING, MultiViewKeypoints
+from gaitcap.reconstruction.keypoints import COMPLETED, LIVE, MISSING, MultiViewKeypoints, validate_keypoints
 
 
 def _kp(c=2, t=3, p=2, j=26):
@@ -71,7 +71,55 @@ def test_the_patient_is_the_first_person_or_nobody():
     kp = _kp()
     kp[:, :, 1, :, 0] = 7.0
     det = MultiViewKeypoints(kp, ("a", "b"), np.arange(3), "halpe26").patient()
-    assert det.shape == (2, 3, 26) and (det.keypoints[..., 0] == 0.5).all()
+    assert det.shape == (2, 3, 1, 26) and (det.one_person[..., 0] == 0.5).all()
     nobody = MultiViewKeypoints(np.zeros((2, 3, 0, 26, 3)), ("a", "b"), np.arange(3), "halpe26").patient()
-    assert nobody.shape == (2, 3, 26) and np.isnan(nobody.keypoints[..., 0]).all()
+    assert nobody.shape == (2, 3, 1, 26) and np.isnan(nobody.one_person[..., 0]).all()
     assert (nobody.keypoints[..., 2] == 0).all()
+
+
+def _one(c=2, t=4, j=26):
+    kp = np.random.default_rng(0).uniform(0, 500, size=(c, t, j, 3))
+    kp[..., 2] = 0.9
+    return kp
+
+
+def test_one_person_and_confident_mask():
+    kp = _one()
+    kp[1, 2, 5] = np.nan
+    kp[0, 0, 0, 2] = 0.2
+    d = MultiViewKeypoints.of_one_person(kp, ("a", "b"), np.arange(4) / 30, "halpe26")
+    assert d.shape == (2, 4, 1, 26) and d.skeleton.name == "halpe26"
+    mask = d.confident()[:, :, 0]
+    assert not mask[1, 2, 5] and not mask[0, 0, 0] and mask.sum() == 2 * 4 * 26 - 2
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"keypoints": np.zeros((2, 4, 26))}, r"keypoints: expected shape \(C, T, J, 3\)"),
+        ({"camera_names": ("a",)}, "camera_names: 1 names for 2 cameras"),
+        ({"camera_names": ("a", "a")}, "camera_names: duplicates"),
+        ({"skeleton": "coco17"}, "26 joints but skeleton coco17 has 17"),
+        ({"times_s": np.arange(3)}, "times_s: expected 4 times"),
+        ({"times_s": np.array([0, 1, 1, 2.0])}, "strictly increasing"),
+    ],
+)
+def test_bad_one_person_fields_are_named(kwargs, message):
+    args = {"keypoints": _one(), "camera_names": ("a", "b"), "times_s": np.arange(4) / 30, "skeleton": "halpe26"}
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=message):
+        MultiViewKeypoints.of_one_person(**args)
+
+
+def test_confidence_out_of_range_and_person_layout():
+    kp = _one()
+    kp[0, 0, 0, 2] = 1.5
+    with pytest.raises(ValueError, match=r"confidence .* \[0, 1\]"):
+        MultiViewKeypoints.of_one_person(kp, ("a", "b"), np.arange(4) / 30, "halpe26")
+    with pytest.raises(ValueError, match=r"keypoints: reconstruction takes one person \(P == 1\), got P = 2"):
+        _ = MultiViewKeypoints(np.stack([_one(), _one()], axis=2), ("a", "b"), np.arange(4), "halpe26").one_person
+    multi = np.stack([_one(), _one()], axis=2)  # (C, T, P, J, 3)
+    out, names, times, skel = validate_keypoints(multi, ["a", "b"], np.arange(4), "halpe26", layout="(C, T, P, J, 3)")
+    assert out.shape == (2, 4, 2, 26, 3) and names == ("a", "b") and skel.num_joints == 26
+    with pytest.raises(ValueError, match=r"\(C, T, P, J, 3\)"):
+        validate_keypoints(_one(), ["a", "b"], np.arange(4), "halpe26", layout="(C, T, P, J, 3)")

@@ -4,7 +4,7 @@ import logging
 
 import numpy as np
 import pytest
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.layout_guess import (
     AmbiguousLayout,
     LayoutScore,
@@ -25,16 +25,16 @@ def walk():
     return trial.rig, trial.points_mm, trial.times_s
 
 
-def _detections(rig, points, times, layout: str, *, seed: int = 0) -> Detections:
+def _detections(rig, points, times, layout: str, *, seed: int = 0) -> MultiViewKeypoints:
     rng = np.random.default_rng(seed)
     px = rig.project(points) + rng.normal(0, 1.5, (len(rig.cameras), *points.shape[:2], 2))
     kp = np.concatenate([px, np.full(px.shape[:-1] + (1,), 0.9)], -1)
-    return Detections(kp, rig.names, times, candidate_layouts(points.shape[1])[0])
+    return MultiViewKeypoints.of_one_person(kp, rig.names, times, candidate_layouts(points.shape[1])[0])
 
 
-def _recognise(rig, det: Detections, explicit=None):
+def _recognise(rig, det: MultiViewKeypoints, explicit=None):
     pts = sample_points(det, rig, max_frames=40)
-    return choose_layout([score_layout(pts, s) for s in candidate_layouts(det.shape[2])], explicit=explicit)
+    return choose_layout([score_layout(pts, s) for s in candidate_layouts(det.shape[3])], explicit=explicit)
 
 
 @pytest.mark.parametrize("layout", sorted(SKELETONS))

@@ -29,7 +29,7 @@ def test_huber_shape_and_slope_cut():
 
 def test_losses_on_truth_and_against_numpy_metrics(scene):
     rig, det, gt = scene(cameras=4, frames=12, noise_px=0.0, rigid=True)
-    problem = fit_problem(det, rig, np.ones(det.shape))
+    problem = fit_problem(det, rig, np.ones(det.one_person.shape[:3]))
     pts = jnp.asarray(np.transpose(gt, (2, 0, 1)), jnp.float32)
     assert float(reprojection_loss(pts, problem, LossConfig())) < 1e-3
     assert float(skeleton_loss(pts, problem.limb_a, problem.limb_b)) < 0.05  # rigid body: constant limbs
@@ -46,12 +46,12 @@ def test_losses_on_truth_and_against_numpy_metrics(scene):
 
 def test_zero_weight_observations_are_ignored(scene):
     rig, det, gt = scene(cameras=3, frames=4, noise_px=0.0)
-    kp = det.keypoints.copy()
+    kp = det.one_person.copy()
     kp[0, :, :, :2] = np.nan  # camera 0 lost: weight 0, NaN-free observations
-    w = np.ones(det.shape)
-    from gaitcap.reconstruction.detections import Detections
+    w = np.ones(det.one_person.shape[:3])
+    from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
-    problem = fit_problem(Detections(kp, det.camera_names, det.times_s, det.skeleton), rig, w)
+    problem = fit_problem(MultiViewKeypoints.of_one_person(kp, det.camera_names, det.times_s, det.skeleton), rig, w)
     assert np.isfinite(np.asarray(problem.obs.u_px)).all()
     assert float(np.asarray(problem.obs.weight)[0].sum()) == 0
     pts = jnp.asarray(np.transpose(gt, (2, 0, 1)), jnp.float32)

@@ -21,7 +21,7 @@ def test_all_methods_end_to_end(scene):
     for m in (DLT(), Robust(), fast_imp):
         rec = reconstruct(det, rig, method=m, truth_mm=gt, progress=lambda d, t: seen.append((d, t)))
         results[rec.method] = rec
-        assert rec.points_mm.shape == gt.shape and rec.camera_weights.shape == det.shape
+        assert rec.points_mm.shape == gt.shape and rec.camera_weights.shape == det.one_person.shape[:3]
         assert 0 < rec.metrics["GC_20"] <= 1 and rec.metrics["nan_fraction"] < 0.01
     assert seen and seen[-1][0] == seen[-1][1]
     imp = results["implicit"]
@@ -39,11 +39,11 @@ def test_all_methods_end_to_end(scene):
 
 def test_fit_refuses_a_joint_never_seen(scene):
     rig, det, _ = scene(cameras=4, frames=30, noise_px=1.0)
-    kp = det.keypoints.copy()
+    kp = det.one_person.copy()
     kp[:, :, det.skeleton.index("left_heel"), 2] = 0.2
-    from gaitcap.reconstruction.detections import Detections
+    from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
-    bad = Detections(kp, det.camera_names, det.times_s, det.skeleton)
+    bad = MultiViewKeypoints.of_one_person(kp, det.camera_names, det.times_s, det.skeleton)
     with pytest.raises(ValueError, match="left_heel"):
         reconstruct(bad, rig, method=Implicit())
     rec = reconstruct(bad, rig, method=Robust())  # triangulation: NaN for that joint, no error

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.methods import METHODS, reconstruct
 from gaitcap.reconstruction.people_check import PersonCheckConfig, check_one_person
 from gaitcap.simulator import make_trial
@@ -13,15 +13,15 @@ def trial():
     return make_trial(preset="paper", seconds=4.0, cameras=4, seed=3)
 
 
-def _other_person_in(trial, camera: int, offset_mm=(0.0, 1400.0, 0.0)) -> Detections:
+def _other_person_in(trial, camera: int, offset_mm=(0.0, 1400.0, 0.0)) -> MultiViewKeypoints:
     """The trial's detections with ``camera`` seeing someone else (the walker moved by ``offset_mm``)."""
     det = trial.detections
-    kp = det.keypoints.copy()
+    kp = det.one_person.copy()
     cam = trial.rig.camera(det.camera_names[camera])
     other = trial.points_mm + np.asarray(offset_mm)
     kp[camera, ..., :2] = cam.project(other.reshape(-1, 3)).reshape(*other.shape[:2], 2)
     kp[camera, ..., 2] = 0.9
-    return Detections(kp, det.camera_names, det.times_s, det.skeleton)
+    return MultiViewKeypoints.of_one_person(kp, det.camera_names, det.times_s, det.skeleton)
 
 
 def test_one_person_passes(trial):

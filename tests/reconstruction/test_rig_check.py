@@ -74,7 +74,7 @@ def test_bad_input_is_named(trial):
     with pytest.raises(ValueError, match="points_mm"):
         check_rig(trial.detections, trial.rig, points[:-1])
     det = trial.detections
-    two = type(det)(det.keypoints[:2], det.camera_names[:2], det.times_s, det.skeleton)
+    two = type(det).of_one_person(det.one_person[:2], det.camera_names[:2], det.times_s, det.skeleton)
     with pytest.raises(ValueError, match="at least 3 cameras"):
         check_rig(two, trial.rig, points)
 
@@ -93,8 +93,8 @@ def test_refinement_brings_the_moved_camera_back(trial):
 def halves(det):
     """The trial's first and second half (a reference trial and a later one, the same rig)."""
     mid = det.shape[1] // 2
-    return (type(det)(det.keypoints[:, :mid], det.camera_names, det.times_s[:mid], det.skeleton),
-            type(det)(det.keypoints[:, mid:], det.camera_names, det.times_s[mid:], det.skeleton))
+    return (type(det).of_one_person(det.one_person[:, :mid], det.camera_names, det.times_s[:mid], det.skeleton),
+            type(det).of_one_person(det.one_person[:, mid:], det.camera_names, det.times_s[mid:], det.skeleton))
 
 
 def test_against_a_baseline_trial_the_turned_camera_is_named_with_the_turn_since(trial):
@@ -113,7 +113,7 @@ def test_against_a_baseline_trial_the_turned_camera_is_named_with_the_turn_since
 
 def test_a_baseline_without_one_of_the_cameras_is_refused(trial):
     first, second = halves(trial.detections)
-    short = type(first)(first.keypoints[1:], first.camera_names[1:], first.times_s, first.skeleton)
+    short = type(first).of_one_person(first.one_person[1:], first.camera_names[1:], first.times_s, first.skeleton)
     with pytest.raises(ValueError, match=f"baseline trial lacks camera.*{trial.rig.names[0]}"):
         check_rig(second, trial.rig, robust_triangulate(second, trial.rig).points_mm, baseline=short)
 

@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.triangulation import dlt_triangulate, robust_triangulate
 
 
@@ -22,9 +22,9 @@ def test_robust_rejects_outliers_that_break_dlt(scene):
     assert rob.camera_weights.shape == (6, 30, 26)
     # outlier views get (almost) no weight, clean ones almost full
     c, t, j = 2, 4, 7
-    kp = det.keypoints.copy()
+    kp = det.one_person.copy()
     kp[c, t, j, :2] += 250
-    rob2 = robust_triangulate(Detections(kp, det.camera_names, det.times_s, det.skeleton), rig)
+    rob2 = robust_triangulate(MultiViewKeypoints.of_one_person(kp, det.camera_names, det.times_s, det.skeleton), rig)
     assert rob2.camera_weights[c, t, j] < 0.05
     assert rob2.camera_weights[:, t, j].sum() > 4
     assert np.linalg.norm(rob2.points_mm[t, j] - gt[t, j]) < 5.0
@@ -33,11 +33,11 @@ def test_robust_rejects_outliers_that_break_dlt(scene):
 
 def test_fewer_than_two_views_gives_nan_not_wild(scene):
     rig, det, gt = scene(cameras=4, frames=30, noise_px=0.5)
-    kp = det.keypoints.copy()
+    kp = det.one_person.copy()
     kp[1:, 0, 5, 2] = 0.1  # joint 5 in frame 0: only camera 0 is confident
     kp[:, 1, 6, :] = np.nan  # joint 6 in frame 1: seen by nobody
     kp[0, 2, 7, :2] = np.nan  # NaN pixel in one view: just a missing view
-    det2 = Detections(kp, det.camera_names, det.times_s, det.skeleton)
+    det2 = MultiViewKeypoints.of_one_person(kp, det.camera_names, det.times_s, det.skeleton)
     for fn in (robust_triangulate, dlt_triangulate):
         res = fn(det2, rig) if fn is robust_triangulate else fn(det2, rig, min_confidence=0.5)
         assert np.isnan(res.points_mm[0, 5]).all() and np.isnan(res.points_mm[1, 6]).all()
@@ -49,17 +49,17 @@ def test_fewer_than_two_views_gives_nan_not_wild(scene):
 def test_bad_input_is_named(scene):
     rig, det, _ = scene(cameras=3, frames=2)
     with pytest.raises(ValueError, match="cam9"):
-        robust_triangulate(Detections(det.keypoints, ("cam0", "cam1", "cam9"), det.times_s, det.skeleton), rig)
+        robust_triangulate(MultiViewKeypoints.of_one_person(det.one_person, ("cam0", "cam1", "cam9"), det.times_s, det.skeleton), rig)
     with pytest.raises(ValueError, match="at least 2 cameras"):
-        robust_triangulate(Detections(det.keypoints[:1], ("cam0",), det.times_s, det.skeleton), rig)
-    kp = det.keypoints.copy()
+        robust_triangulate(MultiViewKeypoints.of_one_person(det.one_person[:1], ("cam0",), det.times_s, det.skeleton), rig)
+    kp = det.one_person.copy()
     kp[2, 0, 0, 0] = np.inf
     with pytest.raises(ValueError, match="cam2"):
-        robust_triangulate(Detections(kp, det.camera_names, det.times_s, det.skeleton), rig)
+        robust_triangulate(MultiViewKeypoints.of_one_person(kp, det.camera_names, det.times_s, det.skeleton), rig)
 
 
 def test_camera_order_follows_detections(scene):
     rig, det, gt = scene(cameras=4, frames=30, noise_px=0.0)
     order = [3, 1, 0, 2]
-    det2 = Detections(det.keypoints[order], [det.camera_names[i] for i in order], det.times_s, det.skeleton)
+    det2 = MultiViewKeypoints.of_one_person(det.one_person[order], [det.camera_names[i] for i in order], det.times_s, det.skeleton)
     assert np.abs(robust_triangulate(det2, rig).points_mm - gt).max() < 0.5

@@ -41,7 +41,7 @@ def test_save_and_load_round_trip(tmp_path):
     tr = make_trial("paper", seconds=6.0, cameras=3, seed=2)
     save_trial(tr, tmp_path)
     back = load_trial_files(tmp_path)
-    assert np.array_equal(back.detections.keypoints, tr.detections.keypoints, equal_nan=True)
+    assert np.array_equal(back.detections.one_person, tr.detections.one_person, equal_nan=True)
     assert back.rig.names == tr.rig.names
     for a, b in zip(back.rig, tr.rig, strict=True):
         assert np.allclose(a.matrix_px, b.matrix_px) and np.allclose(a.tvec_mm, b.tvec_mm, atol=1e-9)

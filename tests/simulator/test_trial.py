@@ -2,7 +2,7 @@ import cv2
 import numpy as np
 import pytest
 from gaitcap.reconstruction.camera import Rig
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.simulator import PRESETS, WalkParams, make_trial
 from gaitcap.simulator.room import build_rig, visible
 
@@ -33,7 +33,7 @@ def test_api_shapes(paper_trial):
     assert isinstance(tr.rig, Rig) and tr.rig.names == [f"cam{i:02d}" for i in range(1, 11)]
     assert tr.skeleton.name == "halpe26"
     assert tr.points_mm.shape == (t, 26, 3)
-    assert isinstance(tr.detections, Detections) and tr.detections.keypoints.shape == (10, t, 26, 3)
+    assert isinstance(tr.detections, MultiViewKeypoints) and tr.detections.one_person.shape == (10, t, 26, 3)
     assert tr.clock_offsets_ns.shape == (10,) and tr.jitter_ns.shape == (10, t)
     assert np.abs(tr.clock_offsets_ns[:, None] + tr.jitter_ns).max() < 100_000
     assert tr.multi is None
@@ -73,7 +73,7 @@ def test_every_part_of_the_walk_is_seen_by_several_cameras(clean_trial):
 
 def test_clean_detections_triangulate_to_ground_truth(clean_trial):
     tr = clean_trial
-    pts = _dlt(tr.rig, tr.detections.keypoints)
+    pts = _dlt(tr.rig, tr.detections.one_person)
     err = np.linalg.norm(pts - tr.points_mm, axis=-1)
     assert np.isfinite(err).mean() > 0.99
     assert np.nanmedian(err) < 1.0 and np.nanpercentile(err, 99) < 5.0
@@ -83,14 +83,14 @@ def test_determinism():
     a = make_trial("paper", seconds=5.0, cameras=4, seed=7)
     b = make_trial("paper", seconds=5.0, cameras=4, seed=7)
     c = make_trial("paper", seconds=5.0, cameras=4, seed=8)
-    assert np.array_equal(a.detections.keypoints, b.detections.keypoints, equal_nan=True)
+    assert np.array_equal(a.detections.one_person, b.detections.one_person, equal_nan=True)
     assert np.array_equal(a.points_mm, b.points_mm)
     assert np.array_equal(a.jitter_ns, b.jitter_ns)
-    assert not np.array_equal(a.detections.keypoints, c.detections.keypoints, equal_nan=True)
+    assert not np.array_equal(a.detections.one_person, c.detections.one_person, equal_nan=True)
 
 
 def _error_stats(tr):
-    kp = tr.detections.keypoints
+    kp = tr.detections.one_person
     proj = np.stack([cam.project(tr.points_mm) for cam in tr.rig])
     err = np.linalg.norm(kp[..., :2] - proj, axis=-1)
     conf = kp[..., 2]
@@ -153,7 +153,7 @@ def test_multi_person_identity_is_consistent(multi_trial):
     kp = m.observed.keypoints
     assert np.all(np.isnan(kp[empty][..., 0])) and np.all(kp[empty][..., 2] == 0)
     # the patient's slots are exactly trial.detections
-    assert np.array_equal(m.person(0), tr.detections.keypoints, equal_nan=True)
+    assert np.array_equal(m.person(0), tr.detections.one_person, equal_nan=True)
     # slots are shuffled: the patient is not always in slot 0
     assert 0.1 < np.mean(ident[..., 0] == 0) < 0.9
     # each person's detections lie near their own projection

@@ -94,7 +94,7 @@ def start_ns_of(keypoints) -> int:
 def joint_confidence(detections, frames: int) -> np.ndarray | None:
     """(T, J) mean 2D confidence over the cameras that saw each joint (0 where none did); None when the
     detections do not have ``frames`` frames."""
-    kp = np.asarray(detections.keypoints)  # (C, T, J, 3)
+    kp = detections.one_person  # (C, T, J, 3)
     if kp.shape[1] != frames:
         return None
     conf = np.nan_to_num(kp[..., 2])

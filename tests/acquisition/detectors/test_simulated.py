@@ -21,7 +21,7 @@ def test_single_person_matches_the_trial(trials):
     c = one.detections.camera_names.index(cam)
     for f in (0, 57, one.num_frames - 1):
         kp = det.detect(None, camera=cam, frame_id=f, timestamp_ns=0)
-        ref = one.detections.keypoints[c, f]
+        ref = one.detections.one_person[c, f]
         if kp.shape[0] == 0:  # the patient is out of this view
             assert not (np.nan_to_num(ref[:, 2]) > 0).any()
             continue

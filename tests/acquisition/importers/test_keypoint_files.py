@@ -36,11 +36,11 @@ def test_openpose_folder_by_name_and_by_order(tmp_path, caplog):
     assert data.recording.keypoints.shape == (2, 5, 2, 25, 3)
     det = data.recording.patient()  # the most confident person comes first
     assert det.camera_names == ("cam0", "cam1")
-    assert det.keypoints.shape == (2, 5, 25, 3)
+    assert det.one_person.shape == (2, 5, 25, 3)
     c0 = det.camera_names.index("cam0")
-    assert det.keypoints[c0, 0, 0, 0] == pytest.approx(111)  # folder cam0_json was written second (c = 1), p = 1
-    assert (det.keypoints[c0, 3, :, 2] == 0).all()  # frame 3 is in no folder
-    assert np.isnan(det.keypoints[c0, 0, 3, 0]) and det.keypoints[c0, 0, 3, 2] == 0
+    assert det.one_person[c0, 0, 0, 0] == pytest.approx(111)  # folder cam0_json was written second (c = 1), p = 1
+    assert (det.one_person[c0, 3, :, 2] == 0).all()  # frame 3 is in no folder
+    assert np.isnan(det.one_person[c0, 0, 3, 0]) and det.one_person[c0, 0, 3, 2] == 0
     assert det.times_s[-1] == pytest.approx(4 / 25)
     _write_openpose(tmp_path / "b", ["x", "y"], [0, 1], 1)
     with caplog.at_level(logging.WARNING):
@@ -114,8 +114,8 @@ def test_trial_mcap_input(tmp_path):
     data = read_keypoints_input(tmp_path / "t.mcap", rig=rig)
     assert data.layout == "halpe26" and data.rig is not None and data.rig.names == rig.names
     det = data.recording.patient()
-    assert det.keypoints.shape == (2, 3, 26, 3) and det.skeleton.name == "halpe26"
-    assert det.keypoints[1, 2, 0, 0] == 12 and det.times_s[1] == pytest.approx(1 / 30, abs=1e-6)
+    assert det.one_person.shape == (2, 3, 26, 3) and det.skeleton.name == "halpe26"
+    assert det.one_person[1, 2, 0, 0] == 12 and det.times_s[1] == pytest.approx(1 / 30, abs=1e-6)
 
 
 POSE2SIM_TRIAL = share_path("testdata", "pose2sim", "S00_Demo_BatchSession", "S00_P00_SingleParticipant",

@@ -23,10 +23,10 @@ from recording_helpers import CAMS, FRAMES, PERIOD_NS, T0_NS, J, people_for, tin
 
 def test_detections_aligned_by_frame_id_with_missing_as_nan(trial_mcap):
     det = read_detections(trial_mcap)
-    assert det.camera_names == CAMS and det.shape == (3, FRAMES, J)
+    assert det.camera_names == CAMS and det.shape == (3, FRAMES, 1, J)
     assert det.skeleton.name == "halpe26"
-    np.testing.assert_allclose(det.keypoints[2, 7], people_for(2, 7)[0])
-    assert np.isnan(det.keypoints[1, 5, :, :2]).all() and (det.keypoints[1, 5, :, 2] == 0).all()
+    np.testing.assert_allclose(det.one_person[2, 7], people_for(2, 7)[0])
+    assert np.isnan(det.one_person[1, 5, :, :2]).all() and (det.one_person[1, 5, :, 2] == 0).all()
     np.testing.assert_allclose(np.diff(det.times_s), 1 / 30, atol=1e-4)
     assert det.times_s[0] == 0
 
@@ -59,7 +59,7 @@ def test_part_file_recovered_every_complete_chunk(tmp_path):
     part = write_trial(tmp_path / "crash.mcap", finish=False, flush_every=5)
     assert part.name == "crash.mcap.part" and not is_complete(part)
     # The reader finds the .part file under the final name and reads it by scanning.
-    assert read_detections(tmp_path / "crash.mcap").shape == (3, FRAMES, J)
+    assert read_detections(tmp_path / "crash.mcap").shape == (3, FRAMES, 1, J)
     report = recover(tmp_path / "crash.mcap")
     assert report.output == tmp_path / "crash.mcap" and is_complete(report.output)
     assert report.messages[layout.image_topic("cam0")] == FRAMES

@@ -83,7 +83,7 @@ def test_a_view_the_detector_mirrored_is_swapped_back_and_no_other_is_turned():
     patient_track = int(np.bincount(tracks.detection_track[patient & (tracks.detection_track >= 0)]).argmax())
     chosen = associate_and_select(multi, scene.rig, ManualTrack(patient_track))
     truth = np.take_along_axis(scene.multi.keypoints, np.argmax(patient, -1)[..., None, None, None], 2)[:, :, 0]
-    got = chosen.detections.keypoints
+    got = chosen.detections.one_person
     seen = np.isfinite(got[..., 0]).all(-1)  # (C, T)
     assert seen[2, 10:20].all() and seen.mean() > 0.95
     assert np.array_equal(got[seen], truth[seen])  # the mirrored view swapped back, every other one as it was

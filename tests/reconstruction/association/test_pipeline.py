@@ -87,7 +87,7 @@ def test_manual_choice_of_the_therapist_gives_the_therapists_detections():
     score = score_association(auto.tracks.detection_track, trial.multi.identity)
     assert auto.track_id == score.main_track[0]
     therapist = associate_and_select(multi, trial.rig, ManualTrack(score.main_track[1]))
-    mine = therapist.detections.keypoints[..., 0]
+    mine = therapist.detections.one_person[..., 0]
     raw = trial.multi.person(1)
     truth = raw[..., 0]
     unmirrored = raw[:, :, list(trial.skeleton.flip_permutation), 0]  # detections the association turned
@@ -103,7 +103,7 @@ def test_associate_and_select_finds_the_patient(scene3):
 
     got = associate_and_select(scene3.multi, scene3.rig)
     patient = int(np.bincount(got.tracks.detection_track[scene3.identity == 0]).argmax())
-    assert got.track_id == patient and got.detections.shape == (8, 60, 26)
+    assert got.track_id == patient and got.detections.shape == (8, 60, 1, 26)
 
 
 def test_close_companion_and_a_person_crossing_between_cameras(crossing_scene):

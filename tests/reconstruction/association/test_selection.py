@@ -50,7 +50,7 @@ def test_patient_detections_are_the_chosen_persons_keypoints(tracked):
     truth = np.where((scene.identity == 0)[..., None, None], scene.multi.keypoints, np.nan)
     expected = np.nansum(truth, axis=2)
     expected[~(scene.identity == 0).any(-1)] = np.nan
-    np.testing.assert_array_equal(det.keypoints, expected)
+    np.testing.assert_array_equal(det.one_person, expected)
     assert det.camera_names == scene.multi.camera_names and det.skeleton.name == "halpe26"
 
 

@@ -38,7 +38,7 @@ def test_chain_started_from_exact_keypoints_has_their_angles(trial):
     with pytest.raises(ValueError, match="left_heel"):
         initial_params(trial.points_mm[:, :20], names[:20])
     with pytest.raises(ValueError, match=r"the chain needs \['left_heel'"):
-        fit_angles_2d(trial.detections.keypoints[:, :, :20], names[:20], trial.rig, trial.detections.camera_names,
+        fit_angles_2d(trial.detections.one_person[:, :, :20], names[:20], trial.rig, trial.detections.camera_names,
                       trial.points_mm[:, :20])
 
 
@@ -47,7 +47,7 @@ def test_fit_to_2d_keypoints_recovers_the_angles_from_a_noisy_start(trial):
     truth = keypoint_angles(trial.points_mm, names)
     noisy = trial.points_mm + np.random.default_rng(0).normal(0.0, 15.0, trial.points_mm.shape)  # mm
     det = trial.detections
-    fit = fit_angles_2d(det.keypoints, names, trial.rig, det.camera_names, noisy, config=Fit2DConfig(steps=200))
+    fit = fit_angles_2d(det.one_person, names, trial.rig, det.camera_names, noisy, config=Fit2DConfig(steps=200))
     start = keypoint_angles(noisy, names)
     # knee 3.01 deg since the walker swings its knee to 64 deg (54 before, when 3.0 held): a quicker swing
     for var, limit in (("knee_flexion", 3.5), ("hip_flexion", 2.5), ("ankle_dorsiflexion", 3.5)):
@@ -59,10 +59,10 @@ def test_mismatched_cameras_frames_or_joints_are_named_before_the_fit(trial):
     det = trial.detections
     cams = list(det.camera_names)
     with pytest.raises(ValueError, match=r"3 cameras but camera_names has 2"):
-        fit_angles_2d(det.keypoints, names, trial.rig, cams[:2], trial.points_mm)
+        fit_angles_2d(det.one_person, names, trial.rig, cams[:2], trial.points_mm)
     with pytest.raises(ValueError, match="named twice"):
-        fit_angles_2d(det.keypoints, names, trial.rig, [cams[0], cams[0], cams[1]], trial.points_mm)
+        fit_angles_2d(det.one_person, names, trial.rig, [cams[0], cams[0], cams[1]], trial.points_mm)
     with pytest.raises(ValueError, match=r"init_points_mm: shape \(10, "):
-        fit_angles_2d(det.keypoints, names, trial.rig, cams, trial.points_mm[:10])
+        fit_angles_2d(det.one_person, names, trial.rig, cams, trial.points_mm[:10])
     with pytest.raises(ValueError, match=r"not in the calibration"):
-        fit_angles_2d(det.keypoints, names, trial.rig, ["cam_x", *cams[1:]], trial.points_mm)
+        fit_angles_2d(det.one_person, names, trial.rig, ["cam_x", *cams[1:]], trial.points_mm)

@@ -24,7 +24,7 @@ def _person_in(out, trial, person):
     raw = trial.multi.person(person)
     truth = raw[..., 0]
     unmirrored = raw[:, :, list(trial.skeleton.flip_permutation), 0]
-    mine = det.keypoints[..., 0]
+    mine = det.one_person[..., 0]
     both = np.isfinite(mine) & np.isfinite(truth)
     same = (mine == truth) | (mine == unmirrored)
     return both.sum() > 0.9 * np.isfinite(truth).sum() and bool(same[both].all())

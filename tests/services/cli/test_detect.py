@@ -129,11 +129,11 @@ def test_detect_mediapipe_on_real_video(tmp_path):
                                    "--out", str(out), "--one-per-camera"])
     assert res.exit_code == 0, res.output
     det = _one_person(out)
-    assert det.camera_names == ("mirror", "side") and det.shape == (2, 12, 33)
+    assert det.camera_names == ("mirror", "side") and det.shape == (2, 12, 1, 33)
     assert det.skeleton.name == "mediapipe33"
     np.testing.assert_allclose(det.times_s, np.arange(12) / 30)
     j = det.skeleton.index
-    hips = (det.keypoints[:, :, j("left_hip"), :2] + det.keypoints[:, :, j("right_hip"), :2]) / 2  # (C, T, 2)
+    hips = (det.one_person[:, :, j("left_hip"), :2] + det.one_person[:, :, j("right_hip"), :2]) / 2  # (C, T, 2)
     assert np.isfinite(hips).all()
     # The mirror view sees the walker at x' = W - x (pixel centres: 639 - x), same height.
     np.testing.assert_allclose(hips[0, :, 0], 639 - hips[1, :, 0], atol=8)
@@ -169,12 +169,12 @@ def test_detect_onnx_model_by_path(tmp_path):
                                    "--out", str(out)])
     assert res.exit_code == 0, res.output
     det = _one_person(out)
-    assert det.skeleton.name == "coco17" and det.shape == (1, 6, 17)
+    assert det.skeleton.name == "coco17" and det.shape == (1, 6, 1, 17)
     # Whole 64x48 image as the box, padded 1.25: one crop px is 80 / 48 image px. The flat square's first
     # brightest crop column / row lies inside the square (give or take one crop px).
     crop_px = 80 / 48
     left = 4 + 2 * np.arange(6)
-    x, y = det.keypoints[0, :, :, 0], det.keypoints[0, :, :, 1]
+    x, y = det.one_person[0, :, :, 0], det.one_person[0, :, :, 1]
     assert np.all((x >= left[:, None] - crop_px) & (x <= left[:, None] + SQ - 1 + crop_px))
     assert np.all((y >= 20 - crop_px) & (y <= 20 + SQ - 1 + crop_px))
     assert 6 <= x[-1, 0] - x[0, 0] <= 14  # it follows the square 10 px to the right

@@ -111,12 +111,12 @@ def test_ten_cameras_through_separate_processes_into_mcap_and_replay(tmp_path, r
 
         # Keypoints equal the synthetic world's detections (the simulated detector's noise model).
         det = read_detections(out)
-        assert det.shape == (10, FRAMES, 26)
-        truth = trial.detections.keypoints[:, :FRAMES]
-        seen = (truth[..., 2] > 1e-3) & (det.keypoints[..., 2] > 0)
+        assert det.shape == (10, FRAMES, 1, 26)
+        truth = trial.detections.one_person[:, :FRAMES]
+        seen = (truth[..., 2] > 1e-3) & (det.one_person[..., 2] > 0)
         seen[7, 15:] = False
-        np.testing.assert_allclose(det.keypoints[seen], truth[seen], atol=2e-3)
-        assert (det.keypoints[7, 15:, :, 2] == 0).all()
+        np.testing.assert_allclose(det.one_person[seen], truth[seen], atol=2e-3)
+        assert (det.one_person[7, 15:, :, 2] == 0).all()
         np.testing.assert_allclose(np.diff(det.times_s), 1 / 30, atol=1e-3)
 
         # The lab's sync criteria on the recorded camera timestamps (frame ids from the synced start).

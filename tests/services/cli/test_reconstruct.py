@@ -3,7 +3,7 @@ import json
 import numpy as np
 from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.camera import Camera, Rig, matrix_to_rodrigues
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.services.cli import app
 from typer.testing import CliRunner
 
@@ -24,13 +24,13 @@ def _scene(cameras=4, frames=30):
     gt = rng.normal(0, 250, (1, 26, 3)) + np.linspace([0, 0, 0], [300, 100, 0], frames)[:, None]
     kp = np.concatenate([rig.project(gt) + rng.normal(0, 1, (cameras, frames, 26, 2)),
                          np.full((cameras, frames, 26, 1), 0.9)], -1)
-    return rig, Detections(kp, rig.names, np.arange(frames) / 30, "halpe26"), gt
+    return rig, MultiViewKeypoints.of_one_person(kp, rig.names, np.arange(frames) / 30, "halpe26"), gt
 
 
 def test_reconstruct_command(tmp_path):
     rig, det, gt = _scene()
     save_rig(rig, tmp_path / "calib.json")
-    np.savez(tmp_path / "kp.npz", keypoints=det.keypoints, cameras=np.array(det.camera_names),
+    np.savez(tmp_path / "kp.npz", keypoints=det.one_person, cameras=np.array(det.camera_names),
              times_s=det.times_s, skeleton=np.array("halpe26"))
     runner = CliRunner()
     args = ["reconstruct", "--calibration", str(tmp_path / "calib.json"), "--keypoints", str(tmp_path / "kp.npz"),

@@ -75,7 +75,7 @@ def test_simulated_detector_reproduces_the_worlds_keypoints():
     assert det.detected == 12 and det.failed == 0
     for m in got:
         c = trial.rig.names.index(m["camera"])
-        want = trial.detections.keypoints[c, m["frame_id"]]
+        want = trial.detections.one_person[c, m["frame_id"]]
         if m["people"]:
             ok = want[:, 2] > 0
             np.testing.assert_allclose(np.asarray(m["people"][0])[ok], want[ok], atol=1e-3)

@@ -124,7 +124,7 @@ def test_live_rig_is_watched_in_foxglove():
         image_times = {t for t, _ in images}
         # keypoints that overtake their frame on the bus are not drawn: most are, each on its own image
         assert len(notes) >= len(images) // 2 and all(t in image_times for t, _ in notes)
-        in_view = bool((np.nan_to_num(trial.detections.keypoints[trial.rig.names.index(cam), :60, :, 2]) > 0).any())
+        in_view = bool((np.nan_to_num(trial.detections.one_person[trial.rig.names.index(cam), :60, :, 2]) > 0).any())
         assert any(n.points and len(n.points[0].points) > 0 for _, n in notes) == in_view
         calibrations = [CameraCalibration.FromString(p) for topic, schema, _, p in got
                         if topic == f"/camera/{cam}/calibration" and schema == "foxglove.CameraCalibration"]

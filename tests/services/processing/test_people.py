@@ -27,10 +27,10 @@ def _mpjpe(points_mm, truth_mm) -> float:
 
 def _alone(trial, person: int) -> np.ndarray:
     """Robust triangulation of one person's detections alone (no one else in view), (T, J, 3) mm."""
-    from gaitcap.reconstruction.detections import Detections
+    from gaitcap.reconstruction.keypoints import MultiViewKeypoints
     from gaitcap.reconstruction.triangulation import robust_triangulate
 
-    det = Detections(trial.multi.person(person), trial.rig.names, trial.times_s, trial.skeleton)
+    det = MultiViewKeypoints.of_one_person(trial.multi.person(person), trial.rig.names, trial.times_s, trial.skeleton)
     return np.asarray(robust_triangulate(det, trial.rig).points_mm)
 
 
@@ -93,7 +93,7 @@ def test_a_choice_of_a_track_that_does_not_exist_fails_the_trial_with_the_reason
 
 def test_people_in_view_and_choice_validation(pair):
     assert most_people_in_view(pair.multi.observed) == 2
-    assert most_people_in_view(replace(pair.multi.observed, keypoints=pair.detections.keypoints[:, :, None])) == 1
+    assert most_people_in_view(replace(pair.multi.observed, keypoints=pair.detections.keypoints)) == 1
     assert most_people_in_view(replace(pair.multi.observed, keypoints=pair.multi.observed.keypoints[:, :, :0])) == 0
     with pytest.raises(ValueError, match="track_id"):
         PatientChoice(track_id=-1)
@@ -112,7 +112,7 @@ def test_patient_of_honours_a_choice_and_writes_nothing(tmp_path, pair):
 
     path = write_multi_trial_mcap(pair, tmp_path / "t" / "recording.mcap")
     rec = read_keypoints(path)
-    assert _agreement(patient_of(rec, pair.rig).keypoints, pair.multi.person(0)) > 0.95
+    assert _agreement(patient_of(rec, pair.rig).one_person, pair.multi.person(0)) > 0.95
     other = 1 - select_patient(rec, pair.rig, None).track_id
-    assert _agreement(patient_of(rec, pair.rig, PatientChoice(other)).keypoints, pair.multi.person(1)) > 0.95
+    assert _agreement(patient_of(rec, pair.rig, PatientChoice(other)).one_person, pair.multi.person(1)) > 0.95
     assert sorted(p.name for p in path.parent.iterdir() if p.suffix != ".toml") == ["recording.mcap"]

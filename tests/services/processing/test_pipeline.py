@@ -2,7 +2,7 @@
 reproduces a smooth trajectory."""
 
 import numpy as np
-from gaitcap.reconstruction.detections import Detections
+from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.reconstruction.triangulation import robust_triangulate
 from gaitcap.services.processing.pipeline import (
@@ -22,7 +22,7 @@ def test_chunked_preliminary_equals_whole_trial_triangulation():
     xy = np.stack([c.project(pts.reshape(-1, 3)).reshape(t, sk.num_joints, 2) for c in rig.cameras])
     kp = np.concatenate([xy + rng.normal(0, 1.0, xy.shape), np.full((*xy.shape[:3], 1), 0.9)], axis=-1)
     kp[1, 10:20, 3, 2] = 0.0  # a few missing views
-    det = Detections(kp, rig.names, np.arange(t) / 30, sk)
+    det = MultiViewKeypoints.of_one_person(kp, rig.names, np.arange(t) / 30, sk)
     whole = robust_triangulate(det, rig).points_mm
     got = preliminary(det, rig)
     assert got.points_mm.shape == (t, sk.num_joints, 3)
@@ -32,9 +32,9 @@ def test_chunked_preliminary_equals_whole_trial_triangulation():
 
 def test_padding_adds_empty_frames_only():
     rig, sk = ring_rig(3), get_skeleton("coco17")
-    det = Detections(np.ones((3, 5, sk.num_joints, 3)) * 0.5, rig.names, np.arange(5) / 30, sk)
+    det = MultiViewKeypoints.of_one_person(np.ones((3, 5, sk.num_joints, 3)) * 0.5, rig.names, np.arange(5) / 30, sk)
     padded = pad_detections(det, 8)
-    assert padded.shape == (3, 8, sk.num_joints) and np.all(padded.keypoints[:, 5:, :, 2] == 0)
+    assert padded.shape == (3, 8, 1, sk.num_joints) and np.all(padded.one_person[:, 5:, :, 2] == 0)
     np.testing.assert_allclose(np.diff(padded.times_s), 1 / 30)
 
 

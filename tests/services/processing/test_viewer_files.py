@@ -42,7 +42,7 @@ def processed(tmp_path_factory):
     root.mkdir(parents=True)
     w = TrialWriter(files.recording)
     w.start(metadata={"trial_id": "t1"}, calibration_toml=rig_to_toml_text(trial.rig), time_ns=T0_NS - 1000)
-    kp = trial.detections.keypoints
+    kp = trial.detections.one_person
     for i, t in enumerate(trial.times_s):
         for c, cam in enumerate(trial.rig.names):
             ts = T0_NS + int(round(t * 1e9)) + 100 * c

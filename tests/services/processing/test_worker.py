@@ -235,10 +235,10 @@ def test_a_refined_fit_the_data_refuse_leaves_the_preliminary_results_and_flags_
     ``done_with_warnings`` saying why, and is never ``failed`` with a result in hand."""
     from dataclasses import replace
 
-    kp = walk.detections.keypoints.copy()
+    kp = walk.detections.one_person.copy()
     j = walk.detections.skeleton.joint_names.index("left_shoulder")
     kp[1:, :, j, 2] = 0.0  # every camera but the first: not seen
-    one_view = replace(walk, detections=replace(walk.detections, keypoints=kp))
+    one_view = replace(walk, detections=replace(walk.detections, keypoints=kp[:, :, None]))
     db = cat.open_catalog(tmp_path / "catalog.sqlite")
     t = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda tid: tmp_path / f"{tid}.mcap")
     write_trial_mcap(one_view, Path(t.recording_path))
@@ -269,7 +269,7 @@ def test_the_frames_the_live_detector_missed_are_detected_before_the_refined_sta
     from gaitcap.simulator.recording import write_keypoint_recording
 
     walk = make_trial("clean", seconds=10, cameras=4, people=1, seed=3, fps=30)
-    live = np.ones(walk.detections.keypoints.shape[:2], bool)
+    live = np.ones(walk.detections.one_person.shape[:2], bool)
     live[1, ::3] = False  # cam02: every third frame missed
     live[0, 60:120] = False  # cam01: two seconds missed
     db = cat.open_catalog(tmp_path / "catalog.sqlite")
@@ -309,7 +309,7 @@ def test_a_trial_whose_live_detector_caught_nothing_is_detected_from_its_images_
     from gaitcap.simulator.recording import write_keypoint_recording
 
     walk = make_trial("clean", seconds=6, cameras=3, people=1, seed=4, fps=30)
-    nothing = np.zeros(walk.detections.keypoints.shape[:2], bool)
+    nothing = np.zeros(walk.detections.one_person.shape[:2], bool)
     db = cat.open_catalog(tmp_path / "catalog.sqlite")
     ids = []
     for _ in range(2):
