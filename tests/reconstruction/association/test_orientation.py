@@ -65,8 +65,8 @@ def test_face_forward_turns_the_track_and_its_detections_and_the_patient_is_swap
     assert np.allclose(turned.points_mm, tracks.points_mm, equal_nan=True)
     own = tracks.detection_track == 0
     assert (turned.mirrored() == (own & (np.arange(30)[None, :, None] >= 5) & (np.arange(30)[None, :, None] < 15))).all()
-    straight = patient_detections(scene.multi, tracks, 0).keypoints
-    swapped = patient_detections(scene.multi, turned, 0).keypoints
+    straight = patient_detections(scene.multi, tracks, 0).one_person
+    swapped = patient_detections(scene.multi, turned, 0).one_person
     assert np.array_equal(swapped[:, 5:15], straight[:, 5:15][:, :, list(SKELETON.flip_permutation)], equal_nan=True)
     assert np.array_equal(swapped[:, 15:], straight[:, 15:], equal_nan=True)
 
