@@ -83,6 +83,9 @@ class RigCheckConfig:
             raise ValueError(f"rig check: min_confidence must lie in [0, 1), got {self.min_confidence}")
 
 
+NOT_JUDGED_THERE = "not judged there"  # CameraCheck.baseline: the baseline trial could not judge the camera
+
+
 @dataclass(frozen=True)
 class CameraCheck:
     """One camera's check.
@@ -105,6 +108,9 @@ class CameraCheck:
         turn_deg: the estimated rotation as a rotation vector (3,) deg in the camera's frame (the actual
             world -> camera rotation is ``rodrigues(turn) @ R_calibrated``).
         shift_vector_mm: the estimated shift of the centre (3,) mm in the world frame.
+        baseline: how it was judged: ``none`` (no baseline trial given), ``compared`` (the change since the
+            baseline trial) or ``not judged there`` (the baseline trial saw too few of its keypoints: judged
+            without it, and said so).
     """
 
     name: str
@@ -121,6 +127,7 @@ class CameraCheck:
     moved: bool
     turn_deg: tuple[float, float, float] = (float("nan"),) * 3
     shift_vector_mm: tuple[float, float, float] = (float("nan"),) * 3
+    baseline: str = "none"
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -322,8 +329,11 @@ class _Judge:
         ev = _evidence(self.det, c, loo, cam, self.config)
         pts_all, uv_all = _all_points(self.det, c, self.points_mm, self.config)
         ref = self.reference.one(c, left_out) if self.reference is not None else None
-        return _judge(cam, ev, pts_all, uv_all, self.expected.get(cam.name), self.num_frames, self.config,
-                      ref if ref is not None and ref.judged else None)
+        usable = ref if ref is not None and ref.judged else None
+        chk = _judge(cam, ev, pts_all, uv_all, self.expected.get(cam.name), self.num_frames, self.config, usable)
+        if self.reference is None:
+            return chk
+        return replace(chk, baseline="compared" if usable is not None else NOT_JUDGED_THERE)
 
     def all_but(self, left_out: list[int]) -> dict[int, CameraCheck]:
         """Every camera but ``left_out`` judged without them; {} where too few cameras are left: 2 views
@@ -382,7 +392,7 @@ def check_rig(detections: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray, *
     judge.final.update({c: replace(chk, moved=False) if chk.moved else chk for c, chk in current.items()})
     checks = judge.final
     cams = tuple(checks[c] for c in range(c_count))
-    return RigCheck(cams, tuple(_warning(chk) for chk in cams if chk.moved) + _unjudged(cams))
+    return RigCheck(cams, tuple(_warning(chk) for chk in cams if chk.moved) + _unjudged(cams) + _without_baseline(cams))
 
 
 def _reference_judge(baseline: MultiViewKeypoints | None, rig: Rig, trial_joints: int,
@@ -413,6 +423,15 @@ def _warning(chk: CameraCheck) -> str:
             f"cameras' points in a consistent direction (median error {chk.residual_px:.1f} px, "
             f"{chk.refit_residual_px:.1f} px once refitted{promised}). Recalibrate or refine the rig before "
             f"the next patient.")
+
+
+def _without_baseline(cams: tuple[CameraCheck, ...]) -> tuple[str, ...]:
+    names = [c.name for c in cams if c.judged and c.baseline == NOT_JUDGED_THERE]
+    if not names:
+        return ()
+    return (f"Rig check: camera(s) {', '.join(names)} saw too few of the patient's keypoints in the baseline "
+            "trial: judged without it (a field the detector leaves with the calibration as is may then be "
+            "taken for a move).",)
 
 
 def _unjudged(cams: tuple[CameraCheck, ...]) -> tuple[str, ...]:

@@ -111,6 +111,23 @@ def test_against_a_baseline_trial_the_turned_camera_is_named_with_the_turn_since
     assert rotation_angle_deg(rodrigues_to_matrix(np.radians(check.camera(MOVED).turn_deg)), true_turn) < 0.3
 
 
+def test_a_camera_the_baseline_cannot_judge_is_judged_without_it_and_said(trial):
+    first, second = halves(trial.detections)
+    check = check_rig(second, trial.rig, robust_triangulate(second, trial.rig).points_mm, baseline=first)
+    assert {c.baseline for c in check.cameras} == {"compared"} and not any("baseline" in w for w in check.warnings)
+    blind = first.one_person.copy()
+    blind[1, :, :, 2] = 0.0  # the baseline trial never saw the patient in camera 2: nothing to compare with
+    blind = type(first).of_one_person(blind, first.camera_names, first.times_s, first.skeleton)
+    check = check_rig(second, trial.rig, robust_triangulate(second, trial.rig).points_mm, baseline=blind)
+    name = trial.rig.names[1]
+    assert check.camera(name).judged and check.camera(name).baseline == "not judged there"
+    assert [c.name for c in check.cameras if c.baseline != "compared"] == [name]
+    assert any(f"camera(s) {name} saw too few of the patient's keypoints in the baseline" in w
+               for w in check.warnings), check.warnings
+    no_baseline = check_rig(second, trial.rig, robust_triangulate(second, trial.rig).points_mm)
+    assert {c.baseline for c in no_baseline.cameras} == {"none"}
+
+
 def test_a_baseline_without_one_of_the_cameras_is_refused(trial):
     first, second = halves(trial.detections)
     short = type(first).of_one_person(first.one_person[1:], first.camera_names[1:], first.times_s, first.skeleton)
