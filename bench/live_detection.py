@@ -46,6 +46,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from gaitcap.reconstruction.camera import Rig  # noqa: E402
+from gaitcap.services.processing.trial import NoSink  # noqa: E402
 
 from bench._common import emit  # noqa: E402
 
@@ -307,8 +308,8 @@ def _children_cpu_s() -> float:
     return used.ru_utime + used.ru_stime
 
 
-class TimedSink:
-    """The one processing path's sink that notes when each step started and each stage was stored (s
+class TimedSink(NoSink):
+    """The one processing path's sink (:class:`NoSink` otherwise) that notes when each step started and each stage was stored (s
     after ``t0``, ``time.perf_counter``)."""
 
     def __init__(self, t0: float):
@@ -319,15 +320,6 @@ class TimedSink:
 
     def stored(self, outcome, quality) -> None:
         self.stored_at[outcome.name] = time.perf_counter() - self.t0
-
-    def files_added(self, stage: str, files: dict[str, str]) -> None:
-        pass
-
-    def checked(self, quality) -> None:
-        pass
-
-    def check(self) -> None:
-        pass
 
 
 def complete_only(path: Path, settings) -> tuple[object, dict, dict]:
