@@ -247,10 +247,10 @@ def _drain(pool: DetectorPool) -> None:
 
 
 def _assemble(recording: MultiViewKeypoints | None, got: _Collected, skeleton: str, *, detector_name: str,
-              redetect_all: bool, workers: int, live_pass: dict[str, int]) -> tuple[MultiViewKeypoints,
-                                                                                   CompletionReport]:
+              redetect_all: bool, workers: int, live_pass: dict[str, int] | None
+              ) -> tuple[MultiViewKeypoints, CompletionReport]:
     """The keypoints on one grid holding every live frame and recorded image, and the report
-    (``live_pass``: {camera: frames the live pass detected})."""
+    (``live_pass``: {camera: frames the live pass detected}, a camera it never detected 0; None: not read)."""
     live_names = list(recording.camera_names) if recording is not None else []
     names = live_names + sorted(set(got.images) - set(live_names))
     slots = [s for per in got.images.values() for s in per]
@@ -284,15 +284,15 @@ def _assemble(recording: MultiViewKeypoints | None, got: _Collected, skeleton: s
                              timestamps_ns=stamps, provenance=prov,
                              restarts=dict(recording.restarts) if recording is not None else {},
                              ignored=dict(recording.ignored) if recording is not None else {})
-    cams = tuple(replace(_camera_row(cam, names.index(cam), got, prov, first), live_pass=live_pass.get(cam))
-                 for cam in names)
+    cams = tuple(replace(_camera_row(cam, names.index(cam), got, prov, first),
+                         live_pass=None if live_pass is None else live_pass.get(cam, 0)) for cam in names)
     return out, CompletionReport(detector_name, redetect_all, workers, 0.0, cams, tuple(names), frame_ids, prov)
 
 
-def live_pass_counts(recording: MultiViewKeypoints | None) -> dict[str, int]:
-    """{camera: frames the live pass detected} ({} without its keypoints)."""
+def live_pass_counts(recording: MultiViewKeypoints | None) -> dict[str, int] | None:
+    """{camera: frames the live pass detected} (None without its keypoints)."""
     if recording is None:
-        return {}
+        return None
     return {cam: int((recording.provenance[c] == LIVE).sum()) for c, cam in enumerate(recording.camera_names)}
 
 
