@@ -6,7 +6,9 @@
 1. Synthetic clinic (10 cameras, "paper" detector noise): ``--seeds`` trials with the rig as calibrated
    (false alarms), and ``--moved-seeds`` trials per case with one camera turned by 0.5, 1, 2 or 5 deg (about
    a random axis) or its centre moved by 20 mm after calibration: detection rate (the moved camera named,
-   and no other), error of the estimated rotation (deg: angle between the estimated and the true turn),
+   and no other), error of the estimated rotation (deg: angle between the estimated and the true turn), the check's
+   own bound on it (deg, the largest over the camera's axes) and the share of cases whose error lies
+   within that bound about every axis,
    MPJPE (mm) of the robust triangulation with the true rig, the stale rig and the rig refined from the
    trial's people (the stale rig as prior; only the flagged camera adjusted, every camera where none was
    flagged; and, for comparison, every camera adjusted), and how far the refined camera is from the
@@ -40,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.installed import share_path
-from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg
+from gaitcap.reconstruction.calibration.geometry import rotation_angle_deg, rvec_of
 from gaitcap.reconstruction.calibration.people_bundle import refine_rig_from_people
 from gaitcap.reconstruction.calibration.rig_check import RigCheck, check_rig
 from gaitcap.reconstruction.camera import Rig, rodrigues_to_matrix
@@ -69,6 +71,19 @@ def stale_rig(rig: Rig, name: str, *, rotation_deg: float, shift_mm: float, seed
 def _rotation_error_deg(check: RigCheck, truth: Rig, stale: Rig, name: str) -> float:
     est = rodrigues_to_matrix(np.radians(check.camera(name).turn_deg))
     return float(rotation_angle_deg(est, truth[name].rotation @ stale[name].rotation.T))
+
+
+def _within_bound(check: RigCheck, truth: Rig, stale: Rig, name: str) -> bool:
+    """Whether the estimated rotation's error about each camera axis (x, y, optical) lies within the bound
+    the check gives for it."""
+    chk = check.camera(name)
+    err = rodrigues_to_matrix(np.radians(chk.turn_deg)) @ (truth[name].rotation @ stale[name].rotation.T).T
+    return bool(np.all(np.abs(np.degrees(rvec_of(err))) <= np.asarray(chk.rotation_bound_deg)))
+
+
+def _bound_deg(check: RigCheck, name: str) -> float:
+    """The largest of the check's rotation bounds for camera ``name`` (deg)."""
+    return float(max(check.camera(name).rotation_bound_deg))
 
 
 def _mpjpe_mm(trial, rig: Rig) -> float:
@@ -123,6 +138,8 @@ def synthetic_moved(seeds: int, seconds: float) -> dict:
             rows.append({
                 "detected": check.moved == (name,), "others_flagged": len(set(check.moved) - {name}),
                 "rotation_error_deg": _rotation_error_deg(check, trial.rig, stale, name),
+                "rotation_bound_deg": _bound_deg(check, name),
+                "within_bound": float(_within_bound(check, trial.rig, stale, name)),
                 "estimated_shift_mm": check.camera(name).shift_mm,
                 "mpjpe_true_mm": _mpjpe_mm(trial, trial.rig), "mpjpe_stale_mm": _mpjpe_mm(trial, stale),
                 "mpjpe_refined_mm": _mpjpe_mm(trial, ref["flagged"]["rig"]),
@@ -216,6 +233,7 @@ def real_demo(axes: int) -> dict:
             rows.append({
                 "flagged_plain": list(plain.moved), "flagged": list(check.moved), "detected": check.moved == (name,),
                 "rotation_error_deg": _rotation_error_deg(check, rig, stale, name),
+                "rotation_bound_deg": _bound_deg(check, name), "within_bound": _within_bound(check, rig, stale, name),
                 "reprojection_stale_px": _median_reprojection_px(det, stale),
                 "reprojection_refined_px": _median_reprojection_px(det, ref["flagged"]["rig"]),
                 "refined_rotation_deg": ref["flagged"]["rotation_deg"], "refined_centre_mm": ref["flagged"]["centre_mm"],
@@ -224,8 +242,9 @@ def real_demo(axes: int) -> dict:
         out[label] = {"detection_rate": float(np.mean([r["detected"] for r in rows])),
                       "flagged_plain": [",".join(r["flagged_plain"]) or "-" for r in rows],
                       "flagged": [",".join(r["flagged"]) or "-" for r in rows],
+                      "within_bound": float(np.mean([r["within_bound"] for r in rows])),
                       **{key: round(float(np.max([r[key] for r in rows])), 3)
-                         for key in ("rotation_error_deg", "refined_rotation_deg", "refined_centre_mm",
+                         for key in ("rotation_error_deg", "rotation_bound_deg", "refined_rotation_deg", "refined_centre_mm",
                                      "refined_all_rotation_deg", "refined_all_centre_mm")},
                       **{key: round(float(np.mean([r[key] for r in rows])), 2)
                          for key in ("reprojection_stale_px", "reprojection_refined_px")}}
@@ -264,12 +283,14 @@ def table(result: dict) -> str:
         lines.append(f"Synthetic, rig as calibrated: {un['false_alarms']} false alarm(s) in {un['trials']} trials "
                      f"(largest field {un['max_field_px']} px; check {un['check_s']} s per trial)")
     if result.get("synthetic_moved"):
-        lines.append(f"{'synthetic case':18} {'detected':>8} {'others':>6} {'rot err':>8} {'MPJPE true':>10} "
+        lines.append(f"{'synthetic case':18} {'detected':>8} {'others':>6} {'rot err':>8} {'bound':>6} {'within':>6} "
+                     f"{'MPJPE true':>10} "
                      f"{'stale':>7} {'refined':>8} {'vs true':>8} {'cam back':>9} {'centre':>7}   "
                      f"{'all free: MPJPE':>15} {'cam back':>9} {'centre':>7}")
     for label, r in result.get("synthetic_moved", {}).items():
         lines.append(f"{label:18} {r['detection_rate']:8.0%} {r['others_flagged']:6d} "
-                     f"{r['rotation_error_deg_max']:7.2f}° {r['mpjpe_true_mm']:8.1f}mm {r['mpjpe_stale_mm']:5.1f}mm "
+                     f"{r['rotation_error_deg_max']:7.2f}° {r['rotation_bound_deg_max']:5.2f}° {r['within_bound']:6.0%} "
+                     f"{r['mpjpe_true_mm']:8.1f}mm {r['mpjpe_stale_mm']:5.1f}mm "
                      f"{r['mpjpe_refined_mm']:6.1f}mm {r['refined_vs_true_pct']:7.1f}% {r['refined_rotation_deg_max']:8.2f}° "
                      f"{r['refined_centre_mm_max']:5.1f}mm   {r['mpjpe_refined_all_mm']:13.1f}mm "
                      f"{r['refined_all_rotation_deg_max']:8.2f}° {r['refined_all_centre_mm_max']:5.1f}mm")
@@ -286,13 +307,15 @@ def table(result: dict) -> str:
                      f"trial, {real['baseline_frames']} frames): as given flagged {given['flagged'] or 'none'}, with the "
                      f"baseline {given['flagged_with_baseline'] or 'none'}; median reprojection {given['reprojection_px']} "
                      f"px; fields {given['fields_px']}")
-        lines.append(f"{'real case':16} {'no baseline':>26} {'with baseline':>26} {'rot err':>8} {'reproj stale':>12} "
+        lines.append(f"{'real case':16} {'no baseline':>26} {'with baseline':>26} {'rot err':>8} {'bound':>6} "
+                     f"{'within':>6} {'reproj stale':>12} "
                      f"{'refined':>8} {'cam back':>9} {'centre':>7}   {'all free: back':>14} {'centre':>7}   "
                      f"({real['axes']} axes; max over them)")
         for label in CASES:
             r = real[label]
             lines.append(f"{label:16} {' '.join(r['flagged_plain']):>26} {' '.join(r['flagged']):>26} "
-                         f"{r['rotation_error_deg']:7.2f}° {r['reprojection_stale_px']:10.2f}px "
+                         f"{r['rotation_error_deg']:7.2f}° {r['rotation_bound_deg']:5.2f}° {r['within_bound']:6.0%} "
+                         f"{r['reprojection_stale_px']:10.2f}px "
                          f"{r['reprojection_refined_px']:6.2f}px {r['refined_rotation_deg']:8.2f}° "
                          f"{r['refined_centre_mm']:5.1f}mm   {r['refined_all_rotation_deg']:13.2f}° "
                          f"{r['refined_all_centre_mm']:5.1f}mm")

@@ -3,11 +3,17 @@
 "use strict";
 
 const rigNum = (x, digits) => (x === null || x === undefined ? "–" : Number(x).toFixed(digits));
+// An estimate with how far this trial lets it be off ("1.5 ± 4.5"); the bound alone is shown as stored
+// (rotation: the largest over the camera's axes); checks stored before the bounds show the estimate only.
+const rigBound = (bound) => (Array.isArray(bound) ? Math.max(...bound) : bound);
+const rigEstimate = (x, bound, digits) => (bound === null || bound === undefined || x === null || x === undefined
+  ? rigNum(x, digits) : `${rigNum(x, digits)} ± ${rigNum(rigBound(bound), digits)}`);
 
 function rigCheckRow(c) {
   const result = !c.judged ? "not judged" : (c.moved ? "MOVED" : "in place");
   return `<tr><td>${esc(c.name)}</td><td class="${c.moved ? "cal-fail" : (c.judged ? "cal-pass" : "")}">${result}</td>
-    <td>${rigNum(c.rotation_deg, 2)}</td><td>${rigNum(c.shift_mm, 1)}</td><td>${rigNum(c.field_px, 2)}</td></tr>`;
+    <td>${rigEstimate(c.rotation_deg, c.rotation_bound_deg, 2)}</td><td>${rigEstimate(c.shift_mm, c.shift_bound_mm, 1)}</td>
+    <td>${rigNum(c.field_px, 2)}</td></tr>`;
 }
 
 function rigCheckSummary(check) {
@@ -15,7 +21,8 @@ function rigCheckSummary(check) {
   const seen = `trial ${check.trial_id} (patient ${check.subject_id}, checked ${when})`;
   if (!check.flagged) return `No camera moved since calibration: ${seen}.`;
   const moved = check.cameras.filter((c) => c.moved)
-    .map((c) => `${c.name} (about ${rigNum(c.rotation_deg, 1)} deg, ${rigNum(c.shift_mm, 0)} mm)`).join(", ");
+    .map((c) => `${c.name} (about ${rigEstimate(c.rotation_deg, c.rotation_bound_deg, 1)} deg, `
+      + `${rigEstimate(c.shift_mm, c.shift_bound_mm, 0)} mm)`).join(", ");
   return `Camera ${moved} moved since calibration, seen in ${seen}. Recalibrate, or refine the rig from `
     + "people (gaitcap refine-rig), before the next patient.";
 }

@@ -13,7 +13,17 @@ to them with a robust loss:
 How much of the systematic field the noise alone could produce is measured, not assumed: the frames are
 split into blocks (contiguous in time, since detector errors are correlated from frame to frame) and the
 pose is refitted without each block in turn (a delete-one-block jackknife); the spread of those fields
-gives the field's standard error. A camera is flagged as moved when its field exceeds ``min_field_px``,
+gives the field's standard error.
+
+How finely the trial determines the pose is measured too: the rotation (deg, about the camera's x, y and
+optical axis) and shift (mm) that a systematic field of 1 px could produce at the trial's points (from the
+refit's information matrix, so a turn that a shift of the centre can mimic, or a turn about the optical
+axis of a person seen near the image centre, counts as poorly determined), times twice the **floor**: the
+field the detector's own bias and noise leave the cameras that did not move (their median; twice, as one
+camera's own bias may exceed the median).
+Each camera's estimate comes with those bounds (``rotation_bound_deg``, ``shift_bound_mm``), so a person
+standing in one place, who cannot tell a turn from a shift, gives a rotation that says how little it is
+worth. A camera is flagged as moved when its field exceeds ``min_field_px``,
 ``significance`` standard errors and ``rig_ratio`` times the other cameras' median field (a real detector
 leaves every camera a field of its own; a moved camera stands out), and its estimated rotation (deg) or
 shift (mm) reaches the configured size. Cameras are judged worst first: once a camera is flagged it is left
@@ -37,6 +47,7 @@ from gaitcap.reconstruction.triangulation import robust_triangulate
 log = logging.getLogger(__name__)
 
 RAYLEIGH_MEDIAN = float(np.sqrt(2 * np.log(2)))  # median of |e| / sigma for 2D Gaussian noise
+BOUND_FACTOR = 2.0  # the bounds are this many floors: the floor is a median, and one camera's bias may exceed it
 
 
 @dataclass(frozen=True)
@@ -111,6 +122,11 @@ class CameraCheck:
         baseline: how it was judged: ``none`` (no baseline trial given), ``compared`` (the change since the
             baseline trial) or ``not judged there`` (the baseline trial saw too few of its keypoints: judged
             without it, and said so).
+        resolution_deg_per_px: the rotation (deg) about the camera's x (tilt), y (pan) and z (optical) axis
+            that a systematic field of 1 px could produce at this trial's points (with a baseline, the larger
+            of the trial's and the baseline's) (3,).
+        resolution_mm_per_px: the shift of the centre (mm, worst direction) a field of 1 px could produce.
+        floor_px: the field (px) the detector's bias leaves the cameras that did not move (see the module).
     """
 
     name: str
@@ -128,9 +144,23 @@ class CameraCheck:
     turn_deg: tuple[float, float, float] = (float("nan"),) * 3
     shift_vector_mm: tuple[float, float, float] = (float("nan"),) * 3
     baseline: str = "none"
+    resolution_deg_per_px: tuple[float, float, float] = (float("nan"),) * 3
+    resolution_mm_per_px: float = float("nan")
+    floor_px: float = float("nan")
+
+    @property
+    def rotation_bound_deg(self) -> tuple[float, float, float]:
+        """How far (deg) the estimated rotation may be off about the camera's x, y and optical axis: the
+        rotation a field of twice the floor could produce (3,); NaN where not judged."""
+        return tuple(float(BOUND_FACTOR * r * self.floor_px) for r in self.resolution_deg_per_px)
+
+    @property
+    def shift_bound_mm(self) -> float:
+        """How far (mm) the estimated shift may be off (worst direction); NaN where not judged."""
+        return float(BOUND_FACTOR * self.resolution_mm_per_px * self.floor_px)
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        return asdict(self) | {"rotation_bound_deg": self.rotation_bound_deg, "shift_bound_mm": self.shift_bound_mm}
 
 
 @dataclass(frozen=True)
@@ -163,10 +193,21 @@ class RigCheck:
 @dataclass(frozen=True, eq=False)
 class PoseFit:
     """A camera pose refitted to fixed points: rotation ``turn`` (3, 3) applied after the calibrated one
-    (world -> camera: R = turn @ R0), centre moved by ``shift_mm`` (3,)."""
+    (world -> camera: R = turn @ R0), centre moved by ``shift_mm`` (3,). ``information`` (6, 6): the
+    refit's weighted mean J^T J at the solution (px^2 per rad^2 of the rotation vector, per mm^2 of the
+    shift); None for a pose that was not fitted."""
 
     turn: np.ndarray
     shift_mm: np.ndarray
+    information: np.ndarray | None = None
+
+    def resolution(self) -> tuple[np.ndarray, float]:
+        """The rotation (deg, about the camera's x, y, z axes) (3,) and the shift (mm, worst direction) a
+        systematic field of 1 px rms could produce: the square roots of the inverse information's diagonal
+        (rotation; the shift's uncertainty traded with it) and of its shift block's largest eigenvalue."""
+        cov = np.linalg.pinv(self.information)
+        rot = np.degrees(np.sqrt(np.clip(np.diag(cov)[:3], 0.0, None)))
+        return rot, float(np.sqrt(max(np.linalg.eigvalsh(cov[3:, 3:]).max(), 0.0)))
 
     def apply(self, cam: Camera) -> Camera:
         rot = self.turn @ cam.rotation
@@ -205,7 +246,7 @@ def refit_pose(cam: Camera, points_mm: np.ndarray, uv_px: np.ndarray, *, scale_p
         params = params + delta
         if np.abs(delta[:3]).max() < 1e-8 and np.abs(delta[3:]).max() < 1e-4:
             break
-    return PoseFit(rodrigues_batch(params[:3]), params[3:].copy())
+    return PoseFit(rodrigues_batch(params[:3]), params[3:].copy(), hess / max(float(w2.sum()) / 2, 1e-12))
 
 
 def _field_px(cam: Camera, fit: PoseFit, points_mm: np.ndarray, reference: PoseFit) -> float:
@@ -280,13 +321,18 @@ def _judge(cam: Camera, ev: _Evidence, points_all: np.ndarray, uv_all: np.ndarra
     se = float(np.hypot(_field_se_px(jackknife), reference.field_se_px if reference is not None else 0.0))
     refit_cam = fit.apply(cam)
     change = PoseFit(fit.turn @ base.turn.T, fit.shift_mm - base.shift_mm)
+    rot_res, shift_res = fit.resolution()
+    if reference is not None:  # the change is only as well determined as the less determined of the two trials
+        rot_res = np.maximum(rot_res, reference.resolution_deg_per_px)
+        shift_res = max(shift_res, reference.resolution_mm_per_px)
     big = change.rotation_deg >= config.min_rotation_deg or float(np.linalg.norm(change.shift_mm)) >= config.min_shift_mm
     moved = bool(field >= config.min_field_px and field >= config.significance * se and big)  # rig_ratio: later
     return CameraCheck(
         cam.name, True, n, _median_error(cam, ev.points_mm, ev.uv_px), _median_error(cam, points_all, uv_all),
         _median_error(refit_cam, ev.points_mm, ev.uv_px), expected, field, se, change.rotation_deg,
         float(np.linalg.norm(change.shift_mm)), moved, tuple(float(v) for v in np.degrees(rvec_of(change.turn))),
-        tuple(float(v) for v in change.shift_mm),
+        tuple(float(v) for v in change.shift_mm), resolution_deg_per_px=tuple(float(v) for v in rot_res),
+        resolution_mm_per_px=float(shift_res),
     )
 
 
@@ -390,9 +436,16 @@ def check_rig(detections: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray, *
         judge.final[worst] = current[worst]
         current = others
     judge.final.update({c: replace(chk, moved=False) if chk.moved else chk for c, chk in current.items()})
-    checks = judge.final
-    cams = tuple(checks[c] for c in range(c_count))
+    cams = _with_floor(tuple(judge.final[c] for c in range(c_count)))
     return RigCheck(cams, tuple(_warning(chk) for chk in cams if chk.moved) + _unjudged(cams) + _without_baseline(cams))
+
+
+def _with_floor(cams: tuple[CameraCheck, ...]) -> tuple[CameraCheck, ...]:
+    """The checks with the floor set: the median field (px) of the judged cameras not flagged (of all judged
+    cameras when every one is flagged)."""
+    still = [c.field_px for c in cams if c.judged and not c.moved] or [c.field_px for c in cams if c.judged]
+    floor = float(np.median(still)) if still else float("nan")
+    return tuple(replace(c, floor_px=floor) if c.judged else c for c in cams)
 
 
 def _reference_judge(baseline: MultiViewKeypoints | None, rig: Rig, trial_joints: int,
@@ -419,10 +472,17 @@ def _reference_judge(baseline: MultiViewKeypoints | None, rig: Rig, trial_joints
 def _warning(chk: CameraCheck) -> str:
     promised = f", the calibration promised {chk.expected_px:.2f} px" if chk.expected_px is not None else ""
     return (f"Camera {chk.name} appears to have moved since calibration: about {chk.rotation_deg:.1f} deg of "
-            f"rotation and {chk.shift_mm:.0f} mm of shift; its keypoints sit {chk.field_px:.1f} px off the other "
+            f"rotation and {chk.shift_mm:.0f} mm of shift ({_bounds_text(chk)}); its keypoints sit {chk.field_px:.1f} px off the other "
             f"cameras' points in a consistent direction (median error {chk.residual_px:.1f} px, "
             f"{chk.refit_residual_px:.1f} px once refitted{promised}). Recalibrate or refine the rig before "
             f"the next patient.")
+
+
+def _bounds_text(chk: CameraCheck) -> str:
+    """How well the trial determines the estimate, in words."""
+    tilt, pan, roll = chk.rotation_bound_deg
+    return (f"this trial determines the rotation to within {max(tilt, pan):.1f} deg in pan and tilt and "
+            f"{roll:.1f} deg about the optical axis, the shift to within {chk.shift_bound_mm:.0f} mm")
 
 
 def _without_baseline(cams: tuple[CameraCheck, ...]) -> tuple[str, ...]:

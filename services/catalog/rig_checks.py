@@ -11,8 +11,8 @@ from gaitcap.services.catalog.models import Trial, TrialQuality
 from gaitcap.services.catalog.states import FINISHED
 from sqlalchemy import select
 
-CAMERA_FIELDS = ("name", "judged", "moved", "rotation_deg", "shift_mm", "field_px", "residual_px", "expected_px",
-                 "points")
+CAMERA_FIELDS = ("name", "judged", "moved", "rotation_deg", "rotation_bound_deg", "shift_mm", "shift_bound_mm",
+                 "field_px", "residual_px", "expected_px", "points")
 
 
 def _summary(trial: Trial, checked_at: float, rig: dict) -> dict:
@@ -26,8 +26,9 @@ def _summary(trial: Trial, checked_at: float, rig: dict) -> dict:
 def latest_rig_check(catalog: Catalog, *, look_back: int = 20) -> dict | None:
     """The rig check of the most recently processed trial that ran one (among the last ``look_back``
     finished trials), or None: {trial_id, subject_id, checked_at (UNIX s), calibration_id, flagged, moved,
-    warnings, notes, cameras: [{name, judged, moved, rotation_deg, shift_mm, field_px (px), residual_px,
-    expected_px, points}]}."""
+    warnings, notes, cameras: [{name, judged, moved, rotation_deg, rotation_bound_deg (deg about the camera's x,
+    y and optical axis; absent for checks stored before the bounds), shift_mm, shift_bound_mm, field_px (px),
+    residual_px, expected_px, points}]}."""
     with catalog.reading() as s:
         q = (select(Trial, TrialQuality).join(TrialQuality, TrialQuality.trial_id == Trial.id)
              .where(Trial.state.in_([x.value for x in FINISHED])).order_by(TrialQuality.updated_at.desc())

@@ -37,11 +37,11 @@ def _patient(path: Path, rig):
 def _check_table(name: str, check) -> str:
     lines = [f"{name}: " + ("cameras moved: " + ", ".join(check.moved) if check.flagged else "no camera moved"),
              f"  {'camera':<10} {'points':>6} {'error px':>9} {'refit px':>9} {'field px':>9} {'+-':>5} "
-             f"{'rot deg':>8} {'shift mm':>9}  moved"]
+             f"{'rot deg':>8} {'+- deg':>6} {'shift mm':>9} {'+- mm':>6}  moved"]
     for c in check.cameras:
         lines.append(f"  {c.name:<10} {c.points:>6} {c.residual_px:>9.2f} {c.refit_residual_px:>9.2f} "
-                     f"{c.field_px:>9.2f} {c.field_se_px:>5.2f} {c.rotation_deg:>8.2f} {c.shift_mm:>9.1f}  "
-                     f"{'YES' if c.moved else 'no'}")
+                     f"{c.field_px:>9.2f} {c.field_se_px:>5.2f} {c.rotation_deg:>8.2f} {max(c.rotation_bound_deg):>6.2f} "
+                     f"{c.shift_mm:>9.1f} {c.shift_bound_mm:>6.0f}  {'YES' if c.moved else 'no'}")
     return "\n".join(lines + [f"  {w}" for w in check.warnings])
 
 

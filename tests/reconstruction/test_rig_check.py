@@ -59,8 +59,27 @@ def test_rotated_camera_is_named_with_its_rotation(trial):
     true_turn = trial.rig[MOVED].rotation @ calib[MOVED].rotation.T
     err = rotation_angle_deg(rodrigues_to_matrix(np.radians(est.turn_deg)), true_turn)
     assert err < 0.3
+    assert_within_bounds(est, true_turn)
+    assert max(est.rotation_bound_deg) < 0.5 and est.shift_bound_mm < 30.0  # a walking patient determines it
     assert est.refit_residual_px < 0.8 * est.residual_px  # the refitted pose explains a large share
     assert any(MOVED in w and "deg" in w and "mm" in w for w in check.warnings)
+
+
+def assert_within_bounds(est, true_turn: np.ndarray) -> None:
+    """The estimated rotation's error about each camera axis (x, y, optical) lies within the check's bound."""
+    err = np.degrees(rvec_of(rodrigues_to_matrix(np.radians(est.turn_deg)) @ true_turn.T))
+    assert np.all(np.abs(err) <= np.asarray(est.rotation_bound_deg)), (err, est.rotation_bound_deg)
+
+
+def test_the_estimates_bounds_hold_on_a_rig_as_calibrated(trial):
+    """No camera moved: every camera's estimated rotation (the truth: none) lies within its bounds, and
+    its estimated shift within the shift bound; the floor is the unmoved cameras' median field."""
+    check = run_check(trial, trial.rig)
+    assert check.camera("cam01").floor_px == pytest.approx(np.median([c.field_px for c in check.cameras]))
+    for cam in check.cameras:
+        assert_within_bounds(cam, np.eye(3))
+        assert cam.shift_mm <= cam.shift_bound_mm, (cam.name, cam.shift_mm, cam.shift_bound_mm)
+        assert set(cam.to_dict()) >= {"rotation_bound_deg", "shift_bound_mm", "floor_px"}
 
 
 def test_shifted_camera_is_flagged(trial):
@@ -162,6 +181,12 @@ def test_real_demo_turned_camera_is_blamed_on_it_against_the_sessions_static_tri
     check = check_rig(det, calib, robust_triangulate(det, calib).points_mm,
                       baseline=seen_from(static, rig, calib, "cam_02"))
     assert check.moved == ("cam_02",), [(c.name, c.field_px, c.field_se_px) for c in check.cameras]
+    # a person balancing in place does not tell a turn from a shift of the centre: the estimate says so
+    est = check.camera("cam_02")
+    assert_within_bounds(est, rig["cam_02"].rotation @ calib["cam_02"].rotation.T)
+    assert min(est.rotation_bound_deg) > 1.0 and est.shift_bound_mm > 100.0
+    warning = next(w for w in check.warnings if "cam_02" in w)
+    assert f"within {max(est.rotation_bound_deg[:2]):.1f} deg in pan and tilt" in warning
 
 
 def test_refinement_of_the_flagged_camera_alone_keeps_the_others(trial):
