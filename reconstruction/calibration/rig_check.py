@@ -257,7 +257,8 @@ def _field_px(cam: Camera, fit: PoseFit, points_mm: np.ndarray, reference: PoseF
     return float(np.median(np.linalg.norm(moved - ref, axis=-1)))
 
 
-def _frames(num_frames: int, max_frames: int) -> np.ndarray:
+def checked_frames(num_frames: int, max_frames: int = RigCheckConfig.max_frames) -> np.ndarray:
+    """The frame indices the check uses: at most ``max_frames``, evenly spaced."""
     step = max(1, int(np.ceil(num_frames / max_frames)))
     return np.arange(0, num_frames, step)
 
@@ -412,7 +413,7 @@ def check_rig(detections: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray, *
         raise ValueError(f"rig check: points_mm must be (T, J, 3) = ({t_count}, {j_count}, 3), got {points_mm.shape}")
     if c_count < 3:
         raise ValueError(f"rig check: needs at least 3 cameras (2 besides the one judged), got {list(det.camera_names)}")
-    frames = _frames(t_count, config.max_frames)
+    frames = checked_frames(t_count, config.max_frames)
     det = _subset(det, frames)
     points_mm = points_mm[frames]
     expected = dict(expected_px or {})
@@ -464,7 +465,7 @@ def _reference_judge(baseline: MultiViewKeypoints | None, rig: Rig, trial_joints
                          f"{trial_joints}")
     order = [names.index(n) for n in rig.names]
     det = MultiViewKeypoints.of_one_person(baseline.one_person[order], tuple(rig.names), baseline.times_s, baseline.skeleton)
-    det = _subset(det, _frames(det.shape[1], config.max_frames))
+    det = _subset(det, checked_frames(det.shape[1], config.max_frames))
     points = robust_triangulate(det, rig).points_mm
     return _Judge(det, rig, points, {}, config)
 

@@ -23,6 +23,24 @@ def _summary(trial: Trial, checked_at: float, rig: dict) -> dict:
             "cameras": [{k: c.get(k) for k in CAMERA_FIELDS} for c in (rig.get("cameras") or {}).values()]}
 
 
+def baseline_trial_id(catalog: Catalog, calibration_id: str | None, *, excluding: str) -> str | None:
+    """The rig check's baseline under calibration ``calibration_id``: the first finished trial (by Start)
+    under it, other than ``excluding``, whose own rig check ran and found no camera moved; None when there
+    is none (or no calibration is recorded)."""
+    if calibration_id is None:
+        return None
+    with catalog.reading() as s:
+        q = (select(Trial, TrialQuality).join(TrialQuality, TrialQuality.trial_id == Trial.id)
+             .where(Trial.calibration_id == calibration_id, Trial.id != excluding,
+                    Trial.state.in_([x.value for x in FINISHED]))
+             .order_by(Trial.started_at, Trial.created_at))
+        for trial, quality in s.execute(q):
+            rig = ((json.loads(quality.sections_json).get("processing") or {}).get("checks") or {}).get("rig") or {}
+            if rig.get("run") and not rig.get("flagged"):
+                return trial.id
+    return None
+
+
 def latest_rig_check(catalog: Catalog, *, look_back: int = 20) -> dict | None:
     """The rig check of the most recently processed trial that ran one (among the last ``look_back``
     finished trials), or None: {trial_id, subject_id, checked_at (UNIX s), calibration_id, flagged, moved,

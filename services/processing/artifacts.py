@@ -64,6 +64,12 @@ class TrialFiles:
         return self.root / "checks.json"
 
     @property
+    def rig_keypoints_npz(self) -> Path:
+        """The patient's 2D keypoints the rig check judged (its frames only): the baseline of the rig
+        checks of later trials under the same calibration (written by the one processing path)."""
+        return self.root / "rig_keypoints.npz"
+
+    @property
     def patient_choice_json(self) -> Path:
         """The clinician's choice of the patient's track (written by the API; wins over automatic)."""
         return self.root / "patient_choice.json"

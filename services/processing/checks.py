@@ -14,6 +14,7 @@ rule is a data problem of that stage, never a clinical finding.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 from gaitcap.reconstruction.camera import Rig
@@ -22,7 +23,19 @@ from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 log = logging.getLogger(__name__)
 
 
-def one_person_check(det: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray) -> dict:
+@dataclass(frozen=True, eq=False)
+class CheckContext:
+    """What a trial's checks may compare with besides the trial itself: ``rig_baseline``, the patient's
+    keypoints of an earlier trial under the same calibration (the rig check's baseline, see
+    :func:`rig_check`), and ``baseline_trial``, that trial's id (named in the check). Without one (no
+    earlier trial, or an input outside the clinic) each camera's ``baseline`` reads ``none``."""
+
+    rig_baseline: MultiViewKeypoints | None = None
+    baseline_trial: str | None = None
+
+
+def one_person_check(det: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray,
+                     context: CheckContext = CheckContext()) -> dict:
     """``check_one_person`` of the patient's detections (C, T, J, 3) px and points (T, J, 3) mm, with the
     mix as a warning."""
     from gaitcap.reconstruction.people_check import check_one_person
@@ -31,19 +44,37 @@ def one_person_check(det: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray) -
     return {**verdict.to_dict(), "warnings": [verdict.message] if verdict.mixed else [], "notes": []}
 
 
-def rig_check(det: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray) -> dict:
+def rig_check(det: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray, context: CheckContext = CheckContext()) -> dict:
     """``check_rig`` of the patient's detections and points: a moved camera is a warning (named, with its
-    rotation deg and shift mm); a camera that could not be judged, or a rig too small to check, a note."""
+    rotation deg and shift mm and how far the trial lets them be off); a camera that could not be judged,
+    or a rig too small to check, a note. With ``context.rig_baseline`` each camera is judged by the change
+    since that trial (``baseline_trial`` names it); a baseline that cannot be compared (another camera set
+    or keypoint layout) is set aside with a note naming why."""
     from gaitcap.reconstruction.calibration.rig_check import check_rig
 
+    notes, baseline = [], context.rig_baseline
     try:
-        result = check_rig(det, rig, points_mm)
+        try:
+            result = check_rig(det, rig, points_mm, baseline=baseline)
+        except ValueError as exc:
+            if baseline is None:
+                raise
+            notes.append(f"Rig check: the baseline trial {context.baseline_trial} was set aside ({exc})")
+            baseline, result = None, check_rig(det, rig, points_mm)
     except ValueError as exc:  # fewer than 3 cameras: nothing to judge a camera against
-        return {"run": False, "flagged": False, "moved": [], "warnings": [], "notes": [str(exc)]}
+        return {"run": False, "flagged": False, "moved": [], "warnings": [], "notes": notes + [str(exc)]}
     moved = set(result.moved)
     warnings = [w for w in result.warnings if any(f"Camera {name} " in w for name in moved)]
     return {**result.to_dict(), "run": True, "warnings": warnings,
-            "notes": [w for w in result.warnings if w not in warnings]}
+            "baseline_trial": context.baseline_trial if baseline is not None else None,
+            "notes": notes + [w for w in result.warnings if w not in warnings] + _baseline_note(context, baseline)}
+
+
+def _baseline_note(context: CheckContext, used: MultiViewKeypoints | None) -> list[str]:
+    if used is None:
+        return []
+    return [f"Rig check: each camera judged by its change since trial {context.baseline_trial}, the first trial "
+            "under this calibration whose check found no camera moved."]
 
 
 def completion_check(report) -> dict:

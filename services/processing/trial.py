@@ -42,6 +42,7 @@ from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
 from gaitcap.services.processing.checks import (
+    CheckContext,
     completion_check,
     one_person_check,
     rig_check,
@@ -142,6 +143,7 @@ class TrialOptions:
     files; ``criteria``: the data-quality thresholds; ``rerun``: the .rrd's settings; ``truth_mm``:
     ground-truth points (T, J, 3) mm for the methods' metrics (research), or None; ``checks``: the trial's
     checks of its results run on the first stage (names of :data:`CHECKS`), into the quality block;
+    ``check_context``: what the checks compare with (the rig check's baseline trial);
     ``completion``: how the recorded frames without live keypoints are detected from the images before the
     last stage (:class:`~gaitcap.services.processing.completion.CompletionSettings`), or None."""
 
@@ -156,6 +158,7 @@ class TrialOptions:
     rerun: RerunSettings = RerunSettings()
     truth_mm: np.ndarray | None = None
     checks: tuple[str, ...] = tuple(CHECKS)
+    check_context: CheckContext = CheckContext()
     completion: CompletionSettings | None = None
 
     def __post_init__(self) -> None:
@@ -368,9 +371,11 @@ class _TrialRun:
         ``sink.checked``."""
         self.sink.progress("checking the rig and the reconstruction", 0.96, _last(self.stages))
         with self.timed("checks"):
-            self.quality = checked_quality(self.quality, *self.first, self.options.checks)
+            self.quality = checked_quality(self.quality, *self.first, self.options.checks, self.options.check_context)
         if self.files is not None:
             write_checks(self.files, self.quality)
+            if "rig" in self.options.checks:
+                write_rig_keypoints(self.files, self.first[0])
         self.sink.checked(self.quality)
 
     def kinematics(self) -> None:
@@ -454,12 +459,23 @@ def write_checks(files: TrialFiles, quality: DataQuality) -> None:
     atomic_write_text(files.checks_json, json.dumps(json_ready(quality.checks), indent=1) + "\n")
 
 
-def checked_quality(quality: DataQuality, det, rig: Rig, points_mm: np.ndarray, checks) -> DataQuality:
+def checked_quality(quality: DataQuality, det, rig: Rig, points_mm: np.ndarray, checks,
+                    context: CheckContext = CheckContext()) -> DataQuality:
     """The quality with the trial's ``checks`` (names of :data:`CHECKS`) of the first stage's points
     (T, J, 3) mm."""
     for name in checks:
-        quality = with_check(quality, name, CHECKS[name](det, rig, points_mm))
+        quality = with_check(quality, name, CHECKS[name](det, rig, points_mm, context))
     return quality
+
+
+def write_rig_keypoints(files: TrialFiles, det) -> None:
+    """The patient's keypoints of the frames the rig check judges, for later trials' rig checks."""
+    from gaitcap.acquisition.writers import save_detections_npz
+    from gaitcap.reconstruction.calibration.rig_check import checked_frames
+
+    frames = checked_frames(det.shape[1])
+    save_detections_npz(type(det).of_one_person(det.one_person[:, frames], det.camera_names, det.times_s[frames],
+                                                det.skeleton), files.rig_keypoints_npz)
 
 
 def trial_quality(data: TrialInput, recording, det, rig: Rig, criteria: QualityCriteria) -> DataQuality:

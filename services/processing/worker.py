@@ -29,6 +29,7 @@ from gaitcap.services.catalog.method_keys import params_key
 from gaitcap.services.kinematics.shown import patient_age
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.calibration_job import fail_calibration, run_calibration
+from gaitcap.services.processing.checks import CheckContext
 from gaitcap.services.processing.completion import CompletionSettings
 from gaitcap.services.processing.outputs import steps_of, summary_of
 from gaitcap.services.processing.pipeline import enable_compile_cache, ring_rig, warm_up
@@ -133,6 +134,25 @@ def with_calibration_version(db: cat.Catalog, trial_id: str, data: TrialInput) -
     return replace(data, rig=rig, keypoints=replace(data.keypoints, rig=rig))
 
 
+def rig_baseline(db: cat.Catalog, data_dir: Path, trial: cat.TrialInfo) -> CheckContext:
+    """The rig check's baseline for ``trial``: the patient's keypoints kept by the first trial under its
+    calibration whose check found no camera moved (:func:`~gaitcap.services.catalog.rig_checks.baseline_trial_id`);
+    none when there is no such trial or its keypoints file is missing or unreadable (logged)."""
+    from gaitcap.acquisition.readers import load_detections_npz
+    from gaitcap.services.catalog.rig_checks import baseline_trial_id
+
+    found = baseline_trial_id(db, trial.calibration_id, excluding=trial.id)
+    if found is None:
+        return CheckContext()
+    path = trial_files(data_dir, found).rig_keypoints_npz
+    try:
+        return CheckContext(rig_baseline=load_detections_npz(path), baseline_trial=found)
+    except (OSError, ValueError) as exc:
+        log.warning("trial %s: the rig check's baseline trial %s has no usable keypoints (%s); judging without",
+                    trial.id, found, exc)
+        return CheckContext()
+
+
 def recording_of(trial: cat.TrialInfo) -> Path:
     """The trial's MCAP where the catalog records it; ValueError naming the trial and the path otherwise."""
     if not trial.recording_path:
@@ -225,7 +245,8 @@ class Worker:
         recorded = recording_input(files.recording, fallback_calibration=self.config.fallback_calibration,
                                    completion=self.config.completion)
         data = with_calibration_version(self.db, trial_id, recorded)
-        options = self.options(age_years=patient_age(self.db, trial_id))
+        options = replace(self.options(age_years=patient_age(self.db, trial_id)),
+                          check_context=rig_baseline(self.db, self.config.data_dir, trial))
         inputs = {} if data is recorded else {"calibration": str(trial.calibration_id)}
         sink = CatalogSink(self, trial_id, lease, load_s=time.perf_counter() - t0, options=options, inputs=inputs)
         result = process_trial(data, options, files=files, sink=sink)

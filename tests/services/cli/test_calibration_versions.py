@@ -18,6 +18,7 @@ from gaitcap.services.catalog import calibration_versions as versions
 from gaitcap.services.catalog import method_results as store
 from gaitcap.services.catalog.method_keys import params_key
 from gaitcap.services.cli import app
+from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.worker import Worker, WorkerConfig
 from gaitcap.simulator.rig_faults import with_camera_moved
 from typer.testing import CliRunner
@@ -61,6 +62,7 @@ def clinic(tmp_path_factory):
 def test_a_refined_version_replaces_the_stale_one_and_the_trials_are_reprocessed_under_it(clinic):
     db, tmp, old, trials, truth = clinic
     assert [_rig_check(db, t)["moved"] for t in trials] == [[MOVED], [MOVED]]
+    assert [_rig_check(db, t)["baseline_trial"] for t in trials] == [None, None]  # a flagged trial is no baseline
     recorded = params_key(Robust())  # processed from the recording alone: the key research computes
     assert [store.get_result(db, t, "robust", recorded).stage for t in trials] == ["preliminary"] * 2
     assert versions.trials_using(db, old) == trials
@@ -85,6 +87,10 @@ def test_a_refined_version_replaces_the_stale_one_and_the_trials_are_reprocessed
     for t in trials:
         assert cat.get_trial(db, t).state in ("done", "done_with_warnings")
         assert _rig_check(db, t)["moved"] == [], _rig_check(db, t)  # processed with the refined version
+    # the first trial under the new version whose check found nothing moved is the later ones' baseline
+    assert [_rig_check(db, t)["baseline_trial"] for t in trials] == [None, trials[0]]
+    assert {c["baseline"] for c in _rig_check(db, trials[1])["cameras"].values()} <= {"compared", "not judged there"}
+    assert trial_files(tmp, trials[0]).rig_keypoints_npz.is_file()
     assert versions.get_version(db, new).applied_at is not None
     under_new = params_key(Robust(), inputs={"calibration": new})  # never the key of the recording alone
     for t in trials:
