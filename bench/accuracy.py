@@ -68,11 +68,10 @@ def run_anipose(det, rig, *, optim: bool):
 
 
 def _clip(trial, seconds: float):
-    from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 
     n = max(2, int(round(seconds * trial.fps)))
     d = trial.detections
-    return MultiViewKeypoints.of_one_person(d.one_person[:, :n], d.camera_names, d.times_s[:n], d.skeleton), trial.points_mm[:n]
+    return d.frames(slice(None, n)), trial.points_mm[:n]
 
 
 def run(*, preset: str, seconds: float, cameras: int, seed: int, anipose: bool, paper_steps: int,

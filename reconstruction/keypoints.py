@@ -142,6 +142,14 @@ class MultiViewKeypoints:
             raise ValueError(f"keypoints: expected shape (C, T, J, 3), got {kp.shape}")
         return cls(kp[:, :, None], camera_names, times_s, skeleton, **facts)
 
+    def frames(self, index) -> MultiViewKeypoints:
+        """These keypoints at frames ``index`` (a slice or increasing indices over T), with their frame ids,
+        camera timestamps and provenance; ``restarts`` and ``ignored`` (counts over the whole recording) as
+        they are."""
+        return MultiViewKeypoints(self.keypoints[:, index], self.camera_names, self.times_s[index], self.skeleton,
+                                  frame_ids=self.frame_ids[index], timestamps_ns=self.timestamps_ns[:, index],
+                                  provenance=self.provenance[:, index], restarts=self.restarts, ignored=self.ignored)
+
     def confident(self, threshold: float = 0.5) -> np.ndarray:
         """(C, T, P, J) bool: finite x, y and confidence > threshold."""
         return confident_mask(self.keypoints, threshold)

@@ -118,7 +118,7 @@ def _observations(trials: Sequence[MultiViewKeypoints], rig: Rig, config: People
         order = rig.index_of(det.camera_names)  # ValueError naming cameras not in the calibration
         c, t, _, _ = det.shape
         sel = np.arange(0, t, max(1, int(np.ceil(t / config.max_frames))))
-        part = MultiViewKeypoints.of_one_person(det.one_person[:, sel], det.camera_names, det.times_s[sel], det.skeleton)
+        part = det.frames(sel)
         start = robust_triangulate(part, rig.subset(det.camera_names), gamma=config.min_confidence).points_mm
         seen = part.confident(config.min_confidence)[:, :, 0]  # (C, T', J)
         usable = (seen.sum(0) >= config.min_views) & np.isfinite(start).all(-1)

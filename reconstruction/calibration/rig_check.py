@@ -264,7 +264,7 @@ def checked_frames(num_frames: int, max_frames: int = RigCheckConfig.max_frames)
 
 
 def _subset(det: MultiViewKeypoints, frames: np.ndarray) -> MultiViewKeypoints:
-    return MultiViewKeypoints.of_one_person(det.one_person[:, frames], det.camera_names, det.times_s[frames], det.skeleton)
+    return det.frames(frames)
 
 
 def _without(det: MultiViewKeypoints, cameras: list[int]) -> MultiViewKeypoints:

@@ -57,9 +57,7 @@ def frame_chunks(det: MultiViewKeypoints, chunk: int = FRAME_CHUNK):
     t = det.shape[1]
     for start in range(0, t, chunk):
         stop = min(start + chunk, t)
-        part = MultiViewKeypoints.of_one_person(det.one_person[:, start:stop], det.camera_names,
-                                               det.times_s[start:stop], det.skeleton)
-        yield start, pad_detections(part, chunk)
+        yield start, pad_detections(det.frames(slice(start, stop)), chunk)
 
 
 def preliminary(det: MultiViewKeypoints, rig: Rig) -> Reconstruction:

@@ -473,9 +473,7 @@ def write_rig_keypoints(files: TrialFiles, det) -> None:
     from gaitcap.acquisition.writers import save_detections_npz
     from gaitcap.reconstruction.calibration.rig_check import checked_frames
 
-    frames = checked_frames(det.shape[1])
-    save_detections_npz(type(det).of_one_person(det.one_person[:, frames], det.camera_names, det.times_s[frames],
-                                                det.skeleton), files.rig_keypoints_npz)
+    save_detections_npz(det.frames(checked_frames(det.shape[1])), files.rig_keypoints_npz)
 
 
 def trial_quality(data: TrialInput, recording, det, rig: Rig, criteria: QualityCriteria) -> DataQuality:

@@ -123,3 +123,23 @@ def test_confidence_out_of_range_and_person_layout():
     assert out.shape == (2, 4, 2, 26, 3) and names == ("a", "b") and skel.num_joints == 26
     with pytest.raises(ValueError, match=r"\(C, T, P, J, 3\)"):
         validate_keypoints(_one(), ["a", "b"], np.arange(4), "halpe26", layout="(C, T, P, J, 3)")
+
+
+def test_frames_keep_their_frame_facts():
+    """A subset of frames keeps each frame's id, camera timestamps and provenance (so a chunk or the rig
+    check's frames still say where each came from); any number of people."""
+    kp = np.random.default_rng(0).uniform(0, 1, (2, 6, 3, 26, 3))
+    stamps = np.arange(12).reshape(2, 6) * 10
+    stamps[1, 2] = -1
+    prov = np.full((2, 6), LIVE, dtype=np.uint8)
+    prov[0, 4], prov[1, 2] = COMPLETED, MISSING
+    multi = MultiViewKeypoints(kp, ("a", "b"), np.arange(6) / 30, "halpe26", frame_ids=np.arange(6) + 100,
+                               timestamps_ns=stamps, provenance=prov, restarts={"a": 1})
+    part = multi.frames(np.array([1, 2, 4]))
+    assert part.shape == (2, 3, 3, 26)
+    np.testing.assert_array_equal(part.keypoints, kp[:, [1, 2, 4]])
+    np.testing.assert_array_equal(part.frame_ids, [101, 102, 104])
+    np.testing.assert_array_equal(part.timestamps_ns, stamps[:, [1, 2, 4]])
+    np.testing.assert_array_equal(part.provenance, prov[:, [1, 2, 4]])
+    assert part.restarts == {"a": 1} and part.skeleton is multi.skeleton
+    np.testing.assert_allclose(multi.frames(slice(3, None)).times_s, np.arange(3, 6) / 30)

@@ -112,8 +112,7 @@ def test_refinement_brings_the_moved_camera_back(trial):
 def halves(det):
     """The trial's first and second half (a reference trial and a later one, the same rig)."""
     mid = det.shape[1] // 2
-    return (type(det).of_one_person(det.one_person[:, :mid], det.camera_names, det.times_s[:mid], det.skeleton),
-            type(det).of_one_person(det.one_person[:, mid:], det.camera_names, det.times_s[mid:], det.skeleton))
+    return det.frames(slice(None, mid)), det.frames(slice(mid, None))
 
 
 def test_against_a_baseline_trial_the_turned_camera_is_named_with_the_turn_since(trial):

@@ -28,8 +28,7 @@ def walk():
 
 def _halves(det):
     mid = det.shape[1] // 2
-    return tuple(type(det).of_one_person(det.one_person[:, part], det.camera_names, det.times_s[part], det.skeleton)
-                 for part in (slice(None, mid), slice(mid, None)))
+    return det.frames(slice(None, mid)), det.frames(slice(mid, None))
 
 
 def _finished(db, calibration_id: str, check: dict | None) -> str:
