@@ -24,6 +24,23 @@ def user_errors() -> Iterator[None]:
         raise typer.Exit(code=2) from None
 
 
+def key_values(items: list[str], *, option: str = "--param") -> dict:
+    """``KEY=VALUE`` options as a dict, each value parsed as JSON where it is JSON (numbers, booleans,
+    lists), else kept as text; ValueError naming the option and the item that is not ``KEY=VALUE``."""
+    import json
+
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise ValueError(f"{option}: expected KEY=VALUE, got {item!r}")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
+
+
 def progress(total: int | None = None, desc: str = "", unit: str = "it"):
     """A tqdm progress bar on stderr (quiet when stderr is not a terminal)."""
     from tqdm import tqdm

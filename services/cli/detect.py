@@ -3,24 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 
 import typer
-from gaitcap.services.cli._common import progress, user_errors
-
-
-def _params(items: list[str]) -> dict:
-    out = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            raise ValueError(f"--param: expected KEY=VALUE, got {item!r}")
-        try:
-            out[key] = json.loads(value)
-        except json.JSONDecodeError:
-            out[key] = value
-    return out
+from gaitcap.services.cli._common import key_values, progress, user_errors
 
 
 def build_detector(kind: str, model: Path | None, param: list[str]):
@@ -35,7 +21,7 @@ def detector_config(kind: str, model: Path | None, param: list[str]):
     from gaitcap.acquisition.detectors.base import config_class
 
     cls = config_class(kind)
-    params = _params(param)
+    params = key_values(param)
     fields = {f.name for f in dataclasses.fields(cls)}
     if model is not None:
         key = "model_path" if "model_path" in fields else "model"

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import typer
 from gaitcap.services.catalog.paths import DEFAULT_DATA_DIR
-from gaitcap.services.cli._common import stop_on_signals, user_errors
+from gaitcap.services.cli._common import key_values, stop_on_signals, user_errors
 
 log = logging.getLogger("gaitcap.node")
 
@@ -140,18 +140,6 @@ def _join_walk(source: str, drivers, epoch_ns: int) -> int:
                           now_ns=time.time_ns())
 
 
-def _param(text: str) -> tuple[str, object]:
-    import json
-
-    key, sep, value = text.partition("=")
-    if not sep or not key:
-        raise ValueError(f"--param: expected KEY=VALUE, got {text!r}")
-    try:
-        return key, json.loads(value)
-    except json.JSONDecodeError:
-        return key, value
-
-
 @node_app.command("detector")
 def detector_cmd(
     node: str = typer.Option("detector", "--node"),
@@ -183,7 +171,7 @@ def detector_cmd(
     from gaitcap.services.nodes.detector import CameraSelection, DetectorNode
 
     with user_errors():
-        params = dict(_param(p) for p in param)
+        params = key_values(param)
         cls = config_class(detector)
         if "trial" in {f.name for f in dataclasses.fields(cls)}:  # simulated: the synthetic trial
             params["trial"] = _sim_options(sim_preset, sim_seconds, sim_cameras, sim_people, sim_seed, fps).make()
