@@ -18,7 +18,8 @@ function rigCheckRow(c) {
 
 function rigCheckSummary(check) {
   const when = new Date(check.checked_at * 1000).toLocaleString();
-  const seen = `trial ${check.trial_id} (patient ${check.subject_id}, checked ${when})`;
+  const against = check.baseline_trial ? `, judged by the change since trial ${check.baseline_trial}` : "";
+  const seen = `trial ${check.trial_id} (patient ${check.subject_id}, checked ${when}${against})`;
   if (!check.flagged) return `No camera moved since calibration: ${seen}.`;
   const moved = check.cameras.filter((c) => c.moved)
     .map((c) => `${c.name} (about ${rigEstimate(c.rotation_deg, c.rotation_bound_deg, 1)} deg, `

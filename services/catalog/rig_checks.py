@@ -19,7 +19,7 @@ def _summary(trial: Trial, checked_at: float, rig: dict) -> dict:
     return {"trial_id": trial.id, "subject_id": trial.subject_id, "checked_at": checked_at,
             "calibration_id": trial.calibration_id, "flagged": bool(rig.get("flagged")),
             "moved": list(rig.get("moved", [])), "warnings": list(rig.get("warnings", [])),
-            "notes": list(rig.get("notes", [])),
+            "notes": list(rig.get("notes", [])), "baseline_trial": rig.get("baseline_trial"),
             "cameras": [{k: c.get(k) for k in CAMERA_FIELDS} for c in (rig.get("cameras") or {}).values()]}
 
 
@@ -44,7 +44,7 @@ def baseline_trial_id(catalog: Catalog, calibration_id: str | None, *, excluding
 def latest_rig_check(catalog: Catalog, *, look_back: int = 20) -> dict | None:
     """The rig check of the most recently processed trial that ran one (among the last ``look_back``
     finished trials), or None: {trial_id, subject_id, checked_at (UNIX s), calibration_id, flagged, moved,
-    warnings, notes, cameras: [{name, judged, moved, rotation_deg, rotation_bound_deg (deg about the camera's x,
+    warnings, notes, baseline_trial (the trial it was judged against, or None), cameras: [{name, judged, moved, rotation_deg, rotation_bound_deg (deg about the camera's x,
     y and optical axis; absent for checks stored before the bounds), shift_mm, shift_bound_mm, field_px (px),
     residual_px, expected_px, points}]}."""
     with catalog.reading() as s:

@@ -90,3 +90,18 @@ def test_a_baseline_of_other_cameras_is_set_aside_and_said(walk):
     assert check["run"] and check["baseline_trial"] is None and not check["flagged"]
     assert any("T-old was set aside" in n and "lacks camera" in n for n in check["notes"]), check["notes"]
     assert {c["baseline"] for c in check["cameras"].values()} == {"none"}
+
+
+def test_the_page_summary_names_the_baseline_trial(tmp_path, walk):
+    """``GET /rig-check/latest`` reads the latest check with the trial it was judged against."""
+    from gaitcap.services.catalog.rig_checks import latest_rig_check
+
+    db = cat.open_catalog(f"sqlite:///{tmp_path / 'catalog.db'}")
+    cal = cat.add_calibration(db, toml=rig_to_toml_text(walk.rig))
+    before, after = _halves(walk.detections)
+    check = rig_check(after, walk.rig, robust_triangulate(after, walk.rig).points_mm,
+                      CheckContext(rig_baseline=before, baseline_trial="T-first"))
+    latest = _finished(db, cal, check)
+    got = latest_rig_check(db)
+    assert got["trial_id"] == latest and got["baseline_trial"] == "T-first" and not got["flagged"]
+    assert all("rotation_bound_deg" in c and "shift_bound_mm" in c for c in got["cameras"])
