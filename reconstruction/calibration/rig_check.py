@@ -94,7 +94,18 @@ class RigCheckConfig:
             raise ValueError(f"rig check: min_confidence must lie in [0, 1), got {self.min_confidence}")
 
 
-NOT_JUDGED_THERE = "not judged there"  # CameraCheck.baseline: the baseline trial could not judge the camera
+# CameraCheck.baseline: how a baseline trial was used for the camera
+COMPARED = "compared"  # judged by the change since the baseline trial
+NOT_JUDGED_THERE = "not judged there"  # the baseline trial saw too few of its keypoints: judged without it
+NO_FIELD_THERE = "no field there"  # the baseline trial showed no field of its own: judged as it is
+
+
+def _has_field(ref: CameraCheck, config: RigCheckConfig) -> bool:
+    """Whether the baseline trial shows the camera a field of its own (the detector's bias with the
+    calibration as is): one the flagging rules would call significant (``min_field_px`` and
+    ``significance`` standard errors). Where it shows none, subtracting its pose offset would only add
+    its noise, so the camera is judged as it is."""
+    return ref.field_px >= config.min_field_px and ref.field_px >= config.significance * ref.field_se_px
 
 
 @dataclass(frozen=True)
@@ -120,8 +131,9 @@ class CameraCheck:
             world -> camera rotation is ``rodrigues(turn) @ R_calibrated``).
         shift_vector_mm: the estimated shift of the centre (3,) mm in the world frame.
         baseline: how it was judged: ``none`` (no baseline trial given), ``compared`` (the change since the
-            baseline trial) or ``not judged there`` (the baseline trial saw too few of its keypoints: judged
-            without it, and said so).
+            baseline trial), ``not judged there`` (the baseline trial saw too few of its keypoints: judged
+            without it, and said so) or ``no field there`` (the baseline trial showed the camera no field
+            of its own, so the change since it would only add the baseline's noise: judged as it is).
         resolution_deg_per_px: the rotation (deg) about the camera's x (tilt), y (pan) and z (optical) axis
             that a systematic field of 1 px could produce at this trial's points (with a baseline, the larger
             of the trial's and the baseline's) (3,).
@@ -376,11 +388,12 @@ class _Judge:
         ev = _evidence(self.det, c, loo, cam, self.config)
         pts_all, uv_all = _all_points(self.det, c, self.points_mm, self.config)
         ref = self.reference.one(c, left_out) if self.reference is not None else None
-        usable = ref if ref is not None and ref.judged else None
+        usable = ref if ref is not None and ref.judged and _has_field(ref, self.config) else None
         chk = _judge(cam, ev, pts_all, uv_all, self.expected.get(cam.name), self.num_frames, self.config, usable)
-        if self.reference is None:
+        if ref is None:
             return chk
-        return replace(chk, baseline="compared" if usable is not None else NOT_JUDGED_THERE)
+        how = COMPARED if usable is not None else NOT_JUDGED_THERE if not ref.judged else NO_FIELD_THERE
+        return replace(chk, baseline=how)
 
     def all_but(self, left_out: list[int]) -> dict[int, CameraCheck]:
         """Every camera but ``left_out`` judged without them; {} where too few cameras are left: 2 views

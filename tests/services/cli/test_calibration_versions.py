@@ -89,7 +89,7 @@ def test_a_refined_version_replaces_the_stale_one_and_the_trials_are_reprocessed
         assert _rig_check(db, t)["moved"] == [], _rig_check(db, t)  # processed with the refined version
     # the first trial under the new version whose check found nothing moved is the later ones' baseline
     assert [_rig_check(db, t)["baseline_trial"] for t in trials] == [None, trials[0]]
-    assert {c["baseline"] for c in _rig_check(db, trials[1])["cameras"].values()} <= {"compared", "not judged there"}
+    assert {c["baseline"] for c in _rig_check(db, trials[1])["cameras"].values()} <= {"compared", "no field there", "not judged there"}
     assert trial_files(tmp, trials[0]).rig_keypoints_npz.is_file()
     assert versions.get_version(db, new).applied_at is not None
     under_new = params_key(Robust(), inputs={"calibration": new})  # never the key of the recording alone
