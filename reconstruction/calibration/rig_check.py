@@ -20,7 +20,7 @@ optical axis) and shift (mm) that a systematic field of 1 px could produce at th
 refit's information matrix, so a turn that a shift of the centre can mimic, or a turn about the optical
 axis of a person seen near the image centre, counts as poorly determined), times twice the **floor**: the
 field the detector's own bias and noise leave the cameras that did not move (their median; twice, as one
-camera's own bias may exceed the median).
+camera's own bias may exceed the median), or the camera's own field's standard error where larger.
 Each camera's estimate comes with those bounds (``rotation_bound_deg``, ``shift_bound_mm``), so a person
 standing in one place, who cannot tell a turn from a shift, gives a rotation that says how little it is
 worth. A camera is flagged as moved when its field exceeds ``min_field_px``,
@@ -138,7 +138,8 @@ class CameraCheck:
             that a systematic field of 1 px could produce at this trial's points (with a baseline, the larger
             of the trial's and the baseline's) (3,).
         resolution_mm_per_px: the shift of the centre (mm, worst direction) a field of 1 px could produce.
-        floor_px: the field (px) the detector's bias leaves the cameras that did not move (see the module).
+        floor_px: the field (px) the detector's bias leaves the cameras that did not move, or this camera's
+            ``field_se_px`` where larger (see the module).
     """
 
     name: str
@@ -456,10 +457,12 @@ def check_rig(detections: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray, *
 
 def _with_floor(cams: tuple[CameraCheck, ...]) -> tuple[CameraCheck, ...]:
     """The checks with the floor set: the median field (px) of the judged cameras not flagged (of all judged
-    cameras when every one is flagged)."""
+    cameras when every one is flagged), or the camera's own field's standard error where that is larger (a
+    refit the trial's frames do not pin down: on an unmoved synthetic camera, 12 px +- 13 px with a
+    1.8 deg turn)."""
     still = [c.field_px for c in cams if c.judged and not c.moved] or [c.field_px for c in cams if c.judged]
     floor = float(np.median(still)) if still else float("nan")
-    return tuple(replace(c, floor_px=floor) if c.judged else c for c in cams)
+    return tuple(replace(c, floor_px=max(floor, c.field_se_px)) if c.judged else c for c in cams)
 
 
 def _reference_judge(baseline: MultiViewKeypoints | None, rig: Rig, trial_joints: int,

@@ -75,11 +75,26 @@ def test_the_estimates_bounds_hold_on_a_rig_as_calibrated(trial):
     """No camera moved: every camera's estimated rotation (the truth: none) lies within its bounds, and
     its estimated shift within the shift bound; the floor is the unmoved cameras' median field."""
     check = run_check(trial, trial.rig)
-    assert check.camera("cam01").floor_px == pytest.approx(np.median([c.field_px for c in check.cameras]))
+    median = np.median([c.field_px for c in check.cameras])
+    assert all(c.floor_px == pytest.approx(max(median, c.field_se_px)) for c in check.cameras)
     for cam in check.cameras:
         assert_within_bounds(cam, np.eye(3))
         assert cam.shift_mm <= cam.shift_bound_mm, (cam.name, cam.shift_mm, cam.shift_bound_mm)
         assert set(cam.to_dict()) >= {"rotation_bound_deg", "shift_bound_mm", "floor_px"}
+
+
+def test_a_refit_the_frames_do_not_pin_down_gets_bounds_as_wide():
+    """On this unmoved 10-camera clinic one camera's refit swings from block to block of frames (a field of
+    12 px with a standard error of 13 px, a turn of almost 2 deg): it is not flagged, and its bounds, from
+    its own standard error, still hold its estimate; every other camera's too."""
+    walk = make_trial(preset="paper", seconds=20.0, cameras=10, seed=4)
+    check = run_check(walk, walk.rig)
+    assert not check.flagged
+    unsure = max(check.cameras, key=lambda c: c.field_se_px)
+    assert unsure.rotation_deg > 1.0 and unsure.floor_px == unsure.field_se_px  # the case this is about
+    for cam in check.cameras:
+        assert_within_bounds(cam, np.eye(3))
+        assert cam.shift_mm <= cam.shift_bound_mm, (cam.name, cam.shift_mm, cam.shift_bound_mm)
 
 
 def test_shifted_camera_is_flagged(trial):
