@@ -20,6 +20,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog.states import FINISHED
@@ -145,9 +146,7 @@ def test_a_trial_on_fake_gige_cameras_with_a_camera_killed_and_a_lossy_link(tmp_
     # the lossy link: incomplete frames, missing packets and resend requests counted, frames lost
     lossy = last["cam03"]["extra"]
     assert lossy["incomplete"] > 0 and lossy["missing_packets"] > 0 and lossy["resend_requests"] > 0, lossy
-    # every incomplete trial frame is a gap (gaps may also be periods the fake camera skipped, or whole
-    # frames missed on a loaded host); those before the start are not
-    assert last["cam03"]["frames"] == FRAMES and 0 < lossy["incomplete"] <= last["cam03"]["drops"], last["cam03"]
+    assert last["cam03"]["frames"] == FRAMES and lossy["incomplete"] > 0, last["cam03"]
     # nothing recorded is lost: every published frame is in the recording, each with its keypoints
     times = read_image_times(path)
     assert {c: len(times[c]) for c in NAMES} == {c: last[c]["published"] for c in NAMES}, summary
@@ -155,6 +154,12 @@ def test_a_trial_on_fake_gige_cameras_with_a_camera_killed_and_a_lossy_link(tmp_
     kp = read_keypoints(path)
     seen = (kp.timestamps_ns >= 0).sum(axis=1)
     assert kp.camera_names == tuple(NAMES) and list(seen) == [last[c]["published"] for c in NAMES], seen
+    # every incomplete trial frame is a gap or came before the camera's first whole trial frame (the
+    # driver's drops are gaps between delivered frames; ids count periods from the start, as in
+    # tests/acquisition/drivers/test_aravis.py); gaps may also be periods the fake camera skipped, or whole
+    # frames missed on a loaded host; incomplete frames before the start are counted apart
+    first_id = int(kp.frame_ids[np.argmax(kp.timestamps_ns[NAMES.index("cam03")] >= 0)])
+    assert lossy["incomplete"] <= last["cam03"]["drops"] + first_id + 1, (first_id, last["cam03"])
     # the trial is flagged with what happened, and processed
     assert trial.state == "done_with_warnings", (trial.state, trial.error, warnings)
     assert any(w.startswith("Camera cam02 stopped at") for w in warnings), warnings
