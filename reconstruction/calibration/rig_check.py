@@ -276,10 +276,6 @@ def checked_frames(num_frames: int, max_frames: int = RigCheckConfig.max_frames)
     return np.arange(0, num_frames, step)
 
 
-def _subset(det: MultiViewKeypoints, frames: np.ndarray) -> MultiViewKeypoints:
-    return det.frames(frames)
-
-
 def _without(det: MultiViewKeypoints, cameras: list[int]) -> MultiViewKeypoints:
     kp = det.one_person.copy()
     kp[cameras, ..., 2] = 0.0
@@ -428,7 +424,7 @@ def check_rig(detections: MultiViewKeypoints, rig: Rig, points_mm: np.ndarray, *
     if c_count < 3:
         raise ValueError(f"rig check: needs at least 3 cameras (2 besides the one judged), got {list(det.camera_names)}")
     frames = checked_frames(t_count, config.max_frames)
-    det = _subset(det, frames)
+    det = det.frames(frames)
     points_mm = points_mm[frames]
     expected = dict(expected_px or {})
     judge = _Judge(det, sub, points_mm, expected, config, _reference_judge(baseline, sub, j_count, config))
@@ -481,7 +477,7 @@ def _reference_judge(baseline: MultiViewKeypoints | None, rig: Rig, trial_joints
                          f"{trial_joints}")
     order = [names.index(n) for n in rig.names]
     det = MultiViewKeypoints.of_one_person(baseline.one_person[order], tuple(rig.names), baseline.times_s, baseline.skeleton)
-    det = _subset(det, checked_frames(det.shape[1], config.max_frames))
+    det = det.frames(checked_frames(det.shape[1], config.max_frames))
     points = robust_triangulate(det, rig).points_mm
     return _Judge(det, rig, points, {}, config)
 

@@ -23,22 +23,24 @@ def _summary(trial: Trial, checked_at: float, rig: dict) -> dict:
             "cameras": [{k: c.get(k) for k in CAMERA_FIELDS} for c in (rig.get("cameras") or {}).values()]}
 
 
-def baseline_trial_id(catalog: Catalog, calibration_id: str | None, *, excluding: str) -> str | None:
-    """The rig check's baseline under calibration ``calibration_id``: the first finished trial (by Start)
-    under it, other than ``excluding``, whose own rig check ran and found no camera moved; None when there
-    is none (or no calibration is recorded)."""
+def _rig_of(quality: TrialQuality) -> dict:
+    """The rig check stored in a trial's quality record ({} where none)."""
+    return ((json.loads(quality.sections_json).get("processing") or {}).get("checks") or {}).get("rig") or {}
+
+
+def baseline_trial_ids(catalog: Catalog, calibration_id: str | None, *, excluding: str) -> list[str]:
+    """The rig check's baseline candidates under calibration ``calibration_id``, first first: the finished
+    trials under it (by Start), other than ``excluding``, whose own rig check ran and found no camera moved;
+    [] when there is none (or no calibration is recorded)."""
     if calibration_id is None:
-        return None
+        return []
     with catalog.reading() as s:
         q = (select(Trial, TrialQuality).join(TrialQuality, TrialQuality.trial_id == Trial.id)
              .where(Trial.calibration_id == calibration_id, Trial.id != excluding,
                     Trial.state.in_([x.value for x in FINISHED]))
              .order_by(Trial.started_at, Trial.created_at))
-        for trial, quality in s.execute(q):
-            rig = ((json.loads(quality.sections_json).get("processing") or {}).get("checks") or {}).get("rig") or {}
-            if rig.get("run") and not rig.get("flagged"):
-                return trial.id
-    return None
+        return [trial.id for trial, quality in s.execute(q)
+                if _rig_of(quality).get("run") and not _rig_of(quality).get("flagged")]
 
 
 def latest_rig_check(catalog: Catalog, *, look_back: int = 20) -> dict | None:
@@ -52,7 +54,7 @@ def latest_rig_check(catalog: Catalog, *, look_back: int = 20) -> dict | None:
              .where(Trial.state.in_([x.value for x in FINISHED])).order_by(TrialQuality.updated_at.desc())
              .limit(look_back))
         for trial, quality in s.execute(q):
-            rig = ((json.loads(quality.sections_json).get("processing") or {}).get("checks") or {}).get("rig") or {}
+            rig = _rig_of(quality)
             if rig.get("run"):
                 return _summary(trial, quality.updated_at, rig)
     return None

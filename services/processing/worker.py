@@ -136,21 +136,20 @@ def with_calibration_version(db: cat.Catalog, trial_id: str, data: TrialInput) -
 
 def rig_baseline(db: cat.Catalog, data_dir: Path, trial: cat.TrialInfo) -> CheckContext:
     """The rig check's baseline for ``trial``: the patient's keypoints kept by the first trial under its
-    calibration whose check found no camera moved (:func:`~gaitcap.services.catalog.rig_checks.baseline_trial_id`);
-    none when there is no such trial or its keypoints file is missing or unreadable (logged)."""
+    calibration whose check found no camera moved and whose keypoints file is readable
+    (:func:`~gaitcap.services.catalog.rig_checks.baseline_trial_ids`; a candidate without one, e.g. processed
+    before trials kept it, is passed over, logged); none when there is no such trial."""
     from gaitcap.acquisition.readers import load_detections_npz
-    from gaitcap.services.catalog.rig_checks import baseline_trial_id
+    from gaitcap.services.catalog.rig_checks import baseline_trial_ids
 
-    found = baseline_trial_id(db, trial.calibration_id, excluding=trial.id)
-    if found is None:
-        return CheckContext()
-    path = trial_files(data_dir, found).rig_keypoints_npz
-    try:
-        return CheckContext(rig_baseline=load_detections_npz(path), baseline_trial=found)
-    except (OSError, ValueError) as exc:
-        log.warning("trial %s: the rig check's baseline trial %s has no usable keypoints (%s); judging without",
-                    trial.id, found, exc)
-        return CheckContext()
+    for found in baseline_trial_ids(db, trial.calibration_id, excluding=trial.id):
+        try:
+            return CheckContext(rig_baseline=load_detections_npz(trial_files(data_dir, found).rig_keypoints_npz),
+                                baseline_trial=found)
+        except (OSError, ValueError) as exc:
+            log.warning("trial %s: baseline candidate %s has no usable rig keypoints (%s); trying the next",
+                        trial.id, found, exc)
+    return CheckContext()
 
 
 def recording_of(trial: cat.TrialInfo) -> Path:

@@ -10,7 +10,7 @@ from gaitcap.reconstruction.calibration.rig_check import checked_frames
 from gaitcap.reconstruction.calibration_io import rig_to_toml_text
 from gaitcap.reconstruction.triangulation import robust_triangulate
 from gaitcap.services import catalog as cat
-from gaitcap.services.catalog.rig_checks import baseline_trial_id
+from gaitcap.services.catalog.rig_checks import baseline_trial_ids
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.processing.checks import CheckContext, rig_check
 from gaitcap.services.processing.trial import write_rig_keypoints
@@ -48,11 +48,11 @@ def test_the_first_unflagged_trial_under_the_calibration_is_the_baseline(tmp_pat
     not_run = _finished(db, cal, {"run": False, "flagged": False})
     _finished(db, other, {"run": True, "flagged": False})
     first = _finished(db, cal, {"run": True, "flagged": False})
-    _finished(db, cal, {"run": True, "flagged": False})
+    second = _finished(db, cal, {"run": True, "flagged": False})
     current = cat.start_trial(db, subject_id="P8", session="s2", calibration_id=cal).id
-    assert baseline_trial_id(db, cal, excluding=current) == first, (flagged, not_run)
-    assert baseline_trial_id(db, cal, excluding=first) != first  # a trial is never its own baseline
-    assert baseline_trial_id(db, None, excluding=current) is None
+    assert baseline_trial_ids(db, cal, excluding=current) == [first, second], (flagged, not_run)
+    assert baseline_trial_ids(db, cal, excluding=first) == [second]  # a trial is never its own baseline
+    assert baseline_trial_ids(db, None, excluding=current) == []
 
     det = walk.detections
     write_rig_keypoints(trial_files(tmp_path, first), det)
@@ -64,7 +64,9 @@ def test_the_first_unflagged_trial_under_the_calibration_is_the_baseline(tmp_pat
     np.testing.assert_allclose(kept.one_person, det.one_person[:, frames])
 
     trial_files(tmp_path, first).rig_keypoints_npz.write_bytes(b"not a keypoint file")
-    assert rig_baseline(db, tmp_path, cat.get_trial(db, current)).rig_baseline is None  # unreadable: without
+    assert rig_baseline(db, tmp_path, cat.get_trial(db, current)).rig_baseline is None  # none readable: without
+    write_rig_keypoints(trial_files(tmp_path, second), det)  # the next candidate with a readable file is taken
+    assert rig_baseline(db, tmp_path, cat.get_trial(db, current)).baseline_trial == second
 
 
 def test_a_camera_turned_since_the_baseline_trial_is_named_with_the_turn_since(walk):
