@@ -29,6 +29,7 @@ from gaitcap.api import (
 from gaitcap.api.security import install_security, start_backups
 from gaitcap.api.settings import Settings
 from gaitcap.services import catalog as cat
+from gaitcap.services.catalog.audit_queue import AuditQueue
 from gaitcap.services.live.guard import TrialGuard
 from gaitcap.services.live.health import health_report
 from gaitcap.services.live.protocols import NoLink, NoScene
@@ -62,6 +63,7 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI):
         app.state.catalog = cat.open_catalog(settings.catalog_url)
+        audit_rows = AuditQueue(app.state.catalog).start()  # a read never waits for the write lock
         log.info("catalog %s, data %s", app.state.catalog.url, settings.data_dir)
         guard = TrialGuard(app.state.catalog, app.state.link).start() if app.state.link.connected else None
         backups = start_backups(settings)
@@ -72,6 +74,7 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
                 backups.stop()
             if guard is not None:
                 guard.close()
+            audit_rows.close()
             app.state.catalog.close()
             app.state.link.close()
 

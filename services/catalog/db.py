@@ -9,7 +9,10 @@ taken atomically. The schema version is checked on open; an older SQLite catalog
 from __future__ import annotations
 
 import contextlib
+import itertools
 import logging
+import os
+import signal
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -37,6 +40,18 @@ def database_url(path_or_url: str | Path) -> str:
     return f"sqlite:///{path}"
 
 
+STOP_IN_WRITE_ENV = "GAITCAP_TEST_STOP_IN_WRITE"  # N: the process stops itself inside its Nth write (tests)
+
+
+def _stop_in_write_at() -> int:
+    """The write transaction inside which this process stops itself (SIGSTOP) holding SQLite's write lock,
+    from ``GAITCAP_TEST_STOP_IN_WRITE`` (a test's fault: a worker stopped inside a catalog write); 0: never."""
+    value = os.environ.get(STOP_IN_WRITE_ENV, "")
+    if value and not value.isdigit():
+        raise ValueError(f"{STOP_IN_WRITE_ENV}: a write count (1, 2, ...), got {value!r}")
+    return int(value or 0)
+
+
 def _sqlite_engine(url: str) -> Engine:
     engine = create_engine(url, connect_args={"timeout": 30, "check_same_thread": False})
 
@@ -50,10 +65,16 @@ def _sqlite_engine(url: str) -> Engine:
         cur.execute("PRAGMA synchronous=NORMAL")
         cur.close()
 
+    stop_at, writes = _stop_in_write_at(), itertools.count(1)
+
     @event.listens_for(engine, "begin")
     def _on_begin(conn) -> None:
         readonly = conn.get_execution_options().get("gaitcap_readonly", False)
         conn.exec_driver_sql("BEGIN" if readonly else "BEGIN IMMEDIATE")
+        if stop_at and not readonly and next(writes) == stop_at:  # test hook: stopped holding the write lock
+            log.warning("%s=%d: stopping this process (SIGSTOP) inside write transaction %d", STOP_IN_WRITE_ENV,
+                        stop_at, stop_at)
+            os.kill(os.getpid(), signal.SIGSTOP)
 
     return engine
 
