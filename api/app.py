@@ -30,6 +30,7 @@ from gaitcap.api.security import install_security, start_backups
 from gaitcap.api.settings import Settings
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog.audit_queue import AuditQueue
+from gaitcap.services.catalog.ids import ID_PATTERN
 from gaitcap.services.live.guard import TrialGuard
 from gaitcap.services.live.health import health_report
 from gaitcap.services.live.protocols import NoLink, NoScene
@@ -45,9 +46,18 @@ def _field_errors(exc: RequestValidationError) -> JSONResponse:
     parts = []
     for err in exc.errors()[:10]:
         loc = [str(p) for p in err.get("loc", ()) if p not in ("body", "query", "path")]
-        msg = ID_WORDS if err.get("type") == "string_pattern_mismatch" else str(err.get("msg", "invalid"))[:200]
+        msg = _pattern_words(err) if err.get("type") == "string_pattern_mismatch" else str(err.get("msg", "invalid"))[:200]
         parts.append(f"{'.'.join(loc)[:80] or 'body'}: {msg}")
     return JSONResponse(status_code=422, content={"detail": "; ".join(parts), "errors": jsonable(exc.errors()[:10])})
+
+
+def _pattern_words(err: dict) -> str:
+    """What a field that does not match its pattern needs: the id rule for ids, "not blank" for a text that
+    must say something (a correction's reason), never the id rule for another field."""
+    pattern = (err.get("ctx") or {}).get("pattern")
+    if pattern == r"\S":
+        return "must not be blank: say why"
+    return ID_WORDS if pattern == ID_PATTERN else "does not have the expected form"
 
 
 def jsonable(errors) -> list[dict]:
@@ -64,7 +74,7 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
     async def lifespan(app: FastAPI):
         app.state.catalog = cat.open_catalog(settings.catalog_url)
         audit_rows = AuditQueue(app.state.catalog).start()  # a read never waits for the write lock
-        log.info("catalog %s, data %s", app.state.catalog.url, settings.data_dir)
+        log.info("catalog %s, data %s", app.state.catalog.shown_url, settings.data_dir)
         guard = TrialGuard(app.state.catalog, app.state.link).start() if app.state.link.connected else None
         backups = start_backups(settings)
         try:

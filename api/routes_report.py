@@ -21,6 +21,7 @@ from gaitcap.services.reports.content import (
 )
 from gaitcap.services.reports.figures import heel_traces
 from gaitcap.services.reports.norms import NormsError
+from gaitcap.services.reports.shown import shown, shown_signed
 
 router = APIRouter(tags=["report"])
 
@@ -40,6 +41,16 @@ def _content(request: Request, trial_id: str) -> ReportContent:
 
 def _num(x: float, decimals: int) -> float | None:
     return round(x, decimals) if math.isfinite(x) else None
+
+
+def _shown(r, c: ReportContent) -> dict:
+    """The row's numbers as the page, the print and the PDF show them (one rounding rule:
+    services/reports/shown.py); None where not measured."""
+    d, band = PARAMETERS[r.name].decimals, r.norm.band() if r.norm is not None else None
+    return {"left": shown(r.left, d), "right": shown(r.right, d), "mean": shown(r.mean, d), "sd": shown(r.sd, d + 1),
+            "cv_pct": shown(r.cv_pct, 1), "symmetry_index_pct": shown(r.si_pct, 1), "z": shown_signed(r.z, 1),
+            "normal_range": [shown(band[0], d), shown(band[1], d)] if band else None,
+            "previous": shown(c.previous.values.get(r.name, math.nan), d) if c.previous else None}
 
 
 @router.get("/trials/{trial_id}/report.pdf", summary="The trial's report for the patient's chart (PDF)")
@@ -68,13 +79,13 @@ def parameters(trial_id: str, request: Request, user: str = Depends(require_user
                      "z": _num(r.z, 2), "percentile": _num(r.percentile, 1),
                      "norm_source": r.norm.source if r.norm is not None else None,
                      "previous": _num(c.previous.values.get(r.name, math.nan), 4) if c.previous else None,
-                     "in_doubt": r.name in doubt})
+                     "in_doubt": r.name in doubt, "shown": _shown(r, c)})
     return {"trial_id": c.trial.id, "subject_id": c.patient.id, "session": c.trial.session,
             "started_at": c.trial.started_at, "stage": c.stage, "method": c.method, "age": c.age,
             "sex": c.patient.sex, "parameters": rows, "flags": list(c.flags), "warnings": list(c.warnings),
             "data_problems": list(c.data_problems), "norm_summary": c.norm_summary, "consistency": c.consistency,
             "gait_speed_reference": c.speed_reference,
-            "analysis_notes": list(c.analysis_notes), "voided": c.details.voided, "void_reason": c.details.void_reason,
+            "analysis_notes": list(c.analysis_notes), "num_steps": c.num_steps, "num_passes": c.num_passes, "voided": c.details.voided, "void_reason": c.details.void_reason,
             "details": {k: getattr(c.details, k) for k in DETAIL_FIELDS},
             "previous_trial": c.previous.trial.id if c.previous else None,
             "footprints": [{"side": f.side, "along_mm": round(f.along_mm, 1), "across_mm": round(f.across_mm, 1)}

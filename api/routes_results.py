@@ -15,8 +15,9 @@ from gaitcap.api.schemas import GaitOut
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import patients as pat
 from gaitcap.services.processing.artifacts import trial_files
-from gaitcap.services.reports.content import sides_of, stored_gait
+from gaitcap.services.reports.content import PARAMETERS, sides_of, stored_gait
 from gaitcap.services.reports.findings import consistency_of
+from gaitcap.services.reports.shown import summary_shown
 
 router = APIRouter(tags=["results"])
 
@@ -83,6 +84,7 @@ def gait(trial_id: str, request: Request, stage: Stage | None = None, user: str 
                                               or (gait_json or {}).get("consistency"),
                                               gait_json or {"summary": r.summary, "steps": r.steps}, data_quality),
                    summary=r.summary, steps=r.steps, quality=r.quality,
+                   shown=summary_shown(r.summary, {name: p.decimals for name, p in PARAMETERS.items()}),
                    downloads=_downloads(r.trial_id, r.stage),
                    warnings=cat.warnings_of(cat.get_quality(catalog_of(request), r.trial_id)),
                    data_quality=r.report.get("data_quality", {}),

@@ -66,6 +66,8 @@ class GaitOut(BaseModel):
     method: str
     elapsed_s: float = Field(description="Processing time of this stage, s")
     summary: dict[str, dict]
+    shown: dict[str, dict] = Field(default_factory=dict, description="The summary's mean and SD as the page shows "
+                                   "them (text; the one rounding rule of the page, print and PDF report)")
     steps: list[dict]
     quality: dict
     downloads: dict[str, str]

@@ -138,7 +138,15 @@ def too_few_positions_error(cameras: tuple[CameraDetection, ...], positions: tup
     if not bad:
         return None
     lines = [f"too few distinct positions of {board.describe()} (need {min_views} per camera):"]
-    lines += [f"camera {c.name!r}: {c.usable()} frames showed the board but only {p} distinct positions remain "
-              "(frames of a board held still count once; frames that could not be paired are left out): move "
-              "the board to more places in this camera's view" for c, p in bad]
+    lines += [f"camera {c.name!r}: " + "; ".join(positions_advice(c, p, min_views)) for c, p in bad]
     return ValueError("\n".join(lines + ["", detection_table(cameras)]))
+
+
+def positions_advice(camera: CameraDetection, positions: int, min_views: int) -> list[str]:
+    """What to change for a camera with enough views of the board but fewer than ``min_views`` distinct
+    board positions (empty when it has enough of both)."""
+    if camera.usable() < min_views or positions >= min_views:
+        return []
+    return [f"{camera.usable()} frames showed the board but only {positions} distinct positions remain (frames "
+            "of a board held still count once; frames that could not be paired are left out): move the board to "
+            f"more places in this camera's view ({min_views} needed)"]

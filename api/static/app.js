@@ -39,6 +39,7 @@ function enterApp(me) {
   $("#login").hidden = true; $("#app").hidden = false;
   connectStatus();
   if (can.has("live")) connectPreviews();
+  if (typeof rigCheckTick === "function") rigCheckTick();  // the rig check at once, not 3 s later
 }
 
 async function signIn(user, password) {
@@ -56,7 +57,14 @@ async function signOut() {
 }
 
 // ---------- messages ----------
-function showError(text) { const e = $("#error"); e.textContent = text; e.hidden = !text; }
+function showError(text) { const e = $("#error"); e.textContent = text; e.hidden = !text; state.refused = false; }
+
+function clearRefusal(words, listed) {
+  // a "Start refused" message goes once every camera works again (it said what was wrong with them)
+  if (!state.refused || !listed || !words.ok || state.recording || state.busy) return;
+  showError("");
+  setStatus("Ready: the cameras are working again. Enter the patient ID and press Start.");
+}
 function setStatus(text, recording) {
   // the status is an aria-live region: written only when its words change (the timer beside it is not announced)
   const s = $("#record-status");
@@ -82,11 +90,11 @@ async function startTrial() {
       // the rig check refused: say why, and record only if the clinician confirms (the override is audited)
       if (e.status !== 409 || !e.message.startsWith("Start refused")) throw e;
       if (!e.message.includes("override_rig_check")) {  // nothing to record (no camera delivers images): no "anyway"
-        showError(e.message); setStatus("Not recording: " + e.message.replace(/^Start refused: /, ""));
+        showError(e.message); state.refused = true; setStatus("Not recording: " + e.message.replace(/^Start refused: /, ""));
         state.busy = false; renderRecording(); return;
       }
       if (!confirm(e.message.replace(". To record anyway, confirm (override_rig_check).", ".") + "\n\nRecord anyway? The results will carry a warning.")) {
-        showError(e.message.replace(" To record anyway, confirm (override_rig_check).", "")); setStatus("Not recording.");
+        showError(e.message.replace(" To record anyway, confirm (override_rig_check).", "")); state.refused = true; setStatus("Not recording.");
         state.busy = false; renderRecording(); return;
       }
       trial = await api("/trials", { method: "POST", body: Object.assign({ override_rig_check: true }, body) });
@@ -225,6 +233,7 @@ function renderCameras(cams, detection) {
   const words = cameraWords(cams);
   $("#camera-summary").textContent = cams.length ? words.text : "";
   noteCameraProblem(words, cams.length > 0);
+  clearRefusal(words, cams.length > 0);
   if (!cams.length) { grid.innerHTML = '<p class="muted">No cameras seen yet. Check that the cameras are switched on.</p>'; state.cameras = {}; return; }
   if (grid.querySelector("p")) grid.innerHTML = "";
   for (const c of cams) {
@@ -266,9 +275,15 @@ function showResults() {
   $("#results").scrollIntoView({ block: "start" });
 }
 
-function markVoidResults(voided) {
-  // a void trial's results are struck through, its stage label red, and a VOID banner is printed
+function markVoidResults(voided, reason) {
+  // a void trial's results are struck through, its stage label red, and a VOID banner is printed, on every
+  // printed page too (a page margin box: a sheet printed alone must not look valid)
   $("#results").classList.toggle("voided", !!voided);
+  let style = $("#void-print");
+  if (!style) { style = document.createElement("style"); style.id = "void-print"; document.head.append(style); }
+  const words = "VOID - not for clinical use" + (reason ? ": " + String(reason).replace(/["\\\n\r]/g, " ").slice(0, 90) : "");
+  const css = voided ? `@media print { @page { @top-center { content: "${words}"; color: #8a1111; font: bold 11pt sans-serif; } } }` : "";
+  if (style.textContent !== css) style.textContent = css;
 }
 
 function follow(trialId) {
@@ -300,7 +315,7 @@ function updateFollowed(t) {
   renderWarnings(t.warnings || [], t);
   $("#results-patient").textContent = `Patient ${t.subject_id} · ${fmtTime(t.started_at || t.created_at)} · session ${t.session}`
     + (t.voided ? ` · VOID: ${t.void_reason}` : "");
-  markVoidResults(t.voided);
+  markVoidResults(t.voided, t.void_reason);
   if (state.rerun === t.id && !rerunFinished(t)) return;
   const best = t.results.includes("refined") ? "refined" : t.results.includes("preliminary") ? "preliminary" : null;
   if (t.state === "failed") {
@@ -310,14 +325,23 @@ function updateFollowed(t) {
     $("#results-stage").textContent = t.state === "recording" ? "Recording…" : `${t.state_text}… (${Math.round(100 * t.progress)} %)`;
   }
   if (best && state.shownResult !== best) { state.shownResult = best; loadResult(t.id, best, t.state); }
-  if (!state.recording && !state.busy && (t.state === "done" || t.state === "done_with_warnings" || t.state === "failed")) {
-    setStatus(t.state === "done" ? "Ready for the next walk. Enter the patient ID and press Start."
-      : t.state === "done_with_warnings" ? "Ready for the next walk. The last walk's results carry data-quality warnings (see below)."
-      : "Not recording. Processing of the last walk failed (see below).");
-  }
+  if (!state.recording && !state.busy) setStatus(stageStatus(t, best) || $("#record-status").textContent);
   else if (best === "preliminary" && t.state === "processing") {
     $("#results-stage").textContent = `Preliminary results. Refining the 3D reconstruction… (${Math.round(100 * t.progress)} %)`;
   }
+}
+
+function stageStatus(t, best) {
+  // the status line follows the followed trial's stages to its end (never left on "Computing" once
+  // results are shown); no percentages: the line is announced when its words change
+  if (t.state === "done") return "Ready for the next walk. Enter the patient ID and press Start.";
+  if (t.state === "done_with_warnings") return "Ready for the next walk. The last walk's results carry data-quality warnings (see below).";
+  if (t.state === "failed") return "Not recording. Processing of the last walk failed (see below).";
+  if (t.state !== "recorded" && t.state !== "processing") return "";
+  if (best === "refined") return "Refined results below. Finishing the trial (" + (t.stage || "checks") + ")…";
+  if (best === "preliminary") return "Preliminary results below. Refining the 3D reconstruction…";
+  const now = $("#record-status").textContent;  // "stopped in another tab ... Computing the results" says it already
+  return now.startsWith("The recording was stopped") ? "" : "Saved. Computing the results…";
 }
 
 async function loadResult(trialId, stage, trialState) {
@@ -332,10 +356,10 @@ async function loadResult(trialId, stage, trialState) {
   summary.innerHTML = "";
   for (const [name, m] of Object.entries(g.summary)) {
     if (m.mean == null) continue;
-    const [text, unit] = nice(name, m.unit);
-    const sd = m.sd != null ? ` ± ${fmtNum(m.sd)}` : "";
+    const [text, unit] = nice(name, m.unit), s = (g.shown || {})[name] || {};  // s: the server's texts (one rounding rule)
+    const sd = m.sd != null ? ` ± ${esc(s.sd ?? fmtNum(m.sd))}` : "";
     summary.insertAdjacentHTML("beforeend", `<div class="metric" data-metric="${esc(name)}"><div class="name">${esc(text)}</div>
-      <div class="value">${fmtNum(m.mean)}<span class="unit">${sd} ${esc(unit)}</span></div></div>`);
+      <div class="value">${esc(s.mean ?? fmtNum(m.mean))}<span class="unit">${sd} ${esc(unit)}</span></div></div>`);
   }
   if (!summary.children.length) summary.innerHTML = '<p class="muted">No complete steps were found in this walk.</p>';
   summary.dataset.stage = stage;

@@ -31,7 +31,7 @@ function checkFields() {
 // ---------- both sides against the norms ----------
 function resetSides() {
   $("#sides-wrap").hidden = true; $("#results-flags").hidden = true; $("#report-pdf").hidden = true;
-  $("#results-problems").hidden = true; $("#norm-summary").hidden = true;
+  $("#results-problems").hidden = true; $("#norm-summary").hidden = true; $("#results-notes").hidden = true;
   $("#sides-table tbody").innerHTML = "";
   for (const c of charts.splice(0)) c.destroy();
   $("#charts").hidden = true; $("#plot-figure").hidden = false;
@@ -46,6 +46,8 @@ function sideBars(left, right) {
 }
 
 function fmtFixed(x, d) { return x == null ? "–" : Number(x).toFixed(d); }
+// a number as the server wrote it (services/reports/shown.py: the page, the print and the PDF round alike)
+function shownText(text) { return text == null ? "–" : esc(text); }
 
 async function loadSides(trialId) {
   let r;
@@ -53,17 +55,17 @@ async function loadSides(trialId) {
   if (state.followed !== trialId) return;
   $("#results-patient").textContent = `Patient ${r.subject_id} · ${fmtTime(r.started_at)} · session ${r.session}`
     + (r.voided ? ` · VOID: ${r.void_reason}` : "");
-  markVoidResults(r.voided);
+  markVoidResults(r.voided, r.void_reason);
   const body = $("#sides-table tbody");
   body.innerHTML = r.parameters.map((p) => {
-    const d = p.decimals, out = !p.in_doubt && p.z != null && Math.abs(p.z) > 1.96;
+    const s = p.shown, out = !p.in_doubt && p.z != null && Math.abs(p.z) > 1.96;  // s: the server's texts (one rounding rule)
     const ref = p.name === "gait_speed_m_s" && r.gait_speed_reference;
-    const range = p.normal_range ? `${fmtFixed(p.normal_range[0], d)}–${fmtFixed(p.normal_range[1], d)}`
+    const range = s.normal_range ? `${shownText(s.normal_range[0])}–${shownText(s.normal_range[1])}`
       : ref ? `${ref.pct_of_mean.toFixed(0)} % of the age-sex mean (no z-score)` : "no reference";
     const doubt = p.in_doubt ? ` <span class="doubt">(data problem)</span>` : "";
     return `<tr data-parameter="${esc(p.name)}"${p.in_doubt ? ' class="in-doubt"' : ""}><td class="wide name"><abbr title="${esc(p.help)}">${esc(p.label)}</abbr> (${esc(p.unit)})${doubt}</td>
-      <td data-label="Left">${fmtFixed(p.left, d)}</td><td data-label="Right">${fmtFixed(p.right, d)}</td><td data-label="Mean">${fmtFixed(p.mean, d)}</td><td data-label="SD">${fmtFixed(p.sd, d + 1)}</td>
-      <td data-label="SI %">${fmtFixed(p.symmetry_index_pct, 1)}</td><td data-label="Normal range"${p.norm_source ? ` title="${esc(p.norm_source)}"` : ""}>${range}</td><td data-label="z" class="${out ? "out" : ""}">${p.z == null ? "–" : (p.z > 0 ? "+" : "") + p.z.toFixed(1)}</td>
+      <td data-label="Left">${shownText(s.left)}</td><td data-label="Right">${shownText(s.right)}</td><td data-label="Mean">${shownText(s.mean)}</td><td data-label="SD">${shownText(s.sd)}</td>
+      <td data-label="SI %">${shownText(s.symmetry_index_pct)}</td><td data-label="Normal range"${p.norm_source ? ` title="${esc(p.norm_source)}"` : ""}>${range}</td><td data-label="z" class="${out ? "out" : ""}">${shownText(s.z)}</td>
       <td class="wide">${sideBars(p.left, p.right)}</td></tr>`;
   }).join("");
   keepTableRoles($("#sides-table"));
@@ -76,12 +78,21 @@ async function loadSides(trialId) {
   const problems = $("#results-problems");
   problems.querySelector("ul").innerHTML = (r.data_problems || []).map((f) => `<li>${esc(f)}</li>`).join("");
   problems.hidden = !(r.data_problems || []).length;
+  renderAnalysisNotes(r);
   $("#norm-summary").textContent = [r.norm_summary, r.gait_speed_reference && r.gait_speed_reference.text].filter(Boolean).join(" ");
   $("#norm-summary").hidden = !$("#norm-summary").textContent;
   fillCorrection(r);
   loadFigures(trialId, r.footprints);
   const link = $("#report-pdf");
   link.href = `/trials/${encodeURIComponent(trialId)}/report.pdf`; link.hidden = false;
+}
+
+function renderAnalysisNotes(r) {
+  // what the gait analysis says of its own steps (missed contacts, steps left out, turns), as the PDF says it
+  const box = $("#results-notes"), plural = (n, one, many) => `${n} ${n === 1 ? one : many}`;
+  $("#results-steps-count").textContent = `${plural(r.num_steps, "step", "steps")} in ${plural(r.num_passes, "straight pass", "straight passes")} analysed.`;
+  box.querySelector("ul").innerHTML = (r.analysis_notes || []).map((n) => `<li>${esc(n)}</li>`).join("");
+  box.hidden = false;
 }
 
 // ---------- interactive figures (uPlot, served from the package; MIT licence in uplot.LICENSE) ----------
@@ -289,15 +300,20 @@ async function compareChecked() {
   note.textContent = ids.length > 2 ? `${ids.length} visits are ticked: tick exactly two to compare them side by side.` : "";
   note.hidden = ids.length <= 2;
   if (ids.length !== 2) { box.hidden = true; return; }
-  const [a, b] = await Promise.all(ids.map((id) => api(`/trials/${encodeURIComponent(id)}/parameters`)));
-  $("#compare-table thead").innerHTML = `<tr><th>Parameter</th><th>${esc(a.session)} L</th><th>${esc(a.session)} R</th><th>${esc(a.session)} mean</th>
-    <th>${esc(b.session)} L</th><th>${esc(b.session)} R</th><th>${esc(b.session)} mean</th><th>Change L</th><th>Change R</th><th>Change</th></tr>`;
+  const [a, b] = (await Promise.all(ids.map((id) => api(`/trials/${encodeURIComponent(id)}/parameters`))))
+    .sort((x, y) => x.started_at - y.started_at);  // the earlier visit first: the change is later minus earlier
+  // each visit by its date and time of day (two visits on one day stay apart) and its session
+  const visit = (r) => `${esc(r.session)}, ${visitLabel(r.started_at, new Set([dayOf(r.started_at)]))}`;
+  $("#compare-table thead").innerHTML = `<tr><th rowspan="2">Parameter</th><th colspan="3" scope="colgroup" class="visit">${visit(a)}</th>
+    <th colspan="3" scope="colgroup" class="visit">${visit(b)}</th><th colspan="3" scope="colgroup">Change</th></tr>
+    <tr>${"<th>L</th><th>R</th><th>Mean</th>".repeat(3)}</tr>`;
   $("#compare-table tbody").innerHTML = a.parameters.map((p, i) => {
-    const q = b.parameters[i], d = p.decimals;
-    const change = (x, y) => (x != null && y != null ? signedChange(y - x, d) : "–");
-    return `<tr><td>${esc(p.label)} (${esc(p.unit)})</td><td>${fmtFixed(p.left, d)}</td><td>${fmtFixed(p.right, d)}</td><td>${fmtFixed(p.mean, d)}</td>
-      <td>${fmtFixed(q.left, d)}</td><td>${fmtFixed(q.right, d)}</td><td>${fmtFixed(q.mean, d)}</td>
-      <td>${change(p.left, q.left)}</td><td>${change(p.right, q.right)}</td><td>${change(p.mean, q.mean)}</td></tr>`;
+    const q = b.parameters[i], d = p.decimals, ps = p.shown, qs = q.shown;
+    // the change of the numbers shown beside it (the server's rounded texts), never of the unrounded values
+    const change = (x, y) => (x != null && y != null ? signedChange(Number(y) - Number(x), d) : "–");
+    return `<tr data-parameter="${esc(p.name)}"><td>${esc(p.label)} (${esc(p.unit)})</td><td>${shownText(ps.left)}</td><td>${shownText(ps.right)}</td><td>${shownText(ps.mean)}</td>
+      <td>${shownText(qs.left)}</td><td>${shownText(qs.right)}</td><td>${shownText(qs.mean)}</td>
+      <td>${change(ps.left, qs.left)}</td><td>${change(ps.right, qs.right)}</td><td>${change(ps.mean, qs.mean)}</td></tr>`;
   }).join("");
   box.hidden = false;
 }

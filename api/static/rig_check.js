@@ -1,5 +1,6 @@
-// gaitcap clinic page: the rig check of the latest processed trial, in the calibration card, so a camera
-// bumped since calibration is seen before the next patient. Uses api(), esc(), fmtNum() and state from app.js.
+// gaitcap clinic page: the rig check of the latest processed trial, in the record card (every role that
+// records sees it, not only those who calibrate), so a camera bumped since calibration is seen before the
+// next patient; the refined calibration's Reprocess button stays in the calibration card. Uses api(), esc(), fmtNum() and state from app.js.
 "use strict";
 
 const rigNum = (x, digits) => (x === null || x === undefined ? "–" : Number(x).toFixed(digits));
@@ -81,4 +82,10 @@ async function applyCalibrationVersion() {
 
 document.querySelector("#calibration-version-apply").onclick = applyCalibrationVersion;
 
-setInterval(() => { if (state.user && !document.querySelector("#app").hidden && !document.querySelector("#calibrate-card").hidden) { loadRigCheck(); loadCalibrationVersion(); } }, 3000);
+function rigCheckTick() {
+  if (!state.user || document.querySelector("#app").hidden) return;
+  const records = !document.querySelector("#record").hidden, calibrates = !document.querySelector("#calibrate-card").hidden;
+  if (records || calibrates) loadRigCheck();
+  if (calibrates) loadCalibrationVersion();
+}
+setInterval(rigCheckTick, 3000);

@@ -100,10 +100,13 @@ def detections_report(found, min_views: int) -> list[dict]:
     """Per camera of a board recording: what the board detector found, for a failed calibration's
     report (``seen``: the board was found in at least one frame; ``usable`` views and distinct board
     ``positions`` against ``needed``; ``advice``: what to change, empty when the camera had enough views)."""
+    from gaitcap.acquisition.boards.diagnosis import positions_advice
+
     positions = found.positions()
     return [{"name": c.name, "frames": c.frames, "with_board": c.with_board, "usable": c.usable(),
              "positions": int(n), "needed": min_views, "seen": c.with_board > 0,
-             "advice": c.advice(found.board, min_views)} for c, n in zip(found.cameras, positions, strict=True)]
+             "advice": c.advice(found.board, min_views) or positions_advice(c, int(n), min_views)}
+            for c, n in zip(found.cameras, positions, strict=True)]
 
 
 def fail_calibration(catalog: Catalog, cal_id: str, exc: Exception) -> None:

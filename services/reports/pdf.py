@@ -12,11 +12,13 @@ from __future__ import annotations
 import io
 import math
 import time
+from dataclasses import dataclass
 
 from fpdf import FPDF
 from fpdf.fonts import FontFace
 from gaitcap.services.reports.content import METHOD_TEXT, PARAMETERS, ReportContent, Row
 from gaitcap.services.reports.kinematics_page import kinematics_figure_png, kinematics_section
+from gaitcap.services.reports.shown import shown, shown_signed
 
 SIDE_COLOURS = {"left": (31, 119, 180), "right": (214, 39, 40)}
 
@@ -28,7 +30,8 @@ def _latin1(text: str) -> str:
 
 
 def _fmt(x: float, decimals: int) -> str:
-    return f"{x:.{decimals}f}" if math.isfinite(x) else "-"
+    """The stored value as the page shows it (one rounding rule, services/reports/shown.py); "-" if none."""
+    return shown(x, decimals) or "-"
 
 
 def ordinal(n: int) -> str:
@@ -44,9 +47,10 @@ def _when(t_s: float | None) -> str:
 class _Doc(FPDF):
     latin1 = staticmethod(_latin1)
 
-    def __init__(self, c: ReportContent) -> None:
+    def __init__(self, c: ReportContent, layout: Layout | None = None) -> None:
         super().__init__(orientation="portrait", unit="mm", format="A4")
         self.c = c
+        self.layout = layout or LAYOUTS[0]
         self.set_auto_page_break(auto=True, margin=16)
         self.set_margins(14, 12, 14)
         self.set_title(f"Gait report {c.patient.id} {c.trial.id}")
@@ -56,8 +60,8 @@ class _Doc(FPDF):
         self.set_font("Helvetica", "B", 13)
         self.cell(0, 7, _latin1(self.c.clinic_name), new_x="LMARGIN", new_y="NEXT")
         self.set_font("Helvetica", "", 9)
-        self.cell(0, 5, _latin1(f"Gait analysis report - patient {self.c.patient.id} - {_when(self.c.trial.started_at)}"),
-                  new_x="LMARGIN", new_y="NEXT")
+        self.cell(0, 5, _latin1(f"Gait analysis report - patient {self.c.patient.id} ({_sex_age(self.c)}) - "
+                                f"{_when(self.c.trial.started_at)}"), new_x="LMARGIN", new_y="NEXT")
         self.line(self.l_margin, self.get_y() + 1, self.w - self.r_margin, self.get_y() + 1)
         self.ln(3)
         if self.c.details.voided:  # on every page: a page printed alone must not look valid
@@ -93,10 +97,15 @@ class _Doc(FPDF):
         self.multi_cell(0, height, _latin1(text), new_x="LMARGIN", new_y="NEXT")
 
 
+def _sex_age(c: ReportContent) -> str:
+    """"female, 74 years"; what is not recorded says so ("sex not recorded, age not recorded")."""
+    return ", ".join((c.patient.sex or "sex not recorded",
+                      f"{c.age} years" if c.age is not None else "age not recorded"))
+
+
 def _identity(pdf: _Doc) -> None:
     c, d = pdf.c, pdf.c.details
-    sex_age = ", ".join(x for x in (c.patient.sex, f"{c.age} years" if c.age is not None else "") if x) or "not recorded"
-    pairs = [("Patient ID", c.patient.id), ("Sex, age", sex_age), ("Date and time", _when(c.trial.started_at)),
+    pairs = [("Patient ID", c.patient.id), ("Sex, age", _sex_age(c)), ("Date and time", _when(c.trial.started_at)),
              ("Session", c.trial.session), ("Trial", c.trial.id), ("Operator", d.operator or "-"),
              ("Walking aid", d.walking_aid or "none recorded"), ("Assistance", d.assistance or "none recorded"),
              ("Footwear", d.footwear or "not recorded"), ("Results", f"{c.stage} ({c.method})")]
@@ -139,8 +148,8 @@ def _norm_cells(r: Row) -> tuple[str, str]:
     p = PARAMETERS[r.name]
     lo, hi = r.norm.band()
     z = r.z
-    return (f"{lo:.{p.decimals}f}-{hi:.{p.decimals}f}",
-            f"{z:+.1f} ({ordinal(round(r.percentile))})" if math.isfinite(z) else "-")
+    return (f"{_fmt(lo, p.decimals)}-{_fmt(hi, p.decimals)}",
+            f"{shown_signed(z, 1)} ({ordinal(round(r.percentile))})" if math.isfinite(z) else "-")
 
 
 def _table(pdf: _Doc) -> None:
@@ -204,16 +213,20 @@ def _figures(pdf: _Doc) -> None:
     curves = kinematics_figure_png(c.kinematics or {})
     pdf.heading("Heel traces and detected steps" + (" | joint angles over the gait cycle" if curves else ""),
                 keep_mm=60)
-    half = (pdf.w - pdf.l_margin - pdf.r_margin - 4) / 2
+    if curves and not pdf.layout.curves:
+        curves = None
+        pdf.para("The joint-angle curves are on the clinic page (left out here to keep the report on two pages).", 7)
+    half = (pdf.w - pdf.l_margin - pdf.r_margin - 4) / 2 * pdf.layout.figures
     y0, bottom = pdf.get_y(), pdf.get_y()
     if c.heel_plot_png:
-        info = pdf.image(io.BytesIO(c.heel_plot_png), x=pdf.l_margin, y=y0, w=half if curves else 120)
+        info = pdf.image(compact_png(c.heel_plot_png), x=pdf.l_margin, y=y0,
+                         w=half if curves else 120 * pdf.layout.figures)
         bottom = max(bottom, y0 + info.rendered_height)
     else:
         pdf.para("The heel-trace figure was not written for this trial.")
         bottom = pdf.get_y()
     if curves:
-        info = pdf.image(io.BytesIO(curves), x=pdf.l_margin + half + 4, y=y0, w=half)
+        info = pdf.image(compact_png(curves), x=pdf.l_margin + half + 4, y=y0, w=half)
         bottom = max(bottom, y0 + info.rendered_height)
         pdf.curves_drawn = True
     pdf.set_y(bottom + 1)
@@ -247,9 +260,11 @@ def _closing(pdf: _Doc) -> None:
     c = pdf.c
     kinematics_section(pdf)
     pdf.heading("Method and software", keep_mm=14)
-    pdf.para(f"{METHOD_TEXT} Software: gaitcap {c.version}; results: {c.stage} ({c.method}).", 7, height=3.3)
+    small = pdf.layout.small_pt
+    pdf.para(f"{METHOD_TEXT} Software: gaitcap {c.version}; results: {c.stage} ({c.method}).", small,
+             height=small * 0.47)
     pdf.heading("Normative reference", keep_mm=14)
-    pdf.para(" ".join(c.norm_citations) or "No normative table.", 7, height=3.3)
+    pdf.para(" ".join(c.norm_citations) or "No normative table.", small, height=small * 0.47)
     if pdf.get_y() + 14 > pdf.page_break_trigger:
         pdf.add_page()
     pdf.ln(6)
@@ -261,13 +276,48 @@ def _closing(pdf: _Doc) -> None:
 SECTIONS = (_identity, _quality, _table, _flags, _figures, _footprints, _closing)
 
 
-def report_pdf(content: ReportContent) -> bytes:
-    """The report as PDF bytes."""
-    pdf = _Doc(content)
+@dataclass(frozen=True)
+class Layout:
+    """How much room the report's second page gives: ``figures`` scales the figures' width, ``small_pt``
+    is the size (pt) of the method and source notes, ``curves`` whether the joint-angle curves are drawn."""
+
+    figures: float = 1.0
+    small_pt: float = 7.0
+    curves: bool = True
+
+
+#: tried in order until the report fits on ``MAX_PAGES`` pages (the last one is used whatever its length)
+LAYOUTS = (Layout(), Layout(figures=0.8, small_pt=6.0), Layout(figures=0.8, small_pt=6.0, curves=False))
+MAX_PAGES = 2
+PNG_COLOURS = 64  # the figures' palette in the PDF: a third of the bytes of the full-colour plot, lines as sharp
+
+
+def compact_png(png: bytes) -> io.BytesIO:
+    """A plot (PNG) with a palette of :data:`PNG_COLOURS` colours, so that a report stays near 100 kB."""
+    from PIL import Image
+
+    out = io.BytesIO()
+    Image.open(io.BytesIO(png)).convert("RGB").quantize(colors=PNG_COLOURS).save(out, "PNG", optimize=True)
+    out.seek(0)
+    return out
+
+
+def _render(content: ReportContent, layout: Layout) -> _Doc:
+    pdf = _Doc(content, layout)
     pdf.alias_nb_pages()
     pdf.add_page()
     for section in SECTIONS:
         if section is _figures:
             pdf.add_page()
         section(pdf)
+    return pdf
+
+
+def report_pdf(content: ReportContent) -> bytes:
+    """The report as PDF bytes, on at most :data:`MAX_PAGES` A4 pages: the first of :data:`LAYOUTS` that
+    fits (smaller figures and notes, then the joint-angle curves left out, saying so)."""
+    for layout in LAYOUTS:
+        pdf = _render(content, layout)
+        if pdf.pages_count <= MAX_PAGES:
+            break
     return bytes(pdf.output())
