@@ -9,6 +9,7 @@ import numpy as np
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints, missing_keypoints
 from gaitcap.reconstruction.skeletons import Skeleton, get_skeleton
+from gaitcap.simulator.glitch import FootGlitch, glitched_points
 from gaitcap.simulator.noise import NoisePreset, clock_model, detect, get_preset, occlusion_mask
 from gaitcap.simulator.params import WalkParams
 from gaitcap.simulator.path import FootPlan, Room, plan_walk
@@ -96,11 +97,14 @@ def make_trial(
     seed: int = 0,
     fps: float = 30.0,
     walk: WalkParams | None = None,
+    glitch: FootGlitch | None = None,
 ) -> SyntheticTrial:
     """Simulate a trial: the patient walking the room's diagonal, seen by ``cameras`` cameras.
 
     Deterministic given the arguments. ``people`` = 2 adds a therapist walking beside the patient, 3 also a
-    person standing in the room. Raises ValueError with a clear message on bad arguments.
+    person standing in the room. ``glitch``: the detector misplaces one footfall of the patient in every
+    camera (:class:`~gaitcap.simulator.glitch.FootGlitch`: one impossible step; the truth is the real walk).
+    Raises ValueError with a clear message on bad arguments.
     """
     noise = get_preset(preset)
     if not isinstance(seconds, int | float) or not math.isfinite(seconds) or seconds < MIN_SECONDS:
@@ -115,6 +119,8 @@ def make_trial(
         raise ValueError(f"fps must be in [5, 240], got {fps}")
     if walk is not None and not isinstance(walk, WalkParams):
         raise ValueError(f"walk must be a WalkParams or None, got {type(walk).__name__}")
+    if glitch is not None and not isinstance(glitch, FootGlitch):
+        raise ValueError(f"glitch must be a FootGlitch or None, got {type(glitch).__name__}")
     seed = int(seed)
     params = walk or WalkParams()
     room = Room()
@@ -140,6 +146,9 @@ def make_trial(
         heights.append(Body.from_params(bp).height)
     all_pts = np.stack(everyone)
     heights = np.array(heights)
+    seen = all_pts.copy()  # what the detector makes of everyone (the patient's glitched footfall)
+    if glitch is not None:
+        seen[0] = glitched_points(points, times, skel, glitch, truth)
 
     rng_clock = np.random.default_rng([seed, 23])
     offsets_ns, jitter_ns = clock_model(noise, len(rig), n_frames, rng_clock)
@@ -149,7 +158,7 @@ def make_trial(
         rng_det = np.random.default_rng([seed, 31, p])
         occ = occlusion_mask(rig, all_pts, heights, p) if noise.occlusion else None
         others = np.delete(all_pts, p, axis=0) if len(everyone) > 1 else None
-        kp = detect(rig, all_pts[p], _velocity(all_pts[p], times), heights[p], noise, dt, rng_det, occ, others)
+        kp = detect(rig, seen[p], _velocity(seen[p], times), heights[p], noise, dt, rng_det, occ, others)
         per_person.append(kp)
     detections = MultiViewKeypoints.of_one_person(per_person[0], tuple(rig.names), times, skel)
 

@@ -9,7 +9,8 @@ import numpy as np
 from gaitcap.reconstruction.gait.bouts import Bouts, Pass, find_bouts
 from gaitcap.reconstruction.gait.config import GaitConfig
 from gaitcap.reconstruction.gait.events import Contact, detect_contacts, event_timing, rest_speed_mm_s
-from gaitcap.reconstruction.gait.parameters import Step, pass_steps, progression_direction, summarise
+from gaitcap.reconstruction.gait.parameters import LeftOut, Step, pass_steps, progression_direction, summarise
+from gaitcap.reconstruction.gait.plausibility import exclusion_note, with_exclusions
 from gaitcap.reconstruction.gait.quality import TrajectoryQuality, contact_confidence
 from gaitcap.reconstruction.gait.report import GaitReport
 from gaitcap.reconstruction.gait.tracks import FootTracks, foot_joint_indices
@@ -57,15 +58,23 @@ def _extended(bouts: Bouts, p: Pass) -> Pass:
     return Pass(p.index, start, end, p.direction, p.speed_mm_s)
 
 
+def _counted(steps: list[Step], resolution_s: float) -> list[Step]:
+    """The steps with the implausible ones among the summary's (the steady ones, or all when none is)
+    marked excluded (see ``plausibility``)."""
+    judged = [s.steady for s in steps] if any(s.steady for s in steps) else [True] * len(steps)
+    return list(with_exclusions(steps, judged, {}, resolution_s=resolution_s))
+
+
 def _steps(bouts: Bouts, contacts: Sequence[Contact], confidence,
-           config: GaitConfig) -> tuple[list[Step], list[Pass], list[str]]:
-    steps, passes, warnings = [], [], []
+           config: GaitConfig) -> tuple[list[Step], list[Pass], list[str], list[LeftOut]]:
+    steps, passes, warnings, left_out = [], [], [], []
     for p in bouts.passes:
         wide = _extended(bouts, p)
-        found, notes = pass_steps(wide, contacts, contacts, confidence, first_index=len(steps), steady=p,
-                                  low_confidence=config.low_confidence)
+        found, missed = pass_steps(wide, contacts, contacts, confidence, first_index=len(steps), steady=p,
+                                   low_confidence=config.low_confidence)
         steps += found
-        warnings += notes
+        warnings += [m.why for m in missed]
+        left_out += missed
         seq = [c for c in contacts if c.valid and wide.contains(c.heel_strike_s)]
         d = progression_direction([c.foot for c in seq], np.array([c.heel_mm[:2] for c in seq]),
                                   np.asarray(p.direction))
@@ -74,7 +83,7 @@ def _steps(bouts: Bouts, contacts: Sequence[Contact], confidence,
     if low:
         warnings.append(f"{len(low)} step(s) detected with low confidence (< {config.low_confidence:.2f}): "
                         + ", ".join(f"{s.foot} at {s.heel_strike_s:.2f} s" for s in low))
-    return steps, passes, warnings
+    return steps, passes, warnings, left_out
 
 
 def analyze_gait(
@@ -108,7 +117,10 @@ def analyze_gait(
     speed = walking_speed_mm_s(bouts, config)
     contacts = detect_contacts(tracks, speed, config)
     confidence = _confidences(contacts, tracks, joint_names, quality, config)
-    steps, passes, warnings = _steps(bouts, contacts, confidence, config)
+    steps, passes, warnings, left_out = _steps(bouts, contacts, confidence, config)
+    timing = event_timing(tracks, config)
+    steps = _counted(steps, timing.resolution_s)
+    warnings += [note] if (note := exclusion_note(steps)) else []
     if tracks.all_gaps_s:
         warnings.append("data gaps (no contacts measured there): " + ", ".join(
             f"{a:.2f}-{b:.2f} s" for a, b in tracks.all_gaps_s))
@@ -125,7 +137,7 @@ def analyze_gait(
         raise ValueError(f"no steps found: {len(contacts)} foot contact(s) detected in {len(passes)} "
                          "pass(es), but no pair of consecutive left/right contacts inside one pass")
     return GaitReport(tuple(steps), summarise(steps, len(passes)), tuple(passes), bouts.segments,
-                      contacts, tuple(warnings), timing=event_timing(tracks, config))
+                      contacts, tuple(warnings), timing=timing, left_out=tuple(left_out))
 
 
 def compare_with_walkway(

@@ -16,7 +16,9 @@ pass, a pass here including the speeding-up and slowing-down walking at its ends
 standing are excluded); parameters that need a missing contact are NaN. The first and last step of a pass
 and every step outside its steady part are edge steps (``steady`` False: acceleration/deceleration, or the
 ends of a short clip): reported, but left out of the summary statistics. A step whose confidence is below
-``low_confidence`` says so (``low_confidence``).
+``low_confidence`` says so (``low_confidence``). A step that does not deserve to be counted (events out of
+order, a broken left/right sequence, a value implausible for this patient: ``plausibility``) is reported
+with the reason in ``excluded`` and left out of the summary statistics too.
 """
 
 from __future__ import annotations
@@ -67,6 +69,19 @@ class Step:
     confidence: float
     steady: bool = True
     low_confidence: bool = False
+    excluded: str = ""  # why the step is not counted in the summary ("" when it is; see ``plausibility``)
+
+
+@dataclass(frozen=True)
+class LeftOut:
+    """A step the analysis could not form: ``what`` is "missed contact" (two contacts of ``foot`` in a row
+    in a pass: the contact between was missed or unusable) or "dropped step" (a length no walking step has,
+    ``PLAUSIBLE_MM``); ``time_s``: the heel strike (s) where it happened; ``why``: plain words."""
+
+    what: str
+    foot: str
+    time_s: float
+    why: str
 
 
 def progression_direction(feet: Sequence[str], heels_xy_mm: np.ndarray, fallback: np.ndarray) -> np.ndarray:
@@ -139,8 +154,9 @@ def _timing(k: Contact, p: Contact | None, c: Contact, c0: Contact | None) -> di
 
 def pass_steps(pass_: Pass, contacts: Sequence[Contact], all_contacts: Sequence[Contact],
                confidence: dict[int, float], first_index: int = 0, *, steady: Pass | None = None,
-               low_confidence: float = 0.0) -> tuple[list[Step], list[str]]:
-    """Steps of one pass from the trial's contacts (ordered by heel strike), plus warnings.
+               low_confidence: float = 0.0) -> tuple[list[Step], list[LeftOut]]:
+    """Steps of one pass from the trial's contacts (ordered by heel strike), and the steps it could not
+    form (:class:`LeftOut`, their ``why`` the analysis's notes).
 
     ``confidence`` maps id(contact) -> confidence in [0, 1]; a step gets the lower of its two contacts.
     ``steady``: the steady part of the pass (default: all of it); the first and last step and steps with
@@ -150,12 +166,15 @@ def pass_steps(pass_: Pass, contacts: Sequence[Contact], all_contacts: Sequence[
     direction = progression_direction([c.foot for c in seq], np.array([c.heel_mm[:2] for c in seq]),
                                       np.asarray(pass_.direction))
     core = steady or pass_
-    steps, warnings = [], []
+    steps, left_out = [], []
     for i in range(1, len(seq)):
         k, c = seq[i], seq[i - 1]
+        after = seq[i - 2] if i >= 2 and seq[i - 2].foot == c.foot else None  # two c-foot contacts in a row
         if c.foot == k.foot:
-            warnings.append(f"pass {pass_.index}: two {k.foot} contacts in a row at {c.heel_strike_s:.2f} s "
-                            f"and {k.heel_strike_s:.2f} s (the contact between was missed or unusable); no step there")
+            left_out.append(LeftOut("missed contact", k.foot, k.heel_strike_s,
+                                    f"pass {pass_.index}: two {k.foot} contacts in a row at {c.heel_strike_s:.2f} s "
+                                    f"and {k.heel_strike_s:.2f} s (the contact between was missed or unusable); "
+                                    "no step there"))
             continue
         p = seq[i - 2] if i >= 2 and seq[i - 2].foot == k.foot else None
         n = seq[i + 1] if i + 1 < len(seq) and seq[i + 1].foot == c.foot else None
@@ -170,15 +189,34 @@ def pass_steps(pass_: Pass, contacts: Sequence[Contact], all_contacts: Sequence[
         values["step_width_mm"] = _width(heel, heel_c, np.asarray(n.heel_mm[:2])) if n else float("nan")
         implausible = _implausible(values)
         if implausible:
-            warnings.append(f"pass {pass_.index}: {k.foot} step at {k.heel_strike_s:.2f} s dropped ({implausible})")
+            left_out.append(LeftOut("dropped step", k.foot, k.heel_strike_s, f"pass {pass_.index}: {k.foot} step at "
+                                    f"{k.heel_strike_s:.2f} s dropped ({implausible})"))
             continue
         conf = min(confidence.get(id(k), 1.0), confidence.get(id(c), 1.0))
         edge = i == 1 or i == len(seq) - 1 or not (core.contains(k.heel_strike_s) and core.contains(c.heel_strike_s))
+        excluded = (f"left/right sequence broken: measured from the second of two {c.foot} contacts in a row "
+                    f"({after.heel_strike_s:.2f} s and {c.heel_strike_s:.2f} s)" if after is not None
+                    else _order_problem(k, p, c))
         steps.append(Step(first_index + len(steps), pass_.index, k.foot, k.heel_strike_s, k.toe_off_s,
                           k.heel_mm, k.toe_mm, confidence=conf, steady=not edge,
-                          low_confidence=conf < low_confidence,
+                          low_confidence=conf < low_confidence, excluded=excluded,
                           **{name: values[name] for name in STEP_PARAMETERS}))
-    return steps, warnings
+    return steps, left_out
+
+
+def _order_problem(k: Contact, p: Contact | None, c: Contact) -> str:
+    """Why the events of the step ``c`` -> ``k`` (cycle from ``p``) are not in walking order ("" when they
+    are): the opposite heel strike before this one, this heel strike before its toe off, and the cycle's
+    heel strike, toe off and this heel strike in that order."""
+    if not c.heel_strike_s < k.heel_strike_s:
+        return (f"events out of order: the opposite heel strike ({c.heel_strike_s:.2f} s) is not before this "
+                f"one ({k.heel_strike_s:.2f} s)")
+    if np.isfinite(k.toe_off_s) and not k.toe_off_s > k.heel_strike_s:
+        return f"events out of order: toe off ({k.toe_off_s:.2f} s) not after heel strike ({k.heel_strike_s:.2f} s)"
+    if p is not None and np.isfinite(p.toe_off_s) and not p.heel_strike_s < p.toe_off_s < k.heel_strike_s:
+        return (f"events out of order: this foot's toe off ({p.toe_off_s:.2f} s) is not between its heel "
+                f"strikes ({p.heel_strike_s:.2f} s and {k.heel_strike_s:.2f} s)")
+    return ""
 
 
 def _annotated_contacts(foot: str, heel_strikes_s, toe_offs_s) -> list[Contact]:
@@ -259,7 +297,9 @@ class GaitSummary:
             SI = 100 |left mean - right mean| / (0.5 (left mean + right mean)); 0 is symmetric.
         num_edge_steps: steps reported but left out of these statistics (first/last steps of a pass,
             acceleration and deceleration; see ``Step.steady``).
-    Statistics ("all", "left", "right": n, mean, SD, CV) are over the steady steps.
+        num_excluded_steps: steady steps left out because they do not deserve to be counted (see
+            ``Step.excluded`` and ``plausibility``).
+    Statistics ("all", "left", "right": n, mean, SD, CV) are over the steady steps that are counted.
     """
 
     num_steps: int
@@ -269,14 +309,16 @@ class GaitSummary:
     parameters: dict[str, dict[str, Stats]] = field(default_factory=dict)
     asymmetry_pct: dict[str, float] = field(default_factory=dict)
     num_edge_steps: int = 0
+    num_excluded_steps: int = 0
 
 
 def summarise(steps: Sequence[Step], num_passes: int) -> GaitSummary:
     """Per-trial and per-side statistics, cadence, gait speed and asymmetry of the steady ``steps``
-    (all of them when none is steady, e.g. a clip of two steps); the cycle phases (``PHASE_PARAMETERS``)
+    (all of them when none is steady, e.g. a clip of two steps) less those excluded (``Step.excluded``); the cycle phases (``PHASE_PARAMETERS``)
     over those of them whose phases are all measured (all of them when none is)."""
     all_steps = list(steps)
-    steps = [s for s in all_steps if s.steady] or all_steps
+    pool = [s for s in all_steps if s.steady] or all_steps
+    steps = [s for s in pool if not s.excluded]
     complete = [s for s in steps if all(np.isfinite(getattr(s, n)) for n in PHASE_PARAMETERS)] or steps
     params, asym = {}, {}
     for name in STEP_PARAMETERS:
@@ -293,4 +335,4 @@ def summarise(steps: Sequence[Step], num_passes: int) -> GaitSummary:
     speed = sum(p[0] for p in pairs) / sum(p[1] for p in pairs) / 1000.0 if pairs else float("nan")
     cadence = 60.0 / step_time if np.isfinite(step_time) and step_time > 0 else float("nan")
     return GaitSummary(len(all_steps), num_passes, float(cadence), float(speed), params, asym,
-                       len(all_steps) - len(steps))
+                       len(all_steps) - len(pool), len(pool) - len(steps))

@@ -12,13 +12,13 @@ from typing import Any
 
 from gaitcap.reconstruction.gait.bouts import Pass, Segment
 from gaitcap.reconstruction.gait.events import Contact, EventTiming
-from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS, GaitSummary, Step
+from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS, GaitSummary, LeftOut, Step
 from gaitcap.reconstruction.gait.walkway import WalkwayComparison
 from gaitcap.reconstruction.jsonable import json_ready
 
 CSV_COLUMNS = (
     "index", "pass_index", "foot", "heel_strike_s", "toe_off_s", "heel_x_mm", "heel_y_mm", "heel_z_mm",
-    "toe_x_mm", "toe_y_mm", "toe_z_mm", *STEP_PARAMETERS, "confidence", "steady", "low_confidence",
+    "toe_x_mm", "toe_y_mm", "toe_z_mm", *STEP_PARAMETERS, "confidence", "steady", "low_confidence", "excluded",
 )
 SUMMARY_CSV_COLUMNS = ("parameter", "side", "n", "mean", "sd", "cv_pct", "symmetry_index_pct")
 
@@ -28,7 +28,8 @@ class GaitReport:
     """Gait analysis of one trial.
 
     Attributes:
-        steps: analysed steps (see ``parameters.Step``; mm, s, % of cycle).
+        steps: analysed steps (see ``parameters.Step``; mm, s, % of cycle), those not counted in the
+            summary with the reason (``Step.excluded``).
         summary: cadence, speed, per-side statistics and asymmetry.
         passes: straight passes with their direction of progression.
         segments: the trial split into pass / turn / standing / gap (s).
@@ -37,6 +38,7 @@ class GaitReport:
         walkway: comparison with a walkway export, when one was given.
         timing: how finely the events are located (sub-frame on a continuous trajectory, one frame
             interval on a frame-grid one such as the preliminary triangulation); None if not given.
+        left_out: the steps no step could be formed for in a pass (missed contacts, dropped steps), with why.
     """
 
     steps: tuple[Step, ...]
@@ -47,6 +49,7 @@ class GaitReport:
     warnings: tuple[str, ...] = ()
     walkway: WalkwayComparison | None = None
     timing: EventTiming | None = None
+    left_out: tuple[LeftOut, ...] = ()
 
     def with_walkway(self, comparison: WalkwayComparison) -> GaitReport:
         return dataclasses.replace(self, walkway=comparison)
@@ -66,7 +69,8 @@ class GaitReport:
         writer.writerow(CSV_COLUMNS)
         for s in self.steps:
             row = [s.index, s.pass_index, s.foot, s.heel_strike_s, s.toe_off_s, *s.heel_mm, *s.toe_mm,
-                   *(getattr(s, p) for p in STEP_PARAMETERS), s.confidence, int(s.steady), int(s.low_confidence)]
+                   *(getattr(s, p) for p in STEP_PARAMETERS), s.confidence, int(s.steady), int(s.low_confidence),
+                   s.excluded]
             writer.writerow(_cells(row))
         return buf.getvalue()
 

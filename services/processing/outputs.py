@@ -26,9 +26,10 @@ SUMMARY_PARAMS = (("step_length_mm", "mm"), ("stride_length_mm", "mm"), ("step_w
 
 
 def steps_of(report) -> list[dict]:
-    """Catalog step rows: side, time_s, then the main parameters (units in the names)."""
+    """Catalog step rows: side, time_s, then the main parameters (units in the names), and ``excluded``:
+    why the step is not counted in the summary ("" when it is)."""
     return [{"side": s.foot, "time_s": round(float(s.heel_strike_s), 3), "pass_no": s.pass_index + 1,
-             **{k: finite_or_none(getattr(s, k)) for k in STEP_COLUMNS}} for s in report.steps]
+             **{k: finite_or_none(getattr(s, k)) for k in STEP_COLUMNS}, "excluded": s.excluded} for s in report.steps]
 
 
 def summary_of(report) -> dict[str, dict]:

@@ -12,7 +12,8 @@ steps run or in which order. The sequence:
 4. data quality of the recording (:func:`~gaitcap.services.processing.quality.recording_quality`);
 5. each reconstruction stage in order (default: preliminary robust triangulation, refined implicit fit):
    the trajectory (refused when no joint could be reconstructed), the reprojection error of the first
-   stage into the quality block, gait (:func:`~gaitcap.services.processing.pipeline.gait_of`), the stage's
+   stage into the quality block, gait (:func:`~gaitcap.services.processing.pipeline.gait_of`) with the
+   steps it could not count into the quality block (the ``steps`` check, the last stage's), the stage's
    data files, ``sink.stored``, its views (TRC, plot) and, by ``viewer_files``, its viewer files;
    each stage's consistency rules beside its numbers; with ``completion`` settings, before the last
    stage every recorded frame the live detector missed is detected from the trial's images (the refined
@@ -363,8 +364,9 @@ class _TrialRun:
             self.first = (self.det, self.rig, traj.points_mm)  # what the checks judge, completion or not
         viewers = (self.recording, self.rig) if _wants_viewers(self.options, index) else None
         with self.timed(f"{plan.name} gait and files"):
-            self.stages[plan.name] = _finish_stage(plan.name, traj, rec, self.det, self.files, self.sink, self.quality,
-                                                   viewers=viewers, data=self.data, options=self.options)
+            self.stages[plan.name], self.quality = _finish_stage(
+                plan.name, traj, rec, self.det, self.files, self.sink, self.quality, viewers=viewers, data=self.data,
+                options=self.options)
 
     def check(self) -> None:
         """The trial's checks of its results on the first stage's points: the quality, ``checks.json`` and
@@ -518,14 +520,18 @@ def run_stage(plan: StagePlan, det, rig: Rig, *, fit_progress=None, truth_mm=Non
 
 
 def _finish_stage(name: str, traj: Reconstruction, rec, det, files: TrialFiles | None, sink: TrialSink,
-                  quality: DataQuality, *, viewers, data: TrialInput, options: TrialOptions) -> StageOutcome:
-    """Gait, the stage's data files, ``sink.stored``, then its views and viewer files."""
+                  quality: DataQuality, *, viewers, data: TrialInput,
+                  options: TrialOptions) -> tuple[StageOutcome, DataQuality]:
+    """Gait, the steps it could not count into the quality (the ``steps`` check), the stage's data files,
+    ``sink.stored``, then its views and viewer files; the outcome and the quality as it now stands."""
     from gaitcap.services.processing.outputs import write_data, write_views
+    from gaitcap.services.processing.steps_check import steps_check
 
     t0 = time.perf_counter()
     report, problem = gait_of(traj)
     if problem:
         log.warning("%s: no gait parameters: %s", name, problem)
+    quality = with_check(quality, "steps", steps_check(name, report))
     consistency = stage_consistency(report, traj.times_s)
     if consistency.get("failures"):
         log.warning("%s: %d consistency rule(s) failed: the parameters concerned are in doubt", name,
@@ -540,7 +546,7 @@ def _finish_stage(name: str, traj: Reconstruction, rec, det, files: TrialFiles |
     outcome = StageOutcome(name, traj, report, problem, missing, dict(written), rec, gait_s, consistency)
     sink.stored(outcome, quality)
     if files is None:
-        return outcome
+        return outcome, quality
     sink.progress(f"saving the {name} files", 0.35 if name == "preliminary" else 0.95, name)
     views = write_views(files, name, traj, report, trial_id=files.root.name)
     sink.files_added(name, views)
@@ -549,7 +555,7 @@ def _finish_stage(name: str, traj: Reconstruction, rec, det, files: TrialFiles |
         shown = _viewer_files(files, name, traj, det, report, viewers, data, options)
         sink.files_added(name, shown)
         written.update(shown)
-    return replace(outcome, files=written)
+    return replace(outcome, files=written), quality
 
 
 def _viewer_files(files: TrialFiles, name: str, traj: Reconstruction, det, report, viewers, data: TrialInput,

@@ -1,0 +1,99 @@
+"""Which steps deserve to be counted: a step enters the summary only if its events are in order and its
+lengths and times are plausible for this patient.
+
+A step is excluded, with its reason in ``Step.excluded``, when
+
+- its events are not in walking order: the previous opposite heel strike, then this heel strike, then this
+  foot's toe off; and for the gait cycle, this foot's previous heel strike before its toe off before this
+  heel strike (a negative time is a detection error, never gait; ``parameters.pass_steps``);
+- its step is measured from a contact that follows another contact of the same foot (two left contacts in
+  a row: the contact between was missed, or one of the two is not a real contact), so the left/right
+  sequence it rests on is broken (``parameters.pass_steps``);
+- among the summary's steps (the steady ones, see ``parameters``), one of :data:`CHECKED` lies beyond
+  :data:`MAD_LIMIT` robust standard deviations from the patient's own steps in that trial: the deviation from the median of that side's steps (the trial's
+  median when the side has fewer than 3), against 1.4826 x the median absolute deviation of every such
+  deviation (a standard deviation for normal data; Iglewicz & Hoaglin's modified z-score), never less
+  than :data:`MIN_SPREAD` (measurement and step-to-step variation nobody would call wrong: 10 mm, and
+  10 ms or the events' time resolution, whichever is larger). Judged only with at least
+  :data:`MIN_STEPS` steps.
+
+Pure computation on ``Step`` records; the reason is words a clinician reads.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+from gaitcap.reconstruction.gait.parameters import Step
+
+#: Parameters judged against the patient's own steps, with their unit ("mm" or "s").
+CHECKED = {"step_length_mm": "mm", "stride_length_mm": "mm", "step_width_mm": "mm", "step_time_s": "s",
+           "stride_time_s": "s", "stance_time_s": "s", "swing_time_s": "s"}
+MAD_LIMIT = 3.5  # robust standard deviations
+MAD_TO_SD = 1.4826  # a normal distribution's SD per median absolute deviation
+MIN_SPREAD = {"mm": 10.0, "s": 0.010}  # the least robust SD: below it a difference is noise (mm, s)
+MIN_STEPS = 5  # fewer steps: no median to judge against
+MIN_SIDE = 3  # a side with fewer steps is judged against the trial's median
+
+
+def _label(name: str) -> str:
+    return name.rsplit("_", 1)[0].replace("_", " ")
+
+
+def _robust_sd(deviations: np.ndarray, unit: str, resolution_s: float) -> float:
+    floor = MIN_SPREAD[unit] if unit == "mm" else max(MIN_SPREAD["s"], resolution_s)
+    return max(MAD_TO_SD * float(np.median(np.abs(deviations))), floor)
+
+
+def _deviations(steps: Sequence[Step], name: str) -> np.ndarray:
+    """Each step's deviation from its side's median (NaN where the step has no value)."""
+    values = np.array([getattr(s, name) for s in steps], dtype=np.float64)
+    feet = np.array([s.foot for s in steps])
+    out = np.full(len(steps), np.nan)
+    trial = np.nanmedian(values) if np.isfinite(values).any() else np.nan
+    for side in ("left", "right"):
+        mine = (feet == side) & np.isfinite(values)
+        centre = np.median(values[mine]) if mine.sum() >= MIN_SIDE else trial
+        out[mine] = values[mine] - centre
+    return out
+
+
+def outliers(steps: Sequence[Step], *, resolution_s: float = 0.0) -> dict[int, str]:
+    """{position in ``steps``: why} for the steps with a value beyond :data:`MAD_LIMIT` robust SDs of the
+    others (see the module docstring); ``resolution_s``: the events' time resolution (s)."""
+    out: dict[int, str] = {}
+    for name, unit in CHECKED.items():
+        dev = _deviations(steps, name)
+        ok = np.isfinite(dev)
+        if ok.sum() < MIN_STEPS:
+            continue
+        sd = _robust_sd(dev[ok], unit, resolution_s)
+        for i in np.flatnonzero(ok & (np.abs(np.nan_to_num(dev)) > MAD_LIMIT * sd)):
+            value = getattr(steps[i], name)
+            typical = value - dev[i]
+            fmt = ".0f" if unit == "mm" else ".3f"
+            why = (f"{_label(name)} {value:{fmt}} {unit} is {abs(dev[i]) / sd:.1f} robust SD from this "
+                   f"patient's {typical:{fmt}} {unit} (limit {MAD_LIMIT})")
+            out.setdefault(i, why)
+    return out
+
+
+def with_exclusions(steps: Sequence[Step], judged: Sequence[bool], reasons: dict[int, str], *,
+                    resolution_s: float = 0.0) -> tuple[Step, ...]:
+    """``steps`` with ``Step.excluded`` set: ``reasons`` given by position (events, sequence) and, among
+    the ``judged`` steps (the summary's set) without one, the :func:`outliers` of those judged steps."""
+    chosen = [i for i, j in enumerate(judged) if j and i not in reasons]
+    found = outliers([steps[i] for i in chosen], resolution_s=resolution_s)
+    why = {**reasons, **{chosen[k]: r for k, r in found.items()}}
+    return tuple(dataclasses.replace(s, excluded=why[i]) if i in why else s for i, s in enumerate(steps))
+
+
+def exclusion_note(steps: Sequence[Step]) -> str:
+    """The analysis note listing the excluded steps ("" when none)."""
+    out = [s for s in steps if s.excluded]
+    if not out:
+        return ""
+    return (f"{len(out)} step(s) not counted in the summary: "
+            + "; ".join(f"{s.foot} step at {s.heel_strike_s:.2f} s ({s.excluded})" for s in out))
