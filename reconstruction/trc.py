@@ -44,3 +44,31 @@ def to_trc(
         vals = ["NaN" if not np.isfinite(v) else f"{v:.6f}" for v in values[f].reshape(-1)]
         lines.append(f"{f + 1}\t{times[f]:.6f}\t" + "\t".join(vals))
     return "\n".join(lines) + "\n"
+
+
+def parse_trc(text: str, *, source: str = "<trc>") -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(times (T,) s, marker name -> (T, 3) mm) of a TRC file's text, in the file's own axes, scaled from
+    the header's Units (mm or m); empty fields are NaN. Errors name ``source``."""
+    lines = text.splitlines()
+    if len(lines) < 6:
+        raise ValueError(f"{source}: not a TRC file (fewer than 6 lines)")
+    header = dict(zip(lines[1].split("\t"), lines[2].split("\t"), strict=False))
+    scale = UNIT_SCALES.get(header.get("Units", "mm").strip())
+    if scale is None:
+        raise ValueError(f"{source}: Units {header.get('Units')!r} is neither mm nor m")
+    names = [n for n in lines[3].split("\t")[2:] if n.strip()]
+    rows = [r.split("\t") for r in lines[5:] if r.strip()]
+    if not rows:
+        raise ValueError(f"{source}: TRC file has no frames")
+
+    def num(cell: str) -> float:
+        try:
+            return float(cell) if cell.strip() else float("nan")
+        except ValueError:
+            raise ValueError(f"{source}: {cell!r} is not a number") from None
+
+    data = np.array([[num(c) for c in (r + [""] * (2 + 3 * len(names) - len(r)))[: 2 + 3 * len(names)]]
+                     for r in rows])
+    times = data[:, 1]
+    markers = {n: data[:, 2 + 3 * k: 5 + 3 * k] / scale for k, n in enumerate(names)}
+    return times - times[0], markers
