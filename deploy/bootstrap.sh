@@ -20,8 +20,9 @@ apt_install() {
     $sudo apt-get update -q >/dev/null && $sudo apt-get install -y -q "${missing[@]}" >/dev/null; }
 }
 
-# Chromium drives the browser test of the web page; iproute2 makes the two-host namespace test.
-apt_install ${GAITCAP_APT_PACKAGES:-chromium iproute2}
+# Chromium drives the browser test of the web page; iproute2 makes the two-host namespace test; postgresql
+# is the central catalog of several rooms (the tests start a throwaway server of their own with its programs).
+apt_install ${GAITCAP_APT_PACKAGES:-chromium iproute2 postgresql}
 
 if [ ! -x "$VENV/bin/python" ]; then
   echo "[bootstrap] creating venv $VENV" >&2

@@ -2,8 +2,13 @@
 
 SQLite is opened in WAL mode with a busy timeout and every transaction starts with ``BEGIN IMMEDIATE``,
 so several processes (API, workers) can write without "database is locked" surprises and a lease is
-taken atomically. The schema version is checked on open; an older SQLite catalog is upgraded
+taken atomically. The schema version is checked on open; an older catalog is upgraded
 (:mod:`gaitcap.services.catalog.migrations`).
+
+PostgreSQL (``postgresql+psycopg://user@host:port/db``): the password comes from the user's libpq password
+file (``~/.pgpass`` or ``PGPASSFILE``), never from a URL that is logged or seen in a process listing (a URL
+that carries one still works, with a warning; logs and errors show it as ``***``, :func:`shown_url`); TLS
+to the server is set in the URL's query (``?sslmode=verify-full&sslrootcert=/etc/gaitcap/db-ca.pem``).
 """
 
 from __future__ import annotations
@@ -20,7 +25,9 @@ from pathlib import Path
 
 from gaitcap.services.catalog.migrations import STEPS, migration_problem
 from gaitcap.services.catalog.models import SCHEMA_VERSION, Base, SchemaInfo
+from gaitcap.services.catalog.pg_tools import shown_url
 from sqlalchemy import Engine, create_engine, event, select, update
+from sqlalchemy.engine import make_url
 from sqlalchemy.orm import Session, sessionmaker
 
 log = logging.getLogger(__name__)
@@ -100,6 +107,11 @@ class Catalog:
         with self.read_sessions.begin() as s:
             yield s
 
+    @property
+    def shown_url(self) -> str:
+        """The URL as logs and errors show it (a password as ``***``)."""
+        return shown_url(self.url)
+
     def close(self) -> None:
         self.engine.dispose()
 
@@ -107,11 +119,15 @@ class Catalog:
 def open_catalog(path_or_url: str | Path, *, create: bool = True) -> Catalog:
     """Open (and by default create) the catalog at a SQLite path or a SQLAlchemy URL.
 
-    An older SQLite catalog is upgraded first; raises SchemaMismatch when the stored schema version
-    differs from :data:`SCHEMA_VERSION` and cannot be upgraded here.
+    An older catalog is upgraded first; raises SchemaMismatch when the stored schema version differs from
+    :data:`SCHEMA_VERSION` and cannot be upgraded here.
     """
     url = database_url(path_or_url)
-    engine = _sqlite_engine(url) if url.startswith("sqlite") else create_engine(url, pool_pre_ping=True)
+    if make_url(url).password is not None:
+        log.warning("catalog %s: the URL carries a password, which process listings and shell histories show; "
+                    "put it in a libpq password file (~/.pgpass or PGPASSFILE) instead", shown_url(url))
+    engine = _sqlite_engine(url) if url.startswith("sqlite") else create_engine(url, pool_pre_ping=True,
+                                                                                hide_parameters=True)
     if create:
         Base.metadata.create_all(engine)
     reader = engine.execution_options(gaitcap_readonly=True)
@@ -136,12 +152,12 @@ def _check_version(catalog: Catalog) -> None:
 def _upgrade(catalog: Catalog, version: int) -> None:
     problem = migration_problem(catalog.engine.dialect.name, version, SCHEMA_VERSION)
     if problem:
-        raise SchemaMismatch(f"catalog {catalog.url}: {problem}")
+        raise SchemaMismatch(f"catalog {catalog.shown_url}: {problem}")
     for step in range(version, SCHEMA_VERSION):
         with catalog.engine.begin() as conn:  # one transaction per step
             STEPS[step](conn)
             conn.execute(update(SchemaInfo).where(SchemaInfo.key == "version").values(value=str(step + 1)))
-        log.info("catalog %s: upgraded from schema version %d to %d", catalog.url, step, step + 1)
+        log.info("catalog %s: upgraded from schema version %d to %d", catalog.shown_url, step, step + 1)
 
 
 def schema_version(catalog: Catalog) -> int:

@@ -1,14 +1,15 @@
 """Bringing a catalog written by an older gaitcap up to :data:`SCHEMA_VERSION` when it is opened.
 
-Each step moves one version up in one transaction (a failure leaves the file as it was). SQLite only:
-another database refuses to open with the step named (run it by hand, or start a new catalog).
+Each step moves one version up in one transaction (a failure leaves the database as it was), on SQLite and
+on PostgreSQL (transactional DDL there too). The frozen DDL of a version is written once, in SQLite's words;
+:func:`portable` gives PostgreSQL's (an integer key that numbers itself is ``SERIAL`` there).
 """
 
 from __future__ import annotations
 
 import logging
 
-from sqlalchemy import Connection, text
+from sqlalchemy import Connection, inspect, text
 
 log = logging.getLogger(__name__)
 
@@ -19,6 +20,30 @@ _CALIBRATION_COLUMNS = (  # columns the one calibration record gained in version
     "frames INTEGER", "stage VARCHAR(64) NOT NULL DEFAULT ''", "progress FLOAT NOT NULL DEFAULT 0",
     "error TEXT NOT NULL DEFAULT ''",
 )
+AUTO_ID = "id INTEGER NOT NULL"  # a table's own row number in the frozen DDL (SQLite numbers it itself)
+_PORTABLE = {"postgresql": {AUTO_ID: "id SERIAL NOT NULL"}}  # dialect -> frozen words -> its words
+
+
+def portable(ddl: str, dialect: str) -> str:
+    """The frozen DDL ``ddl`` (SQLite's words) as ``dialect`` (a SQLAlchemy dialect name) needs it."""
+    for frozen, theirs in _PORTABLE.get(dialect, {}).items():
+        ddl = ddl.replace(frozen, theirs)
+    return ddl
+
+
+def _run_ddl(conn: Connection, ddl: str) -> None:
+    for statement in portable(ddl, conn.dialect.name).split(";"):
+        if statement.strip():
+            conn.exec_driver_sql(statement)
+
+
+def _renumber(conn: Connection, table: str) -> None:
+    """PostgreSQL: the table's id sequence goes on after the rows copied in with their ids."""
+    if conn.dialect.name == "postgresql":
+        conn.exec_driver_sql(f"SELECT setval(pg_get_serial_sequence('{table}', 'id'), "
+                             f"COALESCE((SELECT MAX(id) FROM {table}), 0) + 1, false)")
+
+
 _RUN_FIELDS = ("state", "recording_slot", "started_at", "stopped_at", "started_by", "recording_path", "stage",
                "progress", "error")
 
@@ -79,13 +104,14 @@ def _jobs_of_any_kind(conn: Connection) -> None:
     conn.exec_driver_sql("ALTER TABLE jobs RENAME TO jobs_v1")
     for index in ("ix_jobs_trial_id", "ix_jobs_state"):
         conn.exec_driver_sql(f"DROP INDEX IF EXISTS {index}")
-    for statement in JOBS_V2_DDL.split(";"):
-        if statement.strip():
-            conn.exec_driver_sql(statement)
+    if conn.dialect.name == "postgresql":  # the key's index keeps its name across the rename: free it
+        conn.exec_driver_sql("ALTER INDEX IF EXISTS jobs_pkey RENAME TO jobs_v1_pkey")
+    _run_ddl(conn, JOBS_V2_DDL)
     names = ("id, trial_id, kind, state, attempts, max_attempts, worker_id, lease_expires_at, created_at, "
              "started_at, finished_at, error")
     conn.exec_driver_sql(f"INSERT INTO jobs ({names}) SELECT {names} FROM jobs_v1")
     conn.exec_driver_sql("DROP TABLE jobs_v1")
+    _renumber(conn, "jobs")
 
 
 def _v1_to_v2(conn: Connection) -> None:
@@ -117,9 +143,7 @@ CREATE INDEX IF NOT EXISTS ix_calibration_versions_replaces_id ON calibration_ve
 
 def _v3_to_v4(conn: Connection) -> None:
     """calibration_versions: which calibration a refined one replaces (older catalogs have none)."""
-    for statement in VERSIONS_V4_DDL.split(";"):
-        if statement.strip():
-            conn.exec_driver_sql(statement)
+    _run_ddl(conn, VERSIONS_V4_DDL)
 
 
 METHOD_RESULTS_V5_DDL = """
@@ -151,16 +175,40 @@ CREATE INDEX IF NOT EXISTS ix_method_results_params_key ON method_results (param
 def _v4_to_v5(conn: Connection) -> None:
     """One results store: ``results`` keyed by method and parameters (older rows: '', their parameters were
     not recorded) and ``method_results`` a catalog table (created here where research never ran)."""
-    present = {row[1] for row in conn.exec_driver_sql("PRAGMA table_info(results)")}
+    present = {column["name"] for column in inspect(conn).get_columns("results")}
     for column in ("method_name VARCHAR(32) NOT NULL DEFAULT ''", "params_key VARCHAR(32) NOT NULL DEFAULT ''"):
         if column.split()[0] not in present:  # a catalog made by this gaitcap and marked older has them
             conn.exec_driver_sql(f"ALTER TABLE results ADD COLUMN {column}")
-    for statement in METHOD_RESULTS_V5_DDL.split(";"):
-        if statement.strip():
-            conn.exec_driver_sql(statement)
+    _run_ddl(conn, METHOD_RESULTS_V5_DDL)
 
 
-STEPS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5}  # from version -> the step to the next
+ROOMS_V6_DDL = """
+CREATE TABLE IF NOT EXISTS rooms (
+    name VARCHAR(64) NOT NULL,
+    slot INTEGER NOT NULL,
+    host VARCHAR(256) NOT NULL,
+    registered_at FLOAT NOT NULL,
+    seen_at FLOAT NOT NULL,
+    rig_json TEXT NOT NULL,
+    PRIMARY KEY (name),
+    UNIQUE (slot)
+);
+CREATE INDEX IF NOT EXISTS ix_trials_room ON trials (room)
+"""  # the table of schema version 6, frozen
+
+
+def _v5_to_v6(conn: Connection) -> None:
+    """Rooms: ``trials.room`` ('' on older trials: the default room, whose recording slot stays 1) and the rooms
+    table; ``trials.state`` 32 wide (PostgreSQL enforces the width; SQLite never did)."""
+    if "room" not in {column["name"] for column in inspect(conn).get_columns("trials")}:  # (made by this gaitcap)
+        conn.exec_driver_sql("ALTER TABLE trials ADD COLUMN room VARCHAR(64) NOT NULL DEFAULT ''")
+    if conn.dialect.name == "postgresql":
+        conn.exec_driver_sql("ALTER TABLE trials ALTER COLUMN state TYPE VARCHAR(32)")
+    _run_ddl(conn, ROOMS_V6_DDL)
+
+
+MIGRATES = frozenset({"sqlite", "postgresql"})  # the databases the steps are tested on
+STEPS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5, 5: _v5_to_v6}  # from version -> the step to the next
 
 
 def migration_problem(dialect: str, version: int, target: int) -> str | None:
@@ -168,7 +216,8 @@ def migration_problem(dialect: str, version: int, target: int) -> str | None:
     missing = [v for v in range(version, target) if v not in STEPS]
     if version > target or missing:
         return f"schema version {version}, this gaitcap expects {target} and knows no way from one to the other"
-    if dialect != "sqlite":
-        return (f"schema version {version}, this gaitcap expects {target}: the upgrade runs on SQLite only "
-                f"(steps {list(range(version, target))} in gaitcap.services.catalog.migrations)")
+    if dialect not in MIGRATES:
+        return (f"schema version {version}, this gaitcap expects {target}: the upgrade runs on "
+                f"{' and '.join(sorted(MIGRATES))} only (steps {list(range(version, target))} in "
+                "gaitcap.services.catalog.migrations)")
     return None

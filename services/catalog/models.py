@@ -10,8 +10,9 @@ from __future__ import annotations
 from sqlalchemy import Float, ForeignKey, Index, Integer, String, Text, UniqueConstraint
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
-SCHEMA_VERSION = 5  # 2: one calibration table; jobs of kind "process" (a trial) or "calibrate"; 3: calibrations.board;
-# 4: calibration_versions; 5: results keyed by method and parameters, method_results a catalog table
+SCHEMA_VERSION = 6  # 2: one calibration table; jobs of kind "process" (a trial) or "calibrate"; 3: calibrations.board;
+# 4: calibration_versions; 5: results keyed by method and parameters, method_results a catalog table; 6: rooms
+# (trials.room, the rooms table, a recording slot per room) and trials.state wide enough for done_with_warnings
 
 
 class Base(DeclarativeBase):
@@ -88,15 +89,32 @@ class CalibrationVersion(Base):
     applied_at: Mapped[float | None] = mapped_column(Float, nullable=True)
 
 
+class Room(Base):
+    """A capture room registered with the catalog (:mod:`gaitcap.services.catalog.rooms`): ``name`` ('' is
+    the default room of a one-room clinic), ``slot`` the number its recording trial holds in
+    ``trials.recording_slot`` (the default room's is 1), ``host`` where its stack runs, ``rig_json`` its rig
+    state as its API last wrote it (cameras, recording trial; JSON), ``seen_at`` when."""
+
+    __tablename__ = "rooms"
+    name: Mapped[str] = mapped_column(String(64), primary_key=True)
+    slot: Mapped[int] = mapped_column(Integer, unique=True)
+    host: Mapped[str] = mapped_column(String(256), default="")
+    registered_at: Mapped[float] = mapped_column(Float)
+    seen_at: Mapped[float] = mapped_column(Float)
+    rig_json: Mapped[str] = mapped_column(Text, default="{}")
+
+
 class Trial(Base):
-    """One walking trial. ``recording_slot`` is 1 while recording and NULL otherwise: the unique
-    constraint makes "only one trial records at a time" atomic across API processes."""
+    """One walking trial, recorded in ``room`` ('' the default room). ``recording_slot`` is the room's slot
+    while recording and NULL otherwise: the unique constraint makes "only one trial records at a time in a
+    room" atomic across API processes and hosts."""
 
     __tablename__ = "trials"
     id: Mapped[str] = mapped_column(String(64), primary_key=True)
     session_id: Mapped[str] = mapped_column(ForeignKey("sessions.id"), index=True)
     subject_id: Mapped[str] = mapped_column(ForeignKey("subjects.id"), index=True)
-    state: Mapped[str] = mapped_column(String(16), index=True)
+    state: Mapped[str] = mapped_column(String(32), index=True)
+    room: Mapped[str] = mapped_column(String(64), default="", index=True)
     recording_slot: Mapped[int | None] = mapped_column(Integer, unique=True, nullable=True)
     created_at: Mapped[float] = mapped_column(Float)
     updated_at: Mapped[float] = mapped_column(Float)

@@ -9,6 +9,7 @@ from gaitcap.services.catalog.db import Catalog
 from gaitcap.services.catalog.ids import new_trial_id, validate_id
 from gaitcap.services.catalog.jobs import new_job
 from gaitcap.services.catalog.models import SessionRow, Subject, Trial
+from gaitcap.services.catalog.rooms import DEFAULT_ROOM, check_room, slot_of
 from gaitcap.services.catalog.states import HOLDS_SLOT, IllegalTransition, TrialState, sources_of
 from sqlalchemy import select, update
 from sqlalchemy.exc import IntegrityError
@@ -23,10 +24,11 @@ class TrialNotFound(KeyError):
 
 
 class RecordingBusy(RuntimeError):
-    """Another trial is recording; only one may record at a time."""
+    """Another trial is recording in the room; only one may record at a time there."""
 
-    def __init__(self, trial_id: str | None) -> None:
-        super().__init__(f"trial {trial_id} is already recording; stop it first")
+    def __init__(self, trial_id: str | None, room: str = DEFAULT_ROOM) -> None:
+        where = f" in room {room}" if room else ""
+        super().__init__(f"trial {trial_id} is already recording{where}; stop it first")
         self.trial_id = trial_id
 
 
@@ -47,6 +49,7 @@ class TrialInfo:
     stage: str
     progress: float
     error: str
+    room: str = DEFAULT_ROOM
 
     @property
     def duration_s(self) -> float | None:
@@ -61,6 +64,7 @@ def _info(trial: Trial, session_label: str) -> TrialInfo:
         created_at=trial.created_at, updated_at=trial.updated_at, started_at=trial.started_at,
         stopped_at=trial.stopped_at, recording_path=trial.recording_path,
         calibration_id=trial.calibration_id, stage=trial.stage, progress=trial.progress, error=trial.error,
+        room=trial.room or DEFAULT_ROOM,
     )
 
 
@@ -80,34 +84,37 @@ def session_label(session_id: str) -> str:
     return session_id.split("/", 1)[1] if "/" in session_id else session_id
 
 
-def current_recording(catalog: Catalog) -> TrialInfo | None:
-    """The trial that is recording now, if any."""
+def current_recording(catalog: Catalog, room: str = DEFAULT_ROOM) -> TrialInfo | None:
+    """The trial that is recording now in ``room``, if any."""
     with catalog.reading() as s:
-        trial = s.scalars(select(Trial).where(Trial.recording_slot == 1)).first()
+        trial = s.scalars(select(Trial).where(Trial.recording_slot == slot_of(s, room))).first()
         return None if trial is None else _info(trial, session_label(trial.session_id))
 
 
 def start_trial(
     catalog: Catalog, *, subject_id: str, session: str, recording_path_for=None,
-    calibration_id: str | None = None, trial_id: str | None = None,
+    calibration_id: str | None = None, trial_id: str | None = None, room: str = DEFAULT_ROOM,
 ) -> TrialInfo:
-    """Create a trial in state ``recording``. Raises RecordingBusy if another trial is recording.
+    """Create a trial in state ``recording`` in ``room`` (registered: :mod:`~gaitcap.services.catalog.rooms`).
+    Raises RecordingBusy if another trial is recording there.
 
     ``recording_path_for(trial_id) -> str`` gives where the MCAP goes (stored in the row).
     """
     validate_id(subject_id, field="subject_id")
     validate_id(session, field="session")
+    check_room(room)
     trial_id = validate_id(trial_id, field="trial_id") if trial_id else new_trial_id()
     now = time.time()
     try:
         with catalog.session() as s:
-            busy = s.scalars(select(Trial.id).where(Trial.recording_slot == 1)).first()
+            slot = slot_of(s, room)
+            busy = s.scalars(select(Trial.id).where(Trial.recording_slot == slot)).first()
             if busy is not None:
-                raise RecordingBusy(busy)
+                raise RecordingBusy(busy, room)
             sess = _get_or_create_session(s, subject_id, session, now)
             trial = Trial(
                 id=trial_id, session_id=sess.id, subject_id=subject_id, state=TrialState.RECORDING.value,
-                recording_slot=1, created_at=now, updated_at=now, started_at=now,
+                room=room, recording_slot=slot, created_at=now, updated_at=now, started_at=now,
                 recording_path=str(recording_path_for(trial_id)) if recording_path_for else "",
                 calibration_id=calibration_id, stage="recording", progress=0.0, error="",
             )
@@ -115,10 +122,10 @@ def start_trial(
             s.flush()
             return _info(trial, session)
     except IntegrityError as exc:  # lost a race for the recording slot (or the id exists)
-        busy = current_recording(catalog)
+        busy = current_recording(catalog, room)
         if busy is None:
             raise ValueError(f"trial_id: {trial_id} already exists") from exc
-        raise RecordingBusy(busy.id) from exc
+        raise RecordingBusy(busy.id, room) from exc
 
 
 def get_trial(catalog: Catalog, trial_id: str) -> TrialInfo:
@@ -130,12 +137,15 @@ def get_trial(catalog: Catalog, trial_id: str) -> TrialInfo:
         return _info(trial, session_label(trial.session_id))
 
 
-def list_trials(catalog: Catalog, *, subject_id: str | None = None, limit: int = 100) -> list[TrialInfo]:
-    """Newest first."""
+def list_trials(catalog: Catalog, *, subject_id: str | None = None, limit: int = 100,
+                room: str | None = None) -> list[TrialInfo]:
+    """Newest first; ``room``: only that room's (None: every room's)."""
     with catalog.reading() as s:
         q = select(Trial).order_by(Trial.created_at.desc()).limit(limit)
         if subject_id:
             q = q.where(Trial.subject_id == subject_id)
+        if room is not None:
+            q = q.where(Trial.room == check_room(room))
         return [_info(t, session_label(t.session_id)) for t in s.scalars(q)]
 
 

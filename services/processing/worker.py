@@ -178,7 +178,7 @@ class Worker:
     def run(self, stop: threading.Event) -> str:
         """Process jobs until ``stop`` is set (returns ``"stopped"``) or, between jobs, until the process has
         grown past ``max_rss_mb`` (returns ``"recycle"``: start a fresh one)."""
-        log.info("worker %s polling %s", self.config.worker_id, self.db.url)
+        log.info("worker %s polling %s", self.config.worker_id, self.db.shown_url)
         while not stop.is_set():
             if not self.run_once():
                 stop.wait(self.config.poll_s)

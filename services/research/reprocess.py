@@ -145,7 +145,7 @@ def plan_reprocess(db: cat.Catalog, data_dir: Path, selection: TrialSelection, s
     trials, missing = select_trials(db, Path(data_dir), selection)
     if not trials and not missing:
         which = ", ".join(selection.patterns) or "all"
-        raise ValueError(f"trials: no trial in states {'/'.join(selection.states)} matches {which!r} in {db.url}")
+        raise ValueError(f"trials: no trial in states {'/'.join(selection.states)} matches {which!r} in {db.shown_url}")
     if retry_failed:
         delete_failed(db, [t.trial_id for t in trials])
     done = done_keys(db)

@@ -2,13 +2,13 @@
 calibration kept); a version names the one it replaces; applying it queues only the finished trials that
 used the old one, names the others, and each queued trial then names the new version."""
 
-import sqlite3
-
 import pytest
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibration_versions as versions
 from gaitcap.services.catalog import calibrations as cals
 from gaitcap.services.catalog.models import SCHEMA_VERSION
+
+from .conftest import raw_sql
 
 
 def _trial(db, cal_id: str, states: tuple[str, ...]) -> str:
@@ -19,24 +19,22 @@ def _trial(db, cal_id: str, states: tuple[str, ...]) -> str:
     return t.id
 
 
-def test_a_version_3_catalog_opens_with_the_versions_table(tmp_path):
-    path = tmp_path / "v3.sqlite"
+def test_a_version_3_catalog_opens_with_the_versions_table(fresh_catalog_url):
+    path = fresh_catalog_url
     db = cat.open_catalog(path)
     cat.add_calibration(db, toml="[old]", cal_id="C-old")
     db.close()
-    with sqlite3.connect(path) as con:
-        con.execute("DROP TABLE calibration_versions")
-        con.execute("UPDATE schema_info SET value = '3' WHERE key = 'version'")
+    raw_sql(path, "DROP TABLE calibration_versions; UPDATE schema_info SET value = '3' WHERE key = 'version'")
     db = cat.open_catalog(path, create=False)
-    assert cat.schema_version(db) == SCHEMA_VERSION == 5
+    assert cat.schema_version(db) == SCHEMA_VERSION == 6
     new = versions.add_version(db, toml="[new]", replaces_id="C-old", made_by="refine-rig", trials=["T1"],
                                comparison={"cam01": {"centre_mm": 1.0, "rotation_deg": 2.0, "focal_pct": 0.0}})
     assert versions.get_version(db, new).comparison["cam01"]["rotation_deg"] == 2.0
     assert cat.latest_calibration(db) == (new, "[new]") and cat.get_calibration(db, "C-old").state == "done"
 
 
-def test_applying_a_version_queues_the_finished_trials_that_used_the_old_one(tmp_path):
-    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+def test_applying_a_version_queues_the_finished_trials_that_used_the_old_one(catalog_url):
+    db = cat.open_catalog(catalog_url)
     old = cat.add_calibration(db, toml="[old]")
     other = cat.add_calibration(db, toml="[other]")
     done = _trial(db, old, ("recorded", "processing", "done"))

@@ -1,4 +1,4 @@
-"""The catalog on a real SQLite file: state machine, the single recording slot, results, audit, schema."""
+"""The catalog on a real SQLite file and a real PostgreSQL database: state machine, the single recording slot, results, audit, schema."""
 
 import threading
 
@@ -9,8 +9,8 @@ from sqlalchemy import update
 
 
 @pytest.fixture
-def db(tmp_path):
-    c = cat.open_catalog(tmp_path / "catalog.sqlite")
+def db(catalog_url):
+    c = cat.open_catalog(catalog_url)
     yield c
     c.close()
 
@@ -52,8 +52,8 @@ def test_only_one_trial_records_at_a_time(db):
     assert _start(db, subject="P002").state == "recording"
 
 
-def test_concurrent_starts_from_two_connections_give_one_trial(tmp_path):
-    path = tmp_path / "c.sqlite"
+def test_concurrent_starts_from_two_connections_give_one_trial(catalog_url):
+    path = catalog_url
     cat.open_catalog(path).close()
     outcomes, barrier = [], threading.Barrier(4)
 
@@ -110,10 +110,10 @@ def test_audit_log_records_who_did_what(db):
     assert [(e.actor, e.action) for e in got] == [("dr_b", "download"), ("dr_a", "start")]
 
 
-def test_schema_version_mismatch_is_refused(tmp_path):
-    path = tmp_path / "old.sqlite"
+def test_schema_version_mismatch_is_refused(catalog_url):
+    path = catalog_url
     c = cat.open_catalog(path)
-    assert cat.schema_version(c) == SCHEMA_VERSION == 5
+    assert cat.schema_version(c) == SCHEMA_VERSION == 6
     with c.session() as s:
         s.execute(update(SchemaInfo).where(SchemaInfo.key == "version").values(value="999"))
     c.close()

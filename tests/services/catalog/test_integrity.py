@@ -1,5 +1,5 @@
 """Trial integrity in the catalog: compare-and-set transitions under concurrency (separate connections
-to one SQLite file), the crash states and their ways out, the data-quality record."""
+to one SQLite file or PostgreSQL database), the crash states and their ways out, the data-quality record."""
 
 import queue
 import threading
@@ -10,8 +10,8 @@ from gaitcap.services.catalog.states import ALLOWED, FINISHED, TrialState
 
 
 @pytest.fixture
-def db(tmp_path):
-    c = cat.open_catalog(tmp_path / "catalog.sqlite")
+def db(catalog_url):
+    c = cat.open_catalog(catalog_url)
     yield c
     c.close()
 
@@ -34,11 +34,11 @@ def _stop_once(url: str, trial_id: str, barrier, out) -> None:
         db.close()
 
 
-def test_concurrent_stops_on_separate_connections_make_exactly_one_job(db, tmp_path):
+def test_concurrent_stops_on_separate_connections_make_exactly_one_job(db, catalog_url):
     t = _start(db)
     n = 8
     barrier, out = threading.Barrier(n), queue.Queue()
-    procs = [threading.Thread(target=_stop_once, args=(str(tmp_path / "catalog.sqlite"), t.id, barrier, out))
+    procs = [threading.Thread(target=_stop_once, args=(catalog_url, t.id, barrier, out))
              for _ in range(n)]
     for p in procs:
         p.start()

@@ -1,4 +1,4 @@
-"""Job leases on a real SQLite file: exclusive takes, renewal, take-over after expiry, give-up."""
+"""Job leases on a real SQLite file and a PostgreSQL database: exclusive takes, renewal, take-over after expiry, give-up."""
 
 import time
 
@@ -7,8 +7,8 @@ from gaitcap.services import catalog as cat
 
 
 @pytest.fixture
-def db(tmp_path):
-    c = cat.open_catalog(tmp_path / "catalog.sqlite")
+def db(catalog_url):
+    c = cat.open_catalog(catalog_url)
     t = cat.start_trial(c, subject_id="P1", session="s1")
     cat.set_state(c, t.id, "recorded")
     yield c, t.id

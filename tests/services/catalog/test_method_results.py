@@ -13,8 +13,8 @@ STEPS = [{"side": "left", "time_s": 1.0, "step_length_mm": 600.0}, {"side": "rig
 
 
 @pytest.fixture
-def db(tmp_path):
-    db = cat.open_catalog(tmp_path / "catalog.sqlite")
+def db(catalog_url):
+    db = cat.open_catalog(catalog_url)
     for tid in ("T1", "T2"):
         cat.start_trial(db, subject_id="P1", session="s1", trial_id=tid, recording_path_for=lambda t: f"/d/{t}.mcap")
         cat.set_state(db, tid, "recorded")

@@ -2,28 +2,27 @@
 calibration kept, the old ones without a board (they used the default board), new board recordings
 record theirs; opening again changes nothing."""
 
-import sqlite3
-
 import pytest
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
 from gaitcap.services.catalog.models import SCHEMA_VERSION
+from sqlalchemy import inspect
+
+from .conftest import raw_sql
 
 CHARUCO = {"kind": "charuco", "squares": [4, 5], "square_mm": 54.0, "dictionary": "DICT_4X4_50"}
 
 
 @pytest.fixture
-def v2(tmp_path):
+def v2(fresh_catalog_url):
     """A version 2 catalog: an upload and a finished board recording, stored before the board column."""
-    path = tmp_path / "v2.sqlite"
+    path = fresh_catalog_url
     db = cat.open_catalog(path)
     cat.add_calibration(db, toml="[up]", source="uploaded by alice", cal_id="C1-up")
     run = cals.start_board_recording(db, recording_path_for=lambda c: f"/d/{c}.mcap", started_by="bob")
     cals.queue_calibration(db, run.id, frames=40)
     db.close()
-    with sqlite3.connect(path) as con:
-        con.execute("ALTER TABLE calibrations DROP COLUMN board")
-        con.execute("UPDATE schema_info SET value = '2' WHERE key = 'version'")
+    raw_sql(path, "ALTER TABLE calibrations DROP COLUMN board; UPDATE schema_info SET value = '2' WHERE key = 'version'")
     return path, run.id
 
 
@@ -42,7 +41,6 @@ def test_a_version_2_catalog_opens_upgraded_with_no_board_on_old_records(v2):
     db.close()
     again = cat.open_catalog(path)
     assert cat.schema_version(again) == SCHEMA_VERSION and cals.get_calibration(again, new.id).board == CHARUCO
-    with sqlite3.connect(path) as con:
-        column = [r for r in con.execute("PRAGMA table_info(calibrations)") if r[1] == "board"]
-    assert column and column[0][2] == "TEXT" and column[0][3] == 1  # TEXT NOT NULL
+    column = [c for c in inspect(again.engine).get_columns("calibrations") if c["name"] == "board"]
+    assert column and str(column[0]["type"]) == "TEXT" and not column[0]["nullable"]  # TEXT NOT NULL
     again.close()

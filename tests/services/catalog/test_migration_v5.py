@@ -2,11 +2,14 @@
 without a method key) opens upgraded to 5: research's rows kept and read under their key, the clinic's old
 rows kept (no parameters key: they were stored without one); where research never ran, the table is made."""
 
-import sqlite3
-
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import method_results as store
+from gaitcap.services.catalog.migrations import portable
 from gaitcap.services.catalog.models import SCHEMA_VERSION
+from sqlalchemy import inspect
+from sqlalchemy.engine import make_url
+
+from .conftest import raw_sql
 
 V4_METHOD_RESULTS = """
 DROP TABLE IF EXISTS method_results;
@@ -25,26 +28,24 @@ INSERT INTO method_results VALUES (2, 'T1', 'dlt', 'fedcba9876543210', '{"method
 """
 
 
-def _v4(tmp_path, *, research: bool):
+def _v4(path: str, *, research: bool):
     """A version 4 catalog with trial T1 and its preliminary result; with ``research``, two research rows."""
-    path = tmp_path / "v4.sqlite"
     db = cat.open_catalog(path)
     cat.start_trial(db, subject_id="P1", session="s1", trial_id="T1", recording_path_for=lambda t: f"/d/{t}.mcap")
     cat.store_result(db, trial_id="T1", stage="preliminary", method="robust triangulation", steps=[],
                      summary={"cadence_steps_per_min": {"mean": 110.0, "unit": "steps/min"}})
     db.close()
-    with sqlite3.connect(path) as con:
-        con.executescript(V4_METHOD_RESULTS if research else "DROP TABLE method_results;")
-        con.execute("ALTER TABLE results DROP COLUMN method_name")
-        con.execute("ALTER TABLE results DROP COLUMN params_key")
-        con.execute("UPDATE schema_info SET value = '4' WHERE key = 'version'")
+    dialect = make_url(path).get_backend_name() if "://" in path else "sqlite"
+    raw_sql(path, (portable(V4_METHOD_RESULTS, dialect) if research else "DROP TABLE method_results;")
+            + "; ALTER TABLE results DROP COLUMN method_name; ALTER TABLE results DROP COLUMN params_key"
+            + "; UPDATE schema_info SET value = '4' WHERE key = 'version'")
     return path
 
 
-def test_a_version_4_catalog_keeps_research_rows_in_the_one_store(tmp_path):
-    path = _v4(tmp_path, research=True)
+def test_a_version_4_catalog_keeps_research_rows_in_the_one_store(fresh_catalog_url):
+    path = _v4(fresh_catalog_url, research=True)
     db = cat.open_catalog(path, create=False)
-    assert cat.schema_version(db) == SCHEMA_VERSION == 5
+    assert cat.schema_version(db) == SCHEMA_VERSION == 6
     got = store.get_result(db, "T1", "robust", "0123456789abcdef")
     assert (got.status, got.elapsed_s, got.worker, got.metrics, got.residuals) == (
         "ok", 2.5, "host-1", {"GC_10": 0.8}, {"reference": "walkway"})
@@ -59,18 +60,18 @@ def test_a_version_4_catalog_keeps_research_rows_in_the_one_store(tmp_path):
     assert store.get_result(db, "T1", "implicit", "00000000000000aa").stage == "refined"
     db.close()
     again = cat.open_catalog(path)
-    assert cat.schema_version(again) == 5 and len(store.list_results(again)) == 3
-    with sqlite3.connect(path) as con:
-        columns = {r[1]: (r[2], r[3], r[4]) for r in con.execute("PRAGMA table_info(results)")}
-        old = con.execute("SELECT method_name, params_key FROM results WHERE stage = 'preliminary'").fetchone()
-    assert columns["params_key"] == ("VARCHAR(32)", 1, "''") and old == ("", "")
+    assert cat.schema_version(again) == SCHEMA_VERSION and len(store.list_results(again)) == 3
+    column = {c["name"]: c for c in inspect(again.engine).get_columns("results")}["params_key"]
+    old = raw_sql(path, "SELECT method_name, params_key FROM results WHERE stage = 'preliminary'")[0]
+    assert (str(column["type"]), column["nullable"]) == ("VARCHAR(32)", False) and tuple(old) == ("", "")
+    assert column["default"].startswith("''")  # '' (SQLite), ''::character varying (PostgreSQL)
     again.close()
 
 
-def test_a_version_4_catalog_where_research_never_ran_gets_the_table(tmp_path):
-    path = _v4(tmp_path, research=False)
+def test_a_version_4_catalog_where_research_never_ran_gets_the_table(fresh_catalog_url):
+    path = _v4(fresh_catalog_url, research=False)
     db = cat.open_catalog(path, create=False)  # nothing created but by the upgrade
-    assert cat.schema_version(db) == 5 and store.done_keys(db) == set()
+    assert cat.schema_version(db) == SCHEMA_VERSION and store.done_keys(db) == set()
     assert store.put_result(db, store.MethodResult("T1", "dlt", "fedcba9876543210", {}, "ok"), config={})
     assert store.is_done(db, "T1", "dlt", "fedcba9876543210")
     db.close()

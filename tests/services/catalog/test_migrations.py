@@ -7,7 +7,12 @@ import sqlite3
 import pytest
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import calibrations as cals
+from gaitcap.services.catalog.migrations import portable
 from gaitcap.services.catalog.models import SCHEMA_VERSION
+from sqlalchemy import inspect
+from sqlalchemy.engine import make_url
+
+from .conftest import raw_sql
 
 V1_TABLES = """
 DROP TABLE jobs; DROP TABLE calibrations;
@@ -26,28 +31,38 @@ CREATE INDEX ix_jobs_state ON jobs (state);
 CREATE INDEX ix_jobs_trial_id ON jobs (trial_id);
 UPDATE schema_info SET value = '1' WHERE key = 'version';
 """
-RUN = ("INSERT INTO calibration_runs VALUES (?, ?, NULL, ?, ?, ?, 'bob', ?, '', 1.0, ?, ?, '{\"rms_px\": 0.4}', ?)")
+V1_ROWS = """
+INSERT INTO calibrations VALUES ('C1-up', 100.0, 'uploaded by alice', '[up]', '{}');
+INSERT INTO calibrations VALUES ('C2-board', 300.0, 'board recording by bob', '[board]', '{}');
+INSERT INTO calibration_runs VALUES ('C2-board', 'done', NULL, 200.0, 200.0, 250.0, 'bob', '/d/c2.mcap', '', 1.0, '',
+    '[board]', '{"rms_px": 0.4}', 'C2-board');
+INSERT INTO calibration_runs VALUES ('C3-bad', 'failed', NULL, 400.0, 400.0, 450.0, 'bob', '/d/c3.mcap', '', 1.0,
+    'cameras cam02 failed', '[bad]', '{"rms_px": 0.4}', NULL);
+"""
+
+
+def _dialect(url: str) -> str:
+    return make_url(url).get_backend_name() if "://" in url else "sqlite"
+
+
+def _version(url: str) -> str:
+    return raw_sql(url, "SELECT value FROM schema_info WHERE key = 'version'")[0][0]
 
 
 @pytest.fixture
-def v1(tmp_path):
+def v1(fresh_catalog_url):
     """A version 1 catalog: an upload (t=100 s), a passing board recording (started 200 s, its calibration
-    stored at 300 s: the active one), a failed one (400 s), a trial with a queued job."""
-    path = tmp_path / "v1.sqlite"
+    stored at 300 s: the active one), a failed one (400 s), a trial with a queued job (SQLite or PostgreSQL,
+    the tables as that database had them: the job's number is SERIAL on PostgreSQL)."""
+    path = fresh_catalog_url
     db = cat.open_catalog(path)
     trial = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda t: f"/d/{t}.mcap")
     cat.set_state(db, trial.id, "recorded")
     db.close()
-    con = sqlite3.connect(path)
-    con.executescript(V1_TABLES)
-    con.execute("INSERT INTO calibrations VALUES ('C1-up', 100.0, 'uploaded by alice', '[up]', '{}')")
-    con.execute("INSERT INTO calibrations VALUES ('C2-board', 300.0, 'board recording by bob', '[board]', '{}')")
-    con.execute(RUN, ("C2-board", "done", 200.0, 200.0, 250.0, "/d/c2.mcap", "", "[board]", "C2-board"))
-    con.execute(RUN, ("C3-bad", "failed", 400.0, 400.0, 450.0, "/d/c3.mcap", "cameras cam02 failed", "[bad]", None))
-    con.execute("INSERT INTO jobs VALUES (1, ?, 'process', 'queued', 0, 3, '', 0.0, 500.0, NULL, NULL, '')",
-                (trial.id,))
-    con.commit()
-    con.close()
+    v1_tables = V1_TABLES if _dialect(path) == "sqlite" else V1_TABLES.replace(  # trials' key to it goes too
+        "DROP TABLE calibrations;", "DROP TABLE calibrations CASCADE;")
+    raw_sql(path, portable(v1_tables, _dialect(path)) + V1_ROWS
+            + f"; INSERT INTO jobs VALUES (1, '{trial.id}', 'process', 'queued', 0, 3, '', 0.0, 500.0, NULL, NULL, '')")
     return path, trial.id
 
 
@@ -77,20 +92,18 @@ def test_a_version_1_catalog_opens_upgraded_with_everything_kept(v1):
     db.close()
     again = cat.open_catalog(path)
     assert cat.schema_version(again) == SCHEMA_VERSION and len(cals.list_calibrations(again)) == 5
-    with sqlite3.connect(path) as con:
-        tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-    assert "calibration_runs" not in tables and "jobs_v1" not in tables
+    tables = set(inspect(again.engine).get_table_names())
+    assert "calibration_runs" not in tables and "jobs_v1" not in tables and "jobs" in tables
+    again.close()
 
 
 def test_a_failed_upgrade_leaves_the_file_as_it_was(v1):
     path, _ = v1
-    with sqlite3.connect(path) as con:
-        con.execute("CREATE TABLE jobs_v1 (x INTEGER)")  # the upgrade's own scratch name is taken
+    raw_sql(path, "CREATE TABLE jobs_v1 (x INTEGER)")  # the upgrade's own scratch name is taken
     with pytest.raises(Exception, match="jobs_v1"):
         cat.open_catalog(path)
-    with sqlite3.connect(path) as con:
-        assert con.execute("SELECT value FROM schema_info WHERE key = 'version'").fetchone() == ("1",)
-        assert con.execute("SELECT COUNT(*) FROM calibration_runs").fetchone() == (2,)
+    assert _version(path) == "1"
+    assert raw_sql(path, "SELECT COUNT(*) FROM calibration_runs")[0][0] == 2
 
 
 def _shape(con: sqlite3.Connection, table: str) -> tuple[list, list]:
@@ -101,6 +114,7 @@ def _shape(con: sqlite3.Connection, table: str) -> tuple[list, list]:
     return columns, indexes
 
 
+@pytest.mark.parametrize("backend", ["sqlite"])  # the frozen DDL's shape, read with SQLite's PRAGMAs
 def test_the_version_2_step_builds_the_frozen_jobs_table_whatever_the_model_says_today(v1, monkeypatch):
     """The v1 -> v2 step makes exactly the jobs table its own DDL names; a column added to the ORM model
     later does not leak into what an old catalog migrates to. The later model is a copy of the table with

@@ -1,4 +1,4 @@
-"""Patients and a trial's void mark in a real SQLite catalog: typed refusals, the age at a trial."""
+"""Patients and a trial's void mark in a real SQLite and PostgreSQL catalog: typed refusals, the age at a trial."""
 
 import calendar
 
@@ -8,8 +8,8 @@ from gaitcap.services.catalog import patients as pat
 
 
 @pytest.fixture
-def db(tmp_path):
-    c = cat.open_catalog(tmp_path / "catalog.sqlite")
+def db(catalog_url):
+    c = cat.open_catalog(catalog_url)
     yield c
     c.close()
 
