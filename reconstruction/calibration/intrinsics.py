@@ -31,6 +31,16 @@ class DistortionModel(enum.Enum):
         return _CV2_FLAGS[self]
 
 
+class PrincipalPoint(enum.Enum):
+    """Where a camera's principal point comes from: held at the image centre when the board covered too
+    little of the image (``BY_COVERAGE``, the rule below), always held there, or always free (a focal
+    length the views leave uncertain still holds it: ``IntrinsicsConfig.hold_undetermined``)."""
+
+    BY_COVERAGE = "by coverage"
+    HELD = "held"
+    FREE = "free"
+
+
 _FREE = {DistortionModel.K1: (0,), DistortionModel.K1K2: (0, 1), DistortionModel.FULL: (0, 1, 2, 3, 4)}
 _CV2_FLAGS = {
     DistortionModel.K1: cv2.CALIB_FIX_K2 | cv2.CALIB_FIX_K3 | cv2.CALIB_ZERO_TANGENT_DIST,
@@ -74,6 +84,8 @@ class IntrinsicsConfig:
     principal_point_min_coverage: float = 0.3
     coverage_grid: tuple[int, int] = (8, 5)
     hold_undetermined: bool = True
+    principal_point: PrincipalPoint = PrincipalPoint.BY_COVERAGE
+    chosen_because: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,7 +165,7 @@ def _why_hold(focal_std: float, covered: float, config: IntrinsicsConfig) -> str
     if focal_std > config.max_focal_rel_std:
         return (f"with it free the focal length was uncertain by {100 * focal_std:.1f} % "
                 f"(> {100 * config.max_focal_rel_std:.0f} %)")
-    if covered < config.principal_point_min_coverage:
+    if config.principal_point is PrincipalPoint.BY_COVERAGE and covered < config.principal_point_min_coverage:
         return (f"the board covered {100 * covered:.0f} % of the image "
                 f"(< {100 * config.principal_point_min_coverage:.0f} %)")
     return None
@@ -179,6 +191,18 @@ def _views(obs: BoardObservations, cam: int, config: IntrinsicsConfig):
     return obj, img
 
 
+def _asked_held(name, obj, img, size_px, k0, flags: int, config: IntrinsicsConfig) -> Intrinsics:
+    """The principal point held at the image centre because the config asks it, the distortion model
+    as given; refused (ValueError naming the camera) when the focal length stays uncertain."""
+    rms, k, dist, std_intr = _calibrate(name, obj, img, size_px, k0, flags | cv2.CALIB_FIX_PRINCIPAL_POINT)
+    focal_std = _focal_rel_std(k, std_intr)
+    if focal_std > config.max_focal_rel_std:
+        raise _degenerate(name, f"focal length uncertain by {100 * focal_std:.1f} % with the principal point held")
+    dist = np.asarray(dist, dtype=np.float64).ravel()[:5]
+    why = (config.chosen_because,) if config.chosen_because else ()
+    return Intrinsics(k, np.pad(dist, (0, 5 - dist.size)), float(rms), True, (), why, focal_std)
+
+
 def estimate_intrinsics(obs: BoardObservations, cam: int, config: IntrinsicsConfig) -> Intrinsics:
     """Calibrate camera ``cam``'s intrinsics from its own board views (each view on its own); what the
     views cannot determine is held (``IntrinsicsConfig``), and the result says what and why."""
@@ -187,6 +211,8 @@ def estimate_intrinsics(obs: BoardObservations, cam: int, config: IntrinsicsConf
     w, h = obs.image_sizes_px[cam]
     k0 = np.array([[max(w, h), 0, w / 2], [0, max(w, h), h / 2], [0, 0, 1]], dtype=np.float64)
     flags = config.distortion.cv2_flags | cv2.CALIB_USE_INTRINSIC_GUESS
+    if config.principal_point is PrincipalPoint.HELD:
+        return _asked_held(name, obj, img, (w, h), k0, flags, config)
     rms, k, dist, std_intr = _calibrate(name, obj, img, (w, h), k0, flags)
     free_std = focal_std = _focal_rel_std(k, std_intr)
     why = _why_hold(focal_std, coverage(obs.corners_px[cam][obs.seen()[cam]], (w, h), config.coverage_grid), config)
@@ -205,4 +231,5 @@ def estimate_intrinsics(obs: BoardObservations, cam: int, config: IntrinsicsConf
         raise _degenerate(name, f"implausible focal length {k[0, 0]:.0f} px for a {w} px wide image")
     dist = np.asarray(dist, dtype=np.float64).ravel()[:5]
     log.debug("camera %s: intrinsics rms %.3f px from %d views", name, rms, len(obj))
+    held += (config.chosen_because,) if config.chosen_because else ()
     return Intrinsics(k, np.pad(dist, (0, 5 - dist.size)), float(rms), why is not None, held_dist, held, focal_std)

@@ -5,15 +5,17 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
+from gaitcap.reconstruction.calibration.board_check import check_board, size_problem
 from gaitcap.reconstruction.calibration.bundle import (
     BundleConfig,
     BundleProblem,
     BundleResult,
     BundleState,
     bundle_adjust,
+    outlier_threshold_px,
 )
 from gaitcap.reconstruction.calibration.geometry import BoardObservations
 from gaitcap.reconstruction.calibration.graph import InitialPoses, initial_poses
@@ -51,6 +53,9 @@ class CalibrationConfig:
     leave_out_disagreeing_views: views disagreeing with the other cameras as a whole are left out and
     counted per camera (:mod:`gaitcap.reconstruction.calibration.whole_views`); False: every view is kept
     and judged.
+    camera_intrinsics: {camera: IntrinsicsConfig} for cameras whose lens model or principal point differ
+    from ``intrinsics`` (e.g. chosen per camera by held-out error:
+    :mod:`gaitcap.reconstruction.calibration.model_choice`).
     """
 
     intrinsics: IntrinsicsConfig = field(default_factory=IntrinsicsConfig)
@@ -59,6 +64,11 @@ class CalibrationConfig:
     thresholds: QualityThresholds = field(default_factory=QualityThresholds)
     known_intrinsics: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None
     leave_out_disagreeing_views: bool = True
+    camera_intrinsics: Mapping[str, IntrinsicsConfig] | None = None
+
+    def intrinsics_of(self, camera: str) -> IntrinsicsConfig:
+        """The intrinsics config of one camera (``camera_intrinsics`` where it names it)."""
+        return (self.camera_intrinsics or {}).get(camera, self.intrinsics)
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,8 +95,10 @@ def _check_cameras(obs: BoardObservations, config: IntrinsicsConfig) -> None:
         )
 
 
-def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, ...], intr: list[Intrinsics]):
-    """Flatten the usable views into a BundleProblem (frames compacted); returns it and the frame map."""
+def _problem(obs: BoardObservations, init: InitialPoses, models: list[tuple[int, ...]], intr: list[Intrinsics]):
+    """Flatten the usable views into a BundleProblem (frames compacted); returns it and the frame map.
+    ``models``: each camera's free distortion terms (indices into k1, k2, p1, p2, k3)."""
+    free_dist = tuple(sorted(set().union(*models)))
     syms = np.asarray(obs.board.symmetries)
     c_idx, f_idx = np.nonzero(init.symmetry >= 0)
     frames = np.unique(f_idx)
@@ -103,16 +115,18 @@ def _problem(obs: BoardObservations, init: InitialPoses, free_dist: tuple[int, .
     prob = BundleProblem(
         np.concatenate(cams), np.concatenate(frs), np.concatenate(corners), np.concatenate(uv),
         obs.board.object_points_mm, obs.shape[0], len(frames), init.root, free_dist,
-        np.array([i.principal_point_held for i in intr]), _held_distortion(intr),
+        np.array([i.principal_point_held for i in intr]), _held_distortion(intr, models),
     )
     return prob, frames
 
 
-def _held_distortion(intr: list[Intrinsics]) -> np.ndarray:
-    """(C, 5) bool: the distortion terms each camera holds at 0 although the model frees them."""
+def _held_distortion(intr: list[Intrinsics], models: list[tuple[int, ...]]) -> np.ndarray:
+    """(C, 5) bool: the distortion terms each camera holds at 0 although the problem frees them (its own
+    model frees fewer, or its views could not determine them)."""
     held = np.zeros((len(intr), 5), dtype=bool)
-    for c, i in enumerate(intr):
+    for c, (i, free) in enumerate(zip(intr, models, strict=True)):
         held[c, list(i.distortion_held)] = True
+        held[c, [t for t in range(5) if t not in free]] = True
     return held
 
 
@@ -192,8 +206,31 @@ def _rms_per_camera(prob, res: BundleResult, n_cams: int, left_out: np.ndarray) 
     return out
 
 
+def _outlier_corners(obs, prob, res: BundleResult, given: np.ndarray, left_out: np.ndarray) -> dict:
+    """{camera: [{"frame", "corners", "max_px"}]}: the corners the bundle adjustment dropped as outliers
+    (views left out as a whole not counted), per camera and given frame (``given``: (F',) the given frame
+    of each problem frame)."""
+    err = np.linalg.norm(res.residual_px, axis=-1)
+    out: dict[str, list[dict]] = {}
+    bad = ~res.inlier & ~left_out
+    for c, name in enumerate(obs.camera_names):
+        mine = bad & (prob.cam == c)
+        views = [{"frame": int(given[f]), "corners": prob.corner[mine & (prob.frame == f)].tolist(),
+                  "max_px": float(err[mine & (prob.frame == f)].max())} for f in np.unique(prob.frame[mine])]
+        if views:
+            out[name] = views
+    return out
+
+
+def _board_check(obs, res: BundleResult, ordered: np.ndarray, extr: np.ndarray) -> tuple[dict, tuple[str, ...]]:
+    """The board measured in 3D with the fitted rig (inlier corners) and what it found wrong."""
+    check = check_board(ordered, res.state.matrix_px, res.state.dist, extr, obs.board, obs.camera_names)
+    problem = size_problem(check)
+    return {**asdict(check), "square_residual_pct": check.square_residual_pct}, (problem,) if problem else ()
+
+
 def _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole: WholeViews, found: np.ndarray,
-            intr: list[Intrinsics]) -> QualityReport:
+            intr: list[Intrinsics], given: np.ndarray) -> QualityReport:
     left_out = whole.left_out
     rms = _rms_per_camera(prob, res, obs.shape[0], left_out)
     others = _others_median(rms)
@@ -206,15 +243,26 @@ def _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole: WholeV
     ordered[prob.cam[inl], prob.frame[inl], prob.corner[inl]] = prob.uv_px[inl]
     extr = np.concatenate([cams_r, cams_t[:, :, None]], axis=2)
     square = measured_square_mm(ordered, res.state.matrix_px, res.state.dist, extr, obs.board.neighbours)
+    board, board_problems = _board_check(obs, res, ordered, extr)
     return QualityReport(
-        board=obs.board.name, distortion=config.intrinsics.distortion.value, cameras=per_cam,
+        board=obs.board.name, distortion=_models(obs, config), cameras=per_cam,
         failed_cameras=tuple(q.name for q in per_cam if not q.ok), n_frames=len(frames),
         n_corners=int(inl.sum()), n_outliers=int((~inl & ~left_out).sum()), reprojection_mean_px=mean,
         reprojection_p95_px=p95, reprojection_rms_px=rms, square_mm=obs.board.square_mm,
         square_measured_mm=square, square_residual_pct=100 * (square / obs.board.square_mm - 1),
         floor_frames=world.floor_frames, world_flipped=world.flipped, bundle_rounds=res.rounds,
-        solve_time_s=res.solve_time_s,
+        solve_time_s=res.solve_time_s, board_check=board, board_problems=board_problems,
+        outlier_threshold_px=outlier_threshold_px(np.linalg.norm(res.residual_px[inl], axis=-1), config.bundle),
+        outlier_corners=_outlier_corners(obs, prob, res, given[frames], left_out),
     )
+
+
+def _models(obs: BoardObservations, config: CalibrationConfig) -> str:
+    """The distortion model, or each camera's where they differ (e.g. ``k1 (cam_0), k1k2 (cam_1)``)."""
+    models = [config.intrinsics_of(n).distortion.value for n in obs.camera_names]
+    if len(set(models)) == 1:
+        return models[0]
+    return ", ".join(f"{m} ({n})" for n, m in zip(obs.camera_names, models, strict=True))
 
 
 def _initial_state(intr: list[Intrinsics], init: InitialPoses, frames: np.ndarray) -> BundleState:
@@ -228,7 +276,7 @@ def _intrinsics(obs: BoardObservations, config: CalibrationConfig) -> list[Intri
     """Each camera's intrinsics: the known ones when given (ValueError naming a camera without), else
     estimated from its own board views."""
     if config.known_intrinsics is None:
-        return [estimate_intrinsics(obs, c, config.intrinsics) for c in range(obs.shape[0])]
+        return [estimate_intrinsics(obs, c, config.intrinsics_of(n)) for c, n in enumerate(obs.camera_names)]
     missing = [n for n in obs.camera_names if n not in config.known_intrinsics]
     if missing:
         raise ValueError(f"known intrinsics: none given for cameras {missing} "
@@ -274,7 +322,7 @@ def calibrate_from_observations(
     if no_pose:
         raise ValueError(f"cameras {no_pose}: no board view gave a consistent pose; check the board definition")
     init = initial_poses(poses, obs.camera_names)
-    prob, frames = _problem(obs, init, config.intrinsics.distortion.free, intr)
+    prob, frames = _problem(obs, init, [config.intrinsics_of(n).distortion.free for n in obs.camera_names], intr)
     res = bundle_adjust(prob, _initial_state(intr, init, frames), config.bundle)
     whole = _whole_views(obs, config, prob, res, found)
     if whole.left_out.any():
@@ -296,7 +344,7 @@ def calibrate_from_observations(
                matrix_to_rodrigues(cams_r[c]), cams_t[c], serials.get(name, ""))
         for c, name in enumerate(obs.camera_names)
     ))
-    report = _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole, found, intr)
+    report = _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole, found, intr, kept)
     board_r = np.full((len(runs), 3, 3), np.nan)  # board -> world, for every frame given (still runs share)
     board_t = np.full((len(runs), 3), np.nan)
     board_r[:] = np.einsum("ji,fjk->fik", world.rotation, full_r)[runs]

@@ -8,7 +8,13 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from gaitcap.reconstruction.calibration.bundle import BundleConfig, BundleProblem, BundleState, bundle_adjust
+from gaitcap.reconstruction.calibration.bundle import (
+    BundleConfig,
+    BundleProblem,
+    BundleResult,
+    BundleState,
+    bundle_adjust,
+)
 from gaitcap.reconstruction.calibration.geometry import BoardObservations, rotation_angle_deg
 from gaitcap.reconstruction.calibration.intrinsics import Intrinsics
 from gaitcap.reconstruction.calibration.report import error_stats
@@ -53,9 +59,27 @@ def _view_symmetries(obs: BoardObservations, rig: Rig) -> tuple[np.ndarray, np.n
     return sym, rot, tvec
 
 
-def fit_board_to_rig(obs: BoardObservations, rig: Rig, *, config: BundleConfig | None = None) -> RigFit:
-    """The board poses fitted to ``rig`` held fixed (every camera of ``obs`` must be in it, KeyError
-    naming it otherwise) and each camera's reprojection figures on these corners."""
+@dataclass(frozen=True, eq=False)
+class BoardFit:
+    """The board poses fitted to a rig held fixed: the flattened corners (``problem``, frames compacted),
+    the adjustment's result (residuals px, inliers) and ``frames`` (F',): the given frame of each."""
+
+    problem: BundleProblem
+    result: BundleResult
+    frames: np.ndarray
+
+    def ordered_inliers_px(self) -> np.ndarray:
+        """(C, F', N, 2) the inlier corners in the board's true order (NaN elsewhere)."""
+        p, inl = self.problem, self.result.inlier
+        out = np.full((p.num_cameras, p.num_frames, len(p.object_points_mm), 2), np.nan)
+        out[p.cam[inl], p.frame[inl], p.corner[inl]] = p.uv_px[inl]
+        return out
+
+
+def board_fit(obs: BoardObservations, rig: Rig, *, config: BundleConfig | None = None) -> BoardFit:
+    """Every frame set's board pose fitted to ``rig`` held fixed (intrinsics and poses; every camera of
+    ``obs`` must be in it, KeyError naming it otherwise), with the bundle adjustment's robust loss and
+    outlier rounds; views no pose of the rig's intrinsics fits (PnP) are not used."""
     sym, rot, tvec = _view_symmetries(obs, rig)
     syms = np.asarray(obs.board.symmetries)
     frames = np.flatnonzero((sym >= 0).any(0))
@@ -66,6 +90,8 @@ def fit_board_to_rig(obs: BoardObservations, rig: Rig, *, config: BundleConfig |
         seen = np.all(np.isfinite(obs.corners_px[c, f]), -1)
         ids = syms[sym[c, f]][seen]
         rows.append((np.full(len(ids), c), np.full(len(ids), compact[f]), ids, obs.corners_px[c, f][seen]))
+    if not rows:
+        raise ValueError(f"no board view fits a pose with the calibration of cameras {list(obs.camera_names)}")
     cam, frame, corner, uv = (np.concatenate(parts) for parts in zip(*rows, strict=True))
     prob = BundleProblem(cam, frame, corner, uv, obs.board.object_points_mm, obs.shape[0], len(frames), 0, ())
     cams = [rig[n] for n in obs.camera_names]
@@ -73,6 +99,14 @@ def fit_board_to_rig(obs: BoardObservations, rig: Rig, *, config: BundleConfig |
                         np.stack([c.rotation for c in cams]), np.stack([c.tvec_mm for c in cams]),
                         rot[frames], tvec[frames])
     res = bundle_adjust(prob, state, replace(config or BundleConfig(), refine_intrinsics=False, refine_cameras=False))
+    return BoardFit(prob, res, frames)
+
+
+def fit_board_to_rig(obs: BoardObservations, rig: Rig, *, config: BundleConfig | None = None) -> RigFit:
+    """The board poses fitted to ``rig`` held fixed (every camera of ``obs`` must be in it, KeyError
+    naming it otherwise) and each camera's reprojection figures on these corners."""
+    fit = board_fit(obs, rig, config=config)
+    prob, res = fit.problem, fit.result
     err = np.linalg.norm(res.residual_px, axis=-1)
     out = {"views": [], "rms_px": [], "p95_px": [], "rms_all_px": [], "outliers": []}
     for c in range(obs.shape[0]):

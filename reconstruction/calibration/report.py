@@ -3,7 +3,7 @@ board's square size measured back by triangulation (the scale check)."""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import cv2
 import numpy as np
@@ -66,7 +66,14 @@ class CameraQuality:
 @dataclass(frozen=True)
 class QualityReport:
     """The whole calibration. Reprojection RMS is sqrt(mean |e|^2) over inlier corners (|e| is the 2D
-    error), i.e. sqrt(2) x the per-axis pixel noise for a perfect fit."""
+    error), i.e. sqrt(2) x the per-axis pixel noise for a perfect fit.
+
+    board_check: the board triangulated from the inlier corners and measured in 3D after the fit
+    (:class:`~gaitcap.reconstruction.calibration.board_check.BoardCheck` as a dict: square size overall,
+    along columns and rows, square error, flatness, shape, mm); board_problems: what that check found
+    wrong (plain words). outlier_threshold_px: the bundle adjustment's last outlier threshold (px);
+    outlier_corners: {camera: [{"frame": given frame index, "corners": [corner ids], "max_px": largest
+    error}]}: every corner dropped as an outlier, named per camera and frame."""
 
     board: str
     distortion: str
@@ -85,6 +92,10 @@ class QualityReport:
     world_flipped: bool
     bundle_rounds: int
     solve_time_s: float
+    board_check: dict | None = None
+    board_problems: tuple[str, ...] = ()
+    outlier_threshold_px: float = float("nan")
+    outlier_corners: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return asdict(self)

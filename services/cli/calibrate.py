@@ -36,6 +36,59 @@ def _summary(report) -> str:
         f"({report.square_residual_pct:+.2f} %); {report.n_outliers} outlier corners; "
         f"world from {report.floor_frames} floor frame(s){' (turned over)' if report.world_flipped else ''}"
     )
+    if report.board_check is not None:
+        lines.append(f"board in 3D after the fit: {_board_line(report.board_check)}")
+    lines += [f"PROBLEM: {p}" for p in report.board_problems]
+    if report.outlier_corners:
+        named = "; ".join(f"{cam} frames {', '.join(str(v['frame']) for v in views)}"
+                          for cam, views in report.outlier_corners.items())
+        lines.append(f"outlier corners (beyond {report.outlier_threshold_px:.2f} px) dropped in: {named} "
+                     "(each corner in the report's outlier_corners)")
+    return "\n".join(lines)
+
+
+def _board_line(board: dict) -> str:
+    return (f"square {board['square_mm']:.2f} mm (columns {board['square_cols_mm']:.2f}, rows "
+            f"{board['square_rows_mm']:.2f}) vs {board['described_square_mm']:g} mm, square error RMS "
+            f"{board['square_error_rms_mm']:.2f} mm, flatness RMS {board['flatness_rms_mm']:.2f} mm, shape RMS "
+            f"{board['shape_rms_mm']:.2f} mm over {board['frames']} frame sets")
+
+
+def _held_out(cmp) -> str:
+    """The held-out table: per camera this calibration's figures and, on the same frame sets, the reference's."""
+    own, ref = cmp.own, cmp.reference
+    head = (f"held-out error ({own.folds} folds in time, {own.frame_sets} frame sets judged; fits {own.seconds:.0f} s): "
+            "reprojection RMS over all held-out corners / inliers (px), 3D square error (mm)")
+    lines = [head, f"{'camera':<10} {'views':>6} {'RMS px':>7} {'inlier':>7} {'sq mm':>6}"
+             + (f"  | reference: {'RMS px':>7} {'inlier':>7} {'sq mm':>6}" if ref else "")]
+    for c in own.cameras:
+        row = f"{c.name:<10} {c.views_judged:>6} {c.rms_px:>7.3f} {c.rms_inlier_px:>7.3f} {c.square_error_rms_mm:>6.2f}"
+        if ref is not None:
+            r = ref.camera(c.name)
+            row += f"  | {'':>10} {r.rms_px:>7.3f} {r.rms_inlier_px:>7.3f} {r.square_error_rms_mm:>6.2f}"
+        lines.append(row)
+    lines.append(f"rig: RMS {own.rms_px:.3f} px; board in 3D: {_board_line(_board_dict(own.board))}")
+    if ref is not None:
+        lines.append(f"{ref.label} on the same frame sets (if it was made from this recording, they are in-sample for it): RMS "
+                     f"{ref.rms_px:.3f} px; board in 3D: {_board_line(_board_dict(ref.board))}")
+    lines += [f"fold not fitted: {e}" for e in own.fold_errors]
+    lines += [f"PROBLEM ({e.label}): {p}" for e in (own, ref) if e is not None for p in e.problems]
+    return "\n".join(lines)
+
+
+def _board_dict(board) -> dict:
+    from dataclasses import asdict
+
+    return asdict(board)
+
+
+def _choice(choice) -> str:
+    lines = [f"intrinsics chosen per camera by held-out error ({choice.folds} folds in time, {len(choice.candidates)} "
+             f"candidates, {choice.seconds:.0f} s): held-out RMS px per candidate"]
+    lines += [f"  {i + 1}: {label}" for i, label in enumerate(choice.candidates)]
+    for cam, rms in choice.held_out_rms_px.items():
+        lines.append(f"{cam:<10} " + " ".join(f"{r:>6.3f}" for r in rms) + f"  -> {choice.chosen[cam]}")
+    lines += [f"candidate {k} not fitted in every fold: {v[0]}" for k, v in choice.failures.items()]
     return "\n".join(lines)
 
 
@@ -93,6 +146,24 @@ def _views(recording: Path, cfg, flags_given: bool, selection, pairing, progress
                              f"{'by time' if found.timed else 'by order'})\n{found.table()}")
 
 
+def _cross_validate(obs, config, folds: int, reference, reference_path: Path | None):
+    """The held-out comparison (this calibration's folds, the reference on the same frame sets), or a line
+    saying why it could not be measured (the calibration itself stands)."""
+    from gaitcap.reconstruction.calibration import calibrate_from_observations
+    from gaitcap.reconstruction.calibration.holdout import HoldoutConfig, cross_validate
+
+    if reference is not None and any(n not in reference.names for n in obs.camera_names):
+        reference = None  # another rig: judged on its own cameras only by --compare
+    try:
+        with progress(total=folds, desc="held-out folds", unit="fold") as bar:
+            return cross_validate(obs, lambda o: calibrate_from_observations(o, config=config).rig,
+                                  reference=reference, reference_label=f"reference {reference_path}",
+                                  config=HoldoutConfig(folds=folds), bundle=config.bundle,
+                                  progress=lambda done, total: bar.update(1))
+    except ValueError as exc:
+        return f"held-out error not measured: {exc}"
+
+
 def register(app: typer.Typer) -> None:
     @app.command("calibrate")
     def calibrate_cmd(
@@ -112,6 +183,8 @@ def register(app: typer.Typer) -> None:
         readout_ms: float = typer.Option(0.0, "--readout-ms", help="Rolling-shutter readout of the cameras, ms (webcams: about 20): views whose board moved more than 1 px meanwhile tie no cameras together."),
         accept_failed: bool = typer.Option(False, "--accept-failed", help="Write the calibration even when a camera fails the quality checks."),
         strict_intrinsics: bool = typer.Option(False, "--strict-intrinsics", help="Hold nothing the board views cannot determine: refuse a camera whose board covered too little of its image or whose focal length is uncertain, instead of holding its principal point at the image centre and only k1."),
+        folds: int = typer.Option(5, "--folds", help="Held-out error: split the board frame sets in time into K folds, fit on the rest, judge on each (K more calibrations; 0: skip). A --compare calibration is judged on the same frame sets."),
+        choose_intrinsics: bool = typer.Option(False, "--choose-intrinsics", help="Choose each camera's lens model (k1; k1k2; k1k2p1p2k3) and principal point (held at the image centre or free) by held-out error (6 x K more calibrations)."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
         from gaitcap.acquisition.boards.pairing import PairingConfig
@@ -130,6 +203,8 @@ def register(app: typer.Typer) -> None:
             compare_similar,
             stereo_difference,
         )
+        from gaitcap.reconstruction.calibration.holdout import HoldoutConfig
+        from gaitcap.reconstruction.calibration.model_choice import choose_intrinsics as choose_model
 
         with user_errors():
             reference = _load_calibration(compare) if compare is not None else None
@@ -154,18 +229,33 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"board {cfg.describe()}: {what}", err=True)
             if found is not None:
                 found.check(config.intrinsics.min_views)
+            choice = None
+            if choose_intrinsics:
+                if known is not None:
+                    raise ValueError("--choose-intrinsics: the intrinsics are given (--intrinsics); nothing to choose")
+                with progress(total=6, desc="choosing intrinsics", unit="candidate") as bar:
+                    config, choice = choose_model(obs, config, holdout=HoldoutConfig(folds=max(folds, 2)),
+                                                  progress=lambda done, total: bar.update(1))
             result = calibrate_from_observations(obs, config=config,
                                                  views_removed=found.views_removed if found is not None else None)
+            held_out = _cross_validate(obs, config, folds, reference, compare) if folds else None
             refused = bool(result.report.failed_cameras) and not accept_failed
             target = out.with_name(out.stem + ".refused" + out.suffix) if refused else out
             save_rig(result.rig, target, metadata={"error": result.report.reprojection_rms_px})
             report_file = report_path or out.with_suffix(".report.json")
-            atomic_write_text(report_file, json.dumps(result.report.to_dict(), indent=2))
+            report = result.report.to_dict()
+            report["held_out"] = held_out.to_dict() if held_out is not None and not isinstance(held_out, str) else held_out
+            report["intrinsics_choice"] = choice.to_dict() if choice is not None else None
+            atomic_write_text(report_file, json.dumps(report, indent=2))
             comparison = compare_rigs(reference, result.rig) if reference is not None else None
             similar = compare_similar(reference, result.rig) if reference is not None and len(reference) >= 3 else None
             pair = tuple(reference.names) if reference is not None and len(reference) == 2 else None
             stereo = stereo_difference(reference, result.rig, first=pair[0], second=pair[1]) if pair else None
+        if choice is not None:
+            typer.echo(_choice(choice))
         typer.echo(_summary(result.report))
+        if held_out is not None:
+            typer.echo(held_out if isinstance(held_out, str) else _held_out(held_out))
         if comparison is not None:
             typer.echo(f"compared with {compare}:")
             typer.echo(_comparison(comparison))

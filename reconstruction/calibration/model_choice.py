@@ -1,0 +1,122 @@
+"""Intrinsics the footage supports, chosen by held-out error: each candidate (a lens model and a principal
+point held at the image centre or free) is applied to every camera and cross-validated in time
+(:mod:`gaitcap.reconstruction.calibration.holdout`); each camera then takes the simplest candidate whose
+held-out reprojection RMS is within ``tolerance`` of its best. Views bunched near the image centre cannot
+tell a shifted principal point from a turned camera, and a sparse clip does not pin down five distortion
+terms: a model that follows noise fits its own views better and the views it did not see worse, which
+the held-out error shows. The figures that made each choice are kept (:class:`IntrinsicsChoice`).
+
+Cost: one k-fold cross-validation per candidate (candidates x k calibrations).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from gaitcap.reconstruction.calibration.geometry import BoardObservations
+from gaitcap.reconstruction.calibration.holdout import HoldoutConfig, cross_validate
+from gaitcap.reconstruction.calibration.intrinsics import DistortionModel, PrincipalPoint
+from gaitcap.reconstruction.calibration.pipeline import CalibrationConfig, calibrate_from_observations
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A lens model and where the principal point comes from, for every camera alike."""
+
+    distortion: DistortionModel
+    principal_point: PrincipalPoint
+
+    @property
+    def label(self) -> str:
+        return f"{self.distortion.value}, principal point {self.principal_point.value}"
+
+    @property
+    def unknowns(self) -> int:
+        """Intrinsic unknowns per camera (focal lengths, principal point, distortion terms)."""
+        return 2 + 2 * (self.principal_point is not PrincipalPoint.HELD) + len(self.distortion.free)
+
+
+CANDIDATES = tuple(Candidate(d, p) for d in DistortionModel for p in (PrincipalPoint.HELD, PrincipalPoint.FREE))
+
+
+@dataclass(frozen=True)
+class IntrinsicsChoice:
+    """The candidates (labels), each camera's held-out reprojection RMS (px, over all its held-out corners)
+    under each (NaN: that candidate could not be fitted in every fold, ``failures`` says why), the label
+    chosen per camera with the reason in plain words, the folds and the time the choice took (s)."""
+
+    candidates: tuple[str, ...]
+    held_out_rms_px: dict[str, tuple[float, ...]]
+    chosen: dict[str, str]
+    reasons: dict[str, str]
+    failures: dict[str, tuple[str, ...]]
+    folds: int
+    seconds: float
+
+    def to_dict(self) -> dict:
+        return {"candidates": list(self.candidates), "held_out_rms_px": {k: list(v) for k, v in self.held_out_rms_px.items()},
+                "chosen": self.chosen, "reasons": self.reasons, "failures": {k: list(v) for k, v in self.failures.items()},
+                "folds": self.folds, "seconds": self.seconds}
+
+
+def _pick(rms: np.ndarray, candidates: Sequence[Candidate], tolerance: float) -> int:
+    """The simplest candidate (fewest unknowns, then listed first) within ``tolerance`` of the best RMS."""
+    best = np.nanmin(rms)
+    ok = [i for i in range(len(candidates)) if np.isfinite(rms[i]) and rms[i] <= best * (1 + tolerance)]
+    return min(ok, key=lambda i: (candidates[i].unknowns, i))
+
+
+def _reason(rms: np.ndarray, candidates: Sequence[Candidate], pick: int, folds: int) -> str:
+    others = ", ".join(f"{c.label} {r:.3f}" for c, r in zip(candidates, rms, strict=True) if np.isfinite(r)
+                       and c is not candidates[pick])
+    return (f"intrinsics {candidates[pick].label} chosen by held-out error ({folds} folds in time): "
+            f"{rms[pick]:.3f} px; {others} px")
+
+
+def choose_intrinsics(
+    obs: BoardObservations, base: CalibrationConfig | None = None, *, candidates: Sequence[Candidate] = CANDIDATES,
+    holdout: HoldoutConfig | None = None, tolerance: float = 0.01,
+    progress: Callable[[int, int], None] | None = None,
+) -> tuple[CalibrationConfig, IntrinsicsChoice]:
+    """Each camera's intrinsics candidate by held-out error; returns ``base`` with ``camera_intrinsics``
+    set to the choices (each with its reason) and the figures. ValueError when no candidate could be
+    fitted in every fold (naming why)."""
+    import time
+
+    base, holdout = base or CalibrationConfig(), holdout or HoldoutConfig()
+    if base.known_intrinsics is not None:
+        raise ValueError("intrinsics choice: the intrinsics are given (known_intrinsics); nothing to choose")
+    t0 = time.perf_counter()
+    names = obs.camera_names
+    table = np.full((len(names), len(candidates)), np.nan)
+    failures: dict[str, tuple[str, ...]] = {}
+    for i, cand in enumerate(candidates):
+        intr = replace(base.intrinsics, distortion=cand.distortion, principal_point=cand.principal_point)
+        config = replace(base, intrinsics=intr, camera_intrinsics=None)
+        result = cross_validate(obs, lambda o, config=config: calibrate_from_observations(o, config=config).rig,
+                                config=holdout, bundle=base.bundle).own
+        if result.fold_errors:
+            failures[cand.label] = result.fold_errors
+        else:
+            table[:, i] = [result.camera(n).rms_px for n in names]
+        log.info("intrinsics candidate %s: held-out RMS %s", cand.label, np.round(table[:, i], 3))
+        if progress is not None:
+            progress(i + 1, len(candidates))
+    if np.isnan(table).all():
+        raise ValueError("intrinsics choice: no candidate could be calibrated in every fold: "
+                         + "; ".join(f"{k}: {v[0]}" for k, v in failures.items()))
+    chosen, reasons, per_camera = {}, {}, {}
+    for c, name in enumerate(names):
+        pick = _pick(table[c], candidates, tolerance)
+        chosen[name] = candidates[pick].label
+        reasons[name] = _reason(table[c], candidates, pick, holdout.folds)
+        per_camera[name] = replace(base.intrinsics, distortion=candidates[pick].distortion,
+                                   principal_point=candidates[pick].principal_point, chosen_because=reasons[name])
+    choice = IntrinsicsChoice(tuple(c.label for c in candidates), {n: tuple(table[c]) for c, n in enumerate(names)},
+                              chosen, reasons, failures, holdout.folds, time.perf_counter() - t0)
+    return replace(base, camera_intrinsics=per_camera), choice
