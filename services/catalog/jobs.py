@@ -1,7 +1,9 @@
 """The job table with leases.
 
 A worker takes a job with :func:`lease_job` (atomic conditional UPDATE, so two workers never hold the
-same job), renews the lease while it works (:func:`renew_lease`) and ends it with :func:`complete_job`
+same job; on PostgreSQL the candidates are read ``FOR UPDATE SKIP LOCKED``, so workers on several hosts each
+take a different job at once instead of queueing behind one row; SQLite's write transaction already admits
+one taker at a time), renews the lease while it works (:func:`renew_lease`) and ends it with :func:`complete_job`
 or :func:`fail_job`. A worker that dies stops renewing; when ``lease_expires_at`` has passed the job
 is leased again by another worker (``attempts`` counts the takes; after ``max_attempts`` it fails, and so
 does its subject). Kinds (:data:`SUBJECTS`): ``process`` a trial, ``calibrate`` a board recording.
@@ -80,7 +82,9 @@ def lease_job(catalog: Catalog, worker_id: str, *, lease_s: float = 10.0,
         raise ValueError(f"lease_s: must be > 0, got {lease_s}")
     now = time.time()
     with catalog.session() as s:
-        for job in s.scalars(select(Job).where(Job.kind.in_(kinds), _takeable(now)).order_by(Job.id).limit(5)):
+        candidates = (select(Job).where(Job.kind.in_(kinds), _takeable(now)).order_by(Job.id).limit(5)
+                      .with_for_update(skip_locked=True))
+        for job in s.scalars(candidates):
             if job.attempts >= job.max_attempts:
                 job.state, job.finished_at = FAILED, now
                 job.error = (job.error or "") + f" gave up after {job.attempts} attempts"

@@ -39,7 +39,8 @@ def shown_url(url: str | URL) -> str:
 
 
 def is_postgres(url: str | URL) -> bool:
-    return make_url(url).get_backend_name() == "postgresql"
+    """True for a PostgreSQL URL (False for any other URL and for a SQLite path)."""
+    return (isinstance(url, URL) or "://" in str(url)) and make_url(url).get_backend_name() == "postgresql"
 
 
 def bin_dir() -> Path:

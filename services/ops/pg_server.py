@@ -149,6 +149,10 @@ class LocalPostgres:
             conn.execute(f'CREATE DATABASE "{name}" OWNER {APP_ROLE}')
         return self.url(name, **query)
 
+    def password(self, role: str = APP_ROLE) -> str:
+        """The role's password (for a test that checks where a password must not show up)."""
+        return self._passwords[role]
+
     def environment(self) -> dict[str, str]:
         """What a client process needs in its environment to sign in: ``PGPASSFILE``."""
         return {"PGPASSFILE": str(self.passfile)}

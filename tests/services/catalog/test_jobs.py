@@ -85,3 +85,35 @@ def test_a_job_names_its_kind_and_subject():
         new_job("reprocess", trial_id="T1")
     with pytest.raises(ValueError, match="calibration_id"):
         new_job("calibrate", trial_id="T1")
+
+
+def test_workers_taking_jobs_at_once_take_each_job_exactly_once(catalog_url):
+    """Four workers, each on its own connection, take 24 queued jobs as fast as they can: every job is taken,
+    none twice (PostgreSQL: FOR UPDATE SKIP LOCKED; SQLite: one writer at a time)."""
+    import threading
+
+    c = cat.open_catalog(catalog_url)
+    queued = set()
+    for i in range(24):
+        t = cat.start_trial(c, subject_id=f"P{i}", session="s1")
+        cat.set_state(c, t.id, "recorded")
+        queued.add(cat.enqueue_job(c, t.id).id)
+    taken, barrier = [], threading.Barrier(4)
+
+    def work(name):
+        mine = cat.open_catalog(catalog_url)
+        barrier.wait()
+        try:
+            while (job := cat.lease_job(mine, name, lease_s=60)) is not None:
+                taken.append(job.id)
+                assert cat.complete_job(mine, job.id, name)
+        finally:
+            mine.close()
+
+    threads = [threading.Thread(target=work, args=(f"w{i}",)) for i in range(4)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join(60)
+    assert sorted(taken) == sorted(queued)
+    c.close()
