@@ -3,8 +3,11 @@
 Time: the lag ``lag_s`` with ``reference time = trial time + lag_s`` maximises the correlation of the two
 heel heights (left with left, right with right, each side's mean removed), searched over every lag at
 which at least ``min_overlap`` of the shorter recording overlaps the other (a reference longer than the
-trial is the normal case), on the reference's frame grid, then refined to ``refine_step_s``. The same
-search with the sides crossed tells a swap of left and right.
+trial is the normal case), on the reference's frame grid, then refined to ``refine_step_s``. Walking is
+periodic: the few best local maxima are kept and the one whose space fit leaves the smallest residual
+wins (a lag a stride off puts the walker a stride away). The best correlation with the sides crossed is
+reported too (left and right heels follow the same pattern half a stride apart, so it is high as well);
+a swap of left and right shows in the space fit (``swap_sides``), as no proper rotation mirrors a walk.
 
 Space: the rigid transform (rotation, translation; no scale) ``trial = R @ reference + t`` that fits the
 reference's heel, ankle and hip markers, at the trial's frame times shifted by the lag, to gaitcap's
@@ -27,12 +30,20 @@ class AlignConfig:
     """min_overlap: fraction of the shorter recording that must overlap (0-1); min_correlation: the
     heel heights' correlation below which the recordings are not the same walk; max_residual_mm: the
     rigid fit's RMS residual above which the markers are not gaitcap's joints; refine_step_s: final lag
-    resolution (s)."""
+    resolution (s); candidates: lags (correlation peaks) tried by the space fit."""
 
-    min_overlap: float = 0.6
+    min_overlap: float = 0.9
     min_correlation: float = 0.8
-    max_residual_mm: float = 60.0
+    max_residual_mm: float = 35.0
     refine_step_s: float = 0.001
+    candidates: int = 5
+
+
+def swap_sides(joints: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The same joints with left and right exchanged."""
+    flip = {"left": "right", "right": "left"}
+    return {flip[n.split("_", 1)[0]] + "_" + n.split("_", 1)[1] if n.split("_", 1)[0] in flip else n: p
+            for n, p in joints.items()}
 
 
 class AlignmentError(ValueError):
@@ -118,10 +129,20 @@ def _best(trial_t, trial_h, ref_t, ref_h, lags, min_samples) -> tuple[float, flo
     return float(lags[k]), scores[k][0], scores[k][1]
 
 
+def _peaks(corr: np.ndarray, k: int) -> np.ndarray:
+    """Indices of the k highest local maxima of ``corr`` (highest first)."""
+    c = np.r_[-np.inf, corr, -np.inf]
+    idx = np.flatnonzero((c[1:-1] >= c[:-2]) & (c[1:-1] >= c[2:]) & np.isfinite(corr))
+    return idx[np.argsort(-corr[idx])][:k]
+
+
 def find_lag(trial_times_s: np.ndarray, trial_heel_mm: dict[str, np.ndarray], ref_times_s: np.ndarray,
-             ref_heel_mm: dict[str, np.ndarray], *, config: AlignConfig = AlignConfig()) -> TimeAlignment:
-    """The lag from heel heights: ``trial_heel_mm`` / ``ref_heel_mm``: side -> (T,) / (R,) heel height (mm,
-    up positive; any constant offset). Raises :class:`AlignmentError` naming what did not match."""
+             ref_heel_mm: dict[str, np.ndarray], *, config: AlignConfig = AlignConfig()) -> list[TimeAlignment]:
+    """Candidate lags from heel heights, best correlation first: ``trial_heel_mm`` / ``ref_heel_mm``: side ->
+    (T,) / (R,) heel height (mm, up positive; any constant offset). Walking is periodic, so a lag a stride
+    away can correlate nearly as well: every local maximum above ``min_correlation`` is a candidate (at most
+    ``candidates``), for the space fit to choose from. Raises :class:`AlignmentError` naming what did not
+    match."""
     trial_t, ref_t = np.asarray(trial_times_s, float), np.asarray(ref_times_s, float)
     dur_trial, dur_ref = trial_t[-1] - trial_t[0], ref_t[-1] - ref_t[0]
     need = config.min_overlap * min(dur_trial, dur_ref)
@@ -133,18 +154,21 @@ def find_lag(trial_times_s: np.ndarray, trial_heel_mm: dict[str, np.ndarray], re
     min_samples = int(config.min_overlap * min(len(trial_t), dur_ref / np.median(np.diff(trial_t))))
     a = [np.asarray(trial_heel_mm[s], float) for s in SIDES]
     b = [np.asarray(ref_heel_mm[s], float) for s in SIDES]
-    lag, corr, _ = _best(trial_t, a, ref_t, b, lags, min_samples)
-    fine = np.arange(lag - step, lag + step + 1e-12, config.refine_step_s)
-    lag, corr, resid = _best(trial_t, a, ref_t, b, fine, min_samples)
+    corr = np.array([_score(trial_t, a, ref_t, b, lag, min_samples)[0] for lag in lags])
     _, crossed, _ = _best(trial_t, a, ref_t, b[::-1], lags, min_samples)
-    overlap = min(trial_t[-1] + lag, ref_t[-1]) - max(trial_t[0] + lag, ref_t[0])
-    if crossed > corr and crossed >= config.min_correlation:
-        raise AlignmentError(f"time: the heel heights match with left and right crossed (correlation "
-                             f"{crossed:.2f} against {corr:.2f} side by side): the sides are swapped")
-    if corr < config.min_correlation:
-        raise AlignmentError(f"time: the heel heights match at no lag (best correlation {corr:.2f} at "
-                             f"{lag:+.2f} s, below {config.min_correlation}): the reference is not this walk")
-    return TimeAlignment(lag, corr, crossed, float(overlap), resid)
+    out = []
+    for k in _peaks(corr, config.candidates):
+        if corr[k] < config.min_correlation and out:
+            break
+        fine = np.arange(lags[k] - step, lags[k] + step + 1e-12, config.refine_step_s)
+        lag, c, resid = _best(trial_t, a, ref_t, b, fine, min_samples)
+        overlap = min(trial_t[-1] + lag, ref_t[-1]) - max(trial_t[0] + lag, ref_t[0])
+        out.append(TimeAlignment(lag, c, crossed, float(overlap), resid))
+    best = out[0] if out else TimeAlignment(float("nan"), -1.0, crossed, 0.0, float("nan"))
+    if best.correlation < config.min_correlation:
+        raise AlignmentError(f"time: the heel heights match at no lag (best correlation {best.correlation:.2f} "
+                             f"at {best.lag_s:+.2f} s, below {config.min_correlation}): the reference is not this walk")
+    return out
 
 
 def fit_rigid(reference_mm: np.ndarray, trial_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -19,6 +19,7 @@ from gaitcap.reconstruction.validation.align import (
     align_space,
     find_lag,
     interp_nan,
+    swap_sides,
 )
 from gaitcap.reconstruction.validation.angles import compare_angle
 from gaitcap.reconstruction.validation.events import EventMatchConfig, compare_events, event_summary
@@ -51,11 +52,28 @@ def _heel_heights(joints: dict[str, np.ndarray], axis: int, sign: float) -> dict
 
 def _marker_alignment(trial: TrialData, ref: Reference, config: ValidateConfig):
     axis, sign = up_axis_of(ref.joints_mm)
-    time = find_lag(trial.times_s, _heel_heights(trial.joints_mm, 2, 1.0), ref.times_s,
-                    _heel_heights(ref.joints_mm, axis, sign), config=config.align)
+    candidates = find_lag(trial.times_s, _heel_heights(trial.joints_mm, 2, 1.0), ref.times_s,
+                          _heel_heights(ref.joints_mm, axis, sign), config=config.align)
     joints = tuple(f"{s}_{j}" for j in FIT_JOINTS for s in SIDES)
-    space = align_space(trial.times_s, trial.joints_mm, ref.times_s, ref.joints_mm, time.lag_s, joints=joints,
-                        config=config.align)
+    fits, errors = [], []
+    for time in candidates:  # the lag whose space fit fits best (a lag a stride off fits badly)
+        try:
+            fits.append((align_space(trial.times_s, trial.joints_mm, ref.times_s, ref.joints_mm, time.lag_s,
+                                     joints=joints, config=config.align), time))
+        except AlignmentError as exc:
+            errors.append(exc)
+    if not fits:
+        swapped = swap_sides(ref.joints_mm)
+        for time in candidates:
+            try:
+                fit = align_space(trial.times_s, trial.joints_mm, ref.times_s, swapped, time.lag_s, joints=joints,
+                                  config=config.align)
+            except AlignmentError:
+                continue
+            raise AlignmentError(f"space: the reference fits only with left and right exchanged (RMS residual "
+                                 f"{fit.residual_mm:.0f} mm): its sides are swapped, or the trial's are")
+        raise errors[0]
+    space, time = min(fits, key=lambda f: f[0].residual_mm)
 
     def heel_at(side, t0, t1, _i):  # median heel marker over the contact, trial frame
         t1 = t1 if np.isfinite(t1) else t0 + 0.1
@@ -68,6 +86,7 @@ def _marker_alignment(trial: TrialData, ref: Reference, config: ValidateConfig):
     alignment = {"method": "heel-height cross-correlation; rigid fit of heel, ankle and hip markers",
                  "lag_s": time.lag_s, "lag_frames": time.lag_s * trial.fps, "correlation": time.correlation,
                  "crossed_sides_correlation": time.crossed_correlation, "heel_height_residual_mm": time.residual_mm,
+                 "lags_tried_s": [c.lag_s for c in candidates],
                  "overlap_s": time.overlap_s, "rotation": space.rotation.tolist(),
                  "rotation_deg": space.rotation_deg, "translation_mm": space.translation_mm.tolist(),
                  "residual_mm": space.residual_mm, "joint_residual_mm": space.joint_residual_mm,

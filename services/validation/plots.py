@@ -30,12 +30,13 @@ def bland_altman_png(result: dict) -> bytes:
     fig, axes = plt.subplots(2, 4, figsize=(13, 6))
     for ax, name in zip(axes.ravel(), PARAMETERS, strict=True):
         for side, colour in SIDE_COLOURS.items():
-            v = np.array([p["values"][name] for p in result["step_pairs"] if p["foot"] == side], float).reshape(-1, 2)
+            v = np.array([[np.nan if x is None else x for x in p["values"][name]] for p in result["step_pairs"]
+                          if p["foot"] == side], float).reshape(-1, 2)
             v = v[np.isfinite(v).all(axis=1)]
             ax.scatter(v.mean(axis=1), v[:, 0] - v[:, 1], s=18, color=colour, label=side)
         stats = result["parameters"].get(name, {}).get("all", {})
         for key, style in (("bias", "-"), ("loa_low", "--"), ("loa_high", "--")):
-            if np.isfinite(stats.get(key, np.nan)):
+            if stats.get(key) is not None and np.isfinite(stats[key]):
                 ax.axhline(stats[key], color="k", ls=style, lw=0.8)
         ax.set_title(f"{name} (n={stats.get('n', 0)})", fontsize=9)
         ax.set_xlabel("mean of trial and reference", fontsize=8)
