@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import socket
 from pathlib import Path
 
 from fastapi import FastAPI, Request
@@ -24,6 +25,7 @@ from gaitcap.api import (
     routes_report,
     routes_results,
     routes_rig_check,
+    routes_rooms,
     routes_trials,
 )
 from gaitcap.api.security import install_security, start_backups
@@ -34,6 +36,7 @@ from gaitcap.services.catalog.ids import ID_PATTERN
 from gaitcap.services.live.guard import TrialGuard
 from gaitcap.services.live.health import health_report
 from gaitcap.services.live.protocols import NoLink, NoScene
+from gaitcap.services.live.room_report import RoomReporter
 
 log = logging.getLogger(__name__)
 ID_WORDS = "use letters, digits, '.', '_' or '-' (up to 64), starting with a letter or digit; no spaces"
@@ -75,7 +78,11 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
         app.state.catalog = cat.open_catalog(settings.catalog_url)
         audit_rows = AuditQueue(app.state.catalog).start()  # a read never waits for the write lock
         log.info("catalog %s, data %s", app.state.catalog.shown_url, settings.data_dir)
-        guard = TrialGuard(app.state.catalog, app.state.link).start() if app.state.link.connected else None
+        room = settings.room
+        cat.register_room(app.state.catalog, room, host=socket.gethostname())
+        live = app.state.link.connected
+        guard = TrialGuard(app.state.catalog, app.state.link, room=room).start() if live else None
+        reporter = RoomReporter(app.state.catalog, app.state.link, room).start() if live else None
         backups = start_backups(settings)
         try:
             yield
@@ -84,6 +91,8 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
                 backups.stop()
             if guard is not None:
                 guard.close()
+            if reporter is not None:
+                reporter.close()
             audit_rows.close()
             app.state.catalog.close()
             app.state.link.close()
@@ -109,12 +118,14 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
     app.include_router(routes_people.router)
     app.include_router(routes_report.router)
     app.include_router(routes_patients.router)
+    app.include_router(routes_rooms.router)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
 
     @app.get("/health", tags=["health"], summary="Each component's state (no token needed)")
     def health(request: Request) -> dict:
         """``status`` ok | degraded; ``components``: database, disk, recorder, detector, workers, cameras."""
-        return health_report(request.app.state.catalog, request.app.state.link, settings.data_dir)
+        return health_report(request.app.state.catalog, request.app.state.link, settings.data_dir,
+                             min_free_bytes=int(settings.min_free_mb * 2**20))
 
     @app.get("/", include_in_schema=False)
     def page() -> FileResponse:

@@ -63,6 +63,7 @@ ROUTE_PERMISSIONS: dict[tuple[str, str], frozenset[str]] = {
     ("GET", "/cameras/{name}/preview.jpg"): frozenset({LIVE}),
     ("GET", "/cameras/{name}/preview.mjpg"): frozenset({LIVE}),
     ("GET", "/status"): frozenset({READ, LIVE}),
+    ("GET", "/rooms"): frozenset({READ, LIVE}),
     ("WS", "/ws/status"): frozenset({READ, LIVE}),
     ("WS", "/ws/preview"): frozenset({LIVE}),
     ("GET", "/audit"): frozenset({AUDIT}),

@@ -36,7 +36,7 @@ def trial_out(db: cat.Catalog, t: cat.TrialInfo, stages: list[str] | None = None
         stage=t.stage, progress=t.progress, error=t.error,
         results=sorted(cat.stages_available(db, t.id) if stages is None else stages),
         warnings=cat.warnings_of(cat.get_quality(db, t.id) if quality is None else quality),
-        voided=details.voided, void_reason=details.void_reason,
+        voided=details.voided, void_reason=details.void_reason, room=t.room,
     )
 
 

@@ -28,10 +28,10 @@ def _camera_dicts(link) -> list[dict]:
 def status_snapshot(app) -> dict:
     """What the page shows live: the recording trial, recent trials with states, camera health, and the live
     detection coverage per camera (frames received, detected, skipped, lost, failed; lag s)."""
-    db = app.state.catalog
-    trials = [t.model_dump() for t in trials_out(db, cat.list_trials(db, limit=20))]
+    db, room = app.state.catalog, app.state.settings.room
+    trials = [t.model_dump() for t in trials_out(db, cat.list_trials(db, limit=20, room=room))]  # this room's
     recording = next((t for t in trials if t["state"] == "recording"), None)
-    return {"time": time.time(), "recording": recording, "trials": trials, "cameras": _camera_dicts(app.state.link),
+    return {"time": time.time(), "room": room, "recording": recording, "trials": trials, "cameras": _camera_dicts(app.state.link),
             "detection": app.state.link.detection()}
 
 

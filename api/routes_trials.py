@@ -13,6 +13,7 @@ from gaitcap.api.subject_ids import check_subject_id
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog.calibrations import current_board_recording
+from gaitcap.services.live.health import disk_problem
 from gaitcap.services.live.protocols import RecorderUnavailable
 from gaitcap.services.live.rig_check import NO_CAMERA, recorder_warnings, rig_problems
 from gaitcap.services.processing.artifacts import trial_files
@@ -37,6 +38,9 @@ def start(body: StartTrial, request: Request, user: str = Depends(require_user))
     board = current_board_recording(db)
     if board is not None:
         raise HTTPException(status_code=409, detail=f"board recording {board.id} is under way; stop it first")
+    if low := disk_problem(settings.data_dir, int(settings.min_free_mb * 2**20)):  # nothing half-recorded
+        raise HTTPException(status_code=409, detail=f"Start refused: {low}. Free space on it (move finished "
+                                                    "trials off), then press Start again.")
     calibration = cat.latest_calibration(db)
     problems = rig_problems(link.cameras(), _calibrated_cameras(calibration))
     if NO_CAMERA in problems:  # nothing to record: no confirmation starts a trial without images
@@ -56,7 +60,7 @@ def start(body: StartTrial, request: Request, user: str = Depends(require_user))
         trial = cat.start_trial(
             db, subject_id=subject_id, session=body.session, trial_id=trial_id,
             recording_path_for=lambda tid: trial_files(settings.data_dir, tid).recording,
-            calibration_id=calibration[0] if calibration else None,
+            calibration_id=calibration[0] if calibration else None, room=settings.room,
         )
     except cat.RecordingBusy as exc:
         folder.rmdir()
@@ -108,6 +112,9 @@ def stop(trial_id: str, request: Request, user: str = Depends(require_user)) -> 
     recorder does not answer: the trial is then ``interrupted`` and its recording recovered."""
     db, link = catalog_of(request), request.app.state.link
     trial = _get(db, checked_trial_id(trial_id))
+    if trial.room != request.app.state.settings.room:  # its cameras and recorder are another room's
+        raise HTTPException(status_code=409, detail=f"trial {trial.id} records in room {trial.room or '(default)'}"
+                                                    ": stop it from that room's page")
     try:
         trial = cat.set_state(db, trial.id, "stopping", expect="recording", stage="saving the recording")
     except cat.IllegalTransition:
@@ -131,15 +138,16 @@ def stop(trial_id: str, request: Request, user: str = Depends(require_user)) -> 
 
 
 @router.get("/trials", response_model=list[TrialOut], summary="Trials, newest first")
-def list_trials(request: Request, subject_id: str | None = None, limit: int = 50,
+def list_trials(request: Request, subject_id: str | None = None, limit: int = 50, room: str | None = None,
                 user: str = Depends(require_user)) -> list[TrialOut]:
+    """``room``: only the trials recorded in that room ('' the default room; absent: every room's)."""
     if subject_id is not None:
         checked = checked_id(subject_id, field="subject_id").upper()  # ids match case-insensitively
         subject_id = checked
     if not 1 <= limit <= 1000:
         raise HTTPException(status_code=422, detail="limit: must be between 1 and 1000")
     db = catalog_of(request)
-    return trials_out(db, cat.list_trials(db, subject_id=subject_id, limit=limit))
+    return trials_out(db, cat.list_trials(db, subject_id=subject_id, limit=limit, room=room))
 
 
 @router.get("/trials/{trial_id}", response_model=TrialOut, summary="One trial")

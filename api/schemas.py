@@ -50,6 +50,7 @@ class TrialOut(BaseModel):
                                 "(recovery, rig override, cameras, sync, coverage, reprojection), most important first")
     voided: bool = Field(default=False, description="Marked void (kept, left out of trends and comparisons)")
     void_reason: str = Field(default="", description="Why it was marked void (empty when not void)")
+    room: str = Field(default="", description="The capture room it was recorded in ('' the default room)")
 
 
 class CameraOut(BaseModel):
@@ -78,6 +79,10 @@ class GaitOut(BaseModel):
                                          "gaps, steps left out), plain words")
     voided: bool = Field(default=False, description="Marked void: not for clinical use")
     void_reason: str = Field(default="", description="Why it was marked void (empty when not void)")
+    findings: dict = Field(default_factory=dict, description="What this stage's report says of its numbers: "
+                           "findings (only those that hold over enough counted steps a side and whichever step is "
+                           "left out; the preliminary stage's begin 'Preliminary:'), withheld (side differences "
+                           "and values outside a range that do not hold, in words), data_problems, norm_summary")
     consistency: dict = Field(default_factory=dict, description="The consistency rules run on this stage's "
                               "parameters (ok, rules_checked, failures naming parameter, side, values, tolerance)")
     data_quality: dict = Field(default_factory=dict, description="Per camera frames expected / received / lost, "

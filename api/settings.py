@@ -4,7 +4,9 @@ Environment: ``GAITCAP_DATA_DIR`` (trial files; accounts in ``accounts.json``, t
 ``audit.log`` there), ``GAITCAP_CATALOG`` (SQLite path or SQLAlchemy URL), ``GAITCAP_HOST`` (default
 127.0.0.1), ``GAITCAP_PORT`` (8000), ``GAITCAP_TLS_CERT`` / ``GAITCAP_TLS_KEY`` (PEM files: HTTPS),
 ``GAITCAP_TOKENS`` (``user:token,...``: API tokens for scripts, each acting as that user's account),
-``GAITCAP_AUDIT_SYSLOG`` (``host:port`` or a socket path such as ``/dev/log``). The bus (``GAITCAP_BUS``)
+``GAITCAP_AUDIT_SYSLOG`` (``host:port`` or a socket path such as ``/dev/log``), ``GAITCAP_MIN_FREE_MB``
+(2048: less free space on the data disk refuses Start), ``GAITCAP_ROOM`` (the capture
+room this API runs: its trials, cameras and Start/Stop; '' the default room of a one-room clinic). The bus (``GAITCAP_BUS``)
 is opened by ``gaitcap serve``, not here.
 """
 
@@ -68,9 +70,14 @@ class Settings:
     backup_interval_s: float = 6 * 3600  # SQLite catalog backups (0: none) into DATA_DIR/backups ...
     backup_keep: int = 28  # ... the newest this many kept
     subject_id_pattern: str = DEFAULT_PATTERN  # a patient id must match it (and look like no name or date)
+    min_free_mb: float = 2048.0  # the data disk with less free space (MB) than this: /health says so, Start refused
     board: dict | None = None  # the clinic's calibration board (a board file's [board] fields; None: the default)
+    room: str = ""  # the capture room this API runs ('' the default room; gaitcap.services.catalog.rooms)
 
     def __post_init__(self) -> None:
+        from gaitcap.services.catalog.rooms import check_room
+
+        check_room(self.room)
         for token in self.tokens:
             if len(token) < 16:
                 raise ValueError("tokens: every API token needs at least 16 characters")
@@ -109,6 +116,8 @@ class Settings:
             tls_key=Path(env["GAITCAP_TLS_KEY"]) if env.get("GAITCAP_TLS_KEY") else None,
             audit_syslog=env.get("GAITCAP_AUDIT_SYSLOG") or None,
             subject_id_pattern=env.get("GAITCAP_SUBJECT_ID_PATTERN") or DEFAULT_PATTERN,
+            min_free_mb=float(env.get("GAITCAP_MIN_FREE_MB") or 2048.0),
+            room=env.get("GAITCAP_ROOM", ""),
         )
         values.update(overrides)
         return cls(**values)

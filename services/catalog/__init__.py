@@ -29,6 +29,7 @@ from gaitcap.services.catalog.jobs import (
     lease_job,
     renew_lease,
 )
+from gaitcap.services.catalog.rooms import RoomNotFound, get_room, list_rooms, register_room
 from gaitcap.services.catalog.quality import get_quality, qualities_of, set_quality, warnings_of
 from gaitcap.services.catalog.results import (
     ResultInfo,
@@ -65,4 +66,5 @@ __all__ = [
     "latest_calibration",
     "get_quality", "qualities_of", "set_quality", "warnings_of", "FINISHED", "PROCESSABLE",
     "audit", "audit_entries", "new_trial_id", "validate_id",
+    "RoomNotFound", "get_room", "list_rooms", "register_room",
 ]

@@ -47,8 +47,9 @@ class GuardTimes:
 
 
 class TrialGuard:
-    def __init__(self, catalog: cat.Catalog, link, *, times: GuardTimes = GuardTimes()) -> None:
+    def __init__(self, catalog: cat.Catalog, link, *, times: GuardTimes = GuardTimes(), room: str = "") -> None:
         self.catalog, self.link, self.times = catalog, link, times
+        self.room = room  # the guard's own room: another room's trials are its recorder's business, not ours
         self.started = time.time()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="trial-guard", daemon=True)
@@ -72,7 +73,7 @@ class TrialGuard:
     # ------------------------------------------------------------------ one pass
     def check(self, now: float | None = None) -> None:
         now = time.time() if now is None else now
-        trials = [t for t in cat.list_trials(self.catalog, limit=50) if t.state in self._by_state]
+        trials = [t for t in cat.list_trials(self.catalog, limit=50, room=self.room) if t.state in self._by_state]
         if not trials:
             return
         node = self.link.nodes().get(RECORDER)

@@ -3,7 +3,6 @@ calibration in a trial MCAP; no image frames, which the worker does not read).""
 
 from pathlib import Path
 
-import pytest
 from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.simulator.board import BoardMotion, board_trajectory, render_board_images, scaled_rig
 from gaitcap.simulator.recording import write_keypoint_recording
@@ -30,14 +29,3 @@ def board_images(scale: float = 0.3):
     rot, tvec = board_trajectory(board.geometry, BoardMotion(n_frames=32, floor_frames=3, seed=3), rig)
     return render_board_images(rig, board, rot, tvec, scale=scale), scaled_rig(rig, scale)
 
-
-@pytest.fixture(scope="session")
-def postgres():
-    """One throwaway PostgreSQL server for the whole session (gaitcap.services.ops.pg_server), its password
-    file named in ``PGPASSFILE`` for this process and its children; stopped and removed at the end."""
-    from gaitcap.services.ops.pg_server import LocalPostgres
-
-    with LocalPostgres() as server, pytest.MonkeyPatch.context() as patch:
-        for name, value in server.environment().items():
-            patch.setenv(name, value)
-        yield server

@@ -1,0 +1,66 @@
+"""Two capture rooms on one PostgreSQL catalog, each with its own API (real uvicorn) and its own recorder and
+cameras (the in-test link): both record at once, each Start and Stop reaches only its own room's recorder, a
+Stop of another room's trial is refused, the page's lists filter by room and show each room's rig state,
+each API's audit chain verifies, and no database password reaches a page."""
+
+import httpx
+from gaitcap.api.audit_chain import verify
+from gaitcap.api.server import serve_in_thread
+from gaitcap.api.settings import Settings
+from gaitcap.services.bus.session import free_loopback_ports
+from gaitcap.services.live.protocols import CameraHealth
+
+from .conftest import ALL_ROLES, TOKEN, RecordingLink, make_accounts
+
+
+def _room(tmp_path, catalog_url, name, port, cameras):
+    data = tmp_path / name
+    make_accounts(data, alice=ALL_ROLES)
+    settings = Settings(tokens={TOKEN: "alice"}, catalog_url=catalog_url, data_dir=data, port=port,
+                        status_period_s=0.1, room=name)
+    link = RecordingLink()
+    if cameras:
+        link.camera_list = [CameraHealth(f"cam{i}", 30.0, True, "ok", 0.01) for i in range(cameras)]
+    srv = serve_in_thread(settings, link)
+    return srv, link, httpx.Client(base_url=srv.url, headers={"Authorization": f"Bearer {TOKEN}"}, timeout=60)
+
+
+def test_two_rooms_on_one_postgresql_catalog_never_touch_each_others_recorder(postgres, tmp_path):
+    url = postgres.create_database("two_rooms")
+    ports = free_loopback_ports(2)
+    srv_a, link_a, a = _room(tmp_path, url, "gait1", ports[0], cameras=0)  # the in-test link's two cameras
+    srv_b, link_b, b = _room(tmp_path, url, "gait2", ports[1], cameras=3)
+    try:
+        ta = a.post("/trials", json={"subject_id": "P0001", "session": "v1"})
+        tb = b.post("/trials", json={"subject_id": "P0002", "session": "v1"})
+        assert ta.status_code == tb.status_code == 201, (ta.text, tb.text)
+        ta, tb = ta.json(), tb.json()
+        assert (ta["room"], tb["room"]) == ("gait1", "gait2")
+        assert [c[:2] for c in link_a.calls] == [("start", ta["id"])] and [c[:2] for c in link_b.calls] == [
+            ("start", tb["id"])]
+        assert a.post("/trials", json={"subject_id": "P0003", "session": "v1"}).status_code == 409  # gait1 busy
+        assert a.get("/status").json()["recording"]["id"] == ta["id"]
+        assert b.get("/status").json()["recording"]["id"] == tb["id"]
+        refused = a.post(f"/trials/{tb['id']}/stop")
+        assert refused.status_code == 409 and "room gait2" in refused.json()["detail"]
+        assert len(link_b.calls) == 1 and b.get(f"/trials/{tb['id']}").json()["state"] == "recording"
+        assert [t["id"] for t in a.get("/trials", params={"room": "gait2"}).json()] == [tb["id"]]
+        assert {t["id"] for t in a.get("/trials").json()} == {ta["id"], tb["id"]}  # any patient from any room
+        shown = {r["name"]: r for r in a.get("/rooms").json()}
+        assert set(shown) == {"gait1", "gait2"} and shown["gait1"]["this_room"] and not shown["gait2"]["this_room"]
+        assert (shown["gait2"]["recording"], shown["gait2"]["cameras_seen"], shown["gait1"]["cameras_healthy"]) == (
+            tb["id"], 3, 1)
+        assert a.post(f"/trials/{ta['id']}/stop").json()["state"] == "recorded"
+        assert link_a.calls[-1] == ("stop", ta["id"]) and len(link_b.calls) == 1
+        assert b.post(f"/trials/{tb['id']}/stop").json()["state"] == "recorded"
+        secret = postgres.password()
+        for client in (a, b):
+            for path in ("/health", "/status", "/rooms", "/"):
+                assert secret not in client.get(path).text
+    finally:
+        for client, srv in ((a, srv_a), (b, srv_b)):
+            client.close()
+            srv.stop()
+    for name in ("gait1", "gait2"):
+        checked, problem = verify(tmp_path / name / "audit.log")
+        assert problem is None and checked >= 3
