@@ -21,6 +21,7 @@ simulate-board`` and ``gaitcap calibrate --compare`` do).
                                                      # + caliscope's 11-camera session: about 6 min more
     python bench/calibration.py --real-only --sync-every 20   # that session thinned as in the tests: a minute
     python bench/calibration.py --small-board --sync-every 20 [--json]   # small boards, intrinsics from the clip
+    python bench/calibration.py --small-board --sync-every 20 --folds 5 [--choose-intrinsics]   # + held-out
 
 Real recordings (installed by deploy/bootstrap.sh; skipped when absent): caliscope's 4-webcam session of
 a hand-held inverted ChArUco board (its own corner detections, calibrated here with caliscope's
@@ -347,11 +348,93 @@ def _real(sync_every: int = 1) -> dict:
     }
 
 
-def _small_board(sync_every: int) -> list[dict]:
+def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | None:
+    """The session's held-out error (``folds`` in time): gaitcap's calibration (intrinsics from the clip,
+    held by coverage or, with ``choose``, chosen per camera by held-out error) fitted on the other folds,
+    and caliscope's calibration judged the same way on the same frame sets (made from all of them)."""
+    from gaitcap.acquisition.importers.caliscope import read_session
+    from gaitcap.reconstruction.calibration import CalibrationConfig, calibrate_from_observations
+    from gaitcap.reconstruction.calibration.compare import compare_similar
+    from gaitcap.reconstruction.calibration.holdout import HoldoutConfig, cross_validate, evaluate_rig
+    from gaitcap.reconstruction.calibration.model_choice import choose_intrinsics
+
+    folder = _testdata() / name
+    if not (folder / "camera_array.toml").exists():
+        return None
+    _, obs, ref, _ = read_session(folder, sync_every=sync_every)
+    holdout = HoldoutConfig(folds=folds)
+    config, choice = CalibrationConfig(), None
+    if choose:
+        config, choice = choose_intrinsics(obs, config, holdout=holdout)
+    t0 = time.perf_counter()
+    rig = calibrate_from_observations(obs, config=config).rig
+    fit_s = time.perf_counter() - t0
+    cmp = cross_validate(obs, lambda o: calibrate_from_observations(o, config=config).rig, reference=ref,
+                         reference_label="caliscope's", config=holdout)
+    in_sample = evaluate_rig(obs, rig, label="gaitcap (all frame sets)")
+    similar = compare_similar(ref, rig)
+    own, theirs = cmp.own, cmp.reference
+
+    def figures(e) -> dict:
+        return {"rms_px": [c.rms_px for c in e.cameras], "rms_inlier_px": [c.rms_inlier_px for c in e.cameras],
+                "rig_rms_px": e.rms_px, "square_mm": e.board.square_mm, "square_error_rms_mm": e.board.square_error_rms_mm,
+                "flatness_rms_mm": e.board.flatness_rms_mm, "problems": list(e.problems)}
+
+    apart = similar.centre_mm_max > REAL_TARGET_CENTRE_MM or similar.rotation_deg_max > REAL_TARGET_ROTATION_DEG
+    return {
+        "recording": {**REAL_SESSIONS, **LARGE_SESSIONS}[name], "sync_every": sync_every, "folds": folds,
+        "intrinsics": "chosen per camera by held-out error" if choose else "held by coverage (the default)",
+        "chosen": choice.chosen if choice else None, "choice_rms_px": choice.held_out_rms_px if choice else None,
+        "choice_candidates": list(choice.candidates) if choice else None,
+        "choice_seconds": choice.seconds if choice else 0.0, "cameras": list(obs.camera_names),
+        "frame_sets": own.frame_sets, "fold_errors": list(own.fold_errors), "fit_seconds": fit_s,
+        "folds_seconds": own.seconds, "gaitcap": figures(own), "caliscope": figures(theirs),
+        "gaitcap_in_sample": figures(in_sample), "centre_diff_mm_max": similar.centre_mm_max,
+        "rotation_diff_deg_max": similar.rotation_deg_max, "rigs_apart": bool(apart),
+        "better_held_out": "gaitcap" if own.rms_px < theirs.rms_px else "caliscope",
+        "meets_target": bool(all(a <= b for a, b in zip(figures(own)["rms_px"], figures(theirs)["rms_px"],
+                                                            strict=True))),
+    }
+
+
+def _small_board(sync_every: int, folds: int = 0, choose: bool = False) -> list[dict]:
     """The real small-board sessions (the board in 10-28 % of the images), intrinsics from the clip alone:
-    what was held, refused or not, and each camera against the session's reference calibration."""
-    return [r for r in (_real_session(n, False, 0.0, sync_every if n in LARGE_SESSIONS else 1)
-                        for n in (*REAL_SESSIONS, *LARGE_SESSIONS)) if r is not None]
+    what was held, refused or not, and each camera against the session's reference calibration; with
+    ``folds`` also the held-out error, gaitcap's against caliscope's on the same frame sets."""
+    names = (*REAL_SESSIONS, *LARGE_SESSIONS)
+    out = [r for r in (_real_session(n, False, 0.0, sync_every if n in LARGE_SESSIONS else 1) for n in names)
+           if r is not None]
+    if folds:
+        held = [h for h in (_held_out(n, sync_every if n in LARGE_SESSIONS else 1, folds, choose) for n in names)
+                if h is not None]
+        for r, h in zip(out, held, strict=True):
+            r["held_out"] = h
+    return out
+
+
+def _held_out_lines(h: dict) -> list[str]:
+    lines = [f"    held-out error ({h['folds']} folds in time, {h['frame_sets']} frame sets; intrinsics {h['intrinsics']}; "
+             f"folds {h['folds_seconds']:.0f} s, one fit {h['fit_seconds']:.1f} s"
+             + (f", choice {h['choice_seconds']:.0f} s" if h["chosen"] else "") + "):"]
+    lines.append(f"    {'camera':<8} {'gaitcap':>8} {'caliscope':>10} {'in-sample':>10}  (RMS px over all held-out corners)"
+                 + ("  chosen" if h["chosen"] else ""))
+    for k, cam in enumerate(h["cameras"]):
+        chosen = f"  {h['chosen'][cam]}" if h["chosen"] else ""
+        lines.append(f"    {cam:<8} {h['gaitcap']['rms_px'][k]:>8.3f} {h['caliscope']['rms_px'][k]:>10.3f} "
+                     f"{h['gaitcap_in_sample']['rms_px'][k]:>10.3f}{chosen}")
+    for who in ("gaitcap", "caliscope"):
+        f = h[who]
+        lines.append(f"    {who}: rig RMS {f['rig_rms_px']:.3f} px; board in 3D: square {f['square_mm']:.2f} mm, "
+                     f"error RMS {f['square_error_rms_mm']:.2f} mm, flatness {f['flatness_rms_mm']:.2f} mm"
+                     + "".join(f"; {p}" for p in f["problems"]))
+    apart = (f"rigs {h['centre_diff_mm_max']:.1f} mm / {h['rotation_diff_deg_max']:.2f} deg apart: "
+             + (f"beyond 15 mm / 1 deg, the held-out error favours {h['better_held_out']}" if h["rigs_apart"]
+                else "within 15 mm / 1 deg"))
+    lines.append(f"    {apart}; target (gaitcap's held-out RMS <= caliscope's, every camera): "
+                 f"{'met' if h['meets_target'] else 'NOT met'} (caliscope's calibration was made from these frame "
+                 "sets: in-sample for it)")
+    lines += [f"    fold not fitted: {e}" for e in h["fold_errors"]]
+    return lines
 
 
 def _small_board_table(sessions: list[dict]) -> str:
@@ -372,6 +455,8 @@ def _small_board_table(sessions: list[dict]) -> str:
                          f"{s['pointing_diff_deg'][k]:>8.3f}  {held}")
         lines.append(f"    max: centre {max(s['centre_diff_mm']):.1f} mm, rotation {max(s['rotation_diff_deg']):.2f} deg "
                      f"(ray deg: the rays through the image centre)")
+        if "held_out" in s:
+            lines += _held_out_lines(s["held_out"])
     return "\n".join(lines)
 
 
@@ -503,10 +588,14 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--small-board", action="store_true",
                     help="only the real small-board sessions, intrinsics from the clip (the 11-camera one every "
                          "--sync-every th sync index)")
+    ap.add_argument("--folds", type=int, default=0,
+                    help="--small-board: also the held-out error, K folds in time (gaitcap's vs caliscope's)")
+    ap.add_argument("--choose-intrinsics", action="store_true",
+                    help="--small-board --folds K: gaitcap's intrinsics chosen per camera by held-out error")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     if args.small_board:
-        small = _small_board(args.sync_every)
+        small = _small_board(args.sync_every, args.folds, args.choose_intrinsics)
         print(json.dumps(jsonable({"small_board": small})) if args.json else _small_board_table(small))
         return
     if args.real_only:

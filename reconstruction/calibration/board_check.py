@@ -163,13 +163,13 @@ def size_problem(check: BoardCheck, *, max_pct: float = 1.0, who: str = "this ca
     than ``max_pct`` % in its square size or between its columns and rows (None: it agrees)."""
     if not np.isfinite(check.square_mm):
         return None
-    if abs(check.square_residual_pct) > max_pct:
-        return (f"board size mismatch: triangulated with {who} its squares measure {check.square_mm:.2f} mm, "
-                f"described as {check.described_square_mm:g} mm ({check.square_residual_pct:+.1f} %): check the "
-                "board description (square size) or the calibration's scale")
     cols, rows = check.square_cols_mm, check.square_rows_mm
     if np.isfinite(cols) and np.isfinite(rows) and abs(cols / rows - 1) * 100 > max_pct:
         return (f"board shape mismatch: triangulated with {who} its squares measure {cols:.2f} mm along the "
                 f"columns and {rows:.2f} mm along the rows ({100 * (cols / rows - 1):+.1f} %): a print not at "
                 "100 % in both directions?")
+    if abs(check.square_residual_pct) > max_pct:
+        return (f"board size mismatch: triangulated with {who} its squares measure {check.square_mm:.2f} mm, "
+                f"described as {check.described_square_mm:g} mm ({check.square_residual_pct:+.1f} %): check the "
+                "board description (square size) or the calibration's scale")
     return None
