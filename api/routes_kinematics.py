@@ -56,18 +56,26 @@ def _status(request: Request, trial_id: str, stage: str) -> dict:
 
 
 def _key_value_norms(status: dict) -> dict:
-    """Key value name -> its normal value (deg), SD where read (None for a range of motion), the percent of
-    the cycle and the normal range (mean +- 1.96 SD, None without an SD), from the band shown; a key value
-    whose angle's zero is not validated: ``no_reference`` (the sentence to show) and no normal value."""
+    """Key value name -> its label (with the sign convention), normal value (deg), SD where read (None for a
+    range of motion), the percent of the cycle, the normal range (mean +- 1.96 SD, None without an SD) and,
+    for a range of motion, its one-sided ``lower_limit_deg``, from the band shown. Without a normal value:
+    ``no_reference``, the sentence to show (no band for this patient, or the angle's zero not validated)."""
     from gaitcap.reconstruction.jsonable import finite_or_none
+    from gaitcap.reconstruction.kinematics.clinical import key_label
     from gaitcap.reconstruction.kinematics.key_norms import KEY_VALUES, key_norms, no_reference
 
-    out = {name: {"normal_deg": None, "sd_deg": None, "at_pct": None, "normal_range_deg": None,
-                  "no_reference": no_reference(name)} for name in KEY_VALUES if no_reference(name)}
-    for name, n in key_norms((status.get("norms") or {}).get("bands") or {}).items():
+    norms = status.get("norms") or {}
+    patient = norms.get("no_reference")
+    out = {name: {"label": key_label(name), "normal_deg": None, "sd_deg": None, "at_pct": None,
+                  "normal_range_deg": None, "lower_limit_deg": None,
+                  "no_reference": "no reference for this patient" if patient else no_reference(name)}
+           for name in KEY_VALUES}
+    for name, n in key_norms(norms.get("bands") or {}).items():
         band = n.band()
-        out[name] = {"normal_deg": finite_or_none(n.normal_deg), "sd_deg": finite_or_none(n.sd_deg), "at_pct": n.at_pct,
-                     "normal_range_deg": [round(band[0], 2), round(band[1], 2)] if band else None}
+        out[name] = {"label": key_label(name), "normal_deg": finite_or_none(n.normal_deg),
+                     "sd_deg": finite_or_none(n.sd_deg), "at_pct": n.at_pct,
+                     "normal_range_deg": [round(band[0], 2), round(band[1], 2)] if band else None,
+                     "lower_limit_deg": finite_or_none(round(n.lower_deg, 2)), "no_reference": None}
     return out
 
 
@@ -87,7 +95,8 @@ def kinematics(trial_id: str, request: Request, stage: Stage | None = None,
         from gaitcap.reconstruction.kinematics.gait_profile import gait_profile
 
         extra = {"key_value_norms": _key_value_norms(status),
-                 "gait_profile": gait_profile(status).to_dict() if status.get("curves") else None}
+                 "gait_profile": gait_profile(status).to_dict()
+                 if status.get("curves") and (status.get("norms") or {}).get("bands") else None}  # no band: none
         return {"trial_id": r.trial_id, "stage": r.stage, **status, **extra}
     if not status.get("available", False):
         raise HTTPException(status_code=404, detail=f"trial {r.trial_id}: no kinematics: {status.get('reason', '')}")

@@ -52,7 +52,10 @@ function kinSeries(mean, sd) {
 
 function kinChart(k, name, side, el) {
   // one panel: the normal band (grey, mean ± 1 SD), this side's mean ± SD over its cycles
-  const c = k.curves[name][side], band = k.norms.bands[name], data = [k.percent], series = [{ label: "% cycle" }], bands = [];
+  // a band is drawn only where the table compares the angle's values with it (not norms.not_drawn)
+  const undrawn = (k.norms.not_drawn || {})[name], band = undrawn ? null : k.norms.bands[name];
+  const c = k.curves[name][side], data = [k.percent], series = [{ label: "% cycle" }], bands = [];
+  el.dataset.band = band ? "drawn" : "none";
   if (band) {
     const [lo, hi] = kinSeries(band.mean_deg, band.sd_deg);
     data.push(hi, lo);
@@ -85,22 +88,24 @@ function drawKinematics(k) {
   }
   const notes = [];
   const n = k.norms || {};
-  notes.push(n.source ? `Grey band: normal mean ± 1 SD for ${n.population}. Source: ${n.source}.`
+  notes.push(n.no_reference ? `No normal band: ${n.no_reference}.`
+    : n.source ? `Grey band: normal mean ± 1 SD for ${n.population}. Source: ${n.source}.`
     : "No normal band: no normative data is installed.");
-  for (const [name, why] of Object.entries(n.missing || {})) if (k.curves[name]) notes.push(`${KIN_LABELS[name] || name}: no band (${why}).`);
+  if (!n.no_reference) for (const [name, why] of Object.entries(n.missing || {})) if (k.curves[name]) notes.push(`${KIN_LABELS[name] || name}: no band (${why}).`);
+  for (const [name, why] of Object.entries(n.not_drawn || {})) if (k.curves[name]) notes.push(`${KIN_LABELS[name] || name}: ${why}.`);
   for (const [name, why] of Object.entries(k.not_measured || {})) notes.push(`${KIN_LABELS[name] || name}: not measured (${why}).`);
   $("#kinematics-notes").innerHTML = notes.map((t) => `<li>${esc(t)}</li>`).join("");
   const kv = k.key_values || {}, keys = Object.keys(kv.left || {}).filter((name) => ["left", "right"].some((s) => ((kv[s] || {})[name] || {}).n));
   const norms = k.key_value_norms || {};
-  const outside = (s, nr) => s && s.mean != null && nr && nr.normal_range_deg
-    && (s.mean < nr.normal_range_deg[0] || s.mean > nr.normal_range_deg[1]);
+  const outside = (s, nr) => s && s.mean != null && nr && (nr.normal_range_deg
+    ? s.mean < nr.normal_range_deg[0] || s.mean > nr.normal_range_deg[1] : nr.lower_limit_deg != null && s.mean < nr.lower_limit_deg);
   const cell = (s, nr) => (s && s.mean != null ? `${s.mean.toFixed(1)}${s.sd != null ? " ± " + s.sd.toFixed(1) : ""} (n=${s.n})`
     + (outside(s, nr) ? ' <strong class="out-flag">outside</strong>' : "") : "–");
   const range = (nr) => !nr ? "no band" : nr.no_reference ? nr.no_reference : nr.normal_range_deg ? `${nr.normal_range_deg[0].toFixed(1)}–${nr.normal_range_deg[1].toFixed(1)}`
-    : `${nr.normal_deg.toFixed(1)} (no SD for a range)`;
+    : nr.lower_limit_deg != null ? `at least ${nr.lower_limit_deg.toFixed(1)} (band's range ${nr.normal_deg.toFixed(1)})` : "no band";
   $("#kinematics-keys").innerHTML = keys.length ? `<caption>Key values (degrees, mean ± SD over the cycles) against the band</caption>
     <thead><tr><th>Key value</th><th>Left</th><th>Right</th><th>Normal (95 %)</th></tr></thead><tbody>${keys.map((name) =>
-      `<tr data-key="${esc(name)}"><td>${esc(name.replace(/_deg$/, "").replace(/_/g, " "))}</td>
+      `<tr data-key="${esc(name)}"><td>${esc((norms[name] || {}).label || name.replace(/_deg$/, "").replace(/_/g, " "))}</td>
         <td>${cell(k.key_values.left[name], norms[name])}</td><td>${cell(k.key_values.right[name], norms[name])}</td>
         <td>${range(norms[name])}</td></tr>`).join("")}</tbody>` : "";
 }

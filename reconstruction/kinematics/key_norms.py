@@ -4,9 +4,17 @@ where that value is read, and the patient's z-score, exactly like a spatiotempor
 A key value read at one point of the cycle (the knee at initial contact, a peak) is compared with the band
 at that point: normal value = the key value of the band's mean curve (through the same function as the
 patient's, :data:`gaitcap.reconstruction.kinematics.clinical.KEY_VALUES`, so sign and zero are the same),
-SD = the band's SD at the percent of the cycle where the mean curve takes it. A range of motion (max -
-min) has no SD in a band of means and SDs per point (their spreads are not independent): it gets the
-normal value and no z-score. Outside the normal range: |z| > 1.96. Pure computation, degrees.
+SD = the band's SD at the percent of the cycle where the mean curve takes it. Outside the normal range:
+|z| > 1.96. Pure computation, degrees.
+
+A range of motion (max - min) does not depend on the angle's zero: it is judged against the band's range
+of motion also for an angle whose zero is not validated (hip, ankle). A band of means and SDs per point
+gives it no SD (the spreads at the two points are not independent), but a one-sided limit holds: each
+person's range is at least the difference D of their angle at the two points where the band's mean curve
+peaks (a, its maximum) and dips (b, its minimum); D has mean = the band's range and SD <= SD(a) + SD(b)
+whatever the correlation. A range below ``range - 1.96 (SD(a) + SD(b))`` is therefore below the 97.5 % of
+normal walkers' ranges (normal D): "below the normal range". No upper limit follows (a person's range can
+exceed D by any amount), so a range is never called above it.
 """
 
 from __future__ import annotations
@@ -37,15 +45,29 @@ UNVALIDATED_ZERO = {
 }
 
 
+def undrawn(variables) -> dict[str, str]:
+    """Variable -> why its band is not drawn under its curve: the chart shows a band only where the table
+    compares the angle's values with it at a point, i.e. not for an angle whose zero is not validated (its
+    range of motion is still compared, in the table)."""
+    return {v: (f"band not drawn: the zero of this angle is not validated ({UNVALIDATED_ZERO[v]}); its range "
+                "of motion is compared with the band's in the table") for v in variables if v in UNVALIDATED_ZERO}
+
+
+def is_range(name: str) -> bool:
+    """Whether key value ``name`` is a range of motion (max - min: independent of the angle's zero)."""
+    return name.endswith("_rom_deg")
+
+
 def no_reference(name: str) -> str | None:
-    """:data:`NO_REFERENCE` for a key value of a variable in :data:`UNVALIDATED_ZERO`, else None."""
+    """:data:`NO_REFERENCE` for a key value read at a point of a variable in :data:`UNVALIDATED_ZERO`,
+    else None (a range of motion does not depend on the zero)."""
     var = KEY_VALUES.get(name, (None,))[0]
-    return NO_REFERENCE if var in UNVALIDATED_ZERO else None
+    return NO_REFERENCE if var in UNVALIDATED_ZERO and not is_range(name) else None
 
 
 def _point_of(name: str, mean: np.ndarray, toe: int) -> int | None:
     """The percent of the cycle at which key value ``name`` is read on ``mean``; None for a range."""
-    if name.endswith("_rom_deg"):
+    if is_range(name):
         return None
     if name == "knee_flexion_initial_contact_deg":
         return 0
@@ -53,9 +75,9 @@ def _point_of(name: str, mean: np.ndarray, toe: int) -> int | None:
         return toe + int(np.argmax(mean[toe:]))
     if name == "ankle_peak_dorsiflexion_stance_deg":
         return int(np.argmax(mean[: toe + 1]))
-    if name == "ankle_peak_plantarflexion_deg":
+    if name == "ankle_minimum_deg":
         return int(np.argmin(mean))
-    if name == "hip_peak_extension_terminal_stance_deg":
+    if name == "hip_minimum_terminal_stance_deg":
         start = 30
         return start + int(np.argmin(mean[start: max(toe, 31) + 1]))
     if name == "hip_peak_flexion_deg":
@@ -66,17 +88,29 @@ def _point_of(name: str, mean: np.ndarray, toe: int) -> int | None:
 @dataclass(frozen=True)
 class KeyNorm:
     """The normal value (degrees) of one key value, its SD (NaN for a range of motion) and the percent of
-    the cycle where it is read (None for a range)."""
+    the cycle where it is read (None for a range); for a range, ``lower_deg``: the one-sided lower limit
+    (see the module), NaN otherwise."""
 
     name: str
     normal_deg: float
     sd_deg: float
     at_pct: int | None
+    lower_deg: float = math.nan
 
     def z(self, value_deg: float) -> float:
         if not (math.isfinite(value_deg) and math.isfinite(self.sd_deg) and self.sd_deg > 0):
             return math.nan
         return (value_deg - self.normal_deg) / self.sd_deg
+
+    def verdict(self, value_deg: float) -> int:
+        """-1 below the normal range, +1 above it, 0 inside or not judged (no value; a range above its
+        lower limit)."""
+        if not math.isfinite(value_deg):
+            return 0
+        if math.isfinite(self.lower_deg):
+            return -1 if value_deg < self.lower_deg else 0
+        z = self.z(value_deg)
+        return 0 if not (math.isfinite(z) and abs(z) > Z_OUTSIDE) else (1 if z > 0 else -1)
 
     def band(self, k: float = Z_OUTSIDE) -> tuple[float, float] | None:
         """normal -+ k SD, None without an SD."""
@@ -95,16 +129,20 @@ def key_norm(name: str, mean_deg, sd_deg, *, toe_off_pct: float = DEFAULT_TOE_OF
         raise ValueError(f"{name}: the band must have 101 points (0..100 % of the cycle), got {mean.shape}")
     toe = int(round(toe_off_pct))
     at = _point_of(name, mean, toe)
-    return KeyNorm(name, float(var_fn[1](mean, toe)), float(sd[at]) if at is not None else math.nan, at)
+    normal = float(var_fn[1](mean, toe))
+    if at is None:  # a range: the one-sided lower limit from the SDs where the mean curve peaks and dips
+        spread = float(sd[int(np.argmax(mean))] + sd[int(np.argmin(mean))])
+        return KeyNorm(name, normal, math.nan, None, max(0.0, normal - Z_OUTSIDE * spread))
+    return KeyNorm(name, normal, float(sd[at]), at)
 
 
 def key_norms(bands: Mapping[str, Mapping[str, Any]]) -> dict[str, KeyNorm]:
-    """Key value name -> :class:`KeyNorm` for every key value whose variable has a band and a validated
-    zero (not in :data:`UNVALIDATED_ZERO`) (``bands``: the ``kinematics.json`` ``norms.bands`` form,
-    variable -> {"mean_deg", "sd_deg"})."""
+    """Key value name -> :class:`KeyNorm` for every key value whose variable has a band, except the values
+    read at a point of an angle whose zero is not validated (:func:`no_reference`; its ranges of motion are
+    kept) (``bands``: the ``kinematics.json`` ``norms.bands`` form, variable -> {"mean_deg", "sd_deg"})."""
     out = {}
     for name, (var, _) in KEY_VALUES.items():
-        if var in UNVALIDATED_ZERO:
+        if no_reference(name):
             continue
         band = bands.get(var)
         if band and band.get("mean_deg") is not None and band.get("sd_deg") is not None:

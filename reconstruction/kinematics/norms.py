@@ -10,8 +10,14 @@ width as the SD, and so does this module. The free-speed class is the default.
 Adults: the sagittal hip, knee and ankle (and pelvic tilt) curves of 15 healthy adults of the BioCV
 dataset (Evans et al. 2024, doi:10.15125/BATH-01258), mean and SD every 4 % of the cycle as summarised by
 the myogait package (extracted by deploy/bootstrap.sh into ``BioCV2024_adult.json``). No adult source
-ships frontal or transverse curves, so an adult gets no band for those. :func:`choose_norms` picks the
-set by the patient's age (children's below 18 years or when the age is not recorded).
+ships frontal or transverse curves, so an adult gets no band for those.
+
+A band is used only for a patient inside its population (:class:`Population`, recorded with the band's
+provenance): :func:`choose_norms` gives the children's band to a recorded age under 18, the adult band to a
+recorded age of 18-65 (the ages the distributing package applies it to), and "no reference for this
+patient" otherwise: an unknown age (no children's band for an age that is not recorded), a 76-year-old
+(outside 18-65: the 15 adults are not age-matched), or a population whose data is not installed. Both
+sources pool both sexes, so the patient's sex does not select or refuse a band.
 
 The sign conventions match :mod:`gaitcap.reconstruction.kinematics.angles` (flexion, adduction, internal
 rotation, dorsiflexion, anterior tilt, this side up, this side forward positive). The model's pelvis and
@@ -71,6 +77,43 @@ def bands_from_schwartz(data: dict, *, speed: str = "Free") -> dict[str, NormBan
 
 
 ADULT_FROM_YEARS = 18
+NO_PATIENT_REFERENCE = "no reference for this patient"
+
+
+@dataclass(frozen=True)
+class Population:
+    """Whom a band describes: ``label``, the ages (years, inclusive) it may be used for, and where those
+    ages come from (``provenance``). ``age_min`` None: no lower limit recorded (any recorded age up to
+    ``age_max``). Both sources pool both sexes: no sex restriction."""
+
+    label: str
+    age_min: int | None
+    age_max: int
+    provenance: str
+
+    def contains(self, age_years: int | None) -> bool:
+        """Whether a patient of that age (None: not recorded, never inside) is inside the population."""
+        return (age_years is not None and age_years <= self.age_max
+                and (self.age_min is None or age_years >= self.age_min))
+
+    @property
+    def ages(self) -> str:
+        return f"under {self.age_max + 1} years" if self.age_min is None else f"{self.age_min}-{self.age_max} years"
+
+    def to_dict(self) -> dict:
+        return {"label": self.label, "age_min_years": self.age_min, "age_max_years": self.age_max,
+                "provenance": self.provenance}
+
+
+CHILDREN = Population(
+    "typically developing children and adolescents", None, ADULT_FROM_YEARS - 1,
+    "Schwartz et al. 2008 studied typically developing children and adolescents (83); the installed file "
+    "records no ages, so the band is used for a recorded age under 18 only")
+ADULTS = Population(
+    "healthy adults", ADULT_FROM_YEARS, 65,
+    "BioCV (Evans et al. 2024): 15 healthy adults, their ages not given in the installed file; the "
+    "distributing package (myogait 0.9.2, normative.py) applies these curves to its adult stratum, 18-65 "
+    "years, and no older or younger adult band is installed")
 
 
 def bands_from_curves(data: dict) -> dict[str, NormBand]:
@@ -99,24 +142,41 @@ class NormSet:
     population: str
     source: str
     missing: dict[str, str] = field(default_factory=dict)
+    population_range: Population | None = None  # the ages the bands may be used for (None: no band)
+    no_reference: str = ""  # why this patient has no band at all ("no reference for this patient: ...")
 
     def to_dict(self) -> dict:
         return {"population": self.population, "source": self.source or None, "missing": self.missing,
-                "bands": {k: v.to_dict() for k, v in self.bands.items()}}
+                "bands": {k: v.to_dict() for k, v in self.bands.items()},
+                "population_range": self.population_range.to_dict() if self.population_range is not None else None,
+                "no_reference": self.no_reference or None}
+
+
+def _outside(age_years: int | None, installed: list[tuple[Population, str]]) -> str:
+    """Why no installed band is for this patient: "no reference for this patient: ..." naming each band's
+    population and its source."""
+    if not installed:
+        return f"{NO_PATIENT_REFERENCE}: no normative data is installed"
+    who = ("the patient's age is not recorded" if age_years is None
+           else f"the patient's age ({age_years} years) is outside")
+    bands = "; ".join(f"{pop.label}, {pop.ages} ({source})" for pop, source in installed)
+    return f"{NO_PATIENT_REFERENCE}: {who} the population of every band installed ({bands})"
 
 
 def choose_norms(age_years: int | None, *, children: dict[str, NormBand], adults: dict[str, NormBand],
                  adult_source: str, variables) -> NormSet:
-    """The band set for a patient of ``age_years`` (None: not recorded): adults (>= 18 years) get the
-    adult curves where there are some and no band elsewhere; children, and patients without an age, get
-    the children's curves. ``variables``: the names that get a ``missing`` reason when they have no band."""
-    if age_years is not None and age_years >= ADULT_FROM_YEARS and adults:
+    """The band set for a patient of ``age_years`` (None: not recorded): the adult curves for an age inside
+    :data:`ADULTS` (no band where they have none), the children's curves for an age inside
+    :data:`CHILDREN`, and no band at all otherwise, with ``no_reference`` saying why. ``variables``: the
+    names that get a ``missing`` reason when they have no band."""
+    if adults and ADULTS.contains(age_years):
         why = "no published adult band for this angle is installed"
         return NormSet(dict(adults), f"adults (patient {age_years} years)", adult_source,
-                       {v: why for v in variables if v not in adults})
-    if not children:
-        return NormSet({}, "none", "", {v: "no normative data installed" for v in variables})
-    who = (f"children and adolescents (patient {age_years} years)" if age_years is not None
-           else "children and adolescents (the patient's age is not recorded)")
-    return NormSet(dict(children), who, SOURCE, {v: "no band in the children's data" for v in variables
-                                                 if v not in children})
+                       {v: why for v in variables if v not in adults}, ADULTS)
+    if children and CHILDREN.contains(age_years):
+        return NormSet(dict(children), f"children and adolescents (patient {age_years} years)", SOURCE,
+                       {v: "no band in the children's data" for v in variables if v not in children}, CHILDREN)
+    installed = [(pop, "Schwartz 2008" if pop is CHILDREN else "BioCV 2024")
+                 for pop, bands in ((CHILDREN, children), (ADULTS, adults)) if bands]
+    why = _outside(age_years, installed)
+    return NormSet({}, "none", "", {v: why for v in variables}, None, why)

@@ -11,7 +11,7 @@ import typer
 from gaitcap.services.cli._common import user_errors
 
 _KEYS = ("knee_flexion_initial_contact_deg", "knee_peak_flexion_swing_deg", "ankle_peak_dorsiflexion_stance_deg",
-         "hip_peak_extension_terminal_stance_deg", "hip_flexion_rom_deg", "knee_flexion_rom_deg", "ankle_rom_deg")
+         "hip_minimum_terminal_stance_deg", "hip_flexion_rom_deg", "knee_flexion_rom_deg", "ankle_rom_deg")
 
 
 def _fmt(stats: dict) -> str:
@@ -37,6 +37,8 @@ def _echo_summary(d: dict, out: Path) -> None:
                    f"{errs[worst]['rms']:.1f} mm (max {errs[worst]['max']:.1f} mm)")
     if d["norms"]["bands"]:
         typer.echo(f"normal-gait band: {d['norms']['population']}")
+    elif d["norms"].get("no_reference"):
+        typer.echo(f"normal-gait band: {d['norms']['no_reference']}")
     else:
         typer.echo("note: normal-gait bands not installed (run deploy/bootstrap.sh)", err=True)
     typer.echo(f"files: {out}/ (kinematics.mot, .osim, .trc, .json, .csv, trajectory.c3d)")
@@ -50,8 +52,8 @@ def register(app: typer.Typer) -> None:
                                         "<name>-kinematics)."),
         mass_kg: float = typer.Option(70.0, "--mass-kg", help="The patient's mass (inertia only)."),
         age: int | None = typer.Option(None, "--age", metavar="YEARS", help="The patient's age at the trial "
-                                       "(years): chooses the normal-gait band (adults from 18); without it "
-                                       "the children's band."),
+                                       "(years): chooses the normal-gait band (children's under 18, adults' "
+                                       "18-65); without it, or outside those ages: no band."),
         as_json: bool = typer.Option(False, "--json", help="Print the kinematics report as one JSON object."),
     ) -> None:
         """Scale an OpenSim model to the trial, inverse kinematics, gait-cycle joint angles with norms."""

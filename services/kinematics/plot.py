@@ -14,7 +14,8 @@ COLORS = {"left": "#1f77b4", "right": "#d62728"}
 def side_curves_png(k: dict, *, width_in: float = 10.0, title: str = "") -> bytes:
     """The report's figure from a ``kinematics.json`` dict (norms chosen for the patient): one panel per
     variable and side, two variables to a row (left, right, left, right), each with the side's mean +- SD
-    (degrees) over the normal band (grey, mean +- 1 SD) where there is one; ``title`` above them."""
+    (degrees) over the normal band (grey, mean +- 1 SD) where there is one that the table compares with
+    (:func:`gaitcap.services.kinematics.shown.drawn_bands`); ``title`` above them."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -24,7 +25,9 @@ def side_curves_png(k: dict, *, width_in: float = 10.0, title: str = "") -> byte
     rows = max(1, (len(names) + 1) // 2)
     fig = Figure(figsize=(width_in, 1.75 * rows + 0.4), dpi=110)
     axes = fig.subplots(rows, 4, squeeze=False).ravel()
-    pct, bands = np.arange(101), (k.get("norms") or {}).get("bands") or {}
+    from gaitcap.services.kinematics.shown import drawn_bands
+
+    pct, bands = np.arange(101), drawn_bands(k)
     for i, (name, side) in enumerate((n, s) for n in names for s in COLORS):
         ax, c = axes[i], k["curves"][name][side]
         band = bands.get(name)
@@ -54,7 +57,8 @@ def side_curves_png(k: dict, *, width_in: float = 10.0, title: str = "") -> byte
 def figure_title(k: dict) -> str:
     """Whose band the figure shows and what is not drawn, for the standalone PNG."""
     norms = k.get("norms") or {}
-    band = f"grey: normal mean +- 1 SD, {norms['population']}" if norms.get("population") else "no normal band"
+    band = (f"grey: normal mean +- 1 SD, {norms['population']}" if norms.get("bands")
+            else norms.get("no_reference") or "no normal band")
     held = "; not measured: " + ", ".join(n.replace("_", " ") for n in k.get("not_measured") or {}) \
         if k.get("not_measured") else ""
     return f"Joint kinematics ({band}{held})"

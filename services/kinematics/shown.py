@@ -1,9 +1,11 @@
 """A stage's kinematics as the page, the REST API and the report show them: the stored
 ``kinematics.json`` with the normal-gait band chosen by the patient's age at the trial (the band can change
-after the fit, when the patient's birth year is recorded, so it is chosen when the kinematics are read)."""
+after the fit, when the patient's birth year is recorded, so it is chosen when the kinematics are read), and
+``norms.not_drawn``: the bands the charts leave out because the table does not compare with them."""
 
 from __future__ import annotations
 
+from gaitcap.reconstruction.kinematics.key_norms import undrawn
 from gaitcap.reconstruction.kinematics.report import curves_csv
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import patients as pat
@@ -25,7 +27,15 @@ def with_norms(data: dict, age_years: int | None) -> dict:
     kinematics are unavailable)."""
     if data.get("available") is False:
         return data
-    return {**data, "norms": norms_for_age(age_years).to_dict()}
+    norms = norms_for_age(age_years).to_dict()
+    return {**data, "norms": {**norms, "not_drawn": undrawn(norms["bands"])}}
+
+
+def drawn_bands(k: dict) -> dict:
+    """The bands a chart of ``k`` (``kinematics.json`` with its norms) draws: those the table compares
+    point values with (not ``norms.not_drawn``)."""
+    norms = k.get("norms") or {}
+    return {v: b for v, b in (norms.get("bands") or {}).items() if v not in (norms.get("not_drawn") or {})}
 
 
 

@@ -20,7 +20,7 @@ from gaitcap.services.reports.findings import (
     key_value_findings,
     outage_problem,
 )
-from gaitcap.services.reports.norms import NormRow, NormTable, load_norms, percentile
+from gaitcap.services.reports.norms import NormRow, NormTable, load_norms, missing_for_patient, percentile
 from gaitcap.services.reports.speed_means import compare_speed
 
 
@@ -143,6 +143,8 @@ class ReportContent:
     speed_reference: dict | None = None  # gait speed as % of the age-sex mean (no SD, no z), speed_means
     joint_angles_note: str = ""
     kinematics: dict = field(default_factory=dict)  # kinematics.json with the band for the patient's age
+    withheld: tuple[str, ...] = field(default_factory=tuple)  # differences that do not hold: numbers, no finding
+    unstable: frozenset[str] = frozenset()  # the parameters of ``withheld``
 
 
 @dataclass(frozen=True)
@@ -199,11 +201,47 @@ def footprints_of(steps: list[dict]) -> tuple[Footprint, ...]:
                            -(s["heel_mm"][0] - a[0]) * uy + (s["heel_mm"][1] - a[1]) * ux) for s in first)
 
 
-def findings(rows: tuple[Row, ...], consistency: dict | None = None) -> Findings:
+def findings(rows: tuple[Row, ...], consistency: dict | None = None, *, not_recorded: str = "",
+             held: dict | None = None, prefix: str = "") -> Findings:
     """What may be said of the rows: findings against the norms on the numbers that passed the
     consistency rules (``consistency``: a ``ConsistencyReport`` dict; None: none failed), data problems,
-    and how many parameters had a normal range (see :mod:`gaitcap.services.reports.findings`)."""
-    return findings_of(rows, consistency or {}, PARAMETERS)
+    and how many parameters had a normal range (see :mod:`gaitcap.services.reports.findings`);
+    ``not_recorded``: what of the patient the norms need is missing (:func:`norms.missing_for_patient`);
+    ``held``, ``prefix``: see :func:`~gaitcap.services.reports.findings.findings_of` (:func:`stage_said`)."""
+    return findings_of(rows, consistency or {}, PARAMETERS, not_recorded=not_recorded, held=held, prefix=prefix)
+
+
+#: What a stage's findings begin with (the preliminary stage's say so; the refined stage's need not).
+STAGE_PREFIX = {"preliminary": "Preliminary: "}
+
+
+def stage_said(gait: dict, stage: str, rows: tuple[Row, ...], consistency: dict, *, not_recorded: str = "") -> Findings:
+    """What may be said of a stage's rows: :func:`findings` on the numbers that hold over the stage's
+    counted steps (``gait.json``'s steps, leave-one-out), the preliminary stage's findings saying so."""
+    from gaitcap.reconstruction.gait.stability import leave_one_out
+
+    return findings(rows, consistency, not_recorded=not_recorded, held=leave_one_out(gait.get("steps") or []),
+                    prefix=STAGE_PREFIX.get(stage, ""))
+
+
+def stage_findings(db: cat.Catalog, data_dir: Path, trial_id: str, stage: str | None = None,
+                   config: ReportConfig = ReportConfig(), *, norms: NormTable | None = None) -> Findings | None:
+    """The findings of one stage of a trial (the best stage by default) as the report makes them; None
+    when the stage has no results or no gait file. LookupError for an unknown trial."""
+    trial = cat.get_trial(db, trial_id)
+    result = cat.get_result(db, trial.id, stage)
+    gait = stored_gait(Path(data_dir), trial.id, result.stage) if result is not None else None
+    if gait is None:
+        return None
+    patient = pat.ensure_patient(db, trial.subject_id)
+    age = pat.age_at_trial(patient, trial)
+    rows = rows_of(gait.get("summary", {}), norms or load_norms(config.norms_csv, units=NORM_UNITS),
+                   sex=patient.sex, age=age)
+    data_quality = result.report.get("data_quality") or gait.get("data_quality") or {}
+    consistency = consistency_of(result.report.get("consistency") or (result.quality or {}).get("consistency")
+                                 or gait.get("consistency"), gait, data_quality)
+    return stage_said(gait, result.stage, rows, consistency,
+                      not_recorded=missing_for_patient(sex=patient.sex, age=age))
 
 
 def flags_of(rows: tuple[Row, ...], consistency: dict | None = None) -> tuple[str, ...]:
@@ -316,7 +354,7 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
     data_quality = result.report.get("data_quality") or gait.get("data_quality") or {}
     consistency = consistency_of(result.report.get("consistency") or (result.quality or {}).get("consistency")
                                  or gait.get("consistency"), gait, data_quality)
-    said = findings(rows, consistency)
+    said = stage_said(gait, result.stage, rows, consistency, not_recorded=missing_for_patient(sex=patient.sex, age=age))
     kinematics = stored_kinematics(Path(data_dir), trial.id, result.stage)
     shown_kinematics = with_norms(kinematics, age) if kinematics is not None else {}
     angles = key_value_findings(shown_kinematics)
@@ -331,6 +369,7 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
         num_steps=int(gait.get("summary", {}).get("num_steps") or 0),
         num_passes=int(gait.get("summary", {}).get("num_passes") or 0),
         previous=previous_visit(db, trial, Path(data_dir)), flags=said.findings + angles.findings,
+        withheld=said.withheld, unstable=said.unstable,
         data_problems=tuple(filter(None, (outage_problem(data_quality),))) + said.data_problems, norm_summary=" ".join(filter(None, (said.norm_summary, angles.summary))),
         consistency=consistency, speed_reference=_speed_reference(rows, patient.sex, age),
         joint_angles_note=joint_angles_note(kinematics),

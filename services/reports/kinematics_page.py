@@ -5,21 +5,21 @@ same value read off the band's mean curve); or a line saying why there are none.
 from __future__ import annotations
 
 import io
-import math
 
 from fpdf.fonts import FontFace
-from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT, KEY_VALUES
+from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT, KEY_VALUES, key_label
 from gaitcap.reconstruction.kinematics.key_norms import (
     NO_REFERENCE,
     UNVALIDATED_ZERO,
-    Z_OUTSIDE,
     key_norms,
     no_reference,
 )
 
 NORMAL_NOTE = (f"Normal: the key value read off the band's mean curve (toe-off taken at {DEFAULT_TOE_OFF_PCT:.0f} % "
                "of the cycle); Normal (95 %): +- 1.96 times the band's SD where the value is read; a range of "
-               "motion has no SD in the band (no range, no z-score). !: outside the normal range (|z| > 1.96).")
+               "motion (whatever the angle's zero) against the band's range: no SD, only a lower limit "
+               "(range - 1.96 (SD at the band's peak + SD at its dip)). Signed values: the convention is in the "
+               "label. !: outside the normal range (|z| > 1.96, or a range below its lower limit).")
 
 
 def _stat(s: dict | None) -> str:
@@ -30,18 +30,19 @@ def _stat(s: dict | None) -> str:
 
 
 def _side_cell(s: dict | None, norm) -> str:
-    """The side's value, marked "!" when outside the normal range (|z| > 1.96)."""
+    """The side's value, marked "!" when outside the normal range (:meth:`KeyNorm.verdict`)."""
     text = _stat(s)
     value = s.get("mean") if isinstance(s, dict) else None
-    z = norm.z(float(value)) if norm is not None and isinstance(value, (int, float)) else math.nan
-    return text + (" !" if math.isfinite(z) and abs(z) > Z_OUTSIDE else "")
+    off = norm.verdict(float(value)) if norm is not None and isinstance(value, (int, float)) else 0
+    return text + (" !" if off else "")
 
 
 def _range_cell(name: str, norm) -> str:
+    """The normal range; without one why: the angle's zero not validated ("no reference"), or no band."""
     if norm is None:
         return "no reference" if no_reference(name) else "no band"
     band = norm.band()
-    return f"{band[0]:.1f} to {band[1]:.1f}" if band else "no SD (range)"
+    return f"{band[0]:.1f} to {band[1]:.1f}" if band else f"at least {norm.lower_deg:.1f}"
 
 
 def _key_table(pdf, k: dict) -> None:
@@ -51,34 +52,51 @@ def _key_table(pdf, k: dict) -> None:
         pdf.para("No key values: no complete gait cycle.")
         return
     norms = key_norms(bands)
+    patient_none = (k.get("norms") or {}).get("no_reference") or ""
+    heads, widths = ("Key value (degrees)", "Left", "Right", "Normal", "Normal (95 %)"), (56, 32, 32, 16, 28)
+    if patient_none:  # no band for this patient: no normal columns, one sentence under the table
+        heads, widths = heads[:3], widths[:3]
     pdf.set_font("Helvetica", "", 8)
-    with pdf.table(col_widths=(56, 32, 32, 16, 28), width=164, align="LEFT", line_height=4.0,
-                   text_align=("LEFT", "RIGHT", "RIGHT", "RIGHT", "RIGHT"),
+    with pdf.table(col_widths=widths, width=sum(widths), align="LEFT", line_height=4.0,
+                   text_align=("LEFT",) + ("RIGHT",) * (len(heads) - 1),
                    headings_style=FontFace(emphasis="BOLD", fill_color=(230, 234, 240))) as table:
         head = table.row()
-        for h in ("Key value (degrees)", "Left", "Right", "Normal", "Normal (95 %)"):
+        for h in heads:
             head.cell(h)
         for name in names:
             row = table.row()
             norm = norms.get(name)
-            row.cell(pdf.latin1(name.removesuffix("_deg").replace("_", " ").capitalize()))
+            row.cell(pdf.latin1(key_label(name)))
             for side in ("left", "right"):
                 row.cell(pdf.latin1(_side_cell((kv.get(side) or {}).get(name), norm)))
-            row.cell(f"{norm.normal_deg:.1f}" if norm is not None else "-")
-            row.cell(pdf.latin1(_range_cell(name, norm)))
-    unvalidated = {KEY_VALUES[n][0] for n in names if no_reference(n)}
+            if not patient_none:
+                row.cell(f"{norm.normal_deg:.1f}" if norm is not None else "-")
+                row.cell(pdf.latin1(_range_cell(name, norm)))
+    if patient_none:
+        pdf.para("Normal: no reference for this patient (see the band above); signed values: the convention is in "
+                 "the label.", 7, height=3.3)
+        return
+    unvalidated = {KEY_VALUES[n][0] for n in names if no_reference(n)} if bands else set()
     why = "; ".join(f"{var.replace('_', ' ')}: {UNVALIDATED_ZERO[var]}" for var in sorted(unvalidated))
     pdf.para(NORMAL_NOTE + (f" {NO_REFERENCE[0].upper()}{NO_REFERENCE[1:]} ({why})." if why else ""), 7, height=3.3)
 
 
 def _notes(k: dict) -> list[str]:
     norms = k.get("norms") or {}
+    if norms.get("no_reference"):
+        no_ref = norms["no_reference"]
+        return [f"No normal band: {no_ref[0].upper()}{no_ref[1:]}."] + [
+            f"{name.replace('_', ' ').capitalize()}: not measured ({why})." for name, why in
+            (k.get("not_measured") or {}).items()]
     out = [f"Grey band: normal mean +- 1 SD for {norms.get('population')}. Source: {norms['source']}."
            if norms.get("source") else "No normal band: no normative data is installed."]
     missing = {name: why for name, why in (norms.get("missing") or {}).items() if name in (k.get("curves") or {})}
     for why in dict.fromkeys(missing.values()):
         names = ", ".join(n.replace("_", " ") for n, w in missing.items() if w == why)
         out.append(f"No band (not drawn): {names} ({why}).")
+    for name, why in (norms.get("not_drawn") or {}).items():
+        if name in (k.get("curves") or {}):
+            out.append(f"{name.replace('_', ' ').capitalize()}: {why}.")
     out += [f"{name.replace('_', ' ').capitalize()}: not measured ({why})." for name, why in
             (k.get("not_measured") or {}).items()]
     return out
@@ -91,20 +109,27 @@ def gait_profile_line(k: dict) -> str:
     p = gait_profile(k)
     included = sorted({v for side in p.gvs_deg.values() for v in side})
     if not included:
-        return "Gait Profile Score (Baker 2009): not computed (no measured angle has a normal band)."
+        why = ("no reference for this patient" if (k.get("norms") or {}).get("no_reference")
+               else "no measured angle has a normal band")
+        return f"Gait Profile Score (Baker 2009): not computed ({why})."
     left_out = "; ".join(f"{v.replace('_', ' ')} {why}" for v, why in p.not_included.items())
     return (f"Gait Profile Score (Baker 2009) over {', '.join(v.replace('_', ' ') for v in included)} only: left "
             f"{p.gps_deg['left']:.1f}, right {p.gps_deg['right']:.1f}, both {p.overall_gps_deg:.1f} deg (not Baker's "
             f"nine-variable score; left out: {left_out}).")
 
 
+SAGITTAL = ("hip_flexion", "knee_flexion", "ankle_dorsiflexion")  # the curves of the key values read at a point
+
+
 def kinematics_figure_png(k: dict) -> bytes | None:
     """The report's curves: each side's mean +- SD over the band, of the variables that have a band (the
-    others are named in the notes), half a page wide; None without curves."""
+    others are named in the notes; with no band for this patient, the sagittal hip, knee and ankle),
+    half a page wide; None without curves."""
     from gaitcap.services.kinematics.plot import side_curves_png
 
     curves, bands = k.get("curves") or {}, (k.get("norms") or {}).get("bands") or {}
-    shown = {name: c for name, c in curves.items() if name in bands} or curves
+    shown = ({name: c for name, c in curves.items() if name in bands}
+             or {name: c for name, c in curves.items() if name in SAGITTAL} or curves)
     if not shown:
         return None
     return side_curves_png({**k, "curves": shown}, width_in=8.0)

@@ -26,6 +26,10 @@ from importlib import resources
 from pathlib import Path
 
 COLUMNS = ("parameter", "sex", "age_min", "age_max", "mean", "sd", "unit", "source")
+NO_PATIENT_REFERENCE = "no reference for this patient"
+# unit -> the physical limits of a value in it (a normal range is clipped to them: no negative width)
+PHYSICAL_LIMITS = {"% cycle": (0.0, 100.0)}
+DEFAULT_LIMITS = (0.0, math.inf)  # speeds, lengths, widths, times, cadence: never below 0
 SEXES = ("female", "male")
 CONVERT = {"age_min": int, "age_max": int, "mean": float, "sd": float}
 CHECKED = {"yes": True, "no": False}  # the optional column sd_checked
@@ -50,8 +54,10 @@ class NormRow:
         return (value - self.mean) / self.sd
 
     def band(self, k: float = 1.96) -> tuple[float, float]:
-        """mean -+ k SD (k = 1.96: the central 95 %)."""
-        return self.mean - k * self.sd, self.mean + k * self.sd
+        """mean -+ k SD (k = 1.96: the central 95 %), clipped to the unit's physical limits
+        (:data:`PHYSICAL_LIMITS`: a step width's range starts at 0 mm, never below)."""
+        lo, hi = PHYSICAL_LIMITS.get(self.unit, DEFAULT_LIMITS)
+        return max(lo, self.mean - k * self.sd), min(hi, self.mean + k * self.sd)
 
 
 def percentile(z: float) -> float:
@@ -82,6 +88,12 @@ class NormTable:
             if row.parameter == parameter and row.sex == sex and row.age_min <= age <= row.age_max:
                 return row
         return None
+
+
+def missing_for_patient(*, sex: str, age: int | None) -> str:
+    """What of the patient a norm needs is not recorded ("sex and birth year not recorded"), "" if both are."""
+    gaps = [what for what, known in (("sex", bool(sex)), ("birth year", age is not None)) if not known]
+    return f"{' and '.join(gaps)} not recorded" if gaps else ""
 
 
 class NormsError(ValueError):

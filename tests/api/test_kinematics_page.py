@@ -69,7 +69,7 @@ def test_rest_band_follows_the_patients_age(server, walk):
 
     _, client, _, _ = server
     _, kin = walk
-    for subject, born in (("A1", 1956), ("C1", None)):
+    for subject, born in (("A1", 1986), ("C1", None)):
         tid = _trial(server, walk, subject=subject, kinematics=kin, birth_year=born)
         body = client.get(f"/trials/{tid}/kinematics").json()
         age = client.get(f"/trials/{tid}/parameters").json()["age"]
@@ -77,7 +77,7 @@ def test_rest_band_follows_the_patients_age(server, walk):
         assert body["norms"]["population"] == expected["population"] and body["norms"]["source"] == expected["source"]
         assert set(body["norms"]["bands"]) == set(expected["bands"])
         assert ("years" in body["norms"]["population"]) == (born is not None)  # the age it was chosen for
-    adult = _trial(server, walk, subject="A5", kinematics=kin, birth_year=1956)
+    adult = _trial(server, walk, subject="A5", kinematics=kin, birth_year=1986)
     bands = client.get(f"/trials/{adult}/kinematics").json()["norms"]["bands"]
     csv = client.get(f"/trials/{adult}/kinematics", params={"format": "csv"})
     rows = [line.split(",") for line in csv.text.splitlines()]
@@ -100,7 +100,7 @@ def test_report_has_a_kinematics_page_with_curves_band_source_and_key_values(ser
 
     _, client, _, _ = server
     _, kin = walk
-    tid = _trial(server, walk, subject="A2", kinematics=kin, birth_year=1956)
+    tid = _trial(server, walk, subject="A2", kinematics=kin, birth_year=1986)
     reader = PdfReader(io.BytesIO(client.get(f"/trials/{tid}/report.pdf").content))
     pages = [" ".join(p.extract_text().split()) for p in reader.pages]
     page = next(p for p in pages if "Joint kinematics (mean +- SD per side" in p)  # beside the heel traces
@@ -108,7 +108,7 @@ def test_report_has_a_kinematics_page_with_curves_band_source_and_key_values(ser
     assert f"normal mean +- 1 SD for {norms.population}" in page and norms.source.split(":")[0] in page
     assert "Pelvis tilt: not measured (held near 0" in page
     left = kin["key_values"]["left"]["knee_peak_flexion_swing_deg"]
-    assert f"Knee peak flexion swing {left['mean']:.1f} ± {left['sd']:.1f} (n={left['n']})" in page
+    assert f"Knee peak flexion in swing (flexion +) {left['mean']:.1f} ± {left['sd']:.1f} (n={left['n']})" in page
     assert "No reference: the zero of this angle is not validated (" in page and "hip flexion: pelvic tilt" in page
     assert len(reader.pages[pages.index(page)].images) == 1  # the curves figure (no heel-trace plot stored)
     assert len(reader.pages) == 2
@@ -120,7 +120,7 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
 
     srv, client, _, _ = server
     _, kin = walk
-    tid = _trial(server, walk, subject="A3", kinematics=kin, birth_year=1956)
+    tid = _trial(server, walk, subject="A3", kinematics=kin, birth_year=1986)
     none = _trial(server, walk, subject="A4", kinematics={"available": False,
                                                           "reason": "the 'opensim' package is not installed"})
     with sync_playwright() as p:

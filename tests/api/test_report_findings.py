@@ -55,10 +55,10 @@ def test_without_norms_nothing_is_called_normal_and_with_norms_the_count_is_give
     js = client.get(f"/trials/{tid}/parameters").json()
     assert js["consistency"]["ok"] and js["data_problems"] == [] and not any(p["in_doubt"] for p in js["parameters"])
     measured = sum(p["mean"] is not None for p in js["parameters"])
-    assert js["norm_summary"] == (f"None of the {measured} parameters has a normal range for this patient's age "
-                                  "and sex: no value is called normal or abnormal.")
+    assert js["norm_summary"] == (f"No reference for this patient (sex and birth year not recorded): none of the "
+                                  f"{measured} parameters has a normal range, no value is called normal or abnormal.")
     text = " ".join(_pdf_pages(client, tid))
-    assert "no value is called normal or abnormal" in text
+    assert "no value is called normal or abnormal" in text and "No reference for this patient" in text
     assert "outside the normal range" not in text and "No parameter outside" not in text
     client.put("/patients/P100", json={"sex": "female", "birth_year": time.gmtime().tm_year - 74})
     js = client.get(f"/trials/{tid}/parameters").json()
@@ -133,7 +133,8 @@ def test_under_70_gait_speed_is_a_percentage_of_the_age_sex_mean_and_the_rest_ha
     assert ref["pct_of_mean"] == pytest.approx(100 * speed["mean"] / 1.43, abs=0.1)
     # Bohannon 1997's row for men 40-49 has no checked SD: mean only, no range, no z-score, no finding
     assert speed["normal_range"] is None and speed["z"] is None and speed["norm_source"] is None
-    assert js["norm_summary"].startswith("None of the") and not any("Gait speed" in f for f in js["flags"])
+    assert js["norm_summary"].startswith("No reference for this patient (the normative table has no normal range "
+                                         "for this age and sex)") and not any("Gait speed" in f for f in js["flags"])
     others = [p for p in js["parameters"] if p["name"] not in ("gait_speed_m_s",)]
     assert all(p["normal_range"] is None and p["z"] is None for p in others)
     text = " ".join(_pdf_pages(client, tid))
@@ -202,7 +203,7 @@ def test_one_trial_with_every_figure_is_two_pages_void_on_both_and_no_heading_le
     assert all("VOID - not for clinical use: shoes left on" in p for p in pages)
     text = " ".join(" ".join(p.split()) for p in pages)
     for heading in ("Findings to note", "Heel traces and detected steps", "Footprints of the first straight pass",
-                    "Joint kinematics", "Key value (degrees)", "Gait Profile Score (Baker 2009) over",
+                    "Joint kinematics", "Key value (degrees)", "Gait Profile Score (Baker 2009)",
                     "Method and software", "Normative reference", "Signature"):
         assert heading in text, heading
     for page in pages:  # the last line before the footer is never a heading

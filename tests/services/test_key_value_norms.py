@@ -18,7 +18,7 @@ from gaitcap.reconstruction.kinematics.key_norms import (
 from gaitcap.services.kinematics.files import norms_for_age
 from gaitcap.services.reports.findings import key_value_findings
 
-AGES = {"children": 9, "adults": 74}
+AGES = {"children": 9, "adults": 40}
 
 
 def _norm_set(who: str) -> dict:
@@ -41,24 +41,25 @@ def test_the_sources_own_mean_curve_is_normal_with_z_zero_for_every_key_value(wh
     bands = norms["bands"]
     k = _kinematics_of({var: np.asarray(b["mean_deg"]) for var, b in bands.items()}, norms)
     by_name = key_norms(bands)
-    assert set(by_name) == {n for n, (var, _) in KEY_VALUES.items() if var in bands and var not in UNVALIDATED_ZERO}
+    assert set(by_name) == {n for n, (var, _) in KEY_VALUES.items()
+                            if var in bands and (var not in UNVALIDATED_ZERO or n.endswith("_rom_deg"))}
     shown = [n for n, (var, _) in KEY_VALUES.items() if var in bands and k["key_values"]["left"][n]["n"]]
     for name, norm in by_name.items():
         value = k["key_values"]["left"][name]["mean"]
         assert value == pytest.approx(norm.normal_deg, abs=1e-9), name
         if name.endswith("_rom_deg"):
-            assert math.isnan(norm.z(value)) and norm.band() is None, name
+            assert math.isnan(norm.z(value)) and norm.band() is None and 0 <= norm.lower_deg < value, name
         else:
             assert norm.z(value) == pytest.approx(0.0, abs=1e-9) and norm.sd_deg > 0, name
     said = key_value_findings(k)
     point_values = [n for n in by_name if not n.endswith("_rom_deg")]
     assert said.findings == () and said.outside == 0
-    assert said.with_reference == 2 * len(point_values) and said.total == 2 * len(shown)
+    assert point_values and said.with_reference == 2 * len(by_name) and said.total == 2 * len(shown)
     assert "none outside it." in said.summary and said.summary.endswith("no reference: the zero of this angle is not validated.")
-    # plantarflexion is positive on the band too (its mean curve goes below zero after toe-off)
-    if "ankle_peak_plantarflexion_deg" in by_name:
-        assert by_name["ankle_peak_plantarflexion_deg"].normal_deg > 5.0
-        assert np.min(bands["ankle_dorsiflexion"]["mean_deg"]) == pytest.approx(-by_name["ankle_peak_plantarflexion_deg"].normal_deg)
+    # signed like the curve: the ankle's minimum (peak plantarflexion) is the band's negative minimum
+    ankle = bands["ankle_dorsiflexion"]
+    minimum = key_norm("ankle_minimum_deg", ankle["mean_deg"], ankle["sd_deg"])
+    assert minimum.normal_deg == pytest.approx(np.min(ankle["mean_deg"])) and minimum.normal_deg < -5.0
 
 
 def test_a_knee_bent_beyond_the_band_at_initial_contact_is_flagged_on_the_side_it_is():
@@ -74,7 +75,7 @@ def test_a_knee_bent_beyond_the_band_at_initial_contact_is_flagged_on_the_side_i
     said = key_value_findings(k)
     assert said.outside == 1 and len(said.findings) == 1
     finding = said.findings[0]
-    assert finding.startswith("Knee flexion initial contact: left") and "above, z +5.0" in finding
+    assert finding.startswith("Knee flexion at initial contact (flexion +): left") and "above, z +5.0" in finding
     assert "right" not in finding and "at 0 % of the cycle" in finding
 
 
@@ -90,12 +91,12 @@ def test_hip_flexion_far_outside_the_band_raises_no_finding_its_zero_is_not_vali
     assert said.findings and all(f.startswith("Knee") for f in said.findings)
     assert said.no_reference == ("hip_flexion",)
     assert said.summary.endswith("Hip flexion: no reference: the zero of this angle is not validated.")
-    hip_names = [n for n, (var, _) in KEY_VALUES.items() if var == "hip_flexion"]
-    assert not set(hip_names) & set(said.norms)
+    hip_points = [n for n, (var, _) in KEY_VALUES.items() if var == "hip_flexion" and not n.endswith("_rom_deg")]
+    assert not set(hip_points) & set(said.norms) and "hip_flexion_rom_deg" in said.norms  # a range: judged
     assert all(no_reference(n) == NO_REFERENCE == "no reference: the zero of this angle is not validated"
-               for n in hip_names)
-    assert no_reference("knee_flexion_initial_contact_deg") is None
-    assert no_reference("ankle_peak_plantarflexion_deg") == NO_REFERENCE  # the foot's zero neither
+               for n in hip_points)
+    assert no_reference("knee_flexion_initial_contact_deg") is None and no_reference("hip_flexion_rom_deg") is None
+    assert no_reference("ankle_minimum_deg") == NO_REFERENCE  # the foot's zero neither
 
 
 def test_a_key_value_without_a_rule_or_with_a_short_band_is_refused():

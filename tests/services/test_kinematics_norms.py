@@ -16,8 +16,8 @@ VARS = ("knee_flexion", "hip_adduction", "trunk_flexion")
 
 
 @pytest.mark.parametrize(("age", "level", "population"), [
-    (45, 2.0, "adults (patient 45 years)"), (18, 2.0, "adults"), (17, 1.0, "children and adolescents (patient 17"),
-    (None, 1.0, "age is not recorded")])
+    (45, 2.0, "adults (patient 45 years)"), (18, 2.0, "adults"), (65, 2.0, "adults (patient 65"),
+    (17, 1.0, "children and adolescents (patient 17"), (4, 1.0, "children and adolescents (patient 4")])
 def test_the_band_follows_the_patients_age(age, level, population):
     s = choose_norms(age, children=CHILDREN, adults=ADULTS, adult_source="Adult study", variables=VARS)
     assert s.bands["knee_flexion"].mean[50] == level and population in s.population
@@ -28,11 +28,34 @@ def test_the_band_follows_the_patients_age(age, level, population):
     assert s.to_dict()["bands"]["knee_flexion"]["sd_deg"][0] == 2.0
 
 
-def test_adults_fall_back_to_the_childrens_band_when_no_adult_file_is_installed():
+@pytest.mark.parametrize(("age", "why"), [
+    (None, "the patient's age is not recorded"), (76, "the patient's age (76 years) is outside"),
+    (66, "(66 years) is outside")])
+def test_a_patient_outside_every_bands_population_gets_no_reference_for_this_patient(age, why):
+    """No children's band for an unknown age; a 76-year-old is not compared with the 18-65 adult band."""
+    s = choose_norms(age, children=CHILDREN, adults=ADULTS, adult_source="Adult study", variables=VARS)
+    d = s.to_dict()
+    assert not s.bands and d["bands"] == {} and d["source"] is None and d["population_range"] is None
+    assert d["no_reference"].startswith("no reference for this patient: the patient's age")
+    assert why in d["no_reference"] and "under 18 years (Schwartz 2008)" in d["no_reference"]
+    assert "18-65 years (BioCV 2024)" in d["no_reference"]
+    assert all(m == d["no_reference"] for m in d["missing"].values()) and set(d["missing"]) == set(VARS)
+
+
+def test_the_population_ranges_are_recorded_with_the_bands_provenance():
+    adult = choose_norms(30, children=CHILDREN, adults=ADULTS, adult_source="Adult study", variables=VARS).to_dict()
+    assert adult["population_range"]["age_min_years"] == 18 and adult["population_range"]["age_max_years"] == 65
+    assert "myogait 0.9.2" in adult["population_range"]["provenance"] and adult["no_reference"] is None
+    child = choose_norms(9, children=CHILDREN, adults=ADULTS, adult_source="", variables=VARS).to_dict()
+    assert child["population_range"]["age_min_years"] is None and child["population_range"]["age_max_years"] == 17
+
+
+def test_no_band_falls_back_to_another_population_when_a_file_is_not_installed():
     s = choose_norms(60, children=CHILDREN, adults={}, adult_source="", variables=VARS)
-    assert "children" in s.population and "60 years" in s.population and "hip_adduction" in s.bands
+    assert not s.bands and "(60 years) is outside" in s.no_reference and "BioCV" not in s.no_reference
     none = choose_norms(60, children={}, adults={}, adult_source="", variables=VARS)
-    assert not none.bands and none.to_dict()["source"] is None and none.missing["knee_flexion"]
+    assert not none.bands and none.to_dict()["source"] is None
+    assert none.missing["knee_flexion"] == "no reference for this patient: no normative data is installed"
 
 
 def test_a_malformed_curve_is_refused_naming_it():
