@@ -128,13 +128,34 @@ def open_catalog(path_or_url: str | Path, *, create: bool = True) -> Catalog:
                     "put it in a libpq password file (~/.pgpass or PGPASSFILE) instead", shown_url(url))
     engine = _sqlite_engine(url) if url.startswith("sqlite") else create_engine(url, pool_pre_ping=True,
                                                                                 hide_parameters=True)
-    if create:
-        Base.metadata.create_all(engine)
     reader = engine.execution_options(gaitcap_readonly=True)
     catalog = Catalog(url=url, engine=engine, sessions=sessionmaker(engine, expire_on_commit=False),
                       read_sessions=sessionmaker(reader, expire_on_commit=False))
-    _check_version(catalog)
+    with _one_opening_at_a_time(engine):
+        if create:
+            Base.metadata.create_all(engine)
+        _check_version(catalog)
     return catalog
+
+
+_OPENING_LOCK = 0x6761_6974  # "gait": the PostgreSQL advisory lock of opening (creating, upgrading) a catalog
+
+
+@contextlib.contextmanager
+def _one_opening_at_a_time(engine: Engine) -> Iterator[None]:
+    """PostgreSQL: processes opening the same new catalog at once (a stack's API and workers, two rooms) take
+    turns creating and upgrading its tables (concurrent CREATE TABLEs collide there). SQLite's write
+    transactions already take turns."""
+    if engine.dialect.name != "postgresql":
+        yield
+        return
+    with engine.connect() as conn:
+        conn.exec_driver_sql(f"SELECT pg_advisory_lock({_OPENING_LOCK})")
+        try:
+            yield
+        finally:
+            conn.exec_driver_sql(f"SELECT pg_advisory_unlock({_OPENING_LOCK})")
+            conn.commit()
 
 
 def _check_version(catalog: Catalog) -> None:

@@ -38,6 +38,12 @@ def register(app: typer.Typer) -> None:
                                          "this long after Stop in all (s)."),
         plain_bus: bool = typer.Option(False, "--plain-bus", help="A plain TCP bus on loopback: no TLS, passwords "
                                        "or access control, any local process can use it (default: secured)."),
+        catalog: str = typer.Option("", "--catalog", envvar="GAITCAP_CATALOG",
+                                    help="SQLite path or SQLAlchemy URL, e.g. a central PostgreSQL "
+                                         "postgresql+psycopg://gaitcap@dbhost/gaitcap (password in ~/.pgpass or "
+                                         "PGPASSFILE; default DATA_DIR/catalog.sqlite)."),
+        room: str = typer.Option("", "--room", help="The capture room this stack runs, registered with the catalog "
+                                                    "(several rooms on one central catalog; default: the one room)."),
         gige: bool = typer.Option(False, "--gige", help="The --cameras are fake GigE Vision cameras "
                                   "(arv-fake-gv-camera-0.8, the real protocol, behind a link in a network namespace: "
                                   "needs root) through the Aravis driver; their test pattern has nobody in it, so "
@@ -53,7 +59,8 @@ def register(app: typer.Typer) -> None:
         with user_errors():
             cfg = StackConfig(data_dir=data_dir, token=new_token(), port=port, bus_base_port=bus_port,
                               cameras=cameras, camera_nodes=camera_nodes, size=size, workers=workers, refine=refine,
-                              sim_people=people, board_clip=board_clip, plain_bus=plain_bus, gige=gige)
+                              sim_people=people, board_clip=board_clip, plain_bus=plain_bus, gige=gige,
+                              catalog_url=catalog, room=room)
             limits = WaitLimits(stall_s=wait_stall, overall_s=wait_limit)
         logging.getLogger("httpx").setLevel(logging.WARNING)
         stack = Stack(cfg)
@@ -62,6 +69,10 @@ def register(app: typer.Typer) -> None:
                 else "simulated cameras")
         typer.echo(f"starting gaitcap ({cameras} {kind}, detector, recorder, {workers} worker(s), "
                    f"API); logs in {stack.supervisor.log_dir}", err=True)
+        if catalog or room:
+            from gaitcap.services.catalog.pg_tools import shown_url
+
+            typer.echo(f"catalog {shown_url(cfg.catalog)}, room {room or '(default)'}", err=True)
         typer.echo("bus: PLAIN TCP on loopback (--plain-bus): no authentication, any local process can use it"
                    if plain_bus else f"bus: mutual TLS, passwords and access control (keys in {bus_keys_dir(cfg)})",
                    err=True)

@@ -46,6 +46,9 @@ def register(app: typer.Typer) -> None:
         bus: Path | None = typer.Option(None, "--bus", envvar="GAITCAP_BUS", help="Bus file (JSON5)."),
         no_bus: bool = typer.Option(False, "--no-bus", help="Serve the catalog only (no recorder, cameras)."),
         node: str = typer.Option("api", "--node", help="Bus node name of the API."),
+        room: str = typer.Option("", "--room", envvar="GAITCAP_ROOM",
+                                 help="The capture room this API runs (its cameras, Start and Stop), registered with "
+                                      "the catalog; several rooms share one central catalog. Default: the one room."),
         sim_scene: bool = typer.Option(False, "--sim-scene",
                                        help="Calibrate switches simulated cameras to the board (the demo stack)."),
         board_file: Path | None = typer.Option(None, "--board-file", envvar="GAITCAP_BOARD_FILE",
@@ -67,7 +70,8 @@ def register(app: typer.Typer) -> None:
             board = board_fields(board_file) if board_file else None
             settings = Settings.from_env(data_dir=data_dir, host=host, port=port, tls_cert=tls_cert, tls_key=tls_key,
                                          plain_http_beyond_loopback=plain_http,
-                                         catalog_url=catalog or str(data_dir / "catalog.sqlite"), board=board)
+                                         catalog_url=catalog or str(data_dir / "catalog.sqlite"), board=board,
+                                         room=room)
             if sim_scene and no_bus:
                 raise ValueError("--sim-scene: the simulated cameras are reached over the bus (drop --no-bus)")
             link, scene = None, None

@@ -48,6 +48,8 @@ from gaitcap.services.ops.supervisor import ProcessSpec, Supervisor
 
 log = logging.getLogger(__name__)
 CLI = (sys.executable, "-c", "from gaitcap.services.cli import main; main()")
+#: libpq's settings a worker and the API get from the stack's environment: the password file and TLS files.
+LIBPQ_SETTINGS = frozenset({"PGPASSFILE", "PGSSLMODE", "PGSSLROOTCERT", "PGSSLCERT", "PGSSLKEY", "PGSSLCRL"})
 STACK_CLIENT = "stack"  # the bus identity of the stack's own checks (listens nowhere; role client)
 
 
@@ -79,6 +81,7 @@ class StackConfig:
     camera_nice: int = 5
     board_clip: str = "short"
     catalog_url: str = ""
+    room: str = ""  # the capture room this stack runs ('' the default room; several rooms share a central catalog)
     extra_env: dict[str, str] = field(default_factory=dict)
     plain_bus: bool = False  # plain TCP bus, no authentication: only when asked for by name
     gige: bool = False  # fake GigE Vision cameras through the Aravis driver (module docstring), not simulated ones
@@ -99,6 +102,9 @@ class StackConfig:
             raise ValueError(f"sim_people: the simulated world has 1, 2 or 3 people, got {self.sim_people}")
         if self.sim_seconds < 5:
             raise ValueError(f"sim_seconds: the simulated walk must last >= 5 s, got {self.sim_seconds}")
+        from gaitcap.services.catalog.rooms import check_room
+
+        check_room(self.room)
 
     @property
     def catalog(self) -> str:
@@ -202,24 +208,29 @@ def bus_file(cfg: StackConfig) -> Path:
     return Path(cfg.data_dir).resolve() / "bus.json"
 
 
-def stack_set_env(cfg: StackConfig, role: str) -> dict[str, str]:
+def stack_set_env(cfg: StackConfig, role: str, parent_env: Mapping[str, str] | None = None) -> dict[str, str]:
     """What the stack sets in the environment of a child of ``role``: the bus file for every node; the
     data folder for the recorder, the worker and the API (the recorder writes only inside it); the
-    catalog for the worker and the API; the frame-rate criteria for the API."""
+    catalog (given here, never on a command line, which any user of the host can list) and libpq's settings
+    (its password file, TLS: :data:`LIBPQ_SETTINGS`) for the worker and the API; the room and the frame-rate
+    criteria for the API."""
     env = {"GAITCAP_BUS": str(bus_file(cfg))}
     if role in ("recorder", "worker", "api"):
         env["GAITCAP_DATA_DIR"] = str(Path(cfg.data_dir).resolve())
     if role in ("worker", "api"):
         env["GAITCAP_CATALOG"] = cfg.catalog
+        env.update({k: v for k, v in (os.environ if parent_env is None else parent_env).items()
+                    if k in LIBPQ_SETTINGS})
     if role == "api":
         from gaitcap.services.processing.quality import QualityCriteria
 
+        env["GAITCAP_ROOM"] = cfg.room
         env["GAITCAP_MIN_FPS"] = str(QualityCriteria().min_fps_at(cfg.fps))  # the criteria scale with fps
     return {**env, **cfg.extra_env}
 
 
 def _spec(cfg: StackConfig, parent_env, role: str, name: str, argv: tuple[str, ...], **kw) -> ProcessSpec:
-    return ProcessSpec(name, argv, env=child_environment(role, parent_env, stack_set_env(cfg, role)), **kw)
+    return ProcessSpec(name, argv, env=child_environment(role, parent_env, stack_set_env(cfg, role, parent_env)), **kw)
 
 
 def process_specs(cfg: StackConfig, *, epoch_ns: int | None = None, parent_env=None,
@@ -244,12 +255,11 @@ def process_specs(cfg: StackConfig, *, epoch_ns: int | None = None, parent_env=N
         specs.append(_spec(cfg, parent_env, "camera", node,
                            _camera_argv(cfg, node, cameras, epoch_ns=epoch_ns, devices=devices), nice=cfg.camera_nice))
     for name in cfg.worker_names():
-        argv = [*CLI, "worker", "--node", name, "--id", name, "--data-dir", data, "--catalog", cfg.catalog,
-                "--lease", str(cfg.lease_s)]
+        argv = [*CLI, "worker", "--node", name, "--id", name, "--data-dir", data, "--lease", str(cfg.lease_s)]
         specs.append(_spec(cfg, parent_env, "worker", name, tuple(argv + ([] if cfg.refine else ["--no-refine"])),
                            ready_text="ready"))
     specs.append(_spec(cfg, parent_env, "api", "api", (
-        *CLI, "serve", "--node", "api", "--data-dir", data, "--catalog", cfg.catalog, "--host", cfg.host, "--port",
+        *CLI, "serve", "--node", "api", "--data-dir", data, "--host", cfg.host, "--port",
         str(cfg.port), "--sim-scene"), ready_text="Uvicorn running"))
     return specs
 

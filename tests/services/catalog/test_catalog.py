@@ -127,3 +127,25 @@ def test_calibrations_are_stored(db):
     assert cat.latest_calibration(db) == (cid, "[cam_0]\nname = 'a'\n")
     with pytest.raises(ValueError, match="toml"):
         cat.add_calibration(db, toml="  ")
+
+
+def test_processes_opening_a_new_catalog_at_once_all_open_it(fresh_catalog_url):
+    """A stack's API and workers (or two rooms) open the same new catalog at the same moment: each opens it,
+    tables made once (PostgreSQL: concurrent CREATE TABLEs collided before the opening lock)."""
+    outcomes, barrier = [], threading.Barrier(4)
+
+    def go():
+        barrier.wait()
+        try:
+            c = cat.open_catalog(fresh_catalog_url)
+            outcomes.append(cat.schema_version(c))
+            c.close()
+        except Exception as exc:  # noqa: BLE001 - the outcome is what the test checks
+            outcomes.append(repr(exc))
+
+    threads = [threading.Thread(target=go) for _ in range(4)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join(60)
+    assert outcomes == [SCHEMA_VERSION] * 4
