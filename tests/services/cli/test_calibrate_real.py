@@ -1,6 +1,7 @@
 """``gaitcap calibrate`` on a real session: caliscope's 4 webcams and inverted two-sided ChArUco board
 (its corner detections; installed by deploy/bootstrap.sh), compared with caliscope's calibration."""
 
+import json
 import re
 
 import pytest
@@ -18,18 +19,31 @@ def test_with_caliscopes_intrinsics_the_rig_matches_and_is_written(tmp_path):
     out = tmp_path / "calib.toml"
     result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out), "--distortion", "k1k2p1p2k3",
                                       "--intrinsics", str(SESSION / "camera_array.toml"),
-                                      "--compare", str(SESSION / "camera_array.toml")])
+                                      "--compare", str(SESSION / "camera_array.toml"), "--folds", "3"])
     assert result.exit_code == 0, result.output
     assert "board charuco 4 x 5 squares of 54 mm, markers 40.5 mm DICT_4X4_1000, inverted" in result.output
     m = re.search(r"similarity alignment \(scale ([\d.]+)\): centres max ([\d.]+) mm, rotations max ([\d.]+) deg",
                   result.output)
     assert m and abs(float(m[1]) - 1) < 0.01 and float(m[2]) < 3.0 and float(m[3]) < 0.4, result.output
     assert load_rig(out).names == ["cam_0", "cam_1", "cam_2", "cam_3"]
+    # the held-out error: our poses fitted on 2 of 3 folds in time, judged on the third, and caliscope's
+    # calibration (--compare) judged on the same frame sets, in the table and in the report
+    assert "held-out error (3 folds in time, 50 frame sets judged" in result.output, result.output
+    report = json.loads((tmp_path / "calib.report.json").read_text())
+    own, theirs = report["held_out"]["own"], report["held_out"]["reference"]
+    assert own["frame_sets"] == theirs["frame_sets"] == 50 and own["fold_errors"] == []
+    for mine, ref in zip(own["cameras"], theirs["cameras"], strict=True):
+        assert mine["views_held_out"] == ref["views_held_out"] and mine["views_judged"] > 0.9 * mine["views_held_out"]
+        row = re.search(rf"^{mine['name']} +(\d+) +([\d.]+) +([\d.]+) +([\d.]+)  \| +([\d.]+)", result.output, re.M)
+        assert row and abs(float(row[2]) - mine["rms_px"]) < 1e-3 and abs(float(row[5]) - ref["rms_px"]) < 1e-3, row
+        assert mine["rms_px"] < 1.6 and ref["rms_px"] < 1.6  # measured: ours 0.6-1.2 px, caliscope's 0.56-1.15 px
+    assert abs(own["board"]["square_mm"] - 54.0) < 0.5 and own["problems"] == theirs["problems"] == []
+    assert report["board_check"]["described_square_mm"] == 54.0 and report["board_problems"] == []
 
 
 def test_a_small_board_is_calibrated_holding_what_it_cannot_determine(tmp_path):
     out = tmp_path / "calib.toml"
-    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out)])
+    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out), "--folds", "0"])
     assert result.exit_code == 0, result.output
     assert "note: principal point held at the image centre: the board covered 10 % of the image (< 30 %)" \
         in result.output
@@ -38,7 +52,8 @@ def test_a_small_board_is_calibrated_holding_what_it_cannot_determine(tmp_path):
 
 def test_a_calibration_failing_its_checks_is_refused(tmp_path):
     out = tmp_path / "calib.toml"
-    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out), "--strict-intrinsics"])
+    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out), "--strict-intrinsics",
+                                      "--folds", "0"])
     assert result.exit_code == 1
     assert "calibration refused for use" in result.output and "board covered 10 % of the image" in result.output
     assert not out.exists() and (tmp_path / "calib.refused.toml").exists() and (tmp_path / "calib.report.json").exists()
@@ -53,7 +68,7 @@ def test_every_nth_frame_set_of_a_session_from_the_command_line(tmp_path):
     intrinsics: the rig agrees with caliscope's bundle-adjusted one (measured: 0.2-1.3 mm, <= 0.07 deg)."""
     out, cal = tmp_path / "calib.toml", str(ELEVEN / "camera_array.toml")
     result = CliRunner().invoke(app, ["calibrate", str(ELEVEN), "--out", str(out), "--every", "20",
-                                      "--intrinsics", cal, "--compare", cal])
+                                      "--intrinsics", cal, "--compare", cal, "--folds", "0"])
     assert result.exit_code == 0, result.output
     assert "caliscope session (every 20th frame set): views cam_1 " in result.output
     m = re.search(r"centres max ([\d.]+) mm, rotations max ([\d.]+) deg", result.output)
