@@ -132,6 +132,9 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
         page.wait_for_selector("#kinematics-charts figure[data-variable='knee_flexion'][data-side='right'] .uplot")
         assert page.locator("#kinematics-charts .uplot").count() == 2 * len(kin["curves"])
         assert page.locator("#kinematics-charts figure[data-variable='pelvis_tilt']").count() == 0
+        # a band under a curve only where the table compares the angle with it: not hip and ankle (their zero)
+        band = lambda var, state: page.locator(f"#kinematics-charts figure[data-variable='{var}'][data-band='{state}']").count()  # noqa: E731
+        assert band("knee_flexion", "drawn") == 2 and band("hip_flexion", "none") == band("ankle_dorsiflexion", "none") == 2
         notes = page.inner_text("#kinematics-notes")
         norms = norms_for_age(client.get(f"/trials/{tid}/parameters").json()["age"])
         assert norms.population in notes and norms.source in notes and "Pelvic tilt (anterior +): not measured" in notes
@@ -150,6 +153,9 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
         # hip flexion's zero is not validated (pelvic tilt not measured): shown, never judged
         hip = page.inner_text("#kinematics-keys tr[data-key='hip_peak_flexion_deg']")
         assert "no reference: the zero of this angle is not validated" in hip and "outside" not in hip
+        assert "Hip flexion / extension: band not drawn: the zero of this angle is not validated" in notes
+        hip_rom = page.inner_text("#kinematics-keys tr[data-key='hip_flexion_rom_deg']")  # a range: judged
+        assert f"at least {kv_norms['hip_flexion_rom_deg']['lower_limit_deg']:.1f}" in hip_rom
         assert kv_norms["hip_peak_flexion_deg"]["normal_range_deg"] is None
         profile = client.get(f"/trials/{tid}/kinematics").json()["gait_profile"]  # Baker 2009, on what it can
         assert profile["overall_gps_deg"] > 0 and "knee_flexion" in profile["variables"]

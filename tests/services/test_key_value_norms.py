@@ -150,3 +150,27 @@ def test_every_angle_with_a_band_hip_and_ankle_included_reads_its_sources_mean_c
             assert norm.z(value) == pytest.approx(0.0, abs=1e-9) and norm.sd_deg > 0, name
             lo, hi = norm.band()
             assert lo < value < hi, name  # normal
+
+
+@pytest.mark.parametrize("who", ["children", "adults"])
+def test_a_range_of_motion_is_judged_against_the_bands_range_even_where_the_zero_is_not_validated(who):
+    """Ankle and hip: their zero is not validated, their ranges of motion are (max - min does not depend on
+    it). A curve moved 40 deg keeps its range (no finding); an almost fixed ankle (an eighth of the band's
+    swing) has a range below the band's one-sided lower limit: a finding on that side, "below", never
+    "above". The limit is conservative (about a quarter of the band's range for the adults' ankle): only
+    a gross loss of motion is called."""
+    norms = _norm_set(who)
+    bands = norms["bands"]
+    ankle, hip = (np.asarray(bands[v]["mean_deg"]) for v in ("ankle_dorsiflexion", "hip_flexion"))
+    stiff = ankle.mean() + (ankle - ankle.mean()) / 8.0
+    k = _kinematics_of({"ankle_dorsiflexion": ankle + 40.0, "hip_flexion": hip + 40.0}, norms)
+    k["key_values"]["right"] = key_values({"ankle_dorsiflexion": CycleCurves(np.stack([stiff, stiff]), np.full(2, 60.0)),
+                                           "hip_flexion": CycleCurves(np.stack([hip, hip]), np.full(2, 60.0))})
+    said = key_value_findings(k)
+    rom = said.norms["ankle_rom_deg"]
+    assert rom.at_pct is None and math.isnan(rom.sd_deg) and 0 < rom.lower_deg < rom.normal_deg
+    assert rom.verdict(np.ptp(stiff)) == -1 and rom.verdict(np.ptp(ankle) / 3) == 0 and rom.verdict(1000.0) == 0
+    assert said.findings == (f"Ankle range of motion: right {np.ptp(stiff):.1f} (below) deg, below the normal range "
+                             f"(at least {rom.lower_deg:.1f} deg; the band's range of motion is {rom.normal_deg:.1f} deg).",)
+    assert "hip_flexion_rom_deg" in said.norms and "hip_peak_flexion_deg" not in said.norms
+    assert "ankle_minimum_deg" not in said.norms  # a point value of the ankle: its zero is not validated

@@ -182,3 +182,50 @@ def test_bad_tables_are_refused_naming_the_line_and_column(body, words):
     with pytest.raises(NormsError, match="clinic.csv") as err:
         parse_norms(text, "clinic.csv", units=NORM_UNITS)
     assert words in str(err.value)
+
+
+def test_normal_ranges_are_clipped_at_physical_limits_never_a_negative_width():
+    """Hollman 2011, women 75-79: step width 77 +- 40 mm gives mean - 1.96 SD = -1.4 mm ("-1-155" on the
+    page): a width cannot be negative, the range starts at 0 mm; no range of the shipped table (nor a
+    clinic's) leaves its unit's physical limits (0 for every unit, 0-100 for % of the cycle)."""
+    norms = load_norms(units=NORM_UNITS)
+    width = norms.find("step_width_mm", sex="female", age=76)
+    assert width.mean - 1.96 * width.sd < 0 and width.band() == pytest.approx((0.0, 77 + 1.96 * 40))
+    for row in norms.rows:
+        lo, hi = row.band()
+        assert 0.0 <= lo < hi and (hi <= 100.0 or row.unit != "% cycle"), row
+    clinic = parse_norms("# Source: x\n" + HEAD + "double_support_pct,female,60,69,90,8,% cycle,x\n"
+                         "step_time_s,female,60,69,0.1,0.2,s,x\n", "clinic.csv", units=NORM_UNITS)
+    assert clinic.find("double_support_pct", sex="female", age=60).band() == pytest.approx((90 - 1.96 * 8, 100.0))
+    assert clinic.find("step_time_s", sex="female", age=60).band() == pytest.approx((0.0, 0.1 + 1.96 * 0.2))
+    summary = {"num_steps": 12, "parameters": {"step_width_mm": {"all": {"n": 12, "mean": 160.0, "sd": 5.0, "cv_pct": 3.0},
+                                                                 "left": {"mean": 160.0}, "right": {"mean": 160.0}}}}
+    rows = rows_of(summary, norms, sex="female", age=76)
+    assert "Step width 160 mm is above the normal range for age and sex (0-155 mm)." in flags_of(rows)
+
+
+@pytest.mark.parametrize(("sex", "age", "why"), [("", None, "sex and birth year not recorded"),
+                                                 ("male", None, "birth year not recorded"),
+                                                 ("", 76, "sex not recorded")])
+def test_a_patient_without_age_or_sex_has_no_reference_for_this_patient(sex, age, why):
+    from gaitcap.services.reports.content import findings
+    from gaitcap.services.reports.norms import missing_for_patient
+
+    summary = {"num_steps": 16, "gait_speed_m_s": 0.40, "cadence_steps_min": 80.0}
+    rows = rows_of(summary, load_norms(units=NORM_UNITS), sex=sex, age=age)
+    assert all(r.norm is None for r in rows)
+    said = findings(rows, not_recorded=missing_for_patient(sex=sex, age=age))
+    assert said.norm_summary.startswith(f"No reference for this patient ({why}): none of the 2 parameters")
+    assert not said.findings and "no value is called normal or abnormal" in said.norm_summary
+
+
+def test_a_man_of_30_gets_his_decade_and_sex_row_which_without_a_checked_sd_gives_no_range():
+    """Men 30-39 (Bohannon 1997, the decade row of his sex): its mean is shown as the source prints it, but
+    its SD is not checked against the article (not readable here), so no range, no z-score; a woman of 30
+    gets the women's row; the men 20-29 row is not his."""
+    norms = load_norms(units=NORM_UNITS)
+    row = norms.row_for("gait_speed_m_s", sex="male", age=30)
+    assert (row.sex, row.age_min, row.age_max) == ("male", 30, 39) and not row.sd_checked
+    assert norms.find("gait_speed_m_s", sex="male", age=30) is None
+    assert norms.row_for("gait_speed_m_s", sex="female", age=30).mean != row.mean
+    assert norms.row_for("gait_speed_m_s", sex="male", age=29).age_max == 29
