@@ -79,10 +79,11 @@ def parameters(trial_id: str, request: Request, user: str = Depends(require_user
                      "z": _num(r.z, 2), "percentile": _num(r.percentile, 1),
                      "norm_source": r.norm.source if r.norm is not None else None,
                      "previous": _num(c.previous.values.get(r.name, math.nan), 4) if c.previous else None,
-                     "in_doubt": r.name in doubt, "shown": _shown(r, c)})
+                     "in_doubt": r.name in doubt, "unstable": r.name in c.unstable, "shown": _shown(r, c)})
     return {"trial_id": c.trial.id, "subject_id": c.patient.id, "session": c.trial.session,
             "started_at": c.trial.started_at, "stage": c.stage, "method": c.method, "age": c.age,
-            "sex": c.patient.sex, "parameters": rows, "flags": list(c.flags), "warnings": list(c.warnings),
+            "sex": c.patient.sex, "parameters": rows, "flags": list(c.flags), "withheld": list(c.withheld),
+            "warnings": list(c.warnings),
             "data_problems": list(c.data_problems), "norm_summary": c.norm_summary, "consistency": c.consistency,
             "gait_speed_reference": c.speed_reference,
             "analysis_notes": list(c.analysis_notes), "num_steps": c.num_steps, "num_passes": c.num_passes, "voided": c.details.voided, "void_reason": c.details.void_reason,

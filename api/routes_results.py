@@ -89,7 +89,21 @@ def gait(trial_id: str, request: Request, stage: Stage | None = None, user: str 
                    warnings=cat.warnings_of(cat.get_quality(catalog_of(request), r.trial_id)),
                    data_quality=r.report.get("data_quality", {}),
                    sides=sides_of((gait_json or {}).get("summary", {})),
-                   analysis_warnings=list(r.report.get("warnings") or []))
+                   analysis_warnings=list(r.report.get("warnings") or []),
+                   findings=_findings(request, r.trial_id, r.stage))
+
+
+def _findings(request: Request, trial_id: str, stage: str) -> dict:
+    """The stage's findings as its report makes them ({} without a gait file)."""
+    from gaitcap.services.reports.content import ReportConfig, stage_findings
+    from gaitcap.services.reports.norms import NormsError
+
+    try:
+        said = stage_findings(catalog_of(request), request.app.state.settings.data_dir, trial_id, stage,
+                              ReportConfig.from_env())
+    except NormsError as exc:
+        raise HTTPException(status_code=500, detail=f"the normative table (GAITCAP_NORMS_CSV): {exc}") from None
+    return said.to_dict() if said is not None else {}
 
 
 @router.get("/trials/{trial_id}/steps", summary="Per-step parameters (JSON or CSV)")

@@ -58,7 +58,7 @@ async function loadSides(trialId) {
   markVoidResults(r.voided, r.void_reason);
   const body = $("#sides-table tbody");
   body.innerHTML = r.parameters.map((p) => {
-    const s = p.shown, out = !p.in_doubt && p.z != null && Math.abs(p.z) > 1.96;  // s: the server's texts (one rounding rule)
+    const s = p.shown, out = !p.in_doubt && !p.unstable && p.z != null && Math.abs(p.z) > 1.96;  // s: the server's texts (one rounding rule)
     const ref = p.name === "gait_speed_m_s" && r.gait_speed_reference;
     const range = s.normal_range ? `${shownText(s.normal_range[0])}–${shownText(s.normal_range[1])}`
       : ref ? `${ref.pct_of_mean.toFixed(0)} % of the age-sex mean (no z-score)` : "no reference";
@@ -91,7 +91,7 @@ function renderAnalysisNotes(r) {
   // what the gait analysis says of its own steps (missed contacts, steps left out, turns), as the PDF says it
   const box = $("#results-notes"), plural = (n, one, many) => `${n} ${n === 1 ? one : many}`;
   $("#results-steps-count").textContent = `${plural(r.num_steps, "step", "steps")} in ${plural(r.num_passes, "straight pass", "straight passes")} analysed.`;
-  box.querySelector("ul").innerHTML = (r.analysis_notes || []).map((n) => `<li>${esc(n)}</li>`).join("");
+  box.querySelector("ul").innerHTML = [...(r.analysis_notes || []), ...(r.withheld || [])].map((n) => `<li>${esc(n)}</li>`).join("");
   box.hidden = false;
 }
 

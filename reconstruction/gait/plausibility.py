@@ -97,3 +97,23 @@ def exclusion_note(steps: Sequence[Step]) -> str:
         return ""
     return (f"{len(out)} step(s) not counted in the summary: "
             + "; ".join(f"{s.foot} step at {s.heel_strike_s:.2f} s ({s.excluded})" for s in out))
+
+
+#: Heights (mm above the floor, z = 0) a heel can have while walking: a point outside is a reconstruction
+#: error (a heel keypoint rests some 40-80 mm above the floor and rises a few hundred mm in swing).
+HEEL_HEIGHT_MM = (-50.0, 800.0)
+#: Robust triangulation's weighted count of the views that agree on a point: below this the point rests on
+#: one view's ray more than on two (the preliminary stage's -500 mm heels are such points, and heights).
+MIN_AGREEING_VIEWS = 1.5
+
+
+def implausible_heel_frames(heel_z_mm: np.ndarray, views: np.ndarray | None = None) -> np.ndarray:
+    """(T,) bool: frames whose heel height (mm, (T,)) no walking heel has (outside :data:`HEEL_HEIGHT_MM`)
+    or, with ``views`` ((T,) the weighted count of views that agree on the point, as robust triangulation
+    reports it), that fewer than :data:`MIN_AGREEING_VIEWS` views agree on. NaN heights are not implausible (unknown)."""
+    z = np.asarray(heel_z_mm, dtype=np.float64)
+    lo, hi = HEEL_HEIGHT_MM
+    out = np.isfinite(z) & ((z < lo) | (z > hi))
+    if views is not None:
+        out |= np.isfinite(z) & (np.asarray(views, dtype=np.float64) < MIN_AGREEING_VIEWS)
+    return out

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 
 import numpy as np
 from gaitcap.reconstruction.gait.config import GaitConfig
+from gaitcap.reconstruction.gait.plausibility import implausible_heel_frames
 from gaitcap.reconstruction.gait.report import GaitReport
 from gaitcap.reconstruction.gait.tracks import HEEL, SIDES, FootTracks
 
@@ -25,7 +26,7 @@ def heel_traces_png(report: GaitReport, points_mm: np.ndarray, times_s: np.ndarr
                     width_in: float = 10.0) -> bytes:
     """PNG bytes: heel forward (top) and lateral (bottom) position (mm) over time (s) for both feet of the
     (T, J, 3) trajectory, the report's contacts as dots at their heel strike, passes shaded. Axes follow
-    the first pass's direction of progression."""
+    the first pass's direction of progression. Frames whose heel height no walking heel has are not drawn."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -38,7 +39,8 @@ def heel_traces_png(report: GaitReport, points_mm: np.ndarray, times_s: np.ndarr
     origin = tracks.frames_mm[0, HEEL["left"], :2]
     for side in SIDES:
         xy = tracks.frames_mm[:, HEEL[side], :2] - origin
-        xy = np.where(tracks.valid[:, HEEL[side], None], xy, np.nan)
+        shown = tracks.valid[:, HEEL[side]] & ~implausible_heel_frames(tracks.frames_mm[:, HEEL[side], 2])
+        xy = np.where(shown[:, None], xy, np.nan)  # a heel below the floor or flying is an error, not drawn
         ax_f.plot(tracks.times_s, xy @ fwd, color=COLOURS[side], lw=1.0, label=f"{side} heel")
         ax_l.plot(tracks.times_s, xy @ lat, color=COLOURS[side], lw=1.0)
         contacts = [c for c in report.contacts if c.foot == side and c.valid]

@@ -197,8 +197,10 @@ def _flags(pdf: _Doc) -> None:
         pdf.para(f"- {f}")
     if not c.flags:
         pdf.para("No finding to note" + (" against a normal range" if "none outside" in c.norm_summary else "")
-                 + "; no side difference over 10 %" + (" among the parameters without a data problem."
-                                                        if c.data_problems else "."))
+                 + "; no side difference over 10 %" + (" that holds over the steps" if c.withheld else "")
+                 + (" among the parameters without a data problem." if c.data_problems else "."))
+    for w in c.withheld:  # numbers stated, no finding: too few steps, or gone when one step is left out
+        pdf.para(f"- {w}")
     if c.data_problems:
         pdf.set_text_color(140, 70, 0)
         for p in c.data_problems:
