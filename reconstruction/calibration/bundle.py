@@ -64,6 +64,9 @@ class BundleProblem:
         held_principal_point: (C,) cameras whose principal point stays where it starts (None: none);
         held_distortion: (C, 5) bool, distortion terms (k1, k2, p1, p2, k3) of a camera that stay where
             they start although ``free_dist`` frees them (None: none).
+        focal_group: (C,) int, cameras of one group (>= 0; -1: none) are identical models: a prior pulls
+            each one's focal lengths (fx, fy) towards the group's mean, with a standard deviation of
+            ``focal_prior_rel`` times the group's starting mean (None: no prior).
     """
 
     cam: np.ndarray
@@ -77,6 +80,8 @@ class BundleProblem:
     free_dist: tuple[int, ...]
     held_principal_point: np.ndarray | None = None
     held_distortion: np.ndarray | None = None
+    focal_group: np.ndarray | None = None
+    focal_prior_rel: float = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,6 +118,30 @@ class _Layout:
         self.o_ext = prob.num_cameras * self.n_intr
         self.o_frame = self.o_ext + 6 * len(self.cams_free)
         self.size = self.o_frame + 6 * prob.num_frames
+
+    def prior(self, s: BundleState) -> csr_matrix:
+        """The shared focal prior as a quadratic form M (size, size): its cost is x' M x (the sum of the
+        squared standardised deviations of each grouped camera's fx, fy from its group's mean)."""
+        p = self.prob
+        m = csr_matrix((self.size, self.size))
+        if not self.refine or p.focal_group is None:
+            return m
+        rows, cols, vals = [], [], []
+        for g in np.unique(p.focal_group[p.focal_group >= 0]):
+            cams = np.flatnonzero(p.focal_group == g)
+            if len(cams) < 2:
+                continue
+            for axis in (0, 1):
+                sigma = p.focal_prior_rel * float(np.mean(s.matrix_px[cams, axis, axis]))
+                idx = self.n_intr * cams + axis
+                proj = (np.eye(len(cams)) - 1.0 / len(cams)) / sigma**2
+                rows.append(np.repeat(idx, len(cams)))
+                cols.append(np.tile(idx, len(cams)))
+                vals.append(proj.ravel())
+        if rows:
+            m = csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                           shape=(self.size, self.size))
+        return m
 
     def pack(self, s: BundleState) -> np.ndarray:
         x = np.zeros(self.size)
@@ -287,19 +316,22 @@ def _solve(layout: _Layout, state: BundleState, rows: np.ndarray, config: Bundle
     """Levenberg-Marquardt with IRLS weights for the robust loss; sparse normal equations."""
     cols = layout.columns(rows)
     x = layout.pack(state)
+    prior = layout.prior(state)
     cost, err, weight = _robust(layout, state, x, rows, config)
+    cost += float(x @ (prior @ x))
     lam = 1e-3
     for it in range(config.max_iterations):  # noqa: B007
         proj = _project(layout.unpack(x, state), layout.prob, rows, derivatives=True, rvecs=layout.rvecs(x, state))
         jac = layout.jacobian(proj, rows, cols)
         w = np.repeat(weight, 2)
         jtw = jac.T.multiply(w).tocsr()
-        hess = (jtw @ jac).tocsc()
-        grad = jtw @ err.ravel()
+        hess = (jtw @ jac + prior).tocsc()
+        grad = jtw @ err.ravel() + prior @ x
         diag = np.maximum(hess.diagonal(), 1e-12)
         while True:
             step = spsolve(hess + diags(lam * diag), -grad)
             new_cost, new_err, new_weight = _robust(layout, state, x + step, rows, config)
+            new_cost += float((x + step) @ (prior @ (x + step)))
             if np.isfinite(new_cost) and new_cost < cost:
                 break
             lam *= 4.0

@@ -6,7 +6,10 @@ tell a shifted principal point from a turned camera, and a sparse clip does not 
 terms: a model that follows noise fits its own views better and the views it did not see worse, which
 the held-out error shows. The figures that made each choice are kept (:class:`IntrinsicsChoice`).
 
-Cost: one k-fold cross-validation per candidate (candidates x k calibrations).
+Identical cameras (the same image size, focal lengths within a few per cent) may then share a focal length
+prior (``CalibrationConfig.share_focal``), kept when it lowers the rig's held-out error.
+
+Cost: one k-fold cross-validation per candidate (candidates x k calibrations), two more for the prior.
 """
 
 from __future__ import annotations
@@ -48,7 +51,8 @@ CANDIDATES = tuple(Candidate(d, p) for d in DistortionModel for p in (PrincipalP
 class IntrinsicsChoice:
     """The candidates (labels), each camera's held-out reprojection RMS (px, over all its held-out corners)
     under each (NaN: that candidate could not be fitted in every fold, ``failures`` says why), the label
-    chosen per camera with the reason in plain words, the folds and the time the choice took (s)."""
+    chosen per camera with the reason in plain words, the folds and the time the choice took (s);
+    shared_focal: whether identical cameras share a focal length prior, and the figures (empty: not tried)."""
 
     candidates: tuple[str, ...]
     held_out_rms_px: dict[str, tuple[float, ...]]
@@ -57,11 +61,12 @@ class IntrinsicsChoice:
     failures: dict[str, tuple[str, ...]]
     folds: int
     seconds: float
+    shared_focal: str = ""
 
     def to_dict(self) -> dict:
         return {"candidates": list(self.candidates), "held_out_rms_px": {k: list(v) for k, v in self.held_out_rms_px.items()},
                 "chosen": self.chosen, "reasons": self.reasons, "failures": {k: list(v) for k, v in self.failures.items()},
-                "folds": self.folds, "seconds": self.seconds}
+                "folds": self.folds, "seconds": self.seconds, "shared_focal": self.shared_focal}
 
 
 def _pick(rms: np.ndarray, candidates: Sequence[Candidate], tolerance: float) -> int:
@@ -80,12 +85,14 @@ def _reason(rms: np.ndarray, candidates: Sequence[Candidate], pick: int, folds: 
 
 def choose_intrinsics(
     obs: BoardObservations, base: CalibrationConfig | None = None, *, candidates: Sequence[Candidate] = CANDIDATES,
-    holdout: HoldoutConfig | None = None, tolerance: float = 0.01,
+    holdout: HoldoutConfig | None = None, tolerance: float = 0.01, share_focal: bool = True,
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[CalibrationConfig, IntrinsicsChoice]:
     """Each camera's intrinsics candidate by held-out error; returns ``base`` with ``camera_intrinsics``
-    set to the choices (each with its reason) and the figures. ValueError when no candidate could be
-    fitted in every fold (naming why)."""
+    set to the choices (each with its reason) and the figures. With ``share_focal`` the choices are then
+    cross-validated without and with a focal length prior shared by identical cameras
+    (``CalibrationConfig.share_focal``; two more cross-validations), kept where it lowers the rig's
+    held-out RMS. ValueError when no candidate could be fitted in every fold (naming why)."""
     import time
 
     base, holdout = base or CalibrationConfig(), holdout or HoldoutConfig()
@@ -117,6 +124,25 @@ def choose_intrinsics(
         reasons[name] = _reason(table[c], candidates, pick, holdout.folds)
         per_camera[name] = replace(base.intrinsics, distortion=candidates[pick].distortion,
                                    principal_point=candidates[pick].principal_point, chosen_because=reasons[name])
+    chosen_config = replace(base, camera_intrinsics=per_camera, share_focal=False)
+    shared = _shared_focal(obs, chosen_config, holdout) if share_focal else None
+    if shared is not None and shared[0]:
+        chosen_config = replace(chosen_config, share_focal=True)
     choice = IntrinsicsChoice(tuple(c.label for c in candidates), {n: tuple(table[c]) for c, n in enumerate(names)},
-                              chosen, reasons, failures, holdout.folds, time.perf_counter() - t0)
-    return replace(base, camera_intrinsics=per_camera), choice
+                              chosen, reasons, failures, holdout.folds, time.perf_counter() - t0,
+                              shared[1] if shared is not None else "")
+    return chosen_config, choice
+
+
+def _shared_focal(obs: BoardObservations, config: CalibrationConfig, holdout: HoldoutConfig) -> tuple[bool, str]:
+    """Whether identical cameras should share a focal length prior: the chosen intrinsics cross-validated
+    without and with it, judged on the rig's held-out RMS; (share, the figures in plain words)."""
+    rms = []
+    for share in (False, True):
+        cfg = replace(config, share_focal=share)
+        own = cross_validate(obs, lambda o, cfg=cfg: calibrate_from_observations(o, config=cfg).rig, config=holdout,
+                             bundle=config.bundle).own
+        rms.append(float("nan") if own.fold_errors else own.rms_px)
+    share = bool(np.isfinite(rms[1]) and (not np.isfinite(rms[0]) or rms[1] < rms[0]))
+    return share, (f"focal length prior shared by identical cameras {'chosen' if share else 'not chosen'} by "
+                   f"held-out error: rig RMS {rms[1]:.3f} px with it, {rms[0]:.3f} px without")

@@ -56,6 +56,9 @@ class CalibrationConfig:
     camera_intrinsics: {camera: IntrinsicsConfig} for cameras whose lens model or principal point differ
     from ``intrinsics`` (e.g. chosen per camera by held-out error:
     :mod:`gaitcap.reconstruction.calibration.model_choice`).
+    share_focal: identical cameras (the same image size, focal lengths from their own views within
+    ``share_focal_within`` of each other) share a focal length prior in the bundle adjustment: each one's
+    fx, fy pulled towards the group's mean with a standard deviation of ``focal_prior_rel`` of it.
     """
 
     intrinsics: IntrinsicsConfig = field(default_factory=IntrinsicsConfig)
@@ -65,6 +68,9 @@ class CalibrationConfig:
     known_intrinsics: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None
     leave_out_disagreeing_views: bool = True
     camera_intrinsics: Mapping[str, IntrinsicsConfig] | None = None
+    share_focal: bool = False
+    share_focal_within: float = 0.05
+    focal_prior_rel: float = 0.01
 
     def intrinsics_of(self, camera: str) -> IntrinsicsConfig:
         """The intrinsics config of one camera (``camera_intrinsics`` where it names it)."""
@@ -95,9 +101,11 @@ def _check_cameras(obs: BoardObservations, config: IntrinsicsConfig) -> None:
         )
 
 
-def _problem(obs: BoardObservations, init: InitialPoses, models: list[tuple[int, ...]], intr: list[Intrinsics]):
+def _problem(obs: BoardObservations, init: InitialPoses, models: list[tuple[int, ...]], intr: list[Intrinsics],
+             groups: np.ndarray | None = None, focal_prior_rel: float = 0.01):
     """Flatten the usable views into a BundleProblem (frames compacted); returns it and the frame map.
-    ``models``: each camera's free distortion terms (indices into k1, k2, p1, p2, k3)."""
+    ``models``: each camera's free distortion terms (indices into k1, k2, p1, p2, k3); ``groups``: each
+    camera's focal prior group (None: no prior)."""
     free_dist = tuple(sorted(set().union(*models)))
     syms = np.asarray(obs.board.symmetries)
     c_idx, f_idx = np.nonzero(init.symmetry >= 0)
@@ -115,9 +123,27 @@ def _problem(obs: BoardObservations, init: InitialPoses, models: list[tuple[int,
     prob = BundleProblem(
         np.concatenate(cams), np.concatenate(frs), np.concatenate(corners), np.concatenate(uv),
         obs.board.object_points_mm, obs.shape[0], len(frames), init.root, free_dist,
-        np.array([i.principal_point_held for i in intr]), _held_distortion(intr, models),
+        np.array([i.principal_point_held for i in intr]), _held_distortion(intr, models), groups,
+        focal_prior_rel,
     )
     return prob, frames
+
+
+def focal_groups(sizes_px, focal_px: np.ndarray, within: float) -> np.ndarray:
+    """(C,) group of each camera (-1: alone): cameras of the same image size whose focal lengths (C,) px
+    lie within ``within`` (relative) of the group's shortest, in order of focal length."""
+    group = np.full(len(focal_px), -1)
+    n = 0
+    for size in sorted(set(sizes_px)):
+        cams = [c for c in np.argsort(focal_px) if tuple(sizes_px[c]) == size]
+        start = 0
+        for i in range(1, len(cams) + 1):
+            if i == len(cams) or focal_px[cams[i]] > (1 + within) * focal_px[cams[start]]:
+                if i - start > 1:
+                    group[cams[start:i]] = n
+                    n += 1
+                start = i
+    return group
 
 
 def _held_distortion(intr: list[Intrinsics], models: list[tuple[int, ...]]) -> np.ndarray:
@@ -138,6 +164,15 @@ def _notes(n_left: int, n_undecidable: int) -> tuple[str, ...]:
     return notes
 
 
+def _shared_note(obs, prob, c: int) -> tuple[str, ...]:
+    """The note of a camera whose focal length shared a prior with identical cameras (else none)."""
+    if prob.focal_group is None or prob.focal_group[c] < 0:
+        return ()
+    others = [n for k, n in enumerate(obs.camera_names) if prob.focal_group[k] == prob.focal_group[c] and k != c]
+    return (f"focal length prior shared with {', '.join(others)} (identical cameras: the same image size, focal "
+            f"lengths within a few per cent; standard deviation {100 * prob.focal_prior_rel:g} %)",)
+
+
 def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThresholds, all_rms: float,
                     others_rms: float, intr: Intrinsics | None, whole: WholeViews, found: int) -> CameraQuality:
     """One camera's figures and problems, on its views kept (``whole``: the views left out as disagreeing
@@ -147,7 +182,7 @@ def _camera_quality(obs, prob, res: BundleResult, c: int, thresholds: QualityThr
     mine = (prob.cam == c) & ~whole.left_out
     n_left = int(whole.views_left_out[c])
     held = intr.held if intr is not None else ()
-    notes = held + _notes(n_left, int(whole.views_undecidable[c]))
+    notes = held + _shared_note(obs, prob, c) + _notes(n_left, int(whole.views_undecidable[c]))
     err = np.linalg.norm(res.residual_px[mine & res.inlier], axis=-1)
     mean, p95, rms = error_stats(err)
     cov = coverage(prob.uv_px[mine & res.inlier], obs.image_sizes_px[c], thresholds.grid)
@@ -322,7 +357,10 @@ def calibrate_from_observations(
     if no_pose:
         raise ValueError(f"cameras {no_pose}: no board view gave a consistent pose; check the board definition")
     init = initial_poses(poses, obs.camera_names)
-    prob, frames = _problem(obs, init, [config.intrinsics_of(n).distortion.free for n in obs.camera_names], intr)
+    groups = (focal_groups(obs.image_sizes_px, np.array([i.matrix_px[0, 0] for i in intr]), config.share_focal_within)
+              if config.share_focal and config.known_intrinsics is None else None)
+    prob, frames = _problem(obs, init, [config.intrinsics_of(n).distortion.free for n in obs.camera_names], intr,
+                            groups, config.focal_prior_rel)
     res = bundle_adjust(prob, _initial_state(intr, init, frames), config.bundle)
     whole = _whole_views(obs, config, prob, res, found)
     if whole.left_out.any():

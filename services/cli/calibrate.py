@@ -89,6 +89,7 @@ def _choice(choice) -> str:
     for cam, rms in choice.held_out_rms_px.items():
         lines.append(f"{cam:<10} " + " ".join(f"{r:>6.3f}" for r in rms) + f"  -> {choice.chosen[cam]}")
     lines += [f"candidate {k} not fitted in every fold: {v[0]}" for k, v in choice.failures.items()]
+    lines += [choice.shared_focal] if choice.shared_focal else []
     return "\n".join(lines)
 
 
