@@ -28,8 +28,10 @@ from gaitcap.services import catalog as cat
 from gaitcap.services.catalog.method_keys import params_key
 from gaitcap.services.kinematics.shown import patient_age
 from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.store import locate_recording
 from gaitcap.services.processing.calibration_job import fail_calibration, run_calibration
 from gaitcap.services.processing.checks import CheckContext
+from gaitcap.services.processing.compiled_code import CompiledCode, CompiledCodeLimit
 from gaitcap.services.processing.completion import CompletionSettings
 from gaitcap.services.processing.outputs import steps_of, summary_of
 from gaitcap.services.processing.pipeline import enable_compile_cache, ring_rig, warm_up
@@ -57,9 +59,10 @@ class WorkerConfig:
     lease_s / 3; poll_s: how often the job table is polled (s); refine: run the implicit fit;
     rerun: the .rrd's settings (images per second and camera copied from the recording); completion:
     detect the recorded frames the live detector missed before the refined stage (None: the live
-    keypoints only); max_rss_mb: after a job, a worker whose resident memory (MB) is above this stops
-    (:meth:`Worker.run` returns ``"recycle"``) to be started afresh by its supervisor, so code compiled for
-    every trial length seen does not pile up over a day."""
+    keypoints only); compiled: how many jobs' compiled JAX code the worker keeps before dropping it
+    (:mod:`~gaitcap.services.processing.compiled_code`: what bounds its memory); max_rss_mb: a safety net
+    only: after a job, a worker whose resident memory (MB) is still above this stops (:meth:`Worker.run`
+    returns ``"recycle"``) to be started afresh by its supervisor."""
 
     catalog_url: str
     data_dir: Path
@@ -71,7 +74,9 @@ class WorkerConfig:
     criteria: QualityCriteria = QualityCriteria()
     rerun: RerunSettings = RerunSettings()
     completion: CompletionSettings | None = None
+    compiled: CompiledCodeLimit = CompiledCodeLimit()
     max_rss_mb: float = 3000.0
+    store: Path | None = None  # this host's mount of the rooms' shared store (gaitcap.services.processing.store)
 
     def __post_init__(self) -> None:
         if self.max_rss_mb <= 0:
@@ -167,6 +172,7 @@ class Worker:
         self.config = config
         self.db = db or cat.open_catalog(config.catalog_url)
         self.busy = False  # a job is being processed
+        self.compiled = CompiledCode(config.compiled)  # the JAX code compiled for recent trials' shapes
         self.kinds = {  # job kind -> what this worker does with it
             "process": JobKind(run=lambda job, lease: self.process(job.trial_id, lease),
                                fail=lambda job, exc: self._fail_trial(job.trial_id, exc)),
@@ -199,6 +205,7 @@ class Worker:
             return self._run_job(job)
         finally:
             self.busy = False
+            self.compiled.after_job()
 
     def _run_job(self, job: cat.JobInfo) -> bool:
         with LeaseKeeper(self.db, job, self.config.worker_id, self.config.lease_s) as lease:
@@ -238,7 +245,9 @@ class Worker:
         elif trial.state != "processing":  # done or failed meanwhile: nothing to do
             log.info("trial %s is %s; skipping", trial_id, trial.state)
             return
-        files = trial_files(self.config.data_dir, trial_id, recording_of(trial))
+        recording = locate_recording(trial, cat.get_quality(self.db, trial_id).get("recorder", {}),
+                                     store=self.config.store)
+        files = trial_files(self.config.data_dir, trial_id, recording)
         self._report(trial_id, "reading the recording", 0.05)
         t0 = time.perf_counter()
         recorded = recording_input(files.recording, fallback_calibration=self.config.fallback_calibration,
