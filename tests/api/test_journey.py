@@ -96,7 +96,7 @@ def _results_seen(page, settings, db, tid: str, walk) -> None:
     cat.set_state(db, tid, "processing")
     _store(settings, db, tid, "preliminary", walk)
     _wait_text(page, "#results-stage", "Preliminary results")
-    assert page.inner_text("#record-status").startswith("Saved. Computing the results")  # not done yet
+    _wait_text(page, "#record-status", "Preliminary results below. Refining")  # the status line follows the stages
     _store(settings, db, tid, "refined", walk)
     cat.set_state(db, tid, "done")
     _wait_text(page, "#results-stage", "Final results (refined 3D reconstruction)")
@@ -165,7 +165,7 @@ def _history_and_compare(page, tid: str, earlier: list[str]) -> None:
         page.keyboard.press("Space")
     page.wait_for_selector("#compare:not([hidden])")
     head = page.inner_text("#compare-table thead")
-    assert "visit-1 L" in head and "visit-2 R" in head, head
+    assert re.search(r"visit-1, \d+ \w+ \d{4} \d\d:\d\d", head) and "visit-2, " in head, head  # by date and time
     step = page.inner_text("#compare-table tbody tr:nth-child(3)").split("\t")
     assert step[0] == "Step length (mm)" and step[-3:] == ["0", "0", "0"], step  # the same walk: per side "0"
     assert page.is_disabled(f"#history-table tr[data-trial='{tid}'] .cmp")  # the void visit is not compared

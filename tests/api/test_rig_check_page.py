@@ -9,7 +9,8 @@ from gaitcap.services import catalog as cat
 from gaitcap.services.processing.checks import rig_check
 from gaitcap.simulator.rig_faults import with_camera_moved
 
-from .conftest import signed_in_page
+from .conftest import ALL_ROLES, make_accounts, sign_in_page, signed_in_page
+from .test_clinic_page import _fits
 
 MOVED = "cam02"
 
@@ -54,3 +55,16 @@ def test_the_latest_trials_rig_check_names_the_moved_camera_on_the_page(server):
     assert abs(bound - max(stored["rotation_bound_deg"])) < 0.006 and f"± {bound:.1f} deg" in summary, (bound, summary)
     assert [r[result] for n, r in rows.items() if n != MOVED] == ["in place"] * 4, rows
     assert all(float(r[rotation].split(" ± ")[0]) < 0.3 for n, r in rows.items() if n != MOVED), rows
+
+    # a clinician records but does not calibrate: the rig check is in the record card, beside Start
+    make_accounts(settings.data_dir, alice=ALL_ROLES, carol=("clinician",))
+    with signed_in_page(srv.url) as page:
+        page.click("#logout")
+        sign_in_page(page, srv.url, "carol")
+        assert page.is_hidden("#calibrate-card") and page.is_visible("#record")
+        page.wait_for_selector("#record #rig-check:not([hidden])")
+        for width, height in ((1280, 900), (768, 1024), (390, 844)):
+            page.set_viewport_size({"width": width, "height": height})
+            assert page.locator("#rig-check-summary").inner_text() == summary, width
+            assert page.locator("#rig-check-summary").is_visible(), width
+            _fits(page, width, ("rig check", width))

@@ -80,6 +80,10 @@ def test_a_board_held_still_fails_naming_the_distinct_positions(images, tmp_path
     assert run.state == "failed", run.error
     for cam in held:
         assert f"camera '{cam}': 12 frames showed the board but only 1 distinct positions remain" in run.error
+    found = {d["name"]: d for d in run.report["detections"]}  # the page's table: what to change, per camera
+    for cam in held:
+        assert found[cam]["positions"] == 1 and found[cam]["usable"] >= found[cam]["needed"], found[cam]
+        assert found[cam]["advice"] and "move the board to more places" in found[cam]["advice"][0], found[cam]
 
 
 def test_one_recording_at_a_time(tmp_path):
