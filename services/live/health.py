@@ -43,8 +43,14 @@ def _disk(data_dir: Path, min_free_bytes: int) -> dict:
         return _component(False, f"data folder {data_dir}: {exc.strerror or exc}")
     free_gb = usage.free / 2**30
     ok = usage.free >= min_free_bytes
-    words = f"{free_gb:.1f} GB free" + ("" if ok else f" (below {min_free_bytes / 2**30:.0f} GB)")
+    words = f"{free_gb:.1f} GB free" + ("" if ok else f" (below {min_free_bytes / 2**30:.1f} GB)")
     return _component(ok, words, free_gb=round(free_gb, 2))
+
+
+def disk_problem(data_dir: Path, min_free_bytes: int = MIN_FREE_BYTES) -> str | None:
+    """Why the data folder's disk cannot take a recording (free space below ``min_free_bytes``), or None."""
+    disk = _disk(Path(data_dir), min_free_bytes)
+    return None if disk["ok"] else f"data disk: {disk['status']}"
 
 
 def _nodes(nodes: dict, prefix: str, what: str) -> dict:
