@@ -8,8 +8,9 @@ compiled JAX executables held (entries of every jitted function's cache) and wha
 (tracemalloc, MB, with ``--tracemalloc``). The slope is a least-squares fit of RSS over the trials after
 ``--warm-up`` (MB per trial).
 
-    python bench/worker_memory.py --trials 12            # a table
-    python bench/worker_memory.py --trials 12 --json     # one JSON object
+    python bench/worker_memory.py --trials 12                      # a table
+    python bench/worker_memory.py --trials 12 --json               # one JSON object
+    python bench/worker_memory.py --trials 12 --keep-trials 1000   # compiled code never dropped (before)
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ def slope_per_trial(values: list[float]) -> float:
 def run(args) -> dict:
     from gaitcap.services import catalog as cat
     from gaitcap.services.processing.artifacts import trial_files
+    from gaitcap.services.processing.compiled_code import CompiledCodeLimit
     from gaitcap.services.processing.worker import Worker, WorkerConfig, resident_mb, warm_worker
     from gaitcap.simulator import make_trial
     from gaitcap.simulator.recording import write_keypoint_recording
@@ -63,7 +65,8 @@ def run(args) -> dict:
         data = Path(tmp)
         db = cat.open_catalog(data / "catalog.sqlite")
         warm_s = warm_worker(cameras=args.cameras, cache_dir=data / ".jax-cache")
-        worker = Worker(WorkerConfig(catalog_url=db.url, data_dir=data, refine=not args.no_refine, lease_s=60), db=db)
+        worker = Worker(WorkerConfig(catalog_url=db.url, data_dir=data, refine=not args.no_refine, lease_s=60,
+                                     compiled=CompiledCodeLimit(keep_trials=args.keep_trials)), db=db)
         start_mb = resident_mb()
         for k in range(args.trials):
             seconds = args.seconds + k / 30.0  # one more frame each trial
@@ -88,11 +91,12 @@ def run(args) -> dict:
     rss = [r["rss_mb"] for r in rows]
     return {"trials": rows, "warm_s": warm_s, "start_rss_mb": start_mb, "first_rss_mb": rss[0], "last_rss_mb": rss[-1],
             "max_rss_mb": max(rss), "slope_mb_per_trial": slope_per_trial(after), "warm_up": args.warm_up,
-            "cameras": args.cameras, "seconds": args.seconds}
+            "cameras": args.cameras, "seconds": args.seconds, "keep_trials": args.keep_trials}
 
 
 def _table(r: dict) -> str:
-    lines = [f"worker memory: {len(r['trials'])} trials of {r['seconds']:.1f} s + one frame each, {r['cameras']} cameras "
+    lines = [f"worker memory: {len(r['trials'])} trials of {r['seconds']:.1f} s + one frame each, {r['cameras']} cameras, "
+             f"compiled code of {r['keep_trials']} job(s) kept "
              f"(warm-up compile {r['warm_s']:.1f} s, {r['start_rss_mb']:.0f} MB before the first trial)",
              "trial  frames  state               job s   RSS MB  compiled" + ("  python MB" if "python_mb" in r["trials"][0] else "")]
     for t in r["trials"]:
@@ -104,12 +108,17 @@ def _table(r: dict) -> str:
 
 
 def main() -> None:
+    from gaitcap.services.processing.compiled_code import CompiledCodeLimit
+
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--trials", type=int, default=12)
     p.add_argument("--seconds", type=float, default=6.0, help="The first trial's walk (s); each next one a frame longer.")
     p.add_argument("--cameras", type=int, default=10)
     p.add_argument("--warm-up", type=int, default=3, help="Trials left out of the slope.")
     p.add_argument("--no-refine", action="store_true")
+    p.add_argument("--keep-trials", type=int, default=CompiledCodeLimit().keep_trials,
+                   help="Jobs whose compiled code the worker keeps (the default is the worker's; a large number: "
+                        "never dropped, as before the bound).")
     p.add_argument("--tracemalloc", action="store_true", help="Also Python's own allocations (slower).")
     p.add_argument("--json", action="store_true")
     args = p.parse_args()
