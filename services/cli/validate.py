@@ -10,22 +10,31 @@ import typer
 from gaitcap.services.cli._common import progress, user_errors
 
 
+def _n(x, spec: str) -> str:
+    """A number as ``spec`` formats it, "-" for none (NaN is None in the result)."""
+    return "-" if x is None else format(x, spec)
+
+
 def _echo(result: dict) -> None:
     a = result["alignment"]
     typer.echo(f"{result['trial']} ({result['stage']}) vs {result['reference']} ({result['reference_kind']})")
     typer.echo(f"alignment: lag {a['lag_s']:+.3f} s ({a['lag_frames']:+.2f} frames), rotation {a['rotation_deg']:.1f} "
                f"deg, residual {a['residual_mm']:.1f} mm")
     for e in result["events"]:
-        typer.echo(f"  {e['side']:5s} {e['kind']:11s} n={e['n']} signed median {e['signed_median_frames']:+.2f} "
-                   f"frames ({e['signed_median_ms']:+.0f} ms), |e| median {e['abs_median_frames']:.2f} frames, "
-                   f"missed {e['missed']}, extra {e['extra']}")
+        typer.echo(f"  {e['side']:5s} {e['kind']:11s} n={e['n']} signed median {_n(e['signed_median_frames'], '+.2f')} "
+                   f"frames ({_n(e['signed_median_ms'], '+.0f')} ms), |e| median {_n(e['abs_median_frames'], '.2f')} "
+                   f"frames, missed {e['missed']}, extra {e['extra']}")
     for name, sides in result["parameters"].items():
         s = sides["all"]
-        typer.echo(f"  {name:20s} n={s['n']} bias {s['bias']:+.2f} LoA {s['loa_low']:+.2f}..{s['loa_high']:+.2f} "
-                   f"ICC(A,1) {s['icc']:.2f} MAE {s['mae']:.2f}")
+        typer.echo(f"  {name:20s} n={s['n']} bias {_n(s['bias'], '+.2f')} LoA {_n(s['loa_low'], '+.2f')}.."
+                   f"{_n(s['loa_high'], '+.2f')} ICC(A,1) {_n(s['icc'], '.2f')} MAE {_n(s['mae'], '.2f')}")
+    for name, v in result["trial_parameters"].items():
+        typer.echo(f"  {name:20s} trial {_n(v['trial'], '.2f')} reference {_n(v['reference'], '.2f')}")
     for x in result["angles"]:
-        typer.echo(f"  {x['side']:5s} {x['variable']:18s} RMSE {x['rmse_deg']:.1f} offset {x['offset_deg']:+.1f} "
-                   f"RMSE after offset {x['rmse_after_offset_deg']:.1f} deg, r {x['r']:.3f}")
+        typer.echo(f"  {x['side']:5s} {x['variable']:18s} RMSE {_n(x['rmse_deg'], '.1f')} offset "
+                   f"{_n(x['offset_deg'], '+.1f')} RMSE after offset {_n(x['rmse_after_offset_deg'], '.1f')} deg, "
+                   f"r {_n(x['r'], '.3f')}, min {_n(x['trial_min_deg'], '.1f')} (reference "
+                   f"{_n(x['reference_min_deg'], '.1f')})")
     for line in result["not_compared"]:
         typer.echo(f"not compared: {line}", err=True)
 
@@ -74,8 +83,8 @@ def register(app: typer.Typer) -> None:
             return
         typer.echo(f"{study['pairs_ok']} of {len(items)} pairs compared ({study['icc_form']})")
         for row in study["table"]:
-            typer.echo(f"  {row['parameter']:20s} n={row['n']} bias {row['bias']:+.2f} LoA {row['loa_low']:+.2f}.."
-                       f"{row['loa_high']:+.2f} ICC(A,1) {row['icc']:.2f}"
+            typer.echo(f"  {row['parameter']:20s} n={row['n']} bias {_n(row['bias'], '+.2f')} LoA "
+                       f"{_n(row['loa_low'], '+.2f')}..{_n(row['loa_high'], '+.2f')} ICC(A,1) {_n(row['icc'], '.2f')}"
                        + (f"  dominated by {', '.join(row['dominant_pairs'])}" if row["dominant_pairs"] else ""))
         for p in study["failed"]:
             typer.echo(f"not compared: {p['name']}: {p['error']}", err=True)

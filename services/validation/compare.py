@@ -9,10 +9,12 @@ angles in the trial, one side only) is listed in ``not_compared`` with the reaso
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import asdict, dataclass
 
 import numpy as np
 from gaitcap.reconstruction.gait.analysis import compare_with_walkway
+from gaitcap.reconstruction.gait.walkway import AlignmentConfig
 from gaitcap.reconstruction.validation.align import (
     AlignConfig,
     AlignmentError,
@@ -94,14 +96,58 @@ def _marker_alignment(trial: TrialData, ref: Reference, config: ValidateConfig):
     return time.lag_s, span, heel_at, alignment
 
 
-def _walkway_alignment(trial: TrialData, ref: Reference):
+WALKWAY_WINDOW_S = 0.3  # the walkway alignment's search around each candidate lag (s)
+WALKWAY_MAX_RESIDUAL_MM = 60.0
+
+
+def _walkway_at(trial: TrialData, w, centre_s: float):
+    """The walkway alignment searched within +-WALKWAY_WINDOW_S of ``centre_s`` (walkway time = trial time
+    + lag): (lag s, comparison), or None when no offset there puts footfalls inside the trial."""
     names = tuple(trial.joints_mm)
     points = np.stack([trial.joints_mm[n] for n in names], axis=1)
+    shifted = dataclasses.replace(w, first_contact_s=w.first_contact_s - centre_s, last_contact_s=w.last_contact_s - centre_s)
     try:
-        comp = compare_with_walkway([(points, trial.times_s, names)], [ref.walkway])
-    except ValueError as exc:
-        raise AlignmentError(f"walkway: {exc}") from None
-    lag = -float(next(iter(comp.offsets_s.values())))  # walkway time = trial time + lag
+        comp = compare_with_walkway([(points, trial.times_s, names)], [shifted],
+                                    alignment=AlignmentConfig(coarse_range_s=WALKWAY_WINDOW_S))
+    except ValueError:
+        return None
+    return centre_s - float(next(iter(comp.offsets_s.values()))), comp
+
+
+def _walkway_score(trial: TrialData, w, lag: float, comp) -> tuple[int, int, float]:
+    """(footfalls inside the trial, walkway heel strikes with a gaitcap heel strike of that foot within
+    0.1 s, -residual mm): larger is better."""
+    t = w.first_contact_s - lag
+    inside = int(((t >= trial.times_s[0]) & (w.last_contact_s - lag <= trial.times_s[-1])).sum())
+    feet = np.array(w.feet)
+    matched = sum(int(np.min(np.abs(trial.events["heel_strike"][f] - x)) <= 0.1)
+                  for f, x in zip(feet, t, strict=True) if len(trial.events["heel_strike"][f]))
+    return inside, matched, -comp.fit_median_mm
+
+
+def _walkway_alignment(trial: TrialData, ref: Reference):
+    """A walkway has no heel heights: its contacts are aligned by foot speed and a scaled rigid 2D fit
+    (``gaitcap.reconstruction.gait.walkway``). One straight pass fits as well a stride later (the free
+    transform slides along the walkway), so every start of the walkway's contacts on gaitcap's heel
+    strikes of the same foot is a candidate, and the candidate with the most footfalls inside the trial,
+    then the most heel strikes matched, then the smallest residual wins; a tie is refused as ambiguous."""
+    w = ref.walkway
+    feet = np.array(w.feet)
+    centres = sorted({round(float(x - h), 2) for f, x in zip(feet, w.first_contact_s, strict=True)
+                      for h in trial.events["heel_strike"][f]})
+    found = [r for c in centres if (r := _walkway_at(trial, w, c)) is not None]
+    found = [(lag, comp, _walkway_score(trial, w, lag, comp)) for lag, comp in found]
+    found = [f for f in found if f[1].fit_median_mm <= WALKWAY_MAX_RESIDUAL_MM]
+    if not found:
+        raise AlignmentError(f"space: the walkway's footprints fit gaitcap's feet at no time offset (median "
+                             f"residual above {WALKWAY_MAX_RESIDUAL_MM:.0f} mm, or no contacts): not the same walk")
+    found.sort(key=lambda f: f[2], reverse=True)
+    lag, comp, score = found[0]
+    rival = next((f for f in found[1:] if abs(f[0] - lag) > 0.2), None)
+    if rival is not None and rival[2][:2] == score[:2] and -rival[2][2] < 1.5 * max(-score[2], 5.0):
+        raise AlignmentError(f"time: the walkway fits at {lag:+.2f} s and at {rival[0]:+.2f} s alike ({score[0]} "
+                             f"footfalls inside, residuals {-score[2]:.0f} and {-rival[2][2]:.0f} mm): one pass "
+                             f"cannot tell them apart")
     tf = comp.transform
     feet = np.array(ref.walkway.feet)
 
@@ -109,15 +155,16 @@ def _walkway_alignment(trial: TrialData, ref: Reference):
         xy = tf.inverse(ref.walkway.heel_xy_mm[feet == side][i][None])[0]
         return np.array([xy[0], xy[1], 0.0])
 
-    span = (max(trial.times_s[0], ref.walkway.first_contact_s[0] - lag - 0.5),
-            min(trial.times_s[-1], ref.walkway.last_contact_s[-1] - lag + 0.5))
+    # only events on the walkway can be judged: from its first contact to its last heel strike (a foot off
+    # the walkway lands before the last footprint lifts); the event matcher trims EventMatchConfig.edge_s
+    edge = EventMatchConfig().edge_s + 0.1
+    span = (max(trial.times_s[0], w.first_contact_s.min() - lag - edge),
+            min(trial.times_s[-1], w.first_contact_s.max() - lag + edge))
     alignment = {"method": "walkway alignment: foot speed during contacts; scaled rigid 2D fit of heel and toe",
                  "lag_s": lag, "lag_frames": lag * trial.fps, "scale": tf.scale,
                  "rotation_deg": float(np.degrees(tf.rotation_rad)), "translation_mm": list(tf.translation_mm),
-                 "residual_mm": comp.fit_median_mm, "forward_bias_mm": comp.forward_bias_mm}
-    if comp.fit_median_mm > 60.0:
-        raise AlignmentError(f"space: the walkway's footprints do not fit gaitcap's feet (median residual "
-                             f"{comp.fit_median_mm:.0f} mm): not the same walk")
+                 "residual_mm": comp.fit_median_mm, "forward_bias_mm": comp.forward_bias_mm,
+                 "footfalls_inside": score[0], "heel_strikes_matched": score[1]}
     return lag, span, heel_at, alignment
 
 
@@ -137,7 +184,7 @@ def validate(trial: TrialData, ref: Reference, *, config: ValidateConfig = Valid
               "trial_parameters": {}, "angles": [], "step_pairs": [], "not_compared": not_compared,
               "common_span_s": list(span)}
     missing_sides = [s for s in SIDES if s not in _sides_present(trial)]
-    if missing_sides and not trial.lacks:
+    if missing_sides:
         not_compared.append(f"trial: {' and '.join(missing_sides)} side events (gaitcap found no "
                             f"{' or '.join(missing_sides)} contacts): that side's events and steps are not compared")
     if ref.has_events and trial.steps is not None:
