@@ -91,9 +91,10 @@ def _snapshot_catalog(src: Path, dest: Path) -> None:
 
 def _copy_settled(src: Path, dest: Path, attempts: int = 3) -> tuple[int, str]:
     """Copy ``src`` to ``dest`` until the copy's checksum equals the source's afterwards; (bytes, sha256)."""
-    dest.parent.mkdir(parents=True, exist_ok=True)
+    dest.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
     for _ in range(attempts):
         shutil.copyfile(src, dest)
+        os.chmod(dest, 0o600)  # patient data
         got = sha256_of(dest)
         if sha256_of(src) == got:
             return dest.stat().st_size, got
@@ -203,10 +204,9 @@ def restore_backup(folder: Path, data_dir: Path) -> Backup:
     data_dir.mkdir(parents=True, exist_ok=True)
     for rel in backup.files:
         target = data_dir / rel
-        target.parent.mkdir(parents=True, exist_ok=True)
+        target.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
         shutil.copyfile(Path(folder) / rel, target)
-        if rel in (CATALOG, AUDIT, *KEPT_FILES):
-            os.chmod(target, 0o600)
+        os.chmod(target, 0o600)  # patient data, as the clinic's own files
     manifest = read_manifest(folder)
     moved = _repoint_paths(data_dir / CATALOG, manifest["data_dir"], str(data_dir.resolve()))
     log.info("restored %s into %s: %d trials, %d files, %d stored paths moved", folder, data_dir,
