@@ -28,7 +28,6 @@ from gaitcap.services import catalog as cat
 from gaitcap.services.catalog.method_keys import params_key
 from gaitcap.services.kinematics.shown import patient_age
 from gaitcap.services.processing.artifacts import trial_files
-from gaitcap.services.processing.store import locate_recording
 from gaitcap.services.processing.calibration_job import fail_calibration, run_calibration
 from gaitcap.services.processing.checks import CheckContext
 from gaitcap.services.processing.compiled_code import CompiledCode, CompiledCodeLimit
@@ -76,7 +75,6 @@ class WorkerConfig:
     completion: CompletionSettings | None = None
     compiled: CompiledCodeLimit = CompiledCodeLimit()
     max_rss_mb: float = 3000.0
-    store: Path | None = None  # this host's mount of the rooms' shared store (gaitcap.services.processing.store)
 
     def __post_init__(self) -> None:
         if self.max_rss_mb <= 0:
@@ -245,9 +243,7 @@ class Worker:
         elif trial.state != "processing":  # done or failed meanwhile: nothing to do
             log.info("trial %s is %s; skipping", trial_id, trial.state)
             return
-        recording = locate_recording(trial, cat.get_quality(self.db, trial_id).get("recorder", {}),
-                                     store=self.config.store)
-        files = trial_files(self.config.data_dir, trial_id, recording)
+        files = trial_files(self.config.data_dir, trial_id, recording_of(trial))
         self._report(trial_id, "reading the recording", 0.05)
         t0 = time.perf_counter()
         recorded = recording_input(files.recording, fallback_calibration=self.config.fallback_calibration,
