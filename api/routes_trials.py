@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import time
+from pathlib import Path
 
 from fastapi import APIRouter, Depends, HTTPException, Request
 from gaitcap.api.auth import require_user
@@ -17,6 +18,7 @@ from gaitcap.services.live.health import disk_problem
 from gaitcap.services.live.protocols import RecorderUnavailable
 from gaitcap.services.live.rig_check import NO_CAMERA, recorder_warnings, rig_problems
 from gaitcap.services.processing.artifacts import trial_files
+from gaitcap.services.processing.store import recording_checksum
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["trials"])
@@ -98,6 +100,16 @@ def _start_recorder(db: cat.Catalog, link, trial: cat.TrialInfo, calibration, us
         raise
 
 
+def _checksum(trial: cat.TrialInfo) -> dict:
+    """The finished recording's SHA-256 and size, which a worker on any host checks its copy against ({}
+    when the file is not on this host: the worker then takes what it finds unchecked)."""
+    try:
+        return recording_checksum(Path(trial.recording_path))
+    except OSError as exc:
+        log.warning("trial %s: no checksum of its recording (%s)", trial.id, exc)
+        return {}
+
+
 def _fail_start(db: cat.Catalog, trial: cat.TrialInfo, error: str) -> None:
     try:
         cat.set_state(db, trial.id, "failed", expect="recording", error=error, stage="", stopped_at=time.time())
@@ -130,7 +142,8 @@ def stop(trial_id: str, request: Request, user: str = Depends(require_user)) -> 
         trial = cat.set_state(db, trial.id, "interrupted", expect="stopping", error=reason, stopped_at=time.time(),
                               stage="recovering the recording")
         raise HTTPException(status_code=503, detail=f"{reason} (trial {trial.id} is interrupted)") from None
-    cat.set_quality(db, trial.id, "recorder", {**summary, "warnings": recorder_warnings(summary)})
+    cat.set_quality(db, trial.id, "recorder", {**summary, "warnings": recorder_warnings(summary),
+                                               **_checksum(trial)})
     trial = cat.set_state(db, trial.id, "recorded", expect="stopping", enqueue=True, stopped_at=time.time(),
                           stage="waiting for a worker", progress=0.0)
     log.info("trial %s stopped; processing queued", trial.id)

@@ -29,7 +29,6 @@ from gaitcap.services.catalog.jobs import (
     lease_job,
     renew_lease,
 )
-from gaitcap.services.catalog.rooms import RoomNotFound, get_room, list_rooms, register_room
 from gaitcap.services.catalog.quality import get_quality, qualities_of, set_quality, warnings_of
 from gaitcap.services.catalog.results import (
     ResultInfo,
@@ -41,6 +40,7 @@ from gaitcap.services.catalog.results import (
     stages_of,
     store_result,
 )
+from gaitcap.services.catalog.rooms import RoomNotFound, get_room, list_rooms, register_room
 from gaitcap.services.catalog.states import FINISHED, PROCESSABLE, IllegalTransition, TrialState
 from gaitcap.services.catalog.trials import (
     RecordingBusy,

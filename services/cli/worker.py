@@ -18,6 +18,10 @@ def register(app: typer.Typer) -> None:
         catalog: str = typer.Option("", "--catalog", envvar="GAITCAP_CATALOG",
                                     help="SQLite path or SQLAlchemy URL (default DATA_DIR/catalog.sqlite)."),
         worker_id: str = typer.Option("", "--id", help="Worker name (default host-pid)."),
+        store: Path | None = typer.Option(None, "--store", envvar="GAITCAP_STORE",
+                                          help="This host's mount of the rooms' shared store (the folder holding "
+                                               "trials/): where a recording is read when the catalog's path is not "
+                                               "on this host; checked against the checksum taken at Stop."),
         lease_s: float = typer.Option(10.0, "--lease", help="Job lease (s); renewed every third of it."),
         no_refine: bool = typer.Option(False, "--no-refine", help="Preliminary results only."),
         bus: Path | None = typer.Option(None, "--bus", envvar="GAITCAP_BUS", help="Bus file (JSON5)."),
@@ -43,7 +47,7 @@ def register(app: typer.Typer) -> None:
         with user_errors():
             cfg = WorkerConfig(catalog_url=catalog_url(data_dir, catalog), data_dir=data_dir,
                                lease_s=lease_s, refine=not no_refine, rerun=RerunSettings(image_rate_hz=rerun_images_hz),
-                               completion=completion_plan(complete_with, complete_model, complete_param,
+                               store=store, completion=completion_plan(complete_with, complete_model, complete_param,
                                                           complete_workers, only_missing=complete_only_missing), max_rss_mb=max_rss_mb,
                                **({"worker_id": worker_id} if worker_id else {}))
             session = None

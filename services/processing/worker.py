@@ -35,6 +35,7 @@ from gaitcap.services.processing.completion import CompletionSettings
 from gaitcap.services.processing.outputs import steps_of, summary_of
 from gaitcap.services.processing.pipeline import enable_compile_cache, ring_rig, warm_up
 from gaitcap.services.processing.quality import DataQuality, QualityCriteria
+from gaitcap.services.processing.store import locate_recording
 from gaitcap.services.processing.trial import (
     StageOutcome,
     TrialInput,
@@ -75,6 +76,7 @@ class WorkerConfig:
     completion: CompletionSettings | None = None
     compiled: CompiledCodeLimit = CompiledCodeLimit()
     max_rss_mb: float = 3000.0
+    store: Path | None = None  # this host's mount of the rooms' shared store (gaitcap.services.processing.store)
 
     def __post_init__(self) -> None:
         if self.max_rss_mb <= 0:
@@ -243,7 +245,9 @@ class Worker:
         elif trial.state != "processing":  # done or failed meanwhile: nothing to do
             log.info("trial %s is %s; skipping", trial_id, trial.state)
             return
-        files = trial_files(self.config.data_dir, trial_id, recording_of(trial))
+        recording = locate_recording(trial, cat.get_quality(self.db, trial_id).get("recorder", {}),
+                                     store=self.config.store)
+        files = trial_files(self.config.data_dir, trial_id, recording)
         self._report(trial_id, "reading the recording", 0.05)
         t0 = time.perf_counter()
         recorded = recording_input(files.recording, fallback_calibration=self.config.fallback_calibration,
