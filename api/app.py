@@ -27,6 +27,7 @@ from gaitcap.api import (
     routes_rig_check,
     routes_rooms,
     routes_trials,
+    routes_validation,
 )
 from gaitcap.api.security import install_security, start_backups
 from gaitcap.api.settings import Settings
@@ -117,6 +118,7 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
     app.include_router(routes_calibration_versions.router)
     app.include_router(routes_people.router)
     app.include_router(routes_report.router)
+    app.include_router(routes_validation.router)
     app.include_router(routes_patients.router)
     app.include_router(routes_rooms.router)
     app.mount("/static", StaticFiles(directory=STATIC), name="static")

@@ -37,6 +37,8 @@ ROUTE_PERMISSIONS: dict[tuple[str, str], frozenset[str]] = {
     ("GET", "/trials/{trial_id}/results.mcap"): frozenset({EXPORT}),
     ("GET", "/trials/{trial_id}/trajectory"): frozenset({EXPORT}),
     ("GET", "/trials/{trial_id}/kinematics"): frozenset({READ}),
+    ("GET", "/trials/{trial_id}/validation"): frozenset({READ}),
+    ("GET", "/trials/{trial_id}/validation/{name}"): frozenset({READ}),
     ("POST", "/trials"): frozenset({RECORD}),
     ("POST", "/trials/{trial_id}/stop"): frozenset({RECORD}),
     ("POST", "/trials/{trial_id}/patient"): frozenset({RECORD}),

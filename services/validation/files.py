@@ -19,12 +19,11 @@ from gaitcap.acquisition.references import read_reference
 from gaitcap.reconstruction.jsonable import json_ready
 from gaitcap.reconstruction.validation.align import interp_nan
 from gaitcap.services.validation.compare import ValidateConfig, validate
+from gaitcap.services.validation.names import FILES
 from gaitcap.services.validation.plots import angles_png, bland_altman_png
 from gaitcap.services.validation.report_pdf import validation_pdf
 from gaitcap.services.validation.trial_data import load_trial
 
-FILES = {"json": "validation.json", "csv": "validation.csv", "bland_altman": "bland_altman.png",
-         "angles": "angles.png", "pdf": "validation.pdf"}
 CSV_COLUMNS = ("section", "name", "side", "n", "bias", "sd", "loa_low", "loa_high", "icc", "mae", "signed_median",
                "abs_median", "missed", "extra", "rmse", "offset", "rmse_after_offset", "r", "unit")
 
