@@ -367,6 +367,7 @@ async function loadResult(trialId, stage, trialState) {
   loadSides(trialId);
   loadPeople(trialId);
   if (typeof loadKinematics === "function") loadKinematics(trialId, stage);
+  if (typeof loadValidation === "function") loadValidation(trialId);
   showPlot(withToken(`/trials/${encodeURIComponent(trialId)}/report.png?stage=${stage}`), 30);
   const names = { steps_csv: "Steps (CSV)", trajectory_csv: "3D trajectory (CSV)", trajectory_trc: "3D trajectory (TRC)",
     report_png: "Report plot (PNG)", rerun_rrd: "3D view for Rerun (.rrd)", results_mcap: "Results for Foxglove (MCAP)",
