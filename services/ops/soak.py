@@ -7,13 +7,19 @@ for each one's results (:func:`gaitcap.services.ops.auto_trial.wait_for_results`
   missing ids (s), the longest pause between two frames arriving (s);
 - reads the resident memory of every process of the stack (with its own children) after each trial
   (:func:`rss_mb`), and the disk the data folder uses (:func:`disk_bytes`);
-- checks every trial's recording is on disk (a recording is lost when its file is missing or empty).
+- checks every trial's recording is on disk (a recording is lost when its file is missing or empty), and
+  at the end that no recording is orphaned (a trial folder with a recording the catalog does not know, or
+  a trial left unfinished);
+- with a fault ``plan`` (:func:`gaitcap.services.ops.fault_schedule.fault_plan`), injects each trial's
+  fault at its moment and keeps what it did, the trial's final state and its reason (the error of a failed
+  trial, the warnings of one done with warnings) and, while the worker is stopped, the read routes' times.
 
 The result is a :class:`SoakReport` (``to_dict()``); ``bench/soak.py`` prints it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import threading
@@ -112,6 +118,10 @@ class SoakTrial:
     recording_kept: bool
     disk_growth_bytes: int
     gave_up: str = ""
+    fault: str = ""
+    fault_detail: str = ""
+    reason: str = ""
+    read_p99_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -128,10 +138,24 @@ class SoakReport:
     disk_per_trial_mb: float
     frame_period_s: float
     rss_series_mb: dict[str, list[float]] = field(default_factory=dict)
+    orphans: tuple[str, ...] = ()
+    warm_up: int = 10
 
     @property
     def all_done(self) -> bool:
         return bool(self.trials) and all(t.state in ("done", "done_with_warnings") for t in self.trials)
+
+    @property
+    def all_ended_with_reason(self) -> bool:
+        """Every trial ended done, or failed / done with warnings saying why."""
+        return bool(self.trials) and all(t.state == "done" or (t.state in ("done_with_warnings", "failed")
+                                                               and t.reason) for t in self.trials)
+
+    @property
+    def rss_slope_mb_per_trial(self) -> dict[str, float]:
+        """Per process, the least-squares slope of its resident memory after ``warm_up`` trials (MB per trial;
+        None-free: 0.0 when fewer than 2 samples are left)."""
+        return {name: slope(series[self.warm_up:]) for name, series in self.rss_series_mb.items()}
 
     @property
     def recordings_lost(self) -> int:
@@ -148,8 +172,18 @@ class SoakReport:
     def to_dict(self) -> dict:
         out = asdict(self)
         out.update(all_done=self.all_done, recordings_lost=self.recordings_lost,
-                   longest_camera_pause_s=self.longest_camera_pause_s, missing_frame_ids=self.missing_frame_ids)
+                   longest_camera_pause_s=self.longest_camera_pause_s, missing_frame_ids=self.missing_frame_ids,
+                   all_ended_with_reason=self.all_ended_with_reason, rss_slope_mb_per_trial=self.rss_slope_mb_per_trial)
         return out
+
+
+def slope(values: list[float]) -> float:
+    """Least-squares slope of ``values`` over their index (units per step); 0.0 for fewer than 2."""
+    n = len(values)
+    if n < 2:
+        return 0.0
+    mx, my = (n - 1) / 2, sum(values) / n
+    return sum((i - mx) * (v - my) for i, v in enumerate(values)) / sum((i - mx) ** 2 for i in range(n))
 
 
 def _recording_kept(stack, trial_id: str) -> bool:
@@ -173,34 +207,108 @@ def _sample_rss(stack, into: dict[str, list[float]], series: dict[str, list[floa
         series.setdefault(name, []).append(mb)
 
 
+def _orphans(stack) -> tuple[str, ...]:
+    """Recordings the catalog does not know (a trial folder's MCAP without a trial row) and trials left
+    unfinished (recording, stopping, interrupted, recovered, recorded or processing) at the end."""
+    from gaitcap.services import catalog as cat
+
+    db = cat.open_catalog(stack.cfg.catalog, create=False)
+    try:
+        trials = {t.id: t.state for t in cat.list_trials(db, limit=100_000)}
+    finally:
+        db.close()
+    folders = Path(stack.data_dir, "trials")
+    unknown = [f"{p.parent.name}: recording without a trial" for p in sorted(folders.glob("*/recording.mcap"))
+               if p.parent.name not in trials]
+    open_ = [f"{tid}: left {state}" for tid, state in trials.items()
+             if state not in ("done", "done_with_warnings", "failed")]
+    return tuple(unknown + open_)
+
+
+def _reason(trial: dict) -> str:
+    """Why the trial ended as it did: a failed one's error first, then its warnings."""
+    return "; ".join(filter(None, [trial.get("error") or "", *(trial.get("warnings") or [])]))
+
+
+def _p99(times: list[float]) -> float | None:
+    if not times:
+        return None
+    ordered = sorted(times)
+    return ordered[min(len(ordered) - 1, int(0.99 * len(ordered)))]
+
+
+def _one_trial(stack, ctx, fault, outcome, *, subject_id: str, trial_s: float, stall_s: float):
+    """Start, record ``trial_s`` (with the fault at its moment), Stop, wait: (trial id, trial, prelim, refined,
+    why the wait gave up)."""
+    from gaitcap.services.ops.auto_trial import WaitLimits, start_when_ready, wait_for_results
+    from gaitcap.services.ops.fault_schedule import Moment
+
+    def at(moment):
+        if fault is not None and fault.moment is moment:
+            outcome.at_s = round(time.monotonic() - t0, 2)
+            fault.act(ctx, outcome)
+
+    t0 = time.monotonic()
+    with contextlib.ExitStack() as clients:
+        ctx.client = clients.enter_context(stack.client())
+        at(Moment.BEFORE_START)
+        if fault is not None and fault.undo is not None:
+            fault.undo(ctx)  # the fault was answered before Start; the trial itself goes ahead
+        ctx.trial_id = trial_id = start_when_ready(ctx.client, {"subject_id": subject_id}, ready_timeout_s=120)
+        t0 = time.monotonic()
+        time.sleep(trial_s / 2)
+        at(Moment.RECORDING)
+        ctx.client = clients.enter_context(stack.client())  # signed in again (the API may have restarted)
+        time.sleep(max(0.0, t0 + trial_s - time.monotonic()))
+        if ctx.trial()["state"] == "recording":  # a killed recorder's trial is already interrupted
+            r = ctx.client.post(f"/trials/{trial_id}/stop")
+            if r.status_code == 503:  # no recorder answered: the trial is interrupted and its recording recovered
+                log.warning("stop of %s: %s", trial_id, r.json().get("detail", "")[:300])
+            elif r.status_code != 200:
+                raise RuntimeError(f"stop of {trial_id} failed ({r.status_code}): {r.text[:300]}")
+        stopped = time.monotonic()
+        at(Moment.PROCESSING)
+        trial, prelim, refined, why = wait_for_results(ctx.client, trial_id, limits=WaitLimits(stall_s=stall_s),
+                                                       stopped_at=stopped)
+    return trial_id, trial, prelim, refined, why
+
+
 def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0, stall_s: float = 600.0,
-             subject_id: str = "SOAK001") -> SoakReport:
+             subject_id: str = "SOAK001", plan: dict[int, str] | None = None, stop_s: float = 60.0,
+             warm_up: int = 10) -> SoakReport:
     """Record ``trials`` walks of ``trial_s`` on the running ``stack``, one starting every ``every_s`` (or
-    as soon as the previous one's results are in, when later), and report what happened."""
-    from gaitcap.services.ops.auto_trial import WaitLimits, record, wait_for_results
+    as soon as the previous one's results are in, when later), with the faults of ``plan`` (trial index ->
+    fault name, :data:`gaitcap.services.ops.fault_schedule.FAULTS`; ``stop_s``: the worker's SIGSTOP), and
+    report what happened; memory slopes leave out the first ``warm_up`` trials."""
+    from gaitcap.services.ops.fault_schedule import FAULTS, FaultContext, FaultOutcome
 
     if trials < 1 or every_s <= 0 or trial_s <= 0:
         raise ValueError(f"soak: need trials >= 1, every_s > 0, trial_s > 0; got {trials}, {every_s}, {trial_s}")
+    plan = plan or {}
     gaps, rss, series, done = FrameGaps(), {}, {}, []
     session = stack.bus_session()
     sub = session.declare_subscriber(stack.bus.keys.image(), gaps)
     restarts0 = {n: stack.supervisor.restarts(n) for n in stack.supervisor.children}
+    ctx = FaultContext(stack, stop_s=stop_s)
     t0 = time.monotonic()
     try:
         _sample_rss(stack, rss, series)
         disk = disk_bytes(stack.data_dir)
-        with stack.client() as c:
-            for k in range(trials):
-                time.sleep(max(0.0, t0 + k * every_s - time.monotonic()))
-                trial_id, *_ = record(c, subject_id=subject_id, seconds=trial_s)
-                trial, prelim, refined, why = wait_for_results(c, trial_id, limits=WaitLimits(stall_s=stall_s))
-                now_disk = disk_bytes(stack.data_dir)
-                done.append(SoakTrial(trial_id, trial["state"], prelim, refined, _recording_kept(stack, trial_id),
-                                      now_disk - disk, why))
-                disk = now_disk
-                _sample_rss(stack, rss, series)
-                log.info("soak trial %d/%d %s: %s, preliminary %s s, refined %s s", k + 1, trials, trial_id,
-                         trial["state"], prelim, refined)
+        for k in range(trials):
+            time.sleep(max(0.0, t0 + k * every_s - time.monotonic()))
+            fault = FAULTS[plan[k]] if k in plan else None
+            outcome = FaultOutcome(fault.name) if fault else None
+            trial_id, trial, prelim, refined, why = _one_trial(stack, ctx, fault, outcome, subject_id=subject_id,
+                                                               trial_s=trial_s, stall_s=stall_s)
+            now_disk = disk_bytes(stack.data_dir)
+            done.append(SoakTrial(trial_id, trial["state"], prelim, refined, _recording_kept(stack, trial_id),
+                                  now_disk - disk, why, fault=outcome.fault if outcome else "",
+                                  fault_detail=outcome.detail if outcome else "", reason=_reason(trial),
+                                  read_p99_s=_p99(outcome.read_times_s) if outcome else None))
+            disk = now_disk
+            _sample_rss(stack, rss, series)
+            log.info("soak trial %d/%d %s%s: %s, preliminary %s s, refined %s s", k + 1, trials, trial_id,
+                     f" ({outcome.fault}: {outcome.detail})" if outcome else "", trial["state"], prelim, refined)
     finally:
         sub.undeclare()
         session.close()
@@ -208,4 +316,5 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
     return SoakReport(minutes=(time.monotonic() - t0) / 60, trials=tuple(done), cameras=gaps.snapshot(), rss_mb=rss,
                       restarts={n: stack.supervisor.restarts(n) - restarts0[n] for n in restarts0},
                       disk_per_trial_mb=growth[len(growth) // 2] / 1e6 if growth else 0.0,
-                      frame_period_s=1.0 / stack.cfg.fps, rss_series_mb=series)
+                      frame_period_s=1.0 / stack.cfg.fps, rss_series_mb=series, orphans=_orphans(stack),
+                      warm_up=warm_up)
