@@ -94,6 +94,7 @@ function drawKinematics(k) {
   if (!n.no_reference) for (const [name, why] of Object.entries(n.missing || {})) if (k.curves[name]) notes.push(`${KIN_LABELS[name] || name}: no band (${why}).`);
   for (const [name, why] of Object.entries(n.not_drawn || {})) if (k.curves[name]) notes.push(`${KIN_LABELS[name] || name}: ${why}.`);
   for (const [name, why] of Object.entries(k.not_measured || {})) notes.push(`${KIN_LABELS[name] || name}: not measured (${why}).`);
+  for (const w of k.warnings || []) notes.push(`Warning: ${w}.`);
   $("#kinematics-notes").innerHTML = notes.map((t) => `<li>${esc(t)}</li>`).join("");
   const kv = k.key_values || {}, keys = Object.keys(kv.left || {}).filter((name) => ["left", "right"].some((s) => ((kv[s] || {})[name] || {}).n));
   const norms = k.key_value_norms || {};

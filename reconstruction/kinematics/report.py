@@ -25,7 +25,8 @@ def _list(a: np.ndarray) -> list[float | None]:
 @dataclass(frozen=True, eq=False)
 class KinematicsReport:
     """curves: variable -> side -> CycleCurves; key_values: side -> name -> stats; norms: variable ->
-    NormBand; marker_errors_mm: marker -> {"rms", "max"}; model: facts about the fit (engine, seconds...)."""
+    NormBand; marker_errors_mm: marker -> {"rms", "max"}; model: facts about the fit (engine, seconds...);
+    warnings: what the fit could not do (a model coordinate resting on a bound of its range, ``bounds``)."""
 
     curves: dict[str, dict[str, CycleCurves]]
     key_values: dict[str, dict[str, dict]]
@@ -33,6 +34,7 @@ class KinematicsReport:
     marker_errors_mm: dict[str, dict[str, float]] = field(default_factory=dict)
     model: dict = field(default_factory=dict)
     not_measured: dict[str, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         curves = {var: {side: {"n_cycles": cc.n, "mean_deg": _list(cc.mean), "sd_deg": _list(cc.sd)}
@@ -43,6 +45,7 @@ class KinematicsReport:
             "norms": {"source": SOURCE if self.norms else None,
                       "bands": {k: v.to_dict() for k, v in self.norms.items()}},
             "marker_errors_mm": self.marker_errors_mm, "model": self.model, "not_measured": self.not_measured,
+            "warnings": list(self.warnings),
         }
 
 
@@ -82,13 +85,15 @@ def with_zero_offsets(angles: dict[str, dict[str, np.ndarray]], offsets_deg: dic
 def kinematics_report(coordinates_deg: dict[str, np.ndarray], times_s: np.ndarray, steps, *,
                       norms: dict[str, NormBand] | None = None, marker_errors_mm=None,
                       model: dict | None = None, held: dict[str, str] | None = None,
-                      zero_offsets_deg: dict[str, dict[str, float]] | None = None) -> KinematicsReport:
+                      zero_offsets_deg: dict[str, dict[str, float]] | None = None,
+                      warnings: list[str] | None = None) -> KinematicsReport:
     """Curves and key values from the model's coordinates (name -> (T,) degrees) and the gait report's
     steps (objects with foot, heel_strike_s, toe_off_s, pass_index). ``held``: coordinates the fit held
     rather than measured (-> why): the variables read from them get no curve and no key value, and
     ``not_measured`` says why. ``zero_offsets_deg``: variable -> side -> degrees added to the model's angle
     (the model's zero pose measured in the norm sources' joint-centre definitions, ``geometric``), so that
-    a straight leg is 0 whatever the model calls 0; NaN or absent: the model's angle as it is."""
+    a straight leg is 0 whatever the model calls 0; NaN or absent: the model's angle as it is. ``warnings``:
+    sentences about the fit, kept as they are."""
     cycles = cycles_from_steps(steps)
     angles = with_zero_offsets(clinical_angles(coordinates_deg, times_s), zero_offsets_deg or {})
     not_measured = {var: (held or {})[coord] for var, v in VARIABLES.items() if var in angles
@@ -97,4 +102,4 @@ def kinematics_report(coordinates_deg: dict[str, np.ndarray], times_s: np.ndarra
               for var, vals in angles.items() if var not in not_measured}
     keys = {side: key_values({var: curves[var][side] for var in curves}) for side in SIDES}
     return KinematicsReport(curves, keys, dict(norms or {}), dict(marker_errors_mm or {}), dict(model or {}),
-                            not_measured)
+                            not_measured, list(warnings or []))

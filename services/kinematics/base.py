@@ -23,7 +23,8 @@ class ModelFit:
     fit rather than measured from the markers (its values are the fit's prior, not the patient's);
     zero_offsets_deg: clinical variable -> side -> degrees the fitted model's markers read in its zero pose,
     measured like the keypoints (``geometric.model_zero_offsets``; add it to the model's angle for the
-    joint-centre definitions of the norm sources)."""
+    joint-centre definitions of the norm sources); bounds: the coordinates that rested on a bound of their
+    range (``reconstruction.kinematics.bounds.BoundHit``), each a warning."""
 
     times_s: np.ndarray
     coordinates_deg: dict[str, np.ndarray]
@@ -33,6 +34,7 @@ class ModelFit:
     seconds: dict[str, float] = field(default_factory=dict)
     held: dict[str, str] = field(default_factory=dict)
     zero_offsets_deg: dict[str, dict[str, float]] = field(default_factory=dict)
+    bounds: tuple = ()
 
 
 @dataclass(frozen=True)

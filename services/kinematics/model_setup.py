@@ -1,5 +1,5 @@
-"""The model as the keypoints see it: the marker set with the hip markers on the hip joint centres, and the
-pelvis scaled in width by the hips' distance and otherwise by the patient's overall size."""
+"""The model as the keypoints see it: the marker set with the hip and ankle markers on their joint centres,
+and the pelvis scaled in width by the hips' distance and otherwise by the patient's overall size."""
 
 from __future__ import annotations
 
@@ -11,8 +11,10 @@ import numpy as np
 # are hip joint centres (the synthetic walker's thighs turn about them; a detector's hip estimates the
 # joint), not the skin points below and beside them where the Pose2Sim marker sets put them (15 mm lower,
 # 7 mm forward, 20 mm lateral): there, tilting the pelvis moved the hip markers against the thighs and the fit used the pelvis's
-# tilt to absorb the difference.
-JOINT_CENTRE_MARKERS = {"LHip": ("hip_l",), "RHip": ("hip_r",), "Hip": ("hip_l", "hip_r"), "CHip": ("hip_l", "hip_r")}
+# tilt to absorb the difference. The ankle keypoint is the ankle joint centre too (between the malleoli; the
+# foot's markers are placed around it in the keypoints' foot shape, ``foot_markers``).
+JOINT_CENTRE_MARKERS = {"LHip": ("hip_l",), "RHip": ("hip_r",), "Hip": ("hip_l", "hip_r"), "CHip": ("hip_l", "hip_r"),
+                        "LAnkle": ("ankle_l",), "RAnkle": ("ankle_r",)}
 
 
 def markers_at_joint_centres(osim, model) -> None:

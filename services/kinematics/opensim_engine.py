@@ -5,12 +5,13 @@ Scaling: for every measurement of the layout's scaling setup (e.g. thigh = hip-k
 ratio of the median distance between the two keypoints over the trial's frames (robust to outlier frames,
 and valid on walking frames, which averaging marker positions like OpenSim's ScaleTool is not) to the
 same distance on the unscaled model; the ratio scales the measurement's bodies on its axes (the pelvis:
-its width only, ``model_setup``). The hip markers sit on the hip joint centres (``model_setup``). Marker
-placement: the ankle markers are moved on the tibias to where the ankle keypoints are in a first fit of
-some frames without them. Inverse kinematics: OpenSim's InverseKinematicsSolver with the setup's marker
+its width only, ``model_setup``). The hip and ankle markers sit on the hip and ankle joint centres
+(``model_setup``); the heel and toe markers are placed on the calcanei in the shape of the keypoints' feet
+(``foot_markers``). Inverse kinematics: OpenSim's InverseKinematicsSolver with the setup's marker
 weights times the reconstruction's confidence in each marker, and the coordinate priors of ``PRIORS``
-(pelvis tilt held near neutral; the lumbar joint free); frames without both hips, knees and ankles are not
-fitted (NaN).
+(pelvis tilt held near neutral; the lumbar joint free; the toes held at 0 and the subtalar joints near 0);
+frames without both hips, knees and ankles are not fitted (NaN). A coordinate that rests on the bound of
+its range is named in the fit's warnings (``bounds``).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 from gaitcap.acquisition.fileio import atomic_path, atomic_write_text
+from gaitcap.reconstruction.kinematics.bounds import bound_hits
 from gaitcap.reconstruction.kinematics.frames import opensim_to_room, room_to_opensim
 from gaitcap.reconstruction.kinematics.geometric import model_zero_offsets
 from gaitcap.reconstruction.kinematics.mot import to_mot
@@ -31,14 +33,16 @@ from gaitcap.reconstruction.kinematics.outliers import OUTLIER_MM, gross_outlier
 from gaitcap.reconstruction.trc import to_trc
 from gaitcap.services.kinematics.base import FitRequest, KinematicsUnavailable, ModelFit
 from gaitcap.services.kinematics.files import MODEL_FILE, setup_dir, setup_files
+from gaitcap.services.kinematics.foot_markers import place_foot_markers
 from gaitcap.services.kinematics.model_setup import model_with_markers, pelvis_width_only
 
 log = logging.getLogger(__name__)
 LEG_MARKERS = ("LHip", "RHip", "LKnee", "RKnee", "LAnkle", "RAnkle")
-# markers whose place on their body differs between keypoint layouts and people: the ankle keypoint lies
-# between the malleoli, at a height above the ankle joint that is not the model's (docs/kinematics.md)
-PLACED_MARKERS = ("LAnkle", "RAnkle")
-PLACEMENT_FRAMES = 60
+# the subtalar joint held near 0 by a weak prior: with the knee straight in stance, turning the hip and turning
+# the subtalar joint both point the foot, and without the prior the fit drifted along that valley to the
+# joint's -20 deg bound (real walks, docs/kinematics.md); 0.01 per squared radian: 10 deg cost as much as a
+# marker 17 mm off
+SUBTALAR_WEIGHT = 0.01
 IK_ACCURACY = 1e-3  # 1e-4 is 4x slower on noisy markers for the same angles (bench/kinematics.py)
 
 
@@ -119,18 +123,26 @@ def _coordinate_tasks(ik_xml: Path) -> list[tuple[str, float, str, float]]:
 class CoordinatePrior:
     """An IK coordinate task added to the setup's: ``coordinate`` held near ``target_deg`` (degrees) with
     ``weight`` (the setup's weights' scale: marker weights times squared metres, coordinates times squared
-    radians)."""
+    radians); ``held``: why the prior, not the keypoints, sets the coordinate (empty for a weak prior that
+    only keeps it from drifting where the keypoints leave it free)."""
 
     coordinate: str
     weight: float
     target_deg: float
+    held: str = "the keypoints do not determine it"
 
 
 # The keypoints do not determine the pelvis's tilt: its markers (both hip joint centres and their midpoint)
 # lie on one line, and rotating the pelvis about it moves no leg marker. Held near the model's neutral
 # (0 deg: the anatomical standing posture); the trunk's lean goes to the lumbar joint instead of tilting the
 # pelvis (which moved hip flexion by the trunk's lean, 8 deg on the synthetic walker; docs/kinematics.md).
-PRIORS = (CoordinatePrior("pelvis_tilt", 1.0, 0.0), CoordinatePrior("L5_S1_Flex_Ext", 0.0, 0.0))
+# The toes' joint carries no marker once the foot markers are placed on the calcaneus (``foot_markers``):
+# held at 0, the foot one rigid segment as the keypoints see it.
+_TOES = "no marker on the toes: the keypoints' foot is one rigid segment"
+PRIORS = (CoordinatePrior("pelvis_tilt", 1.0, 0.0), CoordinatePrior("L5_S1_Flex_Ext", 0.0, 0.0),
+          CoordinatePrior("mtp_angle_l", 1.0, 0.0, _TOES), CoordinatePrior("mtp_angle_r", 1.0, 0.0, _TOES),
+          CoordinatePrior("subtalar_angle_l", SUBTALAR_WEIGHT, 0.0, ""),
+          CoordinatePrior("subtalar_angle_r", SUBTALAR_WEIGHT, 0.0, ""))
 
 
 @dataclass(frozen=True, eq=False)
@@ -258,19 +270,35 @@ class OpenSimEngine:
         times = np.round(np.asarray(req.times_s, dtype=np.float64), 6)
         atomic_write_text(paths["trc"], to_trc(pts, times, req.marker_names, filename=paths["trc"].name, units="m"))
         t0 = time.perf_counter()
-        factors = self._scale(files, room_to_opensim(pts) / 1000.0, req, paths["osim"])
-        placed = self._place(files, paths, req, times, pts)
-        log.info("markers placed on their bodies (m): %s", placed)
+        factors, feet = self._scale(files, pts, req, paths["osim"])
+        log.info("foot markers placed in the keypoints' foot shape (m, calcaneus): %s", feet)
         zero = self.zero_offsets_deg(paths["osim"])
         log.info("the fitted model's zero pose, measured like the keypoints (deg): %s", zero)
         t1 = time.perf_counter()
         coords, errors = self._ik(files, paths, req, times, pts)
         t2 = time.perf_counter()
         atomic_write_text(paths["mot"], to_mot(times, coords, name=req.stem))
-        held = {p.coordinate: f"held near {p.target_deg:g} deg by the fit: the keypoints do not determine it"
-                for p in PRIORS if p.weight > 0 and p.coordinate in coords}
+        held = {p.coordinate: f"held near {p.target_deg:g} deg by the fit: {p.held}"
+                for p in PRIORS if p.weight > 0 and p.held and p.coordinate in coords}
+        hits = tuple(bound_hits(coords, self.coordinate_ranges(paths["osim"])))
+        for hit in hits:
+            log.warning("kinematics: %s", hit.message())
         return ModelFit(times, coords, errors, paths, {b: f[0] for b, f in factors.items()},
-                        {"scale": round(t1 - t0, 3), "ik": round(t2 - t1, 3)}, held, zero)
+                        {"scale": round(t1 - t0, 3), "ik": round(t2 - t1, 3)}, held, zero, hits)
+
+    def coordinate_ranges(self, osim_path: Path) -> dict[str, tuple[float, float, bool]]:
+        """coordinate -> (lower, upper, rotational) of a model file's clamped coordinates (degrees for
+        rotations, m for translations)."""
+        model = self.osim.Model(str(osim_path))  # kept: the set belongs to it
+        cs = model.getCoordinateSet()
+        out = {}
+        for i in range(cs.getSize()):
+            c = cs.get(i)
+            if c.get_clamped():
+                rot = c.getMotionType() == 1
+                lo, hi = (math.degrees(v) if rot else v for v in (c.getRangeMin(), c.getRangeMax()))
+                out[c.getName()] = (lo, hi, rot)
+        return out
 
     @staticmethod
     def _without_outliers(pts: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
@@ -283,8 +311,11 @@ class OpenSimEngine:
                         names[m], int(bad[:, m].sum()), OUTLIER_MM)
         return np.where(bad[..., None], np.nan, pts)
 
-    def _scale(self, files, markers_m, req: FitRequest, out_path: Path) -> dict:
+    def _scale(self, files, pts: np.ndarray, req: FitRequest, out_path: Path) -> tuple[dict, dict]:
+        """Scale the model to the keypoints and place its foot markers in their foot's shape
+        (``foot_markers``); write it to ``out_path``. Returns (body -> factors, foot marker -> location)."""
         osim = self.osim
+        markers_m = room_to_opensim(pts) / 1000.0
         model = model_with_markers(osim, files)
         state = model.initSystem()
         ms = model.getMarkerSet()
@@ -304,11 +335,12 @@ class OpenSimEngine:
             s.setApply(True)
             scale_set.cloneAndAppend(s)
         model.scale(state, scale_set, True, float(req.mass_kg))
+        feet = place_foot_markers(osim, model, pts, req.marker_names)
         model.setName(req.stem)
         out_path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(out_path) as tmp:
             model.printToXML(str(tmp))
-        return factors
+        return factors, feet
 
     def _ik_inputs(self, files, req: FitRequest, pts: np.ndarray) -> tuple[dict[str, float], np.ndarray]:
         """(marker -> IK weight, the frames with both hips, knees and ankles)."""
@@ -321,42 +353,6 @@ class OpenSimEngine:
         if not ok.any():
             raise ValueError("inverse kinematics: no frame has both hips, knees and ankles")
         return weights, np.nonzero(ok)[0]
-
-    def _place(self, files, paths, req: FitRequest, times: np.ndarray, pts: np.ndarray) -> dict[str, list[float]]:
-        """Marker placement: each marker of :data:`PLACED_MARKERS` moved on its body to where its keypoint
-        is, the median over up to ``PLACEMENT_FRAMES`` frames spread over the trial, fitted without those
-        markers. Rewrites the scaled model; returns marker -> its new location (m, body frame)."""
-        weights, frames = self._ik_inputs(files, req, pts)
-        placed = [m for m in PLACED_MARKERS if m in weights]
-        if not placed:
-            return {}
-        frames = frames[np.unique(np.linspace(0, len(frames) - 1, min(PLACEMENT_FRAMES, len(frames))).astype(int))]
-        job = IKJob(str(paths["osim"]), str(paths["trc"]), str(files["ik"]),
-                    {m: w for m, w in weights.items() if m not in placed}, times, pts[frames], frames,
-                    req.marker_names)
-        observed = room_to_opensim(pts[frames]) / 1000.0
-        col = {m: req.marker_names.index(m) for m in placed}
-        found: dict[str, list[np.ndarray]] = {m: [] for m in placed}
-
-        def on_frame(model, state, k):
-            model.realizePosition(state)
-            for m in placed:
-                p = observed[k, col[m]]
-                if np.all(np.isfinite(p)):
-                    body = model.getMarkerSet().get(m).getParentFrame()
-                    found[m].append(model.getGround().findStationLocationInAnotherFrame(
-                        state, self.osim.Vec3(*p), body).to_numpy())
-
-        solve_ik(job, on_frame)
-        model = self.osim.Model(str(paths["osim"]))
-        out = {}
-        for m, locations in found.items():
-            if len(locations) >= 3:
-                out[m] = np.median(locations, axis=0)
-                model.getMarkerSet().get(m).set_location(self.osim.Vec3(*out[m]))
-        with atomic_path(paths["osim"]) as tmp:
-            model.printToXML(str(tmp))
-        return {m: [round(float(v), 4) for v in loc] for m, loc in out.items()}
 
     def _ik(self, files, paths, req: FitRequest, times: np.ndarray, pts: np.ndarray):
         weights, frames = self._ik_inputs(files, req, pts)

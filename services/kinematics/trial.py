@@ -91,10 +91,11 @@ def trial_kinematics(points_mm: np.ndarray, times_s: np.ndarray, joint_names, *,
              "knee_angle_r" in fit.coordinates_deg else 0, "frames": int(len(fit.times_s)),
              "seconds": {**fit.seconds, "total": round(time.perf_counter() - t0, 3)},
              "angle_zero_offsets_deg": {v: {s: round(d, 2) for s, d in by.items() if np.isfinite(d)}
-                                        for v, by in fit.zero_offsets_deg.items()}}
+                                        for v, by in fit.zero_offsets_deg.items()},
+             "coordinates_at_bounds": [h.to_dict() for h in fit.bounds]}
     report = kinematics_report(fit.coordinates_deg, fit.times_s, steps, norms=norms_for_age(age_years).bands,
                                marker_errors_mm=fit.marker_errors_mm, model=model, held=fit.held,
-                               zero_offsets_deg=fit.zero_offsets_deg)
+                               zero_offsets_deg=fit.zero_offsets_deg, warnings=[h.message() for h in fit.bounds])
     shown = with_norms({"available": True, **report.to_dict()}, age_years)  # the API re-chooses on reading
     atomic_write_text(out_dir / FILES["json"], json.dumps(shown) + "\n")
     atomic_write_text(out_dir / FILES["csv"], curves_csv(shown))

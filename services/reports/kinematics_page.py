@@ -87,7 +87,7 @@ def _notes(k: dict) -> list[str]:
         no_ref = norms["no_reference"]
         return [f"No normal band: {no_ref[0].upper()}{no_ref[1:]}."] + [
             f"{name.replace('_', ' ').capitalize()}: not measured ({why})." for name, why in
-            (k.get("not_measured") or {}).items()]
+            (k.get("not_measured") or {}).items()] + [f"Warning: {w}." for w in k.get("warnings") or []]
     out = [f"Grey band: normal mean +- 1 SD for {norms.get('population')}. Source: {norms['source']}."
            if norms.get("source") else "No normal band: no normative data is installed."]
     missing = {name: why for name, why in (norms.get("missing") or {}).items() if name in (k.get("curves") or {})}
@@ -99,7 +99,7 @@ def _notes(k: dict) -> list[str]:
             out.append(f"{name.replace('_', ' ').capitalize()}: {why}.")
     out += [f"{name.replace('_', ' ').capitalize()}: not measured ({why})." for name, why in
             (k.get("not_measured") or {}).items()]
-    return out
+    return out + [f"Warning: {w}." for w in k.get("warnings") or []]
 
 
 def gait_profile_line(k: dict) -> str:

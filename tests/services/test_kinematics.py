@@ -54,39 +54,42 @@ def test_ik_matches_the_walkers_true_angles(engine, fitted):
         for side in ("left", "right"):
             err = ik[var][side] - truth[var][side]
             errors[var, side] = float(np.sqrt(np.mean(err**2)))
-    # measured on these 8 s (the walker standing upright, its knee to 64 deg in swing): hip flexion 1.5 / 1.3,
-    # knee 1.4 / 1.7 (the largest errors in swing, -4 deg at 30-60 deg of flexion), ankle 3.4 / 3.0 (bias
-    # -2.5 / -2.0: the walker's foot is not the model's, its heel lower and its ankle further forward),
-    # hip adduction 1.5 / 1.1. Before the walker stood upright (knee to 54 deg in swing, the model's
-    # unscaled zero pose subtracted from the truth): knee 1.2 / 1.1, ankle 2.2 / 2.2.
-    limits = {"hip_flexion": 2.5, "knee_flexion": 2.0, "ankle_dorsiflexion": 4.0, "hip_adduction": 2.5}
+    # measured on these 8 s (the walker standing upright, its knee to 64 deg in swing; the ankle markers on the
+    # joint centres and the foot markers in the walker's foot shape): hip flexion 1.4 / 1.1, knee 1.0 / 1.2,
+    # ankle 1.3 / 1.4, hip adduction 2.1 / 1.3 (left / right). With Pose2Sim's foot markers (the walker's
+    # heel lower and its ankle further forward than the model's) knee 1.4 / 1.7 and ankle 3.4 / 3.0 had
+    # needed limits of 2.0 and 4.0; these are the limits the suite had before.
+    limits = {"hip_flexion": 2.5, "knee_flexion": 1.5, "ankle_dorsiflexion": 3.0, "hip_adduction": 2.5}
     for (var, side), rmse in errors.items():
         assert rmse < limits[var], (var, side, rmse)
     # the walker's pelvis is upright: the keypoints do not tilt the model's (measured mean 1.2 deg)
     assert abs(np.nanmean(ik["pelvis_tilt"]["left"])) < 2.5
 
 
-def test_scaled_model_has_hip_markers_on_the_joint_centres_and_placed_ankles(engine, fitted):
-    """The fitted model's hip markers are its hip joint centres (the keypoints' hips), and the ankle markers
-    were moved on the tibias from the Pose2Sim marker set's places to the walker's ankles."""
-    import xml.etree.ElementTree as ET
-
-    from gaitcap.services.kinematics.files import setup_files
-
+def test_scaled_model_has_hip_and_ankle_markers_on_the_joint_centres_and_feet_in_the_keypoints_shape(engine, fitted):
+    """The fitted model's hip and ankle markers are its hip and ankle joint centres (the keypoints' hips and
+    ankles), and its heel and toe markers sit on the calcanei where the walker's foot puts them: in the
+    zero pose the foot line is at right angles to the shank, so the model's zero reads about 0 deg of
+    ankle dorsiflexion measured like the keypoints (it read -7 deg with Pose2Sim's foot markers)."""
     out = fitted[-1]
     model = opensim.Model(str(out / "kinematics.osim"))
     model.initSystem()
     markers, joints = model.getMarkerSet(), model.getJointSet()
-    for marker, joint in (("LHip", "hip_l"), ("RHip", "hip_r")):
+    for marker, joint in (("LHip", "hip_l"), ("RHip", "hip_r"), ("LAnkle", "ankle_l"), ("RAnkle", "ankle_r")):
         centre = opensim.PhysicalOffsetFrame.safeDownCast(joints.get(joint).getParentFrame()).get_translation()
         assert np.allclose(markers.get(marker).get_location().to_numpy(), centre.to_numpy(), atol=1e-6), marker
-    given = {m.get("name"): np.array(m.findtext("location").split(), dtype=float)
-             for m in ET.parse(setup_files("Halpe26")["markers"]).getroot().iter("Marker")}
-    scale = json.loads((out / "kinematics.json").read_text())["model"]["scale_factors"]
-    for marker, tibia in (("LAnkle", "tibia_l"), ("RAnkle", "tibia_r")):
-        scaled_only = given[marker] * scale[tibia]
-        moved = np.linalg.norm(markers.get(marker).get_location().to_numpy() - scaled_only)
-        assert 0.002 < moved < 0.05, (marker, moved)  # metres: moved, but stays at the ankle
+    for side in "LR":
+        for part in ("Heel", "BigToe", "SmallToe"):
+            assert markers.get(side + part).getParentFrameName().endswith(f"calcn_{side.lower()}"), side + part
+    d = json.loads((out / "kinematics.json").read_text())
+    for side in ("left", "right"):
+        assert abs(d["model"]["angle_zero_offsets_deg"]["ankle_dorsiflexion"][side]) < 1.5, side
+    # only the knees rest on a bound, their lower (0: the model's knee does not hyperextend) while the walker
+    # stands with a straight leg; each is a warning
+    hits = d["model"]["coordinates_at_bounds"]
+    assert {(h["coordinate"], h["bound"]) for h in hits} <= {("knee_angle_l", "lower"), ("knee_angle_r", "lower")}, hits
+    assert len(d["warnings"]) == len(hits) and all("rests on its lower bound (0 deg)" in w for w in d["warnings"])
+
 
 def test_report_files_and_exports(fitted):
     import ezc3d

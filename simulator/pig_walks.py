@@ -1,0 +1,135 @@
+"""Real Plug-in-Gait walks (C3D: markers, events, the lab's Plug-in-Gait joint angles) as the rig sees them.
+
+The walks of ``../shared/data/c3d/`` (see its README) are read with ezc3d and turned into a
+:class:`~gaitcap.simulator.mocap.MocapWalk` whose Halpe-26 joints are the keypoints a detector would give:
+- hips, knees, ankles: Plug-in-Gait's joint centres (``LFEP`` hip, ``LFEO`` knee, ``LTIO`` ankle: the
+  femur's proximal end and origin, the tibia's origin), as a detector's hip, knee and ankle estimate the
+  joints, not skin markers;
+- heel and big toe: the ``LHEE`` and ``LTOE`` markers (``LTOE`` lies on the second metatarsal head, about
+  50 mm behind a detector's big-toe tip: see docs/kinematics.md);
+- small toe: beside the big toe, :data:`SMALL_TOE_LATERAL_MM` lateral and :data:`SMALL_TOE_BACK_MM` back
+  along the foot, in Plug-in-Gait's own foot frame (``LFOO``/``LFOL``): it turns with the foot, as a
+  detector's small toe does;
+- shoulders: ``LSHO``/``RSHO`` where the walk has them; the rest of the upper body as ``mocap`` places it.
+Markers are resampled (linearly) to :data:`RATE_HZ` so that the rig's 30 fps divides the rate; the angles
+stay on the file's own clock. Event times are the EVENT group's minus the trial's start
+((ACTUAL_START_FIELD - 1) / rate).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from gaitcap.simulator.mocap import SIDES, MocapWalk, _screen, _to_room
+
+RATE_HZ = 120.0
+SMALL_TOE_LATERAL_MM = 35.0
+SMALL_TOE_BACK_MM = 20.0
+# Plug-in-Gait output -> the walk's marker (per side letter L / R)
+JOINT_CENTRES = {"hip": "FEP", "knee": "FEO", "ankle": "TIO", "heel": "HEE", "toe": "TOE"}
+ANGLES = {"hip_flexion": "HipAngles", "knee_flexion": "KneeAngles", "ankle_dorsiflexion": "AnkleAngles"}
+
+
+@dataclass(frozen=True, eq=False)
+class PigWalk:
+    """A real walk and its laboratory's Plug-in-Gait angles.
+
+    Attributes:
+        walk: the walk (room frame, mm, :data:`RATE_HZ`), with the screened Foot Strike / Foot Off events.
+        angle_times_s: (N,) the file's own frame times (s, from the first frame).
+        angles_deg: variable (``hip_flexion``, ``knee_flexion``, ``ankle_dorsiflexion``) -> side -> (N,)
+            degrees, Plug-in-Gait's (flexion and dorsiflexion positive).
+        file: the C3D's name.
+    """
+
+    walk: MocapWalk
+    angle_times_s: np.ndarray
+    angles_deg: dict[str, dict[str, np.ndarray]]
+    file: str
+
+    def angles_at(self, times_s: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+        """The angles interpolated at ``times_s`` (s, the walk's clock; NaN outside the file)."""
+        return {v: {s: np.interp(times_s, self.angle_times_s, a, left=np.nan, right=np.nan) for s, a in by.items()}
+                for v, by in self.angles_deg.items()}
+
+
+def _point(c3d, labels: list[str], name: str) -> np.ndarray:
+    """(T, 3) of a point label (its residual < 0 -> NaN); KeyError naming a missing label."""
+    for label in (name, f"{name}V"):  # some labs suffix the model's outputs with V
+        if label in labels:
+            i = labels.index(label)
+            p = np.asarray(c3d["data"]["points"][:3, i].T, dtype=np.float64).copy()
+            p[c3d["data"]["meta_points"]["residuals"][0, i] < 0] = np.nan
+            return p
+    raise KeyError(f"C3D: no point {name!r}")
+
+
+def _small_toe(c3d, labels: list[str], letter: str, toe: np.ndarray) -> np.ndarray:
+    """The small toe beside ``toe`` in Plug-in-Gait's foot frame (its L axis points to the body's left on
+    both feet)."""
+    origin = _point(c3d, labels, f"{letter}FOO")
+    left = _point(c3d, labels, f"{letter}FOL") - origin
+    ahead = _point(c3d, labels, f"{letter}FOA") - origin  # Plug-in-Gait's foot A axis: up from the sole
+    left /= np.linalg.norm(left, axis=1, keepdims=True)
+    ahead /= np.linalg.norm(ahead, axis=1, keepdims=True)
+    forward = np.cross(left, ahead)
+    forward /= np.linalg.norm(forward, axis=1, keepdims=True)
+    lateral = left if letter == "L" else -left
+    return toe + SMALL_TOE_LATERAL_MM * lateral - SMALL_TOE_BACK_MM * forward
+
+
+def _resample(times_s: np.ndarray, p: np.ndarray, new_times_s: np.ndarray) -> np.ndarray:
+    return np.stack([np.interp(new_times_s, times_s, p[:, k]) for k in range(p.shape[1])], axis=1)
+
+
+def load_pig_walk(path: Path) -> PigWalk:
+    """Read one Plug-in-Gait walk (see the module docstring). ValueError naming the file and what it lacks."""
+    import ezc3d
+
+    path = Path(path)
+    c3d = ezc3d.c3d(str(path))
+    params = c3d["parameters"]
+    labels = list(params["POINT"]["LABELS"]["value"])
+    rate = float(c3d["header"]["points"]["frame_rate"])
+    n = c3d["data"]["points"].shape[2]
+    times = np.arange(n) / rate
+    raw: dict[str, np.ndarray] = {}
+    try:
+        for side in SIDES:
+            letter = side[0].upper()
+            for part, pig in JOINT_CENTRES.items():
+                raw[f"{side}_{part}"] = _point(c3d, labels, f"{letter}{pig}")
+            raw[f"{side}_small_toe"] = _small_toe(c3d, labels, letter, raw[f"{side}_toe"])
+            if f"{letter}SHO" in labels:
+                raw[f"{side}_shoulder"] = _point(c3d, labels, f"{letter}SHO")
+        angles = {v: {s: _point(c3d, labels, f"{s[0].upper()}{pig}")[:, 0] for s in SIDES}
+                  for v, pig in ANGLES.items()}
+    except KeyError as exc:
+        raise ValueError(f"{path.name}: {exc.args[0]} (a Plug-in-Gait walk needs its joint centres, foot frame "
+                         "and angles)") from None
+    whole = np.all([np.isfinite(p).all(axis=1) for k, p in raw.items() if not k.endswith("shoulder")], axis=0)
+    shoulders = [k for k in raw if k.endswith("shoulder")]
+    if len(shoulders) != 2 or not all(np.isfinite(raw[k][whole]).all() for k in shoulders):
+        raw = {k: v for k, v in raw.items() if k not in shoulders}  # the upper body placed as mocap does
+    if whole.sum() < rate:
+        raise ValueError(f"{path.name}: only {int(whole.sum())} frames have every joint centre and foot marker")
+    first, last = np.nonzero(whole)[0][[0, -1]]
+    new_times = np.arange(times[first], times[last] + 1e-9, 1.0 / RATE_HZ)
+    markers = _to_room({k: _resample(times[first:last + 1], p[first:last + 1], new_times) for k, p in raw.items()})
+    start = (float(params["TRIAL"]["ACTUAL_START_FIELD"]["value"][0]) - 1.0) / rate
+    events = {"heel_strike": {s: [] for s in SIDES}, "toe_off": {s: [] for s in SIDES}}
+    kinds = {"Foot Strike": "heel_strike", "Foot Off": "toe_off"}
+    ev = params.get("EVENT", {})
+    ev_times = np.asarray(ev.get("TIMES", {}).get("value", np.zeros((2, 0))), dtype=np.float64)
+    ev_times = ev_times if ev_times.ndim == 2 else ev_times.reshape(-1, 2).T  # FunctionalWalk: flat pairs
+    for label, context, t in zip(ev.get("LABELS", {}).get("value", []), ev.get("CONTEXTS", {}).get("value", []),
+                                 ev_times[0] * 60.0 + ev_times[1], strict=False):
+        if label.strip() in kinds and context.strip().lower() in SIDES:
+            events[kinds[label.strip()]][context.strip().lower()].append(float(t) - start)
+    events = {k: {s: sorted(v) for s, v in by.items()} for k, by in events.items()}
+    hs, to, excluded = _screen(markers, new_times, events)
+    walk = MocapWalk(path.stem, f"{path.name} (Plug-in-Gait, {rate:g} Hz)", RATE_HZ, new_times, markers, hs, to,
+                     excluded)
+    return PigWalk(walk, times, angles, path.name)
