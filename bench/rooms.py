@@ -30,13 +30,14 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from bench._common import emit  # noqa: E402
 from gaitcap.services import catalog as cat  # noqa: E402
 from gaitcap.services.catalog import patients as pat  # noqa: E402
 from gaitcap.services.catalog import rooms  # noqa: E402
 from gaitcap.services.catalog.models import Result, SessionRow, Step, Subject, Summary, Trial  # noqa: E402
 from gaitcap.services.ops.pg_server import LocalPostgres  # noqa: E402
 from sqlalchemy import insert, text  # noqa: E402
+
+from bench._common import emit  # noqa: E402
 
 SUMMARY = ("gait_speed_m_per_s", "cadence_steps_per_min", "step_length_mm", "step_width_mm", "step_time_s",
            "stance_pct", "swing_pct", "step_length_asymmetry_pct")
