@@ -13,7 +13,8 @@ disk used per trial (MB).
 With ``--faults``, a working day: after the warm-up, every 5-10 trials one fault of a fixed schedule seeded
 by ``--seed`` (:mod:`gaitcap.services.ops.fault_schedule`: SIGKILL of the detector, recorder, a camera
 process or the worker; SIGSTOP of the worker for ``--stop-s``; the data disk filled to the API's threshold;
-the API restarted mid-trial). Targets then: every trial ends done, or done with warnings / failed saying
+the API restarted mid-trial; the API's free-space threshold is set 2 GB + 100 MB per trial below the disk's
+free space at the start, so the trials never reach it and the ballast does). Targets then: every trial ends done, or done with warnings / failed saying
 why; 0 recordings lost or orphaned; the trial after each fault done; read routes' p99 <= 1 s while the
 worker is stopped; memory as above (frame ids and pauses are reported, not judged: faults make gaps).
 
@@ -53,7 +54,8 @@ def run(args) -> dict:
     with tempfile.TemporaryDirectory(prefix="gaitcap-soak-") as tmp:
         cfg = StackConfig(data_dir=Path(tmp), token=new_token(), port=base, bus_base_port=base + 1,
                           cameras=args.cameras, size=args.size, fps=args.fps, refine=not args.no_refine,
-                          sim_seconds=args.walk_s, extra_env=disk_threshold_env(Path(tmp)) if args.faults else {})
+                          sim_seconds=args.walk_s,
+                          extra_env=disk_threshold_env(Path(tmp), headroom_mb=2048 + 100 * trials) if args.faults else {})
         with Stack(cfg) as stack:
             report = run_soak(stack, trials=trials, every_s=args.every_s, trial_s=args.trial_s, plan=plan,
                               stop_s=args.stop_s, warm_up=args.warm_up)
