@@ -53,6 +53,13 @@ def undrawn(variables) -> dict[str, str]:
                 "of motion is compared with the band's in the table") for v in variables if v in UNVALIDATED_ZERO}
 
 
+def drawn_bands(k: Mapping[str, Any]) -> dict:
+    """The bands a chart of ``k`` (``kinematics.json`` with its norms) draws: those the table compares
+    point values with (``norms.bands`` less ``norms.not_drawn``)."""
+    norms = k.get("norms") or {}
+    return {v: b for v, b in (norms.get("bands") or {}).items() if v not in (norms.get("not_drawn") or {})}
+
+
 def is_range(name: str) -> bool:
     """Whether key value ``name`` is a range of motion (max - min: independent of the angle's zero)."""
     return name.endswith("_rom_deg")

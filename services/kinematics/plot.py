@@ -15,7 +15,7 @@ def side_curves_png(k: dict, *, width_in: float = 10.0, title: str = "") -> byte
     """The report's figure from a ``kinematics.json`` dict (norms chosen for the patient): one panel per
     variable and side, two variables to a row (left, right, left, right), each with the side's mean +- SD
     (degrees) over the normal band (grey, mean +- 1 SD) where there is one that the table compares with
-    (:func:`gaitcap.services.kinematics.shown.drawn_bands`); ``title`` above them."""
+    (:func:`gaitcap.reconstruction.kinematics.key_norms.drawn_bands`); ``title`` above them."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -25,7 +25,7 @@ def side_curves_png(k: dict, *, width_in: float = 10.0, title: str = "") -> byte
     rows = max(1, (len(names) + 1) // 2)
     fig = Figure(figsize=(width_in, 1.75 * rows + 0.4), dpi=110)
     axes = fig.subplots(rows, 4, squeeze=False).ravel()
-    from gaitcap.services.kinematics.shown import drawn_bands
+    from gaitcap.reconstruction.kinematics.key_norms import drawn_bands
 
     pct, bands = np.arange(101), drawn_bands(k)
     for i, (name, side) in enumerate((n, s) for n in names for s in COLORS):

@@ -29,12 +29,6 @@ def with_norms(data: dict, age_years: int | None) -> dict:
     return {**data, "norms": norms_for_age(age_years).to_dict()}
 
 
-def drawn_bands(k: dict) -> dict:
-    """The bands a chart of ``k`` (``kinematics.json`` with its norms) draws: those the table compares
-    point values with (not ``norms.not_drawn``)."""
-    norms = k.get("norms") or {}
-    return {v: b for v, b in (norms.get("bands") or {}).items() if v not in (norms.get("not_drawn") or {})}
-
 
 
 def curves_png(k: dict) -> bytes:

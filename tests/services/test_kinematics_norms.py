@@ -81,15 +81,14 @@ def test_installed_adult_band_is_a_healthy_adults_gait():
 
 
 def test_the_standalone_figure_says_no_reference_for_this_patient_and_draws_only_the_compared_bands():
+    from gaitcap.reconstruction.kinematics.key_norms import drawn_bands, undrawn
     from gaitcap.services.kinematics.plot import figure_title
-    from gaitcap.services.kinematics.shown import drawn_bands
 
     none = choose_norms(None, children=CHILDREN, adults=ADULTS, adult_source="Adult study", variables=VARS)
     assert figure_title({"norms": none.to_dict()}).startswith(
         "Joint kinematics (no reference for this patient: the patient's age is not recorded")
     bands = {v: _band(v, 1.0) for v in ("knee_flexion", "hip_flexion", "ankle_dorsiflexion")}
     adult = choose_norms(40, children={}, adults=bands, adult_source="Adult study", variables=VARS).to_dict()
-    from gaitcap.reconstruction.kinematics.key_norms import undrawn
-
-    k = {"norms": {**adult, "not_drawn": undrawn(adult["bands"])}}
+    k = {"norms": adult}
+    assert adult["not_drawn"] == undrawn(adult["bands"]) and set(adult["not_drawn"]) == {"hip_flexion", "ankle_dorsiflexion"}
     assert set(drawn_bands(k)) == {"knee_flexion"} and "grey: normal mean +- 1 SD, adults" in figure_title(k)
