@@ -1,7 +1,8 @@
 """Benchmark: gait events on real walks (motion capture with annotated events) seen by the simulated rig.
 
-Each installed walk (``simulator/mocap.py``) is placed in the room, sampled at 30 fps from
-each of its 5 mocap phases (150 Hz / 5), detected with the ``paper`` noise preset on the 10-camera rig,
+Each installed walk (``simulator/mocap.py``: the two gaitkit walks and the three Plug-in-Gait C3D walks
+of the shared data, whose Foot Strikes are force-plate confirmed) is placed in the room, sampled at 30 fps
+from each of its mocap phases (150 Hz / 5; the C3D walks 120 Hz / 4), detected with the ``paper`` noise preset on the 10-camera rig,
 reconstructed, and its events found by the default detector and the baselines (Zeni 2008, O'Connor 2007)
 on the same trajectory. Errors are detected minus annotated (ms; frames at 30 fps: median |e|, the signed
 median, the mean and the 90th percentile of |e|); an annotated event
@@ -13,6 +14,7 @@ detector's errors are also listed per walk and foot (every error of the 5 phases
     python bench/gait_real.py                            # reconstruction: implicit (the default), a table
     python bench/gait_real.py --methods truth robust implicit explicit --json
     python bench/gait_real.py --criteria --methods markers truth robust implicit
+    python bench/gait_real.py --walks c3d:FunctionalWalk --methods truth implicit
 
 ``--criteria`` compares heel-strike criteria instead (``CRITERIA``): each is evaluated on the approach of
 every contact the default detector finds (its rest points, the same continuous trajectory), per walk and
@@ -146,10 +148,10 @@ def _row(method: str, walk: str, detector: str, kind: str, pooled: dict) -> dict
             "found": pooled["found"], "annotated": pooled["annotated"], "invented": pooled["invented"]}
 
 
-def run(*, methods: list[str], phases: int, seed: int) -> dict:
-    from gaitcap.simulator.mocap import available_walks, load_walk
+def run(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | None = None) -> dict:
+    from gaitcap.simulator.mocap import available_walks, load_walk, rig_phases
 
-    walks = available_walks()
+    walks = [w for w in available_walks(c3d=True) if walk_filter is None or w in walk_filter]
     if not walks:
         raise SystemExit("no real walks installed: run deploy/bootstrap.sh (install_gait_mocap)")
     rows, temporal, info, feet = [], {}, {}, []
@@ -162,7 +164,7 @@ def run(*, methods: list[str], phases: int, seed: int) -> dict:
             pooled: dict = {}
             foot_errors: dict = {}
             temp = {"stance_pct": [], "double_support_pct": []}
-            for phase in range(phases):
+            for phase in range(min(phases, rig_phases(walk, FPS))):
                 r = run_walk(walk, method=method, phase=phase, seed=seed + phase)
                 for det, sc in r["scores"].items():
                     for kind, s in sc.items():
@@ -276,8 +278,18 @@ def _heel_rocker(a: Approach) -> float:
     return _last_fall(a, heel - (80.0 * (pitch - stance) + 10.0), 0.0)
 
 
+def _heel_lowest(a: Approach) -> float:
+    """The heel at its lowest within 0.15 s of the default (a loaded heel stops descending)."""
+    lo, hi = (int(np.searchsorted(a.times_s, a.default_s + d)) for d in (-0.15, 0.15))
+    if hi - lo < 3:
+        return float("nan")
+    k = lo + int(np.argmin(a.heel_mm[lo:hi, 2]))
+    return float(a.times_s[k]) if lo < k < hi - 1 else float("nan")
+
+
 CRITERIA = {
     "default detector": lambda a: a.default_s,
+    "heel lowest": _heel_lowest,
     "distance 30 mm": _distance(30.0),
     "distance 20 mm": _distance(20.0),
     "heel speed < speed/2": _heel_speed_half,
@@ -330,25 +342,26 @@ def _criteria_errors(approaches, truth: dict, into: dict, walk: str) -> None:
                     (1000.0 * ((found if np.isfinite(found) else t) - t_true), not np.isfinite(found)))
 
 
-def run_criteria(*, methods: list[str], phases: int, seed: int) -> dict:
+def run_criteria(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | None = None) -> dict:
     """Errors of every heel-strike criterion (``CRITERIA``) per input, walk and foot (see the module
     docstring); the walker's patterns (simulated, ground-truth frames) as input ``walker``."""
     from gaitcap.simulator import make_trial
-    from gaitcap.simulator.mocap import available_walks, load_walk
+    from gaitcap.simulator.mocap import available_walks, load_walk, rig_phases
     from gaitcap.simulator.params import WalkParams
 
     # the walker's patterns: its default (30 mm heel roll), and the slow, Parkinsonian (flat contacts,
     # 15 mm roll) and hemiparetic (paretic foot toe first) gaits of WalkParams
     WALKERS = {"default": WalkParams, "slow": WalkParams.slow, "parkinsonian": WalkParams.parkinsonian,
                "hemiparetic": WalkParams.hemiparetic}
-    walks = {name: load_walk(name) for name in available_walks()}
+    walks = {name: load_walk(name) for name in available_walks(c3d=True)
+             if walk_filter is None or name in walk_filter}
     if not walks:
         raise SystemExit("no real walks installed: run deploy/bootstrap.sh (install_gait_mocap)")
     errors: dict = {}
     for method in methods:
         into = errors.setdefault(method, {})
         for name, walk in walks.items():
-            for phase in range(1 if method == "markers" else phases):
+            for phase in range(1 if method == "markers" else min(phases, rig_phases(walk, FPS))):
                 times, points, names, sample, _ = _trajectory(walk, method=method, phase=phase, seed=seed + phase)
                 _criteria_errors(_approaches(times, points, names, sample), walk.heel_strike_s, into, name)
     for name, params in WALKERS.items():
@@ -426,13 +439,15 @@ def main(argv=None) -> int:
     ap.add_argument("--criteria", action="store_true", help="compare heel-strike criteria (CRITERIA)")
     ap.add_argument("--phases", type=int, default=5, choices=range(1, 6))
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--walks", nargs="+", default=None,
+                    help="only these walks (healthy, parkinson, c3d:FunctionalWalk, c3d:PiG_Motion3_FF, ...)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr)
     if "markers" in args.methods and not args.criteria:
         ap.error("--methods markers: only with --criteria")
     runner, table = (run_criteria, _criteria_table) if args.criteria else (run, _table)
-    result = runner(methods=args.methods, phases=args.phases, seed=args.seed)
+    result = runner(methods=args.methods, phases=args.phases, seed=args.seed, walk_filter=args.walks)
     if args.json:
         from _common import jsonable
 
