@@ -38,6 +38,7 @@ from gaitcap.services.live.guard import TrialGuard
 from gaitcap.services.live.health import health_report
 from gaitcap.services.live.protocols import NoLink, NoScene
 from gaitcap.services.live.room_report import RoomReporter
+from sqlalchemy.exc import OperationalError
 
 log = logging.getLogger(__name__)
 ID_WORDS = "use letters, digits, '.', '_' or '-' (up to 64), starting with a letter or digit; no spaces"
@@ -68,6 +69,14 @@ def jsonable(errors) -> list[dict]:
     """The errors without the client's ``input`` (and ``ctx``, which may quote it)."""
     return [{k: (v[:200] if isinstance(v, str) else [str(p)[:80] for p in v] if k == "loc" else v)
              for k, v in e.items() if k in ("type", "loc", "msg")} for e in errors]
+
+
+def _catalog_unreachable(exc: OperationalError) -> JSONResponse:
+    """503 naming the catalog's failure (its first line: no statement, no parameters); a recording goes on."""
+    words = str(exc.orig or exc).strip().splitlines()[0][:300]
+    log.error("catalog unreachable: %s", words)
+    return JSONResponse(status_code=503, content={"detail": f"the catalog is unreachable ({words}); a recording "
+                                                            "goes on: try again when it is back"})
 
 
 def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
@@ -107,6 +116,7 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
     app.state.link = link if link is not None else NoLink()
     app.state.scene = scene if scene is not None else NoScene()
     app.add_exception_handler(RequestValidationError, lambda _r, exc: _field_errors(exc))
+    app.add_exception_handler(OperationalError, lambda _r, exc: _catalog_unreachable(exc))
     app.add_exception_handler(ValueError, lambda _r, exc: JSONResponse(status_code=422,
                                                                        content={"detail": str(exc)[:300]}))
     app.include_router(routes_trials.router)

@@ -4,6 +4,7 @@ Stop of another room's trial is refused, the page's lists filter by room and sho
 each API's audit chain verifies, and no database password reaches a page."""
 
 import httpx
+import pytest
 from gaitcap.api.audit_chain import verify
 from gaitcap.api.server import serve_in_thread
 from gaitcap.api.settings import Settings
@@ -64,3 +65,36 @@ def test_two_rooms_on_one_postgresql_catalog_never_touch_each_others_recorder(po
     for name in ("gait1", "gait2"):
         checked, problem = verify(tmp_path / name / "audit.log")
         assert problem is None and checked >= 3
+
+
+def test_the_catalog_gone_during_a_recording_loses_nothing(tmp_path):
+    """The database server stopped while a room records (its own server: the session's is left alone): the
+    recorder goes on, Stop and the page's lists answer 503 naming the catalog, /health says the database is
+    down; once it is back the same Stop ends the recording and queues processing."""
+    from gaitcap.services import catalog as cat
+    from gaitcap.services.ops.pg_server import LocalPostgres
+
+    with LocalPostgres() as pg:
+        url = pg.create_database("gone")
+        with pytest.MonkeyPatch.context() as patch:
+            for name, value in pg.environment().items():
+                patch.setenv(name, value)
+            srv, link, client = _room(tmp_path, url, "gait1", free_loopback_ports(1)[0], cameras=0)
+            try:
+                trial = client.post("/trials", json={"subject_id": "P0001", "session": "v1"}).json()
+                pg.pause()
+                refused = client.post(f"/trials/{trial['id']}/stop")
+                assert refused.status_code == 503 and "catalog is unreachable" in refused.json()["detail"]
+                assert client.get("/trials").status_code == 503
+                assert link.recording == trial["id"] and [c[0] for c in link.calls] == ["start"]  # still recording
+                assert client.get("/health").json()["components"]["database"]["ok"] is False
+                pg.resume()
+                stopped = client.post(f"/trials/{trial['id']}/stop")
+                assert stopped.status_code == 200 and stopped.json()["state"] == "recorded"
+                assert link.calls[-1] == ("stop", trial["id"])
+                db = cat.open_catalog(url)
+                assert [j.state for j in cat.jobs_for_trial(db, trial["id"])] == ["queued"]
+                db.close()
+            finally:
+                client.close()
+                srv.stop()
