@@ -148,17 +148,32 @@ def _row(method: str, walk: str, detector: str, kind: str, pooled: dict) -> dict
             "found": pooled["found"], "annotated": pooled["annotated"], "invented": pooled["invented"]}
 
 
-def run(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | None = None) -> dict:
-    from gaitcap.simulator.mocap import available_walks, load_walk, rig_phases
+def _walk_names() -> list[str]:
+    """The installed gaitkit walks and the shared data's Plug-in-Gait walks (``c3d:NAME``)."""
+    from gaitcap.simulator.mocap import available_walks
+    from gaitcap.simulator.pig_walks import available_pig_walks
 
-    walks = [w for w in available_walks(c3d=True) if walk_filter is None or w in walk_filter]
+    return available_walks() + [f"c3d:{name}" for name in available_pig_walks()]
+
+
+def _load_walk(name: str):
+    from gaitcap.simulator.mocap import load_walk
+    from gaitcap.simulator.pig_walks import C3D_DIR, load_pig_walk
+
+    return load_pig_walk(C3D_DIR / f"{name[4:]}.c3d").walk if name.startswith("c3d:") else load_walk(name)
+
+
+def run(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | None = None) -> dict:
+    from gaitcap.simulator.mocap import rig_phases
+
+    walks = [w for w in _walk_names() if walk_filter is None or w in walk_filter]
     if not walks:
         raise SystemExit("no real walks installed: run deploy/bootstrap.sh (install_gait_mocap)")
     rows, temporal, info, feet = [], {}, {}, []
     for method in methods:
         everything: dict = {}
         for name in walks:
-            walk = load_walk(name)
+            walk = _load_walk(name)
             info[name] = {"source": walk.source, "seconds": walk.duration_s,
                           "excluded_annotations": [list(e) for e in walk.excluded]}
             pooled: dict = {}
@@ -346,15 +361,14 @@ def run_criteria(*, methods: list[str], phases: int, seed: int, walk_filter: lis
     """Errors of every heel-strike criterion (``CRITERIA``) per input, walk and foot (see the module
     docstring); the walker's patterns (simulated, ground-truth frames) as input ``walker``."""
     from gaitcap.simulator import make_trial
-    from gaitcap.simulator.mocap import available_walks, load_walk, rig_phases
+    from gaitcap.simulator.mocap import rig_phases
     from gaitcap.simulator.params import WalkParams
 
     # the walker's patterns: its default (30 mm heel roll), and the slow, Parkinsonian (flat contacts,
     # 15 mm roll) and hemiparetic (paretic foot toe first) gaits of WalkParams
     WALKERS = {"default": WalkParams, "slow": WalkParams.slow, "parkinsonian": WalkParams.parkinsonian,
                "hemiparetic": WalkParams.hemiparetic}
-    walks = {name: load_walk(name) for name in available_walks(c3d=True)
-             if walk_filter is None or name in walk_filter}
+    walks = {name: _load_walk(name) for name in _walk_names() if walk_filter is None or name in walk_filter}
     if not walks:
         raise SystemExit("no real walks installed: run deploy/bootstrap.sh (install_gait_mocap)")
     errors: dict = {}

@@ -17,11 +17,6 @@ toe off comes at least ``MIN_STANCE_S`` after that foot's heel strike, a heel st
 kept with the reason (``MocapWalk.excluded``); the healthy example's toe offs mostly fail (two in one
 stance, toe 70-80 mm off the floor).
 
-The real Plug-in-Gait walks of the team's shared data (``../shared/data/c3d/`` beside the checkout, or
-``$GAITCAP_C3D_DIR``; BTKData, BSD-3) load by name too (``load_walk("c3d:FunctionalWalk")``, read by
-``pig_walks.load_pig_walk``: Plug-in-Gait's joint centres, heel and toe markers, its Foot Strike / Foot
-Off events, force-plate confirmed where they land on a plate); ``available_walks(c3d=True)`` lists them.
-
 ``rig_view`` places the walk on the room's diagonal (z up, floor at 0), resamples it to the rig's frame
 rate (every k-th mocap frame from ``phase``), completes the Halpe-26 joints the markers lack (head,
 arms, toes' sides) rigidly from the trunk, and simulates the detector on the rig (``noise.detect``).
@@ -31,7 +26,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -46,11 +40,6 @@ from gaitcap.simulator.room import build_rig
 
 MOCAP_DIR = share_path("testdata", "gait-mocap")
 MOCAP_WALKS = {"healthy": "example_healthy.json", "parkinson": "example_parkinson.json"}
-# the team's shared data beside the checkout (an editable install: simulator/ is in the checkout)
-C3D_DIR = Path(os.environ.get("GAITCAP_C3D_DIR")
-               or Path(__file__).resolve().parents[1].parent / "shared" / "data" / "c3d")
-C3D_WALKS = {"c3d:FunctionalWalk": "FunctionalWalk.c3d", "c3d:PiG_Motion3_FF": "PiG_Motion3_FF.c3d",
-             "c3d:PiG_Motion-FlatFoot-Full": "PiG_Motion-FlatFoot-Full.c3d"}
 MIN_STANCE_S = 0.4
 MIN_SWING_S = 0.25
 MIN_STRIDE_S = 0.6
@@ -88,13 +77,9 @@ class MocapWalk:
         return float(self.times_s[-1] - self.times_s[0])
 
 
-def available_walks(directory: Path = MOCAP_DIR, *, c3d: bool = False, c3d_dir: Path | None = None) -> list[str]:
-    """Names of the installed walks (empty when bootstrap has not installed them); with ``c3d`` also the
-    real Plug-in-Gait walks found in ``c3d_dir`` (default ``C3D_DIR``)."""
-    names = [name for name, file in MOCAP_WALKS.items() if (directory / file).is_file()]
-    if c3d:
-        names += [name for name, file in C3D_WALKS.items() if ((c3d_dir or C3D_DIR) / file).is_file()]
-    return names
+def available_walks(directory: Path = MOCAP_DIR) -> list[str]:
+    """Names of the installed walks (empty when bootstrap has not installed them)."""
+    return [name for name, file in MOCAP_WALKS.items() if (directory / file).is_file()]
 
 
 def _to_room(raw: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -152,17 +137,9 @@ def _screen(markers: dict[str, np.ndarray], times_s: np.ndarray, events: dict[st
 
 
 def load_walk(name: str, directory: Path = MOCAP_DIR) -> MocapWalk:
-    """Load an installed walk by name (``MOCAP_WALKS``, or ``C3D_WALKS`` from ``C3D_DIR``);
-    FileNotFoundError naming bootstrap (or the shared data) if absent."""
-    if name in C3D_WALKS:
-        from gaitcap.simulator.pig_walks import load_pig_walk
-
-        path = C3D_DIR / C3D_WALKS[name]
-        if not path.is_file():
-            raise FileNotFoundError(f"{path} is missing (the shared data's c3d/ folder, or $GAITCAP_C3D_DIR)")
-        return load_pig_walk(path).walk
+    """Load an installed walk by name (``MOCAP_WALKS``); FileNotFoundError naming bootstrap if absent."""
     if name not in MOCAP_WALKS:
-        raise ValueError(f"walk: unknown name {name!r}, expected one of {sorted(MOCAP_WALKS) + sorted(C3D_WALKS)}")
+        raise ValueError(f"walk: unknown name {name!r}, expected one of {sorted(MOCAP_WALKS)}")
     path = directory / MOCAP_WALKS[name]
     if not path.is_file():
         raise FileNotFoundError(f"{path} is missing: run deploy/bootstrap.sh (install_gait_mocap)")

@@ -18,6 +18,7 @@ stay on the file's own clock. Event times are the EVENT group's minus the trial'
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +26,10 @@ import numpy as np
 from gaitcap.simulator.mocap import SIDES, MocapWalk, _screen, _to_room
 
 RATE_HZ = 120.0
+# the team's shared data beside the checkout (an editable install keeps simulator/ in the checkout)
+C3D_DIR = Path(os.environ.get("GAITCAP_C3D_DIR")
+               or Path(__file__).resolve().parents[1].parent / "shared" / "data" / "c3d")
+C3D_WALKS = ("FunctionalWalk", "PiG_Motion3_FF", "PiG_Motion-FlatFoot-Full")
 SMALL_TOE_LATERAL_MM = 35.0
 SMALL_TOE_BACK_MM = 20.0
 # Plug-in-Gait output -> the walk's marker (per side letter L / R)
@@ -133,3 +138,9 @@ def load_pig_walk(path: Path) -> PigWalk:
     walk = MocapWalk(path.stem, f"{path.name} (Plug-in-Gait, {rate:g} Hz)", RATE_HZ, new_times, markers, hs, to,
                      excluded)
     return PigWalk(walk, times, angles, path.name)
+
+
+def available_pig_walks(directory: Path | None = None) -> list[str]:
+    """Names of the walks of ``C3D_WALKS`` found in ``directory`` (default ``C3D_DIR``, or
+    ``$GAITCAP_C3D_DIR``)."""
+    return [name for name in C3D_WALKS if ((directory or C3D_DIR) / f"{name}.c3d").is_file()]
