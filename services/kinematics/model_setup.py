@@ -32,11 +32,36 @@ def markers_at_joint_centres(osim, model) -> None:
         marker.set_location(osim.Vec3(*np.mean([f.get_translation().to_numpy() for f in frames], axis=0)))
 
 
+# The model's knees (Rajagopal's "walker knee") turn the tibia inwards as they bend (15 deg at 90 deg of
+# flexion), tilt it (2 deg) and slide it (7 mm): the keypoints' knee is a hinge (hip, knee and ankle joint
+# centres, a rigid shank). With the coupling, a swinging foot pointed away from where the keypoints put it
+# and the fit shared the difference out over the hip, knee and ankle (knee markers 20-26 mm off in swing on
+# real walks, docs/kinematics.md). Every transform axis of these joints but the flexion is held at its
+# value in the straight knee.
+HINGED_KNEES = ("walker_knee_l", "walker_knee_r")
+FLEXION_AXIS = "rotation1"
+
+
+def hinged_knees(osim, model) -> None:
+    """Make the knees of :data:`HINGED_KNEES` hinges: their coupled axes constant at the straight knee."""
+    joints = model.getJointSet()
+    for name in HINGED_KNEES:
+        if not joints.contains(name):
+            continue
+        transform = osim.CustomJoint.safeDownCast(joints.get(name)).getSpatialTransform()
+        for i in range(6):
+            axis = transform.updTransformAxis(i)
+            if axis.getName() != FLEXION_AXIS and axis.hasFunction():
+                axis.set_function(osim.Constant(axis.getFunction().calcValue(osim.Vector(1, 0.0))))
+
+
 def model_with_markers(osim, files: dict[str, Path]):
-    """The layout's model with its marker set, hip markers at the hip joint centres."""
+    """The layout's model with its marker set, hip and ankle markers at their joint centres, the knees
+    hinges."""
     model = osim.Model(str(files["model"]))
     model.set_MarkerSet(osim.MarkerSet(str(files["markers"])))
     markers_at_joint_centres(osim, model)
+    hinged_knees(osim, model)
     return model
 
 
