@@ -130,15 +130,16 @@ def _problem(obs: BoardObservations, init: InitialPoses, models: list[tuple[int,
 
 
 def focal_groups(sizes_px, focal_px: np.ndarray, within: float) -> np.ndarray:
-    """(C,) group of each camera (-1: alone): cameras of the same image size whose focal lengths (C,) px
-    lie within ``within`` (relative) of the group's shortest, in order of focal length."""
+    """(C,) group of each camera (-1: alone): cameras of the same image size whose focal lengths (C,) px,
+    in order, lie within ``within`` (relative) of the next (one model's focal lengths estimated from
+    different views spread a little)."""
     group = np.full(len(focal_px), -1)
     n = 0
     for size in sorted(set(sizes_px)):
         cams = [c for c in np.argsort(focal_px) if tuple(sizes_px[c]) == size]
         start = 0
         for i in range(1, len(cams) + 1):
-            if i == len(cams) or focal_px[cams[i]] > (1 + within) * focal_px[cams[start]]:
+            if i == len(cams) or focal_px[cams[i]] > (1 + within) * focal_px[cams[i - 1]]:
                 if i - start > 1:
                     group[cams[start:i]] = n
                     n += 1

@@ -2,7 +2,8 @@
 frame sets they are judged on (nor their neighbours), the true rig judged at the noise on the synthetic
 room; on a real session (caliscope's 4 webcams) gaitcap's calibration and caliscope's judged on the same
 frame sets; a board described with the wrong square size named by the 3D check; a camera that shares no
-board view with the others named."""
+board view with the others named; an imported calibration judged the same from caliscope's file and from
+an aniposelib / Pose2Sim TOML."""
 
 from dataclasses import replace
 
@@ -10,7 +11,9 @@ import numpy as np
 import pytest
 from gaitcap.acquisition.boards.detection import BoardConfig, make_board
 from gaitcap.acquisition.importers.caliscope import read_session
+from gaitcap.acquisition.importers.tool_folders import load_calibration
 from gaitcap.acquisition.installed import share_path
+from gaitcap.acquisition.writers import save_rig
 from gaitcap.reconstruction.calibration import (
     BoardObservations,
     CalibrationConfig,
@@ -122,6 +125,16 @@ def test_gaitcap_and_caliscope_judged_on_the_same_held_out_frame_sets(caliscope)
         assert held.rms_inlier_px > fitted.reprojection_rms_px and held.rms_px < 1.6, (held, fitted)
     for e in (own, theirs):  # both measure the 54 mm squares in 3D on the held-out sets
         assert abs(e.board.square_mm - 54.0) < 0.5 and e.board.flatness_rms_mm < 1.5 and e.problems == ()
+
+
+@real
+def test_an_imported_calibration_is_judged_the_same_whatever_file_it_came_in(caliscope, tmp_path):
+    # caliscope's camera_array.toml written as an aniposelib / Pose2Sim TOML (metres) and read back
+    _, obs, ref, _ = caliscope
+    anipose = load_calibration(save_rig(ref, tmp_path / "Calib_anipose.toml"))
+    a, b = evaluate_rig(obs, ref), evaluate_rig(obs, anipose)
+    assert np.allclose([c.rms_px for c in a.cameras], [c.rms_px for c in b.cameras], atol=1e-4)
+    assert abs(a.board.square_mm - b.board.square_mm) < 1e-3
 
 
 @real
