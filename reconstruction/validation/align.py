@@ -11,7 +11,8 @@ a swap of left and right shows in the space fit (``swap_sides``), as no proper r
 
 Space: the rigid transform (rotation, translation; no scale) ``trial = R @ reference + t`` that fits the
 reference's heel, ankle and hip markers, at the trial's frame times shifted by the lag, to gaitcap's
-joints of the same names in the least-squares sense (Kabsch), with the RMS residual per joint. Marker
+joints of the same names in the least-squares sense (Kabsch), refitted without the outliers (gaitcap's
+frames where a joint was swapped or lost), with the RMS residual per joint. Marker
 and joint centre differ (the ankle marker sits on the lateral malleolus, ~30-40 mm from the joint
 centre), so a residual of a few centimetres is normal; a reference of another walk leaves hundreds.
 """
@@ -30,13 +31,18 @@ class AlignConfig:
     """min_overlap: fraction of the shorter recording that must overlap (0-1); min_correlation: the
     heel heights' correlation below which the recordings are not the same walk; max_residual_mm: the
     rigid fit's RMS residual above which the markers are not gaitcap's joints; refine_step_s: final lag
-    resolution (s); candidates: lags (correlation peaks) tried by the space fit."""
+    resolution (s); candidates: lags (correlation peaks) tried by the space fit; outlier_factor,
+    min_outlier_mm: a point farther than both (factor x the median distance, mm) is an outlier, refitted
+    without; max_outlier_fraction: more outliers than this and the pair does not align."""
 
     min_overlap: float = 0.9
     min_correlation: float = 0.8
     max_residual_mm: float = 35.0
     refine_step_s: float = 0.001
     candidates: int = 5
+    outlier_factor: float = 3.0
+    min_outlier_mm: float = 50.0
+    max_outlier_fraction: float = 0.1
 
 
 def swap_sides(joints: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -65,8 +71,9 @@ class TimeAlignment:
 
 @dataclass(frozen=True)
 class SpaceAlignment:
-    """trial = rotation @ reference + translation_mm (mm); residual_mm: RMS over all fitted points;
-    joint_residual_mm: per joint RMS; points: number of points fitted; joints: the joints used."""
+    """trial = rotation @ reference + translation_mm (mm); residual_mm: RMS over the points kept; joint_residual_mm:
+    per joint RMS (kept points); points: number of points kept; joints: the joints used; outlier_fraction: the
+    points left out as outliers (0-1)."""
 
     rotation: np.ndarray
     translation_mm: np.ndarray
@@ -74,6 +81,7 @@ class SpaceAlignment:
     joint_residual_mm: dict[str, float]
     points: int
     joints: tuple[str, ...]
+    outlier_fraction: float = 0.0
 
     def apply(self, points_mm: np.ndarray) -> np.ndarray:
         """(..., 3) reference-frame points (mm) -> the trial's frame (mm)."""
@@ -200,13 +208,22 @@ def align_space(trial_times_s: np.ndarray, trial_joints_mm: dict[str, np.ndarray
     src, dst, owner = np.concatenate(src), np.concatenate(dst), np.array(owner)
     if len(src) < 6:
         raise AlignmentError("space: fewer than 6 marker positions overlap the trial in time")
-    rot, t = fit_rigid(src, dst)
-    err = np.linalg.norm(src @ rot.T + t - dst, axis=1)
-    per = {n: float(np.sqrt(np.mean(err[owner == n] ** 2))) for n in names}
-    rms = float(np.sqrt(np.mean(err**2)))
-    if rms > config.max_residual_mm:
-        worst = max(per, key=per.get)
+    keep = np.ones(len(src), bool)
+    for _ in range(5):  # gaitcap's outlier frames (a swapped or lost joint) must not bend the fit
+        rot, t = fit_rigid(src[keep], dst[keep])
+        err = np.linalg.norm(src @ rot.T + t - dst, axis=1)
+        new = err <= max(config.outlier_factor * float(np.median(err)), config.min_outlier_mm)
+        if (new == keep).all() or new.sum() < 6:
+            break
+        keep = new
+    per = {n: float(np.sqrt(np.mean(err[(owner == n) & keep] ** 2))) if ((owner == n) & keep).any() else float("nan")
+           for n in names}
+    rms = float(np.sqrt(np.mean(err[keep] ** 2)))
+    outliers = float(1.0 - keep.mean())
+    if rms > config.max_residual_mm or outliers > config.max_outlier_fraction:
+        worst = max(per, key=lambda n: per[n] if np.isfinite(per[n]) else np.inf)
         raise AlignmentError(f"space: the reference's markers do not fit gaitcap's joints (RMS residual "
-                             f"{rms:.0f} mm, above {config.max_residual_mm:.0f} mm; worst {worst} "
-                             f"{per[worst]:.0f} mm): not the same walk, or a marker is mislabelled")
-    return SpaceAlignment(rot, t, rms, per, len(src), names)
+                             f"{rms:.0f} mm over {100 * (1 - outliers):.0f} % of the points, limits "
+                             f"{config.max_residual_mm:.0f} mm and {100 * (1 - config.max_outlier_fraction):.0f} %; "
+                             f"worst {worst} {per[worst]:.0f} mm): not the same walk, or a marker is mislabelled")
+    return SpaceAlignment(rot, t, rms, per, int(keep.sum()), names, outliers)

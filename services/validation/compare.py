@@ -52,30 +52,36 @@ def _heel_heights(joints: dict[str, np.ndarray], axis: int, sign: float) -> dict
     return {s: sign * joints[f"{s}_heel"][:, axis] for s in SIDES}
 
 
-def _marker_alignment(trial: TrialData, ref: Reference, config: ValidateConfig):
-    axis, sign = up_axis_of(ref.joints_mm)
-    candidates = find_lag(trial.times_s, _heel_heights(trial.joints_mm, 2, 1.0), ref.times_s,
-                          _heel_heights(ref.joints_mm, axis, sign), config=config.align)
-    joints = tuple(f"{s}_{j}" for j in FIT_JOINTS for s in SIDES)
+def _fit(trial: TrialData, ref_times_s: np.ndarray, joints_mm: dict, config: ValidateConfig):
+    """(space, time, candidate lags) of the best-fitting candidate lag; AlignmentError (the best candidate's)
+    when none fits."""
+    axis, sign = up_axis_of(joints_mm)
+    candidates = find_lag(trial.times_s, _heel_heights(trial.joints_mm, 2, 1.0), ref_times_s,
+                          _heel_heights(joints_mm, axis, sign), config=config.align)
+    names = tuple(f"{s}_{j}" for j in FIT_JOINTS for s in SIDES)
     fits, errors = [], []
     for time in candidates:  # the lag whose space fit fits best (a lag a stride off fits badly)
         try:
-            fits.append((align_space(trial.times_s, trial.joints_mm, ref.times_s, ref.joints_mm, time.lag_s,
-                                     joints=joints, config=config.align), time))
+            fits.append((align_space(trial.times_s, trial.joints_mm, ref_times_s, joints_mm, time.lag_s,
+                                     joints=names, config=config.align), time))
         except AlignmentError as exc:
             errors.append(exc)
     if not fits:
-        swapped = swap_sides(ref.joints_mm)
-        for time in candidates:
-            try:
-                fit = align_space(trial.times_s, trial.joints_mm, ref.times_s, swapped, time.lag_s, joints=joints,
-                                  config=config.align)
-            except AlignmentError:
-                continue
-            raise AlignmentError(f"space: the reference fits only with left and right exchanged (RMS residual "
-                                 f"{fit.residual_mm:.0f} mm): its sides are swapped, or the trial's are")
         raise errors[0]
     space, time = min(fits, key=lambda f: f[0].residual_mm)
+    return space, time, candidates
+
+
+def _marker_alignment(trial: TrialData, ref: Reference, config: ValidateConfig):
+    try:
+        space, time, candidates = _fit(trial, ref.times_s, ref.joints_mm, config)
+    except AlignmentError as exc:
+        try:  # a mirrored walk fits no rotation: does it fit with left and right exchanged?
+            swapped, _, _ = _fit(trial, ref.times_s, swap_sides(ref.joints_mm), config)
+        except AlignmentError:
+            raise exc from None
+        raise AlignmentError(f"space: the reference fits only with left and right exchanged (RMS residual "
+                             f"{swapped.residual_mm:.0f} mm): its sides are swapped, or the trial's are") from None
 
     def heel_at(side, t0, t1, _i):  # median heel marker over the contact, trial frame
         t1 = t1 if np.isfinite(t1) else t0 + 0.1
@@ -92,7 +98,7 @@ def _marker_alignment(trial: TrialData, ref: Reference, config: ValidateConfig):
                  "overlap_s": time.overlap_s, "rotation": space.rotation.tolist(),
                  "rotation_deg": space.rotation_deg, "translation_mm": space.translation_mm.tolist(),
                  "residual_mm": space.residual_mm, "joint_residual_mm": space.joint_residual_mm,
-                 "points_fitted": space.points, "markers": {j: ref.labels[j] for j in space.joints}}
+                 "points_fitted": space.points, "outlier_fraction": space.outlier_fraction, "markers": {j: ref.labels[j] for j in space.joints}}
     return time.lag_s, span, heel_at, alignment
 
 
@@ -133,8 +139,8 @@ def _walkway_alignment(trial: TrialData, ref: Reference):
     then the most heel strikes matched, then the smallest residual wins; a tie is refused as ambiguous."""
     w = ref.walkway
     feet = np.array(w.feet)
-    centres = sorted({round(float(x - h), 2) for f, x in zip(feet, w.first_contact_s, strict=True)
-                      for h in trial.events["heel_strike"][f]})
+    raw = sorted(float(x - h) for f, x in zip(feet, w.first_contact_s, strict=True) for h in trial.events["heel_strike"][f])
+    centres = [c for k, c in enumerate(raw) if k == 0 or c - raw[k - 1] > WALKWAY_WINDOW_S / 2]  # one per lag
     found = [r for c in centres if (r := _walkway_at(trial, w, c)) is not None]
     found = [(lag, comp, _walkway_score(trial, w, lag, comp)) for lag, comp in found]
     found = [f for f in found if f[1].fit_median_mm <= WALKWAY_MAX_RESIDUAL_MM]

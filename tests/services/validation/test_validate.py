@@ -156,10 +156,18 @@ def test_angles_are_compared_with_the_reference_models(walk, tmp_path):
     assert (tmp_path / "v" / "angles.png").is_file()
 
 
-def test_another_walk_is_refused_and_nothing_is_written(walk, tmp_path):
+def test_another_walk_or_swapped_sides_are_refused_and_nothing_is_written(walk, tmp_path):
     proc, _, _ = walk
     res = _validate(proc, C3D_DIR / "PiG_Motion-FlatFoot-Full.c3d", "--out", tmp_path / "v")
     assert res.exit_code == 2 and "not the same walk" in res.output
+    assert not (tmp_path / "v").exists()
+    c = ezc3d.c3d(str(WALK))  # the same walk with every left label made right and back
+    labels = c["parameters"]["POINT"]["LABELS"]["value"]
+    flip = {"L": "R", "R": "L"}
+    c["parameters"]["POINT"]["LABELS"]["value"] = [flip[x[0]] + x[1:] if x[:1] in flip else x for x in labels]
+    c.write(str(tmp_path / "swapped.c3d"))
+    res = _validate(proc, tmp_path / "swapped.c3d", "--out", tmp_path / "v")
+    assert res.exit_code == 2 and "sides are swapped" in res.output, res.output
     assert not (tmp_path / "v").exists()
 
 
