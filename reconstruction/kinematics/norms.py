@@ -159,10 +159,11 @@ def _outside(age_years: int | None, installed: list[tuple[Population, str]]) -> 
     population and its source."""
     if not installed:
         return f"{NO_PATIENT_REFERENCE}: no normative data is installed"
-    who = ("the patient's age is not recorded" if age_years is None
-           else f"the patient's age ({age_years} years) is outside")
     bands = "; ".join(f"{pop.label}, {pop.ages} ({source})" for pop, source in installed)
-    return f"{NO_PATIENT_REFERENCE}: {who} the population of every band installed ({bands})"
+    if age_years is None:
+        return f"{NO_PATIENT_REFERENCE}: the patient's age is not recorded, and every band installed is for given ages ({bands})"
+    return (f"{NO_PATIENT_REFERENCE}: the patient's age ({age_years} years) is outside the population of every band "
+            f"installed ({bands})")
 
 
 def choose_norms(age_years: int | None, *, children: dict[str, NormBand], adults: dict[str, NormBand],

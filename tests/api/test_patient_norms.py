@@ -35,6 +35,9 @@ def test_a_patient_without_age_or_sex_has_no_reference_for_this_patient_everywhe
     assert js["age"] is None and not js["sex"]
     assert js["norm_summary"].startswith("No reference for this patient (sex and birth year not recorded)")
     assert all(p["normal_range"] is None and p["z"] is None for p in js["parameters"]) and not js["flags"]
+    said = client.get(f"/trials/{tid}/gait").json()["findings"]  # the stage's findings as GET /gait gives them
+    assert js["norm_summary"].startswith(said["norm_summary"]) and said["with_reference"] == 0 and not said["findings"]
+    assert said["norm_summary"].startswith("No reference for this patient (sex and birth year not recorded)")
     k = client.get(f"/trials/{tid}/kinematics").json()
     assert k["norms"]["bands"] == {} and k["norms"]["population_range"] is None  # no children's band either
     assert k["norms"]["no_reference"].startswith(f"{NO_REF}: the patient's age is not recorded")
