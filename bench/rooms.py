@@ -187,7 +187,11 @@ def worker_throughput(pg: LocalPostgres, n_trials: int, n_workers: int, folder: 
         for p in procs:
             p.terminate()
         for p in procs:
-            p.wait(30)
+            try:
+                p.wait(60)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait(10)
     takers = {j.worker_id for tid in ids for j in cat.jobs_for_trial(db, tid)}
     jobs = sum(len(cat.jobs_for_trial(db, tid)) for tid in ids)
     db.close()
