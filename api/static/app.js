@@ -325,7 +325,8 @@ function updateFollowed(t) {
     $("#results-stage").textContent = t.state === "recording" ? "Recording…" : `${t.state_text}… (${Math.round(100 * t.progress)} %)`;
   }
   if (best && state.shownResult !== best) { state.shownResult = best; loadResult(t.id, best, t.state); }
-  if (!state.recording && !state.busy) setStatus(stageStatus(t, best) || $("#record-status").textContent);
+  // (a refused Start keeps its words on the status line until the cameras work again)
+  if (!state.recording && !state.busy && !state.refused) setStatus(stageStatus(t, best) || $("#record-status").textContent);
   else if (best === "preliminary" && t.state === "processing") {
     $("#results-stage").textContent = `Preliminary results. Refining the 3D reconstruction… (${Math.round(100 * t.progress)} %)`;
   }
