@@ -123,6 +123,7 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
     tid = _trial(server, walk, subject="A3", kinematics=kin, birth_year=1986)
     none = _trial(server, walk, subject="A4", kinematics={"available": False,
                                                           "reason": "the 'opensim' package is not installed"})
+    ageless = _trial(server, walk, subject="A6", kinematics=kin)  # no birth year: no band, not the children's
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
         page = browser.new_page(viewport={"width": 1280, "height": 900})
@@ -164,6 +165,12 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
         page.wait_for_timeout(300)
         assert page.evaluate("document.documentElement.scrollWidth") <= 390
         assert max(page.eval_on_selector_all("#kinematics-charts .uplot", "els => els.map(e => e.getBoundingClientRect().right)")) <= 390
+        page.click(f"#trials tr[data-trial='{ageless}'] .view")
+        page.wait_for_function("() => document.querySelector('#kinematics-notes').textContent.includes('no reference for this patient')")
+        assert "No normal band: no reference for this patient: the patient's age is not recorded" in page.inner_text("#kinematics-notes")
+        assert page.locator("#kinematics-charts figure[data-band='drawn']").count() == 0
+        assert page.locator("#kinematics-charts figure[data-band='none'] .uplot").count() == 2 * len(kin["curves"])
+        assert "no reference for this patient" in page.inner_text("#kinematics-keys tr[data-key='knee_flexion_initial_contact_deg']")
         page.click(f"#trials tr[data-trial='{none}'] .view")
         page.wait_for_function("() => document.querySelector('#kinematics-status').textContent.includes('opensim')")
         assert "Kinematics unavailable" in page.inner_text("#kinematics-status")
