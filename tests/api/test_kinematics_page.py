@@ -110,6 +110,10 @@ def test_report_has_a_kinematics_page_with_curves_band_source_and_key_values(ser
     left = kin["key_values"]["left"]["knee_peak_flexion_swing_deg"]
     assert f"Knee peak flexion in swing (flexion +) {left['mean']:.1f} ± {left['sd']:.1f} (n={left['n']})" in page
     assert "No reference: the zero of this angle is not validated (" in page and "hip flexion: pelvic tilt" in page
+    kv = client.get(f"/trials/{tid}/kinematics").json()["key_value_norms"]  # ranges of motion: whatever the zero
+    for name in ("ankle_rom_deg", "hip_flexion_rom_deg"):
+        assert f"{kv[name]['label']} " in page and f"at least {kv[name]['lower_limit_deg']:.1f}" in page, name
+    assert "Hip flexion / extension" not in page and "Hip flexion: band not drawn: the zero of this angle" in page
     assert len(reader.pages[pages.index(page)].images) == 1  # the curves figure (no heel-trace plot stored)
     assert len(reader.pages) == 2
 
