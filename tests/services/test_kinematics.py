@@ -33,7 +33,8 @@ def fitted(engine, tmp_path_factory):
     names = get_skeleton("halpe26").joint_names
     report = analyze_gait(points, times, list(names))
     out = tmp_path_factory.mktemp("kin")
-    kin = trial_kinematics(points, times, names, steps=report.steps, out_dir=out)
+    # a child of 9: the files carry the children's band (a patient without a recorded age gets none)
+    kin = trial_kinematics(points, times, names, steps=report.steps, out_dir=out, age_years=9)
     return points, times, names, report, kin, out
 
 
