@@ -16,7 +16,6 @@ compiled JAX executables held (entries of every jitted function's cache) and wha
 from __future__ import annotations
 
 import argparse
-import gc
 import logging
 import os
 import sys
@@ -27,18 +26,6 @@ from pathlib import Path
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from bench._common import emit  # noqa: E402
-
-
-def compiled_entries() -> int:
-    """Compiled executables held by every live jitted function (the sum of their caches' sizes)."""
-    total = 0
-    for obj in gc.get_objects():
-        if type(obj).__name__ == "PjitFunction":
-            try:
-                total += obj._cache_size()
-            except Exception:  # noqa: BLE001  (an object of another kind with this name)
-                continue
-    return total
 
 
 def slope_per_trial(values: list[float]) -> float:
@@ -53,7 +40,7 @@ def slope_per_trial(values: list[float]) -> float:
 def run(args) -> dict:
     from gaitcap.services import catalog as cat
     from gaitcap.services.processing.artifacts import trial_files
-    from gaitcap.services.processing.compiled_code import CompiledCodeLimit
+    from gaitcap.services.processing.compiled_code import CompiledCodeLimit, compiled_executables
     from gaitcap.services.processing.worker import Worker, WorkerConfig, resident_mb, warm_worker
     from gaitcap.simulator import make_trial
     from gaitcap.simulator.recording import write_keypoint_recording
@@ -81,7 +68,7 @@ def run(args) -> dict:
             worker.run_once()
             row = {"trial": k + 1, "frames": round(seconds * 30), "state": cat.get_trial(db, trial.id).state,
                    "job_s": round(time.perf_counter() - t0, 2), "rss_mb": round(resident_mb(), 1),
-                   "compiled": compiled_entries()}
+                   "compiled": compiled_executables()}
             if args.tracemalloc:
                 row["python_mb"] = round(tracemalloc.get_traced_memory()[0] / 1e6, 1)
             rows.append(row)

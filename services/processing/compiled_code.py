@@ -24,6 +24,18 @@ from dataclasses import dataclass
 log = logging.getLogger(__name__)
 
 
+def compiled_executables() -> int:
+    """Compiled executables held by every live jitted function (the sum of their caches' sizes)."""
+    total = 0
+    for obj in gc.get_objects():
+        if type(obj).__name__ == "PjitFunction":
+            try:
+                total += obj._cache_size()
+            except Exception:  # noqa: BLE001  (an object of another kind with this name)
+                continue
+    return total
+
+
 def release_compiled_code() -> float:
     """Drop JAX's compiled executables and tracing caches, collect garbage and trim the C heap; seconds spent."""
     import jax
