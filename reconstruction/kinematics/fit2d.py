@@ -44,7 +44,7 @@ class Fit2DConfig:
     learning_rate: float = 0.01
     final_learning_rate: float = 1e-4
     lbfgs_iterations: int = 0
-    smooth_weight: float = 100.0
+    smooth_weight: float = 30.0
     gamma: float = 0.5
     huber_delta_px: float = 5.0
     cut_px: float | None = 10.0
