@@ -273,9 +273,13 @@ def agree(want: dict, page: dict, pdf: dict, previous: dict | None, where: str) 
         assert _bare(flag) in _bare(pdf["findings"]), (where, flag)
     assert _claims(pdf["findings"]) - sum(_claims(n) for n in withheld) == len(page["flags"]), (where, pdf["findings"])
     check_findings(page["flags"], want, where)
-    if isinstance(want["gait"].get("findings"), list):  # GET /gait states the findings itself: the same sentences
-        said = [f if isinstance(f, str) else f.get("text") for f in want["gait"]["findings"]]
-        assert page["flags"] == said, (where, page["flags"], said)
+    stated = want["gait"].get("findings")  # GET /gait states the stage's findings itself: the same sentences
+    stated = stated if isinstance(stated, dict) else {"findings": stated}
+    if isinstance(stated.get("findings"), list):
+        assert page["flags"] == stated["findings"], (where, page["flags"], stated)
+    if isinstance(stated.get("withheld"), list):
+        assert [n for n in page["notes"] if n not in want["notes"]] == stated["withheld"], (where, stated)
+    assert page["norm"].startswith(stated.get("norm_summary") or ""), (where, page["norm"], stated)
     assert pdf["pages"] <= 2, (where, pdf["pages"])
     return n + len(want["tiles"]) + len(page["flags"]) + len(want["notes"])
 
