@@ -84,6 +84,15 @@ def _simulator_pair(work: Path) -> tuple[str, str, str]:
     return "simulator", str(folder), str(folder / "truth.c3d")
 
 
+def _pooled(result: dict, kind: str) -> dict:
+    """Both sides' matched errors of one event kind (frames at the trial's rate): n, signed and |e| median."""
+    e = np.array([(t - r) * result["fps"] for x in result["events"] if x["kind"] == kind
+                  for t, r in zip(x["trial_s"], x["reference_s"], strict=True)])
+    return {"n": len(e), "signed_median_frames": float(np.median(e)) if len(e) else None,
+            "abs_median_frames": float(np.median(np.abs(e))) if len(e) else None,
+            "errors_frames": [round(float(x), 2) for x in e]}
+
+
 def run(refine: bool) -> dict:
     from gaitcap.services.validation.study import Pair, run_study
 
@@ -108,7 +117,8 @@ def run(refine: bool) -> dict:
                                                          "rmse_after_offset_deg", "r", "trial_min_deg",
                                                          "reference_min_deg", "trial_max_deg", "reference_max_deg")}
                                       for x in r["angles"]],
-                           "not_compared": r["not_compared"], "process_s": seconds[name]}
+                           "not_compared": r["not_compared"], "process_s": seconds[name],
+                           "heel_strike": _pooled(r, "heel_strike"), "toe_off": _pooled(r, "toe_off")}
     return {"refine": refine, "start_s": START_S, "fps": 30.0, "study": study, "pairs": pairs_out}
 
 
@@ -134,6 +144,13 @@ def _table(r: dict) -> str:
         for e in p["events"]:
             lines.append(f"    {e['side']:<6}{e['kind']:<12}{e['n']:>3}{_f(e['signed_median_frames']):>7}"
                          f"{_f(e['abs_median_frames']):>6}{e['missed']:>3}{e['extra']:>3}")
+    lines.append("per walk, both sides (frames at 30 fps): n, signed median, |e| median (target +-0.3 / 0.5 for "
+                 "heel strikes), each error")
+    for name, p in r["pairs"].items():
+        for kind in ("heel_strike", "toe_off"):
+            e = p[kind]
+            lines.append(f"  {name:<26}{kind:<12}{e['n']:>3}{_f(e['signed_median_frames']):>7}"
+                         f"{_f(e['abs_median_frames']):>6}   " + " ".join(f"{x:+.2f}" for x in e["errors_frames"]))
     lines.append("joint angles vs Plug-in-Gait (deg): RMSE, offset (gaitcap - PiG), RMSE after offset, r, "
                  "min gaitcap / min PiG (ankle: peak plantarflexion)")
     for name, p in r["pairs"].items():

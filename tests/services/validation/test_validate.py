@@ -154,6 +154,11 @@ def test_angles_are_compared_with_the_reference_models(walk, tmp_path):
         assert abs(a["offset_deg"] - offsets[var]) < 0.2 and a["rmse_after_offset_deg"] < 0.3 and a["r"] > 0.999
         assert len(a["cycles"]) >= 1
     assert (tmp_path / "v" / "angles.png").is_file()
+    from pypdf import PdfReader
+
+    report = PdfReader(tmp_path / "v" / "validation.pdf")  # a report a lab can file: 1-2 pages
+    text = " ".join(" ".join(p.extract_text().split()) for p in report.pages)
+    assert len(report.pages) <= 2 and "Joint angles" in text and "Gait events" in text and "ICC(A,1)" in text
 
 
 def test_another_walk_or_swapped_sides_are_refused_and_nothing_is_written(walk, tmp_path):
