@@ -193,7 +193,8 @@ def pass_steps(pass_: Pass, contacts: Sequence[Contact], all_contacts: Sequence[
                                     f"{k.heel_strike_s:.2f} s dropped ({implausible})"))
             continue
         conf = min(confidence.get(id(k), 1.0), confidence.get(id(c), 1.0))
-        edge = i == 1 or i == len(seq) - 1 or not (core.contains(k.heel_strike_s) and core.contains(c.heel_strike_s))
+        edge = (i == 1 or i == len(seq) - 1 or not (core.contains(k.heel_strike_s) and core.contains(c.heel_strike_s))
+                or (p is not None and not core.contains(p.heel_strike_s)))  # a cycle begun speeding up
         excluded = (f"left/right sequence broken: measured from the second of two {c.foot} contacts in a row "
                     f"({after.heel_strike_s:.2f} s and {c.heel_strike_s:.2f} s)" if after is not None
                     else _order_problem(k, p, c))

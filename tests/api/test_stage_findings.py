@@ -4,7 +4,6 @@ is stated as numbers, never as a finding."""
 
 import dataclasses
 import io
-import json
 
 import numpy as np
 import pytest
@@ -17,20 +16,20 @@ from gaitcap.services.processing.outputs import steps_of, summary_of
 ASYMMETRY = "Step length differs between sides: left 748, right 552 mm (symmetry index 30.0 %)."
 
 
-def _walk(**params):
+def _walk(seconds: float = 10.0, **params):
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.simulator.params import WalkParams
     from gaitcap.simulator.path import Room, plan_walk
     from gaitcap.simulator.walker import simulate_body
 
-    names, times, walk = list(get_skeleton("halpe26").joint_names), np.arange(300) / 30.0, WalkParams(**params)
-    return analyze_gait(simulate_body(plan_walk(walk, 10.0, Room(), seed=0), walk, times), times, names)
+    names, times, walk = list(get_skeleton("halpe26").joint_names), np.arange(int(30 * seconds)) / 30.0, WalkParams(**params)
+    return analyze_gait(simulate_body(plan_walk(walk, seconds, Room(), seed=0), walk, times), times, names)
 
 
 @pytest.fixture(scope="module")
 def walks():
-    symmetric, asymmetric = _walk(), _walk(step_asymmetry=0.15, short_side="right")
+    symmetric, asymmetric = _walk(), _walk(12.0, step_asymmetry=0.15, short_side="right")  # 4 steady steps a side or more
     i = next(k for k, s in enumerate(symmetric.steps) if s.steady and s.foot == "right")
     steps = list(symmetric.steps)
     steps[i] = dataclasses.replace(steps[i], step_width_mm=1.2)  # the issue's one impossible width, counted

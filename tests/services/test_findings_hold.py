@@ -47,7 +47,7 @@ def test_a_side_difference_made_by_one_step_is_withheld_not_a_finding(one_bad_wi
 
 
 def test_a_real_side_difference_is_a_finding_and_the_preliminary_stage_says_so():
-    gait = _walk(step_asymmetry=0.15, short_side="right").to_dict()
+    gait = _walk(12.0, step_asymmetry=0.15, short_side="right").to_dict()  # 5 left, 4 right steady steps
     rows = rows_of(gait["summary"], NO_NORMS, sex="", age=None)
     refined = stage_said(gait, "refined", rows, {})
     assert "Step length differs between sides: left 748, right 552 mm (symmetry index 30.0 %)." in refined.findings
@@ -59,7 +59,7 @@ def test_a_real_side_difference_is_a_finding_and_the_preliminary_stage_says_so()
 
 def test_numbers_not_those_of_the_steps_make_no_finding():
     """A summary edited away from its steps (or steps missing) says nothing: the finding is withheld."""
-    gait = _walk(step_asymmetry=0.15, short_side="right").to_dict()
+    gait = _walk(12.0, step_asymmetry=0.15, short_side="right").to_dict()
     rows = rows_of(gait["summary"], NO_NORMS, sex="", age=None)
     said = stage_said({**gait, "steps": []}, "refined", rows, {})
     assert not said.findings and any("too few counted steps" in w for w in said.withheld)
