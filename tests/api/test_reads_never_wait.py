@@ -80,6 +80,8 @@ def test_every_read_route_answers_within_1_s_with_the_worker_stopped_inside_a_wr
     cal_id = cat.add_calibration(db, toml="[cam0]\nname = 'cam0'\n")
     db.close()
     catalog = Path(settings.catalog_url)
+    for path in get_routes():  # once unlocked first: a route's first call imports its modules (s on a loaded machine)
+        _timed_get(client, _url(path, tid, cal_id))
     env = {**os.environ, STOP_IN_WRITE_ENV: "3"}  # 1, 2: opening the catalog; 3: its first poll for a job
     worker = subprocess.Popen(
         [sys.executable, "-c", "from gaitcap.services.cli import main; main()", "worker", "--no-bus", "--no-warm-up",
