@@ -49,8 +49,13 @@ def _out(c: cals.CalibrationInfo, active_id: str | None) -> dict:
             "report": c.report, "has_toml": c.has_toml, "board": c.board}
 
 
-def _active_id(db) -> str | None:
-    latest = cat.latest_calibration(db)
+def _room(request: Request) -> str:
+    """The capture room this API runs: its rig's calibrations (gaitcap.services.catalog.rooms)."""
+    return request.app.state.settings.room
+
+
+def _active_id(db, room: str) -> str | None:
+    latest = cat.latest_calibration(db, room)
     return latest[0] if latest else None
 
 
@@ -82,7 +87,8 @@ def add(body: CalibrationIn, request: Request, user: str = Depends(require_user)
     if problems:
         raise HTTPException(status_code=422, detail="; ".join(problems))
     db = catalog_of(request)
-    cal_id = cat.add_calibration(db, toml=text, source=body.source or f"uploaded by {user}")
+    cal_id = cat.add_calibration(db, toml=text, source=body.source or f"uploaded by {user}",
+                                 room=_room(request))
     mapped = f", mapped {body.camera_map}" if body.camera_map else ""
     cat.audit(db, actor=user, action="calibrate", detail=f"{cal_id}: {len(rig.names)} cameras{mapped}")
     return {"id": cal_id, "cameras": list(rig.names), "checked_against_rig": bool(in_service)}
@@ -90,7 +96,7 @@ def add(body: CalibrationIn, request: Request, user: str = Depends(require_user)
 
 @router.get("/calibrations/latest", summary="The calibration the next trial will use")
 def latest(request: Request, user: str = Depends(require_user)) -> dict:
-    found = cat.latest_calibration(catalog_of(request))
+    found = cat.latest_calibration(catalog_of(request), _room(request))
     if found is None:
         raise HTTPException(status_code=404, detail="no calibration stored yet")
     return {"id": found[0], "toml": found[1]}
@@ -113,7 +119,7 @@ def record_start(request: Request, body: BoardRecordingIn | None = None, user: s
     folder = Path(settings.data_dir) / "calibrations"
     try:
         c = cals.start_board_recording(db, recording_path_for=lambda cid: folder / cid / "board.mcap", started_by=user,
-                                       board=board)
+                                       board=board, room=_room(request))
     except cals.CalibrationBusy as exc:
         raise HTTPException(status_code=409, detail=str(exc)) from None
     cat.audit(db, actor=user, action="calibrate start", detail=c.id)
@@ -125,13 +131,13 @@ def record_start(request: Request, body: BoardRecordingIn | None = None, user: s
         cals.update_calibration(db, c.id, state="failed", stage="", error=f"recorder: {exc}")
         raise HTTPException(status_code=503, detail=f"recorder: {exc}") from None
     request.app.state.scene.show("board", start_ns=time.time_ns() + int(SCENE_LEAD_S * 1e9))
-    return _out(cals.get_calibration(db, c.id), _active_id(db))
+    return _out(cals.get_calibration(db, c.id), _active_id(db, _room(request)))
 
 
 @router.post("/calibrations/record/stop", summary="Stop the board recording; a worker computes the calibration")
 def record_stop(request: Request, user: str = Depends(require_user)) -> dict:
     db, link = catalog_of(request), request.app.state.link
-    c = cals.current_board_recording(db)
+    c = cals.current_board_recording(db, _room(request))
     if c is None:
         raise HTTPException(status_code=409, detail="no board recording is under way")
     request.app.state.scene.show("walker", start_ns=time.time_ns())
@@ -146,7 +152,7 @@ def record_stop(request: Request, user: str = Depends(require_user)) -> dict:
     except ValueError as exc:  # stopped by another request in the meantime
         raise HTTPException(status_code=409, detail=str(exc)) from None
     log.info("board recording %s stopped (%s); calibration job queued", c.id, summary)
-    return _out(c, _active_id(db))
+    return _out(c, _active_id(db, _room(request)))
 
 
 @router.get("/calibrations", summary="Calibrations, newest first (board recordings and uploads)")
@@ -154,8 +160,8 @@ def list_all(request: Request, limit: int = 50, user: str = Depends(require_user
     if not 1 <= limit <= 1000:
         raise HTTPException(status_code=422, detail="limit: must be between 1 and 1000")
     db = catalog_of(request)
-    active = _active_id(db)
-    return [_out(c, active) for c in cals.list_calibrations(db, limit=limit)]
+    active = _active_id(db, _room(request))
+    return [_out(c, active) for c in cals.list_calibrations(db, limit=limit, room=_room(request))]
 
 
 def _found(db, cal_id: str) -> cals.CalibrationInfo:
@@ -168,7 +174,7 @@ def _found(db, cal_id: str) -> cals.CalibrationInfo:
 @router.get("/calibrations/{cal_id}", summary="One calibration with its quality report")
 def show(cal_id: str, request: Request, user: str = Depends(require_user)) -> dict:
     db = catalog_of(request)
-    return _out(_found(db, cal_id), _active_id(db))
+    return _out(_found(db, cal_id), _active_id(db, _room(request)))
 
 
 @router.get("/calibrations/{cal_id}/toml", response_class=PlainTextResponse,

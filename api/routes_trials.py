@@ -37,13 +37,13 @@ def start(body: StartTrial, request: Request, user: str = Depends(require_user))
     if not getattr(link, "connected", True):
         raise HTTPException(status_code=503, detail="recorder: this server runs without the cameras and "
                                                     "recorder (started with --no-bus)")
-    board = current_board_recording(db)
+    board = current_board_recording(db, settings.room)
     if board is not None:
         raise HTTPException(status_code=409, detail=f"board recording {board.id} is under way; stop it first")
     if low := disk_problem(settings.data_dir, int(settings.min_free_mb * 2**20)):  # nothing half-recorded
         raise HTTPException(status_code=409, detail=f"Start refused: {low}. Free space on it (move finished "
                                                     "trials off), then press Start again.")
-    calibration = cat.latest_calibration(db)
+    calibration = cat.latest_calibration(db, settings.room)
     problems = rig_problems(link.cameras(), _calibrated_cameras(calibration))
     if NO_CAMERA in problems:  # nothing to record: no confirmation starts a trial without images
         raise HTTPException(status_code=409, detail=f"Start refused: {NO_CAMERA}. Check the cameras' power and "

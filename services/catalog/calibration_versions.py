@@ -56,7 +56,7 @@ def add_version(catalog: Catalog, *, toml: str, replaces_id: str, made_by: str, 
         if old.state != DONE:
             raise ValueError(f"calibration {replaces_id} is {old.state}: only a done calibration can be replaced")
         s.add(Calibration(id=cal_id, kind=REFINED, state=DONE, created_at=now, done_at=now,
-                          source=f"{made_by} from {replaces_id}", toml=toml,
+                          source=f"{made_by} from {replaces_id}", toml=toml, room=old.room,
                           report_json=json.dumps(json_ready(report or {}), default=float)))
         s.flush()
         s.add(CalibrationVersion(calibration_id=cal_id, replaces_id=replaces_id, made_by=made_by,

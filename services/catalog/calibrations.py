@@ -17,6 +17,7 @@ from gaitcap.reconstruction.jsonable import json_ready
 from gaitcap.services.catalog.db import Catalog
 from gaitcap.services.catalog.jobs import new_job
 from gaitcap.services.catalog.models import Calibration, Trial
+from gaitcap.services.catalog.rooms import DEFAULT_ROOM, check_room, slot_of
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 
@@ -56,6 +57,7 @@ class CalibrationInfo:
     report: dict
     has_toml: bool
     board: dict | None = None
+    room: str = DEFAULT_ROOM
 
 
 def _info(row: Calibration) -> CalibrationInfo:
@@ -64,7 +66,7 @@ def _info(row: Calibration) -> CalibrationInfo:
         source=row.source, started_at=row.started_at, stopped_at=row.stopped_at, started_by=row.started_by,
         recording_path=row.recording_path, frames=row.frames, stage=row.stage, progress=row.progress,
         error=row.error, report=json.loads(row.report_json or "{}"), has_toml=bool(row.toml),
-        board=json.loads(row.board) if row.board else None,
+        board=json.loads(row.board) if row.board else None, room=row.room or DEFAULT_ROOM,
     )
 
 
@@ -73,21 +75,24 @@ def new_calibration_id() -> str:
 
 
 def add_calibration(catalog: Catalog, *, toml: str, source: str = "", report: dict | None = None,
-                    cal_id: str | None = None) -> str:
-    """Store an uploaded calibration, active at once; returns its id (``C<date>-<hex>``, or ``cal_id``)."""
+                    cal_id: str | None = None, room: str = DEFAULT_ROOM) -> str:
+    """Store an uploaded calibration of ``room``'s rig, active there at once; returns its id (``C<date>-<hex>``,
+    or ``cal_id``)."""
+    check_room(room)
     if not toml.strip():
         raise ValueError("toml: calibration text is empty")
     cal_id, now = cal_id or new_calibration_id(), time.time()
     with catalog.session() as s:
         s.add(Calibration(id=cal_id, kind=UPLOADED, state=DONE, created_at=now, done_at=now, source=source,
-                          toml=toml, report_json=json.dumps(json_ready(report or {}), default=float)))
+                          toml=toml, report_json=json.dumps(json_ready(report or {}), default=float), room=room))
     return cal_id
 
 
-def latest_calibration(catalog: Catalog) -> tuple[str, str] | None:
-    """(id, toml) of the active calibration (the newest ``done`` one), or None."""
+def latest_calibration(catalog: Catalog, room: str = DEFAULT_ROOM) -> tuple[str, str] | None:
+    """(id, toml) of ``room``'s active calibration (its newest ``done`` one), or None."""
     with catalog.reading() as s:
-        q = select(Calibration).where(Calibration.state == DONE).order_by(Calibration.done_at.desc())
+        q = (select(Calibration).where(Calibration.state == DONE, Calibration.room == check_room(room))
+             .order_by(Calibration.done_at.desc()))
         row = s.scalars(q).first()
         return None if row is None else (row.id, row.toml)
 
@@ -103,34 +108,40 @@ def calibration_toml(catalog: Catalog, cal_id: str) -> str:
         return _row(s, cal_id, expect=None).toml
 
 
-def list_calibrations(catalog: Catalog, *, limit: int = 50) -> list[CalibrationInfo]:
-    """Every calibration (uploads and board recordings), newest first."""
+def list_calibrations(catalog: Catalog, *, limit: int = 50, room: str | None = None) -> list[CalibrationInfo]:
+    """Every calibration (uploads and board recordings), newest first; ``room``: that room's only."""
     with catalog.reading() as s:
         q = select(Calibration).order_by(Calibration.created_at.desc()).limit(limit)
+        if room is not None:
+            q = q.where(Calibration.room == check_room(room))
         return [_info(r) for r in s.scalars(q)]
 
 
-def current_board_recording(catalog: Catalog) -> CalibrationInfo | None:
+def current_board_recording(catalog: Catalog, room: str = DEFAULT_ROOM) -> CalibrationInfo | None:
+    """The board recording under way in ``room``, if any."""
     with catalog.reading() as s:
-        row = s.scalars(select(Calibration).where(Calibration.recording_slot == 1)).first()
+        row = s.scalars(select(Calibration).where(Calibration.recording_slot == slot_of(s, room))).first()
         return None if row is None else _info(row)
 
 
 def start_board_recording(catalog: Catalog, *, recording_path_for, started_by: str = "",
-                          board: dict | None = None) -> CalibrationInfo:
+                          board: dict | None = None, room: str = DEFAULT_ROOM) -> CalibrationInfo:
     """A new board recording in state ``recording``; CalibrationBusy naming what records when a trial
     or another board recording is under way. ``recording_path_for(cal_id) -> str``: where the MCAP goes;
-    ``board``: the board filmed (a board file's ``[board]`` fields; None: the default board)."""
+    ``board``: the board filmed (a board file's ``[board]`` fields; None: the default board); ``room``: the
+    room whose rig it films (its own slot: other rooms record on)."""
     cal_id, now = new_calibration_id(), time.time()
     try:
         with catalog.session() as s:
-            trial = s.scalars(select(Trial.id).where(Trial.recording_slot == 1)).first()
+            slot = slot_of(s, room)
+            trial = s.scalars(select(Trial.id).where(Trial.recording_slot == slot)).first()
             if trial is not None:
                 raise CalibrationBusy(f"trial {trial} is recording; stop it before recording the board")
-            busy = s.scalars(select(Calibration.id).where(Calibration.recording_slot == 1)).first()
+            busy = s.scalars(select(Calibration.id).where(Calibration.recording_slot == slot)).first()
             if busy is not None:
                 raise CalibrationBusy(f"board recording {busy} is already under way; stop it first")
-            row = Calibration(id=cal_id, kind=BOARD_RECORDING, state=RECORDING, recording_slot=1, created_at=now,
+            row = Calibration(id=cal_id, kind=BOARD_RECORDING, state=RECORDING, recording_slot=slot, room=room,
+                              created_at=now,
                               started_at=now, started_by=started_by, source=f"board recording by {started_by or 'unknown'}",
                               recording_path=str(recording_path_for(cal_id)), stage="recording the board",
                               progress=0.0, error="", toml="", report_json="{}",

@@ -193,15 +193,17 @@ CREATE TABLE IF NOT EXISTS rooms (
     PRIMARY KEY (name),
     UNIQUE (slot)
 );
-CREATE INDEX IF NOT EXISTS ix_trials_room ON trials (room)
+CREATE INDEX IF NOT EXISTS ix_trials_room ON trials (room);
+CREATE INDEX IF NOT EXISTS ix_calibrations_room ON calibrations (room)
 """  # the table of schema version 6, frozen
 
 
 def _v5_to_v6(conn: Connection) -> None:
-    """Rooms: ``trials.room`` ('' on older trials: the default room, whose recording slot stays 1) and the rooms
-    table; ``trials.state`` 32 wide (PostgreSQL enforces the width; SQLite never did)."""
-    if "room" not in {column["name"] for column in inspect(conn).get_columns("trials")}:  # (made by this gaitcap)
-        conn.exec_driver_sql("ALTER TABLE trials ADD COLUMN room VARCHAR(64) NOT NULL DEFAULT ''")
+    """Rooms: ``trials.room`` and ``calibrations.room`` ('' on older rows: the default room, whose recording slot
+    stays 1) and the rooms table; ``trials.state`` 32 wide (PostgreSQL enforces the width; SQLite never did)."""
+    for table in ("trials", "calibrations"):
+        if "room" not in {column["name"] for column in inspect(conn).get_columns(table)}:  # (made by this gaitcap)
+            conn.exec_driver_sql(f"ALTER TABLE {table} ADD COLUMN room VARCHAR(64) NOT NULL DEFAULT ''")
     if conn.dialect.name == "postgresql":
         conn.exec_driver_sql("ALTER TABLE trials ALTER COLUMN state TYPE VARCHAR(32)")
     _run_ddl(conn, ROOMS_V6_DDL)

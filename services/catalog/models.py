@@ -49,7 +49,8 @@ class Calibration(Base):
     ``recording_slot`` is 1 while the board records (one recording at a time); ``done_at``: when it became
     usable (the newest ``done`` one is the active calibration); ``frames``: images in the board recording;
     ``board``: the board filmed, as JSON (the fields of a board file's ``[board]`` table), recorded at the
-    start of a board recording; '' when none was given (the default board)."""
+    start of a board recording; '' when none was given (the default board); ``room``: the capture room whose rig
+    it calibrates ('' the default room): each room has its own active calibration and its own board slot."""
 
     __tablename__ = "calibrations"
     id: Mapped[str] = mapped_column(String(64), primary_key=True)
@@ -70,6 +71,7 @@ class Calibration(Base):
     progress: Mapped[float] = mapped_column(Float, default=0.0)
     error: Mapped[str] = mapped_column(Text, default="")
     board: Mapped[str] = mapped_column(Text, default="")
+    room: Mapped[str] = mapped_column(String(64), default="", index=True)  # the room whose rig it calibrates
 
 
 class CalibrationVersion(Base):

@@ -274,10 +274,13 @@ def register_calibration(cfg: StackConfig) -> str:
     toml = rig_to_toml_text(rig)
     db = cat.open_catalog(cfg.catalog)
     try:
-        latest = cat.latest_calibration(db)
+        if cfg.room:
+            cat.register_room(db, cfg.room)  # (its API registers it too, with its host)
+        latest = cat.latest_calibration(db, cfg.room)
         if latest is not None and latest[1] == toml:
             return latest[0]
-        return cat.add_calibration(db, toml=toml, source=f"simulated rig ({cfg.cameras} cameras, seed {cfg.seed})")
+        return cat.add_calibration(db, toml=toml, source=f"simulated rig ({cfg.cameras} cameras, seed {cfg.seed})",
+                                   room=cfg.room)
     finally:
         db.close()
 

@@ -1,5 +1,5 @@
 """A catalog written by schema version 5 (no rooms; on PostgreSQL a 16-character state column, too narrow for
-done_with_warnings) opens upgraded to 6: its trials in the default room, the one recording there still
+done_with_warnings) opens upgraded to 6: its trials and calibrations in the default room, the one recording there still
 holding the room's slot, new rooms registering beside it, every state storable."""
 
 from gaitcap.services import catalog as cat
@@ -12,17 +12,19 @@ from .conftest import raw_sql
 def test_a_version_5_catalog_opens_with_its_trials_in_the_default_room(fresh_catalog_url):
     path = fresh_catalog_url
     db = cat.open_catalog(path)
+    cal = cat.add_calibration(db, toml="[rig]")
     done = cat.start_trial(db, subject_id="P1", session="s1", recording_path_for=lambda t: f"/d/{t}.mcap")
     cat.set_state(db, done.id, "recorded")
     recording = cat.start_trial(db, subject_id="P2", session="s1", recording_path_for=lambda t: f"/d/{t}.mcap")
     db.close()
     narrow = "" if "://" not in path else "ALTER TABLE trials ALTER COLUMN state TYPE VARCHAR(16); "
-    raw_sql(path, f"DROP INDEX ix_trials_room; ALTER TABLE trials DROP COLUMN room; DROP TABLE rooms; {narrow}"
+    raw_sql(path, "DROP INDEX ix_trials_room; ALTER TABLE trials DROP COLUMN room; DROP INDEX ix_calibrations_room; "
+                  f"ALTER TABLE calibrations DROP COLUMN room; DROP TABLE rooms; {narrow}"
                   "UPDATE schema_info SET value = '5' WHERE key = 'version'")
     db = cat.open_catalog(path, create=False)  # nothing created but by the upgrade
     assert cat.schema_version(db) == SCHEMA_VERSION == 6
     assert {t.id: t.room for t in cat.list_trials(db)} == {done.id: "", recording.id: ""}
-    assert cat.current_recording(db).id == recording.id
+    assert cat.current_recording(db).id == recording.id and cat.latest_calibration(db) == (cal, "[rig]")
     rooms.register_room(db, "gait2")
     assert cat.start_trial(db, subject_id="P3", session="s1", room="gait2").room == "gait2"
     for state in ("processing", "done_with_warnings"):

@@ -73,3 +73,23 @@ def test_a_room_keeps_its_rig_state_with_when_it_was_seen(db):
     assert got.rig == rig and got.seen_at >= seen
     with pytest.raises(rooms.RoomNotFound, match="gait3"):
         rooms.report_rig(db, "gait3", rig)
+
+
+def test_each_room_has_its_own_active_calibration_and_board_slot(db):
+    from gaitcap.services.catalog import calibration_versions as versions
+    from gaitcap.services.catalog import calibrations as cals
+
+    rooms.register_room(db, "gait2")
+    here = cat.add_calibration(db, toml="[room1 rig]")
+    there = cat.add_calibration(db, toml="[room2 rig]", room="gait2")
+    assert cat.latest_calibration(db) == (here, "[room1 rig]")
+    assert cat.latest_calibration(db, "gait2") == (there, "[room2 rig]")
+    refined = versions.add_version(db, toml="[room2 refined]", replaces_id=there, made_by="refine-rig", trials=[],
+                                   comparison={})
+    assert cat.latest_calibration(db, "gait2")[0] == refined and cat.latest_calibration(db)[0] == here
+    recording = _start(db, "")  # the default room records; the board is filmed in gait2 all the same
+    board = cals.start_board_recording(db, recording_path_for=lambda c: f"/d/{c}.mcap", room="gait2")
+    assert cals.current_board_recording(db, "gait2").id == board.id and cals.current_board_recording(db) is None
+    with pytest.raises(cals.CalibrationBusy, match=recording.id):
+        cals.start_board_recording(db, recording_path_for=lambda c: f"/d/{c}.mcap")
+    assert {c.room for c in cals.list_calibrations(db, room="gait2")} == {"gait2"}
