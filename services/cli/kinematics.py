@@ -41,6 +41,8 @@ def _echo_summary(d: dict, out: Path) -> None:
         typer.echo(f"normal-gait band: {d['norms']['no_reference']}")
     else:
         typer.echo("note: normal-gait bands not installed (run deploy/bootstrap.sh)", err=True)
+    for warning in d.get("warnings") or []:
+        typer.echo(f"warning: {warning}", err=True)
     typer.echo(f"files: {out}/ (kinematics.mot, .osim, .trc, .json, .csv, trajectory.c3d)")
 
 
