@@ -76,3 +76,12 @@ def test_every_nth_frame_set_of_a_session_from_the_command_line(tmp_path):
     assert len(load_rig(out).names) == 11
     refused = CliRunner().invoke(app, ["calibrate", str(ELEVEN), "--out", str(out), "--max-frames", "50"])
     assert refused.exit_code != 0 and "--max-frames: a caliscope session holds corner detections" in refused.output
+
+
+def test_choosing_intrinsics_that_are_given_is_a_usage_error(tmp_path):
+    cal = str(SESSION / "camera_array.toml")
+    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(tmp_path / "c.toml"), "--intrinsics", cal,
+                                      "--choose-intrinsics"])
+    assert result.exit_code == 2
+    assert "--choose-intrinsics: the intrinsics are given (--intrinsics); nothing to choose" in result.output
+    assert not (tmp_path / "c.toml").exists()
