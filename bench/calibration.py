@@ -363,9 +363,12 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
         return None
     _, obs, ref, _ = read_session(folder, sync_every=sync_every)
     holdout = HoldoutConfig(folds=folds)
-    config, choice = CalibrationConfig(), None
+    config, choice, choice_error = CalibrationConfig(), None, None
     if choose:
-        config, choice = choose_intrinsics(obs, config, holdout=holdout)
+        try:
+            config, choice = choose_intrinsics(obs, config, holdout=holdout)
+        except ValueError as exc:  # no candidate fitted in every fold: the default rule, said
+            choice_error = str(exc)
     t0 = time.perf_counter()
     rig = calibrate_from_observations(obs, config=config).rig
     fit_s = time.perf_counter() - t0
@@ -383,7 +386,8 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
     apart = similar.centre_mm_max > REAL_TARGET_CENTRE_MM or similar.rotation_deg_max > REAL_TARGET_ROTATION_DEG
     return {
         "recording": {**REAL_SESSIONS, **LARGE_SESSIONS}[name], "sync_every": sync_every, "folds": folds,
-        "intrinsics": "chosen per camera by held-out error" if choose else "held by coverage (the default)",
+        "intrinsics": "chosen per camera by held-out error" if choice else "held by coverage (the default)",
+        "choice_error": choice_error,
         "chosen": choice.chosen if choice else None, "choice_rms_px": choice.held_out_rms_px if choice else None,
         "choice_candidates": list(choice.candidates) if choice else None,
         "choice_seconds": choice.seconds if choice else 0.0, "shared_focal": choice.shared_focal if choice else None,
@@ -436,6 +440,7 @@ def _held_out_lines(h: dict) -> list[str]:
                  "sets: in-sample for it)")
     lines += [f"    fold not fitted: {e}" for e in h["fold_errors"]]
     lines += [f"    {h['shared_focal']}"] if h.get("shared_focal") else []
+    lines += [f"    intrinsics not chosen: {h['choice_error']}"] if h.get("choice_error") else []
     return lines
 
 

@@ -234,9 +234,12 @@ def register(app: typer.Typer) -> None:
             if choose_intrinsics:
                 if known is not None:
                     raise ValueError("--choose-intrinsics: the intrinsics are given (--intrinsics); nothing to choose")
-                with progress(total=6, desc="choosing intrinsics", unit="candidate") as bar:
-                    config, choice = choose_model(obs, config, holdout=HoldoutConfig(folds=max(folds, 2)),
-                                                  progress=lambda done, total: bar.update(1))
+                try:
+                    with progress(total=6, desc="choosing intrinsics", unit="candidate") as bar:
+                        config, choice = choose_model(obs, config, holdout=HoldoutConfig(folds=max(folds, 2)),
+                                                      progress=lambda done, total: bar.update(1))
+                except ValueError as exc:  # no candidate fitted in every fold: the default rule stands, said
+                    typer.echo(f"intrinsics not chosen by held-out error ({exc}); the coverage rule is used", err=True)
             result = calibrate_from_observations(obs, config=config,
                                                  views_removed=found.views_removed if found is not None else None)
             held_out = _cross_validate(obs, config, folds, reference, compare) if folds else None
