@@ -47,14 +47,21 @@ def _when(t_s: float | None) -> str:
 class _Doc(FPDF):
     latin1 = staticmethod(_latin1)
 
-    def __init__(self, c: ReportContent, layout: Layout | None = None) -> None:
+    def __init__(self, c: ReportContent, layout: Layout | None = None, figures: dict | None = None) -> None:
         super().__init__(orientation="portrait", unit="mm", format="A4")
         self.c = c
         self.layout = layout or LAYOUTS[0]
+        self.figures = {} if figures is None else figures  # drawn once, kept over the layouts tried
         self.set_auto_page_break(auto=True, margin=16)
         self.set_margins(14, 12, 14)
         self.set_title(f"Gait report {c.patient.id} {c.trial.id}")
         self.set_creator(f"gaitcap {c.version}")
+
+    def figure(self, key: str, make) -> bytes | None:
+        """The figure ``key`` (PNG bytes, or None), made by ``make()`` the first time it is asked for."""
+        if key not in self.figures:
+            self.figures[key] = make()
+        return self.figures[key]
 
     def header(self) -> None:
         self.set_font("Helvetica", "B", 13)
@@ -212,23 +219,26 @@ def _figures(pdf: _Doc) -> None:
     """The heel traces and, beside them, the joint-angle curves (the variables with a band), both half the
     page wide, so that one trial's report stays on two pages."""
     c = pdf.c
-    curves = kinematics_figure_png(c.kinematics or {})
+    curves = pdf.figure("curves", lambda: _compact(kinematics_figure_png(c.kinematics or {})))
+    left_out = bool(curves) and not pdf.layout.curves
+    if left_out:
+        curves = None
+        pdf.curves_drawn = True  # not drawn on their own further down either: said here
     pdf.heading("Heel traces and detected steps" + (" | joint angles over the gait cycle" if curves else ""),
                 keep_mm=60)
-    if curves and not pdf.layout.curves:
-        curves = None
+    if left_out:
         pdf.para("The joint-angle curves are on the clinic page (left out here to keep the report on two pages).", 7)
     half = (pdf.w - pdf.l_margin - pdf.r_margin - 4) / 2 * pdf.layout.figures
     y0, bottom = pdf.get_y(), pdf.get_y()
-    if c.heel_plot_png:
-        info = pdf.image(compact_png(c.heel_plot_png), x=pdf.l_margin, y=y0,
-                         w=half if curves else 120 * pdf.layout.figures)
+    heel = pdf.figure("heel", lambda: _compact(c.heel_plot_png))
+    if heel:
+        info = pdf.image(io.BytesIO(heel), x=pdf.l_margin, y=y0, w=half if curves else 120 * pdf.layout.figures)
         bottom = max(bottom, y0 + info.rendered_height)
     else:
         pdf.para("The heel-trace figure was not written for this trial.")
         bottom = pdf.get_y()
     if curves:
-        info = pdf.image(compact_png(curves), x=pdf.l_margin + half + 4, y=y0, w=half)
+        info = pdf.image(io.BytesIO(curves), x=pdf.l_margin + half + 4, y=y0, w=half)
         bottom = max(bottom, y0 + info.rendered_height)
         pdf.curves_drawn = True
     pdf.set_y(bottom + 1)
@@ -294,18 +304,19 @@ MAX_PAGES = 2
 PNG_COLOURS = 64  # the figures' palette in the PDF: a third of the bytes of the full-colour plot, lines as sharp
 
 
-def compact_png(png: bytes) -> io.BytesIO:
+def _compact(png: bytes | None) -> bytes | None:
     """A plot (PNG) with a palette of :data:`PNG_COLOURS` colours, so that a report stays near 100 kB."""
+    if not png:
+        return None
     from PIL import Image
 
     out = io.BytesIO()
     Image.open(io.BytesIO(png)).convert("RGB").quantize(colors=PNG_COLOURS).save(out, "PNG", optimize=True)
-    out.seek(0)
-    return out
+    return out.getvalue()
 
 
-def _render(content: ReportContent, layout: Layout) -> _Doc:
-    pdf = _Doc(content, layout)
+def _render(content: ReportContent, layout: Layout, figures: dict) -> _Doc:
+    pdf = _Doc(content, layout, figures)
     pdf.alias_nb_pages()
     pdf.add_page()
     for section in SECTIONS:
@@ -318,8 +329,9 @@ def _render(content: ReportContent, layout: Layout) -> _Doc:
 def report_pdf(content: ReportContent) -> bytes:
     """The report as PDF bytes, on at most :data:`MAX_PAGES` A4 pages: the first of :data:`LAYOUTS` that
     fits (smaller figures and notes, then the joint-angle curves left out, saying so)."""
+    figures: dict = {}  # each figure drawn and compacted once, whatever the layouts tried
     for layout in LAYOUTS:
-        pdf = _render(content, layout)
+        pdf = _render(content, layout, figures)
         if pdf.pages_count <= MAX_PAGES:
             break
     return bytes(pdf.output())

@@ -189,7 +189,7 @@ def page_says(page, tid: str) -> dict:
 def pdf_says(client, tid: str) -> dict:
     from pypdf import PdfReader
 
-    pdf = client.get(f"/trials/{tid}/report.pdf")
+    pdf = client.get(f"/trials/{tid}/report.pdf", timeout=120)  # a loaded machine renders slowly
     assert pdf.status_code == 200
     pages = [p.extract_text() for p in PdfReader(io.BytesIO(pdf.content)).pages]
     lines = [ln.strip() for ln in pages[0].splitlines()]

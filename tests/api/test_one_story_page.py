@@ -162,7 +162,7 @@ def test_notes_steps_print_and_pdf_tell_one_story_at_every_width(server, walk, t
         db.close()
 
     def report() -> tuple[list[str], int]:
-        pdf = client.get(f"/trials/{tid}/report.pdf").content
+        pdf = client.get(f"/trials/{tid}/report.pdf", timeout=120).content  # a loaded machine renders slowly
         return [" ".join(p.extract_text().split()) for p in PdfReader(io.BytesIO(pdf)).pages], len(pdf)
 
     pages, size = report()  # the patient's sex and age not recorded, a dozen warnings, curves, a previous visit
