@@ -15,6 +15,7 @@ Cost: one k-fold cross-validation per candidate (candidates x k calibrations), t
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
@@ -93,8 +94,6 @@ def choose_intrinsics(
     cross-validated without and with a focal length prior shared by identical cameras
     (``CalibrationConfig.share_focal``; two more cross-validations), kept where it lowers the rig's
     held-out RMS. ValueError when no candidate could be fitted in every fold (naming why)."""
-    import time
-
     base, holdout = base or CalibrationConfig(), holdout or HoldoutConfig()
     if base.known_intrinsics is not None:
         raise ValueError("intrinsics choice: the intrinsics are given (known_intrinsics); nothing to choose")
