@@ -88,9 +88,9 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
         app.state.catalog = cat.open_catalog(settings.catalog_url)
         audit_rows = AuditQueue(app.state.catalog).start()  # a read never waits for the write lock
         log.info("catalog %s, data %s", app.state.catalog.shown_url, settings.data_dir)
-        room = settings.room
-        cat.register_room(app.state.catalog, room, host=socket.gethostname())
-        live = app.state.link.connected
+        room, live = settings.room, app.state.link.connected
+        if live:  # a capture room (a catalog-only server records nothing: it is no room)
+            cat.register_room(app.state.catalog, room, host=socket.gethostname())
         guard = TrialGuard(app.state.catalog, app.state.link, room=room).start() if live else None
         reporter = RoomReporter(app.state.catalog, app.state.link, room).start() if live else None
         backups = start_backups(settings)
