@@ -194,7 +194,8 @@ CREATE TABLE IF NOT EXISTS rooms (
     UNIQUE (slot)
 );
 CREATE INDEX IF NOT EXISTS ix_trials_room ON trials (room);
-CREATE INDEX IF NOT EXISTS ix_calibrations_room ON calibrations (room)
+CREATE INDEX IF NOT EXISTS ix_calibrations_room ON calibrations (room);
+CREATE INDEX IF NOT EXISTS ix_trials_created_at ON trials (created_at)
 """  # the table of schema version 6, frozen
 
 

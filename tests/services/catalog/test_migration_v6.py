@@ -5,6 +5,7 @@ holding the room's slot, new rooms registering beside it, every state storable."
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import rooms
 from gaitcap.services.catalog.models import SCHEMA_VERSION
+from sqlalchemy import inspect
 
 from .conftest import raw_sql
 
@@ -19,10 +20,13 @@ def test_a_version_5_catalog_opens_with_its_trials_in_the_default_room(fresh_cat
     db.close()
     narrow = "" if "://" not in path else "ALTER TABLE trials ALTER COLUMN state TYPE VARCHAR(16); "
     raw_sql(path, "DROP INDEX ix_trials_room; ALTER TABLE trials DROP COLUMN room; DROP INDEX ix_calibrations_room; "
+                  "DROP INDEX ix_trials_created_at; "
                   f"ALTER TABLE calibrations DROP COLUMN room; DROP TABLE rooms; {narrow}"
                   "UPDATE schema_info SET value = '5' WHERE key = 'version'")
     db = cat.open_catalog(path, create=False)  # nothing created but by the upgrade
     assert cat.schema_version(db) == SCHEMA_VERSION == 6
+    indexes = {i["name"] for i in inspect(db.engine).get_indexes("trials")}
+    assert {"ix_trials_room", "ix_trials_created_at"} <= indexes
     assert {t.id: t.room for t in cat.list_trials(db)} == {done.id: "", recording.id: ""}
     assert cat.current_recording(db).id == recording.id and cat.latest_calibration(db) == (cal, "[rig]")
     rooms.register_room(db, "gait2")
