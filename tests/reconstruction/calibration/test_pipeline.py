@@ -115,3 +115,13 @@ def test_fronto_parallel_views_are_degenerate():
     obs = BoardObservations(("flat",), ((1280, 800),), np.array(corners)[None], board)
     with pytest.raises(ValueError, match="camera 'flat': board views are degenerate.*0 of 10 views are tilted"):
         calibrate_from_observations(obs)
+
+
+def test_identical_cameras_are_grouped_by_image_size_and_focal_length():
+    from gaitcap.reconstruction.calibration.pipeline import focal_groups
+
+    # caliscope's 4 webcams: only the two of 637 and 640 px are one model
+    assert focal_groups([(1280, 720)] * 4, np.array([895.0, 704, 637, 640]), 0.05).tolist() == [-1, -1, 0, 0]
+    # a chain of focal lengths each within 5 % of the next is one model; another image size is not
+    groups = focal_groups([(1920, 1080)] * 4 + [(1280, 720)], np.array([1050.0, 1090, 1130, 1400, 1100]), 0.05)
+    assert groups.tolist() == [0, 0, 0, -1, -1]
