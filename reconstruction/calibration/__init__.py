@@ -4,7 +4,9 @@ Entry point: :func:`calibrate_from_observations` (``BoardObservations`` -> ``Cal
 Modules: ``geometry`` (board, observations, rotations), ``intrinsics`` (OpenCV per camera), ``views``
 (single-view poses, detector order ambiguities), ``graph`` (camera graph, initial poses), ``bundle``
 (robust bundle adjustment), ``world`` (floor-board frame), ``walk_frame`` (frame from a walk),
-``report`` (quality report), ``pipeline`` (all of it).
+``report`` (quality report), ``pipeline`` (all of it), ``board_check`` (the board measured in 3D),
+``holdout`` (the held-out error, k folds in time; a given calibration judged the same way),
+``model_choice`` (intrinsics chosen by held-out error).
 """
 
 from gaitcap.reconstruction.calibration.bundle import BundleConfig
