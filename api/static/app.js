@@ -394,7 +394,8 @@ function renderSteps(steps) {
   for (const s of steps) for (const k of Object.keys(s)) if (!cols.includes(k) && (typeof s[k] !== "object" || s[k] === null)) cols.push(k);
   head.innerHTML = "<tr><th>#</th>" + cols.map((c) => { const [t, u] = nice(c, ""); return `<th>${esc(t)}${u ? " (" + esc(u) + ")" : ""}</th>`; }).join("") + "</tr>";
   steps.forEach((s, i) => {
-    body.insertAdjacentHTML("beforeend", "<tr><td>" + (i + 1) + "</td>" + cols.map((c) => `<td>${typeof s[c] === "number" ? fmtNum(s[c]) : esc(String(s[c] ?? ""))}</td>`).join("") + "</tr>");
+    // a step not counted in the summary (its reason in the "excluded" column) is marked as such
+    body.insertAdjacentHTML("beforeend", (s.excluded ? '<tr class="excluded-step">' : "<tr>") + "<td>" + (i + 1) + "</td>" + cols.map((c) => `<td>${typeof s[c] === "number" ? fmtNum(s[c]) : esc(String(s[c] ?? ""))}</td>`).join("") + "</tr>");
   });
 }
 
