@@ -3,7 +3,13 @@ that does not match is refused, naming what did not match."""
 
 import numpy as np
 import pytest
-from gaitcap.reconstruction.validation.align import AlignmentError, align_space, find_lag, fit_rigid, swap_sides
+from gaitcap.reconstruction.validation.align import (
+    AlignmentError,
+    align_space,
+    find_lag,
+    fit_rigid,
+    swap_sides,
+)
 
 
 def _heel(t, phase):
