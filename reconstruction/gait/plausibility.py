@@ -82,9 +82,10 @@ def outliers(steps: Sequence[Step], *, resolution_s: float = 0.0) -> dict[int, s
 
 def with_exclusions(steps: Sequence[Step], judged: Sequence[bool], reasons: dict[int, str], *,
                     resolution_s: float = 0.0) -> tuple[Step, ...]:
-    """``steps`` with ``Step.excluded`` set: ``reasons`` given by position (events, sequence) and, among
-    the ``judged`` steps (the summary's set) without one, the :func:`outliers` of those judged steps."""
-    chosen = [i for i, j in enumerate(judged) if j and i not in reasons]
+    """``steps`` with ``Step.excluded`` set: ``reasons`` given by position and, among the ``judged`` steps
+    (the summary's set) not excluded already (events, sequence: ``parameters.pass_steps``), the
+    :func:`outliers` of those. A step keeps the first reason it was given."""
+    chosen = [i for i, j in enumerate(judged) if j and i not in reasons and not steps[i].excluded]
     found = outliers([steps[i] for i in chosen], resolution_s=resolution_s)
     why = {**reasons, **{chosen[k]: r for k, r in found.items()}}
     return tuple(dataclasses.replace(s, excluded=why[i]) if i in why else s for i, s in enumerate(steps))

@@ -98,3 +98,10 @@ def test_a_heel_below_the_floor_or_that_fewer_than_two_views_agree_on_is_implaus
     assert implausible_heel_frames(z).tolist() == [False, False, True, False, True, False, False]
     views = np.array([5.0, 3.0, 4.0, 0.0, 6.0, 2.0, 1.4])
     assert implausible_heel_frames(z, views).tolist() == [False, False, True, False, True, False, True]
+
+
+def test_a_step_excluded_for_its_events_keeps_that_reason_and_is_no_reference_for_the_others():
+    steps = _alternating(step_time_s={"left": [0.55, 0.54, 0.56, 0.55, 0.55], "right": [0.54, 0.55, 0.55, 0.56, 0.55]})
+    steps[4] = _step(4, "left", step_time_s=3.0, excluded="events out of order: toe off (2.10 s) not after heel strike (2.20 s)")
+    marked = with_exclusions(steps, [True] * len(steps), {}, resolution_s=1 / 30)
+    assert [s.excluded for s in marked] == [""] * 4 + [steps[4].excluded] + [""] * 5
