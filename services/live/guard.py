@@ -64,11 +64,19 @@ class TrialGuard:
         self._thread.join(5)
 
     def _run(self) -> None:
+        failing = False  # the traceback once per outage, not every period
         while not self._stop.wait(self.times.period_s):
             try:
                 self.check()
-            except Exception:  # a transient catalog or bus error: try again next period
-                log.exception("trial guard check failed")
+                if failing:
+                    log.info("trial guard: checks work again")
+                failing = False
+            except Exception as exc:  # a transient catalog or bus error: try again next period
+                if failing:
+                    log.debug("trial guard check failed again: %s", exc)
+                else:
+                    log.exception("trial guard check failed; trying every %.1f s", self.times.period_s)
+                failing = True
 
     # ------------------------------------------------------------------ one pass
     def check(self, now: float | None = None) -> None:
