@@ -31,7 +31,7 @@ def _sha(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-@pytest.mark.timeout(600)  # a stack, 8 trials, two process restarts and a restore: 4-6 min on the loaded 2-core machine
+@pytest.mark.timeout(600)  # a stack, 8 trials, restarts, a restore: 50 s on the quiet 2-core machine, 4-8 min at load 30
 def test_a_day_with_every_fault_then_a_backup_restored(tmp_path):
     base = free_loopback_ports(12)[0]
     data = tmp_path / "clinic"
