@@ -73,7 +73,7 @@ def test_every_stage_file_is_the_same_in_the_clinic_and_offline(both, stage):
 def test_the_trials_checks_are_the_same_in_the_clinic_and_offline(both):
     folder, _, out, summary = both
     clinic = _json(folder / "checks.json")
-    assert set(clinic) == {"one_person", "rig"} and _json(out / "checks.json") == clinic
+    assert set(clinic) == {"one_person", "rig", "steps"} and _json(out / "checks.json") == clinic
     assert summary["data_quality"]["checks"] == clinic
 
 
