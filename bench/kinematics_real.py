@@ -35,7 +35,6 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import emit  # noqa: E402
 
-C3D_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "c3d"
 WALKS = ("FunctionalWalk", "PiG_Motion-FlatFoot-Full", "PiG_Motion3_FF")
 VARIABLES = ("hip_flexion", "knee_flexion", "ankle_dorsiflexion")
 TARGETS = {"hip_flexion": (2.0, 0.99), "knee_flexion": (2.0, 0.99), "ankle_dorsiflexion": (3.0, 0.98)}
@@ -127,7 +126,7 @@ def fit_markers(pw, out: Path):
 
 
 def run(*, walks, inputs, phases: int, seed: int, preset: str) -> dict:
-    from gaitcap.simulator.pig_walks import load_pig_walk
+    from gaitcap.simulator.pig_walks import C3D_DIR, load_pig_walk
 
     rows = []
     for name in walks:

@@ -234,13 +234,21 @@ def rig_view(walk: MocapWalk, *, fps: float = 30.0, phase: int = 0, preset: str 
     travel = float(points[-1, SKELETON.index("pelvis"), 0])
     points = (points - np.array([0.5 * travel, 0.0, 0.0])) @ rot.T
     times = walk.times_s[idx]
-    rig = build_rig(cameras, seed=seed, room=room)
-    noise = get_preset(preset)
-    rng = np.random.default_rng([seed, 31, phase])
-    velocity = np.gradient(points, times, axis=0)
-    height = 1.0 / 0.53 * float(np.median(points[:, SKELETON.index("pelvis"), 2]))
-    keypoints = detect(rig, points, velocity, height, noise, np.zeros((len(rig), len(times))), rng)
-    return RigView(times, points, MultiViewKeypoints.of_one_person(keypoints, tuple(rig.names), times, SKELETON), rig)
+    detections, rig = film_points(points, times, preset=preset, cameras=cameras, seed=seed,
+                                  rng=np.random.default_rng([seed, 31, phase]), room=room)
+    return RigView(times, points, detections, rig)
+
+
+def film_points(points_mm: np.ndarray, times_s: np.ndarray, *, preset: str, cameras: int, seed: int,
+                rng: np.random.Generator, room: Room | None = None) -> tuple[MultiViewKeypoints, Rig]:
+    """Halpe-26 joints (T, 26, 3) mm at (T,) s, room frame, seen by the room's ``cameras``-camera rig
+    (``seed``) through the simulated detector with noise ``preset``: (detections, rig)."""
+    rig = build_rig(cameras, seed=seed, room=room or Room())
+    velocity = np.gradient(points_mm, times_s, axis=0)
+    height = 1.0 / 0.53 * float(np.median(points_mm[:, SKELETON.index("pelvis"), 2]))
+    keypoints = detect(rig, points_mm, velocity, height, get_preset(preset), np.zeros((len(rig), len(times_s))),
+                       rng)
+    return MultiViewKeypoints.of_one_person(keypoints, tuple(rig.names), times_s, SKELETON), rig
 
 
 def rig_phases(walk: MocapWalk, fps: float = 30.0) -> int:

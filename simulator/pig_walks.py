@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from gaitcap.acquisition.references.c3d import c3d_events
 from gaitcap.simulator.mocap import SIDES, MocapWalk, _screen, _to_room
 
 RATE_HZ = 120.0
@@ -124,16 +125,9 @@ def load_pig_walk(path: Path) -> PigWalk:
     new_times = np.arange(times[first], times[last] + 1e-9, 1.0 / RATE_HZ)
     markers = _to_room({k: _resample(times[first:last + 1], p[first:last + 1], new_times) for k, p in raw.items()})
     start = (float(params["TRIAL"]["ACTUAL_START_FIELD"]["value"][0]) - 1.0) / rate
-    events = {"heel_strike": {s: [] for s in SIDES}, "toe_off": {s: [] for s in SIDES}}
-    kinds = {"Foot Strike": "heel_strike", "Foot Off": "toe_off"}
-    ev = params.get("EVENT", {})
-    ev_times = np.asarray(ev.get("TIMES", {}).get("value", np.zeros((2, 0))), dtype=np.float64)
-    ev_times = ev_times if ev_times.ndim == 2 else ev_times.reshape(-1, 2).T  # FunctionalWalk: flat pairs
-    for label, context, t in zip(ev.get("LABELS", {}).get("value", []), ev.get("CONTEXTS", {}).get("value", []),
-                                 ev_times[0] * 60.0 + ev_times[1], strict=False):
-        if label.strip() in kinds and context.strip().lower() in SIDES:
-            events[kinds[label.strip()]][context.strip().lower()].append(float(t) - start)
-    events = {k: {s: sorted(v) for s, v in by.items()} for k, by in events.items()}
+    annotated = c3d_events(params, start, path.name)
+    events = {kind: {s: [] if by is None else sorted(map(float, by[s])) for s in SIDES}
+              for kind, by in zip(("heel_strike", "toe_off"), annotated, strict=True)}
     hs, to, excluded = _screen(markers, new_times, events)
     walk = MocapWalk(path.stem, f"{path.name} (Plug-in-Gait, {rate:g} Hz)", RATE_HZ, new_times, markers, hs, to,
                      excluded)

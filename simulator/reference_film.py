@@ -14,10 +14,8 @@ import numpy as np
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints
 from gaitcap.reconstruction.validation.align import interp_nan
 from gaitcap.reconstruction.validation.reference import Reference, up_axis_of
-from gaitcap.simulator.mocap import SKELETON, MocapWalk, halpe26_points
-from gaitcap.simulator.noise import detect, get_preset
+from gaitcap.simulator.mocap import MocapWalk, film_points, halpe26_points
 from gaitcap.simulator.path import Room
-from gaitcap.simulator.room import build_rig
 
 _MARKERS = ("hip", "knee", "ankle", "heel", "big_toe")
 
@@ -73,11 +71,6 @@ def film_reference(ref: Reference, *, start_s: float, duration_s: float, fps: fl
             markers[f"{side}_{'toe' if j == 'big_toe' else j}"] = p @ rot.T + t
     walk = MocapWalk("reference", ref.source, fps, times, markers, {}, {}, ())
     points = halpe26_points(walk)
-    room = Room()
-    rig = build_rig(cameras, seed=seed, room=room)
-    rng = np.random.default_rng([seed, 37])
-    velocity = np.gradient(points, times, axis=0)
-    height = 1.0 / 0.53 * float(np.median(points[:, SKELETON.index("pelvis"), 2]))
-    keypoints = detect(rig, points, velocity, height, get_preset(preset), np.zeros((len(rig), len(times))), rng)
-    det = MultiViewKeypoints.of_one_person(keypoints, tuple(rig.names), times, SKELETON)
+    det, rig = film_points(points, times, preset=preset, cameras=cameras, seed=seed,
+                           rng=np.random.default_rng([seed, 37]))
     return FilmedReference(det, rig, rot, t, start_s, times, points)

@@ -34,7 +34,9 @@ def _labels(params) -> list[str]:
     return [str(x).strip() for x in labels]
 
 
-def _events(params, start_s: float, source: str) -> tuple[dict, dict] | tuple[None, None]:
+def c3d_events(params, start_s: float, source: str) -> tuple[dict, dict] | tuple[None, None]:
+    """(heel strikes, toe offs): side -> (K,) sorted times (s) on the file's clock (EVENT group's times
+    less ``start_s``, the trial's start), from a C3D's parameters; (None, None) without an EVENT group."""
     contexts = [str(x).strip().lower() for x in _value(params, "EVENT", "CONTEXTS", [])]
     labels = [str(x).strip().lower() for x in _value(params, "EVENT", "LABELS", [])]
     if not contexts:
@@ -91,7 +93,7 @@ def read_c3d(path: Path) -> Reference:
     if not joints:
         raise ValueError(f"{source}: no heel, ankle, knee, hip or toe markers (Plug-in-Gait labels such as "
                          f"LHEE, LANK) to compare with")
-    hs, to = _events(params, start_s, source)
+    hs, to = c3d_events(params, start_s, source)
     lacks = []
     if hs is None or not any(len(v) for v in hs.values()):
         lacks.append("gait events (no Foot Strike in the EVENT group)")

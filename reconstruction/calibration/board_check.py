@@ -13,10 +13,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from gaitcap.reconstruction.calibration.geometry import BoardGeometry
-from gaitcap.reconstruction.calibration.report import triangulate_normalized
+from gaitcap.reconstruction.calibration.report import triangulate_board
 
 
 @dataclass(frozen=True)
@@ -59,20 +58,6 @@ def _rms(x: np.ndarray) -> float:
 def _median(x: np.ndarray) -> float:
     x = x[np.isfinite(x)]
     return float(np.median(x)) if x.size else float("nan")
-
-
-def triangulate_board(corners_px: np.ndarray, matrix_px: np.ndarray, dist: np.ndarray,
-                      extrinsics: np.ndarray) -> np.ndarray:
-    """(F, N, 3) mm: corners (C, F, N, 2) px in the board's true order (NaN: unseen) triangulated with
-    K (C, 3, 3), dist (C, 5) and [R|t] (C, 3, 4); NaN where fewer than 2 cameras saw the corner."""
-    c_count, f_count, n, _ = corners_px.shape
-    xy = np.full((c_count, f_count * n, 2), np.nan)
-    for c in range(c_count):
-        flat = corners_px[c].reshape(-1, 2)
-        ok = np.all(np.isfinite(flat), -1)
-        if ok.any():
-            xy[c, ok] = cv2.undistortPoints(flat[ok].reshape(-1, 1, 2), matrix_px[c], dist[c]).reshape(-1, 2)
-    return triangulate_normalized(xy, extrinsics).reshape(f_count, n, 3)
 
 
 def _plane_distances(pts: np.ndarray) -> np.ndarray:

@@ -132,13 +132,10 @@ def triangulate_normalized(xy: np.ndarray, extrinsics: np.ndarray) -> np.ndarray
     return pts
 
 
-def measured_square_mm(
-    corners_px: np.ndarray, matrix_px: np.ndarray, dist: np.ndarray, extrinsics: np.ndarray, neighbours: np.ndarray
-) -> float:
-    """Median distance (mm) between triangulated neighbouring corners.
-
-    corners_px: (C, F, N, 2) in the board's true corner order, NaN where unseen or rejected.
-    """
+def triangulate_board(corners_px: np.ndarray, matrix_px: np.ndarray, dist: np.ndarray,
+                      extrinsics: np.ndarray) -> np.ndarray:
+    """(F, N, 3) mm: corners (C, F, N, 2) px in the board's true order (NaN: unseen) triangulated with
+    K (C, 3, 3), dist (C, 5) and [R|t] (C, 3, 4); NaN where fewer than 2 cameras saw the corner."""
     c_count, f_count, n, _ = corners_px.shape
     xy = np.full((c_count, f_count * n, 2), np.nan)
     for c in range(c_count):
@@ -146,7 +143,17 @@ def measured_square_mm(
         ok = np.all(np.isfinite(flat), -1)
         if ok.any():
             xy[c, ok] = cv2.undistortPoints(flat[ok].reshape(-1, 1, 2), matrix_px[c], dist[c]).reshape(-1, 2)
-    pts = triangulate_normalized(xy, extrinsics).reshape(f_count, n, 3)
+    return triangulate_normalized(xy, extrinsics).reshape(f_count, n, 3)
+
+
+def measured_square_mm(
+    corners_px: np.ndarray, matrix_px: np.ndarray, dist: np.ndarray, extrinsics: np.ndarray, neighbours: np.ndarray
+) -> float:
+    """Median distance (mm) between triangulated neighbouring corners.
+
+    corners_px: (C, F, N, 2) in the board's true corner order, NaN where unseen or rejected.
+    """
+    pts = triangulate_board(corners_px, matrix_px, dist, extrinsics)
     d = np.linalg.norm(pts[:, neighbours[:, 0]] - pts[:, neighbours[:, 1]], axis=-1)
     d = d[np.isfinite(d)]
     return float(np.median(d)) if d.size else float("nan")
