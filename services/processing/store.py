@@ -38,6 +38,8 @@ def locate_recording(trial: TrialInfo, recorder: dict, *, store: Path | None = N
     naming the trial and where it looked when there is none; RecordingMismatch when it differs."""
     places = candidates(trial, store)
     path = next((p for p in places if p.is_file()), None)
+    if path is None and store is None:
+        raise ValueError(f"trial {trial.id}: its recording {places[0]} does not exist")
     if path is None:
         raise ValueError(f"trial {trial.id}: its recording is in none of {', '.join(map(str, places))} "
                          "(is the shared store mounted on this host?)")

@@ -121,13 +121,22 @@ def test_start_walk_stop_shows_metrics(stack, page, tmp_path):
     page.wait_for_function("() => document.querySelector('#report-plot').naturalWidth > 0")
     page.screenshot(path=str(tmp_path / "4-refined.png"), full_page=True)
 
-    assert "Final results" in page.inner_text("#results-stage")
+    # a clean walk is "Final results"; the only warnings a 12 s walk with a turn may carry are the steps
+    # check's (contacts missed, steps dropped or not counted near the turn, each named: docs/gait.md), and
+    # then the stage says so
+    stage = page.inner_text("#results-stage")
+    if "Final results" not in stage:
+        assert "Results with warnings (refined 3D reconstruction)" in stage, stage
+        items = page.locator("#results-warnings li").all_inner_texts()
+        assert items and all(t.startswith("The refined analysis ") and " step" in t for t in items), items
     cadence = page.inner_text("[data-metric='cadence_steps_per_min'] .value")
     assert 60 < float(cadence.split()[0]) < 160, cadence
     assert page.locator("#steps-table tbody tr").count() >= 2
     assert page.locator("#downloads a").count() == 7
-    page.wait_for_selector("#trials tbody tr:first-child .state-done", timeout=60_000)  # files written
-    assert page.inner_text("#trials tbody tr:first-child .state") == "Done"
+    final = "done" if "Final results" in stage else "done_with_warnings"
+    page.wait_for_selector(f"#trials tbody tr:first-child .state-{final}", timeout=60_000)  # files written
+    assert page.inner_text("#trials tbody tr:first-child .state") == {"done": "Done",
+                                                                      "done_with_warnings": "Done, with warnings"}[final]
     page.wait_for_function("() => document.querySelector('#record-status').textContent.startsWith('Ready for the next')")
     assert page.is_enabled("#start")
 

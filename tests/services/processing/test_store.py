@@ -38,7 +38,7 @@ def test_the_store_copy_is_found_and_must_match_the_checksum(tmp_path, walk):
     away = _trial("T1", Path("/room-host-only/trials/T1/recording.mcap"))  # the path on the room's host
     assert locate_recording(away, stop, store=store) == copy
     assert locate_recording(_trial("T1", made), stop, store=store) == made  # where the catalog says, when here
-    with pytest.raises(ValueError, match="T1: its recording is in none of /room-host-only"):
+    with pytest.raises(ValueError, match="T1: its recording /room-host-only/trials/T1/recording.mcap does not exist"):
         locate_recording(away, stop)
     data = bytearray(copy.read_bytes())
     data[len(data) // 2] ^= 0xFF
