@@ -14,6 +14,7 @@ from gaitcap.api.deps import catalog_of, checked_trial_id
 from gaitcap.services import catalog as cat
 from gaitcap.services.processing.artifacts import trial_files
 from gaitcap.services.validation.names import FILES, TRIAL_FOLDER
+from gaitcap.services.validation.shown_rows import shown_validation
 
 router = APIRouter(tags=["validation"])
 
@@ -46,7 +47,8 @@ def _path(request: Request, trial_id: str, key: str) -> Path:
 def validation(trial_id: str, request: Request, user: str = Depends(require_user)) -> dict:
     path = _path(request, trial_id, "json")
     cat.audit(catalog_of(request), actor=user, action="view", trial_id=trial_id, detail="validation")
-    return json.loads(path.read_text())
+    result = json.loads(path.read_text())
+    return {**result, "shown": shown_validation(result)}  # the texts the page shows, rounded as the report does
 
 
 @router.get("/trials/{trial_id}/validation/{name}", summary="The validation's report, CSV or figures")

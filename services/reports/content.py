@@ -22,6 +22,7 @@ from gaitcap.services.reports.findings import (
 )
 from gaitcap.services.reports.norms import NormRow, NormTable, load_norms, missing_for_patient, percentile
 from gaitcap.services.reports.speed_means import compare_speed
+from gaitcap.services.validation.shown_rows import shown_validation, stored_validation
 
 
 @dataclass(frozen=True)
@@ -145,6 +146,7 @@ class ReportContent:
     kinematics: dict = field(default_factory=dict)  # kinematics.json with the band for the patient's age
     withheld: tuple[str, ...] = field(default_factory=tuple)  # differences that do not hold: numbers, no finding
     unstable: frozenset[str] = frozenset()  # the parameters of ``withheld``
+    validation: dict | None = None  # the lab reference's agreement as shown (services/validation/shown_rows.py)
 
 
 @dataclass(frozen=True)
@@ -359,6 +361,7 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
     shown_kinematics = with_norms(kinematics, age) if kinematics is not None else {}
     angles = key_value_findings(shown_kinematics)
     png = trial_files(data_dir, trial.id).stage_file(result.stage, "report_png")
+    validation = stored_validation(trial_files(data_dir, trial.id).root)
     return ReportContent(
         clinic_name=config.clinic_name, trial=trial, patient=patient, details=pat.get_details(db, trial.id),
         age=age, stage=result.stage, method=result.method, rows=rows,
@@ -369,8 +372,8 @@ def report_content(db: cat.Catalog, data_dir: Path, trial_id: str, config: Repor
         num_steps=int(gait.get("summary", {}).get("num_steps") or 0),
         num_passes=int(gait.get("summary", {}).get("num_passes") or 0),
         previous=previous_visit(db, trial, Path(data_dir)), flags=said.findings + angles.findings,
-        withheld=said.withheld, unstable=said.unstable,
+        withheld=said.withheld + angles.withheld, unstable=said.unstable,
         data_problems=tuple(filter(None, (outage_problem(data_quality),))) + said.data_problems, norm_summary=" ".join(filter(None, (said.norm_summary, angles.summary))),
         consistency=consistency, speed_reference=_speed_reference(rows, patient.sex, age),
         joint_angles_note=joint_angles_note(kinematics),
-        kinematics=shown_kinematics)
+        kinematics=shown_kinematics, validation=shown_validation(validation) if validation else None)

@@ -268,9 +268,29 @@ def _footprints(pdf: _Doc) -> None:
              new_x="LMARGIN", new_y="NEXT")
 
 
+def _validation(pdf: _Doc) -> None:
+    """The trial's agreement with the lab's reference recording (``gaitcap validate``), when it has one: the
+    same rows as the page's validation section (services/validation/shown_rows.py)."""
+    v = pdf.c.validation
+    if not v:
+        return
+    small = pdf.layout.small_pt
+    pdf.heading("Agreement with the lab's reference (gaitcap validate; gaitcap minus reference)", keep_mm=14)
+    pdf.para(v["alignment"], small + 1, height=small * 0.5)
+    pdf.set_font("Helvetica", "", small)
+    for row in v["rows"]:
+        pdf.cell(38, small * 0.5, _latin1(row["what"]))
+        pdf.cell(10, small * 0.5, str(row["n"]))
+        pdf.cell(100, small * 0.5, _latin1(row["difference"]))
+        pdf.cell(0, small * 0.5, _latin1(row["agreement"]), new_x="LMARGIN", new_y="NEXT")
+    for note in v["not_compared"]:
+        pdf.para(note, small, height=small * 0.47)
+
+
 def _closing(pdf: _Doc) -> None:
     c = pdf.c
     kinematics_section(pdf)
+    _validation(pdf)
     pdf.heading("Method and software", keep_mm=14)
     small = pdf.layout.small_pt
     pdf.para(f"{METHOD_TEXT} Software: gaitcap {c.version}; results: {c.stage} ({c.method}).", small,

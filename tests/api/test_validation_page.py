@@ -1,6 +1,7 @@
 """The page's validation section (a real browser): shown with the trial's ``gaitcap validate`` result,
-hidden for a trial without one."""
+hidden for a trial without one; the trial's PDF report prints the same rows, rounded the same way."""
 
+import io
 import json
 
 import numpy as np
@@ -66,10 +67,12 @@ def test_page_shows_the_validation_or_nothing(server, gait):
         sign_in_page(page, srv.url)
         page.click(f"#trials tr[data-trial='{tid}'] .view")
         page.wait_for_selector("#validation:not([hidden])")
-        assert "lag 0.247 s, residual 15.4 mm" in page.inner_text("#validation-status")
+        assert "lag +0.247 s, residual 15.4 mm" in page.inner_text("#validation-status")
         table = page.inner_text("#validation-table")
         assert "left heel strike" in table and "-47 ms (-1.41 frames)" in table and "ICC 0.98" in table
-        assert "right knee_flexion" in table and "after offset 2.9°" in table
+        assert "right knee flexion" in table and "offset +3.6 deg, after offset 2.9 deg" in table
+        assert "bias +2.70 (95 % limits of agreement -8.10 to +13.50)" in table
+        page_rows = [" ".join(r.split()) for r in page.locator("#validation-table tbody tr").all_inner_texts()]
         assert "Not compared: reference: joint angles" in page.inner_text("#validation-notes")
         assert page.get_attribute("#validation-links a", "href").endswith(f"/trials/{tid}/validation/pdf")
         page.click(f"#trials tr[data-trial='{none}'] .view")
@@ -77,3 +80,28 @@ def test_page_shows_the_validation_or_nothing(server, gait):
         page.wait_for_timeout(500)
         assert page.locator("#validation").is_hidden()
         browser.close()
+    _pdf_has_the_pages_rows(server, tid, none, page_rows)
+
+
+def _pdf_text(client, tid: str) -> str:
+    from pypdf import PdfReader
+
+    pdf = client.get(f"/trials/{tid}/report.pdf")
+    assert pdf.status_code == 200, pdf.text
+    reader = PdfReader(io.BytesIO(pdf.content))
+    assert len(reader.pages) <= 2
+    return " ".join(" ".join(page.extract_text().split()) for page in reader.pages)
+
+
+def _pdf_has_the_pages_rows(server, tid: str, none: str, page_rows: list[str]) -> None:
+    """Every row the page showed is printed in the trial's report, with the same texts."""
+    _, client, _, _ = server
+    shown = client.get(f"/trials/{tid}/validation").json()["shown"]
+    assert len(page_rows) == len(shown["rows"]) == 3, (page_rows, shown)
+    text = _pdf_text(client, tid)
+    assert "Agreement with the lab's reference" in text and shown["alignment"] in text
+    for row, on_page in zip(shown["rows"], page_rows, strict=True):
+        for part in (row["what"], row["difference"], row["agreement"]):
+            assert part in on_page and part in text, (part, on_page)
+    assert "Not compared: reference: joint angles of the hip rotation" in text
+    assert "Agreement with the lab's reference" not in _pdf_text(client, none)

@@ -24,7 +24,10 @@ def test_validation_is_served_once_written_and_a_404_says_why_before(trial):
     result = {"reference": "walk.c3d", "alignment": {"lag_s": 0.25}, "events": [], "parameters": {}}
     (folder / FILES["json"]).write_text(json.dumps(result))
     (folder / FILES["csv"]).write_text("section,name\n")
-    assert client.get(f"/trials/{tid}/validation").json() == result
+    got = client.get(f"/trials/{tid}/validation").json()
+    assert {k: v for k, v in got.items() if k != "shown"} == result
+    assert got["shown"] == {"alignment": "Against reference walk.c3d: lag +0.250 s.", "rows": [],
+                            "not_compared": []}
     r = client.get(f"/trials/{tid}/validation/csv")
     assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv") and r.text == "section,name\n"
     r = client.get(f"/trials/{tid}/validation/pdf")
