@@ -24,6 +24,9 @@ import numpy as np
 from gaitcap.reconstruction.gait.parameters import PHASE_PARAMETERS, STEP_PARAMETERS
 
 MIN_STEPS_PER_SIDE = 4
+#: a joint-angle key value (one per gait cycle) is held to the same rule: this many cycles on its side,
+#: and it must survive leaving out any single cycle (:func:`loo_mean_range`)
+MIN_CYCLES_PER_SIDE = MIN_STEPS_PER_SIDE
 SIDES = ("left", "right")
 
 
@@ -70,6 +73,17 @@ class Held:
         rests on these steps (relative 1e-6, as stored)."""
         return all(_same(a, b) for a, b in ((self.left, left), (self.right, right), (self.mean, mean))
                    if math.isfinite(b))
+
+
+def loo_mean_range(values: Sequence[float]) -> tuple[float, float]:
+    """(lowest, highest) mean of ``values`` over leaving out each single one (and none); (NaN, NaN) with
+    fewer than 2 values or any not finite. The means in between lie in that range, so a verdict that is
+    the same at both ends (below, or above, a range) holds whichever single value is left out."""
+    x = np.asarray(list(values), dtype=np.float64)
+    if x.size < 2 or not np.isfinite(x).all():
+        return math.nan, math.nan
+    means = np.append((x.sum() - x) / (x.size - 1), x.mean())
+    return float(means.min()), float(means.max())
 
 
 def _same(a: float, b: float) -> bool:

@@ -62,8 +62,10 @@ def key_label(name: str) -> str:
     return KEY_LABELS.get(name) or name.removesuffix("_deg").replace("_", " ").capitalize()
 
 
-def key_values(curves: dict[str, CycleCurves]) -> dict[str, dict[str, float | int | None]]:
-    """value name -> {"mean", "sd", "n"} over the cycles of one side (``curves``: variable -> curves).
+def key_values(curves: dict[str, CycleCurves]) -> dict[str, dict[str, float | int | list | None]]:
+    """value name -> {"mean", "sd", "n", "values"} over the cycles of one side (``curves``: variable ->
+    curves); ``values``: the value of each cycle (degrees, in cycle order), what a finding's leave-one-out
+    test reads (:func:`gaitcap.reconstruction.gait.stability.loo_mean_range`).
 
     Peak knee flexion in swing is the maximum after toe-off, ankle dorsiflexion in stance the maximum
     before it, the ankle's minimum its peak plantarflexion, the hip's minimum from 30 % to toe-off its peak
@@ -74,5 +76,6 @@ def key_values(curves: dict[str, CycleCurves]) -> dict[str, dict[str, float | in
         cc = curves.get(var)
         vals = _per_cycle(cc, fn) if cc is not None and cc.n else np.zeros(0)
         out[name] = {"mean": float(vals.mean()) if vals.size else None,
-                     "sd": float(vals.std(ddof=1)) if vals.size > 1 else None, "n": int(vals.size)}
+                     "sd": float(vals.std(ddof=1)) if vals.size > 1 else None, "n": int(vals.size),
+                     "values": [float(v) for v in vals]}
     return out

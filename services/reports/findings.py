@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from gaitcap.reconstruction.gait.consistency import check_consistency
-from gaitcap.reconstruction.gait.stability import MIN_STEPS_PER_SIDE, Held
+from gaitcap.reconstruction.gait.stability import MIN_CYCLES_PER_SIDE, MIN_STEPS_PER_SIDE, Held, loo_mean_range
 from gaitcap.reconstruction.kinematics.clinical import KEY_VALUES, key_label
 from gaitcap.reconstruction.kinematics.key_norms import NO_REFERENCE, KeyNorm, key_norms, no_reference
 
@@ -225,7 +225,9 @@ def norm_summary(with_reference: int, total: int, outside: int, in_doubt: int = 
 @dataclass(frozen=True)
 class KeyValueFindings:
     """Joint-angle key values against the band: findings, how many values (per side) had a normal range
-    (a z-score), how many were measured, how many lie outside; the norms by key value name."""
+    (a z-score), how many were measured, how many lie outside (as findings); the norms by key value name.
+    ``withheld``: values outside the range that do not hold (too few gait cycles on that side, or gone when
+    one cycle is left out), in plain words: stated as numbers, never as findings."""
 
     findings: tuple[str, ...]
     with_reference: int
@@ -234,6 +236,7 @@ class KeyValueFindings:
     norms: dict[str, KeyNorm]
     no_reference: tuple[str, ...] = ()  # variables whose zero is not validated (key_norms.UNVALIDATED_ZERO)
     patient: str = ""  # "no reference for this patient: ..." (no band describes this patient), else ""
+    withheld: tuple[str, ...] = ()
 
     @property
     def summary(self) -> str:
@@ -266,18 +269,42 @@ def _outside_text(name: str, norm: KeyNorm, off: list[str]) -> str:
             f"of the band at {norm.at_pct} % of the cycle.")
 
 
+def _cycles_unheld(stats: Mapping[str, Any], norm: KeyNorm, verdict: int) -> str:
+    """Why one side's key value outside the range (``verdict``: -1 below, +1 above) is no finding: too few
+    gait cycles on that side, per-cycle values that are not the mean shown, or a verdict that changes when
+    one cycle is left out ("" when it holds: the same rule as the spatiotemporal findings',
+    :mod:`gaitcap.reconstruction.gait.stability`)."""
+    raw = stats.get("values")
+    cycles = [_finite(v) for v in raw] if isinstance(raw, list) else []
+    cycles = [v for v in cycles if math.isfinite(v)]
+    if len(cycles) < MIN_CYCLES_PER_SIDE:
+        return (f"too few gait cycles to say it ({len(cycles)} on this side; at least {MIN_CYCLES_PER_SIDE} a "
+                "side)")
+    mean = _finite(stats.get("mean"))
+    if abs(sum(cycles) / len(cycles) - mean) > 1e-6 * max(1.0, abs(mean)):
+        return "these numbers are not those of the gait cycles"
+    lo, hi = loo_mean_range(cycles)
+    if norm.verdict(lo) == verdict and norm.verdict(hi) == verdict:
+        return ""
+    return f"it rests on single cycles ({lo:.1f} to {hi:.1f} deg leaving out one cycle at a time)"
+
+
 def key_value_findings(kinematics: Mapping[str, Any] | None) -> KeyValueFindings:
     """Each side's key joint-angle values (``kinematics.json`` with the band chosen for the patient) against
     the band (:mod:`gaitcap.reconstruction.kinematics.key_norms`): a finding per value outside the normal
-    range (|z| > 1.96; a range of motion below its one-sided lower limit), both sides in one sentence."""
+    range (|z| > 1.96; a range of motion below its one-sided lower limit), both sides in one sentence, made
+    only where it holds: at least ``MIN_CYCLES_PER_SIDE`` gait cycles on that side (the per-cycle
+    ``values``) and outside on the same side of the range whichever single cycle is left out; the others
+    are ``withheld``."""
     k = kinematics or {}
     kv = k.get("key_values") or {}
     norms = key_norms((k.get("norms") or {}).get("bands") or {})
-    out, referenced, total, outside = [], 0, 0, 0
+    out, withheld, referenced, total, outside = [], [], 0, 0, 0
     for name in (kv.get("left") or kv.get("right") or {}):
         norm, off = norms.get(name), []
         for side in ("left", "right"):
-            value = _finite(((kv.get(side) or {}).get(name) or {}).get("mean"))
+            stats = (kv.get(side) or {}).get(name) or {}
+            value = _finite(stats.get("mean"))
             if not math.isfinite(value):
                 continue
             total += 1
@@ -285,18 +312,24 @@ def key_value_findings(kinematics: Mapping[str, Any] | None) -> KeyValueFindings
                 continue
             referenced += 1
             verdict = norm.verdict(value)
-            if verdict:
+            if not verdict:
+                continue
+            z = norm.z(value)
+            said = (f"{side} {value:.1f} ({'below' if verdict < 0 else 'above'}"
+                    + (f", z {z:+.1f})" if math.isfinite(z) else ")"))
+            why = _cycles_unheld(stats, norm, verdict)
+            if why:
+                withheld.append(f"Not a finding: {_outside_text(name, norm, [said])[:-1]}, but {why}.")
+            else:
                 outside += 1
-                z = norm.z(value)
-                off.append(f"{side} {value:.1f} ({'below' if verdict < 0 else 'above'}"
-                           + (f", z {z:+.1f})" if math.isfinite(z) else ")"))
+                off.append(said)
         if off:
             out.append(_outside_text(name, norm, off))
     shown = [name for name in (kv.get("left") or kv.get("right") or {}) if no_reference(name) and norms
              and any(math.isfinite(_finite(((kv.get(s) or {}).get(name) or {}).get("mean"))) for s in ("left", "right"))]
     unvalidated = tuple(dict.fromkeys(KEY_VALUES[name][0] for name in shown))
     patient = (k.get("norms") or {}).get("no_reference") or ""
-    return KeyValueFindings(tuple(out), referenced, total, outside, norms, unvalidated, patient)
+    return KeyValueFindings(tuple(out), referenced, total, outside, norms, unvalidated, patient, tuple(withheld))
 
 
 def _finite(x: Any) -> float:

@@ -2,10 +2,12 @@
 source's own mean curve, fed through the key values and the report's findings, is normal with z = 0 for
 every key value (same sign and zero), and a curve moved by more than the band is flagged."""
 
+import copy
 import math
 
 import numpy as np
 import pytest
+from gaitcap.reconstruction.gait.stability import MIN_CYCLES_PER_SIDE, loo_mean_range
 from gaitcap.reconstruction.kinematics.clinical import DEFAULT_TOE_OFF_PCT, KEY_VALUES, key_values
 from gaitcap.reconstruction.kinematics.cycles import CycleCurves
 from gaitcap.reconstruction.kinematics.key_norms import (
@@ -29,8 +31,10 @@ def _norm_set(who: str) -> dict:
 
 
 def _kinematics_of(curves_by_variable: dict, norms: dict) -> dict:
-    """kinematics.json as the report reads it: both sides' key values of two identical cycles each."""
-    per_side = {var: CycleCurves(np.stack([c, c]), np.full(2, DEFAULT_TOE_OFF_PCT)) for var, c in curves_by_variable.items()}
+    """kinematics.json as the report reads it: both sides' key values of MIN_CYCLES_PER_SIDE identical
+    cycles each (the fewest a finding may rest on)."""
+    n = MIN_CYCLES_PER_SIDE
+    per_side = {var: CycleCurves(np.stack([c] * n), np.full(n, DEFAULT_TOE_OFF_PCT)) for var, c in curves_by_variable.items()}
     values = key_values(per_side)
     return {"key_values": {"left": values, "right": values}, "norms": norms}
 
@@ -71,7 +75,7 @@ def test_a_knee_bent_beyond_the_band_at_initial_contact_is_flagged_on_the_side_i
     assert norm.at_pct == 0
     k = _kinematics_of({"knee_flexion": knee}, norms)
     k["key_values"]["left"] = {**k["key_values"]["left"],
-                               "knee_flexion_initial_contact_deg": {"mean": norm.normal_deg + 5 * norm.sd_deg, "sd": 2.0, "n": 4}}
+                               "knee_flexion_initial_contact_deg": _stats([norm.normal_deg + 5 * norm.sd_deg] * 4)}
     said = key_value_findings(k)
     assert said.outside == 1 and len(said.findings) == 1
     finding = said.findings[0]
@@ -97,6 +101,58 @@ def test_hip_flexion_far_outside_the_band_raises_no_finding_its_zero_is_not_vali
                for n in hip_points)
     assert no_reference("knee_flexion_initial_contact_deg") is None and no_reference("hip_flexion_rom_deg") is None
     assert no_reference("ankle_minimum_deg") == NO_REFERENCE  # the foot's zero neither
+
+
+def _stats(cycles: list[float]) -> dict:
+    """A side's key value as kinematics.json stores it: mean, SD, n and each cycle's value (degrees)."""
+    x = np.asarray(cycles, dtype=float)
+    return {"mean": float(x.mean()), "sd": float(x.std(ddof=1)) if x.size > 1 else None, "n": int(x.size),
+            "values": [float(v) for v in x]}
+
+
+def test_a_key_value_finding_needs_enough_cycles_and_survives_leaving_out_any_one():
+    """The spatiotemporal findings' rule for joint angles: a knee outside the band at initial contact is a
+    finding only with at least MIN_CYCLES_PER_SIDE cycles on its side and outside whichever single cycle is
+    left out; one bent cycle among normal ones, or too few cycles, is stated as numbers ("Not a finding"),
+    never as a finding, and is not counted outside the range."""
+    norms = _norm_set("adults")
+    bands = norms["bands"]
+    knee = np.asarray(bands["knee_flexion"]["mean_deg"])
+    norm = key_norm("knee_flexion_initial_contact_deg", knee, bands["knee_flexion"]["sd_deg"])
+    base = _kinematics_of({"knee_flexion": knee}, norms)
+    far, normal = norm.normal_deg + 4 * norm.sd_deg, norm.normal_deg
+
+    def judged(cycles: list[float]):
+        k = copy.deepcopy(base)
+        k["key_values"]["left"] = {**k["key_values"]["left"], "knee_flexion_initial_contact_deg": _stats(cycles)}
+        return key_value_findings(k)
+
+    held = judged([far] * MIN_CYCLES_PER_SIDE)
+    assert held.outside == 1 and held.withheld == () and "left" in held.findings[0]
+    few = judged([far] * (MIN_CYCLES_PER_SIDE - 1))
+    assert few.findings == () and few.outside == 0
+    assert few.withheld == (f"Not a finding: Knee flexion at initial contact (flexion +): left {far:.1f} (above, "
+                            f"z +4.0) deg, outside the normal range {norm.band()[0]:.1f} to {norm.band()[1]:.1f} deg of "
+                            f"the band at 0 % of the cycle, but too few gait cycles to say it "
+                            f"({MIN_CYCLES_PER_SIDE - 1} on this side; at least {MIN_CYCLES_PER_SIDE} a side).",)
+    # one impossible cycle: the mean is outside, leaving that cycle out brings it back inside
+    one = [normal] * (MIN_CYCLES_PER_SIDE - 1) + [normal + 12 * MIN_CYCLES_PER_SIDE * norm.sd_deg]
+    assert norm.verdict(float(np.mean(one))) == 1
+    lo, hi = loo_mean_range(one)
+    assert norm.verdict(lo) == 0 and lo == pytest.approx(normal)
+    single = judged(one)
+    assert single.findings == () and single.outside == 0 and len(single.withheld) == 1
+    assert single.withheld[0].endswith(f"but it rests on single cycles ({lo:.1f} to {hi:.1f} deg leaving out one "
+                                       "cycle at a time).")
+    # a mean that is not that of its cycles is no finding either
+    k = copy.deepcopy(base)
+    k["key_values"]["left"] = {**k["key_values"]["left"],
+                               "knee_flexion_initial_contact_deg": {**_stats([normal] * 4), "mean": far}}
+    assert key_value_findings(k).withheld[0].endswith("these numbers are not those of the gait cycles.")
+    # stored kinematics.json of an earlier version has no per-cycle values: never a finding
+    k["key_values"]["left"]["knee_flexion_initial_contact_deg"] = {"mean": far, "sd": 1.0, "n": 4}
+    assert key_value_findings(k).findings == ()
+    assert all(math.isnan(v) for v in loo_mean_range([1.0]) + loo_mean_range([1.0, math.nan]))
 
 
 def test_a_key_value_without_a_rule_or_with_a_short_band_is_refused():
@@ -164,8 +220,9 @@ def test_a_range_of_motion_is_judged_against_the_bands_range_even_where_the_zero
     ankle, hip = (np.asarray(bands[v]["mean_deg"]) for v in ("ankle_dorsiflexion", "hip_flexion"))
     stiff = ankle.mean() + (ankle - ankle.mean()) / 8.0
     k = _kinematics_of({"ankle_dorsiflexion": ankle + 40.0, "hip_flexion": hip + 40.0}, norms)
-    k["key_values"]["right"] = key_values({"ankle_dorsiflexion": CycleCurves(np.stack([stiff, stiff]), np.full(2, 60.0)),
-                                           "hip_flexion": CycleCurves(np.stack([hip, hip]), np.full(2, 60.0))})
+    n = MIN_CYCLES_PER_SIDE
+    k["key_values"]["right"] = key_values({"ankle_dorsiflexion": CycleCurves(np.stack([stiff] * n), np.full(n, 60.0)),
+                                           "hip_flexion": CycleCurves(np.stack([hip] * n), np.full(n, 60.0))})
     said = key_value_findings(k)
     rom = said.norms["ankle_rom_deg"]
     assert rom.at_pct is None and math.isnan(rom.sd_deg) and 0 < rom.lower_deg < rom.normal_deg

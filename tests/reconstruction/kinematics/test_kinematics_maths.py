@@ -85,6 +85,9 @@ def test_cycles_and_key_values():
     assert kv["knee_peak_flexion_swing_deg"]["mean"] == pytest.approx(35 - 30 * math.cos(2 * np.pi * 0.6), abs=0.1)
     assert kv["knee_flexion_rom_deg"]["mean"] == pytest.approx(60.0, abs=0.01)
     assert kv["ankle_rom_deg"]["n"] == 0 and kv["ankle_rom_deg"]["mean"] is None
+    ic = kv["knee_flexion_initial_contact_deg"]  # each cycle's value, for the findings' leave-one-out test
+    assert len(ic["values"]) == ic["n"] == 5 and np.mean(ic["values"]) == pytest.approx(ic["mean"], abs=1e-12)
+    assert kv["ankle_rom_deg"]["values"] == []
 
 
 def test_cycles_skip_other_passes_gaps_and_long_cycles():
