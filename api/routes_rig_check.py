@@ -12,9 +12,11 @@ router = APIRouter(tags=["calibrations"])
 
 
 @router.get("/rig-check/latest", summary="The latest processed trial's rig check (cameras moved since calibration)")
-def rig_check_latest(request: Request, user: str = Depends(require_user)) -> dict:
-    """404 when no processed trial has run a rig check yet."""
-    found = latest_rig_check(catalog_of(request))
+def rig_check_latest(request: Request, room: str | None = None, user: str = Depends(require_user)) -> dict:
+    """The latest of room ``room``'s trials (absent: this API's own room; '' the default room); 404 when no
+    processed trial of that room has run a rig check yet."""
+    own = request.app.state.settings.room
+    found = latest_rig_check(catalog_of(request), room=own if room is None else room)
     if found is None:
         raise HTTPException(status_code=404, detail="no processed trial has checked the rig yet")
     return found

@@ -40,6 +40,7 @@ function enterApp(me) {
   connectStatus();
   if (can.has("live")) connectPreviews();
   if (typeof rigCheckTick === "function") rigCheckTick();  // the rig check at once, not 3 s later
+  if (typeof loadRooms === "function") loadRooms();
 }
 
 async function signIn(user, password) {
@@ -168,7 +169,7 @@ function onStatus(snap) {
   }
   if (!state.recording && wasRecording && !state.followed) follow(wasRecording.id);
   renderRecording();
-  renderTrials(snap.trials);
+  if (typeof roomFilterActive !== "function" || !roomFilterActive()) renderTrials(snap.trials);  // rooms.js
   renderCameras(snap.cameras, snap.detection);
   const followed = snap.trials.find((t) => t.id === state.followed);
   if (followed) updateFollowed(followed);

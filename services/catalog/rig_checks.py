@@ -43,9 +43,9 @@ def baseline_trial_ids(catalog: Catalog, calibration_id: str | None, *, excludin
                 if _rig_of(quality).get("run") and not _rig_of(quality).get("flagged")]
 
 
-def latest_rig_check(catalog: Catalog, *, look_back: int = 20) -> dict | None:
+def latest_rig_check(catalog: Catalog, *, look_back: int = 20, room: str | None = None) -> dict | None:
     """The rig check of the most recently processed trial that ran one (among the last ``look_back``
-    finished trials), or None: {trial_id, subject_id, checked_at (UNIX s), calibration_id, flagged, moved,
+    finished trials; of room ``room`` only where given, '' the default room), or None: {trial_id, subject_id, checked_at (UNIX s), calibration_id, flagged, moved,
     warnings, notes, baseline_trial (the trial it was judged against, or None), cameras: [{name, judged, moved, rotation_deg, rotation_bound_deg (deg about the camera's x,
     y and optical axis; absent for checks stored before the bounds), shift_mm, shift_bound_mm, field_px (px),
     residual_px, expected_px, points}]}."""
@@ -53,6 +53,8 @@ def latest_rig_check(catalog: Catalog, *, look_back: int = 20) -> dict | None:
         q = (select(Trial, TrialQuality).join(TrialQuality, TrialQuality.trial_id == Trial.id)
              .where(Trial.state.in_([x.value for x in FINISHED])).order_by(TrialQuality.updated_at.desc())
              .limit(look_back))
+        if room is not None:
+            q = q.where(Trial.room == room)
         for trial, quality in s.execute(q):
             rig = _rig_of(quality)
             if rig.get("run"):

@@ -98,3 +98,82 @@ def test_the_catalog_gone_during_a_recording_loses_nothing(tmp_path):
             finally:
                 client.close()
                 srv.stop()
+
+
+def _finished_with_rig_check(db, room: str, moved: list[str]) -> str:
+    """A processed trial of ``room`` whose stored quality holds a rig check (the worker's record's shape)."""
+    from gaitcap.services import catalog as cat
+
+    t = cat.start_trial(db, subject_id="P0099", session="v0", room=room,
+                        recording_path_for=lambda tid: f"/nowhere/{tid}.mcap")
+    for state in ("recorded", "processing", "done_with_warnings"):
+        cat.set_state(db, t.id, state)
+    cat.set_quality(db, t.id, "processing", {"warnings": [], "checks": {"rig": {
+        "run": True, "flagged": bool(moved), "moved": moved, "cameras": {}}}})
+    return t.id
+
+
+def test_the_page_shows_each_rooms_rig_and_filters_trials_by_room(postgres, tmp_path):
+    """Room gait1's page at 1280 px (headless Chromium): a panel per room with its cameras (gait1's slow
+    camera named), the trial recording there and its own latest rig check (gait2's moved camera, never
+    gait1's); the trial list filtered to gait2 shows gait2's trials only; Start on gait1's page records in
+    gait1 and never reaches gait2's recorder; the page's own rig check is gait1's."""
+    from gaitcap.services import catalog as cat
+
+    from .conftest import signed_in_page
+    from .test_clinic_page import _fits
+
+    url = postgres.create_database("rooms_page")
+    ports = free_loopback_ports(2)
+    srv_a, link_a, a = _room(tmp_path, url, "gait1", ports[0], cameras=0)  # cam1 at a low frame rate
+    srv_b, link_b, b = _room(tmp_path, url, "gait2", ports[1], cameras=3)
+    db = cat.open_catalog(url)
+    try:
+        checked_b = _finished_with_rig_check(db, "gait2", ["cam2"])
+        checked_a = _finished_with_rig_check(db, "gait1", [])
+        tb = b.post("/trials", json={"subject_id": "P0002", "session": "v1"}).json()
+        with signed_in_page(srv_a.url, width=1280, height=1000, timeout_ms=15_000) as page:
+            page.wait_for_selector("#rooms-card:not([hidden]) .room-panel[data-room='gait2']")
+            panel = {n: page.locator(f".room-panel[data-room='{n}']") for n in ("gait1", "gait2")}
+            assert panel["gait2"].locator(".room-recording").inner_text() == f"Recording trial {tb['id']}"
+            assert panel["gait2"].locator(".room-cameras").inner_text() == "3 of 3 cameras working"
+            assert panel["gait1"].locator(".room-cameras").inner_text() == (
+                "1 of 2 cameras working; not working: cam1 (low frame rate)")
+            assert panel["gait2"].locator(".room-rig-check").inner_text() == (
+                f"Camera cam2 moved since calibration (trial {checked_b}).")
+            assert panel["gait1"].locator(".room-rig-check").inner_text() == (
+                f"No camera moved since calibration (trial {checked_a}).")
+            assert "This page's room" in panel["gait1"].inner_text()
+            assert "This page's room" not in panel["gait2"].inner_text()
+            page.wait_for_selector("#rig-check:not([hidden])")  # the record card's check is this room's own
+            assert f"trial {checked_a}" in page.inner_text("#rig-check-summary")
+            _fits(page, 1280, "rooms at 1280 px")
+
+            def listed():
+                return sorted(page.eval_on_selector_all("#trials tbody tr[data-trial]", "rs => rs.map(r => r.dataset.trial)"))
+
+            page.wait_for_selector(f"#trials tr[data-trial='{checked_a}']")
+            assert listed() == [checked_a]  # this room's live list
+            page.select_option("#trials-room", "room:gait2")
+            page.wait_for_selector(f"#trials tr[data-trial='{tb['id']}']")
+            page.wait_for_timeout(600)  # several status snapshots (this room's, every 0.1 s) later: still gait2's
+            assert listed() == sorted([tb["id"], checked_b])
+
+            page.fill("#subject", "P0001")
+            page.once("dialog", lambda d: d.accept())  # the rig check's question (gait1's cam1 is slow)
+            page.click("#start")
+            page.wait_for_function("() => document.querySelector('#record-status').textContent.includes('Recording')")
+            started = [c for c in link_a.calls if c[0] == "start"]
+            assert len(started) == 1 and [c[:2] for c in link_b.calls] == [("start", tb["id"])]  # gait2 untouched
+            page.wait_for_function("() => document.querySelector(\".room-panel[data-room='gait1'] .room-recording\")"
+                                   f".textContent === 'Recording trial {started[0][1]}'")
+            assert panel["gait2"].locator(".room-recording").inner_text() == f"Recording trial {tb['id']}"
+            page.select_option("#trials-room", "")
+            page.wait_for_selector(f"#trials tr[data-trial='{started[0][1]}']")
+            assert listed() == sorted([checked_a, started[0][1]])
+        assert [c[:2] for c in link_b.calls] == [("start", tb["id"])]
+    finally:
+        db.close()
+        for client, srv in ((a, srv_a), (b, srv_b)):
+            client.close()
+            srv.stop()
