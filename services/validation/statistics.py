@@ -1,7 +1,8 @@
 """Agreement statistics of paired measurements (trial, reference) of one parameter.
 
 bias = mean(trial - reference); 95 % limits of agreement (Bland & Altman 1986) = bias +- 1.96 SD of the
-differences (SD with n - 1, as pingouin's ``plot_blandaltman`` draws them); MAE = mean |difference|;
+differences (SD with n - 1): the same lines pingouin's ``plot_blandaltman`` draws for the same pairs,
+which tests/services/validation/test_statistics.py checks; MAE = mean |difference|;
 ICC(A,1) (McGraw & Wong 1996: two-way random effects, absolute agreement, single measurement; Shrout &
 Fleiss ICC(2,1)) from ``pingouin.intraclass_corr`` with its 95 % confidence interval. Pairs with a missing
 value are left out; n counts the rest. ICC needs at least 3 pairs and some spread between them (else NaN).
