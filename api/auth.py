@@ -61,6 +61,7 @@ ROUTE_PERMISSIONS: dict[tuple[str, str], frozenset[str]] = {
     ("POST", "/calibrations"): frozenset({CALIBRATE}),
     ("POST", "/calibrations/record/start"): frozenset({CALIBRATE}),
     ("POST", "/calibrations/record/stop"): frozenset({CALIBRATE}),
+    ("GET", "/calibrations/record/coverage"): frozenset({CALIBRATE}),
     ("GET", "/cameras"): frozenset({LIVE}),
     ("GET", "/cameras/{name}/preview.jpg"): frozenset({LIVE}),
     ("GET", "/cameras/{name}/preview.mjpg"): frozenset({LIVE}),

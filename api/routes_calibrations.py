@@ -131,6 +131,7 @@ def record_start(request: Request, body: BoardRecordingIn | None = None, user: s
         cals.update_calibration(db, c.id, state="failed", stage="", error=f"recorder: {exc}")
         raise HTTPException(status_code=503, detail=f"recorder: {exc}") from None
     request.app.state.scene.show("board", start_ns=time.time_ns() + int(SCENE_LEAD_S * 1e9))
+    link.watch_board(c.id, board)  # the detector nodes look for it: GET /calibrations/record/coverage
     return _out(cals.get_calibration(db, c.id), _active_id(db, _room(request)))
 
 
@@ -141,6 +142,7 @@ def record_stop(request: Request, user: str = Depends(require_user)) -> dict:
     if c is None:
         raise HTTPException(status_code=409, detail="no board recording is under way")
     request.app.state.scene.show("walker", start_ns=time.time_ns())
+    link.unwatch_board(c.id)
     cat.audit(db, actor=user, action="calibrate stop", detail=c.id)
     try:
         summary = link.stop(c.id)
@@ -153,6 +155,22 @@ def record_stop(request: Request, user: str = Depends(require_user)) -> dict:
         raise HTTPException(status_code=409, detail=str(exc)) from None
     log.info("board recording %s stopped (%s); calibration job queued", c.id, summary)
     return _out(c, _active_id(db, _room(request)))
+
+
+@router.get("/calibrations/record/coverage", summary="Where the board has been seen in the board recording under way")
+def record_coverage(request: Request, user: str = Depends(require_user)) -> dict:
+    """Per camera the views of the board in each cell of a 4 x 4 cutting of its image and the frames looked
+    at, per pair of cameras the moments both saw it, and advice in words on where to move the board
+    (gaitcap.services.live.board_coverage); 409 when no board recording is under way."""
+    db, link = catalog_of(request), request.app.state.link
+    c = cals.current_board_recording(db, _room(request))
+    if c is None or c.state != "recording":
+        raise HTTPException(status_code=409, detail="no board recording is under way")
+    coverage = link.board_coverage(c.id, [cam.name for cam in link.cameras()])
+    if coverage is None:
+        raise HTTPException(status_code=503, detail=f"board recording {c.id}: its board views are not followed by "
+                                                    "this server (started before it, or without the bus)")
+    return {"id": c.id, **coverage}
 
 
 @router.get("/calibrations", summary="Calibrations, newest first (board recordings and uploads)")

@@ -24,6 +24,10 @@ key expression                         kind        payload (``messages.``)
 ``<prefix>/detector/status/<node>``    put         :class:`DetectorStatus`: per camera frames received,
                                                    detected, skipped, lost, failed and the lag (s)
 ``<prefix>/camera/scene``              put         :class:`CameraScene`: what simulated cameras show
+``<prefix>/board/watch``               put         :class:`BoardWatch`: look for the board of a board
+                                                   recording in the frames (or stop looking)
+``<prefix>/board/views/<cam>``         put         :class:`BoardView`: the board's corners found in one
+                                                   frame looked at (none: not found)
 =====================================  ==========  ========================================================
 
 Wildcards: ``<prefix>/camera/*/image`` (all frames), ``<prefix>/keypoints/*``, ``<prefix>/alive/**``.
@@ -84,6 +88,13 @@ class Keys:
     @property
     def camera_scene(self) -> str:
         return f"{self.prefix}/camera/scene"
+
+    @property
+    def board_watch(self) -> str:
+        return f"{self.prefix}/board/watch"
+
+    def board_views(self, camera: str = "*") -> str:
+        return f"{self.prefix}/board/views/{camera if camera == '*' else check_name(camera, what='camera')}"
 
     def detector_status(self, node: str = "*") -> str:
         return f"{self.prefix}/detector/status/{node if node == '*' else check_name(node, what='node')}"

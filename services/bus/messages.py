@@ -376,3 +376,59 @@ class DetectorStatus(_Json):
             unknown = sorted(set(row) - {*COVERAGE_COUNTS, "lag_s"})
             if unknown:
                 raise ValueError(f"{where}: unknown fields {unknown[:5]}")
+
+
+MAX_BOARD_CORNERS = 10_000
+
+
+@dataclass(frozen=True)
+class BoardWatch(_Json):
+    """Look for the board of board recording ``calibration_id`` in the frames (``active``), or stop looking
+    (not ``active``). ``board``: the board's ``[board]`` fields as in a gaitcap board file (None: the default
+    board); ``slot_s``: one frame per camera and slot of ``slot_s`` s of camera time is looked at (the
+    same slots on every detector node, so views of one slot are of one moment)."""
+
+    what: ClassVar[str] = "board watch"
+    calibration_id: str
+    active: bool
+    board: dict | None = None
+    slot_s: float = 0.5
+
+    def __post_init__(self) -> None:
+        check_name(self.calibration_id, what=f"{self.what}.calibration_id")
+        if not isinstance(self.active, bool):
+            raise ValueError(f"{self.what}.active: must be true or false")
+        if self.board is not None:
+            _dict(self.board, f"{self.what}.board", optional=False)
+        _num(self.slot_s, f"{self.what}.slot_s", 0.05, 60.0)
+
+
+@dataclass(frozen=True)
+class BoardView(_Json):
+    """One frame looked at for the board of board recording ``calibration_id``: the camera, its frame id
+    and camera timestamp (ns), the image size (px) and the board corners found ([x, y] px rows, pixel
+    centres at integers; corners not found left out; empty: no board in the frame)."""
+
+    what: ClassVar[str] = "board view"
+    calibration_id: str
+    camera: str
+    frame_id: int
+    timestamp_ns: int
+    width_px: int
+    height_px: int
+    corners: list = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        check_name(self.calibration_id, what=f"{self.what}.calibration_id")
+        check_name(self.camera, what=f"{self.what}.camera")
+        _int(self.frame_id, f"{self.what}.frame_id", 0, MAX_FRAME_ID)
+        _int(self.timestamp_ns, f"{self.what}.timestamp_ns", 0, MAX_TIME_NS)
+        _int(self.width_px, f"{self.what}.width_px", 1, 65535)
+        _int(self.height_px, f"{self.what}.height_px", 1, 65535)
+        if not isinstance(self.corners, list) or len(self.corners) > MAX_BOARD_CORNERS:
+            raise ValueError(f"{self.what}.corners: must be a list of at most {MAX_BOARD_CORNERS} [x, y] rows")
+        for row in self.corners:
+            if not isinstance(row, list) or len(row) != 2:
+                raise ValueError(f"{self.what}.corners: every row must be [x, y] px")
+            for v in row:
+                _num(v, f"{self.what}.corners", -65535.0, 2 * 65535.0)

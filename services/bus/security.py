@@ -16,10 +16,10 @@ and password; and filters what it receives by the sender's role (Zenoh ``access_
 role       may send (put / query / reply) to the other nodes
 =========  =================================================================================
 camera     put ``camera/<its cameras>/image|status``
-detector   put ``keypoints/*`` and ``detector/status/*``
+detector   put ``keypoints/*``, ``detector/status/*`` and ``board/views/*``
 recorder   put ``recorder/events``; reply on ``recorder/**``
 worker     nothing but declarations and liveliness (its progress is in the catalog)
-api        put ``camera/scene``; query ``recorder/**``
+api        put ``camera/scene`` and ``board/watch``; query ``recorder/**``
 replay     put ``camera/*/image|status`` and ``keypoints/*``
 client     nothing but declarations and liveliness (reads what the others let it subscribe to)
 =========  =================================================================================
@@ -44,10 +44,10 @@ _DECLARATIONS = ("declare_subscriber", "declare_queryable", "liveliness_token", 
 #: role -> [(messages, key expressions under the prefix)] it may SEND (checked on ingress by the others).
 ROLE_SENDS: dict[str, tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]] = {
     "camera": ((("put",), ("camera/*/image", "camera/*/status")),),
-    "detector": ((("put",), ("keypoints/*", "detector/status/*")),),
+    "detector": ((("put",), ("keypoints/*", "detector/status/*", "board/views/*")),),
     "recorder": ((("put",), ("recorder/events",)), (("reply",), ("recorder/**",))),
     "worker": (),
-    "api": ((("put",), ("camera/scene",)), (("query",), ("recorder/**",))),
+    "api": ((("put",), ("camera/scene", "board/watch")), (("query",), ("recorder/**",))),
     "replay": ((("put",), ("camera/*/image", "camera/*/status", "keypoints/*")),),
     "client": (),
 }

@@ -168,6 +168,7 @@ def detector_cmd(
     from gaitcap.acquisition.detectors.base import config_class
     from gaitcap.acquisition.detectors.pool import DetectorPool, default_workers, shared_cores
     from gaitcap.services.bus.session import default_bus_config, open_session
+    from gaitcap.services.nodes.board_watch import BoardWatcher
     from gaitcap.services.nodes.detector import CameraSelection, DetectorNode
 
     with user_errors():
@@ -183,8 +184,10 @@ def detector_cmd(
         session = open_session(cfg, node)
     stopper = stop_on_signals()
     det_node = DetectorNode(session, cfg, node, pool, cameras=selection)
+    watcher = BoardWatcher(session, cfg, cameras=selection)  # looks for the board while a board recording runs
     typer.echo(f"detector node {node} ready on {cfg.prefix} ({detector}, {pool.skeleton}, {pool.size} workers)")
     stopper.wait()
+    watcher.close()
     det_node.close()
     session.close()
     typer.echo(f"detector node {node}: {det_node.detected} frames, {det_node.skipped} skipped, {det_node.lost} lost, "

@@ -11,6 +11,7 @@ import os
 import time
 from dataclasses import replace
 
+from gaitcap.services.live.board_coverage import BoardViews
 from gaitcap.services.live.detector_coverage import DetectorCoverageBoard
 from gaitcap.services.live.nodes import NodeBoard
 from gaitcap.services.live.protocols import CameraHealth, RecorderUnavailable
@@ -62,6 +63,7 @@ class BusLink:
         self.previews = PreviewFrames(self.session, bus.keys)
         self.node_board = NodeBoard(self.session, bus)
         self.coverage = DetectorCoverageBoard(self.session, bus.keys)
+        self.board_views = BoardViews(self.session, bus.keys)
 
     def start(self, *, trial_id: str, path: str, metadata: dict, calibration_toml: str | None = None) -> None:
         from gaitcap.services.bus.control import RecorderError
@@ -109,12 +111,21 @@ class BusLink:
     def detection(self) -> dict:
         return self.coverage.snapshot()
 
+    def watch_board(self, calibration_id: str, board: dict | None) -> None:
+        self.board_views.watch(calibration_id, board)
+
+    def unwatch_board(self, calibration_id: str) -> None:
+        self.board_views.unwatch(calibration_id)
+
+    def board_coverage(self, calibration_id: str, cameras: list[str]) -> dict | None:
+        return self.board_views.coverage(calibration_id, cameras)
+
     def preview(self, camera: str) -> tuple[float, bytes] | None:
         frame = self.previews.latest().get(camera)
         return None if frame is None else (frame.received_s, frame.jpeg)
 
     def close(self) -> None:
-        for item in (self.status_board, self.previews, self.node_board, self.coverage):
+        for item in (self.status_board, self.previews, self.node_board, self.coverage, self.board_views):
             try:
                 item.close()
             except Exception:  # closing during shutdown: nothing left to do

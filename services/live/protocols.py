@@ -62,7 +62,20 @@ class Components(Protocol):
         (:func:`gaitcap.services.live.detector_coverage.detection_summary`)."""
 
 
-class Link(TrialRecorder, LiveView, Components, Protocol):
+class BoardGuide(Protocol):
+    def watch_board(self, calibration_id: str, board: dict | None) -> None:
+        """Have the detector nodes look for ``board`` (None: the default board) while board recording
+        ``calibration_id`` runs (:mod:`gaitcap.services.live.board_coverage`)."""
+
+    def unwatch_board(self, calibration_id: str) -> None:
+        """Stop looking for the board of ``calibration_id``."""
+
+    def board_coverage(self, calibration_id: str, cameras: list[str]) -> dict | None:
+        """Where the board has been seen in ``calibration_id`` so far
+        (:func:`gaitcap.services.live.board_coverage.coverage_summary`), None when it is not watched."""
+
+
+class Link(TrialRecorder, LiveView, Components, BoardGuide, Protocol):
     connected: bool  # False: no recorder can ever answer (Start is refused before a trial is created)
 
     def close(self) -> None: ...
@@ -109,6 +122,15 @@ class NoLink:
 
     def detection(self) -> dict:
         return {"nodes": {}, "cameras": {}}
+
+    def watch_board(self, calibration_id: str, board: dict | None) -> None:
+        return None
+
+    def unwatch_board(self, calibration_id: str) -> None:
+        return None
+
+    def board_coverage(self, calibration_id: str, cameras: list[str]) -> dict | None:
+        return None
 
     def close(self) -> None:
         pass

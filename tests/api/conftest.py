@@ -51,6 +51,20 @@ class RecordingLink:
     def detection(self):
         return {"nodes": {}, "cameras": {}}
 
+    def watch_board(self, calibration_id, board):
+        self.calls.append(("watch board", calibration_id, board))
+        self.board_watched, self.board_sightings, self.board_looked = calibration_id, [], {}
+
+    def unwatch_board(self, calibration_id):
+        self.calls.append(("unwatch board", calibration_id))
+
+    def board_coverage(self, calibration_id, cameras):
+        from gaitcap.services.live.board_coverage import coverage_summary
+
+        if getattr(self, "board_watched", None) != calibration_id:
+            return None
+        return coverage_summary(self.board_sightings, self.board_looked, cameras=cameras)
+
     def preview(self, camera):
         return (time.time(), self.jpeg) if camera in ("cam0", "cam1") else None
 

@@ -1,0 +1,156 @@
+"""Board watcher: while a board recording runs, look for the board in the frames of a detector node's
+cameras and publish what was found, so the clinic page can show where the board has been seen.
+
+The API puts a :class:`~gaitcap.services.bus.messages.BoardWatch` on ``<prefix>/board/watch`` when a
+board recording starts (the board, the slot length) and another, inactive, at Stop. Meanwhile the
+watcher takes the first frame of each camera in every slot of ``slot_s`` s of camera time (the same
+slots on every node: the views of one slot are of one moment), looks for the board in them in one
+thread and publishes a :class:`~gaitcap.services.bus.messages.BoardView` per frame looked at on
+``<prefix>/board/views/<cam>`` (corners found, or none). When looking falls behind, whole slots are
+skipped (counted), never one camera of a slot, so the pairs of cameras that saw the board together stay
+true. Without a watch the image callback returns at once. It runs inside ``gaitcap node detector``
+(the node that already receives its cameras' frames); recording and keypoints are not touched.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+
+import numpy as np
+from gaitcap.services.bus.messages import BoardView, BoardWatch, ImageFrame
+from gaitcap.services.bus.session import BusConfig
+from gaitcap.services.nodes.detector import CameraSelection
+
+log = logging.getLogger(__name__)
+KEEP_SLOTS = 2  # slots waiting to be looked at; an older one is skipped
+
+
+def board_of(watch: BoardWatch):
+    """The board object (``acquisition.boards``) a watch asks for; ValueError naming the field."""
+    from gaitcap.acquisition.boards.detection import BoardConfig, make_board
+    from gaitcap.acquisition.boards.file import board_from_dict
+
+    config = BoardConfig() if watch.board is None else board_from_dict(
+        {"board": watch.board}, source=f"board watch {watch.calibration_id} board")
+    return make_board(config)
+
+
+class BoardWatcher:
+    """Looks for the board in the bus frames of ``cameras`` while a board watch is active, until :meth:`close`."""
+
+    def __init__(self, session, bus: BusConfig, *, cameras: CameraSelection | None = None) -> None:
+        self.session, self.bus = session, bus
+        self.cameras = cameras or CameraSelection()
+        self.looked = 0
+        self.skipped_slots = 0
+        self._cond = threading.Condition()
+        self._watch: BoardWatch | None = None
+        self._board = None
+        self._pending: dict[int, dict[str, ImageFrame]] = {}  # slot -> camera -> its first frame in the slot
+        self._last_slot: dict[str, int] = {}
+        self._pubs: dict[str, object] = {}
+        self._closed = False
+        keys = [bus.keys.image(c) for c in self.cameras.names] or [bus.keys.image()]
+        self._subs = [session.declare_subscriber(bus.keys.board_watch, self._on_watch),
+                      *(session.declare_subscriber(k, self._on_image) for k in keys)]
+        self._thread = threading.Thread(target=self._loop, daemon=True, name="board-watch")
+        self._thread.start()
+
+    @property
+    def watching(self) -> str | None:
+        """The calibration id of the board recording watched now, or None."""
+        watch = self._watch
+        return watch.calibration_id if watch is not None else None
+
+    def _on_watch(self, sample) -> None:
+        try:
+            watch = BoardWatch.from_bytes(sample.payload.to_bytes())
+            board = board_of(watch) if watch.active else None
+        except ValueError as exc:
+            log.warning("board watch refused: %s", exc)
+            return
+        with self._cond:
+            if watch.active:
+                if self.watching != watch.calibration_id:
+                    self._pending.clear()
+                    self._last_slot.clear()
+                    log.info("looking for the board (%s) of board recording %s", board.config.describe(),
+                             watch.calibration_id)
+                self._watch, self._board = watch, board
+            elif self.watching == watch.calibration_id:
+                log.info("board recording %s over: %d frames looked at, %d slots skipped", watch.calibration_id,
+                         self.looked, self.skipped_slots)
+                self._watch, self._board = None, None
+                self._pending.clear()
+            self._cond.notify_all()
+
+    def _on_image(self, sample) -> None:
+        watch = self._watch
+        if watch is None:
+            return
+        key = str(sample.key_expr)
+        try:
+            camera = self.bus.keys.camera_of(key)
+            if not self.cameras.wants(camera):
+                return
+            att = sample.attachment.to_bytes() if sample.attachment is not None else None
+            frame = ImageFrame.from_bytes(sample.payload.to_bytes(), att, camera=camera)
+        except ValueError as exc:
+            log.debug("frame on %s not looked at: %s", key, exc)
+            return
+        slot = frame.timestamp_ns // int(watch.slot_s * 1e9)
+        with self._cond:
+            if self._watch is not watch or slot <= self._last_slot.get(camera, -1):
+                return
+            self._last_slot[camera] = slot
+            self._pending.setdefault(slot, {})[camera] = frame
+            while len(self._pending) > KEEP_SLOTS:
+                del self._pending[min(self._pending)]
+                self.skipped_slots += 1
+            self._cond.notify_all()
+
+    def _next(self) -> tuple[BoardWatch, object, dict[str, ImageFrame]] | None:
+        """The oldest waiting slot once a later one has begun, or once no later one began for a slot's
+        time (the last slot before Stop), with its watch and board; None once closed."""
+        with self._cond:
+            while not self._closed:
+                if len(self._pending) > 1:
+                    break
+                if self._pending:  # (a pending slot implies a watch: both are cleared together)
+                    if not self._cond.wait(self._watch.slot_s) and len(self._pending) == 1:
+                        break
+                    continue
+                self._cond.wait(1.0)
+            if self._closed:
+                return None
+            return self._watch, self._board, self._pending.pop(min(self._pending))
+
+    def _loop(self) -> None:
+        while (item := self._next()) is not None:
+            watch, board, frames = item
+            for camera, frame in sorted(frames.items()):
+                try:
+                    self._look(watch, board, frame)
+                except Exception:  # one bad frame (or the bus closing) must not end the watcher
+                    log.warning("camera %s frame %d: board not looked for", camera, frame.frame_id, exc_info=True)
+
+    def _look(self, watch: BoardWatch, board, frame: ImageFrame) -> None:
+        image = frame.image()
+        corners = board.find(image).corners
+        found = [] if corners is None else np.round(corners[np.isfinite(corners).all(axis=1)], 2).tolist()
+        view = BoardView(calibration_id=watch.calibration_id, camera=frame.camera, frame_id=frame.frame_id,
+                         timestamp_ns=frame.timestamp_ns, width_px=int(image.shape[1]), height_px=int(image.shape[0]),
+                         corners=found)
+        if frame.camera not in self._pubs:
+            self._pubs[frame.camera] = self.session.declare_publisher(self.bus.keys.board_views(frame.camera))
+        self._pubs[frame.camera].put(view.to_bytes())
+        self.looked += 1
+
+    def close(self) -> None:
+        for sub in self._subs:
+            sub.undeclare()
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        self._thread.join(timeout=5)
