@@ -1,5 +1,8 @@
 """What gaitcap wrote for one trial, as the validation reads it: a stage folder's trajectory, gait
 report and joint angles (``<trial>/<stage>/trajectory.npz``, ``gait.json``, ``kinematics/kinematics.mot``).
+The angles are the ones the page and the report show: the model's coordinates with the fitted model's
+zero-pose offsets (``kinematics.json``'s ``model.angle_zero_offsets_deg``) added, as
+:func:`~gaitcap.reconstruction.kinematics.report.kinematics_report` adds them.
 The trial is a ``gaitcap process`` output folder or a clinic trial folder (same layout); the stage is the
 last one present (refined, else preliminary) unless named."""
 
@@ -12,6 +15,7 @@ from pathlib import Path
 import numpy as np
 from gaitcap.reconstruction.kinematics.angles import VARIABLES
 from gaitcap.reconstruction.kinematics.mot import parse_mot
+from gaitcap.reconstruction.kinematics.report import with_zero_offsets
 from gaitcap.services.processing.artifacts import STAGE_FILES, STAGES
 from gaitcap.services.processing.outputs import read_npz
 
@@ -69,7 +73,14 @@ def _angles(folder: Path) -> tuple[np.ndarray, dict, str]:
             out[var] = {s: VARIABLES[var].of(coords, s) for s in SIDES}
         except KeyError:
             continue
-    return times, out, ""
+    return times, with_zero_offsets(out, _zero_offsets(folder)), ""
+
+
+def _zero_offsets(folder: Path) -> dict[str, dict[str, float]]:
+    """variable -> side -> degrees the page adds to the model's angle (none when not recorded)."""
+    status = folder / STAGE_FILES["kinematics_json"]
+    data = json.loads(status.read_text()) if status.is_file() else {}
+    return (data.get("model") or {}).get("angle_zero_offsets_deg") or {}
 
 
 def load_trial(folder: str | Path, stage: str | None = None) -> TrialData:

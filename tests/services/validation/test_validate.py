@@ -130,8 +130,9 @@ def test_validate_finds_the_lag_and_transform_and_the_figures_computed_directly(
 
 
 def test_angles_are_compared_with_the_reference_models(walk, tmp_path):
-    """A kinematics.mot holding Plug-in-Gait's own knee and hip curves plus known offsets: the tool finds the
-    offsets, and nothing left once they are removed."""
+    """A kinematics.mot holding Plug-in-Gait's own knee and hip curves plus known offsets, and the fitted
+    model's zero-pose offsets the page adds (kinematics.json): the tool compares the angles the page shows,
+    finds the sum of the two offsets, and nothing left once it is removed."""
     proc, _, ref = walk
     trial = tmp_path / "trial"
     shutil.copytree(proc, trial)
@@ -145,13 +146,16 @@ def test_angles_are_compared_with_the_reference_models(walk, tmp_path):
             coords[v.coordinate[side]] = curve / v.sign[side]
     (trial / "preliminary" / "kinematics").mkdir()
     (trial / "preliminary" / "kinematics" / "kinematics.mot").write_text(to_mot(times, coords))
+    zero = {"knee_flexion": {"left": 1.5, "right": -0.5}}  # added to the model's angle on the page
+    (trial / "preliminary" / "kinematics" / "kinematics.json").write_text(
+        json.dumps({"available": True, "model": {"angle_zero_offsets_deg": zero}}))
     res = _validate(trial, WALK, "--out", tmp_path / "v")
     assert res.exit_code == 0, res.output
     out = json.loads((tmp_path / "v" / "validation.json").read_text())
     got = {(a["variable"], a["side"]): a for a in out["angles"]}
     assert set(got) == {(v, s) for v in offsets for s in ("left", "right")}
-    for (var, _), a in got.items():
-        assert abs(a["offset_deg"] - offsets[var]) < 0.2 and a["rmse_after_offset_deg"] < 0.3 and a["r"] > 0.999
+    for (var, side), a in got.items():
+        assert abs(a["offset_deg"] - offsets[var] - zero.get(var, {}).get(side, 0.0)) < 0.2 and a["rmse_after_offset_deg"] < 0.3 and a["r"] > 0.999
         assert len(a["cycles"]) >= 1
     assert (tmp_path / "v" / "angles.png").is_file()
     from pypdf import PdfReader
