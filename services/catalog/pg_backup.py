@@ -6,17 +6,25 @@ database in one transaction (all or nothing). Both run the programs with the con
 variables and the password in a passfile (:func:`gaitcap.services.catalog.pg_tools.libpq_environment`): the
 command line holds only file and database names. A SQLite catalog is backed up by the API
 (:mod:`gaitcap.api.backups`).
+
+:func:`exported_snapshot` holds one read-only, repeatable-read transaction open and exports its snapshot:
+a dump taken with it (``dump(..., snapshot=...)``) and every query on its connection see the same catalog,
+so ``gaitcap backup`` copies the files of exactly the trials its dump holds while trials are written.
+:func:`repoint_paths` moves a restored catalog's stored file paths into a new data folder.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import subprocess
+from collections.abc import Iterator
 from pathlib import Path
 
 from gaitcap.services.catalog.pg_tools import is_postgres, libpq_environment, program, shown_url
-from sqlalchemy.engine import make_url
+from sqlalchemy import create_engine, text
+from sqlalchemy.engine import Connection, make_url
 
 log = logging.getLogger(__name__)
 
@@ -39,13 +47,16 @@ def _run(argv: list[str], url: str, *, timeout_s: float) -> None:
                            f"{done.stderr.strip()[-1000:]}")
 
 
-def dump(url: str, path: str | os.PathLike, *, timeout_s: float = 3600.0) -> Path:
-    """The catalog database at ``url`` into ``path`` (pg_dump custom format); returns the path."""
+def dump(url: str, path: str | os.PathLike, *, snapshot: str | None = None, timeout_s: float = 3600.0) -> Path:
+    """The catalog database at ``url`` into ``path`` (pg_dump custom format); returns the path. ``snapshot``:
+    an exported snapshot's id (:func:`exported_snapshot`) the dump sees, else the database as it is now."""
     database, path = _database(url), Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_name(path.name + ".partial")
+    seen = [f"--snapshot={snapshot}"] if snapshot else []
     try:
-        _run([program("pg_dump"), "--format=custom", "--no-owner", "--no-privileges", f"--file={partial}", database], url, timeout_s=timeout_s)
+        _run([program("pg_dump"), "--format=custom", "--no-owner", "--no-privileges", *seen, f"--file={partial}",
+              database], url, timeout_s=timeout_s)
         os.replace(partial, path)
     finally:
         partial.unlink(missing_ok=True)
@@ -61,3 +72,41 @@ def restore(path: str | os.PathLike, url: str, *, timeout_s: float = 3600.0) -> 
     _run([program("pg_restore"), "--no-owner", "--no-privileges", "--exit-on-error", "--single-transaction",
           f"--dbname={database}", str(path)], url, timeout_s=timeout_s)
     log.info("catalog %s restored from %s", shown_url(url), path)
+
+
+@contextlib.contextmanager
+def exported_snapshot(url: str) -> Iterator[tuple[str, Connection]]:
+    """(snapshot id, the connection whose transaction holds it): a read-only, repeatable-read transaction on
+    ``url``'s database kept open until the block ends; a pg_dump given the id and every query on the
+    connection see the catalog as it was when the block began."""
+    _database(url)
+    engine = create_engine(url, hide_parameters=True, isolation_level="REPEATABLE READ")
+    try:
+        with engine.connect() as conn:
+            conn.exec_driver_sql("SET TRANSACTION READ ONLY")
+            yield conn.execute(text("SELECT pg_export_snapshot()")).scalar_one(), conn
+            conn.rollback()
+    finally:
+        engine.dispose()
+
+
+#: (table, column) of every stored file path in the catalog
+PATH_COLUMNS = (("trials", "recording_path"), ("calibrations", "recording_path"), ("results", "artifacts_json"))
+
+
+def repoint_paths(url: str, old: str, new: str) -> int:
+    """The catalog's stored file paths under the folder ``old`` moved under ``new`` (one transaction); rows
+    changed."""
+    _database(url)
+    prefix, moved = old.rstrip("/") + "/", new.rstrip("/") + "/"
+    engine = create_engine(url, hide_parameters=True)
+    changed = 0
+    try:
+        with engine.begin() as conn:
+            for table, column in PATH_COLUMNS:
+                changed += conn.execute(text(f"UPDATE {table} SET {column} = replace({column}, :old, :new) "
+                                             f"WHERE strpos({column}, :old) > 0"),
+                                        {"old": prefix, "new": moved}).rowcount
+    finally:
+        engine.dispose()
+    return changed
