@@ -11,6 +11,7 @@ The walks of ``../shared/data/c3d/`` (see its README) are read with ezc3d and tu
   along the foot, in Plug-in-Gait's own foot frame (``LFOO``/``LFOL``): it turns with the foot, as a
   detector's small toe does;
 - shoulders: ``LSHO``/``RSHO`` where the walk has them; the rest of the upper body as ``mocap`` places it.
+The file is read by the validation's C3D reader (``acquisition.references.c3d.open_c3d``: gaps NaN).
 Markers are resampled (linearly) to :data:`RATE_HZ` so that the rig's 30 fps divides the rate; the angles
 stay on the file's own clock. Event times are the EVENT group's minus the trial's start
 ((ACTUAL_START_FIELD - 1) / rate).
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.references.c3d import c3d_events
+from gaitcap.acquisition.references.c3d import C3DPoints, c3d_events, open_c3d
 from gaitcap.simulator.mocap import SIDES, MocapWalk, _screen, _to_room
 
 RATE_HZ = 120.0
@@ -61,23 +62,12 @@ class PigWalk:
                 for v, by in self.angles_deg.items()}
 
 
-def _point(c3d, labels: list[str], name: str) -> np.ndarray:
-    """(T, 3) of a point label (its residual < 0 -> NaN); KeyError naming a missing label."""
-    for label in (name, f"{name}V"):  # some labs suffix the model's outputs with V
-        if label in labels:
-            i = labels.index(label)
-            p = np.asarray(c3d["data"]["points"][:3, i].T, dtype=np.float64).copy()
-            p[c3d["data"]["meta_points"]["residuals"][0, i] < 0] = np.nan
-            return p
-    raise KeyError(f"C3D: no point {name!r}")
-
-
-def _small_toe(c3d, labels: list[str], letter: str, toe: np.ndarray) -> np.ndarray:
+def _small_toe(c3d: C3DPoints, letter: str, toe: np.ndarray) -> np.ndarray:
     """The small toe beside ``toe`` in Plug-in-Gait's foot frame (its L axis points to the body's left on
     both feet)."""
-    origin = _point(c3d, labels, f"{letter}FOO")
-    left = _point(c3d, labels, f"{letter}FOL") - origin
-    ahead = _point(c3d, labels, f"{letter}FOA") - origin  # Plug-in-Gait's foot A axis: up from the sole
+    origin = c3d.marker_mm(f"{letter}FOO")
+    left = c3d.marker_mm(f"{letter}FOL") - origin
+    ahead = c3d.marker_mm(f"{letter}FOA") - origin  # Plug-in-Gait's foot A axis: up from the sole
     left /= np.linalg.norm(left, axis=1, keepdims=True)
     ahead /= np.linalg.norm(ahead, axis=1, keepdims=True)
     forward = np.cross(left, ahead)
@@ -92,25 +82,19 @@ def _resample(times_s: np.ndarray, p: np.ndarray, new_times_s: np.ndarray) -> np
 
 def load_pig_walk(path: Path) -> PigWalk:
     """Read one Plug-in-Gait walk (see the module docstring). ValueError naming the file and what it lacks."""
-    import ezc3d
-
     path = Path(path)
-    c3d = ezc3d.c3d(str(path))
-    params = c3d["parameters"]
-    labels = list(params["POINT"]["LABELS"]["value"])
-    rate = float(c3d["header"]["points"]["frame_rate"])
-    n = c3d["data"]["points"].shape[2]
-    times = np.arange(n) / rate
+    c3d = open_c3d(path)
+    rate, times = c3d.rate_hz, c3d.times_s
     raw: dict[str, np.ndarray] = {}
     try:
         for side in SIDES:
             letter = side[0].upper()
             for part, pig in JOINT_CENTRES.items():
-                raw[f"{side}_{part}"] = _point(c3d, labels, f"{letter}{pig}")
-            raw[f"{side}_small_toe"] = _small_toe(c3d, labels, letter, raw[f"{side}_toe"])
-            if f"{letter}SHO" in labels:
-                raw[f"{side}_shoulder"] = _point(c3d, labels, f"{letter}SHO")
-        angles = {v: {s: _point(c3d, labels, f"{s[0].upper()}{pig}")[:, 0] for s in SIDES}
+                raw[f"{side}_{part}"] = c3d.marker_mm(f"{letter}{pig}")
+            raw[f"{side}_small_toe"] = _small_toe(c3d, letter, raw[f"{side}_toe"])
+            if f"{letter}SHO" in c3d.labels:
+                raw[f"{side}_shoulder"] = c3d.marker_mm(f"{letter}SHO")
+        angles = {v: {s: c3d.raw(f"{s[0].upper()}{pig}")[:, 0] for s in SIDES}
                   for v, pig in ANGLES.items()}
     except KeyError as exc:
         raise ValueError(f"{path.name}: {exc.args[0]} (a Plug-in-Gait walk needs its joint centres, foot frame "
@@ -124,8 +108,7 @@ def load_pig_walk(path: Path) -> PigWalk:
     first, last = np.nonzero(whole)[0][[0, -1]]
     new_times = np.arange(times[first], times[last] + 1e-9, 1.0 / RATE_HZ)
     markers = _to_room({k: _resample(times[first:last + 1], p[first:last + 1], new_times) for k, p in raw.items()})
-    start = (float(params["TRIAL"]["ACTUAL_START_FIELD"]["value"][0]) - 1.0) / rate
-    annotated = c3d_events(params, start, path.name)
+    annotated = c3d_events(c3d.params, c3d.start_s, path.name)
     events = {kind: {s: [] if by is None else sorted(map(float, by[s])) for s in SIDES}
               for kind, by in zip(("heel_strike", "toe_off"), annotated, strict=True)}
     hs, to, excluded = _screen(markers, new_times, events)

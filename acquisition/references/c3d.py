@@ -8,6 +8,7 @@ pairs. Contexts ``Left``/``Right``, labels ``Foot Strike`` / ``Foot Off`` (Vicon
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -56,8 +57,43 @@ def c3d_events(params, start_s: float, source: str) -> tuple[dict, dict] | tuple
     return hs, to
 
 
-def read_c3d(path: Path) -> Reference:
-    """The reference in a C3D file (ValueError naming the file: unreadable, no markers to compare)."""
+@dataclass(frozen=True, eq=False)
+class C3DPoints:
+    """A C3D file's points as read once for every user (the validation's reference, the simulator's real
+    walks): ``rate_hz``; ``start_s`` the trial's start on the capture clock (``(first frame - 1) / rate``);
+    ``labels``; ``outputs`` the labels that are model outputs (angles, forces, ...: not positions);
+    ``unit_mm`` millimetres per point unit; ``params`` ezc3d's parameter tree. Samples with a negative
+    residual or all zero (Vicon's gap) are NaN."""
+
+    source: str
+    rate_hz: float
+    start_s: float
+    labels: tuple[str, ...]
+    outputs: frozenset[str]
+    unit_mm: float
+    params: dict
+    data: np.ndarray  # (3, N, T) in the file's unit, gaps NaN
+
+    @property
+    def times_s(self) -> np.ndarray:
+        """(T,) s from the file's first frame."""
+        return np.arange(self.data.shape[2]) / self.rate_hz
+
+    def raw(self, label: str) -> np.ndarray:
+        """(T, 3) of ``label`` as stored (degrees for an angle); KeyError naming a missing label. A lab's
+        ``V``-suffixed copy of a model output is taken where the plain label is absent."""
+        for name in (label, f"{label}V"):
+            if name in self.labels:
+                return self.data[:, self.labels.index(name), :].T.copy()
+        raise KeyError(f"C3D: no point {label!r}")
+
+    def marker_mm(self, label: str) -> np.ndarray:
+        """(T, 3) mm of marker ``label`` (KeyError when absent)."""
+        return self.raw(label) * self.unit_mm
+
+
+def open_c3d(path: Path) -> C3DPoints:
+    """Read a C3D's points (ValueError naming the file: unreadable, no POINT:RATE)."""
     try:
         import ezc3d
     except ImportError as exc:
@@ -71,29 +107,37 @@ def read_c3d(path: Path) -> Reference:
     rate = float(np.ravel(_value(params, "POINT", "RATE", [0.0]))[0])
     if rate <= 0:
         raise ValueError(f"{source}: POINT:RATE is missing")
-    data = np.asarray(c["data"]["points"], dtype=np.float64)[:3]  # (3, N, T)
-    labels = _labels(params)[: data.shape[1]]
+    data = np.asarray(c["data"]["points"], dtype=np.float64)[:3].copy()  # (3, N, T)
+    residuals = np.asarray(c["data"].get("meta_points", {}).get("residuals", []), dtype=np.float64)
+    gap = (data == 0).all(axis=0)  # (N, T)
+    if residuals.shape[1:] == gap.shape:  # a file written without residuals has none
+        gap |= residuals[0] < 0
+    data[:, gap] = np.nan
+    labels = tuple(_labels(params)[: data.shape[1]])
     first = _value(params, "TRIAL", "ACTUAL_START_FIELD")
     first_frame = int(np.ravel(first)[0]) if first is not None else int(c["header"]["points"]["first_frame"]) + 1
-    start_s = (first_frame - 1) / rate
-    times = np.arange(data.shape[2]) / rate
-    outputs = {str(x).strip() for k in ("ANGLES", "FORCES", "MOMENTS", "POWERS", "SCALARS", "REACTIONS")
-               for x in (_value(params, "POINT", k, []) or [])}
-    unit = str(np.ravel(_value(params, "POINT", "UNITS", ["mm"]))[0]).strip().lower()
-    scale = _UNITS.get(unit, 1.0)
+    outputs = frozenset(str(x).strip() for k in ("ANGLES", "FORCES", "MOMENTS", "POWERS", "SCALARS", "REACTIONS")
+                        for x in (_value(params, "POINT", k, []) or []))
+    units = np.ravel(_value(params, "POINT", "UNITS", ["mm"]))  # an empty UNITS means mm too
+    unit = str(units[0]).strip().lower() if len(units) else "mm"
+    return C3DPoints(source, rate, (first_frame - 1) / rate, labels, outputs, _UNITS.get(unit, 1.0), params, data)
+
+
+def read_c3d(path: Path) -> Reference:
+    """The reference in a C3D file (ValueError naming the file: unreadable, no markers to compare)."""
+    c = open_c3d(path)
+    source = c.source
     markers, angles = {}, {}
-    for k, label in enumerate(labels):
-        p = data[:, k, :].T.copy()
-        p[(p == 0).all(axis=1)] = np.nan  # an all-zero sample is Vicon's gap
-        if label in outputs:
-            angles[label] = p
+    for label in c.labels:
+        if label in c.outputs:
+            angles[label] = c.raw(label)
         else:
-            markers[label] = p * scale
+            markers[label] = c.marker_mm(label)
     joints, used = map_markers(markers)
     if not joints:
         raise ValueError(f"{source}: no heel, ankle, knee, hip or toe markers (Plug-in-Gait labels such as "
                          f"LHEE, LANK) to compare with")
-    hs, to = c3d_events(params, start_s, source)
+    hs, to = c3d_events(c.params, c.start_s, source)
     lacks = []
     if hs is None or not any(len(v) for v in hs.values()):
         lacks.append("gait events (no Foot Strike in the EVENT group)")
@@ -101,4 +145,4 @@ def read_c3d(path: Path) -> Reference:
     angle_curves = map_angles(angles)
     if not angle_curves:
         lacks.append("joint angles (no model outputs such as LKneeAngles)")
-    return Reference(source, "C3D", times, joints, used, hs, to, angle_curves, None, tuple(lacks))
+    return Reference(source, "C3D", c.times_s, joints, used, hs, to, angle_curves, None, tuple(lacks))
