@@ -63,19 +63,22 @@ def _key_value_norms(status: dict) -> dict:
     from gaitcap.reconstruction.jsonable import finite_or_none
     from gaitcap.reconstruction.kinematics.clinical import key_label
     from gaitcap.reconstruction.kinematics.key_norms import KEY_VALUES, key_norms, no_reference
+    from gaitcap.services.reports.shown import key_norm_shown
 
     norms = status.get("norms") or {}
     patient = norms.get("no_reference")
     out = {name: {"label": key_label(name), "normal_deg": None, "sd_deg": None, "at_pct": None,
                   "normal_range_deg": None, "lower_limit_deg": None,
-                  "no_reference": "no reference for this patient" if patient else no_reference(name)}
+                  "no_reference": "no reference for this patient" if patient else no_reference(name),
+                  "shown": {"normal": None, "normal_range": None, "lower_limit": None}}
            for name in KEY_VALUES}
     for name, n in key_norms(norms.get("bands") or {}).items():
         band = n.band()
         out[name] = {"label": key_label(name), "normal_deg": finite_or_none(n.normal_deg),
                      "sd_deg": finite_or_none(n.sd_deg), "at_pct": n.at_pct,
                      "normal_range_deg": [round(band[0], 2), round(band[1], 2)] if band else None,
-                     "lower_limit_deg": finite_or_none(round(n.lower_deg, 2)), "no_reference": None}
+                     "lower_limit_deg": finite_or_none(round(n.lower_deg, 2)), "no_reference": None,
+                     "shown": key_norm_shown(n)}
     return out
 
 
@@ -94,7 +97,12 @@ def kinematics(trial_id: str, request: Request, stage: Stage | None = None,
     if format is KinematicsFormat.json:
         from gaitcap.reconstruction.kinematics.gait_profile import gait_profile
 
+        from gaitcap.reconstruction.kinematics.key_norms import key_norms
+        from gaitcap.services.reports.shown import key_values_shown
+
+        bands = (status.get("norms") or {}).get("bands") or {}
         extra = {"key_value_norms": _key_value_norms(status),
+                 "key_values_shown": key_values_shown(status.get("key_values"), key_norms(bands)),
                  "gait_profile": gait_profile(status).to_dict()
                  if status.get("curves") and (status.get("norms") or {}).get("bands") else None}  # no band: none
         return {"trial_id": r.trial_id, "stage": r.stage, **status, **extra}

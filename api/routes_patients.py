@@ -12,13 +12,17 @@ from gaitcap.api.subject_ids import check_subject_id
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import patients as pat
 from gaitcap.services.catalog.ids import ID_PATTERN
-from gaitcap.services.reports.content import NORM_UNITS, ReportConfig
+from gaitcap.services.reports.content import NORM_UNITS, PARAMETERS, ReportConfig
+from gaitcap.services.reports.shown import SUMMARY_DECIMALS, shown
 from gaitcap.services.reports.norms import NormsError, NormTable, load_norms
 from pydantic import BaseModel, ConfigDict, Field
 
 router = APIRouter(tags=["patients"])
 TREND = (("gait_speed_m_per_s", "gait_speed_m_s"), ("cadence_steps_per_min", "cadence_steps_min"),
          ("step_length_mm", "step_length_mm"), ("step_length_asymmetry_pct", "step_length_symmetry_index_pct"))
+#: decimals of the trend values as shown (the report's parameters'; the symmetry index as the summary's)
+TREND_DECIMALS = {name: PARAMETERS[name].decimals if name in PARAMETERS else SUMMARY_DECIMALS[key]
+                  for key, name in TREND}
 
 
 class PatientIn(BaseModel):
@@ -72,7 +76,9 @@ def show_patient(subject_id: str, request: Request, user: str = Depends(require_
     """``history``: oldest first, each with the trial, its void mark and clinical fields, ``values`` (gait
     speed m/s, cadence steps/min, step length mm, step-length symmetry index %) of its best result and
     ``normal_ranges`` (the same names -> [low, high], mean -+ 1.96 SD for the patient's sex and age at that
-    trial; a name without a normative row is left out)."""
+    trial; a name without a normative row is left out), and ``shown``: both as the page writes them
+    (``values``: name -> text, ``normal_ranges``: name -> [low, high] texts; the one rounding rule,
+    :mod:`gaitcap.services.reports.shown`)."""
     db, p = catalog_of(request), _patient(request, subject_id)
     out = history_of(db, p, _norms())
     cat.audit(db, actor=user, action="view", detail=f"patient {p.id}")
@@ -88,12 +94,16 @@ def history_of(db: cat.Catalog, p: pat.PatientInfo, norms: NormTable) -> list[di
     out = []
     for t, t_out in zip(trials, trials_out(db, trials, details), strict=True):
         values = {name: means.get(t.id, {}).get(key) for key, name in TREND}
+        values = {k: v for k, v in values.items() if isinstance(v, float) and math.isfinite(v)}
+        bands = _bands(norms, p, t)
         d = details.get(t.id, pat.TrialDetailsInfo())
         out.append({**t_out.model_dump(), "voided": d.voided, "void_reason": d.void_reason,
                     "walking_aid": d.walking_aid, "assistance": d.assistance, "footwear": d.footwear,
-                    "operator": d.operator, "notes": d.notes,
-                    "values": {k: v for k, v in values.items() if isinstance(v, float) and math.isfinite(v)},
-                    "normal_ranges": _ranges(norms, p, t)})
+                    "operator": d.operator, "notes": d.notes, "values": values,
+                    "normal_ranges": {name: [round(x, 4) for x in band] for name, band in bands.items()},
+                    "shown": {"values": {k: shown(v, TREND_DECIMALS[k]) for k, v in values.items()},
+                              "normal_ranges": {name: [shown(x, TREND_DECIMALS[name]) for x in band]
+                                                for name, band in bands.items()}}})
     return out
 
 
@@ -157,10 +167,11 @@ def _norms() -> NormTable:
         raise HTTPException(status_code=500, detail=f"the normative table (GAITCAP_NORMS_CSV): {exc}") from None
 
 
-def _ranges(norms: NormTable, p: pat.PatientInfo, trial: cat.TrialInfo) -> dict[str, list[float]]:
+def _bands(norms: NormTable, p: pat.PatientInfo, trial: cat.TrialInfo) -> dict[str, tuple[float, float]]:
+    """Trend name -> the normal range (low, high) for the patient's sex and age at ``trial``."""
     age = pat.age_at_trial(p, trial)
     rows = {name: norms.find(name, sex=p.sex, age=age) for _, name in TREND}
-    return {name: [round(x, 4) for x in row.band()] for name, row in rows.items() if row is not None}
+    return {name: row.band() for name, row in rows.items() if row is not None}
 
 
 def _changes(changes: dict) -> str:

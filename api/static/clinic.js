@@ -45,7 +45,6 @@ function sideBars(left, right) {
   return `<span class="bars" aria-hidden="true">${bar(left, "left")}${bar(right, "right")}</span>`;
 }
 
-function fmtFixed(x, d) { return x == null ? "–" : Number(x).toFixed(d); }
 // a number as the server wrote it (services/reports/shown.py: the page, the print and the PDF round alike)
 function shownText(text) { return text == null ? "–" : esc(text); }
 
@@ -173,12 +172,12 @@ async function showHistory(subjectId) {
     + (h.sex ? `; ${h.sex}` : "") + (h.birth_year ? `, born ${h.birth_year}` : "") + (h.notes ? `. Notes: ${h.notes}` : "");
   const body = $("#history-table tbody");
   body.innerHTML = h.history.map((t) => {
-    const v = t.values;
+    const v = (t.shown || {}).values || {};  // the server's texts (one rounding rule)
     return `<tr data-trial="${esc(t.id)}" class="${t.voided ? "voided" : ""}">
       <td data-label="Compare"><input type="checkbox" class="cmp" value="${esc(t.id)}" aria-label="Compare ${esc(t.session)}" ${t.voided || !t.results.length ? "disabled" : ""}></td>
       <td data-label="Date" class="when">${fmtTime(t.started_at || t.created_at)}</td><td data-label="Session" class="id-cell">${esc(t.session)}</td>
-      <td data-label="Gait speed (m/s)">${fmtFixed(v.gait_speed_m_s, 2)}</td><td data-label="Cadence (steps/min)">${fmtFixed(v.cadence_steps_min, 1)}</td>
-      <td data-label="Step length (mm)">${fmtFixed(v.step_length_mm, 0)}</td><td data-label="Step length SI (%)">${fmtFixed(v.step_length_symmetry_index_pct, 1)}</td>
+      <td data-label="Gait speed (m/s)">${shownText(v.gait_speed_m_s)}</td><td data-label="Cadence (steps/min)">${shownText(v.cadence_steps_min)}</td>
+      <td data-label="Step length (mm)">${shownText(v.step_length_mm)}</td><td data-label="Step length SI (%)">${shownText(v.step_length_symmetry_index_pct)}</td>
       <td data-label="State" class="wide">${esc(t.state_text)}${t.voided ? `<div class="void-note">Void: ${esc(t.void_reason)}</div>` : ""}</td>
       <td class="wide">${t.results.length ? `<a href="/trials/${encodeURIComponent(t.id)}/report.pdf" target="_blank" rel="noopener">Report (PDF)</a>` : ""}</td></tr>`;
   }).join("");
@@ -244,13 +243,16 @@ function visitAxis(times_s) {
 function trendChart(spec, visits, box) {
   // one parameter per visit (line and dots), void visits as grey rings, the normal band per visit's age
   const fmt = (v) => v == null ? "–" : v.toFixed(spec.decimals);
+  // a visit's value and band as the server wrote them (the history table's, the PDF's): one rounding rule
+  const said = (i) => ((visits[i].shown || {}).values || {})[spec.name];
   const band = visits.map((t) => t.normal_ranges[spec.name] || null);
+  const bandSaid = visits.map((t) => ((t.shown || {}).normal_ranges || {})[spec.name] || null);
   const hasBand = band.some((b) => b);
   const data = [visits.map((t) => t.started_at || t.created_at), visits.map((t) => t.values[spec.name] ?? null),
     visits.map((t) => (t.voided ? t.values[spec.name] ?? null : null))];
   const series = [{ label: "date" },
-    { label: `${spec.label} (${spec.unit})`, stroke: "#1f3a5f", width: 2, spanGaps: true, value: (u, v) => fmt(v), points: { show: true, size: 8, fill: "#1f3a5f" } },
-    { ...markers("void trial", "#5b6675", "open"), value: (u, v) => fmt(v) }];
+    { label: `${spec.label} (${spec.unit})`, stroke: "#1f3a5f", width: 2, spanGaps: true, value: (u, v, si, i) => (v == null ? "–" : said(i) ?? fmt(v)), points: { show: true, size: 8, fill: "#1f3a5f" } },
+    { ...markers("void trial", "#5b6675", "open"), value: (u, v, si, i) => (v == null ? "–" : said(i) ?? fmt(v)) }];
   const dates = visitAxis(data[0]);
   const spanned = (u, lo, hi) => {  // at least minSpan around the data (and the band), centred on them
     const mid = (lo + hi) / 2, half = Math.max(spec.minSpan, 1.1 * (hi - lo)) / 2;
@@ -267,9 +269,9 @@ function trendChart(spec, visits, box) {
   }
   const fig = document.createElement("figure");
   fig.className = "trend"; fig.dataset.parameter = spec.name;
-  const cap = document.createElement("figcaption"), last = band.filter((b) => b).pop();
+  const cap = document.createElement("figcaption"), last = bandSaid.filter((b) => b).pop();
   cap.textContent = `${spec.label} (${spec.unit}) per visit, by visit date; ` + (last
-    ? `shaded: the normal range for age and sex (at the last visit ${fmt(last[0])}–${fmt(last[1])} ${spec.unit}).`
+    ? `shaded: the normal range for age and sex (at the last visit ${last[0]}–${last[1]} ${spec.unit}).`
     : "no reference range.") + (data[2].some((v) => v != null) ? " Grey rings: void trials." : "");
   fig.append(cap); box.append(fig);
   trendCharts.push(new uPlot({ ...opts, width: trendWidth(fig) }, data, fig));

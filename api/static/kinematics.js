@@ -98,16 +98,20 @@ function drawKinematics(k) {
   $("#kinematics-notes").innerHTML = notes.map((t) => `<li>${esc(t)}</li>`).join("");
   const kv = k.key_values || {}, keys = Object.keys(kv.left || {}).filter((name) => ["left", "right"].some((s) => ((kv[s] || {})[name] || {}).n));
   const norms = k.key_value_norms || {};
-  const outside = (s, nr) => s && s.mean != null && nr && (nr.normal_range_deg
-    ? s.mean < nr.normal_range_deg[0] || s.mean > nr.normal_range_deg[1] : nr.lower_limit_deg != null && s.mean < nr.lower_limit_deg);
-  const cell = (s, nr) => (s && s.mean != null ? `${s.mean.toFixed(1)}${s.sd != null ? " ± " + s.sd.toFixed(1) : ""} (n=${s.n})`
-    + (outside(s, nr) ? ' <strong class="out-flag">outside</strong>' : "") : "–");
-  const range = (nr) => !nr ? "no band" : nr.no_reference ? nr.no_reference : nr.normal_range_deg ? `${nr.normal_range_deg[0].toFixed(1)}–${nr.normal_range_deg[1].toFixed(1)}`
-    : nr.lower_limit_deg != null ? `at least ${nr.lower_limit_deg.toFixed(1)} (band's range ${nr.normal_deg.toFixed(1)})` : "no band";
+  // the server's texts and verdicts (services/reports/shown.py: the page and the PDF round and mark alike)
+  const said = k.key_values_shown || {};
+  const cell = (s, side, name) => {
+    const t = (said[side] || {})[name] || {};
+    return s && t.mean != null ? `${esc(t.mean)}${t.sd != null ? " ± " + esc(t.sd) : ""} (n=${s.n})`
+      + (t.outside ? ' <strong class="out-flag">outside</strong>' : "") : "–";
+  };
+  const range = (nr) => { const t = (nr && nr.shown) || {};
+    return !nr ? "no band" : nr.no_reference ? nr.no_reference : t.normal_range ? `${esc(t.normal_range[0])}–${esc(t.normal_range[1])}`
+      : t.lower_limit != null ? `at least ${esc(t.lower_limit)} (band's range ${esc(t.normal)})` : "no band"; };
   $("#kinematics-keys").innerHTML = keys.length ? `<caption>Key values (degrees, mean ± SD over the cycles) against the band</caption>
     <thead><tr><th>Key value</th><th>Left</th><th>Right</th><th>Normal (95 %)</th></tr></thead><tbody>${keys.map((name) =>
       `<tr data-key="${esc(name)}"><td>${esc((norms[name] || {}).label || name.replace(/_deg$/, "").replace(/_/g, " "))}</td>
-        <td>${cell(k.key_values.left[name], norms[name])}</td><td>${cell(k.key_values.right[name], norms[name])}</td>
+        <td>${cell(k.key_values.left[name], "left", name)}</td><td>${cell(k.key_values.right[name], "right", name)}</td>
         <td>${range(norms[name])}</td></tr>`).join("")}</tbody>` : "";
 }
 

@@ -14,6 +14,7 @@ from gaitcap.reconstruction.kinematics.key_norms import (
     key_norms,
     no_reference,
 )
+from gaitcap.services.reports.shown import KEY_VALUE_DECIMALS, key_norm_shown, shown
 
 NORMAL_NOTE = (f"Normal: the key value read off the band's mean curve (toe-off taken at {DEFAULT_TOE_OFF_PCT:.0f} % "
                "of the cycle); Normal (95 %): +- 1.96 times the band's SD where the value is read; a range of "
@@ -23,10 +24,12 @@ NORMAL_NOTE = (f"Normal: the key value read off the band's mean curve (toe-off t
 
 
 def _stat(s: dict | None) -> str:
-    if not isinstance(s, dict) or not isinstance(s.get("mean"), (int, float)):
+    """mean +- SD (n), with the one rounding rule (:mod:`gaitcap.services.reports.shown`, as on the page)."""
+    mean = shown(s.get("mean"), KEY_VALUE_DECIMALS) if isinstance(s, dict) else None
+    if mean is None:
         return "-"
-    sd = f" \u00b1 {s['sd']:.1f}" if isinstance(s.get("sd"), (int, float)) else ""
-    return f"{s['mean']:.1f}{sd} (n={s.get('n', '?')})"
+    sd = shown(s.get("sd"), KEY_VALUE_DECIMALS)
+    return mean + (f" \u00b1 {sd}" if sd is not None else "") + f" (n={s.get('n', '?')})"
 
 
 def _side_cell(s: dict | None, norm) -> str:
@@ -41,8 +44,8 @@ def _range_cell(name: str, norm) -> str:
     """The normal range; without one why: the angle's zero not validated ("no reference"), or no band."""
     if norm is None:
         return "no reference" if no_reference(name) else "no band"
-    band = norm.band()
-    return f"{band[0]:.1f} to {band[1]:.1f}" if band else f"at least {norm.lower_deg:.1f}"
+    said = key_norm_shown(norm)
+    return f"{said['normal_range'][0]} to {said['normal_range'][1]}" if said["normal_range"] else f"at least {said['lower_limit']}"
 
 
 def _key_table(pdf, k: dict) -> None:
@@ -70,7 +73,7 @@ def _key_table(pdf, k: dict) -> None:
             for side in ("left", "right"):
                 row.cell(pdf.latin1(_side_cell((kv.get(side) or {}).get(name), norm)))
             if not patient_none:
-                row.cell(f"{norm.normal_deg:.1f}" if norm is not None else "-")
+                row.cell(key_norm_shown(norm)["normal"] or "-" if norm is not None else "-")
                 row.cell(pdf.latin1(_range_cell(name, norm)))
     if patient_none:
         pdf.para("Normal: no reference for this patient (see the band above); signed values: the convention is in "

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from decimal import Decimal
+from typing import Any
 
 #: summary names of the catalog (``GET /gait`` ``summary``) that differ from the report's parameter names
 SUMMARY_NAMES = {"gait_speed_m_per_s": "gait_speed_m_s", "cadence_steps_per_min": "cadence_steps_min"}
@@ -50,3 +51,32 @@ def summary_shown(summary: Mapping[str, Mapping], decimals: Mapping[str, int]) -
         d = decimals.get(SUMMARY_NAMES.get(name, name), SUMMARY_DECIMALS.get(name, 2))
         out[name] = {"mean": shown((stats or {}).get("mean"), d), "sd": shown((stats or {}).get("sd"), d + 1)}
     return out
+
+
+#: joint-angle key values (degrees) and their normal values and ranges are shown with one decimal
+KEY_VALUE_DECIMALS = 1
+
+
+def key_values_shown(key_values: Mapping[str, Mapping] | None, norms: Mapping[str, Any]) -> dict[str, dict]:
+    """``kinematics.json``'s key values as shown: side -> name -> {"mean", "sd", "outside"}; ``outside``:
+    -1 below, +1 above the normal range, 0 inside or without one (``norms``: name -> ``KeyNorm``, its
+    ``verdict`` of the stored mean: the report's "!"), so the page marks what the PDF marks."""
+    out: dict[str, dict] = {}
+    for side, values in (key_values or {}).items():
+        out[side] = {}
+        for name, stats in (values or {}).items():
+            mean = (stats or {}).get("mean")
+            norm = norms.get(name)
+            verdict = norm.verdict(float(mean)) if norm is not None and shown(mean, 0) is not None else 0
+            out[side][name] = {"mean": shown(mean, KEY_VALUE_DECIMALS),
+                               "sd": shown((stats or {}).get("sd"), KEY_VALUE_DECIMALS), "outside": verdict}
+    return out
+
+
+def key_norm_shown(norm: Any) -> dict[str, Any]:
+    """A key value's norm (``KeyNorm``) as shown: ``normal``, ``normal_range`` ([low, high] texts, None
+    without an SD) and ``lower_limit`` (a range of motion's one-sided limit, None otherwise)."""
+    band = norm.band()
+    d = KEY_VALUE_DECIMALS
+    return {"normal": shown(norm.normal_deg, d), "normal_range": [shown(band[0], d), shown(band[1], d)] if band else None,
+            "lower_limit": shown(norm.lower_deg, d)}

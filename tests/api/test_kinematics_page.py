@@ -143,6 +143,8 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
         notes = page.inner_text("#kinematics-notes")
         norms = norms_for_age(client.get(f"/trials/{tid}/parameters").json()["age"])
         assert norms.population in notes and norms.source in notes and "Pelvic tilt (anterior +): not measured" in notes
+        from gaitcap.reconstruction.kinematics.key_norms import key_norms
+
         row = page.inner_text("#kinematics-keys tr[data-key='knee_peak_flexion_swing_deg']")
         assert f"{kin['key_values']['right']['knee_peak_flexion_swing_deg']['mean']:.1f} ±" in row
         # each key value against the band like a spatiotemporal parameter: its normal range and a flag outside it
@@ -151,7 +153,10 @@ def test_page_draws_the_curves_per_side_over_the_band_or_says_why_not(server, wa
                                   ("knee_peak_flexion_swing_deg", kin["key_values"])):
             lo, hi = kv_norms[name]["normal_range_deg"]
             text = page.inner_text(f"#kinematics-keys tr[data-key='{name}']")
-            assert f"{lo:.1f}–{hi:.1f}" in text, text
+            # the server's texts, of the band's own range (not of the API's floats rounded to 2 decimals)
+            band = key_norms(norms.to_dict()["bands"])[name].band()
+            said = [f"{x:.1f}".lstrip("-") if float(f"{x:.1f}") == 0 else f"{x:.1f}" for x in band]
+            assert kv_norms[name]["shown"]["normal_range"] == said and f"{said[0]}–{said[1]}" in text, text
             flagged = [s for s in ("left", "right") if not lo <= side_values[s][name]["mean"] <= hi]
             assert text.count("outside") == len(flagged), (name, text)
         assert kv_norms["knee_flexion_rom_deg"]["normal_range_deg"] is None  # a range of motion: no SD in a band

@@ -100,6 +100,69 @@ def _wait_status(page, words: str) -> None:
     page.wait_for_function("w => document.querySelector('#record-status').textContent.includes(w)", arg=words)
 
 
+def rule(x, d: int) -> str:
+    """The one rounding rule, again here: the stored value correctly rounded, never "-0"."""
+    text = f"{x:.{d}f}"
+    return text.lstrip("-") if float(text) == 0 else text
+
+
+def _key_values_as_the_pdf(page, client, tid: str, pdf_text: str) -> None:
+    """The page's key joint-angle values are the server's texts (never rounded again in the browser) and
+    read as the PDF's table reads them: each side's mean +- SD (n), the normal range, "outside" where the
+    PDF marks "!"."""
+    kin = client.get(f"/trials/{tid}/kinematics").json()
+    said, norms = kin["key_values_shown"], kin["key_value_norms"]
+    page.wait_for_selector("#kinematics-keys tr[data-key]")
+    checked = 0
+    for name in kin["key_values"]["left"]:
+        stats = {s: kin["key_values"][s][name] for s in ("left", "right")}
+        if not any(v["n"] for v in stats.values()):
+            continue
+        row = page.inner_text(f"#kinematics-keys tr[data-key='{name}']")
+        cells = []
+        for side, v in stats.items():
+            t = said[side][name]
+            assert t["mean"] == rule(v["mean"], 1) and t["sd"] == (rule(v["sd"], 1) if v["sd"] is not None else None)
+            cells.append(f"{t['mean']} ± {t['sd']} (n={v['n']})" if t["sd"] else f"{t['mean']} (n={v['n']})")
+        assert all(c in row for c in cells), (name, cells, row)
+        marked = " ".join(c + (" !" if said[s][name]["outside"] else "") for c, s in zip(cells, stats, strict=True))
+        assert marked in pdf_text, (name, marked)  # the PDF's row: the same texts, "!" where the page says "outside"
+        assert row.count("outside") == sum(bool(said[s][name]["outside"]) for s in stats), (name, row)
+        shown_norm = norms[name]["shown"]
+        if shown_norm["normal_range"]:
+            lo, hi = shown_norm["normal_range"]
+            assert f"{lo}–{hi}" in row and f"{lo} to {hi}" in pdf_text, (name, row)
+        checked += 1
+    assert checked >= 5, checked
+
+
+def _history_as_the_server_shows_it(page, client, tid: str, patient: str) -> None:
+    """The history table and the trend captions show the server's texts: the visit's numbers as
+    ``GET /trials/{id}/gait`` rounds them, and the normal range of the last visit as the norm table's band
+    for the patient's sex and age, rounded by the same rule."""
+    from gaitcap.services.reports.content import NORM_UNITS, PARAMETERS
+    from gaitcap.services.reports.norms import load_norms
+
+    page.evaluate("id => showHistory(id)", patient)
+    page.wait_for_selector(f"#history-table tr[data-trial='{tid}']")
+    page.wait_for_selector("#trends .trend .uplot")
+    gait, person = client.get(f"/trials/{tid}/gait").json(), client.get(f"/patients/{patient}").json()
+    row = page.eval_on_selector_all(f"#history-table tr[data-trial='{tid}'] td", "c => c.map(x => x.textContent)")
+    columns = (("gait_speed_m_per_s", 2), ("cadence_steps_per_min", 1), ("step_length_mm", 0),
+               ("step_length_asymmetry_pct", 1))
+    assert row[3:7] == [rule(gait["summary"][key]["mean"], d) for key, d in columns], row
+    assert row[3:7] == [gait["shown"][key]["mean"] for key, _ in columns], row
+    visit = next(t for t in person["history"] if t["id"] == tid)
+    names = ("gait_speed_m_s", "cadence_steps_min", "step_length_mm", "step_length_symmetry_index_pct")
+    assert row[3:7] == [visit["shown"]["values"][n] for n in names], (row, visit["shown"])
+    age = client.get(f"/trials/{tid}/parameters").json()["age"]
+    norms = load_norms(units=NORM_UNITS)
+    caps = dict(page.eval_on_selector_all("#trends figure", "f => f.map(x => [x.dataset.parameter, x.querySelector('figcaption').textContent])"))
+    for name in ("gait_speed_m_s", "step_length_mm", "cadence_steps_min"):
+        lo, hi = (rule(x, PARAMETERS[name].decimals) for x in norms.find(name, sex="female", age=age).band())
+        assert f"(at the last visit {lo}–{hi} {PARAMETERS[name].unit})" in caps[name], (name, caps[name])
+
+
 def test_a_refused_start_clears_when_the_cameras_return(server):
     srv, _, link, _ = server
     working = list(link.camera_list)
@@ -196,6 +259,8 @@ def test_notes_steps_print_and_pdf_tell_one_story_at_every_width(server, walk, t
             page.eval_on_selector(wrap, "t => [t.closest('.table-wrap').scrollWidth, t.closest('.table-wrap').clientWidth]"))
         last = page.locator(f"{wrap} thead th").last.bounding_box()
         assert last["x"] + last["width"] <= 1280, last
+        _key_values_as_the_pdf(page, client, tid, " ".join(pages))
+        _history_as_the_server_shows_it(page, client, tid, "P0503")
 
         page.click("#correct-box summary")  # a blank reason: refused about the reason, not the patient ID
         page.fill("#fix-reason", "   ")
