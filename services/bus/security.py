@@ -18,7 +18,7 @@ role       may send (put / query / reply) to the other nodes
 camera     put ``camera/<its cameras>/image|status``
 detector   put ``keypoints/*``, ``detector/status/*`` and ``board/views/*``
 recorder   put ``recorder/events``; reply on ``recorder/**``
-worker     nothing but declarations and liveliness (its progress is in the catalog)
+worker     query ``recorder/recording/*`` (a recording, fetched without the shared store)
 api        put ``camera/scene`` and ``board/watch``; query ``recorder/**``
 replay     put ``camera/*/image|status`` and ``keypoints/*``
 client     nothing but declarations and liveliness (reads what the others let it subscribe to)
@@ -46,7 +46,7 @@ ROLE_SENDS: dict[str, tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]] = {
     "camera": ((("put",), ("camera/*/image", "camera/*/status")),),
     "detector": ((("put",), ("keypoints/*", "detector/status/*", "board/views/*")),),
     "recorder": ((("put",), ("recorder/events",)), (("reply",), ("recorder/**",))),
-    "worker": (),
+    "worker": ((("query",), ("recorder/recording/*",)),),
     "api": ((("put",), ("camera/scene", "board/watch")), (("query",), ("recorder/**",))),
     "replay": ((("put",), ("camera/*/image", "camera/*/status", "keypoints/*")),),
     "client": (),

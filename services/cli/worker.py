@@ -11,6 +11,22 @@ from gaitcap.services.cli._common import stop_on_signals, user_errors
 from gaitcap.services.cli.detect import COMPLETE_WITH_HELP, ONLY_MISSING_HELP, completion_plan
 
 
+def room_fetch(pairs: list[str], node: str):
+    """``--fetch-bus ROOM=BUSFILE`` options -> the worker's RoomFetch (None when there are none)."""
+    if not pairs:
+        return None
+    from gaitcap.services.bus.session import load_bus_config
+    from gaitcap.services.processing.room_fetch import RoomFetch
+
+    buses = {}
+    for pair in pairs:
+        room, sep, path = pair.partition("=")
+        if not sep or not path:
+            raise ValueError(f"--fetch-bus: {pair!r} is not ROOM=BUSFILE")
+        buses[room] = load_bus_config(path)
+    return RoomFetch(buses=buses, node=node)
+
+
 def register(app: typer.Typer) -> None:
     @app.command()
     def worker(
@@ -22,6 +38,11 @@ def register(app: typer.Typer) -> None:
                                           help="This host's mount of the rooms' shared store (the folder holding "
                                                "trials/): where a recording is read when the catalog's path is not "
                                                "on this host; checked against the checksum taken at Stop."),
+        fetch_bus: list[str] = typer.Option([], "--fetch-bus", help="ROOM=BUSFILE (one per room; '=BUSFILE' the "
+                                            "default room): without the shared store, fetch a room's recordings "
+                                            "from its recorder over that bus, verified by checksum."),
+        fetch_node: str = typer.Option("worker-fetch", "--fetch-node",
+                                       help="The identity this worker joins the rooms' buses as (a worker-* name)."),
         lease_s: float = typer.Option(10.0, "--lease", help="Job lease (s); renewed every third of it."),
         no_refine: bool = typer.Option(False, "--no-refine", help="Preliminary results only."),
         bus: Path | None = typer.Option(None, "--bus", envvar="GAITCAP_BUS", help="Bus file (JSON5)."),
@@ -47,7 +68,7 @@ def register(app: typer.Typer) -> None:
         with user_errors():
             cfg = WorkerConfig(catalog_url=catalog_url(data_dir, catalog), data_dir=data_dir,
                                lease_s=lease_s, refine=not no_refine, rerun=RerunSettings(image_rate_hz=rerun_images_hz),
-                               store=store, completion=completion_plan(complete_with, complete_model, complete_param,
+                               store=store, fetch=room_fetch(fetch_bus, fetch_node), completion=completion_plan(complete_with, complete_model, complete_param,
                                                           complete_workers, only_missing=complete_only_missing), max_rss_mb=max_rss_mb,
                                **({"worker_id": worker_id} if worker_id else {}))
             session = None

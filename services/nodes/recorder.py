@@ -9,7 +9,8 @@ the trial's summary, its images also in ``dropped_images``), so a slow disk cann
 size limit) the recording stops cleanly: the ``.part`` file is closed, an ``error`` event is published
 and the stop reply carries the error. Events go to ``<prefix>/recorder/events``.
 
-Recovery on restart: at start the recorder finalises every ``*.mcap.part`` a recorder that died left in
+Finished recordings are served on ``<prefix>/recorder/recording/<trial>`` for workers without the shared
+store (:mod:`gaitcap.services.bus.recording_transfer`). Recovery on restart: at start the recorder finalises every ``*.mcap.part`` a recorder that died left in
 its data folder (:func:`recover_orphans`): the complete chunks become the trial's ``*.mcap`` (its summary
 says ``recovered`` and where it was cut; the API's trial guard then marks the trial ``recovered`` and
 queues it), the cut original is kept as ``*.mcap.part.cut``.
@@ -43,6 +44,7 @@ from gaitcap.services.bus.messages import (
     RecorderStart,
     RecorderStop,
 )
+from gaitcap.services.bus.recording_transfer import RecordingServer
 from gaitcap.services.bus.session import BusConfig, declare_alive
 
 log = logging.getLogger(__name__)
@@ -309,6 +311,8 @@ class RecorderNode:
             session.declare_queryable(keys.recorder_stop, self._on_stop),
             session.declare_queryable(keys.recorder_status, self._on_status_query),
         ]
+        # finished recordings, chunk by chunk, for workers without the shared store
+        self._serving = RecordingServer(session, keys, resolve=lambda path: confined_path(self.data_root, path))
         self._writer_thread = threading.Thread(target=self._write_loop, name="mcap-writer", daemon=True)
         self._writer_thread.start()
         self._token = declare_alive(session, bus, node)
@@ -483,5 +487,6 @@ class RecorderNode:
         if rec is not None:
             self.stop(RecorderStop(rec.trial_id))
         self._token.undeclare()
+        self._serving.close()
         for s in self._subs + self._queryables:
             s.undeclare()

@@ -20,6 +20,10 @@ class RecordingMismatch(ValueError):
     """The file found is not the recording the room wrote (checksum or size differ)."""
 
 
+class RecordingNotFound(ValueError):
+    """The recording is on none of the places this host looked (it may be fetched from its room's recorder)."""
+
+
 def candidates(trial: TrialInfo, store: Path | None) -> list[Path]:
     """Where the trial's recording may be, in order: the catalog's path, then the store's
     ``trials/<trial_id>/<file name>``."""
@@ -39,9 +43,9 @@ def locate_recording(trial: TrialInfo, recorder: dict, *, store: Path | None = N
     places = candidates(trial, store)
     path = next((p for p in places if p.is_file()), None)
     if path is None and store is None:
-        raise ValueError(f"trial {trial.id}: its recording {places[0]} does not exist")
+        raise RecordingNotFound(f"trial {trial.id}: its recording {places[0]} does not exist")
     if path is None:
-        raise ValueError(f"trial {trial.id}: its recording is in none of {', '.join(map(str, places))} "
+        raise RecordingNotFound(f"trial {trial.id}: its recording is in none of {', '.join(map(str, places))} "
                          "(is the shared store mounted on this host?)")
     expected, size = recorder.get("sha256"), recorder.get("bytes")
     if size is not None and path.stat().st_size != int(size):

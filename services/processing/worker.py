@@ -35,7 +35,7 @@ from gaitcap.services.processing.completion import CompletionSettings
 from gaitcap.services.processing.outputs import steps_of, summary_of
 from gaitcap.services.processing.pipeline import enable_compile_cache, ring_rig, warm_up
 from gaitcap.services.processing.quality import DataQuality, QualityCriteria
-from gaitcap.services.processing.store import locate_recording
+from gaitcap.services.processing.room_fetch import RoomFetch, find_recording
 from gaitcap.services.processing.trial import (
     StageOutcome,
     TrialInput,
@@ -77,6 +77,7 @@ class WorkerConfig:
     compiled: CompiledCodeLimit = CompiledCodeLimit()
     max_rss_mb: float = 3000.0
     store: Path | None = None  # this host's mount of the rooms' shared store (gaitcap.services.processing.store)
+    fetch: RoomFetch | None = None  # without the store: each room's bus to fetch recordings from (room_fetch)
 
     def __post_init__(self) -> None:
         if self.max_rss_mb <= 0:
@@ -245,8 +246,8 @@ class Worker:
         elif trial.state != "processing":  # done or failed meanwhile: nothing to do
             log.info("trial %s is %s; skipping", trial_id, trial.state)
             return
-        recording = locate_recording(trial, cat.get_quality(self.db, trial_id).get("recorder", {}),
-                                     store=self.config.store)
+        recording = find_recording(trial, cat.get_quality(self.db, trial_id).get("recorder", {}),
+                                   store=self.config.store, fetch=self.config.fetch, data_dir=self.config.data_dir)
         files = trial_files(self.config.data_dir, trial_id, recording)
         self._report(trial_id, "reading the recording", 0.05)
         t0 = time.perf_counter()
