@@ -67,6 +67,10 @@ class BundleProblem:
         focal_group: (C,) int, cameras of one group (>= 0; -1: none) are identical models: a prior pulls
             each one's focal lengths (fx, fy) towards the group's mean, with a standard deviation of
             ``focal_prior_rel`` times the group's starting mean (None: no prior).
+        weight: (P,) each corner's relative weight, the inverse of its error variance relative to the
+            slowest views' (a corner of a view where the board moved fast is less precise:
+            :mod:`gaitcap.reconstruction.calibration.motion`); the robust loss and the outlier rounds
+            judge the weighted (standardised) error (None: every corner weighs 1).
     """
 
     cam: np.ndarray
@@ -82,6 +86,11 @@ class BundleProblem:
     held_distortion: np.ndarray | None = None
     focal_group: np.ndarray | None = None
     focal_prior_rel: float = 0.01
+    weight: np.ndarray | None = None
+
+    def weights(self, rows: np.ndarray) -> np.ndarray:
+        """(len(rows),) the corners' relative weights (1 where none are given)."""
+        return np.ones(len(rows)) if self.weight is None else self.weight[rows]
 
 
 @dataclass(frozen=True, eq=False)
@@ -308,8 +317,9 @@ LOSSES = {"soft_l1": _soft_l1, "huber": _huber, "cauchy": _cauchy, "linear": _li
 def _robust(layout: _Layout, state: BundleState, x: np.ndarray, rows: np.ndarray, config: BundleConfig):
     """Robust cost and the per-corner IRLS weights (P,) at parameters x."""
     err = _project(layout.unpack(x, state), layout.prob, rows).uv - layout.prob.uv_px[rows]
-    rho, weight = LOSSES[config.loss](np.sum(err**2, -1) / config.f_scale_px**2)
-    return float(config.f_scale_px**2 * rho.sum()), err, weight
+    w = layout.prob.weights(rows)
+    rho, weight = LOSSES[config.loss](w * np.sum(err**2, -1) / config.f_scale_px**2)
+    return float(config.f_scale_px**2 * rho.sum()), err, weight * w
 
 
 def _solve(layout: _Layout, state: BundleState, rows: np.ndarray, config: BundleConfig) -> BundleState:
@@ -364,6 +374,7 @@ def bundle_adjust(prob: BundleProblem, initial: BundleState, config: BundleConfi
     for rounds in range(1, config.max_rounds + 1):  # noqa: B007
         state = _solve(layout, state, np.flatnonzero(inlier), config)
         err = np.linalg.norm(project_corners(state, prob, np.arange(len(prob.cam))) - prob.uv_px, axis=-1)
+        err = err * np.sqrt(prob.weights(np.arange(len(prob.cam))))  # standardised where weighted
         keep = (err <= outlier_threshold_px(err[inlier], config)) & allowed
         log.info("bundle round %d: median error %.3f px, %d outliers", rounds, np.median(err[inlier]), (~keep).sum())
         if np.array_equal(keep, inlier):

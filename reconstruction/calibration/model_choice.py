@@ -6,10 +6,14 @@ tell a shifted principal point from a turned camera, and a sparse clip does not 
 terms: a model that follows noise fits its own views better and the views it did not see worse, which
 the held-out error shows. The figures that made each choice are kept (:class:`IntrinsicsChoice`).
 
+Each camera's choice is made on its own figures, but the cameras are fitted together: the choices are
+cross-validated together, and where the rig's held-out RMS is then above that of the best single
+candidate applied to every camera, that candidate is taken for every camera (said in each reason).
 Identical cameras (the same image size, focal lengths within a few per cent) may then share a focal length
 prior (``CalibrationConfig.share_focal``), kept when it lowers the rig's held-out error.
 
-Cost: one k-fold cross-validation per candidate (candidates x k calibrations), two more for the prior.
+Cost: one k-fold cross-validation per candidate (candidates x k calibrations), one more for the choices
+together, one for the prior.
 """
 
 from __future__ import annotations
@@ -53,7 +57,10 @@ class IntrinsicsChoice:
     """The candidates (labels), each camera's held-out reprojection RMS (px, over all its held-out corners)
     under each (NaN: that candidate could not be fitted in every fold, ``failures`` says why), the label
     chosen per camera with the reason in plain words, the folds and the time the choice took (s);
-    shared_focal: whether identical cameras share a focal length prior, and the figures (empty: not tried)."""
+    shared_focal: whether identical cameras share a focal length prior, and the figures (empty: not tried);
+    rig_rms_px: each candidate's held-out RMS over the whole rig (px, NaN: not fitted in every fold);
+    combined_rms_px: the rig's held-out RMS with the intrinsics finally chosen (px); fallback: why the
+    best single candidate was taken for every camera instead of each camera's own choice (empty: not)."""
 
     candidates: tuple[str, ...]
     held_out_rms_px: dict[str, tuple[float, ...]]
@@ -63,11 +70,15 @@ class IntrinsicsChoice:
     folds: int
     seconds: float
     shared_focal: str = ""
+    rig_rms_px: tuple[float, ...] = ()
+    combined_rms_px: float = float("nan")
+    fallback: str = ""
 
     def to_dict(self) -> dict:
         return {"candidates": list(self.candidates), "held_out_rms_px": {k: list(v) for k, v in self.held_out_rms_px.items()},
                 "chosen": self.chosen, "reasons": self.reasons, "failures": {k: list(v) for k, v in self.failures.items()},
-                "folds": self.folds, "seconds": self.seconds, "shared_focal": self.shared_focal}
+                "folds": self.folds, "seconds": self.seconds, "shared_focal": self.shared_focal,
+                "rig_rms_px": list(self.rig_rms_px), "combined_rms_px": self.combined_rms_px, "fallback": self.fallback}
 
 
 def _pick(rms: np.ndarray, candidates: Sequence[Candidate], tolerance: float) -> int:
@@ -90,58 +101,94 @@ def choose_intrinsics(
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[CalibrationConfig, IntrinsicsChoice]:
     """Each camera's intrinsics candidate by held-out error; returns ``base`` with ``camera_intrinsics``
-    set to the choices (each with its reason) and the figures. With ``share_focal`` the choices are then
-    cross-validated without and with a focal length prior shared by identical cameras
-    (``CalibrationConfig.share_focal``; two more cross-validations), kept where it lowers the rig's
-    held-out RMS. ValueError when no candidate could be fitted in every fold (naming why)."""
+    set to the choices (each with its reason) and the figures. The choices are cross-validated together
+    (one more cross-validation where they differ) and replaced by the best single candidate for every
+    camera where that holds out better over the rig. With ``share_focal`` the result is then
+    cross-validated with a focal length prior shared by identical cameras (``CalibrationConfig.share_focal``;
+    one more), kept where it lowers the rig's held-out RMS. ValueError when no candidate could be fitted in every fold (naming why)."""
     base, holdout = base or CalibrationConfig(), holdout or HoldoutConfig()
     if base.known_intrinsics is not None:
         raise ValueError("intrinsics choice: the intrinsics are given (known_intrinsics); nothing to choose")
     t0 = time.perf_counter()
     names = obs.camera_names
     table = np.full((len(names), len(candidates)), np.nan)
+    rig_rms = np.full(len(candidates), np.nan)
     failures: dict[str, tuple[str, ...]] = {}
     for i, cand in enumerate(candidates):
         intr = replace(base.intrinsics, distortion=cand.distortion, principal_point=cand.principal_point)
         config = replace(base, intrinsics=intr, camera_intrinsics=None)
-        result = cross_validate(obs, lambda o, config=config: calibrate_from_observations(o, config=config).rig,
-                                config=holdout, bundle=base.bundle).own
+        result = _held_out(obs, config, holdout)
         if result.fold_errors:
             failures[cand.label] = result.fold_errors
         else:
             table[:, i] = [result.camera(n).rms_px for n in names]
+            rig_rms[i] = result.rms_px
         log.info("intrinsics candidate %s: held-out RMS %s", cand.label, np.round(table[:, i], 3))
         if progress is not None:
             progress(i + 1, len(candidates))
     if np.isnan(table).all():
         raise ValueError("intrinsics choice: no candidate could be calibrated in every fold: "
                          + "; ".join(f"{k}: {v[0]}" for k, v in failures.items()))
-    chosen, reasons, per_camera = {}, {}, {}
-    for c, name in enumerate(names):
-        pick = _pick(table[c], candidates, tolerance)
-        chosen[name] = candidates[pick].label
-        reasons[name] = _reason(table[c], candidates, pick, holdout.folds)
-        per_camera[name] = replace(base.intrinsics, distortion=candidates[pick].distortion,
-                                   principal_point=candidates[pick].principal_point, chosen_because=reasons[name])
-    chosen_config = replace(base, camera_intrinsics=per_camera, share_focal=False)
-    shared = _shared_focal(obs, chosen_config, holdout) if share_focal else None
+    picks = [_pick(table[c], candidates, tolerance) for c in range(len(names))]
+    if len(set(picks)) == 1:
+        combined_rms = float(rig_rms[picks[0]])
+    else:
+        combined = _held_out(obs, _per_camera(base, names, candidates, picks, table, holdout.folds), holdout)
+        combined_rms = float("nan") if combined.fold_errors else combined.rms_px
+    picks, combined_rms, fallback = best_single_fallback(picks, rig_rms, combined_rms, candidates)
+    chosen_config = _per_camera(base, names, candidates, picks, table, holdout.folds, fallback)
+    shared = _shared_focal(obs, chosen_config, holdout, combined_rms) if share_focal else None
     if shared is not None and shared[0]:
         chosen_config = replace(chosen_config, share_focal=True)
-    choice = IntrinsicsChoice(tuple(c.label for c in candidates), {n: tuple(table[c]) for c, n in enumerate(names)},
-                              chosen, reasons, failures, holdout.folds, time.perf_counter() - t0,
-                              shared[1] if shared is not None else "")
+    choice = IntrinsicsChoice(
+        tuple(c.label for c in candidates), {n: tuple(table[c]) for c, n in enumerate(names)},
+        {n: candidates[p].label for n, p in zip(names, picks, strict=True)},
+        {n: chosen_config.intrinsics_of(n).chosen_because for n in names}, failures, holdout.folds,
+        time.perf_counter() - t0, shared[1] if shared is not None else "", tuple(float(r) for r in rig_rms),
+        combined_rms, fallback)
     return chosen_config, choice
 
 
-def _shared_focal(obs: BoardObservations, config: CalibrationConfig, holdout: HoldoutConfig) -> tuple[bool, str]:
-    """Whether identical cameras should share a focal length prior: the chosen intrinsics cross-validated
-    without and with it, judged on the rig's held-out RMS; (share, the figures in plain words)."""
-    rms = []
-    for share in (False, True):
-        cfg = replace(config, share_focal=share)
-        own = cross_validate(obs, lambda o, cfg=cfg: calibrate_from_observations(o, config=cfg).rig, config=holdout,
-                             bundle=config.bundle).own
-        rms.append(float("nan") if own.fold_errors else own.rms_px)
+def best_single_fallback(picks: list[int], rig_rms: np.ndarray, combined_rms: float,
+                         candidates: Sequence[Candidate]) -> tuple[list[int], float, str]:
+    """Each camera's candidate ``picks`` as they are, or the best single candidate for every camera where
+    it held out better over the rig (``rig_rms`` (K,) px per candidate, NaN: not fitted in every fold)
+    than the picks together (``combined_rms`` px, NaN: they failed in a fold): (picks, the rig's held-out
+    RMS px with them, why the fallback was taken or empty)."""
+    best = int(np.nanargmin(rig_rms))
+    if len(set(picks)) == 1 or combined_rms <= rig_rms[best]:
+        return list(picks), float(combined_rms), ""
+    why = (f"each camera's own choice together held out {combined_rms:.3f} px over the rig, the best single "
+           f"candidate ({candidates[best].label}) {rig_rms[best]:.3f} px: it is taken for every camera")
+    log.info("intrinsics choice: %s", why)
+    return [best] * len(picks), float(rig_rms[best]), why
+
+
+def _held_out(obs: BoardObservations, config: CalibrationConfig, holdout: HoldoutConfig):
+    """The held-out evaluation of calibrations made with ``config``."""
+    return cross_validate(obs, lambda o: calibrate_from_observations(o, config=config).rig, config=holdout,
+                          bundle=config.bundle).own
+
+
+def _per_camera(base: CalibrationConfig, names, candidates: Sequence[Candidate], picks: list[int],
+                table: np.ndarray, folds: int, fallback: str = "") -> CalibrationConfig:
+    """``base`` with each camera's (``names``) candidate ``picks`` (its reason from its row of ``table``)."""
+    per_camera = {}
+    for c, (name, pick) in enumerate(zip(names, picks, strict=True)):
+        reason = _reason(table[c], candidates, pick, folds) + (f" ({fallback})" if fallback else "")
+        per_camera[name] = replace(base.intrinsics, distortion=candidates[pick].distortion,
+                                                 principal_point=candidates[pick].principal_point,
+                                                 chosen_because=reason)
+    return replace(base, camera_intrinsics=per_camera, share_focal=False)
+
+
+def _shared_focal(obs: BoardObservations, config: CalibrationConfig, holdout: HoldoutConfig,
+                  without_rms: float) -> tuple[bool, str]:
+    """Whether identical cameras should share a focal length prior: the chosen intrinsics (held out
+    ``without_rms`` px without it) cross-validated with it, judged on the rig's held-out RMS; (share,
+    the figures in plain words)."""
+    own = _held_out(obs, replace(config, share_focal=True), holdout)
+    rms = [without_rms, float("nan") if own.fold_errors else own.rms_px]
     share = bool(np.isfinite(rms[1]) and (not np.isfinite(rms[0]) or rms[1] < rms[0]))
     return share, (f"focal length prior shared by identical cameras {'chosen' if share else 'not chosen'} by "
                    f"held-out error: rig RMS {rms[1]:.3f} px with it, {rms[0]:.3f} px without")

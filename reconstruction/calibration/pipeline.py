@@ -20,6 +20,7 @@ from gaitcap.reconstruction.calibration.bundle import (
 from gaitcap.reconstruction.calibration.geometry import BoardObservations
 from gaitcap.reconstruction.calibration.graph import InitialPoses, initial_poses
 from gaitcap.reconstruction.calibration.intrinsics import Intrinsics, IntrinsicsConfig, estimate_intrinsics
+from gaitcap.reconstruction.calibration.motion import MotionConfig, MotionReport, corner_velocities, motion_model
 from gaitcap.reconstruction.calibration.report import (
     CameraQuality,
     QualityReport,
@@ -59,6 +60,9 @@ class CalibrationConfig:
     share_focal: identical cameras (the same image size, focal lengths from their own views within
     ``share_focal_within`` of each other) share a focal length prior in the bundle adjustment: each one's
     fx, fy pulled towards the group's mean with a standard deviation of ``focal_prior_rel`` of it.
+    motion: the board's motion modelled after the first bundle adjustment (each camera's time offset,
+    views weighted by the board's speed: :mod:`gaitcap.reconstruction.calibration.motion`), then the
+    adjustment run again; None: not modelled.
     """
 
     intrinsics: IntrinsicsConfig = field(default_factory=IntrinsicsConfig)
@@ -71,6 +75,7 @@ class CalibrationConfig:
     share_focal: bool = False
     share_focal_within: float = 0.05
     focal_prior_rel: float = 0.01
+    motion: MotionConfig | None = field(default_factory=MotionConfig)
 
     def intrinsics_of(self, camera: str) -> IntrinsicsConfig:
         """The intrinsics config of one camera (``camera_intrinsics`` where it names it)."""
@@ -103,7 +108,8 @@ def _check_cameras(obs: BoardObservations, config: IntrinsicsConfig) -> None:
 
 def _problem(obs: BoardObservations, init: InitialPoses, models: list[tuple[int, ...]], intr: list[Intrinsics],
              groups: np.ndarray | None = None, focal_prior_rel: float = 0.01):
-    """Flatten the usable views into a BundleProblem (frames compacted); returns it and the frame map.
+    """Flatten the usable views into a BundleProblem (frames compacted); returns it, the frame map and
+    each row's flat index into the observations' (C, F, N) corners (detector order).
     ``models``: each camera's free distortion terms (indices into k1, k2, p1, p2, k3); ``groups``: each
     camera's focal prior group (None: no prior)."""
     free_dist = tuple(sorted(set().union(*models)))
@@ -112,7 +118,7 @@ def _problem(obs: BoardObservations, init: InitialPoses, models: list[tuple[int,
     frames = np.unique(f_idx)
     compact = np.full(obs.shape[1], -1)
     compact[frames] = np.arange(len(frames))
-    cams, frs, corners, uv = [], [], [], []
+    cams, frs, corners, uv, src = [], [], [], [], []
     for c, f in zip(c_idx, f_idx, strict=True):
         seen = np.all(np.isfinite(obs.corners_px[c, f]), -1)
         ids = syms[init.symmetry[c, f]][seen]
@@ -120,13 +126,14 @@ def _problem(obs: BoardObservations, init: InitialPoses, models: list[tuple[int,
         frs.append(np.full(len(ids), compact[f]))
         corners.append(ids)
         uv.append(obs.corners_px[c, f][seen])
+        src.append(np.ravel_multi_index((c, f, np.flatnonzero(seen)), obs.shape))
     prob = BundleProblem(
         np.concatenate(cams), np.concatenate(frs), np.concatenate(corners), np.concatenate(uv),
         obs.board.object_points_mm, obs.shape[0], len(frames), init.root, free_dist,
         np.array([i.principal_point_held for i in intr]), _held_distortion(intr, models), groups,
         focal_prior_rel,
     )
-    return prob, frames
+    return prob, frames, np.concatenate(src)
 
 
 def focal_groups(sizes_px, focal_px: np.ndarray, within: float) -> np.ndarray:
@@ -326,6 +333,21 @@ def _intrinsics(obs: BoardObservations, config: CalibrationConfig) -> list[Intri
     return out
 
 
+def _with_motion(obs, prob: BundleProblem, res: BundleResult, src: np.ndarray, config: CalibrationConfig):
+    """The board's motion modelled from the first fit's residuals (offsets applied where significant,
+    views weighted by speed) and the adjustment run again: (problem, result, report)."""
+    vel = corner_velocities(obs, config.motion.max_gap_s).reshape(-1, 2)[src]
+    corrected, weight, report = motion_model(
+        cam=prob.cam, frame=prob.frame, uv_px=prob.uv_px, residual_px=res.residual_px, inlier=res.inlier,
+        velocity_px_s=vel, camera_names=obs.camera_names, config=config.motion)
+    for note in report.notes:
+        log.info("calibration: %s", note)
+    if np.all(weight == 1) and not any(report.applied):
+        return prob, res, report
+    prob = replace(prob, uv_px=corrected, weight=weight)
+    return prob, bundle_adjust(prob, res.state, config.bundle), report
+
+
 def _views_found(obs: BoardObservations, removed: Mapping[str, int] | None) -> np.ndarray:
     """(C,) each camera's views as found: those in ``obs`` plus those removed before (ValueError naming
     a camera not in ``obs`` or a negative count)."""
@@ -360,9 +382,12 @@ def calibrate_from_observations(
     init = initial_poses(poses, obs.camera_names)
     groups = (focal_groups(obs.image_sizes_px, np.array([i.matrix_px[0, 0] for i in intr]), config.share_focal_within)
               if config.share_focal and config.known_intrinsics is None else None)
-    prob, frames = _problem(obs, init, [config.intrinsics_of(n).distortion.free for n in obs.camera_names], intr,
-                            groups, config.focal_prior_rel)
+    prob, frames, src = _problem(obs, init, [config.intrinsics_of(n).distortion.free for n in obs.camera_names],
+                                 intr, groups, config.focal_prior_rel)
     res = bundle_adjust(prob, _initial_state(intr, init, frames), config.bundle)
+    motion = None
+    if config.motion is not None:
+        prob, res, motion = _with_motion(obs, prob, res, src, config)
     whole = _whole_views(obs, config, prob, res, found)
     if whole.left_out.any():
         res = bundle_adjust(prob, res.state, config.bundle, exclude=whole.left_out)
@@ -384,6 +409,8 @@ def calibrate_from_observations(
         for c, name in enumerate(obs.camera_names)
     ))
     report = _report(obs, config, prob, frames, res, world, cams_r, cams_t, whole, found, intr, kept)
+    if motion is not None:
+        report = replace(report, motion=motion.to_dict())
     board_r = np.full((len(runs), 3, 3), np.nan)  # board -> world, for every frame given (still runs share)
     board_t = np.full((len(runs), 3), np.nan)
     board_r[:] = np.einsum("ji,fjk->fik", world.rotation, full_r)[runs]

@@ -73,7 +73,9 @@ class QualityReport:
     along columns and rows, square error, flatness, shape, mm); board_problems: what that check found
     wrong (plain words). outlier_threshold_px: the bundle adjustment's last outlier threshold (px);
     outlier_corners: {camera: [{"frame": given frame index, "corners": [corner ids], "max_px": largest
-    error}]}: every corner dropped as an outlier, named per camera and frame."""
+    error}]}: every corner dropped as an outlier, named per camera and frame. motion: what the board's
+    motion did (:class:`~gaitcap.reconstruction.calibration.motion.MotionReport` as a dict: each camera's
+    time offset, the views' weights by speed; empty: not modelled)."""
 
     board: str
     distortion: str
@@ -96,6 +98,7 @@ class QualityReport:
     board_problems: tuple[str, ...] = ()
     outlier_threshold_px: float = float("nan")
     outlier_corners: dict = field(default_factory=dict)
+    motion: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return asdict(self)

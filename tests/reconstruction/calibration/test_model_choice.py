@@ -15,7 +15,7 @@ from gaitcap.reconstruction.calibration import (
 )
 from gaitcap.reconstruction.calibration.holdout import HoldoutConfig
 from gaitcap.reconstruction.calibration.intrinsics import DistortionModel, PrincipalPoint
-from gaitcap.reconstruction.calibration.model_choice import Candidate, choose_intrinsics
+from gaitcap.reconstruction.calibration.model_choice import Candidate, best_single_fallback, choose_intrinsics
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
 from gaitcap.simulator.room import build_rig
@@ -53,3 +53,16 @@ def test_a_principal_point_off_the_centre_is_freed_by_held_out_error(shifted):
     for q, cam, true in zip(result.report.cameras, result.rig, rig, strict=True):
         assert choice.reasons[q.name] in q.notes and q.ok
         assert np.linalg.norm(cam.matrix_px[:2, 2] - true.matrix_px[:2, 2]) < 10, (cam.name, cam.matrix_px)
+    assert choice.fallback == "" and len(choice.rig_rms_px) == 2
+    assert choice.combined_rms_px == choice.rig_rms_px[1] < choice.rig_rms_px[0]
+
+
+def test_the_best_single_candidate_replaces_choices_that_hold_out_worse_together():
+    cands = (HELD, FREE)
+    picks, rms, why = best_single_fallback([0, 1], np.array([1.10, 1.05]), 1.20, cands)
+    assert picks == [1, 1] and rms == 1.05
+    assert why == ("each camera's own choice together held out 1.200 px over the rig, the best single candidate "
+                   "(k1, principal point free) 1.050 px: it is taken for every camera")
+    assert best_single_fallback([0, 1], np.array([1.10, 1.05]), 1.00, cands) == ([0, 1], 1.00, "")
+    assert best_single_fallback([0, 1], np.array([np.nan, 1.05]), np.nan, cands)[0] == [1, 1]  # the mix failed
+    assert best_single_fallback([1, 1], np.array([1.10, 1.05]), 1.05, cands) == ([1, 1], 1.05, "")
