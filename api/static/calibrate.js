@@ -2,7 +2,7 @@
 // Uses api(), esc(), withToken() and state from app.js.
 "use strict";
 
-const cal = { id: null, timer: null };
+const cal = { id: null, timer: null, guideTimer: null };
 const calNum = (x) => (x === null || x === undefined ? "–" : fmtNum(x));
 
 function calError(text) { const e = document.querySelector("#calibration-error"); e.textContent = text || ""; e.hidden = !text; }
@@ -18,6 +18,7 @@ async function calibrateStart() {
     const run = await api("/calibrations/record/start", { method: "POST" });
     cal.id = run.id; calButtons(true);
     calStatus("Recording the board… lay it on the floor, walk it through the room, then press Stop.");
+    if (!cal.guideTimer) followGuide();
     document.querySelector("#calibration-report").hidden = true;
   } catch (e) { calError(e.message); }
 }
@@ -30,12 +31,46 @@ async function calibrateStop() {
   } catch (e) { calError(e.message); }
 }
 
+// While the board records: per camera the board views in each cell of its image, per pair of cameras the
+// moments both saw it, and where to move the board (GET /calibrations/record/coverage).
+function guideGrid(c) {
+  const cells = c.cells.flat().map((n) => `<span class="${n ? "cal-cell-seen" : "cal-cell-empty"}" title="${n} board views">${n}</span>`);
+  return `<figure><div class="cal-grid" style="grid-template-columns: repeat(${c.cells.length}, 1fr)">${cells.join("")}</div>
+    <figcaption>${esc(c.name)}: ${c.views} views in ${c.looked} frames looked at</figcaption></figure>`;
+}
+
+function guidePairs(cov) {
+  const names = cov.cameras.map((c) => c.name), together = {};
+  cov.pairs.forEach((p) => { together[p.cameras.join(" ")] = together[[...p.cameras].reverse().join(" ")] = p.together; });
+  const cell = (a, b) => (a === b ? "<td>–</td>" : `<td class="${together[a + " " + b] ? "" : "cal-fail"}">${together[a + " " + b]}</td>`);
+  document.querySelector("#calibration-pairs thead").innerHTML = `<tr><th></th>${names.map((n) => `<th>${esc(n)}</th>`).join("")}</tr>`;
+  document.querySelector("#calibration-pairs tbody").innerHTML = names.map((a) =>
+    `<tr><th>${esc(a)}</th>${names.map((b) => cell(a, b)).join("")}</tr>`).join("");
+}
+
+async function showGuide() {
+  const guide = document.querySelector("#calibration-guide");
+  try {
+    const cov = await api("/calibrations/record/coverage");
+    document.querySelector("#calibration-advice").innerHTML = cov.advice.map((a) => `<li>${esc(a)}</li>`).join("");
+    document.querySelector("#calibration-grids").innerHTML = cov.cameras.map(guideGrid).join("");
+    guidePairs(cov);
+    guide.hidden = false;
+    return true;
+  } catch (e) { guide.hidden = true; return false; }  // the recording stopped (409), or views are not followed (503)
+}
+
+function followGuide() {  // every second until the board recording stops
+  cal.guideTimer = true;
+  showGuide().then((on) => { cal.guideTimer = on ? setTimeout(followGuide, 1000) : null; });
+}
+
 function followCalibration() {
   clearTimeout(cal.timer);
   api("/calibrations/" + encodeURIComponent(cal.id)).then((run) => {
-    if (run.state === "recording") { calButtons(true); calStatus("Recording the board…"); }
+    if (run.state === "recording") { calButtons(true); calStatus("Recording the board…"); if (!cal.guideTimer) followGuide(); }
     else if (run.state === "calibrating") {
-      calButtons(false);
+      calButtons(false); document.querySelector("#calibration-guide").hidden = true;
       calStatus(`Calibrating: ${run.stage || "waiting"} (${Math.round(100 * (run.progress || 0))} %)`);
     } else { calButtons(false); showCalibration(run); loadCalibrations(); return; }
     cal.timer = setTimeout(followCalibration, 1000);

@@ -8,13 +8,15 @@ slots on every node: the views of one slot are of one moment), looks for the boa
 thread and publishes a :class:`~gaitcap.services.bus.messages.BoardView` per frame looked at on
 ``<prefix>/board/views/<cam>`` (corners found, or none). When looking falls behind, whole slots are
 skipped (counted), never one camera of a slot, so the pairs of cameras that saw the board together stay
-true. Without a watch the image callback returns at once. It runs inside ``gaitcap node detector``
+true; the looking thread runs at a lower priority (``NICE``), so looking never takes CPU from the
+cameras or the recorder. Without a watch the image callback returns at once. It runs inside ``gaitcap node detector``
 (the node that already receives its cameras' frames); recording and keypoints are not touched.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import threading
 
 import numpy as np
@@ -24,6 +26,8 @@ from gaitcap.services.nodes.detector import CameraSelection
 
 log = logging.getLogger(__name__)
 KEEP_SLOTS = 2  # slots waiting to be looked at; an older one is skipped
+NICE = 10  # the looking thread's niceness above its process's: spare CPU only (cameras, the recorder and the
+# keypoints come first; the simulated cameras run at nice 5), about 80 ms a 576 x 360 frame on the 2 cores
 
 
 def board_of(watch: BoardWatch):
@@ -127,6 +131,10 @@ class BoardWatcher:
             return self._watch, self._board, self._pending.pop(min(self._pending))
 
     def _loop(self) -> None:
+        try:  # Linux: a thread has its own niceness
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), min(19, os.getpriority(os.PRIO_PROCESS, 0) + NICE))
+        except (AttributeError, OSError):
+            log.debug("board watcher: niceness not set", exc_info=True)
         while (item := self._next()) is not None:
             watch, board, frames = item
             for camera, frame in sorted(frames.items()):

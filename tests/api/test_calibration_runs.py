@@ -62,7 +62,9 @@ def test_calibrate_from_the_page_gives_the_active_calibration(stack, client, tmp
             cal_id = client.get("/calibrations").json()[0]["id"]
             assert client.post("/trials", json={"subject_id": "P1"}).status_code == 409  # the board records
             assert client.post("/calibrations/record/start").status_code == 409
-            time.sleep(6.5)  # the board clip: 60 frames at 10 frames/s (the floor frames first)
+            started = time.monotonic()
+            _board_coverage_is_shown(page, client, cal_id)
+            time.sleep(max(0.0, 6.5 - (time.monotonic() - started)))  # the board clip: 60 frames at 10 frames/s
             page.click("#calibrate-stop")
             page.wait_for_function("() => document.querySelector('#calibration-status').textContent"
                                    ".startsWith('Calibrating')")
@@ -93,6 +95,25 @@ def test_calibrate_from_the_page_gives_the_active_calibration(stack, client, tmp
         assert rotation_angle_deg(true.rotation, cam.rotation) < 1.0, true.name
     actions = [e["action"] for e in client.get("/audit").json()]
     assert "calibrate start" in actions and "calibrate stop" in actions
+
+
+def _board_coverage_is_shown(page, client, cal_id: str) -> None:
+    """While the board records, the page draws each camera's grid of board views and the pair table from
+    GET /calibrations/record/coverage, whose counts agree with each other."""
+    page.wait_for_function("() => [...document.querySelectorAll('#calibration-grids figcaption')]"
+                           ".some((f) => !/: 0 views/.test(f.textContent))", timeout=60_000)  # spare CPU only
+    cov = client.get("/calibrations/record/coverage").json()
+    names = [f"cam{i:02d}" for i in range(1, CAMERAS + 1)]
+    assert cov["id"] == cal_id and [c["name"] for c in cov["cameras"]] == names and cov["grid"] == 4
+    assert sum(c["views"] for c in cov["cameras"]) >= 1
+    for c in cov["cameras"]:
+        cells = np.array(c["cells"])
+        assert cells.shape == (4, 4) and c["views"] <= c["looked"] and cells.max(initial=0) <= c["views"] <= cells.sum()
+    views = {c["name"]: c["views"] for c in cov["cameras"]}
+    assert len(cov["pairs"]) == CAMERAS * (CAMERAS - 1) // 2
+    assert all(p["together"] <= min(views[p["cameras"][0]], views[p["cameras"][1]]) for p in cov["pairs"])
+    assert page.locator("#calibration-grids figure").count() == CAMERAS
+    assert page.locator("#calibration-pairs tbody tr").count() == CAMERAS
 
 
 def test_no_board_recording_while_a_trial_records(client):
