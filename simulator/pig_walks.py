@@ -8,8 +8,10 @@ The walks of ``../shared/data/c3d/`` (see its README) are read with ezc3d and tu
 - heel and big toe: the ``LHEE`` and ``LTOE`` markers (``LTOE`` lies on the second metatarsal head, about
   50 mm behind a detector's big-toe tip: see docs/kinematics.md);
 - small toe: beside the big toe, :data:`SMALL_TOE_LATERAL_MM` lateral and :data:`SMALL_TOE_BACK_MM` back
-  along the foot, in Plug-in-Gait's own foot frame (``LFOO``/``LFOL``): it turns with the foot, as a
-  detector's small toe does;
+  along the foot, in the foot's own frame (heel -> toe, up towards the ankle joint centre): it turns with
+  the foot, as a detector's small toe does. Not in Plug-in-Gait's foot frame (``LFOO``/``LFOL``): its
+  lateral axis is the tibia's ankle axis, so a small toe placed there rolled with the shank (10-16 mm up and
+  down against the heel, toe and ankle on these walks; docs/kinematics.md);
 - shoulders: ``LSHO``/``RSHO`` where the walk has them; the rest of the upper body as ``mocap`` places it.
 The file is read by the validation's C3D reader (``acquisition.references.c3d.open_c3d``: gaps NaN).
 Markers are resampled (linearly) to :data:`RATE_HZ` so that the rig's 30 fps divides the rate; the angles
@@ -24,7 +26,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from gaitcap.acquisition.references.c3d import C3DPoints, c3d_events, open_c3d
+from gaitcap.acquisition.references.c3d import c3d_events, open_c3d
+from gaitcap.reconstruction.kinematics.foot import foot_frames
 from gaitcap.simulator.mocap import SIDES, MocapWalk, _screen, _to_room
 
 RATE_HZ = 120.0
@@ -62,18 +65,12 @@ class PigWalk:
                 for v, by in self.angles_deg.items()}
 
 
-def _small_toe(c3d: C3DPoints, letter: str, toe: np.ndarray) -> np.ndarray:
-    """The small toe beside ``toe`` in Plug-in-Gait's foot frame (its L axis points to the body's left on
-    both feet)."""
-    origin = c3d.marker_mm(f"{letter}FOO")
-    left = c3d.marker_mm(f"{letter}FOL") - origin
-    ahead = c3d.marker_mm(f"{letter}FOA") - origin  # Plug-in-Gait's foot A axis: up from the sole
-    left /= np.linalg.norm(left, axis=1, keepdims=True)
-    ahead /= np.linalg.norm(ahead, axis=1, keepdims=True)
-    forward = np.cross(left, ahead)
-    forward /= np.linalg.norm(forward, axis=1, keepdims=True)
-    lateral = left if letter == "L" else -left
-    return toe + SMALL_TOE_LATERAL_MM * lateral - SMALL_TOE_BACK_MM * forward
+def _small_toe(side: str, ankle: np.ndarray, heel: np.ndarray, toe: np.ndarray) -> np.ndarray:
+    """(T, 3) the small toe beside ``toe`` in the foot's own frame (``foot.foot_frames``: x heel -> toe, y up
+    towards the ankle, z = x cross y, to the right in the C3D's right-handed, z-up lab frame)."""
+    axes = foot_frames(ankle, heel, toe)
+    lateral = axes[:, 2] if side == "right" else -axes[:, 2]
+    return toe + SMALL_TOE_LATERAL_MM * lateral - SMALL_TOE_BACK_MM * axes[:, 0]
 
 
 def _resample(times_s: np.ndarray, p: np.ndarray, new_times_s: np.ndarray) -> np.ndarray:
@@ -91,7 +88,7 @@ def load_pig_walk(path: Path) -> PigWalk:
             letter = side[0].upper()
             for part, pig in JOINT_CENTRES.items():
                 raw[f"{side}_{part}"] = c3d.marker_mm(f"{letter}{pig}")
-            raw[f"{side}_small_toe"] = _small_toe(c3d, letter, raw[f"{side}_toe"])
+            raw[f"{side}_small_toe"] = _small_toe(side, raw[f"{side}_ankle"], raw[f"{side}_heel"], raw[f"{side}_toe"])
             if f"{letter}SHO" in c3d.labels:
                 raw[f"{side}_shoulder"] = c3d.marker_mm(f"{letter}SHO")
         angles = {v: {s: c3d.raw(f"{s[0].upper()}{pig}")[:, 0] for s in SIDES}

@@ -8,7 +8,8 @@ same distance on the unscaled model; the ratio scales the measurement's bodies o
 its width only, ``model_setup``). The hip and ankle markers sit on the hip and ankle joint centres
 (``model_setup``); the heel and toe markers are placed on the calcanei in the shape of the keypoints' feet
 (``foot_markers``). Inverse kinematics: OpenSim's InverseKinematicsSolver with the setup's marker
-weights times the reconstruction's confidence in each marker, and the coordinate priors of ``PRIORS``
+weights (the upper body's scaled by ``UPPER_BODY_WEIGHT``: the pelvis and legs follow their own keypoints)
+times the reconstruction's confidence in each marker, and the coordinate priors of ``PRIORS``
 (pelvis tilt held near neutral; the lumbar joint free; the toes held at 0 and the subtalar joints near 0);
 frames without both hips, knees and ankles are not fitted (NaN). A coordinate that rests on the bound of
 its range is named in the fit's warnings (``bounds``).
@@ -43,6 +44,17 @@ LEG_MARKERS = ("LHip", "RHip", "LKnee", "RKnee", "LAnkle", "RAnkle")
 # joint's -20 deg bound (real walks, docs/kinematics.md); 0.01 per squared radian: 10 deg cost as much as a
 # marker 17 mm off
 SUBTALAR_WEIGHT = 0.01
+# The pelvis and legs are set by their own keypoints; the upper body's (head, neck, shoulders, arms) only
+# pose the trunk, head and arms. At Pose2Sim's weights the shoulders weigh as much as the hips (2), and
+# what the rigid trunk and arms cannot follow (a shoulder girdle that moves with the arms, a neck placed from
+# the shoulders) moved the pelvis and with it the legs: on a real walk's joint centres (FunctionalWalk)
+# the thigh pointed 2-3 deg too far forward and the knee bent 2-4 deg too far at each heel strike, and the
+# ankle read 4-6 deg of dorsiflexion too many there (r 0.962 / 0.976 with Plug-in-Gait; 0.978 / 0.991 with
+# the legs' keypoints alone). The upper body's weights are scaled by this factor: the lumbar, shoulder and
+# neck joints still follow them (nothing else competes for those), the pelvis no longer does.
+UPPER_BODY_WEIGHT = 0.1
+PELVIS_AND_LEG_MARKERS = frozenset({"Hip", "CHip", *(f"{s}{p}" for s in "LR" for p in
+                                              ("Hip", "Knee", "Ankle", "Heel", "BigToe", "SmallToe"))})
 IK_ACCURACY = 1e-3  # 1e-4 is 4x slower on noisy markers for the same angles (bench/kinematics.py)
 
 
@@ -344,7 +356,8 @@ class OpenSimEngine:
 
     def _ik_inputs(self, files, req: FitRequest, pts: np.ndarray) -> tuple[dict[str, float], np.ndarray]:
         """(marker -> IK weight, the frames with both hips, knees and ankles)."""
-        setup_w = _ik_weights(files["ik"])
+        setup_w = {m: w * (1.0 if m in PELVIS_AND_LEG_MARKERS else UPPER_BODY_WEIGHT)
+                   for m, w in _ik_weights(files["ik"]).items()}
         weights = {name: setup_w[name] * float(conf)
                    for name, conf in zip(req.marker_names, np.asarray(req.weights, dtype=float), strict=True)
                    if setup_w.get(name, 0.0) > 0 and conf > 0}
