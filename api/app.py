@@ -36,6 +36,7 @@ from gaitcap.services.catalog.audit_queue import AuditQueue
 from gaitcap.services.catalog.ids import ID_PATTERN
 from gaitcap.services.live.guard import TrialGuard
 from gaitcap.services.live.health import health_report
+from gaitcap.services.live.pending_stops import PendingStops
 from gaitcap.services.live.protocols import NoLink, NoScene
 from gaitcap.services.live.room_report import RoomReporter
 from sqlalchemy.exc import OperationalError
@@ -91,7 +92,9 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
         room, live = settings.room, app.state.link.connected
         if live:  # a capture room (a catalog-only server records nothing: it is no room)
             cat.register_room(app.state.catalog, room, host=socket.gethostname())
-        guard = TrialGuard(app.state.catalog, app.state.link, room=room).start() if live else None
+        app.state.pending_stops = PendingStops(app.state.catalog).start()  # Stops made while it is unreachable
+        guard = TrialGuard(app.state.catalog, app.state.link, room=room,
+                           pending=app.state.pending_stops.ids).start() if live else None
         reporter = RoomReporter(app.state.catalog, app.state.link, room).start() if live else None
         backups = start_backups(settings)
         try:
@@ -103,6 +106,7 @@ def create_app(settings: Settings, link=None, *, scene=None) -> FastAPI:
                 guard.close()
             if reporter is not None:
                 reporter.close()
+            app.state.pending_stops.close()
             audit_rows.close()
             app.state.catalog.close()
             app.state.link.close()

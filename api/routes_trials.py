@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import logging
 import time
-from pathlib import Path
 
 from fastapi import APIRouter, Depends, HTTPException, Request
+from fastapi.responses import JSONResponse
 from gaitcap.api.auth import require_user
 from gaitcap.api.deps import catalog_of, checked_id, checked_trial_id, trial_out, trials_out
 from gaitcap.api.schemas import StartTrial, TrialOut
@@ -15,10 +15,11 @@ from gaitcap.reconstruction.calibration_io import rig_from_toml_text
 from gaitcap.services import catalog as cat
 from gaitcap.services.catalog.calibrations import current_board_recording
 from gaitcap.services.live.health import disk_problem
+from gaitcap.services.live.pending_stops import PendingStop, finish_stop
 from gaitcap.services.live.protocols import RecorderUnavailable
-from gaitcap.services.live.rig_check import NO_CAMERA, recorder_warnings, rig_problems
+from gaitcap.services.live.rig_check import NO_CAMERA, rig_problems
 from gaitcap.services.processing.artifacts import trial_files
-from gaitcap.services.processing.store import recording_checksum
+from sqlalchemy.exc import OperationalError
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["trials"])
@@ -100,16 +101,6 @@ def _start_recorder(db: cat.Catalog, link, trial: cat.TrialInfo, calibration, us
         raise
 
 
-def _checksum(trial: cat.TrialInfo) -> dict:
-    """The finished recording's SHA-256 and size, which a worker on any host checks its copy against ({}
-    when the file is not on this host: the worker then takes what it finds unchecked)."""
-    try:
-        return recording_checksum(Path(trial.recording_path))
-    except OSError as exc:
-        log.warning("trial %s: no checksum of its recording (%s)", trial.id, exc)
-        return {}
-
-
 def _fail_start(db: cat.Catalog, trial: cat.TrialInfo, error: str) -> None:
     try:
         cat.set_state(db, trial.id, "failed", expect="recording", error=error, stage="", stopped_at=time.time())
@@ -121,9 +112,15 @@ def _fail_start(db: cat.Catalog, trial: cat.TrialInfo, error: str) -> None:
 def stop(trial_id: str, request: Request, user: str = Depends(require_user)) -> TrialOut:
     """Idempotent: of concurrent Stops exactly one (compare-and-set ``recording -> stopping``) closes the
     file and queues processing; the others, and any later Stop, get the trial as it is. 503 when the
-    recorder does not answer: the trial is then ``interrupted`` and its recording recovered."""
+    recorder does not answer: the trial is then ``interrupted`` and its recording recovered. 202 when the
+    catalog is unreachable: the recorder stops (only the trial it records), the recording is saved and the
+    Stop's catalog writes are retried until the catalog is back (:mod:`~gaitcap.services.live.pending_stops`)."""
     db, link = catalog_of(request), request.app.state.link
-    trial = _get(db, checked_trial_id(trial_id))
+    trial_id = checked_trial_id(trial_id)
+    try:
+        trial = _get(db, trial_id)
+    except OperationalError as exc:  # the catalog is unreachable: the recorder stops, the writes wait
+        return _stop_without_catalog(request, trial_id, user, exc)
     if trial.room != request.app.state.settings.room:  # its cameras and recorder are another room's
         raise HTTPException(status_code=409, detail=f"trial {trial.id} records in room {trial.room or '(default)'}"
                                                     ": stop it from that room's page")
@@ -142,12 +139,26 @@ def stop(trial_id: str, request: Request, user: str = Depends(require_user)) -> 
         trial = cat.set_state(db, trial.id, "interrupted", expect="stopping", error=reason, stopped_at=time.time(),
                               stage="recovering the recording")
         raise HTTPException(status_code=503, detail=f"{reason} (trial {trial.id} is interrupted)") from None
-    cat.set_quality(db, trial.id, "recorder", {**summary, "warnings": recorder_warnings(summary),
-                                               **_checksum(trial)})
-    trial = cat.set_state(db, trial.id, "recorded", expect="stopping", enqueue=True, stopped_at=time.time(),
-                          stage="waiting for a worker", progress=0.0)
+    trial = finish_stop(db, trial, summary, stopped_at=time.time())
     log.info("trial %s stopped; processing queued", trial.id)
     return trial_out(db, trial)
+
+
+def _stop_without_catalog(request: Request, trial_id: str, user: str, exc: OperationalError) -> JSONResponse:
+    """Stop while the catalog is unreachable: only the trial this room's recorder records now is stopped
+    (the recorder refuses any other), and its catalog writes wait in the app's PendingStops (202)."""
+    link, pending = request.app.state.link, request.app.state.pending_stops
+    try:
+        summary = link.stop(trial_id)
+    except RecorderUnavailable as unavailable:
+        raise HTTPException(status_code=503, detail=f"the catalog is unreachable and the recorder: {unavailable}; "
+                                                    "the recording goes on: try again") from None
+    pending.add(PendingStop(trial_id=trial_id, summary=summary, actor=user, stopped_at=time.time()))
+    words = str(exc.orig or exc).strip().splitlines()[0][:300]
+    return JSONResponse(status_code=202, content={
+        "id": trial_id, "state": "stopping", "catalog_unreachable": True,
+        "detail": f"recording saved; the catalog is unreachable ({words}): the trial is written and queued for "
+                  "processing as soon as it is back"})
 
 
 @router.get("/trials", response_model=list[TrialOut], summary="Trials, newest first")

@@ -120,8 +120,9 @@ async function stopTrial() {
   setStatus("Stopping and saving the recording…");
   try {
     const trial = await api("/trials/" + encodeURIComponent(state.recording.id) + "/stop", { method: "POST" });
-    state.recording = null; follow(trial.id);
-    setStatus("Saved. Computing the results…");
+    state.recording = null;
+    if (trial.catalog_unreachable) setStatus("Saved. The catalog is unreachable: " + trial.detail + ".");  // 202
+    else { follow(trial.id); setStatus("Saved. Computing the results…"); }
   } catch (e) {
     showError(e.status === 503 ? "The recorder is not answering. The recording is kept and will be recovered and processed: " + e.message
       : "Could not stop: " + e.message);

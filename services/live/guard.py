@@ -47,8 +47,10 @@ class GuardTimes:
 
 
 class TrialGuard:
-    def __init__(self, catalog: cat.Catalog, link, *, times: GuardTimes = GuardTimes(), room: str = "") -> None:
+    def __init__(self, catalog: cat.Catalog, link, *, times: GuardTimes = GuardTimes(), room: str = "",
+                 pending=lambda: set()) -> None:
         self.catalog, self.link, self.times = catalog, link, times
+        self.pending = pending  # () -> ids of trials whose Stop waits for the catalog (pending_stops): left alone
         self.room = room  # the guard's own room: another room's trials are its recorder's business, not ours
         self.started = time.time()
         self._stop = threading.Event()
@@ -81,7 +83,9 @@ class TrialGuard:
     # ------------------------------------------------------------------ one pass
     def check(self, now: float | None = None) -> None:
         now = time.time() if now is None else now
-        trials = [t for t in cat.list_trials(self.catalog, limit=50, room=self.room) if t.state in self._by_state]
+        waiting = self.pending()
+        trials = [t for t in cat.list_trials(self.catalog, limit=50, room=self.room)
+                  if t.state in self._by_state and t.id not in waiting]
         if not trials:
             return
         node = self.link.nodes().get(RECORDER)

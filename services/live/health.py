@@ -32,7 +32,9 @@ def _database(catalog: cat.Catalog) -> dict:
             s.execute(text("SELECT 1"))
         return _component(True, "ok")
     except Exception as exc:  # any failure to answer is the database's state
-        return _component(False, f"error: {type(exc).__name__}: {exc}")
+        first = str(getattr(exc, "orig", None) or exc).strip().splitlines()[0][:300] if str(exc).strip() else ""
+        return _component(False, f"the catalog is unreachable ({type(exc).__name__}: {first}); recording goes on, "
+                                 "a Stop is written once it is back")
 
 
 def _disk(data_dir: Path, min_free_bytes: int) -> dict:
