@@ -10,6 +10,8 @@ from gaitcap.services.bus.messages import (
     MAX_CALIBRATION_BYTES,
     MAX_FRAME_ID,
     MAX_JSON_BYTES,
+    BoardView,
+    BoardWatch,
     CameraScene,
     CameraStatus,
     FrameMeta,
@@ -44,6 +46,8 @@ def _kp(**over):
     RecorderEvent("stopped", "t-1", "/d/t.mcap", 7, summary={"frames": 3}),
     CameraScene("board", 5),
     FrameMeta(4, 10**18, ptp_jump=True),
+    BoardWatch("C20261129-062238-594275", True, {"kind": "checkerboard", "squares": [8, 6], "square_mm": 100}),
+    BoardView("C1", "cam01", 7, 10**18, 576, 360, [[1.5, 2.25], [-0.5, 359.5]]),
 ])
 def test_round_trip(message):
     assert type(message).from_bytes(message.to_bytes()) == message
@@ -111,6 +115,17 @@ def test_control_messages_are_bounded():
     with pytest.raises(ValueError, match="camera scene.scene"):
         CameraScene.from_bytes(b'{"scene": "walls", "start_ns": 1}')
     assert MAX_FRAME_ID == 2**31 - 1
+    with pytest.raises(ValueError, match="board watch.slot_s"):
+        BoardWatch("C1", True, slot_s=0.0)
+    with pytest.raises(ValueError, match="board watch.active"):
+        BoardWatch.from_bytes(b'{"calibration_id": "C1", "active": 1}')
+    with pytest.raises(ValueError, match="board view.width_px"):
+        BoardView("C1", "cam01", 7, 1, 0, 360)
+    with pytest.raises(ValueError, match=r"board view.corners: every row must be \[x, y\]"):
+        BoardView("C1", "cam01", 7, 1, 576, 360, [[1.0, 2.0, 3.0]])
+    with pytest.raises(ValueError, match="board view.corners"):
+        BoardView.from_bytes(b'{"calibration_id": "C1", "camera": "cam01", "frame_id": 1, "timestamp_ns": 1, '
+                             b'"width_px": 5, "height_px": 5, "corners": [[1e999, 2]]}')
 
 
 def test_the_calibration_travels_as_its_own_field():
