@@ -57,6 +57,10 @@ def register(app: typer.Typer) -> None:
         complete_only_missing: bool = typer.Option(False, "--complete-only-missing", help=ONLY_MISSING_HELP),
         max_rss_mb: float = typer.Option(3000.0, "--max-rss-mb", help="After a job, exit (code 75, to be restarted by "
                                          "the supervisor or systemd) when resident memory is above this (MB)."),
+        gpu: bool = typer.Option(False, "--gpu", help="Run the completion detection (ONNX) on onnxruntime's CUDA "
+                                 "provider and the JAX fits on a GPU; refused on a host without one."),
+        gpu_fallback: bool = typer.Option(False, "--gpu-fallback", help="With --gpu: where the GPU is missing, "
+                                          "run on the CPU (said as a warning) instead of refusing."),
         rerun_images_hz: float = typer.Option(5.0, "--rerun-images-hz",
                                               help="Images per second and camera in the trial's .rrd (0: none)."),
     ) -> None:
@@ -66,10 +70,16 @@ def register(app: typer.Typer) -> None:
         from gaitcap.services.processing.worker import Worker, WorkerConfig, warm_worker
 
         with user_errors():
+            from gaitcap.services.processing.devices import DeviceChoice, apply_plan, host_plan
+
+            choice = DeviceChoice(gpu=gpu, fallback=gpu_fallback)
+            plan = host_plan(choice)
+            completion = apply_plan(plan, completion_plan(complete_with, complete_model, complete_param,
+                                                          complete_workers, only_missing=complete_only_missing),
+                                    choice)
             cfg = WorkerConfig(catalog_url=catalog_url(data_dir, catalog), data_dir=data_dir,
                                lease_s=lease_s, refine=not no_refine, rerun=RerunSettings(image_rate_hz=rerun_images_hz),
-                               store=store, fetch=room_fetch(fetch_bus, fetch_node), completion=completion_plan(complete_with, complete_model, complete_param,
-                                                          complete_workers, only_missing=complete_only_missing), max_rss_mb=max_rss_mb,
+                               store=store, fetch=room_fetch(fetch_bus, fetch_node), completion=completion, max_rss_mb=max_rss_mb,
                                **({"worker_id": worker_id} if worker_id else {}))
             session = None
             if not no_bus:  # the worker is alive on the bus (the API's health); its progress is in the catalog
@@ -84,6 +94,8 @@ def register(app: typer.Typer) -> None:
                 raise SystemExit(128 + signum)
 
         stop = stop_on_signals(_abandon)
+        for line in plan.lines(None if completion is None else completion.detector_name):
+            typer.echo(f"worker {cfg.worker_id}: {line}", err=True)
         if warm_up:
             typer.echo(f"worker {cfg.worker_id}: warming up (compiling) ...", err=True)
             typer.echo(f"worker {cfg.worker_id}: warm in {warm_worker(cache_dir=data_dir / '.jax-cache'):.1f} s", err=True)
