@@ -94,8 +94,8 @@ def load_pig_walk(path: Path) -> PigWalk:
         angles = {v: {s: c3d.raw(f"{s[0].upper()}{pig}")[:, 0] for s in SIDES}
                   for v, pig in ANGLES.items()}
     except KeyError as exc:
-        raise ValueError(f"{path.name}: {exc.args[0]} (a Plug-in-Gait walk needs its joint centres, foot frame "
-                         "and angles)") from None
+        raise ValueError(f"{path.name}: {exc.args[0]} (a Plug-in-Gait walk needs its joint centres, heel and toe "
+                         "markers and angles)") from None
     whole = np.all([np.isfinite(p).all(axis=1) for k, p in raw.items() if not k.endswith("shoulder")], axis=0)
     shoulders = [k for k in raw if k.endswith("shoulder")]
     if len(shoulders) != 2 or not all(np.isfinite(raw[k][whole]).all() for k in shoulders):

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gaitcap.reconstruction.kinematics.foot import foot_frames
 from gaitcap.simulator.pig_walks import RATE_HZ, SMALL_TOE_LATERAL_MM, load_pig_walk
 
 C3D_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "c3d"
@@ -22,6 +23,11 @@ def test_functional_walk_as_keypoints():
         toe, small = w.markers_mm[f"{side}_toe"], w.markers_mm[f"{side}_small_toe"]
         assert np.median(sign * (small[:, 1] - toe[:, 1])) > 0.8 * SMALL_TOE_LATERAL_MM  # lateral of the big toe
         assert np.median(np.linalg.norm(small - toe, axis=1)) == pytest.approx(np.hypot(35.0, 20.0), abs=0.5)
+        # on the foot: still in the frame of its heel, toe and ankle (in Plug-in-Gait's foot frame, whose lateral
+        # axis is the tibia's, it moved 10-16 mm up and down against them)
+        axes = foot_frames(w.markers_mm[f"{side}_ankle"], w.markers_mm[f"{side}_heel"], toe)
+        local = np.einsum("tij,tj->ti", axes, small - toe)
+        assert np.ptp(local, axis=0).max() < 0.1 and np.allclose(local[0], [-20.0, 0.0, -sign * 35.0], atol=1e-6)
     # the plate-confirmed strikes (README: 5.583, 5.050 and 6.117 s absolute; start (480 - 1) / 120 s)
     assert np.min(np.abs(w.heel_strike_s["left"] - (5.05 - 479 / 120))) < 1e-3
     assert np.min(np.abs(w.heel_strike_s["left"] - (6.1167 - 479 / 120))) < 1e-3
