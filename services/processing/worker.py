@@ -45,6 +45,7 @@ from gaitcap.services.processing.trial import (
     recording_input,
 )
 from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
+from sqlalchemy.exc import OperationalError
 
 log = logging.getLogger(__name__)
 
@@ -86,6 +87,9 @@ class WorkerConfig:
             raise ValueError(f"lease_s: must be >= 1 s, got {self.lease_s}")
         if self.poll_s <= 0:
             raise ValueError(f"poll_s: must be > 0, got {self.poll_s}")
+
+
+CATALOG_RETRY_S = 2.0  # a worker whose catalog is unreachable asks again this often
 
 
 class LeaseKeeper:
@@ -186,8 +190,23 @@ class Worker:
         """Process jobs until ``stop`` is set (returns ``"stopped"``) or, between jobs, until the process has
         grown past ``max_rss_mb`` (returns ``"recycle"``: start a fresh one)."""
         log.info("worker %s polling %s", self.config.worker_id, self.db.shown_url)
+        down_since = None  # the catalog unreachable since (monotonic s): waited out, logged once per outage
         while not stop.is_set():
-            if not self.run_once():
+            try:
+                took = self.run_once()
+            except OperationalError as exc:  # a job cut by it stays leased: its lease runs out, it is taken again
+                if down_since is None:
+                    log.warning("worker %s: the catalog is unreachable (%s); trying every %.0f s",
+                                self.config.worker_id, str(exc.orig or exc).strip().splitlines()[0][:200],
+                                CATALOG_RETRY_S)
+                    down_since = time.monotonic()
+                stop.wait(CATALOG_RETRY_S)
+                continue
+            if down_since is not None:
+                log.info("worker %s: the catalog answers again (after %.0f s)", self.config.worker_id,
+                         time.monotonic() - down_since)
+                down_since = None
+            if not took:
                 stop.wait(self.config.poll_s)
             elif (rss := resident_mb()) > self.config.max_rss_mb:
                 log.warning("worker %s: %.0f MB resident after a job, above %.0f MB: stopping to be started afresh",
