@@ -22,6 +22,7 @@ class RecordingLink:
 
     def __init__(self):
         self.calls, self.fail, self.recording, self.calibration_toml = [], False, None, None
+        self.board_calls = []  # the board watch's (watch_board, unwatch_board)
         self.camera_list = [CameraHealth("cam0", 30.0, True, "ok", 0.01),
                             CameraHealth("cam1", 12.0, False, "low frame rate", 0.5)]
         self.up = {n: NodeState(n, True, time.time(), False) for n in ("recorder", "detector", "worker-0")}
@@ -52,11 +53,11 @@ class RecordingLink:
         return {"nodes": {}, "cameras": {}}
 
     def watch_board(self, calibration_id, board):
-        self.calls.append(("watch board", calibration_id, board))
+        self.board_calls.append(("watch board", calibration_id, board))
         self.board_watched, self.board_sightings, self.board_looked = calibration_id, [], {}
 
     def unwatch_board(self, calibration_id):
-        self.calls.append(("unwatch board", calibration_id))
+        self.board_calls.append(("unwatch board", calibration_id))
 
     def board_coverage(self, calibration_id, cameras):
         from gaitcap.services.live.board_coverage import coverage_summary

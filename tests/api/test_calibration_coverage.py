@@ -15,7 +15,7 @@ def test_coverage_while_a_board_recording_runs(server):
     assert none.status_code == 409 and none.json()["detail"] == "no board recording is under way"
     started = client.post("/calibrations/record/start", json={"board": BOARD}).json()
     cal_id = started["id"]
-    assert started["board"]["squares"] == [8, 6] and ("watch board", cal_id, started["board"]) in link.calls
+    assert started["board"]["squares"] == [8, 6] and ("watch board", cal_id, started["board"]) in link.board_calls
     link.board_looked.update(cam0=3, cam1=3)
     link.board_sightings += [BoardSighting("cam0", 0, (0, 1)), BoardSighting("cam1", 1000, (15,)),
                              BoardSighting("cam0", 10**9, (0, 5))]
@@ -27,14 +27,14 @@ def test_coverage_while_a_board_recording_runs(server):
     assert got["pairs"] == [{"cameras": ["cam0", "cam1"], "together": 1}]
     assert "cam1: no views in the upper left, top, upper right, left, centre, right, lower left, bottom" in got["advice"]
     client.post("/calibrations/record/stop")
-    assert ("unwatch board", cal_id) in link.calls
+    assert ("unwatch board", cal_id) in link.board_calls
     assert client.get("/calibrations/record/coverage").status_code == 409
 
 
 def test_cameras_nobody_looked_at_are_named_and_the_route_needs_a_user(server):
     srv, client, link, _ = server
     client.post("/calibrations/record/start")
-    assert ("watch board", link.board_watched, None) in link.calls  # no board given: the default board
+    assert ("watch board", link.board_watched, None) in link.board_calls  # no board given: the default board
     link.board_looked.update(cam0=1)
     got = client.get("/calibrations/record/coverage").json()
     assert got["advice"][:2] == ["cam1: no frame looked at for the board yet (the detector nodes look about "
