@@ -96,7 +96,6 @@ def kinematics(trial_id: str, request: Request, stage: Stage | None = None,
         status = with_norms(status, patient_age(catalog_of(request), r.trial_id))
     if format is KinematicsFormat.json:
         from gaitcap.reconstruction.kinematics.gait_profile import gait_profile
-
         from gaitcap.reconstruction.kinematics.key_norms import key_norms
         from gaitcap.services.reports.shown import key_values_shown
 

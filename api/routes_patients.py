@@ -13,8 +13,8 @@ from gaitcap.services import catalog as cat
 from gaitcap.services.catalog import patients as pat
 from gaitcap.services.catalog.ids import ID_PATTERN
 from gaitcap.services.reports.content import NORM_UNITS, PARAMETERS, ReportConfig
-from gaitcap.services.reports.shown import SUMMARY_DECIMALS, shown
 from gaitcap.services.reports.norms import NormsError, NormTable, load_norms
+from gaitcap.services.reports.shown import SUMMARY_DECIMALS, shown
 from pydantic import BaseModel, ConfigDict, Field
 
 router = APIRouter(tags=["patients"])

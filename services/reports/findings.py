@@ -24,7 +24,12 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from gaitcap.reconstruction.gait.consistency import check_consistency
-from gaitcap.reconstruction.gait.stability import MIN_CYCLES_PER_SIDE, MIN_STEPS_PER_SIDE, Held, loo_mean_range
+from gaitcap.reconstruction.gait.stability import (
+    MIN_CYCLES_PER_SIDE,
+    MIN_STEPS_PER_SIDE,
+    Held,
+    loo_mean_range,
+)
 from gaitcap.reconstruction.kinematics.clinical import KEY_VALUES, key_label
 from gaitcap.reconstruction.kinematics.key_norms import NO_REFERENCE, KeyNorm, key_norms, no_reference
 
