@@ -56,7 +56,10 @@ class BoardViews:
 
     def _put(self, watch: BoardWatch) -> None:  # (under the lock: a watch is never put after its end)
         self._put_s = time.monotonic()
-        self._pub.put(watch.to_bytes())
+        try:
+            self._pub.put(watch.to_bytes())
+        except Exception:  # the bus closing: the recording goes on; the coverage says no frame was looked at
+            log.warning("board watch of %s not put", watch.calibration_id, exc_info=True)
 
     def watch(self, calibration_id: str, board: dict | None) -> None:
         """Start looking for ``board`` (a board file's ``[board]`` fields; None: the default board)."""

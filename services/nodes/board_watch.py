@@ -70,6 +70,8 @@ class BoardWatcher:
     def _on_watch(self, sample) -> None:
         try:
             watch = BoardWatch.from_bytes(sample.payload.to_bytes())
+            if watch == self._watch:
+                return  # the same watch put again (the API does while the page reads the coverage)
             board = board_of(watch) if watch.active else None
         except ValueError as exc:
             log.warning("board watch refused: %s", exc)
