@@ -36,7 +36,7 @@ async function calibrateStop() {
 function guideGrid(c) {
   const cells = c.cells.flat().map((n) => `<span class="${n ? "cal-cell-seen" : "cal-cell-empty"}" title="${n} board views">${n}</span>`);
   return `<figure><div class="cal-grid" style="grid-template-columns: repeat(${c.cells.length}, 1fr)">${cells.join("")}</div>
-    <figcaption>${esc(c.name)}: ${c.views} views in ${c.looked} frames looked at</figcaption></figure>`;
+    <figcaption>${esc(c.name)}: ${c.views} ${c.views === 1 ? "view" : "views"} in ${c.looked} frames looked at</figcaption></figure>`;
 }
 
 function guidePairs(cov) {
