@@ -40,6 +40,35 @@ def board_of(watch: BoardWatch):
     return make_board(config)
 
 
+class SlotQueue:
+    """The frames waiting to be looked at: the first frame of each camera in each slot, at most ``keep``
+    slots; when a newer slot would exceed it, the oldest slot is dropped whole (``skipped`` counts them).
+    Not thread-safe: the watcher holds its lock."""
+
+    def __init__(self, keep: int = KEEP_SLOTS) -> None:
+        self.keep, self.skipped = keep, 0
+        self.pending: dict[int, dict[str, object]] = {}  # slot -> camera -> its first frame in the slot
+        self._last: dict[str, int] = {}
+
+    def add(self, camera: str, slot: int, frame) -> bool:
+        """Keep ``frame`` when it is ``camera``'s first in a slot later than its last one kept."""
+        if slot <= self._last.get(camera, -1):
+            return False
+        self._last[camera] = slot
+        self.pending.setdefault(slot, {})[camera] = frame
+        while len(self.pending) > self.keep:
+            del self.pending[min(self.pending)]
+            self.skipped += 1
+        return True
+
+    def pop_oldest(self) -> dict[str, object]:
+        return self.pending.pop(min(self.pending))
+
+    def clear(self) -> None:
+        self.pending.clear()
+        self._last.clear()
+
+
 class BoardWatcher:
     """Looks for the board in the bus frames of ``cameras`` while a board watch is active, until :meth:`close`."""
 
@@ -47,12 +76,10 @@ class BoardWatcher:
         self.session, self.bus = session, bus
         self.cameras = cameras or CameraSelection()
         self.looked = 0
-        self.skipped_slots = 0
         self._cond = threading.Condition()
         self._watch: BoardWatch | None = None
         self._board = None
-        self._pending: dict[int, dict[str, ImageFrame]] = {}  # slot -> camera -> its first frame in the slot
-        self._last_slot: dict[str, int] = {}
+        self._slots = SlotQueue()
         self._pubs: dict[str, object] = {}
         self._closed = False
         keys = [bus.keys.image(c) for c in self.cameras.names] or [bus.keys.image()]
@@ -79,16 +106,15 @@ class BoardWatcher:
         with self._cond:
             if watch.active:
                 if self.watching != watch.calibration_id:
-                    self._pending.clear()
-                    self._last_slot.clear()
+                    self._slots = SlotQueue()
                     log.info("looking for the board (%s) of board recording %s", board.config.describe(),
                              watch.calibration_id)
                 self._watch, self._board = watch, board
             elif self.watching == watch.calibration_id:
                 log.info("board recording %s over: %d frames looked at, %d slots skipped", watch.calibration_id,
-                         self.looked, self.skipped_slots)
+                         self.looked, self._slots.skipped)
                 self._watch, self._board = None, None
-                self._pending.clear()
+                self._slots.clear()
             self._cond.notify_all()
 
     def _on_image(self, sample) -> None:
@@ -107,30 +133,25 @@ class BoardWatcher:
             return
         slot = frame.timestamp_ns // int(watch.slot_s * 1e9)
         with self._cond:
-            if self._watch is not watch or slot <= self._last_slot.get(camera, -1):
-                return
-            self._last_slot[camera] = slot
-            self._pending.setdefault(slot, {})[camera] = frame
-            while len(self._pending) > KEEP_SLOTS:
-                del self._pending[min(self._pending)]
-                self.skipped_slots += 1
-            self._cond.notify_all()
+            if self._watch is watch and self._slots.add(camera, slot, frame):
+                self._cond.notify_all()
 
     def _next(self) -> tuple[BoardWatch, object, dict[str, ImageFrame]] | None:
         """The oldest waiting slot once a later one has begun, or once no later one began for a slot's
         time (the last slot before Stop), with its watch and board; None once closed."""
         with self._cond:
             while not self._closed:
-                if len(self._pending) > 1:
+                pending = self._slots.pending
+                if len(pending) > 1:
                     break
-                if self._pending:  # (a pending slot implies a watch: both are cleared together)
-                    if not self._cond.wait(self._watch.slot_s) and len(self._pending) == 1:
+                if pending:  # (a pending slot implies a watch: both are cleared together)
+                    if not self._cond.wait(self._watch.slot_s) and len(self._slots.pending) == 1:
                         break
                     continue
                 self._cond.wait(1.0)
             if self._closed:
                 return None
-            return self._watch, self._board, self._pending.pop(min(self._pending))
+            return self._watch, self._board, self._slots.pop_oldest()
 
     def _loop(self) -> None:
         try:  # Linux: a thread has its own niceness

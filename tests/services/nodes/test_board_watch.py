@@ -14,7 +14,7 @@ from gaitcap.acquisition.encoding import decode_jpeg, encode_jpeg
 from gaitcap.services.bus.messages import BoardView, ImageFrame
 from gaitcap.services.bus.session import BusConfig, open_session
 from gaitcap.services.live.board_coverage import BoardViews
-from gaitcap.services.nodes.board_watch import NICE, BoardWatcher
+from gaitcap.services.nodes.board_watch import NICE, BoardWatcher, SlotQueue
 from gaitcap.simulator.board import BoardMotion, board_trajectory, render_board_images
 from gaitcap.simulator.room import build_rig
 
@@ -89,3 +89,15 @@ def test_the_first_frame_of_each_half_second_is_looked_at_while_watched():
     both = sum(found["cam01", k] and found["cam02", k] for k in (0, 5, 10))
     assert both >= 1 and got["pairs"] == [{"cameras": ["cam01", "cam02"], "together": both}]
     assert len(seen) == 6  # nothing looked at after the watch ended
+
+
+def test_slots_fall_behind_whole_never_one_camera_of_one():
+    q = SlotQueue(keep=2)
+    for slot in range(4):  # nobody looks: slots 0 and 1 are dropped whole, 2 and 3 wait with both cameras
+        for frame in range(2):  # two frames per camera and slot: the first is kept
+            assert q.add("cam01", slot, ("cam01", slot, frame)) == (frame == 0)
+            assert q.add("cam02", slot, ("cam02", slot, frame)) == (frame == 0)
+    assert q.skipped == 2 and sorted(q.pending) == [2, 3]
+    assert q.pop_oldest() == {"cam01": ("cam01", 2, 0), "cam02": ("cam02", 2, 0)}
+    assert not q.add("cam01", 1, "late") and not q.add("cam02", 3, "again")  # a slot already passed or kept
+    assert q.add("cam01", 4, "x") and sorted(q.pending) == [3, 4] and q.skipped == 2
