@@ -8,9 +8,10 @@ slots on every node: the views of one slot are of one moment), looks for the boa
 thread and publishes a :class:`~gaitcap.services.bus.messages.BoardView` per frame looked at on
 ``<prefix>/board/views/<cam>`` (corners found, or none). When looking falls behind, whole slots are
 skipped (counted), never one camera of a slot, so the pairs of cameras that saw the board together stay
-true; the looking thread runs at a lower priority (``NICE``), so looking never takes CPU from the
-cameras or the recorder. Without a watch the image callback returns at once. It runs inside ``gaitcap node detector``
-(the node that already receives its cameras' frames); recording and keypoints are not touched.
+true; the looking thread runs at a lower priority (``NICE``): on a busy host it yields the CPU to the
+cameras, the recorder and the keypoints, and looks at fewer frames. Without a watch the image callback
+returns at once. It runs inside ``gaitcap node detector`` (the node that already receives its cameras'
+frames); recording and keypoints are not touched.
 """
 
 from __future__ import annotations
