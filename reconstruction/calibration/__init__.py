@@ -6,7 +6,8 @@ Modules: ``geometry`` (board, observations, rotations), ``intrinsics`` (OpenCV p
 (robust bundle adjustment), ``world`` (floor-board frame), ``walk_frame`` (frame from a walk),
 ``report`` (quality report), ``pipeline`` (all of it), ``board_check`` (the board measured in 3D),
 ``holdout`` (the held-out error, k folds in time; a given calibration judged the same way),
-``model_choice`` (intrinsics chosen by held-out error).
+``model_choice`` (intrinsics chosen by held-out error), ``coverage`` (board views per image cell and
+camera pair while a board recording runs).
 """
 
 from gaitcap.reconstruction.calibration.bundle import BundleConfig
