@@ -10,7 +10,7 @@ BOARD = {"kind": "checkerboard", "squares": [8, 6], "square_mm": 100.0}
 
 
 def test_coverage_while_a_board_recording_runs(server):
-    _, client, link, _ = server
+    srv, client, link, _ = server
     none = client.get("/calibrations/record/coverage")
     assert none.status_code == 409 and none.json()["detail"] == "no board recording is under way"
     started = client.post("/calibrations/record/start", json={"board": BOARD}).json()
@@ -29,10 +29,7 @@ def test_coverage_while_a_board_recording_runs(server):
     client.post("/calibrations/record/stop")
     assert ("unwatch board", cal_id) in link.board_calls
     assert client.get("/calibrations/record/coverage").status_code == 409
-
-
-def test_cameras_nobody_looked_at_are_named_and_the_route_needs_a_user(server):
-    srv, client, link, _ = server
+    # the next board recording: its own views (none yet), cameras nobody looked at named first
     client.post("/calibrations/record/start")
     assert ("watch board", link.board_watched, None) in link.board_calls  # no board given: the default board
     link.board_looked.update(cam0=1)
