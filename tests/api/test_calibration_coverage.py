@@ -4,6 +4,7 @@ to look for its board and Stop to stop; 409 without a board recording. Real uvic
 system is the API tests' recording link (the whole chain, detector node to page, runs in
 test_calibration_runs.py)."""
 
+import httpx
 from gaitcap.reconstruction.calibration.coverage import BoardSighting
 
 BOARD = {"kind": "checkerboard", "squares": [8, 6], "square_mm": 100.0}
@@ -36,6 +37,7 @@ def test_coverage_while_a_board_recording_runs(server):
     got = client.get("/calibrations/record/coverage").json()
     assert got["advice"][:2] == ["cam1: no frame looked at for the board yet (the detector nodes look about "
                                  "every 0.5 s)", "cam0: no board view yet: show it the board"]
-    import httpx
-
+    link.board_watched = "C-another"  # e.g. this server restarted during the recording: it follows none
+    lost = client.get("/calibrations/record/coverage")
+    assert lost.status_code == 503 and "its board views are not followed by this server" in lost.json()["detail"]
     assert httpx.get(srv.url + "/calibrations/record/coverage").status_code == 401
