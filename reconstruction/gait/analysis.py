@@ -8,6 +8,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from gaitcap.reconstruction.gait.bouts import Bouts, Pass, find_bouts
 from gaitcap.reconstruction.gait.config import GaitConfig
+from gaitcap.reconstruction.gait.edges import edge_note, own_stances, pass_contacts, support_contacts
 from gaitcap.reconstruction.gait.events import Contact, detect_contacts, event_timing, rest_speed_mm_s
 from gaitcap.reconstruction.gait.parameters import LeftOut, Step, pass_steps, progression_direction, summarise
 from gaitcap.reconstruction.gait.plausibility import exclusion_note, with_exclusions
@@ -70,12 +71,12 @@ def _steps(bouts: Bouts, contacts: Sequence[Contact], confidence,
     steps, passes, warnings, left_out = [], [], [], []
     for p in bouts.passes:
         wide = _extended(bouts, p)
-        found, missed = pass_steps(wide, contacts, contacts, confidence, first_index=len(steps), steady=p,
-                                   low_confidence=config.low_confidence)
+        seq, edge = pass_contacts(wide, p, contacts)
+        found, missed = pass_steps(wide, seq, support_contacts(wide, contacts), confidence, first_index=len(steps),
+                                   steady=p, low_confidence=config.low_confidence)
         steps += found
-        warnings += [m.why for m in missed]
+        warnings += [edge_note(e) for e in edge] + [m.why for m in missed]
         left_out += missed
-        seq = [c for c in contacts if c.valid and wide.contains(c.heel_strike_s)]
         d = progression_direction([c.foot for c in seq], np.array([c.heel_mm[:2] for c in seq]),
                                   np.asarray(p.direction))
         passes.append(Pass(p.index, p.start_s, p.end_s, (float(d[0]), float(d[1])), p.speed_mm_s))
@@ -115,9 +116,11 @@ def analyze_gait(
                          f"{np.shape(points_mm)[:2]}")
     bouts = find_bouts(tracks, config)
     speed = walking_speed_mm_s(bouts, config)
-    contacts = detect_contacts(tracks, speed, config)
+    contacts = detect_contacts(tracks, speed, config, noise_mm_s=tracks.rest_noise_mm_s(bouts.walking(tracks.times_s)))
+    contacts, stance_notes = own_stances(contacts)
     confidence = _confidences(contacts, tracks, joint_names, quality, config)
     steps, passes, warnings, left_out = _steps(bouts, contacts, confidence, config)
+    warnings = stance_notes + warnings
     timing = event_timing(tracks, config)
     steps = _counted(steps, timing.resolution_s)
     warnings += [note] if (note := exclusion_note(steps)) else []

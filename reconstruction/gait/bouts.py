@@ -20,6 +20,9 @@ from gaitcap.reconstruction.gait.config import GaitConfig
 from gaitcap.reconstruction.gait.tracks import CENTER, FootTracks
 from scipy.ndimage import uniform_filter1d
 
+#: The kinds of segment in which the person walks.
+WALKING = ("pass", "turn", "transition")
+
 
 @dataclass(frozen=True)
 class Segment:
@@ -61,6 +64,16 @@ class Bouts:
 
     def pass_at(self, t_s: float) -> Pass | None:
         return next((p for p in self.passes if p.contains(t_s)), None)
+
+    def walking(self, times_s: np.ndarray) -> np.ndarray:
+        """(T,) bool: the frames at ``times_s`` inside a segment of walking (a pass, a transition or a
+        turn; not standing, not a gap)."""
+        t = np.asarray(times_s, dtype=np.float64)
+        out = np.zeros(t.shape, dtype=bool)
+        for s in self.segments:
+            if s.kind in WALKING:
+                out |= (t >= s.start_s) & (t <= s.end_s)
+        return out
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

@@ -397,10 +397,12 @@ def _cut_at_start(tracks: FootTracks, side: str, runs, config: GaitConfig) -> li
 
 
 def detect_contacts(tracks: FootTracks, walking_speed_mm_s: float,
-                    config: GaitConfig = GaitConfig()) -> tuple[Contact, ...]:
-    """All foot contacts of the trial, both feet, ordered by heel strike (see the module docstring)."""
+                    config: GaitConfig = GaitConfig(), *, noise_mm_s: float | None = None) -> tuple[Contact, ...]:
+    """All foot contacts of the trial, both feet, ordered by heel strike (see the module docstring).
+    ``noise_mm_s``: the feet's speed noise at rest while walking (default ``tracks.rest_noise_mm_s()``)."""
     times, frames = tracks.times_s, tracks.frames_mm
-    v_rest = rest_speed_mm_s(walking_speed_mm_s, config, tracks.rest_noise_mm_s())
+    noise = tracks.rest_noise_mm_s() if noise_mm_s is None else noise_mm_s
+    v_rest = rest_speed_mm_s(walking_speed_mm_s, config, noise)
     speed = tracks.speed_mm_s(times)
     dt = float(np.median(np.diff(times)))
     contacts: list[Contact] = []

@@ -132,14 +132,17 @@ class FootTracks:
         return FootTracks(self.times_s, self.frames_mm, self.valid, _spline_sampler(self.times_s, self.frames_mm),
                           self.gaps_s)
 
-    def rest_noise_mm_s(self) -> float:
+    def rest_noise_mm_s(self, frames: np.ndarray | None = None) -> float:
         """Noise floor of the feet's speed at rest (mm/s): the 25th percentile over trusted frames of the
-        slower of heel and toe, the median over both feet (feet rest over half of a walking trial)."""
+        slower of heel and toe, the median over both feet (feet rest over half of a walking trial).
+        ``frames``: (T,) bool, the frames to take it over (default all; the walking ones, ``Bouts.walking``,
+        for the feet's stances: feet standing still are stiller than feet in stance while walking)."""
         speed = self.speed_mm_s(self.times_s)
         out = []
         for side in SIDES:
             m = np.minimum(speed[:, HEEL[side]], speed[:, TOE[side]])
             ok = self.valid[:, HEEL[side]] & self.valid[:, TOE[side]]
+            ok = ok & frames if frames is not None and (ok & frames).sum() >= 4 else ok
             out.append(np.nanpercentile(m[ok], 25) if np.isfinite(m[ok]).any() else np.nan)
         return float(np.nanmedian(out))
 

@@ -108,10 +108,12 @@ def _preliminary(trial):
                         quality=TrajectoryQuality(num_views=views, reprojection_px=np.full(views.shape, np.nan)))
 
 
-@pytest.mark.parametrize("preset,seed", [("paper", 3), ("hard", 2), ("clean", 0)])
+@pytest.mark.parametrize("preset,seed", [("paper", 3), ("hard", 0), ("clean", 0)])
 def test_rules_hold_on_simulated_preliminary_results(preset, seed):
     """Robust triangulation of a simulated 20 s trial (seed 3 of the paper preset once showed single support
-    L 0.41 / R 0.50 s, the right one longer than its stance minus double support)."""
+    L 0.41 / R 0.50 s, the right one longer than its stance minus double support). The hard preset's seed 2
+    is no longer used: both its passes begin with contacts that made steps of -522, 1818 and -629 mm, now
+    left out at the pass's edge (``edges``), and the 12 steps left are too few to check every rule."""
     report = _preliminary(make_trial(preset, seconds=20.0, seed=seed, cameras=10))
     check = check_report(report, frame_period_s=FRAME_S)
     assert check.ok, [f.message for f in check.failures]
