@@ -71,6 +71,9 @@ class BundleProblem:
             slowest views' (a corner of a view where the board moved fast is less precise:
             :mod:`gaitcap.reconstruction.calibration.motion`); the robust loss and the outlier rounds
             judge the weighted (standardised) error (None: every corner weighs 1).
+        velocity_px_s: (P, 2) each corner's image velocity (px/s, 0 where unknown): given, each camera
+            but the root gets a time offset d (s), its corners seen where the board was d after the
+            frame set's instant (projected + v d), adjusted with the rest (None: no offsets).
     """
 
     cam: np.ndarray
@@ -87,6 +90,7 @@ class BundleProblem:
     focal_group: np.ndarray | None = None
     focal_prior_rel: float = 0.01
     weight: np.ndarray | None = None
+    velocity_px_s: np.ndarray | None = None
 
     def weights(self, rows: np.ndarray) -> np.ndarray:
         """(len(rows),) the corners' relative weights (1 where none are given)."""
@@ -96,7 +100,8 @@ class BundleProblem:
 @dataclass(frozen=True, eq=False)
 class BundleState:
     """Parameters: K (C, 3, 3), dist (C, 5), cam R (C, 3, 3) world->camera, cam t (C, 3) mm,
-    board R (F, 3, 3) board->world, board t (F, 3) mm."""
+    board R (F, 3, 3) board->world, board t (F, 3) mm; time_offset_s (C,): each camera's exposure after
+    the frame set's instant (s; used only where the problem gives velocities)."""
 
     matrix_px: np.ndarray
     dist: np.ndarray
@@ -104,6 +109,11 @@ class BundleState:
     cam_tvec_mm: np.ndarray
     frame_rotation: np.ndarray
     frame_tvec_mm: np.ndarray
+    time_offset_s: np.ndarray | None = None
+
+    def offsets(self, n_cams: int) -> np.ndarray:
+        """(C,) the time offsets, s (0 where none)."""
+        return np.zeros(n_cams) if self.time_offset_s is None else self.time_offset_s
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,7 +128,8 @@ class BundleResult:
 
 
 class _Layout:
-    """Maps parameters to/from the flat vector: [intrinsics C*(4+D) | extrinsics (C-1)*6 | frames F*6]."""
+    """Maps parameters to/from the flat vector: [intrinsics C*(4+D) | extrinsics (C-1)*6 | frames F*6 |
+    time offsets C-1 where the problem gives velocities and the cameras are adjusted]."""
 
     def __init__(self, prob: BundleProblem, refine_intrinsics: bool, refine_cameras: bool = True):
         self.prob, self.refine = prob, refine_intrinsics
@@ -126,7 +137,9 @@ class _Layout:
         self.cams_free = [c for c in range(prob.num_cameras) if c != prob.root] if refine_cameras else []
         self.o_ext = prob.num_cameras * self.n_intr
         self.o_frame = self.o_ext + 6 * len(self.cams_free)
-        self.size = self.o_frame + 6 * prob.num_frames
+        self.o_off = self.o_frame + 6 * prob.num_frames
+        self.timed = prob.velocity_px_s is not None and refine_cameras
+        self.size = self.o_off + (len(self.cams_free) if self.timed else 0)
 
     def prior(self, s: BundleState) -> csr_matrix:
         """The shared focal prior as a quadratic form M (size, size): its cost is x' M x (the sum of the
@@ -161,7 +174,9 @@ class _Layout:
         ext = [np.r_[rvec_of(s.cam_rotation[c]), s.cam_tvec_mm[c]] for c in self.cams_free]
         x[self.o_ext : self.o_frame] = np.ravel(ext)
         frames = [np.r_[rvec_of(s.frame_rotation[f]), s.frame_tvec_mm[f]] for f in range(self.prob.num_frames)]
-        x[self.o_frame :] = np.ravel(frames)
+        x[self.o_frame : self.o_off] = np.ravel(frames)
+        if self.timed:
+            x[self.o_off :] = s.offsets(self.prob.num_cameras)[self.cams_free]
         return x
 
     def unpack(self, x: np.ndarray, base: BundleState) -> BundleState:
@@ -175,15 +190,19 @@ class _Layout:
         if len(self.cams_free):
             cam_r[self.cams_free] = rodrigues_batch(ext[:, :3])
             cam_t[self.cams_free] = ext[:, 3:]
-        fr = x[self.o_frame :].reshape(-1, 6)
-        return BundleState(k, dist, cam_r, cam_t, rodrigues_batch(fr[:, :3]), fr[:, 3:].copy())
+        fr = x[self.o_frame : self.o_off].reshape(-1, 6)
+        offsets = base.time_offset_s
+        if self.timed:
+            offsets = base.offsets(self.prob.num_cameras).copy()
+            offsets[self.cams_free] = x[self.o_off :]
+        return BundleState(k, dist, cam_r, cam_t, rodrigues_batch(fr[:, :3]), fr[:, 3:].copy(), offsets)
 
     def rvecs(self, x: np.ndarray, base: BundleState) -> tuple[np.ndarray, np.ndarray]:
         """Rotation vectors of the frames (F, 3) and cameras (C, 3) at parameters x."""
         cam_rv = np.stack([rvec_of(r) for r in base.cam_rotation])
         if self.cams_free:
             cam_rv[self.cams_free] = x[self.o_ext : self.o_frame].reshape(-1, 6)[:, :3]
-        return x[self.o_frame :].reshape(-1, 6)[:, :3], cam_rv
+        return x[self.o_frame : self.o_off].reshape(-1, 6)[:, :3], cam_rv
 
     def columns(self, rows: np.ndarray) -> np.ndarray:
         """(len(rows), 12 + n_intr) parameter columns of each corner: frame, camera pose, intrinsics.
@@ -197,6 +216,8 @@ class _Layout:
         cols.append(np.where(slot[cam][:, None] >= 0, ext, cols[0][:, :1]))
         if self.refine:
             cols.append(self.n_intr * cam[:, None] + np.arange(self.n_intr))
+        if self.timed:  # the root's offset column points at its frame's first column (its value is 0)
+            cols.append(np.where(slot[cam] >= 0, self.o_off + slot[cam], cols[0][:, 0])[:, None])
         return np.concatenate(cols, axis=1)
 
     def jacobian(self, proj: _Projection, rows: np.ndarray, cols: np.ndarray) -> csr_matrix:
@@ -212,6 +233,9 @@ class _Layout:
                 held = self.prob.held_distortion[self.prob.cam[rows]][:, list(self.prob.free_dist)]  # (P, D)
                 d_intr[:, :, 4:] = np.where(held[:, None, :], 0.0, d_intr[:, :, 4:])
             blocks.append(d_intr)
+        if self.timed:
+            fixed = ~np.isin(self.prob.cam[rows], self.cams_free)[:, None, None]
+            blocks.append(np.where(fixed, 0.0, self.prob.velocity_px_s[rows][:, :, None]))
         vals = np.concatenate(blocks, axis=-1)  # (P, 2, K)
         r = np.arange(len(rows))
         row_idx = np.stack([2 * r, 2 * r + 1], 1)[:, :, None].repeat(cols.shape[1], 2)
@@ -264,6 +288,8 @@ def _project(state: BundleState, prob: BundleProblem, rows: np.ndarray, *, deriv
     k = state.matrix_px[cam]
     fx, fy = k[:, 0, 0], k[:, 1, 1]
     uv = np.stack([fx * xd + k[:, 0, 2], fy * yd + k[:, 1, 2]], axis=-1)
+    if prob.velocity_px_s is not None and state.time_offset_s is not None:
+        uv = uv + prob.velocity_px_s[rows] * state.time_offset_s[cam][:, None]
     if not derivatives:
         return _Projection(uv)
     dr = k1 + 2 * k2 * r2 + 3 * k3 * r2**2

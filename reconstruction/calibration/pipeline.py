@@ -20,7 +20,13 @@ from gaitcap.reconstruction.calibration.bundle import (
 from gaitcap.reconstruction.calibration.geometry import BoardObservations
 from gaitcap.reconstruction.calibration.graph import InitialPoses, initial_poses
 from gaitcap.reconstruction.calibration.intrinsics import Intrinsics, IntrinsicsConfig, estimate_intrinsics
-from gaitcap.reconstruction.calibration.motion import MotionConfig, MotionReport, corner_velocities, motion_model
+from gaitcap.reconstruction.calibration.motion import (
+    MotionConfig,
+    corner_velocities,
+    motion_report,
+    offset_errors,
+    speed_weights,
+)
 from gaitcap.reconstruction.calibration.report import (
     CameraQuality,
     QualityReport,
@@ -334,18 +340,33 @@ def _intrinsics(obs: BoardObservations, config: CalibrationConfig) -> list[Intri
 
 
 def _with_motion(obs, prob: BundleProblem, res: BundleResult, src: np.ndarray, config: CalibrationConfig):
-    """The board's motion modelled from the first fit's residuals (offsets applied where significant,
-    views weighted by speed) and the adjustment run again: (problem, result, report)."""
-    vel = corner_velocities(obs, config.motion.max_gap_s).reshape(-1, 2)[src]
-    corrected, weight, report = motion_model(
-        cam=prob.cam, frame=prob.frame, uv_px=prob.uv_px, residual_px=res.residual_px, inlier=res.inlier,
-        velocity_px_s=vel, camera_names=obs.camera_names, config=config.motion)
+    """The board's motion modelled from the first fit (views weighted by speed; each camera's time offset
+    adjusted where every camera has enough corners with a velocity) and the adjustment run again:
+    (problem, result, report)."""
+    mc = config.motion
+    vel = corner_velocities(obs, mc.max_gap_s).reshape(-1, 2)[src]
+    weights = speed_weights(cam=prob.cam, frame=prob.frame, residual_px=res.residual_px, inlier=res.inlier,
+                            velocity_px_s=vel, config=mc)
+    known = np.isfinite(vel).all(-1)
+    counts = np.bincount(prob.cam[known], minlength=prob.num_cameras)
+    few = [f"{n} ({k})" for n, k in zip(obs.camera_names, counts, strict=True) if k < mc.min_corners]
+    timed = mc.offsets and not few and config.bundle.refine_cameras
+    why_not = "" if timed or not mc.offsets else (
+        f"time offsets not adjusted: cameras {', '.join(few)} have fewer than {mc.min_corners} corners with a "
+        "velocity" if few else "time offsets not adjusted: the camera poses are held")
+    if not timed and np.isnan(weights.smear_s):
+        return prob, res, motion_report(obs.camera_names, prob.root, None, np.zeros(0), weights, mc, why_not)
+    v = np.where(known[:, None], vel, 0.0)
+    prob = replace(prob, weight=weights.weight, velocity_px_s=v if timed else None)
+    start = replace(res.state, time_offset_s=np.zeros(prob.num_cameras) if timed else None)
+    res = bundle_adjust(prob, start, config.bundle)
+    offsets = res.state.time_offset_s if timed else None
+    se = offset_errors(cam=prob.cam, residual_px=res.residual_px, inlier=res.inlier, velocity_px_s=v,
+                       weight=weights.weight, n_cams=prob.num_cameras)
+    report = motion_report(obs.camera_names, prob.root, offsets, se, weights, mc, why_not)
     for note in report.notes:
         log.info("calibration: %s", note)
-    if np.all(weight == 1) and not any(report.applied):
-        return prob, res, report
-    prob = replace(prob, uv_px=corrected, weight=weight)
-    return prob, bundle_adjust(prob, res.state, config.bundle), report
+    return prob, res, report
 
 
 def _views_found(obs: BoardObservations, removed: Mapping[str, int] | None) -> np.ndarray:
