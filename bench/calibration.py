@@ -42,6 +42,7 @@ import argparse
 import json
 import logging
 import time
+from dataclasses import replace
 
 import numpy as np
 from _common import jsonable
@@ -357,6 +358,7 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
     from gaitcap.reconstruction.calibration.compare import compare_similar
     from gaitcap.reconstruction.calibration.holdout import HoldoutConfig, cross_validate, evaluate_rig
     from gaitcap.reconstruction.calibration.model_choice import choose_intrinsics
+    from gaitcap.reconstruction.calibration.motion import MotionConfig
 
     folder = _testdata() / name
     if not (folder / "camera_array.toml").exists():
@@ -374,6 +376,16 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
     fit_s = time.perf_counter() - t0
     cmp = cross_validate(obs, lambda o: calibrate_from_observations(o, config=config).rig, reference=ref,
                          reference_label="caliscope's", config=holdout)
+    # caliscope's intrinsics held, the poses fitted here on the same folds: caliscope's intrinsics judged on
+    # equal terms (held out), and what the poses alone leave
+    known = CalibrationConfig(known_intrinsics={c.name: (c.matrix_px, c.dist) for c in ref.cameras})
+    their_intr = cross_validate(obs, lambda o: calibrate_from_observations(o, config=known).rig,
+                                config=holdout).own
+    moving = replace(config, motion=MotionConfig())  # the board's motion modelled (time offsets, speed weights)
+    motion = calibrate_from_observations(obs, config=moving).report.motion
+    with_motion = (cross_validate(obs, lambda o: calibrate_from_observations(o, config=moving).rig,
+                                  config=holdout).own if "root" in motion and np.isfinite(motion["offsets_ms"]).any()
+                   else None)
     in_sample = evaluate_rig(obs, rig, label="gaitcap (all frame sets)")
     similar = compare_similar(ref, rig)
     own, theirs = cmp.own, cmp.reference
@@ -394,7 +406,10 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
         "cameras": list(obs.camera_names),
         "frame_sets": own.frame_sets, "fold_errors": list(own.fold_errors), "fit_seconds": fit_s,
         "folds_seconds": own.seconds, "gaitcap": figures(own), "caliscope": figures(theirs),
-        "gaitcap_in_sample": figures(in_sample), "centre_diff_mm_max": similar.centre_mm_max,
+        "gaitcap_in_sample": figures(in_sample), "caliscope_intrinsics_held_out": figures(their_intr),
+        "motion_notes": list(motion.get("notes", ())),
+        "motion_held_out": figures(with_motion) if with_motion is not None else None,
+        "centre_diff_mm_max": similar.centre_mm_max,
         "rotation_diff_deg_max": similar.rotation_deg_max, "rigs_apart": bool(apart),
         "better_held_out": "gaitcap" if own.rms_px < theirs.rms_px else "caliscope",
         "meets_target": bool(all(a <= b for a, b in zip(figures(own)["rms_px"], figures(theirs)["rms_px"],
@@ -421,12 +436,21 @@ def _held_out_lines(h: dict) -> list[str]:
     lines = [f"    held-out error ({h['folds']} folds in time, {h['frame_sets']} frame sets; intrinsics {h['intrinsics']}; "
              f"folds {h['folds_seconds']:.0f} s, one fit {h['fit_seconds']:.1f} s"
              + (f", choice {h['choice_seconds']:.0f} s" if h["chosen"] else "") + "):"]
-    lines.append(f"    {'camera':<8} {'gaitcap':>8} {'caliscope':>10} {'in-sample':>10}  (RMS px over all held-out corners)"
+    lines.append(f"    {'camera':<8} {'gaitcap':>8} {'caliscope':>10} {'in-sample':>10} {'cs intr':>8}  (RMS px over all "
+                 "held-out corners; cs intr: caliscope's intrinsics held, poses fitted here on the same folds)"
                  + ("  chosen" if h["chosen"] else ""))
     for k, cam in enumerate(h["cameras"]):
         chosen = f"  {h['chosen'][cam]}" if h["chosen"] else ""
         lines.append(f"    {cam:<8} {h['gaitcap']['rms_px'][k]:>8.3f} {h['caliscope']['rms_px'][k]:>10.3f} "
-                     f"{h['gaitcap_in_sample']['rms_px'][k]:>10.3f}{chosen}")
+                     f"{h['gaitcap_in_sample']['rms_px'][k]:>10.3f} "
+                     f"{h['caliscope_intrinsics_held_out']['rms_px'][k]:>8.3f}{chosen}")
+    lines.append(f"    caliscope's intrinsics, poses fitted here, held out: rig RMS "
+                 f"{h['caliscope_intrinsics_held_out']['rig_rms_px']:.3f} px")
+    lines += [f"    the board's motion modelled: {n}" for n in h["motion_notes"]]
+    if h["motion_held_out"] is not None:
+        m = h["motion_held_out"]
+        lines.append(f"    with the board's motion modelled, held out: {' / '.join(f'{r:.3f}' for r in m['rms_px'])} px, "
+                     f"rig {m['rig_rms_px']:.3f} px")
     for who in ("gaitcap", "caliscope"):
         f = h[who]
         lines.append(f"    {who}: rig RMS {f['rig_rms_px']:.3f} px; board in 3D: square {f['square_mm']:.2f} mm, "

@@ -58,8 +58,8 @@ def offset_rig():
 def test_time_offsets_are_adjusted_from_the_board_motion(offset_rig):
     rig, obs = offset_rig
     assert (obs.views().sum(0) >= 2).sum() >= 25  # the cameras share views
-    moved = calibrate_from_observations(obs)
-    still = calibrate_from_observations(obs, config=CalibrationConfig(motion=None))
+    moved = calibrate_from_observations(obs, config=CalibrationConfig(motion=MotionConfig()))
+    still = calibrate_from_observations(obs)
     m = moved.report.motion
     assert m["root"] == "cam01" and m["offsets_ms"][0] == 0.0
     found = np.array(m["offsets_ms"][1:])
