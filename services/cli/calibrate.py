@@ -186,6 +186,7 @@ def register(app: typer.Typer) -> None:
         strict_intrinsics: bool = typer.Option(False, "--strict-intrinsics", help="Hold nothing the board views cannot determine: refuse a camera whose board covered too little of its image or whose focal length is uncertain, instead of holding its principal point at the image centre and only k1."),
         folds: int = typer.Option(5, "--folds", help="Held-out error: split the board frame sets in time into K folds, fit on the rest, judge on each (K more calibrations; 0: skip). A --compare calibration is judged on the same frame sets."),
         choose_intrinsics: bool = typer.Option(False, "--choose-intrinsics", help="Choose each camera's lens model (k1; k1k2; k1k2p1p2k3) and principal point (held at the image centre or free) by held-out error (6 x K more calibrations)."),
+        motion: bool = typer.Option(False, "--motion", help="Model the hand-held board's motion: each camera's time offset (webcams are not synchronised) adjusted from the board's motion and views weighted by its speed; the offsets are in the report."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
         from gaitcap.acquisition.boards.pairing import PairingConfig
@@ -206,6 +207,7 @@ def register(app: typer.Typer) -> None:
         )
         from gaitcap.reconstruction.calibration.holdout import HoldoutConfig
         from gaitcap.reconstruction.calibration.model_choice import choose_intrinsics as choose_model
+        from gaitcap.reconstruction.calibration.motion import MotionConfig
 
         with user_errors():
             reference = _load_calibration(compare) if compare is not None else None
@@ -222,6 +224,7 @@ def register(app: typer.Typer) -> None:
                 intrinsics=IntrinsicsConfig(distortion=models[distortion], hold_undetermined=not strict_intrinsics),
                 world=WorldFrameConfig(floor_frame=floor_frame),
                 known_intrinsics={c.name: (c.matrix_px, c.dist) for c in known.cameras} if known else None,
+                motion=MotionConfig() if motion else None,
             )
             with progress(desc="finding the board", unit="img") as bar:
                 cfg, obs, found, what = _views(recording, cfg, flags_given, FrameSelection(every, max_frames),
@@ -258,6 +261,8 @@ def register(app: typer.Typer) -> None:
         if choice is not None:
             typer.echo(_choice(choice))
         typer.echo(_summary(result.report))
+        for note in result.report.motion.get("notes", ()):
+            typer.echo(f"the board's motion: {note}")
         if held_out is not None:
             typer.echo(held_out if isinstance(held_out, str) else _held_out(held_out))
         if comparison is not None:

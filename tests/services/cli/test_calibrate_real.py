@@ -4,6 +4,7 @@
 import json
 import re
 
+import numpy as np
 import pytest
 from gaitcap.acquisition.installed import share_path
 from gaitcap.acquisition.readers import load_rig
@@ -43,11 +44,18 @@ def test_with_caliscopes_intrinsics_the_rig_matches_and_is_written(tmp_path):
 
 def test_a_small_board_is_calibrated_holding_what_it_cannot_determine(tmp_path):
     out = tmp_path / "calib.toml"
-    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out), "--folds", "0"])
+    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out), "--folds", "0", "--motion"])
     assert result.exit_code == 0, result.output
     assert "note: principal point held at the image centre: the board covered 10 % of the image (< 30 %)" \
         in result.output
     assert out.exists() and not (tmp_path / "calib.refused.toml").exists()
+    # --motion: the webcams' time offsets from the board's motion, after the root camera's, each with its
+    # standard error, printed and in the report
+    motion = json.loads((tmp_path / "calib.report.json").read_text())["motion"]
+    root = motion["cameras"].index(motion["root"])
+    assert motion["offsets_ms"][root] == 0.0 and all(np.isfinite(motion["offsets_ms"]))
+    assert all(0 < se < 5 for c, se in enumerate(motion["offsets_se_ms"]) if c != root), motion
+    assert f"the board's motion: time offsets from the board's motion, after {motion['root']}: " in result.output
 
 
 def test_a_calibration_failing_its_checks_is_refused(tmp_path):
