@@ -53,9 +53,8 @@ def _state(db: cat.Catalog, trial_id: str) -> str:
     return cat.get_trial(db, trial_id).state
 
 
-def outage(stack: Stack, pg: LocalPostgres, db: cat.Catalog, outage_s: float) -> dict:
+def outage(client, pg: LocalPostgres, db: cat.Catalog, outage_s: float) -> dict:
     """Stop the database server for ``outage_s`` while the room records; Stop half-way."""
-    client = stack.client()
     trial_id = start_when_ready(client, {"subject_id": "P0001"}, ready_timeout_s=60)
     time.sleep(3.0)
     pg.pause()
@@ -84,9 +83,9 @@ def outage(stack: Stack, pg: LocalPostgres, db: cat.Catalog, outage_s: float) ->
             "processed_after_resume_s": time.monotonic() - t_up, "state": final, "error": trial.error}
 
 
-def worker_killed(stack: Stack, db: cat.Catalog, seconds: float) -> dict:
-    """Record ``seconds``, Stop, SIGKILL the worker that took the trial once it is processing."""
-    client = stack.client()
+def worker_killed(stack: Stack, client, db: cat.Catalog, seconds: float) -> dict:
+    """Record ``seconds``, Stop, SIGKILL the worker process that took the trial once it is processing (its
+    supervisor starts it again; the job's lease runs out first)."""
     trial_id = start_when_ready(client, {"subject_id": "P0002"}, ready_timeout_s=60)
     time.sleep(seconds)
     r = client.post(f"/trials/{trial_id}/stop")
@@ -95,12 +94,15 @@ def worker_killed(stack: Stack, db: cat.Catalog, seconds: float) -> dict:
     job = _until("a worker processing the trial",
                  lambda: next((j for j in cat.jobs_for_trial(db, trial_id) if j.state == "running"), None), 300, 0.05)
     _until("the trial processing", lambda: _state(db, trial_id) == "processing", 60, 0.05)
-    killed = job.worker_id
-    os.kill(int(killed.rsplit("-", 1)[1]), signal.SIGKILL)
+    killed = job.worker_id  # the stack names each worker process and its catalog id alike
+    if killed not in stack.cfg.worker_names():
+        raise RuntimeError(f"the trial is held by {killed!r}, not one of the stack's workers")
+    pid = stack.supervisor.pid(killed)
+    stack.supervisor.kill(killed, signal.SIGKILL)
     t_kill = time.monotonic()
     final = _until("the trial processed", lambda: _state(db, trial_id) in FINISHED and _state(db, trial_id), 900)
     last = cat.jobs_for_trial(db, trial_id)[-1]
-    return {"trial": trial_id, "killed": killed, "finished_by": last.worker_id, "attempts": last.attempts,
+    return {"trial": trial_id, "killed": f"{killed} (pid {pid})", "finished_by": last.worker_id, "attempts": last.attempts,
             "finished_after_kill_s": time.monotonic() - t_kill, "state": final,
             "error": cat.get_trial(db, trial_id).error}
 
@@ -117,7 +119,7 @@ def run(args) -> dict:
         os.environ.update(pg.environment())  # the password file, for the stack's API and workers
         base = free_loopback_ports(12)[0]
         cfg = StackConfig(data_dir=Path(tmp) / "gait1", token=TOKEN, port=base, bus_base_port=base + 1,
-                          cameras=args.cameras, size="160x120", fps=15.0, sim_seconds=900.0, lease_s=4.0, workers=2,
+                          cameras=args.cameras, size="160x120", fps=15.0, sim_seconds=600.0, lease_s=4.0, workers=2,
                           refine=False, catalog_url=url, room="gait1")
         stack = Stack(cfg)
         t0 = time.monotonic()
@@ -125,8 +127,9 @@ def run(args) -> dict:
         started_s = time.monotonic() - t0
         db = cat.open_catalog(url)
         try:
-            down = outage(stack, pg, db, args.outage_s)
-            kill = worker_killed(stack, db, args.seconds)
+            with stack.client() as client:
+                down = outage(client, pg, db, args.outage_s)
+                kill = worker_killed(stack, client, db, args.seconds)
             missing = lost(db, [down["trial"], kill["trial"]])
         finally:
             db.close()
