@@ -49,6 +49,16 @@ class GaitConfig:
             (mm); the toe off is then refined to the toe's farthest point behind the body centre within
             ``toe_off_window_s`` of that (Zeni et al. 2008).
         toe_off_window_s: see toe_off_distance_mm (s).
+        heel_landing_window_s: a heel-first landing's heel strike is the heel's lowest point within this
+            long after the contact-distance crossing (s; 0: the crossing only; see events).
+        heel_landing_dip_mm: the landing is heel first when the heel, at that lowest point, is at least this
+            far below its stance height (mm: a heel point behind the heel's floor contact dips as the
+            pitched-up foot lands on it), and ``heel_landing_noise_factor`` x the noise of its height over
+            that contact's frames (mm, from their second differences: a dip within the noise is no
+            landing) ...
+        heel_landing_noise_factor: see heel_landing_dip_mm.
+        heel_landing_pitch_deg: ... and the foot is pitched toe up by at least this much more than in
+            stance (degrees).
         event_resolution_s: resolution of sub-frame event location on the continuous trajectory (s).
         full_confidence_views: cameras needed at a contact for full confidence (with quality given).
         reprojection_scale_px: reprojection error that lowers confidence by a factor e (px).
@@ -83,6 +93,10 @@ class GaitConfig:
     contact_distance_mm: float = 20.0
     toe_off_distance_mm: float = 30.0
     toe_off_window_s: float = 0.1
+    heel_landing_window_s: float = 0.15
+    heel_landing_dip_mm: float = 3.0
+    heel_landing_noise_factor: float = 3.0
+    heel_landing_pitch_deg: float = 6.0
     event_resolution_s: float = 0.001
     full_confidence_views: int = 3
     reprojection_scale_px: float = 10.0

@@ -27,6 +27,17 @@ falls below the event speed (3 x the noise at rest, at least ``min_event_speed_m
 zero speed on a caller's continuous trajectory. Toe-first contacts are located by the toe in the same
 way.
 
+Heel-first landings: a heel point behind the heel's floor contact (the posterior heel marker, a detector's
+heel keypoint) dips below its stance height when the foot lands pitched toe up (by the distance behind
+the contact x the sine of the pitch: 5-15 mm at 10-20 degrees), and rises again as the foot rolls flat
+about that contact, so its lowest point is where the heel stops descending: the impact. Where the heel's
+lowest point within ``heel_landing_window_s`` after the distance crossing is at least
+``heel_landing_dip_mm`` (and ``heel_landing_noise_factor`` x the noise of its height in the contact)
+below its stance height and the foot is pitched at least ``heel_landing_pitch_deg`` more toe up than in
+stance, that lowest point is the heel strike. Flat (no dip) and toe-first (no pitch) contacts keep the
+distance crossing. On real walks with force plates a heel can arrive horizontally first and drop its last
+10-20 mm almost vertically (the distance crossing is then 30-60 ms early); see docs/gait.md.
+
 Toe off (the last instant of contact): the last time the toe is within ``toe_off_distance_mm`` of its
 rest point, refined to the moment the toe is farthest behind the body centre along the foot's direction
 within ``toe_off_window_s`` of that (Zeni et al. 2008, Gait & Posture 27:710-714; a toe keypoint at the tip
@@ -328,6 +339,49 @@ def _toe_behind(tracks: FootTracks, side: str, t_s: float, heel_mm, toe_mm, conf
     return float(grid[j]) if 0 < j < len(grid) - 1 else float("nan")
 
 
+def _pitch_deg(heel_mm: np.ndarray, toe_mm: np.ndarray) -> np.ndarray:
+    """Pitch (degrees, toe up positive) of the heel-to-toe line; (..., 3) -> (...)."""
+    foot = np.asarray(toe_mm) - np.asarray(heel_mm)
+    return np.degrees(np.arctan2(foot[..., 2], np.linalg.norm(foot[..., :2], axis=-1)))
+
+
+def _height_noise_mm(z_mm: np.ndarray) -> float:
+    """Noise (mm) of a point's height over a contact's frames (T,): 1.4826 x the median absolute second
+    difference / sqrt(6) (white noise of SD s gives second differences of SD sqrt(6) s; a foot's own motion
+    at rest adds little to them); inf with fewer than 3 frames."""
+    z = np.asarray(z_mm, dtype=float)
+    d2 = (z[:-2] - 2 * z[1:-1] + z[2:]) if len(z) >= 3 else np.zeros(0)
+    d2 = d2[np.isfinite(d2)]
+    return 1.4826 * float(np.median(np.abs(d2))) / np.sqrt(6.0) if len(d2) else float("inf")
+
+
+def _heel_landing(tracks: FootTracks, side: str, t_s: float, heel_mm, toe_mm, config: GaitConfig, *,
+                  height_noise_mm: float) -> float:
+    """Time (s) of a heel-first landing's impact after ``t_s`` (the contact-distance crossing): the heel's
+    lowest point within ``heel_landing_window_s`` after it (a heel lands near where it rests: a lowest point
+    before the crossing is no landing), when the heel there is below its stance height by
+    at least ``heel_landing_dip_mm`` and ``heel_landing_noise_factor`` x ``height_noise_mm`` (the noise of
+    its height in the contact) and the foot pitched toe up by at least ``heel_landing_pitch_deg`` more than in
+    stance (see the module docstring); NaN otherwise (a flat or toe-first contact, a dip within the noise,
+    no clear lowest point inside the window, the window outside the data)."""
+    w = config.heel_landing_window_s
+    if w <= 0 or not np.isfinite(t_s):
+        return float("nan")
+    grid = np.arange(t_s, min(t_s + w, tracks.times_s[-1]), config.event_resolution_s)
+    if len(grid) < 3:
+        return float("nan")
+    pts = tracks.sampler(grid)
+    heel, toe = pts[:, HEEL[side]], pts[:, TOE[side]]
+    k = int(np.argmin(heel[:, 2]))
+    if not 0 < k < len(grid) - 1:
+        return float("nan")
+    dip = float(heel_mm[2] - heel[k, 2])
+    pitch = float(_pitch_deg(heel[k], toe[k]) - _pitch_deg(np.asarray(heel_mm), np.asarray(toe_mm)))
+    least = max(config.heel_landing_dip_mm, config.heel_landing_noise_factor * height_noise_mm)
+    heel_first = dip >= least and pitch >= config.heel_landing_pitch_deg
+    return float(grid[k]) if heel_first else float("nan")
+
+
 def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: np.ndarray, v_rest: float,
                  config: GaitConfig, rest_points, *, contact_mm: float) -> tuple[np.ndarray, np.ndarray]:
     """(R,) heel strike and toe off times (s) of the runs (see the module docstring); NaN where the event
@@ -364,6 +418,9 @@ def _event_times(tracks: FootTracks, side: str, runs, speed: np.ndarray, rest: n
         at_end |= short and run[0] >= last - run[1]
         hs_all[i] = near_hs if np.isfinite(near_hs) and not at_start else (
             np.nan if at_start or near_hs < 0 else hs_all[i])
+        noise = _height_noise_mm(tracks.frames_mm[run[0]:run[1] + 1, h, 2])
+        landing = _heel_landing(tracks, side, hs_all[i], heel_mm, toe_mm, config, height_noise_mm=noise)
+        hs_all[i] = landing if np.isfinite(landing) else hs_all[i]
         if not np.isfinite(near_to) or (at_end and short):
             to_all[i] = np.nan if at_end or near_to > 0 else to_all[i]
             continue
