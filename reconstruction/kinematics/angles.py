@@ -93,13 +93,25 @@ def pelvis_in_progression(coordinates_deg: dict[str, np.ndarray], times_s: np.nd
     ``coordinates_deg`` with the three pelvis angles replaced (degrees)."""
     if not all(k in coordinates_deg for k in PELVIS):
         return dict(coordinates_deg)
-    tilt, lst, rot = (np.radians(np.asarray(coordinates_deg[k], dtype=np.float64)) for k in PELVIS)
+    rot = np.radians(np.asarray(coordinates_deg["pelvis_rotation"], dtype=np.float64))
     t = np.asarray(times_s, dtype=np.float64)
     dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
     ok = np.isfinite(rot)
     unwrapped = np.full_like(rot, np.nan)
     unwrapped[ok] = np.unwrap(rot[ok])
-    heading = _moving_mean(unwrapped, int(round(window_s / dt)) | 1)
+    return turned_pelvis(coordinates_deg, _moving_mean(unwrapped, int(round(window_s / dt)) | 1))
+
+
+def turned_pelvis(coordinates_deg: dict[str, np.ndarray], heading_rad) -> dict[str, np.ndarray]:
+    """The pelvis angles in a frame turned by ``heading_rad`` (scalar or (T,), about the room's vertical,
+    OpenSim's y): the orientation Rz(tilt) Rx(list) Ry(rotation) turned back by Ry(-heading) and decomposed
+    again in the same order; NaN where an angle or the heading is. Returns a copy of ``coordinates_deg``
+    with the three pelvis angles replaced (degrees)."""
+    if not all(k in coordinates_deg for k in PELVIS):
+        return dict(coordinates_deg)
+    tilt, lst, rot = (np.radians(np.asarray(coordinates_deg[k], dtype=np.float64)) for k in PELVIS)
+    heading = np.broadcast_to(np.asarray(heading_rad, dtype=np.float64), rot.shape)
+    ok = np.isfinite(rot)
     fill = lambda a: np.where(np.isfinite(a), a, 0.0)  # noqa: E731
     rel = _ry(-fill(heading)) @ _rz(fill(tilt)) @ _rx(fill(lst)) @ _ry(fill(rot))
     new_list = np.arcsin(np.clip(rel[:, 2, 1], -1.0, 1.0))

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+import tempfile
 import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -31,6 +32,7 @@ from gaitcap.reconstruction.kinematics.frames import opensim_to_room, room_to_op
 from gaitcap.reconstruction.kinematics.geometric import model_zero_offsets
 from gaitcap.reconstruction.kinematics.mot import to_mot
 from gaitcap.reconstruction.kinematics.outliers import OUTLIER_MM, gross_outliers
+from gaitcap.reconstruction.kinematics.walkway import coordinates_in_room, turned_points, walkway_heading_rad
 from gaitcap.reconstruction.trc import to_trc
 from gaitcap.services.kinematics.base import FitRequest, KinematicsUnavailable, ModelFit
 from gaitcap.services.kinematics.files import MODEL_FILE, setup_dir, setup_files
@@ -369,13 +371,22 @@ class OpenSimEngine:
 
     def _ik(self, files, paths, req: FitRequest, times: np.ndarray, pts: np.ndarray):
         weights, frames = self._ik_inputs(files, req, pts)
+        names = req.marker_names
+        # fitted with the walkway along the model's x, so that the tilt held is the pelvis's own (``walkway``)
+        heading = walkway_heading_rad(pts[:, names.index("LHip")], pts[:, names.index("RHip")])
+        turned = turned_points(pts, heading)
+        log.info("IK with the walkway along the model's x axis (it runs %.1f deg from the room's x)",
+                 math.degrees(heading))
         # (one process: splitting the frames over two processes was slower on the shared 2-core machine and
         # each chunk's fresh assembly moved the knee by up to 2 deg at the seams)
-        part = solve_ik(IKJob(str(paths["osim"]), str(paths["trc"]), str(files["ik"]), weights, times,
-                              pts[frames], frames, req.marker_names))
+        with tempfile.TemporaryDirectory(dir=paths["trc"].parent) as tmp:
+            trc = Path(tmp) / paths["trc"].name
+            trc.write_text(to_trc(turned, times, names, filename=trc.name, units="m"))
+            part = solve_ik(IKJob(str(paths["osim"]), str(trc), str(files["ik"]), weights, times, turned[frames],
+                                  frames, names))
         values = np.full((len(times), len(part.coordinates)), np.nan)
         values[frames] = part.values
         errors = {m: {"rms": round(1000 * float(np.sqrt(np.mean(np.square(e)))), 2),
                       "max": round(1000 * float(np.max(e)), 2)} for m, e in part.distances_m.items() if e}
         log.info("IK: %d of %d frames fitted with %d markers", len(frames), len(times), len(weights))
-        return {c: values[:, i] for i, c in enumerate(part.coordinates)}, errors
+        return coordinates_in_room({c: values[:, i] for i, c in enumerate(part.coordinates)}, heading), errors
