@@ -1,5 +1,6 @@
 """The viewer files of one processing stage: ``trajectory.rrd`` (Rerun) and ``results.mcap`` (Foxglove),
-written by the worker right after the stage's result is stored."""
+written by the worker right after the stage's result is stored (the .rrd in a child process,
+:mod:`~gaitcap.services.processing.viewers.apart`, so that Rerun's memory does not stay in the worker)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,8 @@ import numpy as np
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.reconstruction.result import Reconstruction
 from gaitcap.services.processing.artifacts import TrialFiles
-from gaitcap.services.processing.viewers.rerun_trial import RerunSettings, write_trial_rrd
+from gaitcap.services.processing.viewers.apart import write_rrd_apart
+from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
 from gaitcap.services.processing.viewers.results_mcap import write_results_mcap
 from gaitcap.services.processing.viewers.trial_view import TrialView, joint_confidence, start_ns_of
 
@@ -39,7 +41,7 @@ def write_viewer_files(files: TrialFiles, stage: str, view: TrialView,
     The trial's results are stored before: a viewer file that cannot be written (an unreadable recording,
     a full disk) is logged as an error with its cause and left out, and the trial stays done."""
     t0 = time.perf_counter()
-    writers = {"rerun_rrd": lambda path: write_trial_rrd(path, view, settings),
+    writers = {"rerun_rrd": lambda path: write_rrd_apart(path, view, settings),  # Rerun's memory goes with it
                "results_mcap": lambda path: write_results_mcap(path, view)}
     out = {}
     for key, write in writers.items():

@@ -1,0 +1,51 @@
+"""The trial's .rrd written in a child process, so that what Rerun's library allocates goes back with it.
+
+Rerun's native library allocates with its own allocator (mimalloc, linked into ``rerun_bindings``), which
+keeps much of what it freed and which glibc's ``malloc_trim`` cannot reach: in one long-running process
+every .rrd written left about 2 MB more resident memory, growing without bound (``bench/worker_memory.py``
+and ``docs/benchmarks.md``, "Worker memory over many trials"). :func:`write_rrd_apart` writes each file
+in a child forked from a small server process (multiprocessing's ``forkserver``, started once, with Rerun
+and the writer already imported, never itself writing a file), so the child starts in a fraction of a
+second and everything it allocated is returned when it exits. The file and its contents are the same as
+:func:`~gaitcap.services.processing.viewers.rerun_trial.write_trial_rrd` writes in the process; an error
+in the child is raised here with its message.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import threading
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from gaitcap.services.processing.viewers.rerun_trial import RerunSettings, write_trial_rrd
+from gaitcap.services.processing.viewers.trial_view import TrialView
+
+#: imported once by the server process the children are forked from, so that a child imports nothing: the
+#: program's main module (which multiprocessing would import again in every child), Rerun, the writer and
+#: the modules of what a TrialView holds (gait report, keypoints), the recording's reader (the images) and
+#: pandas, which Rerun imports on its first text column (1.5 s); importing them starts no thread, so forking
+#: after it is safe
+PRELOAD = ["__main__", "rerun", "pandas", "gaitcap.services.processing.viewers.rerun_trial",
+           "gaitcap.reconstruction.gait", "gaitcap.reconstruction.keypoints", "gaitcap.acquisition.recording.reader"]
+_lock = threading.Lock()
+_context: multiprocessing.context.BaseContext | None = None
+
+
+def _forkserver() -> multiprocessing.context.BaseContext:
+    """multiprocessing's forkserver context, its server preloading the .rrd writer (once per process).
+    A forkserver, not fork: the worker has JAX's and the bus's threads, which a fork must not copy."""
+    global _context
+    with _lock:
+        if _context is None:
+            ctx = multiprocessing.get_context("forkserver")
+            ctx.set_forkserver_preload(PRELOAD)
+            _context = ctx
+        return _context
+
+
+def write_rrd_apart(path: Path, view: TrialView, settings: RerunSettings = RerunSettings()) -> Path:
+    """:func:`~gaitcap.services.processing.viewers.rerun_trial.write_trial_rrd` in a child process that
+    exits afterwards; the path written."""
+    with ProcessPoolExecutor(max_workers=1, mp_context=_forkserver(), max_tasks_per_child=1) as pool:
+        return pool.submit(write_trial_rrd, Path(path), view, settings).result()
