@@ -71,7 +71,7 @@ def _steps(bouts: Bouts, contacts: Sequence[Contact], confidence,
     steps, passes, warnings, left_out = [], [], [], []
     for p in bouts.passes:
         wide = _extended(bouts, p)
-        seq, edge = pass_contacts(wide, p, contacts)
+        seq, edge, p = pass_contacts(wide, p, contacts)
         found, missed = pass_steps(wide, seq, support_contacts(wide, contacts), confidence, first_index=len(steps),
                                    steady=p, low_confidence=config.low_confidence)
         steps += found

@@ -115,16 +115,22 @@ def _trim(seq: list[Contact], depth_s: list[float], typ: Typical) -> tuple[list[
     return seq[start:], out
 
 
-def pass_contacts(wide: Pass, steady: Pass, contacts: Sequence[Contact]) -> tuple[list[Contact], list[EdgeContact]]:
+def pass_contacts(wide: Pass, steady: Pass, contacts: Sequence[Contact]) -> tuple[list[Contact], list[EdgeContact], Pass]:
     """The valid ``contacts`` (time ordered, the trial's) whose heel strike is inside the extended pass
-    ``wide``, less those left out at its edges (see the module docstring), and those left out."""
+    ``wide``, less those left out at its edges (see the module docstring); those left out; and the steady
+    part ``steady`` ending no farther than the contacts kept (a contact left out inside it is out of the pass)."""
     seq = [c for c in contacts if c.valid and wide.contains(c.heel_strike_s)]
     typ = typical(seq, steady)
     seq, first = _trim(seq, [c.heel_strike_s - steady.start_s for c in seq], typ)
     rev = seq[::-1]
     rev, last = _trim(rev, [steady.end_s - c.heel_strike_s for c in rev], typ)
     left = [EdgeContact(c, wide.index, why) for c, why in first + last[::-1]]
-    return rev[::-1], left
+    kept = rev[::-1]
+    start = max(steady.start_s, kept[0].heel_strike_s) if first and kept else steady.start_s
+    end = min(steady.end_s, kept[-1].heel_strike_s) if last and kept else steady.end_s
+    if end <= start:
+        start, end = steady.start_s, steady.end_s
+    return kept, left, dataclasses.replace(steady, start_s=start, end_s=end)
 
 
 def support_contacts(wide: Pass, contacts: Sequence[Contact]) -> list[Contact]:
