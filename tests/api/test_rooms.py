@@ -78,12 +78,14 @@ OUTAGE_S = 2.0  # how long the database server is stopped here; bench/rooms_faul
 
 def test_the_catalog_gone_during_a_recording_loses_nothing(tmp_path):
     """The database server stopped (OUTAGE_S) while a room records (its own server: the session's is left
-    alone): the recorder goes on; /health says the catalog is unreachable; the page's lists answer 503 naming
-    the catalog; Stop stops the recorder at once (202, the recording saved) and its catalog writes wait and
-    are retried: once the server is back, without anyone pressing anything, the trial is recorded with the
+    alone): the recorder goes on; /health and the page's banner say the catalog is unreachable; the lists
+    answer 503 naming the catalog; Stop on the page stops the recorder at once (202, "Saved. The catalog is
+    unreachable ...") and its catalog writes wait and are retried: once the server is back, without anyone pressing anything, the trial is recorded with the
     recorder's summary and its processing queued, the Stop in the audit rows."""
     from gaitcap.services import catalog as cat
     from gaitcap.services.ops.pg_server import LocalPostgres
+
+    from .conftest import signed_in_page
 
     with LocalPostgres() as pg:
         url = pg.create_database("gone")
@@ -93,16 +95,22 @@ def test_the_catalog_gone_during_a_recording_loses_nothing(tmp_path):
             srv, link, client = _room(tmp_path, url, "gait1", free_loopback_ports(1)[0], cameras=0)
             try:
                 trial = client.post("/trials", json={"subject_id": "P0001", "session": "v1"}).json()
-                pg.pause()
-                t_down = time.monotonic()
-                database = client.get("/health").json()["components"]["database"]
-                assert database["ok"] is False and database["status"].startswith("the catalog is unreachable"), database
-                assert client.get("/trials").status_code == 503
-                assert link.recording == trial["id"] and [c[0] for c in link.calls] == ["start"]  # still recording
-                time.sleep(max(0.0, OUTAGE_S / 2 - (time.monotonic() - t_down)))
-                saved = client.post(f"/trials/{trial['id']}/stop")
-                assert saved.status_code == 202 and saved.json()["catalog_unreachable"], saved.text
-                assert "written and queued for processing as soon as it is back" in saved.json()["detail"]
+                with signed_in_page(srv.url, timeout_ms=15_000) as page:  # the page, at 1280 px
+                    page.wait_for_function("() => document.querySelector('#record-status').textContent"
+                                           ".includes('Recording')")
+                    pg.pause()
+                    t_down = time.monotonic()
+                    database = client.get("/health").json()["components"]["database"]
+                    assert database["ok"] is False and database["status"].startswith("the catalog is unreachable")
+                    assert client.get("/trials").status_code == 503
+                    assert link.recording == trial["id"] and [c[0] for c in link.calls] == ["start"]  # recording on
+                    shown = page.wait_for_selector("#system:not([hidden]) li[data-component='database']")
+                    assert "Database: the catalog is unreachable" in shown.inner_text()
+                    page.click("#stop")  # Stop on the page: saved at once, the catalog's writes wait
+                    page.wait_for_function("() => document.querySelector('#record-status').textContent"
+                                           ".startsWith('Saved. The catalog is unreachable')")
+                    assert "written and queued for processing as soon as it is back" in page.inner_text(
+                        "#record-status")
                 assert link.calls[-1] == ("stop", trial["id"]) and link.recording is None  # the file is finished
                 time.sleep(max(0.0, OUTAGE_S - (time.monotonic() - t_down)))
                 assert client.post(f"/trials/{trial['id']}/stop").status_code == 202  # pressed again: no harm
