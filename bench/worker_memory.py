@@ -4,9 +4,10 @@ Simulates ``--trials`` walks of slightly different lengths (``--seconds`` plus 1
 trial a new frame count, as in a clinic), writes each as the recorder does, and processes them one after
 the other with ONE :class:`~gaitcap.services.processing.worker.Worker` (the clinic's code path: both stages,
 gait, files, viewer files, kinematics). After each trial it prints the process's resident memory (MB), the
-compiled JAX executables held (entries of every jitted function's cache) and what Python allocated
-(tracemalloc, MB, with ``--tracemalloc``). The slope is a least-squares fit of RSS over the trials after
-``--warm-up`` (MB per trial).
+compiled JAX executables held (entries of every jitted function's cache), the resident memory of the process
+with its children (the server the .rrd writers are forked from, :mod:`gaitcap.services.processing.viewers.apart`;
+as ``bench/soak.py`` counts a process) and what Python allocated (tracemalloc, MB, with ``--tracemalloc``).
+The slopes are least-squares fits over the trials after ``--warm-up`` (MB per trial).
 
     python bench/worker_memory.py --trials 12                      # a table
     python bench/worker_memory.py --trials 12 --json               # one JSON object
@@ -39,6 +40,7 @@ def slope_per_trial(values: list[float]) -> float:
 
 def run(args) -> dict:
     from gaitcap.services import catalog as cat
+    from gaitcap.services.ops.soak import rss_mb
     from gaitcap.services.processing.artifacts import trial_files
     from gaitcap.services.processing.compiled_code import CompiledCodeLimit, compiled_executables
     from gaitcap.services.processing.worker import Worker, WorkerConfig, resident_mb, warm_worker
@@ -68,7 +70,7 @@ def run(args) -> dict:
             worker.run_once()
             row = {"trial": k + 1, "frames": round(seconds * 30), "state": cat.get_trial(db, trial.id).state,
                    "job_s": round(time.perf_counter() - t0, 2), "rss_mb": round(resident_mb(), 1),
-                   "compiled": compiled_executables()}
+                   "compiled": compiled_executables(), "with_children_mb": round(rss_mb(os.getpid()), 1)}
             if args.tracemalloc:
                 row["python_mb"] = round(tracemalloc.get_traced_memory()[0] / 1e6, 1)
             rows.append(row)
@@ -76,7 +78,9 @@ def run(args) -> dict:
         db.close()
     after = [r["rss_mb"] for r in rows[args.warm_up:]]
     rss = [r["rss_mb"] for r in rows]
-    return {"trials": rows, "warm_s": warm_s, "start_rss_mb": start_mb, "first_rss_mb": rss[0], "last_rss_mb": rss[-1],
+    family = [r["with_children_mb"] for r in rows]
+    return {"with_children_first_last_max_mb": [family[0], family[-1], max(family)],
+            "with_children_slope_mb_per_trial": slope_per_trial(family[args.warm_up:]),"trials": rows, "warm_s": warm_s, "start_rss_mb": start_mb, "first_rss_mb": rss[0], "last_rss_mb": rss[-1],
             "max_rss_mb": max(rss), "slope_mb_per_trial": slope_per_trial(after), "warm_up": args.warm_up,
             "cameras": args.cameras, "seconds": args.seconds, "keep_trials": args.keep_trials}
 
@@ -85,12 +89,15 @@ def _table(r: dict) -> str:
     lines = [f"worker memory: {len(r['trials'])} trials of {r['seconds']:.1f} s + one frame each, {r['cameras']} cameras, "
              f"compiled code of {r['keep_trials']} job(s) kept "
              f"(warm-up compile {r['warm_s']:.1f} s, {r['start_rss_mb']:.0f} MB before the first trial)",
-             "trial  frames  state               job s   RSS MB  compiled" + ("  python MB" if "python_mb" in r["trials"][0] else "")]
+             "trial  frames  state               job s   RSS MB  compiled  with children MB"
+             + ("  python MB" if "python_mb" in r["trials"][0] else "")]
     for t in r["trials"]:
         lines.append(f"{t['trial']:5d} {t['frames']:7d}  {t['state']:18s} {t['job_s']:6.1f} {t['rss_mb']:8.0f} "
-                     f"{t['compiled']:9d}" + (f" {t['python_mb']:10.1f}" if "python_mb" in t else ""))
+                     f"{t['compiled']:9d} {t['with_children_mb']:17.0f}" + (f" {t['python_mb']:10.1f}" if "python_mb" in t else ""))
     lines.append(f"RSS first / last / max: {r['first_rss_mb']:.0f} / {r['last_rss_mb']:.0f} / {r['max_rss_mb']:.0f} MB; "
-                 f"slope after {r['warm_up']} trials: {r['slope_mb_per_trial']:+.2f} MB per trial")
+                 f"slope after {r['warm_up']} trials: {r['slope_mb_per_trial']:+.2f} MB per trial; with children "
+                 f"{' / '.join(f'{v:.0f}' for v in r['with_children_first_last_max_mb'])} MB, "
+                 f"{r['with_children_slope_mb_per_trial']:+.2f} MB per trial")
     return "\n".join(lines)
 
 

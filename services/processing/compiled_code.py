@@ -43,11 +43,11 @@ def release_compiled_code() -> float:
     t0 = time.perf_counter()
     jax.clear_caches()
     gc.collect()
-    _malloc_trim()
+    trim_heap()
     return time.perf_counter() - t0
 
 
-def _malloc_trim() -> None:
+def trim_heap() -> None:
     """Return the C heap's free pages to the system (glibc; nothing elsewhere)."""
     name = ctypes.util.find_library("c")
     try:
