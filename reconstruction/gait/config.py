@@ -58,7 +58,9 @@ class GaitConfig:
             landing) ...
         heel_landing_noise_factor: see heel_landing_dip_mm.
         heel_landing_pitch_deg: ... and the foot is pitched toe up by at least this much more than in
-            stance (degrees).
+            stance (degrees) ...
+        heel_landing_lever_mm: ... and by enough to explain the dip: a heel point at most this far behind
+            the heel's floor contact (mm) dips at most this x the sine of the pitch.
         event_resolution_s: resolution of sub-frame event location on the continuous trajectory (s).
         full_confidence_views: cameras needed at a contact for full confidence (with quality given).
         reprojection_scale_px: reprojection error that lowers confidence by a factor e (px).
@@ -97,6 +99,7 @@ class GaitConfig:
     heel_landing_dip_mm: float = 3.0
     heel_landing_noise_factor: float = 3.0
     heel_landing_pitch_deg: float = 6.0
+    heel_landing_lever_mm: float = 60.0
     event_resolution_s: float = 0.001
     full_confidence_views: int = 3
     reprojection_scale_px: float = 10.0

@@ -34,7 +34,8 @@ about that contact, so its lowest point is where the heel stops descending: the 
 lowest point within ``heel_landing_window_s`` after the distance crossing is at least
 ``heel_landing_dip_mm`` (and ``heel_landing_noise_factor`` x the noise of its height in the contact)
 below its stance height and the foot is pitched at least ``heel_landing_pitch_deg`` more toe up than in
-stance, that lowest point is the heel strike. Flat (no dip) and toe-first (no pitch) contacts keep the
+stance, enough to explain the dip (a heel point at most ``heel_landing_lever_mm`` behind the contact; on
+the real walks' markers dip / sin(pitch) is 28-49 mm), that lowest point is the heel strike. Flat (no dip) and toe-first (no pitch) contacts keep the
 distance crossing. On real walks with force plates a heel can arrive horizontally first and drop its last
 10-20 mm almost vertically (the distance crossing is then 30-60 ms early); see docs/gait.md.
 
@@ -362,7 +363,8 @@ def _heel_landing(tracks: FootTracks, side: str, t_s: float, heel_mm, toe_mm, co
     before the crossing is no landing), when the heel there is below its stance height by
     at least ``heel_landing_dip_mm`` and ``heel_landing_noise_factor`` x ``height_noise_mm`` (the noise of
     its height in the contact) and the foot pitched toe up by at least ``heel_landing_pitch_deg`` more than in
-    stance (see the module docstring); NaN otherwise (a flat or toe-first contact, a dip within the noise,
+    stance, by enough to explain the dip (at most ``heel_landing_lever_mm`` x the sine of that pitch; see
+    the module docstring); NaN otherwise (a flat or toe-first contact, a dip within the noise,
     no clear lowest point inside the window, the window outside the data)."""
     w = config.heel_landing_window_s
     if w <= 0 or not np.isfinite(t_s):
@@ -378,7 +380,8 @@ def _heel_landing(tracks: FootTracks, side: str, t_s: float, heel_mm, toe_mm, co
     dip = float(heel_mm[2] - heel[k, 2])
     pitch = float(_pitch_deg(heel[k], toe[k]) - _pitch_deg(np.asarray(heel_mm), np.asarray(toe_mm)))
     least = max(config.heel_landing_dip_mm, config.heel_landing_noise_factor * height_noise_mm)
-    heel_first = dip >= least and pitch >= config.heel_landing_pitch_deg
+    lever = config.heel_landing_lever_mm * np.sin(np.radians(pitch))  # the dip the pitch can explain
+    heel_first = least <= dip <= lever and pitch >= config.heel_landing_pitch_deg
     return float(grid[k]) if heel_first else float("nan")
 
 
