@@ -57,7 +57,11 @@ SUBTALAR_WEIGHT = 0.01
 UPPER_BODY_WEIGHT = 0.1
 PELVIS_AND_LEG_MARKERS = frozenset({"Hip", "CHip", *(f"{s}{p}" for s in "LR" for p in
                                               ("Hip", "Knee", "Ankle", "Heel", "BigToe", "SmallToe"))})
-IK_ACCURACY = 1e-3  # 1e-4 is 4x slower on noisy markers for the same angles (bench/kinematics.py)
+# The solver's accuracy: at 1e-3 it stopped before it converged, each frame tracked from the last one, so
+# the angles lagged the keypoints (on real walks' joint centres the ankle read 4-6 deg too dorsiflexed at
+# heel strike and the knee 2-4 deg too bent: ankle r 0.975 -> 0.984, knee RMSE 1.07 -> 0.63 deg on
+# FunctionalWalk's left with 1e-4, docs/kinematics.md); 1e-5 changes nothing further (0.01-0.02 deg)
+IK_ACCURACY = 1e-4
 
 
 def _import_opensim():
