@@ -14,8 +14,8 @@ in the child is raised here with its message.
 from __future__ import annotations
 
 import multiprocessing
+import os
 import threading
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from gaitcap.services.processing.viewers.rerun_trial import RerunSettings, write_trial_rrd
@@ -44,8 +44,37 @@ def _forkserver() -> multiprocessing.context.BaseContext:
         return _context
 
 
+def _write_and_exit(conn, path: Path, view: TrialView, settings: RerunSettings) -> None:
+    """The child: write the file, send back its path or the error, and exit at once (the file is flushed,
+    closed and renamed by then; what Rerun would tidy at exit is the memory going back anyway)."""
+    try:
+        answer = ("written", write_trial_rrd(path, view, settings))
+    except BaseException as exc:  # noqa: BLE001  (handed to the parent, which raises it)
+        answer = ("error", exc)
+    try:
+        conn.send(answer)
+    finally:
+        conn.close()
+        os._exit(0)
+
+
 def write_rrd_apart(path: Path, view: TrialView, settings: RerunSettings = RerunSettings()) -> Path:
     """:func:`~gaitcap.services.processing.viewers.rerun_trial.write_trial_rrd` in a child process that
-    exits afterwards; the path written."""
-    with ProcessPoolExecutor(max_workers=1, mp_context=_forkserver(), max_tasks_per_child=1) as pool:
-        return pool.submit(write_trial_rrd, Path(path), view, settings).result()
+    exits afterwards; the path written. The child's error is raised here; a child that died without an
+    answer is a RuntimeError with its exit code."""
+    ctx = _forkserver()
+    ours, theirs = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=_write_and_exit, args=(theirs, Path(path), view, settings), name="rrd-writer")
+    child.start()
+    theirs.close()
+    try:
+        kind, value = ours.recv()
+    except EOFError:
+        child.join()
+        raise RuntimeError(f"{Path(path).name}: the .rrd writer process died (exit code {child.exitcode})") from None
+    finally:
+        ours.close()
+    child.join()
+    if kind == "error":
+        raise value
+    return value
