@@ -446,7 +446,7 @@ def _held_out_lines(h: dict) -> list[str]:
                      f"{h['caliscope_intrinsics_held_out']['rms_px'][k]:>8.3f}{chosen}")
     lines.append(f"    caliscope's intrinsics, poses fitted here, held out: rig RMS "
                  f"{h['caliscope_intrinsics_held_out']['rig_rms_px']:.3f} px")
-    lines += [f"    the board's motion modelled: {n}" for n in h["motion_notes"]]
+    lines += [f"    motion model: {n}" for n in h["motion_notes"]]
     if h["motion_held_out"] is not None:
         m = h["motion_held_out"]
         lines.append(f"    with the board's motion modelled, held out: {' / '.join(f'{r:.3f}' for r in m['rms_px'])} px, "

@@ -352,7 +352,7 @@ def _with_motion(obs, prob: BundleProblem, res: BundleResult, src: np.ndarray, c
     counts = np.bincount(prob.cam[known], minlength=prob.num_cameras)
     few = [f"{n} ({k})" for n, k in zip(obs.camera_names, counts, strict=True) if k < mc.min_corners]
     timed = mc.offsets and not few and config.bundle.refine_cameras
-    why_not = "" if timed or not mc.offsets else (
+    why_not = "" if timed or not mc.offsets or not counts.any() else (
         f"time offsets not adjusted: cameras {', '.join(few)} have fewer than {mc.min_corners} corners with a "
         "velocity" if few else "time offsets not adjusted: the camera poses are held")
     if not timed and np.isnan(weights.smear_s):
