@@ -97,7 +97,7 @@ def misfit(edge: Contact, inward: Contact, typ: Typical) -> str:
         return f"two {edge.foot} contacts in a row"
     step = abs(inward.heel_strike_s - edge.heel_strike_s)
     if _outside(step, typ.step_s, STEP_RATIO):
-        return f"{step:.2f} s from the next heel strike against this pass's step time of {typ.step_s:.2f} s"
+        return f"{step:.2f} s from the neighbouring heel strike against this pass's step time of {typ.step_s:.2f} s"
     return _stance_misfit(edge, typ) or (f"the next contact has {why}" if (why := _stance_misfit(inward, typ)) else "")
 
 

@@ -13,7 +13,7 @@ Definitions (heel positions are the stationary heel points of the contacts, see 
   its right heel contacts (exact for straight walking); the body-centre direction when too few contacts.
 A step is formed only when this contact and the previous contralateral contact both lie in the same
 pass, a pass here including the speeding-up and slowing-down walking at its ends (steps in turns and
-standing are excluded); parameters that need a missing contact are NaN. The first and last step of a pass
+standing are excluded), less the contacts at its edges that do not fit its gait (``edges``); parameters that need a missing contact are NaN. The first and last step of a pass
 and every step outside its steady part are edge steps (``steady`` False: acceleration/deceleration, or the
 ends of a short clip): reported, but left out of the summary statistics. A step whose confidence is below
 ``low_confidence`` says so (``low_confidence``). A step that does not deserve to be counted (events out of
