@@ -219,3 +219,18 @@ def test_a_viewer_file_that_cannot_be_written_is_logged_and_the_other_written(pr
     assert set(out) == {"results_mcap"} and out["results_mcap"].is_file()
     assert not files.stage_file("refined", "rerun_rrd").exists()
     assert "trajectory.rrd not written" in caplog.text and "gone.mcap" in caplog.text
+
+
+def test_the_rrd_is_written_by_a_child_process_so_reruns_memory_never_stays_in_the_worker(processed, tmp_path):
+    import pickle
+
+    _, view, _, _ = processed
+    (tmp_path / "view.pkl").write_bytes(pickle.dumps(view))
+    out = tmp_path / "apart.rrd"
+    code = ("import pickle, sys; from gaitcap.services.processing.viewers.apart import write_rrd_apart; "
+            f"write_rrd_apart({str(out)!r}, pickle.loads(open({str(tmp_path / 'view.pkl')!r}, 'rb').read())); "
+            "print('rerun loaded here:', 'rerun' in sys.modules)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "rerun loaded here: False" in r.stdout  # written, yet Rerun never loaded in the calling process
+    _rerun("rrd", "verify", str(out))  # and it is a whole Rerun file
