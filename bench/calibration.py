@@ -403,6 +403,8 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
         "chosen": choice.chosen if choice else None, "choice_rms_px": choice.held_out_rms_px if choice else None,
         "choice_candidates": list(choice.candidates) if choice else None,
         "choice_seconds": choice.seconds if choice else 0.0, "shared_focal": choice.shared_focal if choice else None,
+        "choice_fallback": choice.fallback if choice else None,
+        "choice_rig_rms_px": list(choice.rig_rms_px) if choice else None,
         "cameras": list(obs.camera_names),
         "frame_sets": own.frame_sets, "fold_errors": list(own.fold_errors), "fit_seconds": fit_s,
         "folds_seconds": own.seconds, "gaitcap": figures(own), "caliscope": figures(theirs),
@@ -463,6 +465,7 @@ def _held_out_lines(h: dict) -> list[str]:
                  f"{'met' if h['meets_target'] else 'NOT met'} (caliscope's calibration was made from these frame "
                  "sets: in-sample for it)")
     lines += [f"    fold not fitted: {e}" for e in h["fold_errors"]]
+    lines += [f"    {h['choice_fallback']}"] if h.get("choice_fallback") else []
     lines += [f"    {h['shared_focal']}"] if h.get("shared_focal") else []
     lines += [f"    intrinsics not chosen: {h['choice_error']}"] if h.get("choice_error") else []
     return lines

@@ -88,7 +88,11 @@ def _choice(choice) -> str:
     lines += [f"  {i + 1}: {label}" for i, label in enumerate(choice.candidates)]
     for cam, rms in choice.held_out_rms_px.items():
         lines.append(f"{cam:<10} " + " ".join(f"{r:>6.3f}" for r in rms) + f"  -> {choice.chosen[cam]}")
+    if choice.rig_rms_px:
+        lines.append(f"{'rig':<10} " + " ".join(f"{r:>6.3f}" for r in choice.rig_rms_px)
+                     + f"  -> {choice.combined_rms_px:.3f} with the intrinsics chosen")
     lines += [f"candidate {k} not fitted in every fold: {v[0]}" for k, v in choice.failures.items()]
+    lines += [choice.fallback] if choice.fallback else []
     lines += [choice.shared_focal] if choice.shared_focal else []
     return "\n".join(lines)
 

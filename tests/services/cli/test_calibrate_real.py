@@ -93,3 +93,17 @@ def test_choosing_intrinsics_that_are_given_is_a_usage_error(tmp_path):
     assert result.exit_code == 2
     assert "--choose-intrinsics: the intrinsics are given (--intrinsics); nothing to choose" in result.output
     assert not (tmp_path / "c.toml").exists()
+
+
+def test_the_intrinsics_choice_prints_the_rig_figures_and_a_fallback():
+    from gaitcap.reconstruction.calibration.model_choice import IntrinsicsChoice
+    from gaitcap.services.cli.calibrate import _choice
+
+    fallback = ("each camera's own choice together held out 1.200 px over the rig, the best single candidate "
+                "(k1, principal point free) 1.050 px: it is taken for every camera")
+    choice = IntrinsicsChoice(("k1, principal point held", "k1, principal point free"),
+                              {"cam_0": (1.1, 1.0), "cam_1": (1.0, 1.1)},
+                              {"cam_0": "k1, principal point free", "cam_1": "k1, principal point free"},
+                              {}, {}, 3, 12.0, "", (1.10, 1.05), 1.05, fallback)
+    text = _choice(choice).splitlines()
+    assert "rig         1.100  1.050  -> 1.050 with the intrinsics chosen" in text and fallback in text
