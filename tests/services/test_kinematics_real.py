@@ -69,8 +69,8 @@ def test_joint_angles_follow_plug_in_gait_after_a_constant_offset(fitted):
             assert a.rmse_after_offset_deg <= 1.5 and a.r >= 0.995, (var, side, a)
     for side in ("left", "right"):
         a = agree["ankle_dorsiflexion"][side]
-        # measured: 1.72 / 1.14 deg, r 0.984 / 0.996 (2.7 / 2.2, r 0.962 / 0.976 before, see above), peak
-        # plantarflexion -26.4 / -35.8 against Plug-in-Gait's -26.9 / -33.6 (it was -17 / -27 with
+        # measured: 1.72 / 1.15 deg, r 0.984 / 0.996 (2.7 / 2.2, r 0.962 / 0.976 before, see above), peak
+        # plantarflexion -26.5 / -35.8 against Plug-in-Gait's -26.9 / -33.6 (it was -17 / -27 with
         # Pose2Sim's foot markers and the subtalar joint on its bound)
         assert a.rmse_after_offset_deg <= 2.0 and a.r >= 0.98, (side, a)
         assert abs(a.trial_min_deg - a.offset_deg - a.reference_min_deg) <= 3.0, (side, a)  # peak plantarflexion
@@ -99,6 +99,7 @@ def test_the_same_walk_along_the_rooms_diagonal_reads_the_same_angles(walk, fitt
     for var in ("hip_flexion", "knee_flexion", "ankle_dorsiflexion"):
         for side in ("left", "right"):
             a, b = straight[var][side], diagonal[var][side]
-            # measured: within 0.0x deg (the IK's own tolerance)
-            assert abs(a.offset_deg - b.offset_deg) < 0.3 and abs(a.rmse_after_offset_deg - b.rmse_after_offset_deg) < 0.2, (
+            # measured: within 0.013 deg; with the tilt held about the room's z the diagonal's hip flexion read
+            # 3.4 / 4.0 deg RMSE after the offset (against 0.96 / 1.17) and its offset moved by 1.1 deg
+            assert abs(a.offset_deg - b.offset_deg) < 0.1 and abs(a.rmse_after_offset_deg - b.rmse_after_offset_deg) < 0.1, (
                 var, side, a, b)
