@@ -1,7 +1,8 @@
 """A PostgreSQL server of its own in a folder: the throwaway catalog server of the tests and benchmarks.
 
 :class:`LocalPostgres` makes a cluster with ``initdb`` in a new temporary folder, starts it with ``pg_ctl`` on
-a free loopback port (TCP on 127.0.0.1 only, its socket in the folder), and stops and removes it. As root,
+a free loopback port (TCP on 127.0.0.1, and on ``also_listen``'s addresses; its socket in the folder), and stops
+and removes it. As root,
 the server runs as the ``postgres`` account Debian's package makes (PostgreSQL refuses to run as root), in a
 folder owned by it. Passwords are checked with SCRAM-SHA-256; TLS is on (a certificate for 127.0.0.1 signed
 by a CA of its own, :attr:`LocalPostgres.ca_file`) and each client chooses it with ``sslmode``.
@@ -59,8 +60,9 @@ def _server_account() -> pwd.struct_passwd | None:
 class LocalPostgres:
     """``with LocalPostgres() as pg: url = pg.create_database("cat1")`` (see the module docstring)."""
 
-    def __init__(self, *, port: int | None = None) -> None:
+    def __init__(self, *, port: int | None = None, also_listen: tuple[str, ...] = ()) -> None:
         self.port = port or free_port()
+        self.also_listen = tuple(also_listen)  # more IPv4 addresses of this host (the rooms' links): see start
         self.account = _server_account()
         self.client_dir = Path(tempfile.mkdtemp(prefix="gaitcap-pg-client-"))  # ours, 0700: passfile, CA
         self.root = Path(tempfile.mkdtemp(prefix="gaitcap-pg-"))  # the server's: data, socket, log
@@ -105,12 +107,17 @@ class LocalPostgres:
             pwfile.unlink(missing_ok=True)
         self._tls_files()
         settings = {**_SETTINGS, "port": str(self.port), "unix_socket_directories": f"'{self.root}'"}
+        if self.also_listen:  # clients on those links' subnets sign in as on loopback (SCRAM)
+            settings["listen_addresses"] = "'" + ",".join(("127.0.0.1", *self.also_listen)) + "'"
+            with open(self.data / "pg_hba.conf", "a") as f:
+                f.write("host all all samenet scram-sha-256\n")
         with open(self.data / "postgresql.conf", "a") as f:
             f.write("".join(f"{k} = {v}\n" for k, v in settings.items()))
         self._run(program("pg_ctl"), "-D", str(self.data), "-l", str(self.root / "server.log"), "-w", "-t", "60",
                   "start")
         self.started = True
-        self._write_private(self.passfile, "".join(f"127.0.0.1:{self.port}:*:{role}:{pw}\n"
+        self._write_private(self.passfile, "".join(f"{host}:{self.port}:*:{role}:{pw}\n"
+                                                   for host in ("127.0.0.1", *self.also_listen)
                                                    for role, pw in self._passwords.items()), server=False)
         from psycopg import sql
 
@@ -137,10 +144,10 @@ class LocalPostgres:
                              passfile=str(self.passfile), autocommit=True) as conn:
             yield conn
 
-    def url(self, database: str, *, role: str = APP_ROLE, **query: str) -> str:
-        """The SQLAlchemy URL of ``database`` (no password: it is in :attr:`passfile`); ``query``: libpq
-        options such as ``sslmode="verify-full", sslrootcert=...``."""
-        return URL.create("postgresql+psycopg", username=role, host="127.0.0.1", port=self.port,
+    def url(self, database: str, *, role: str = APP_ROLE, host: str = "127.0.0.1", **query: str) -> str:
+        """The SQLAlchemy URL of ``database`` (no password: it is in :attr:`passfile`) at ``host`` (127.0.0.1 or
+        one of ``also_listen``); ``query``: libpq options such as ``sslmode="verify-full", sslrootcert=...``."""
+        return URL.create("postgresql+psycopg", username=role, host=host, port=self.port,
                           database=database, query=query).render_as_string(hide_password=False)
 
     def create_database(self, name: str, **query: str) -> str:
