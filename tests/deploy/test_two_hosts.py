@@ -39,7 +39,7 @@ SIM_ARGS = ["--sim-preset", SIM["preset"], "--sim-seconds", str(SIM["seconds"]),
             str(SIM["cameras"]), "--sim-seed", str(SIM["seed"]), "--fps", str(SIM["fps"])]
 FRAMES = 120  # 8 s at 15 fps
 ROOMS = ("gait1", "gait2")
-LEASE_S = 6.0
+LEASE_S = 10.0  # the default; the killed worker's lease runs out while the other processes its own trial
 
 
 class Room:
@@ -250,6 +250,7 @@ def test_two_rooms_record_at_once_and_two_workers_process_each_trial_once_throug
     env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1")
     procs = Processes(tmp_path, env)
     db = cat.open_catalog(central.url(db_name))
+    pool = ThreadPoolExecutor(1)
     try:
         drivers = {r.name: _start_room(procs, r, tmp_path, url_of[r.name]) for r in rooms_}
         trial_of = {name: _read_event(d, "recording", 150)["trial_id"] for name, d in drivers.items()}
@@ -265,7 +266,7 @@ def test_two_rooms_record_at_once_and_two_workers_process_each_trial_once_throug
         assert _stop(drivers[second])["pending"] is False
         summaries = {name: _read_event(d, "queued", 90)["summary"] for name, d in drivers.items()}
         # the one-room runs of the same recordings, in this process while the rooms' workers process them
-        alone = ThreadPoolExecutor(1).submit(_alone, tmp_path, db, trial_of)
+        alone = pool.submit(_alone, tmp_path, db, trial_of)
         running = _until("a worker processing a trial", lambda: next(
             (j for t in trial_of.values() for j in cat.jobs_for_trial(db, t) if j.state == "running"
              and cat.get_trial(db, t).state == "processing"), None), 300, 0.05)
@@ -308,4 +309,5 @@ def test_two_rooms_record_at_once_and_two_workers_process_each_trial_once_throug
             assert _gait_json(tmp_path / by, trial_id) == alone.result(timeout=300)[name]
     finally:
         procs.stop_all()
+        pool.shutdown()
         db.close()
