@@ -18,6 +18,7 @@ from gaitcap.services.live.rig_check import recorder_warnings
 from gaitcap.services.processing.store import recording_checksum
 
 log = logging.getLogger(__name__)
+RESUMED_DETAIL = "written once the catalog was back"  # the audit row of a Stop written late
 
 
 def checksum_of(trial: cat.TrialInfo) -> dict:
@@ -65,7 +66,7 @@ class PendingStops:
         with self._lock:
             self._pending[stop.trial_id] = stop
         log.warning("trial %s: stopped and saved; the catalog is unreachable, its Stop is written once it is back "
-                    "(tried every %.0f s)", stop.trial_id, self.period_s)
+                    "(tried every %g s)", stop.trial_id, self.period_s)
 
     def ids(self) -> set[str]:
         """The trials whose Stop waits for the catalog (the trial guard leaves them alone)."""
@@ -73,15 +74,20 @@ class PendingStops:
             return set(self._pending)
 
     def write(self, stop: PendingStop) -> None:
-        """The Stop's catalog writes (raises while the catalog is unreachable)."""
-        try:
+        """The Stop's catalog writes (raises while the catalog is unreachable). Each step is taken only if
+        not yet taken, so a write cut off half-way (the catalog gone again, a server error) is finished by
+        the next try: the audit row once, ``recording -> stopping``, then the recorder's summary and
+        ``stopping -> recorded``."""
+        rows = cat.audit_entries(self.catalog, trial_id=stop.trial_id)
+        if not any(r.action == "stop" and r.detail == RESUMED_DETAIL for r in rows):
+            cat.audit(self.catalog, actor=stop.actor, action="stop", trial_id=stop.trial_id, detail=RESUMED_DETAIL)
+        trial = cat.get_trial(self.catalog, stop.trial_id)
+        if trial.state == "recording":
             trial = cat.set_state(self.catalog, stop.trial_id, "stopping", expect="recording",
                                   stage="saving the recording")
-        except cat.IllegalTransition as exc:  # moved on meanwhile (another Stop, the guard): nothing to write
-            log.warning("trial %s: its pending Stop is not written: %s", stop.trial_id, exc)
+        elif trial.state != "stopping":  # moved on meanwhile (another Stop, the guard): nothing to write
+            log.warning("trial %s: its pending Stop is not written: the trial is %s", stop.trial_id, trial.state)
             return
-        cat.audit(self.catalog, actor=stop.actor, action="stop", trial_id=stop.trial_id,
-                  detail="written once the catalog was back")
         finish_stop(self.catalog, trial, stop.summary, stopped_at=stop.stopped_at)
         log.info("trial %s: its Stop is written (the catalog is back); processing queued", stop.trial_id)
 
