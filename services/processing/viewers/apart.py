@@ -16,6 +16,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import threading
+from dataclasses import replace
 from pathlib import Path
 
 from gaitcap.services.processing.viewers.rerun_trial import RerunSettings, write_trial_rrd
@@ -63,6 +64,8 @@ def write_rrd_apart(path: Path, view: TrialView, settings: RerunSettings = Rerun
     exits afterwards; the path written. The child's error is raised here; a child that died without an
     answer is a RuntimeError with its exit code."""
     ctx = _forkserver()
+    # the fit's continuous trajectory (a closure, which cannot be pickled) stays here: the file draws the samples
+    view = replace(view, trajectory=replace(view.trajectory, trajectory=None))
     ours, theirs = ctx.Pipe(duplex=False)
     child = ctx.Process(target=_write_and_exit, args=(theirs, Path(path), view, settings), name="rrd-writer")
     child.start()

@@ -227,8 +227,12 @@ def test_the_rrd_is_written_by_a_child_process_so_reruns_memory_never_stays_in_t
     _, view, _, _ = processed
     (tmp_path / "view.pkl").write_bytes(pickle.dumps(view))
     out = tmp_path / "apart.rrd"
-    code = ("import pickle, sys; from gaitcap.services.processing.viewers.apart import write_rrd_apart; "
-            f"write_rrd_apart({str(out)!r}, pickle.loads(open({str(tmp_path / 'view.pkl')!r}, 'rb').read())); "
+    code = ("import dataclasses, pickle, sys; from gaitcap.services.processing.viewers.apart import write_rrd_apart\n"
+            f"view = pickle.loads(open({str(tmp_path / 'view.pkl')!r}, 'rb').read())\n"
+            "def fitted():\n"  # a fit's trajectory carries its continuous function, a closure (not picklable)
+            "    def sampled(t): return view.trajectory.points_mm[:len(t)]\n"
+            "    return dataclasses.replace(view, trajectory=dataclasses.replace(view.trajectory, trajectory=sampled))\n"
+            f"write_rrd_apart({str(out)!r}, fitted())\n"
             "print('rerun loaded here:', 'rerun' in sys.modules)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
