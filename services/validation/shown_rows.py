@@ -70,7 +70,8 @@ def alignment_text(result: dict) -> str:
     name = str(result.get("reference") or "").replace("\\", "/").split("/")[-1]
     residual = shown(a.get("residual_mm"), 1)
     return (f"Against {result.get('reference_kind') or 'reference'} {name}: lag {_s(a.get('lag_s'), 3)} s"
-            + (f", residual {residual} mm." if residual else "."))
+            + (f", residual {residual} mm." if residual else ".")
+            + (f" Timing: {a['timing_note']}." if a.get("timing_note") else ""))
 
 
 def shown_validation(result: dict) -> dict:

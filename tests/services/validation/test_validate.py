@@ -220,7 +220,10 @@ def test_walkway_reference_aligns_on_its_own_clock(walk, tmp_path):
     res = _validate(proc, tmp_path / "walk.csv", "--out", tmp_path / "v", "--json")
     assert res.exit_code == 0, res.output
     out = json.loads(res.stdout.strip().splitlines()[-1])
-    assert abs(out["alignment"]["lag_s"] - (START_S + 10.0)) < 0.035  # the walkway alignment's 0.03 s grid
+    # the foot-speed alignment's own bias on this walk: +39.5 ms measured with 5 ms steps (docs/validation.md,
+    # "Walkway"); the bound allows that bias and one 5 ms step more, not a stride or a frame's worth more
+    assert 0.0 < out["alignment"]["lag_s"] - (START_S + 10.0) < 0.045
+    assert "no shared clock" in out["alignment"]["timing_note"]
     assert out["parameters"]["step_length_mm"]["all"]["n"] >= 2
 
 
