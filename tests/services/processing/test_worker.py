@@ -127,7 +127,7 @@ class _Killed(BaseException):
 def test_viewer_files_are_listed_in_the_catalog_only_once_written(tmp_path, walk, monkeypatch):
     """The .rrd fails half-way (a full disk: logged, the trial stays processed), then the worker dies while
     writing the results MCAP: the catalog lists neither, and every file it lists is there, whole."""
-    from gaitcap.services.processing.viewers import rerun_trial, results_mcap
+    from gaitcap.services.processing.viewers import files, rerun_trial, results_mcap
 
     def disk_full(*_a, **_k):
         raise OSError(28, "No space left on device")
@@ -135,6 +135,8 @@ def test_viewer_files_are_listed_in_the_catalog_only_once_written(tmp_path, walk
     def killed(*_a, **_k):
         raise _Killed()
 
+    # the .rrd's writer runs here, not in its child process, so that the failure patched in below reaches it
+    monkeypatch.setattr(files, "write_rrd_apart", rerun_trial.write_trial_rrd)
     monkeypatch.setattr(rerun_trial, "_log_rig", disk_full)  # after the .rrd's temporary file is open
     monkeypatch.setattr(results_mcap, "_write_gait", killed)  # after the skeleton messages are written
     db, tid = _recorded_trial(tmp_path, walk)
