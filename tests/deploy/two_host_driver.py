@@ -9,7 +9,10 @@ recorder has started; waits for a line "stop" on stdin; stops the recording and 
 "pending"} (pending: the catalog was unreachable); once the catalog writes are done prints {"event": "queued",
 "summary"}.
 
-    python two_host_driver.py BUS_FILE DATA_DIR SIM_JSON CATALOG_URL ROOM
+    python two_host_driver.py BUS_FILE DATA_DIR SIM_JSON [CATALOG_URL ROOM]
+
+Without CATALOG_URL and ROOM (the one-room GigE Vision trial test): DATA_DIR's own SQLite catalog and the
+default room; SIM_JSON's ``fps`` defaults to 30.
 """
 
 import json
@@ -54,7 +57,7 @@ def _stop(db, recorder, trial_id: str) -> tuple[dict, bool]:
 
 def main() -> None:
     bus_file, data_dir, sim = Path(sys.argv[1]), Path(sys.argv[2]), json.loads(sys.argv[3])
-    catalog_url, room = sys.argv[4], sys.argv[5]
+    catalog_url, room = (sys.argv[4], sys.argv[5]) if len(sys.argv) > 5 else (str(data_dir / "catalog.sqlite"), "")
     from gaitcap.reconstruction.calibration_io import rig_to_toml_text
     from gaitcap.services import catalog as cat
     from gaitcap.services.bus.control import RecorderClient
@@ -64,11 +67,12 @@ def main() -> None:
     from gaitcap.simulator import make_trial
 
     bus = load_bus_config(bus_file)
-    rig = make_trial(sim["preset"], seconds=sim["seconds"], cameras=sim["cameras"], seed=sim["seed"], fps=sim["fps"]).rig
+    rig = make_trial(sim["preset"], seconds=sim["seconds"], cameras=sim["cameras"], seed=sim["seed"], fps=sim.get("fps", 30.0)).rig
     session = open_session(bus, None)
     _wait_for_nodes(session, bus, {"recorder", "detector", "worker"})
     db = cat.open_catalog(catalog_url)
-    rooms.register_room(db, room, host=f"{room}-host")
+    if room:
+        rooms.register_room(db, room, host=f"{room}-host")
     trial = cat.start_trial(db, subject_id="P-netns", session="s1", room=room,
                             recording_path_for=lambda tid: trial_files(data_dir, tid).recording)
     Path(trial.recording_path).parent.mkdir(parents=True, exist_ok=True)
