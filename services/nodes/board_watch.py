@@ -122,16 +122,14 @@ class BoardWatcher:
         watch = self._watch
         if watch is None:
             return
-        key = str(sample.key_expr)
         try:
-            camera = self.bus.keys.camera_of(key)
-            if not self.cameras.wants(camera):
-                return
-            att = sample.attachment.to_bytes() if sample.attachment is not None else None
-            frame = ImageFrame.from_bytes(sample.payload.to_bytes(), att, camera=camera)
+            frame = self.cameras.frame_of(self.bus.keys, sample)
         except ValueError as exc:
-            log.debug("frame on %s not looked at: %s", key, exc)
+            log.debug("frame on %s not looked at: %s", sample.key_expr, exc)
             return
+        if frame is None:
+            return
+        camera = frame.camera
         slot = frame.timestamp_ns // int(watch.slot_s * 1e9)
         with self._cond:
             if self._watch is watch and self._slots.add(camera, slot, frame):

@@ -60,6 +60,15 @@ class CameraSelection:
             return False
         return self.shards == 1 or zlib.crc32(camera.encode()) % self.shards == self.shard
 
+    def frame_of(self, keys, sample) -> ImageFrame | None:
+        """The camera frame in bus ``sample`` (published on an image key of ``keys``); None when its camera
+        is not one of this selection's; ValueError naming what is wrong with the key or the frame."""
+        camera = keys.camera_of(str(sample.key_expr))
+        if not self.wants(camera):
+            return None
+        att = sample.attachment.to_bytes() if sample.attachment is not None else None
+        return ImageFrame.from_bytes(sample.payload.to_bytes(), att, camera=camera)
+
 
 class Coverage:
     """Per-camera counts and lag of a detector node (thread-safe)."""
@@ -133,16 +142,14 @@ class DetectorNode:
         return sum(self.pool.counts.lost.values())
 
     def _on_image(self, sample) -> None:
-        key = str(sample.key_expr)
         try:
-            camera = self.bus.keys.camera_of(key)
-            if not self.cameras.wants(camera):
-                return
-            att = sample.attachment.to_bytes() if sample.attachment is not None else None
-            frame = ImageFrame.from_bytes(sample.payload.to_bytes(), att, camera=camera)
+            frame = self.cameras.frame_of(self.bus.keys, sample)
         except ValueError as exc:
-            log.warning("frame on %s refused: %s", key, exc)
+            log.warning("frame on %s refused: %s", sample.key_expr, exc)
             return
+        if frame is None:
+            return
+        camera = frame.camera
         self.coverage.count(self.coverage.received, camera)
         self.pool.submit(FrameTask(camera, frame.frame_id, frame.timestamp_ns, frame.meta.sent_ns, frame.jpeg))
 
