@@ -16,6 +16,7 @@ from pathlib import Path
 from gaitcap.services import catalog as cat
 from gaitcap.services.live.rig_check import recorder_warnings
 from gaitcap.services.processing.store import recording_checksum
+from sqlalchemy.exc import OperationalError
 
 log = logging.getLogger(__name__)
 RESUMED_DETAIL = "written once the catalog was back"  # the audit row of a Stop written late
@@ -98,8 +99,12 @@ class PendingStops:
                 pending = self._pending.get(stop)
             try:
                 self.write(pending)
-            except Exception as exc:  # still unreachable: kept, tried again next period
+            except OperationalError as exc:  # still unreachable: kept, tried again next period
                 log.debug("trial %s: Stop still pending (%s)", stop, type(exc).__name__)
+                continue
+            except Exception:  # anything else is named, and still kept: the recording is safe on disk
+                log.warning("trial %s: its Stop could not be written; tried again in %g s", stop, self.period_s,
+                            exc_info=True)
                 continue
             with self._lock:
                 self._pending.pop(stop, None)

@@ -24,7 +24,7 @@ def _recording(db, tmp_path, subject="P001"):
     return trial
 
 
-def test_a_stop_cut_off_half_way_is_finished_by_the_next_try(db, tmp_path, monkeypatch):
+def test_a_stop_cut_off_half_way_is_finished_by_the_next_try(db, tmp_path, monkeypatch, caplog):
     trial = _recording(db, tmp_path)
     real, calls = pending_stops.finish_stop, []
 
@@ -38,6 +38,7 @@ def test_a_stop_cut_off_half_way_is_finished_by_the_next_try(db, tmp_path, monke
     stops = PendingStops(db, period_s=60.0)
     stops.add(PendingStop(trial_id=trial.id, summary={"frames": 10}, actor="alice", stopped_at=time.time()))
     assert stops.flush() == 1 and cat.get_trial(db, trial.id).state == "stopping"
+    assert f"trial {trial.id}: its Stop could not be written" in caplog.text  # not a lost catalog: named
     assert stops.flush() == 0
     assert cat.get_trial(db, trial.id).state == "recorded" and len(calls) == 2
     rows = [r for r in cat.audit_entries(db, trial_id=trial.id) if r.action == "stop"]
