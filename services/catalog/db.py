@@ -18,6 +18,7 @@ import itertools
 import logging
 import os
 import signal
+import sqlite3
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -66,7 +67,7 @@ def _sqlite_engine(url: str) -> Engine:
     def _on_connect(dbapi_conn, _record) -> None:
         dbapi_conn.isolation_level = None  # we issue BEGIN ourselves
         cur = dbapi_conn.cursor()
-        cur.execute("PRAGMA journal_mode=WAL")
+        _use_wal(cur)
         cur.execute("PRAGMA foreign_keys=ON")
         cur.execute("PRAGMA busy_timeout=30000")
         cur.execute("PRAGMA synchronous=NORMAL")
@@ -84,6 +85,27 @@ def _sqlite_engine(url: str) -> Engine:
             os.kill(os.getpid(), signal.SIGSTOP)
 
     return engine
+
+
+WAL_SWITCH_WAIT_S = 30.0  # how long a connection waits for another to finish switching a new catalog to WAL
+
+
+def _use_wal(cur: sqlite3.Cursor, *, wait_s: float = WAL_SWITCH_WAIT_S) -> None:
+    """Put the catalog in WAL mode (kept in the file: only a new catalog's first connection switches it).
+
+    The switch needs the file to itself and SQLite answers "database is locked" at once, without its busy
+    timeout, while another process is opening the same new catalog (seen with 8 processes opening one at
+    once): wait and try again, for at most ``wait_s`` (s)."""
+    deadline = time.monotonic() + wait_s
+    while True:
+        try:
+            if cur.execute("PRAGMA journal_mode").fetchone()[0].lower() != "wal":
+                cur.execute("PRAGMA journal_mode=WAL")
+            return
+        except sqlite3.OperationalError as exc:
+            if "locked" not in str(exc) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.02)
 
 
 @dataclass(frozen=True, eq=False)
