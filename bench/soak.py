@@ -58,7 +58,8 @@ def run(args) -> dict:
                           extra_env=disk_threshold_env(Path(tmp), headroom_mb=2048 + 100 * trials) if args.faults else {})
         with Stack(cfg) as stack:
             report = run_soak(stack, trials=trials, every_s=args.every_s, trial_s=args.trial_s, plan=plan,
-                              stop_s=args.stop_s, warm_up=args.warm_up)
+                              stop_s=args.stop_s, warm_up=args.warm_up,
+                              until_s=args.minutes * 60)
     out = report.to_dict()
     out["config"] = {"cameras": args.cameras, "size": args.size, "fps": args.fps, "refine": not args.no_refine,
                      "walk_s": args.walk_s, "every_s": args.every_s, "trial_s": args.trial_s, "faults": args.faults,
@@ -83,7 +84,7 @@ def run(args) -> dict:
 
 
 def _table(r: dict) -> str:
-    lines = [f"soak: {r['minutes']:.1f} min, {len(r['trials'])} trials, all done: {r['all_done']}, "
+    lines = [f"soak: {r['minutes']:.1f} min, {len(r['trials'])} of {r['trials_planned']} trials planned, all done: {r['all_done']}, "
              f"recordings lost: {r['recordings_lost']}, orphaned: {len(r['orphans'])}, "
              f"disk per trial: {r['disk_per_trial_mb']:.1f} MB",
              "trial                              state               preliminary s  refined s  fault"]
@@ -121,7 +122,8 @@ def _table(r: dict) -> str:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--minutes", type=float, default=30.0, help="How long to run (one trial every --every-s).")
+    p.add_argument("--minutes", type=float, default=30.0,
+                   help="How long to run: a trial every --every-s, none started after this (a loaded machine runs fewer).")
     p.add_argument("--every-s", type=float, default=60.0, help="A trial starts every this many seconds.")
     p.add_argument("--trial-s", type=float, default=20.0, help="Each trial records this long (s).")
     p.add_argument("--cameras", type=int, default=10)

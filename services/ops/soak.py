@@ -140,6 +140,7 @@ class SoakReport:
     rss_series_mb: dict[str, list[float]] = field(default_factory=dict)
     orphans: tuple[str, ...] = ()
     warm_up: int = 10
+    trials_planned: int = 0
 
     @property
     def all_done(self) -> bool:
@@ -275,11 +276,12 @@ def _one_trial(stack, ctx, fault, outcome, *, subject_id: str, trial_s: float, s
 
 def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0, stall_s: float = 600.0,
              subject_id: str = "SOAK001", plan: dict[int, str] | None = None, stop_s: float = 60.0,
-             warm_up: int = 10) -> SoakReport:
+             warm_up: int = 10, until_s: float | None = None) -> SoakReport:
     """Record ``trials`` walks of ``trial_s`` on the running ``stack``, one starting every ``every_s`` (or
     as soon as the previous one's results are in, when later), with the faults of ``plan`` (trial index ->
     fault name, :data:`gaitcap.services.ops.fault_schedule.FAULTS`; ``stop_s``: the worker's SIGSTOP), and
-    report what happened; memory slopes leave out the first ``warm_up`` trials."""
+    report what happened; memory slopes leave out the first ``warm_up`` trials. ``until_s``: the day's
+    length (s from the start); no trial starts after it, so a loaded machine runs fewer trials, not longer."""
     from gaitcap.services.ops.fault_schedule import FAULTS, FaultContext, FaultOutcome
 
     if trials < 1 or every_s <= 0 or trial_s <= 0:
@@ -296,6 +298,9 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
         disk = disk_bytes(stack.data_dir)
         for k in range(trials):
             time.sleep(max(0.0, t0 + k * every_s - time.monotonic()))
+            if until_s is not None and time.monotonic() - t0 >= until_s:
+                log.info("soak: the day's %.0f s are over after %d of %d trials", until_s, k, trials)
+                break
             fault = FAULTS[plan[k]] if k in plan else None
             outcome = FaultOutcome(fault.name) if fault else None
             trial_id, trial, prelim, refined, why = _one_trial(stack, ctx, fault, outcome, subject_id=subject_id,
@@ -317,4 +322,4 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
                       restarts={n: stack.supervisor.restarts(n) - restarts0[n] for n in restarts0},
                       disk_per_trial_mb=growth[len(growth) // 2] / 1e6 if growth else 0.0,
                       frame_period_s=1.0 / stack.cfg.fps, rss_series_mb=series, orphans=_orphans(stack),
-                      warm_up=warm_up)
+                      warm_up=warm_up, trials_planned=trials)
