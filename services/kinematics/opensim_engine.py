@@ -243,10 +243,12 @@ class OpenSimEngine:
     name = "opensim"
 
     def __init__(self) -> None:
-        self.osim = _import_opensim()
+        # the model's file first: importing OpenSim costs seconds (10-18 s a process on a loaded machine),
+        # wasted where the model is not installed
         if not (setup_dir() / MODEL_FILE).is_file():
             raise KinematicsUnavailable(f"the OpenSim model {setup_dir() / MODEL_FILE} is not installed (run "
                                         "deploy/bootstrap.sh)")
+        self.osim = _import_opensim()
         self.osim.Logger.setLevelString("Error")
 
     def zero_pose_markers_mm(self, setup: str) -> dict[str, np.ndarray]:

@@ -2,6 +2,7 @@
 (MOT, OSIM, TRC, C3D read back), the sign conventions read off the model, and a clear error without it."""
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -173,6 +174,19 @@ def test_missing_setup_files_make_kinematics_unavailable(tmp_path, monkeypatch, 
         trial_kinematics(points[:30], times[:30], names, out_dir=tmp_path / "out")
     d = json.loads((tmp_path / "out" / "kinematics.json").read_text())
     assert d == {"available": False, "reason": reason}
+
+
+def test_a_missing_model_is_said_without_importing_opensim(tmp_path):
+    """Where the model is not installed, the engine says so before importing OpenSim (seconds per process)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from gaitcap.services.kinematics import availability; ok, why = availability(); "
+            "print(ok, 'opensim' in sys.modules, why)")
+    env = {**os.environ, "GAITCAP_OPENSIM_DIR": str(tmp_path / "nowhere")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("False False ") and "not installed" in out.stdout
 
 
 def test_cli_kinematics(tmp_path, fitted):
