@@ -79,7 +79,8 @@ def _children_of() -> dict[int, list[int]]:
 
 
 def rss_mb(pid: int, children: dict[int, list[int]] | None = None) -> float:
-    """Resident memory (MB) of ``pid`` and all its descendants (Linux ``/proc``; 0 for a process gone)."""
+    """Resident memory (MB, 10^6 bytes, as :func:`gaitcap.services.processing.worker.resident_mb`) of ``pid``
+    and all its descendants (Linux ``/proc``; 0 for a process gone)."""
     children = _children_of() if children is None else children
     total_kb, todo = 0, [pid]
     while todo:
@@ -91,7 +92,7 @@ def rss_mb(pid: int, children: dict[int, list[int]] | None = None) -> float:
                     total_kb += int(line.split()[1])
         except (OSError, ValueError):
             continue
-    return total_kb / 1024
+    return total_kb * 1024 / 1e6  # VmRSS is in KiB
 
 
 def disk_bytes(folder: Path) -> int:
