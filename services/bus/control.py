@@ -6,7 +6,9 @@
     summary = rec.stop("t1").summary                  # frames / gaps per camera
 
 Every payload is a typed message of :mod:`gaitcap.services.bus.messages`; malformed ones are dropped
-with a log line.
+with a log line. A message that names the camera or node whose key it comes on (a camera's status, a
+detector node's status, a board view) is received through :func:`named_by_key`, which drops one that names
+another.
 
     status = CameraStatusBoard(session, bus.keys)     # latest status per camera: status.snapshot()
     preview = PreviewFrames(session, bus.keys)        # latest JPEG per camera: preview.latest()
@@ -19,7 +21,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from gaitcap.services.bus.keys import Keys
 from gaitcap.services.bus.messages import (
@@ -32,6 +34,29 @@ from gaitcap.services.bus.messages import (
 )
 
 log = logging.getLogger(__name__)
+M = TypeVar("M")
+
+
+def named_by_key(cls: type[M], on_message: Callable[[M], None], *, field: str,
+                 name_of: Callable[[str], str]) -> Callable[[Any], None]:
+    """A subscriber callback for messages of type ``cls`` whose ``field`` names the camera or node whose key
+    they come on (``name_of(key)``, e.g. :meth:`Keys.node_of <gaitcap.services.bus.keys.Keys.node_of>`):
+    each sample's payload parsed (``cls.from_bytes``) and passed to ``on_message``; a malformed one, or one
+    naming another camera or node than its key's, dropped with a warning saying why."""
+
+    def _cb(sample) -> None:
+        key = str(sample.key_expr)
+        try:
+            message = cls.from_bytes(sample.payload.to_bytes())
+            named, on_key = getattr(message, field), name_of(key)
+            if named != on_key:
+                raise ValueError(f"{cls.what} of {field} {named} on {key} (the key of {field} {on_key})")
+        except ValueError as exc:
+            log.warning("dropping a %s: %s", cls.what, exc)
+            return
+        on_message(message)
+
+    return _cb
 
 
 class RecorderError(ValueError):
@@ -100,17 +125,10 @@ class CameraStatusBoard:
     def __init__(self, session, keys: Keys, on_status: Callable[[dict], None] | None = None) -> None:
         self._latest = _Latest()
         self._on_status = on_status
-        self._keys = keys
-        self._sub = session.declare_subscriber(keys.status(), self._cb)
+        self._sub = session.declare_subscriber(
+            keys.status(), named_by_key(CameraStatus, self._keep, field="camera", name_of=keys.camera_of))
 
-    def _cb(self, sample) -> None:
-        try:
-            parsed = CameraStatus.from_bytes(sample.payload.to_bytes())
-            if parsed.camera != self._keys.camera_of(str(sample.key_expr)):
-                raise ValueError(f"status of camera {parsed.camera} on {sample.key_expr}")
-        except ValueError as exc:
-            log.warning("dropping a camera status: %s", exc)
-            return
+    def _keep(self, parsed: CameraStatus) -> None:
         status = parsed.to_dict()
         self._latest.set(parsed.camera, status)
         if self._on_status is not None:

@@ -4,31 +4,34 @@
 All keys live under a rig prefix (default ``gaitcap/default``; one prefix per rig so several rigs can
 share a network). ``<cam>`` is a camera name as in the calibration, ``<node>`` a node name.
 
-=====================================  ==========  ========================================================
-key expression                         kind        payload (``messages.``)
-=====================================  ==========  ========================================================
-``<prefix>/camera/<cam>/image``        put         protobuf ``foxglove.CompressedImage`` (JPEG; its
-                                                   ``timestamp`` is THE camera timestamp) with a
-                                                   :class:`FrameMeta` attachment (frame id, send time):
-                                                   :class:`ImageFrame`
-``<prefix>/camera/<cam>/status``       put         :class:`CameraStatus` (about once per second and on
-                                                   every state change)
-``<prefix>/keypoints/<cam>``           put         :class:`Keypoints` (one message per frame and camera)
-``<prefix>/recorder/start``            queryable   :class:`RecorderStart`; reply :class:`RecorderReply`
-                                                   (``ok`` false + ``error`` on refusal)
-``<prefix>/recorder/stop``             queryable   :class:`RecorderStop`; reply :class:`RecorderReply`
-                                                   with the trial summary
-``<prefix>/recorder/status``           queryable   no payload; reply :class:`RecorderReply` (``recording``)
-``<prefix>/recorder/events``           put         :class:`RecorderEvent`
-``<prefix>/alive/<node>``              liveliness  token held by every node while it runs
-``<prefix>/detector/status/<node>``    put         :class:`DetectorStatus`: per camera frames received,
-                                                   detected, skipped, lost, failed and the lag (s)
-``<prefix>/camera/scene``              put         :class:`CameraScene`: what simulated cameras show
-``<prefix>/board/watch``               put         :class:`BoardWatch`: look for the board of a board
-                                                   recording in the frames (or stop looking)
-``<prefix>/board/views/<cam>``         put         :class:`BoardView`: the board's corners found in one
-                                                   frame looked at (none: not found)
-=====================================  ==========  ========================================================
+=======================================  ==========  ========================================================
+key expression                           kind        payload (``messages.``)
+=======================================  ==========  ========================================================
+``<prefix>/camera/<cam>/image``          put         protobuf ``foxglove.CompressedImage`` (JPEG; its
+                                                     ``timestamp`` is THE camera timestamp) with a
+                                                     :class:`FrameMeta` attachment (frame id, send time):
+                                                     :class:`ImageFrame`
+``<prefix>/camera/<cam>/status``         put         :class:`CameraStatus` (about once per second and on
+                                                     every state change)
+``<prefix>/keypoints/<cam>``             put         :class:`Keypoints` (one message per frame and camera)
+``<prefix>/recorder/start``              queryable   :class:`RecorderStart`; reply :class:`RecorderReply`
+                                                     (``ok`` false + ``error`` on refusal)
+``<prefix>/recorder/stop``               queryable   :class:`RecorderStop`; reply :class:`RecorderReply`
+                                                     with the trial summary
+``<prefix>/recorder/status``             queryable   no payload; reply :class:`RecorderReply` (``recording``)
+``<prefix>/recorder/events``             put         :class:`RecorderEvent`
+``<prefix>/recorder/recording/<trial>``  queryable   :class:`ChunkRequest` (bytes of a finished recording);
+                                                     reply: the bytes, with a :class:`ChunkReply` attachment
+                                                     (:mod:`~gaitcap.services.bus.recording_transfer`)
+``<prefix>/alive/<node>``                liveliness  token held by every node while it runs
+``<prefix>/detector/status/<node>``      put         :class:`DetectorStatus`: per camera frames received,
+                                                     detected, skipped, lost, failed and the lag (s)
+``<prefix>/camera/scene``                put         :class:`CameraScene`: what simulated cameras show
+``<prefix>/board/watch``                 put         :class:`BoardWatch`: look for the board of a board
+                                                     recording in the frames (or stop looking)
+``<prefix>/board/views/<cam>``           put         :class:`BoardView`: the board's corners found in one
+                                                     frame looked at (none: not found)
+=======================================  ==========  ========================================================
 
 Wildcards: ``<prefix>/camera/*/image`` (all frames), ``<prefix>/keypoints/*``, ``<prefix>/alive/**``.
 Who may put or query which key is enforced by Zenoh access control (:mod:`gaitcap.services.bus.security`).
@@ -84,6 +87,11 @@ class Keys:
     @property
     def recorder_events(self) -> str:
         return f"{self.prefix}/recorder/events"
+
+    def recording(self, trial_id: str = "*") -> str:
+        """A trial's finished recording, served by the recorder (``*``: every trial's, its queryable)."""
+        trial = trial_id if trial_id == "*" else check_name(trial_id, what="trial")
+        return f"{self.prefix}/recorder/recording/{trial}"
 
     @property
     def camera_scene(self) -> str:

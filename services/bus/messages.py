@@ -18,6 +18,7 @@ from typing import Any, ClassVar
 from gaitcap.acquisition.encoding import decode_jpeg, image_message, parse_image_message
 from gaitcap.acquisition.keypoint_message import check_people
 from gaitcap.reconstruction.calibration_io import rig_from_toml_text
+from gaitcap.services.bus.keys import check_name as _key_chunk
 
 #: Frame ids count frames from a camera's synchronised start: 2**31 frames is 2 years at 30 frames/s.
 MAX_FRAME_ID = 2**31 - 1
@@ -432,3 +433,47 @@ class BoardView(_Json):
                 raise ValueError(f"{self.what}.corners: every row must be [x, y] px")
             for v in row:
                 _num(v, f"{self.what}.corners", -65535.0, 2 * 65535.0)
+
+
+MAX_CHUNK_BYTES = 8 << 20  # a recording chunk's reply carries at most this many bytes
+MAX_FILE_BYTES = 1 << 46
+
+
+@dataclass(frozen=True)
+class ChunkRequest(_Json):
+    """The payload of a query on ``<prefix>/recorder/recording/<trial_id>``: ``length`` bytes from ``offset``
+    of trial ``trial_id``'s finished recording ``name`` (its file name)."""
+
+    what: ClassVar[str] = "recording chunk request"
+    trial_id: str
+    name: str
+    offset: int
+    length: int
+
+    def __post_init__(self) -> None:
+        check_name(self.trial_id, what=f"{self.what}.trial_id")
+        if not _key_chunk(self.name, what=f"{self.what}.name").endswith(".mcap"):
+            raise ValueError(f"{self.what}.name: {self.name!r} is not an .mcap file name")
+        _int(self.offset, f"{self.what}.offset", 0, MAX_FILE_BYTES)
+        _int(self.length, f"{self.what}.length", 1, MAX_CHUNK_BYTES)
+
+
+@dataclass(frozen=True)
+class ChunkReply(_Json):
+    """The attachment of a recording chunk's reply (the bytes are its payload): its ``offset`` and the
+    recording's ``size`` (bytes); or ``error``, the recorder's refusal, with ``transient`` true when asking
+    again may succeed (the recorder could not read the file just now) and false when it cannot (no such
+    finished recording there, a request it does not serve)."""
+
+    what: ClassVar[str] = "recording chunk reply"
+    offset: int = 0
+    size: int = 0
+    error: str | None = None
+    transient: bool = False
+
+    def __post_init__(self) -> None:
+        _int(self.offset, f"{self.what}.offset", 0, MAX_FILE_BYTES)
+        _int(self.size, f"{self.what}.size", 0, MAX_FILE_BYTES)
+        _str(self.error, f"{self.what}.error", 2000, optional=True)
+        if not isinstance(self.transient, bool):
+            raise ValueError(f"{self.what}.transient: must be true or false")

@@ -63,6 +63,21 @@ def role_of(node: str) -> str:
     return node if node in ROLE_SENDS else "client"
 
 
+def _matches(pattern: list[str], key: list[str]) -> bool:
+    if not pattern:
+        return not key
+    if pattern[0] == "**":
+        return any(_matches(pattern[1:], key[i:]) for i in range(len(key) + 1))
+    return bool(key) and pattern[0] in ("*", key[0]) and _matches(pattern[1:], key[1:])
+
+
+def may_send(node: str, message: str, key: str) -> bool:
+    """Whether the others let ``node`` send ``message`` (``put``, ``query``, ``reply``) on ``key`` (under the
+    prefix, e.g. ``recorder/recording/T1``) on a secured bus: its role's line of :data:`ROLE_SENDS`."""
+    return any(message in messages and any(_matches(k.split("/"), key.split("/")) for k in keys)
+               for messages, keys in ROLE_SENDS[role_of(node)])
+
+
 @dataclass(frozen=True)
 class BusSecurity:
     """The ``security`` section of a bus file (see the module docstring).

@@ -11,7 +11,7 @@ from gaitcap.services.cli._common import stop_on_signals, user_errors
 from gaitcap.services.cli.detect import COMPLETE_WITH_HELP, ONLY_MISSING_HELP, completion_plan
 
 
-def room_fetch(pairs: list[str], node: str):
+def room_fetch(pairs: list[str], node: str, retry_s: float):
     """``--fetch-bus ROOM=BUSFILE`` options -> the worker's RoomFetch (None when there are none)."""
     if not pairs:
         return None
@@ -24,7 +24,7 @@ def room_fetch(pairs: list[str], node: str):
         if not sep or not path:
             raise ValueError(f"--fetch-bus: {pair!r} is not ROOM=BUSFILE")
         buses[room] = load_bus_config(path)
-    return RoomFetch(buses=buses, node=node)
+    return RoomFetch(buses=buses, node=node, retry_s=retry_s)
 
 
 def register(app: typer.Typer) -> None:
@@ -43,6 +43,11 @@ def register(app: typer.Typer) -> None:
                                             "from its recorder over that bus, verified by checksum."),
         fetch_node: str = typer.Option("worker-fetch", "--fetch-node",
                                        help="The identity this worker joins the rooms' buses as (a worker-* name)."),
+        fetch_retry_s: float = typer.Option(120.0, "--fetch-retry-s",
+                                            help="A fetch from a room's recorder that fails for a reason that may "
+                                                 "pass (the recorder unreachable or restarting, a chunk timed out, "
+                                                 "a copy failing its checksum) is tried again until this many "
+                                                 "seconds pass without a new byte; then the trial fails."),
         lease_s: float = typer.Option(10.0, "--lease", help="Job lease (s); renewed every third of it."),
         no_refine: bool = typer.Option(False, "--no-refine", help="Preliminary results only."),
         bus: Path | None = typer.Option(None, "--bus", envvar="GAITCAP_BUS", help="Bus file (JSON5)."),
@@ -79,7 +84,7 @@ def register(app: typer.Typer) -> None:
                                     choice)
             cfg = WorkerConfig(catalog_url=catalog_url(data_dir, catalog), data_dir=data_dir,
                                lease_s=lease_s, refine=not no_refine, rerun=RerunSettings(image_rate_hz=rerun_images_hz),
-                               store=store, fetch=room_fetch(fetch_bus, fetch_node), completion=completion, max_rss_mb=max_rss_mb,
+                               store=store, fetch=room_fetch(fetch_bus, fetch_node, fetch_retry_s), completion=completion, max_rss_mb=max_rss_mb,
                                **({"worker_id": worker_id} if worker_id else {}))
             session = None
             if not no_bus:  # the worker is alive on the bus (the API's health); its progress is in the catalog

@@ -14,6 +14,7 @@ import threading
 import time
 
 from gaitcap.reconstruction.calibration.coverage import GRID, BoardSighting, board_cells, board_coverage
+from gaitcap.services.bus.control import named_by_key
 from gaitcap.services.bus.messages import BoardView, BoardWatch
 
 log = logging.getLogger(__name__)
@@ -44,7 +45,7 @@ class BoardViews:
     """Puts the board watch and keeps the views of the board recording watched (thread-safe)."""
 
     def __init__(self, session, keys, *, slot_s: float = SLOT_S) -> None:
-        self._keys, self.slot_s = keys, slot_s
+        self.slot_s = slot_s
         self._lock = threading.Lock()
         self._watch: BoardWatch | None = None
         self._active = False  # the watch is on (put again while read)
@@ -52,7 +53,8 @@ class BoardViews:
         self._sightings: list[BoardSighting] = []
         self._looked: collections.Counter = collections.Counter()
         self._pub = session.declare_publisher(keys.board_watch)
-        self._sub = session.declare_subscriber(keys.board_views(), self._cb)
+        self._sub = session.declare_subscriber(
+            keys.board_views(), named_by_key(BoardView, self._keep, field="camera", name_of=keys.node_of))
 
     def _put(self, watch: BoardWatch) -> None:  # (under the lock: a watch is never put after its end)
         self._put_s = time.monotonic()
@@ -75,14 +77,7 @@ class BoardViews:
             self._active = False
             self._put(BoardWatch(calibration_id=calibration_id, active=False, slot_s=self.slot_s))
 
-    def _cb(self, sample) -> None:
-        try:
-            view = BoardView.from_bytes(sample.payload.to_bytes())
-            if view.camera != self._keys.node_of(str(sample.key_expr)):
-                raise ValueError(f"view of camera {view.camera} on {sample.key_expr}")
-        except ValueError as exc:
-            log.warning("dropping a board view: %s", exc)
-            return
+    def _keep(self, view: BoardView) -> None:
         with self._lock:
             if self._watch is None or view.calibration_id != self._watch.calibration_id:
                 return

@@ -9,13 +9,12 @@ None before a frame), ``lag_s`` the lag (s) of the camera's latest detected fram
 
 from __future__ import annotations
 
-import logging
 import threading
 import time
 
+from gaitcap.services.bus.control import named_by_key
 from gaitcap.services.bus.messages import DetectorStatus
 
-log = logging.getLogger(__name__)
 STALE_S = 5.0
 
 
@@ -37,19 +36,12 @@ class DetectorCoverageBoard:
     """Keeps every detector node's newest status; :meth:`snapshot` -> :func:`detection_summary`."""
 
     def __init__(self, session, keys) -> None:
-        self._keys = keys
         self._lock = threading.Lock()
         self._latest: dict[str, tuple[float, DetectorStatus]] = {}
-        self._sub = session.declare_subscriber(keys.detector_status(), self._cb)
+        self._sub = session.declare_subscriber(
+            keys.detector_status(), named_by_key(DetectorStatus, self._keep, field="node", name_of=keys.node_of))
 
-    def _cb(self, sample) -> None:
-        try:
-            status = DetectorStatus.from_bytes(sample.payload.to_bytes())
-            if status.node != self._keys.node_of(str(sample.key_expr)):
-                raise ValueError(f"status of node {status.node} on {sample.key_expr}")
-        except ValueError as exc:
-            log.warning("dropping a detector status: %s", exc)
-            return
+    def _keep(self, status: DetectorStatus) -> None:
         with self._lock:
             self._latest[status.node] = (time.time(), status)
 

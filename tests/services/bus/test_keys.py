@@ -10,6 +10,7 @@ def test_key_expressions():
     assert k.keypoints("c-2") == "gaitcap/lab1/keypoints/c-2"
     assert k.recorder_start == "gaitcap/lab1/recorder/start" and k.recorder_events.endswith("/recorder/events")
     assert k.alive("recorder") == "gaitcap/lab1/alive/recorder" and k.alive() == "gaitcap/lab1/alive/**"
+    assert k.recording("T1") == "gaitcap/lab1/recorder/recording/T1" and k.recording().endswith("/recording/*")
     assert k.camera_of("gaitcap/lab1/camera/cam01/image") == "cam01"
     assert k.camera_of("gaitcap/lab1/keypoints/cam02") == "cam02"
     assert Keys().prefix == DEFAULT_PREFIX

@@ -14,6 +14,8 @@ from gaitcap.services.bus.messages import (
     BoardWatch,
     CameraScene,
     CameraStatus,
+    ChunkReply,
+    ChunkRequest,
     FrameMeta,
     ImageFrame,
     Keypoints,
@@ -48,6 +50,9 @@ def _kp(**over):
     FrameMeta(4, 10**18, ptp_jump=True),
     BoardWatch("C20261129-062238-594275", True, {"kind": "checkerboard", "squares": [8, 6], "square_mm": 100}),
     BoardView("C1", "cam01", 7, 10**18, 576, 360, [[1.5, 2.25], [-0.5, 359.5]]),
+    ChunkRequest("T1", "T1.mcap", 1 << 20, 1 << 20),
+    ChunkReply(offset=1 << 20, size=3 << 20),
+    ChunkReply(error="trial T1: no finished recording T1.mcap here"),
 ])
 def test_round_trip(message):
     assert type(message).from_bytes(message.to_bytes()) == message
@@ -126,6 +131,14 @@ def test_control_messages_are_bounded():
     with pytest.raises(ValueError, match="board view.corners"):
         BoardView.from_bytes(b'{"calibration_id": "C1", "camera": "cam01", "frame_id": 1, "timestamp_ns": 1, '
                              b'"width_px": 5, "height_px": 5, "corners": [[1e999, 2]]}')
+    with pytest.raises(ValueError, match="recording chunk request.name: 'T1.mcap.part' is not an .mcap file name"):
+        ChunkRequest("T1", "T1.mcap.part", 0, 1)
+    with pytest.raises(ValueError, match="recording chunk request.name"):
+        ChunkRequest("T1", "../T1.mcap", 0, 1)
+    with pytest.raises(ValueError, match="recording chunk request.length"):
+        ChunkRequest("T1", "T1.mcap", 0, (8 << 20) + 1)
+    with pytest.raises(ValueError, match="recording chunk reply.transient"):
+        ChunkReply.from_bytes(b'{"error": "x", "transient": 1}')
 
 
 def test_the_calibration_travels_as_its_own_field():

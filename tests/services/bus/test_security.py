@@ -9,7 +9,7 @@ import pytest
 from gaitcap.services.bus.certs import make_bus_keys
 from gaitcap.services.bus.control import RecorderClient, RecorderError
 from gaitcap.services.bus.messages import ImageFrame
-from gaitcap.services.bus.security import BusSecurity, role_of
+from gaitcap.services.bus.security import BusSecurity, may_send, role_of
 from gaitcap.services.bus.session import (
     BusConfig,
     alive_nodes,
@@ -63,6 +63,11 @@ def test_keys_are_private_and_the_bus_file_round_trips(secured, tmp_path):
     assert make_bus_keys({"recorder": None}, keys) == []  # kept, not overwritten
     assert [role_of(n) for n in ("camera-3", "worker-1", "recorder", "api", "operator")] == \
         ["camera", "worker", "recorder", "api", "client"]
+    fetch = ("query", "recorder/recording/T1")  # what the roles' table lets each send (the others' check)
+    assert [may_send(n, *fetch) for n in ("worker-gpu", "api", "camera-9", "recorder", "operator")] == \
+        [True, True, False, False, False]
+    assert may_send("api", "query", "recorder/start") and not may_send("worker-gpu", "query", "recorder/start")
+    assert may_send("recorder", "reply", "recorder/recording/T1") and not may_send("worker-1", "put", "camera/c/image")
 
 
 def test_plain_bus_beyond_loopback_is_refused_unless_told():

@@ -32,17 +32,25 @@ def test_bad_status_is_refused_naming_the_field():
         _status("detector-0", {"cam01": {**ROW, "secret": 1}})
 
 
-def test_the_link_reports_what_the_detector_nodes_publish():
+def test_the_link_reports_what_the_detector_nodes_publish_and_drops_a_status_on_another_nodes_key(caplog):
     bus = BusConfig.free_local(["api", "detector-0"], prefix="gaitcap/cov")
     sd = open_session(bus, "detector-0")
     link = BusLink(bus, node="api")
+    key = bus.keys.detector_status("detector-0")
     try:
         end = time.monotonic() + 10
         while time.monotonic() < end and "cam01" not in link.detection()["cameras"]:
-            sd.put(bus.keys.detector_status("detector-0"), _status("detector-0", {"cam01": ROW}).to_bytes())
+            sd.put(key, _status("detector-1", {"cam02": ROW}).to_bytes())  # on detector-0's key
+            sd.put(key, b"{not json")
+            sd.put(key, _status("detector-0", {"cam01": ROW}).to_bytes())
             time.sleep(0.1)
         got = link.detection()
         assert got["cameras"]["cam01"]["detected"] == 60 and got["nodes"]["detector-0"]["workers"] == 2
+        assert list(got["nodes"]) == ["detector-0"] and list(got["cameras"]) == ["cam01"]
+        dropped = {r.getMessage() for r in caplog.records if r.getMessage().startswith("dropping a detector status")}
+        assert {m.split(" (Expecting")[0] for m in dropped} == {
+            f"dropping a detector status: detector status of node detector-1 on {key} (the key of node detector-0)",
+            "dropping a detector status: detector status: payload is not JSON"}, dropped
     finally:
         link.close()
         sd.close()
