@@ -3,6 +3,7 @@ cameras (the in-test link): both record at once, each Start and Stop reaches onl
 Stop of another room's trial is refused, the page's lists filter by room and show each room's rig state,
 each API's audit chain verifies, and no database password reaches a page."""
 
+import re
 import time
 
 import httpx
@@ -149,9 +150,12 @@ def _finished_with_rig_check(db, room: str, moved: list[str]) -> str:
 def test_the_page_shows_each_rooms_rig_and_filters_trials_by_room(postgres, tmp_path):
     """Room gait1's page at 1280 px (headless Chromium): a panel per room with its cameras (gait1's slow
     camera named), the trial recording there and its own latest rig check (gait2's moved camera, never
-    gait1's); the trial list filtered to gait2 shows gait2's trials only; Start on gait1's page records in
-    gait1 and never reaches gait2's recorder; the page's own rig check is gait1's."""
+    gait1's); a room whose stack has not written its state for a minute said to be maybe down; the trial list
+    filtered to gait2 shows gait2's trials only; Start on gait1's page records in gait1 and never reaches
+    gait2's recorder; the page's own rig check is gait1's."""
     from gaitcap.services import catalog as cat
+    from gaitcap.services.catalog.models import Room
+    from sqlalchemy import update
 
     from .conftest import signed_in_page
     from .test_clinic_page import _fits
@@ -164,6 +168,9 @@ def test_the_page_shows_each_rooms_rig_and_filters_trials_by_room(postgres, tmp_
     try:
         checked_b = _finished_with_rig_check(db, "gait2", ["cam2"])
         checked_a = _finished_with_rig_check(db, "gait1", [])
+        cat.register_room(db, "gait3", host="room3")  # its stack last wrote its state a minute ago
+        with db.session() as s:
+            s.execute(update(Room).where(Room.name == "gait3").values(seen_at=time.time() - 60))
         tb = b.post("/trials", json={"subject_id": "P0002", "session": "v1"}).json()
         with signed_in_page(srv_a.url, width=1280, height=1000, timeout_ms=15_000) as page:
             page.wait_for_selector("#rooms-card:not([hidden]) .room-panel[data-room='gait2']")
@@ -178,6 +185,10 @@ def test_the_page_shows_each_rooms_rig_and_filters_trials_by_room(postgres, tmp_
                 f"No camera moved since calibration (trial {checked_a}).")
             assert "This page's room" in panel["gait1"].inner_text()
             assert "This page's room" not in panel["gait2"].inner_text()
+            gone = re.fullmatch(r"Not seen for (\d+) s: its stack or host may be down; its trials stay readable here\.",
+                                page.locator(".room-panel[data-room='gait3'] p.error").inner_text())
+            assert gone and int(gone[1]) >= 60, gone
+            assert not [n for n in ("gait1", "gait2") if panel[n].locator("p.error").count()]
             page.wait_for_selector("#rig-check:not([hidden])")  # the record card's check is this room's own
             assert f"trial {checked_a}" in page.inner_text("#rig-check-summary")
             _fits(page, 1280, "rooms at 1280 px")

@@ -71,3 +71,25 @@ def test_the_stacks_bus_is_secured_unless_plain_is_asked_for(tmp_path):
     plain = bus_config(StackConfig(data_dir=tmp_path, token=TOKEN, cameras=4, bus_base_port=9000, plain_bus=True))
     assert plain.security is None and plain.nodes["recorder"] == "tcp/127.0.0.1:9000"
     assert make_stack_bus_keys(StackConfig(data_dir=tmp_path / "p", token=TOKEN, plain_bus=True)) == []
+
+
+def test_a_room_on_a_central_catalog_its_api_runs_the_room_and_its_processes_reach_the_catalog(tmp_path, monkeypatch):
+    """``gaitcap demo --catalog URL --room NAME`` (the stack) and ``gaitcap serve`` with ``GAITCAP_ROOM``: the
+    API runs that room; the API and the workers get the catalog's URL and libpq's password file in their
+    environment, never on a command line."""
+    from gaitcap.api import server
+    from gaitcap.services.cli import app
+    from typer.testing import CliRunner
+
+    url = "postgresql+psycopg://gaitcap@db.example/gaitcap?sslmode=verify-full"
+    cfg = StackConfig(data_dir=tmp_path, token=TOKEN, cameras=4, workers=2, catalog_url=url, room="gait2")
+    specs = {s.name: s for s in process_specs(cfg, epoch_ns=1, parent_env={**PARENT, "PGPASSFILE": "/etc/g/pgpass"})}
+    for name in ("api", "worker-0", "worker-1"):
+        assert (specs[name].env["GAITCAP_CATALOG"], specs[name].env["PGPASSFILE"]) == (url, "/etc/g/pgpass"), name
+    assert not [s.name for s in specs.values() if url in " ".join(s.argv)]
+    assert specs["api"].env["GAITCAP_ROOM"] == "gait2"
+    served = []
+    monkeypatch.setattr(server, "serve", lambda settings, link, scene=None: served.append(settings))
+    result = CliRunner().invoke(app, ["serve", "--no-bus", "--data-dir", str(tmp_path)],
+                                env={"GAITCAP_ROOM": specs["api"].env["GAITCAP_ROOM"]})
+    assert result.exit_code == 0 and served[0].room == "gait2", result.output
