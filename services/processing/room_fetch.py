@@ -12,7 +12,8 @@ room and the trial; it fails for good once ``RoomFetch.retry_s`` seconds (``--fe
 without a new byte of the recording arriving, with a reason naming the room, the trial, the attempts and
 the last error. A failure that cannot pass (no such recording on that recorder, the recorder's refusal,
 this worker's identity not allowed to fetch, a recording of another size than the catalog's) fails at
-once. Until the copy is whole and verified it is a temporary file beside its place, removed on any failure.
+once. Until the copy is whole and verified it is a temporary file beside its place, removed on any failure
+(and, left by a worker killed mid-fetch, when the recording is fetched again).
 """
 
 from __future__ import annotations
@@ -130,6 +131,14 @@ def with_retries(attempt: Callable[[], None], target: FetchTarget, *, retry_s: f
             pause = min(2 * pause, MAX_PAUSE_S)
 
 
+def _remove_leftovers(target: FetchTarget, into: Path) -> None:
+    """Remove the temporary copies of ``into`` that a worker killed mid-fetch left beside it (the names
+    :func:`~gaitcap.acquisition.fileio.atomic_path` gives them)."""
+    for left in Path(into).parent.glob(f".{Path(into).name}.*{Path(into).suffix}"):
+        log.warning("%s: removing %s, a partial copy left by a fetch that was cut off", target.named, left.name)
+        left.unlink(missing_ok=True)
+
+
 def fetch_from_room(trial: TrialInfo, recorder: dict, fetch: RoomFetch, into: Path) -> Path:
     """Fetch the trial's recording from its room's recorder into ``into`` (verified; retried while the
     failure may pass, for ``fetch.retry_s`` without progress; nothing left at ``into`` or beside it on failure)."""
@@ -143,6 +152,7 @@ def fetch_from_room(trial: TrialInfo, recorder: dict, fetch: RoomFetch, into: Pa
     except ValueError as exc:  # this host's keys or the bus file: asking again cannot help
         raise target.error(f"cannot join the room's bus: {exc}", permanent=True) from None
     try:
+        _remove_leftovers(target, into)
         with atomic_path(into) as tmp:
             download = Download(target, tmp, chunk_bytes=fetch.chunk_bytes)
 

@@ -206,6 +206,9 @@ def test_the_recorder_killed_mid_fetch_is_waited_for_and_a_room_gone_for_good_fa
 
     monkeypatch.setattr(recording_transfer, "_ask", ask_then_kill)
     worker_dir = tmp_path / "worker-host"
+    killed = worker_dir / "trials" / "T1" / ".T1.mcap.x8f3k2.mcap"  # a worker killed mid-fetch left it
+    killed.parent.mkdir(parents=True)
+    killed.write_bytes(b"half a recording")
     config = WorkerConfig(catalog_url=db.url, data_dir=worker_dir,
                           fetch=RoomFetch(buses={"gait2": room.bus}, node="worker-fetch", timeout_s=2.0,
                                           chunk_bytes=CHUNK, retry_s=60.0))
@@ -233,5 +236,5 @@ def test_the_recorder_killed_mid_fetch_is_waited_for_and_a_room_gone_for_good_fa
     assert "(1.5 s without a new byte, the fetch's retry bound); the last: the room's recorder" in failed.error
     assert failed.error.endswith("nothing was kept"), failed.error
     assert [j.state for j in cat.jobs_for_trial(db, "T3")] == ["failed"]
-    assert [n for n in _left(worker_dir) if ".mcap" in n] == ["T1.mcap"]  # T3's: neither whole nor partial
+    assert [n for n in _left(worker_dir) if ".mcap" in n] == ["T1.mcap"]  # T3's: neither whole nor partial; the killed fetch's: removed
     db.close()
