@@ -20,3 +20,13 @@ def test_each_rooms_bus_the_identity_and_the_retry_bound(tmp_path):
         room_fetch(["gait1"], "worker-gpu", 45.0)
     with pytest.raises(ValueError, match="retry_s: must be >= 0 s, got -1"):
         room_fetch([f"gait1={tmp_path / 'bus-gait1.json'}"], "worker-gpu", -1.0)
+
+
+def test_the_retry_bound_defaults_to_the_fetchs_own():
+    from gaitcap.services.cli import app
+    from gaitcap.services.processing.room_fetch import DEFAULT_RETRY_S
+    from typer.main import get_command
+
+    options = {p.name: p for p in get_command(app).commands["worker"].params}
+    assert options["fetch_retry_s"].default == DEFAULT_RETRY_S == 120.0 and "--fetch-retry-s" in options[
+        "fetch_retry_s"].opts
