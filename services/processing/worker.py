@@ -356,7 +356,6 @@ def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path
     import rerun  # noqa: F401  (first import is slow)
     from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.services.processing.outputs import report_png
-
     from gaitcap.services.processing.viewers.apart import start_writer_server
 
     t0 = time.perf_counter()
