@@ -38,9 +38,14 @@ class ThreadedServer:
         cfg = self.server.config
         return f"{'https' if cfg.ssl_certfile else 'http'}://{cfg.host}:{cfg.port}"
 
-    def stop(self, timeout_s: float = 10.0) -> None:
+    def stop(self, timeout_s: float = 10.0, *, grace_s: float = 1.0) -> None:
+        """Stop: requests in flight get ``grace_s`` (s) to finish, then connections still open (a page's
+        event stream) are closed rather than waited for; at most ``timeout_s`` (s) in all."""
         self.server.should_exit = True
-        self.thread.join(timeout_s)
+        self.thread.join(min(grace_s, timeout_s))
+        if self.thread.is_alive():
+            self.server.force_exit = True
+            self.thread.join(max(0.0, timeout_s - grace_s))
 
 
 def serve_in_thread(settings: Settings, link=None, *, timeout_s: float = 20.0) -> ThreadedServer:
