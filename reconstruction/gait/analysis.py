@@ -11,7 +11,7 @@ from gaitcap.reconstruction.gait.config import GaitConfig
 from gaitcap.reconstruction.gait.edges import edge_note, own_stances, pass_contacts, support_contacts
 from gaitcap.reconstruction.gait.events import Contact, detect_contacts, event_timing, rest_speed_mm_s
 from gaitcap.reconstruction.gait.parameters import LeftOut, Step, pass_steps, progression_direction, summarise
-from gaitcap.reconstruction.gait.plausibility import exclusion_note, with_exclusions
+from gaitcap.reconstruction.gait.plausibility import exclusion_note, time_precision_s, with_exclusions
 from gaitcap.reconstruction.gait.quality import TrajectoryQuality, contact_confidence
 from gaitcap.reconstruction.gait.report import GaitReport
 from gaitcap.reconstruction.gait.tracks import FootTracks, foot_joint_indices
@@ -59,11 +59,11 @@ def _extended(bouts: Bouts, p: Pass) -> Pass:
     return Pass(p.index, start, end, p.direction, p.speed_mm_s)
 
 
-def _counted(steps: list[Step], resolution_s: float) -> list[Step]:
+def _counted(steps: list[Step], precision_s: float) -> list[Step]:
     """The steps with the implausible ones among the summary's (the steady ones, or all when none is)
-    marked excluded (see ``plausibility``)."""
+    marked excluded (see ``plausibility``; ``precision_s``: the events' time precision)."""
     judged = [s.steady for s in steps] if any(s.steady for s in steps) else [True] * len(steps)
-    return list(with_exclusions(steps, judged, {}, resolution_s=resolution_s))
+    return list(with_exclusions(steps, judged, {}, resolution_s=precision_s))
 
 
 def _steps(bouts: Bouts, contacts: Sequence[Contact], confidence,
@@ -122,7 +122,7 @@ def analyze_gait(
     steps, passes, warnings, left_out = _steps(bouts, contacts, confidence, config)
     warnings = stance_notes + warnings
     timing = event_timing(tracks, config)
-    steps = _counted(steps, timing.resolution_s)
+    steps = _counted(steps, time_precision_s(timing.frame_interval_s, timing.resolution_s))
     warnings += [note] if (note := exclusion_note(steps)) else []
     if tracks.all_gaps_s:
         warnings.append("data gaps (no contacts measured there): " + ", ".join(

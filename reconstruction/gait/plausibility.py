@@ -14,8 +14,9 @@ A step is excluded, with its reason in ``Step.excluded``, when
   median when the side has fewer than 3), against 1.4826 x the median absolute deviation of every such
   deviation (a standard deviation for normal data; Iglewicz & Hoaglin's modified z-score), never less
   than :data:`MIN_SPREAD` (measurement and step-to-step variation nobody would call wrong: 10 mm, and
-  10 ms or the events' time resolution, whichever is larger). Judged only with at least
-  :data:`MIN_STEPS` steps.
+  10 ms or the events' time precision, whichever is larger: :func:`time_precision_s`, one frame interval
+  for events on the frames, half of one for events placed between frames on a continuous fit). Judged
+  only with at least :data:`MIN_STEPS` steps.
 
 Pure computation on ``Step`` records; the reason is words a clinician reads.
 """
@@ -36,6 +37,25 @@ MAD_TO_SD = 1.4826  # a normal distribution's SD per median absolute deviation
 MIN_SPREAD = {"mm": 10.0, "s": 0.010}  # the least robust SD: below it a difference is noise (mm, s)
 MIN_STEPS = 5  # fewer steps: no median to judge against
 MIN_SIDE = 3  # a side with fewer steps is judged against the trial's median
+#: How finely events placed between frames on a continuous trajectory fit are timed, as a fraction of the
+#: frame interval: a time between two such events varies by about this much from the measurement alone.
+#: Measured on the demo's walk (``bench/gait_edges.py``: the refined stage's implicit fit, a simulated walk
+#: whose steps are all alike, so every difference is measurement): the counted steps' step, stride, stance
+#: and swing times scatter around the truth by 25-34 ms at 15 fps (1.4826 x their median error; 0.4-0.5 of
+#: the 67 ms frame interval) and by 18-25 ms at 30 fps (0.55-0.75 of 33 ms); half a frame is the lesser.
+SUB_FRAME_PRECISION = 0.5
+
+
+def time_precision_s(frame_interval_s: float, resolution_s: float) -> float:
+    """The events' time precision (s): the least robust SD of a step's times (:data:`MIN_SPREAD`'s
+    alternative). Events on the frames (``resolution_s`` not below ``frame_interval_s``): their resolution,
+    one frame; events placed between frames on a continuous fit (a finer ``resolution_s``, the search step):
+    :data:`SUB_FRAME_PRECISION` of a frame interval, never less than that step. A fit places an event
+    between two frames only as well as the frames around it allow, so a step whose times differ from the
+    patient's others by less than a few of these is not called implausible."""
+    if not (np.isfinite(frame_interval_s) and frame_interval_s > 0) or resolution_s >= frame_interval_s:
+        return float(resolution_s)
+    return float(max(resolution_s, SUB_FRAME_PRECISION * frame_interval_s))
 
 
 def _label(name: str) -> str:
@@ -62,7 +82,8 @@ def _deviations(steps: Sequence[Step], name: str) -> np.ndarray:
 
 def outliers(steps: Sequence[Step], *, resolution_s: float = 0.0) -> dict[int, str]:
     """{position in ``steps``: why} for the steps with a value beyond :data:`MAD_LIMIT` robust SDs of the
-    others (see the module docstring); ``resolution_s``: the events' time resolution (s)."""
+    others (see the module docstring); ``resolution_s``: the events' time precision (s,
+    :func:`time_precision_s`)."""
     out: dict[int, str] = {}
     for name, unit in CHECKED.items():
         dev = _deviations(steps, name)

@@ -6,7 +6,12 @@ import pytest
 from gaitcap.reconstruction.gait.bouts import Pass
 from gaitcap.reconstruction.gait.events import Contact
 from gaitcap.reconstruction.gait.parameters import STEP_PARAMETERS, Step, pass_steps, summarise
-from gaitcap.reconstruction.gait.plausibility import implausible_heel_frames, outliers, with_exclusions
+from gaitcap.reconstruction.gait.plausibility import (
+    implausible_heel_frames,
+    outliers,
+    time_precision_s,
+    with_exclusions,
+)
 
 # the issue's refined trial: right step widths 92-110 mm and one of 1.2 mm
 WIDTHS = {"left": [99, 104, 95, 101, 97, 100, 98, 99], "right": [92, 95, 110, 1.2, 97, 93, 96, 100]}
@@ -62,6 +67,22 @@ def test_variation_within_the_events_resolution_or_a_few_mm_is_never_an_outlier(
     found = outliers(steps, resolution_s=0.001)
     assert list(found) == [10] and found[10].startswith("step time 0.600 s is 5.5 robust SD")
     assert outliers(steps[:4], resolution_s=0.001) == {}
+
+
+def test_events_between_frames_are_timed_to_half_a_frame_so_a_step_within_a_few_of_those_is_not_excluded():
+    """The demo's refined trials (15 fps, a continuous fit, events searched to 1 ms): their step times
+    scatter around the truth by about half a frame (bench/gait_edges.py, docs/benchmarks.md), so a step
+    45 ms off the others is measurement, and one whose heel strike is 150 ms late is not."""
+    assert time_precision_s(1 / 15, 0.001) == pytest.approx(1 / 30)
+    assert time_precision_s(1 / 30, 1 / 30) == pytest.approx(1 / 30)  # events on the frames: one frame
+    assert time_precision_s(1 / 100, 0.001) == pytest.approx(0.005)  # below the 10 ms floor then
+    near = {"left": [0.545, 0.55, 0.54, 0.59, 0.545, 0.55], "right": [0.55, 0.545, 0.54, 0.55, 0.545, 0.55]}
+    precision = time_precision_s(1 / 15, 0.001)
+    assert outliers(_alternating(step_time_s=near), resolution_s=precision) == {}
+    assert list(outliers(_alternating(step_time_s=near), resolution_s=0.001)) == [6]  # the old 10 ms floor
+    late = {"left": near["left"][:3] + [0.695] + near["left"][4:], "right": near["right"]}
+    found = outliers(_alternating(step_time_s=late), resolution_s=precision)
+    assert list(found) == [6] and found[6].startswith("step time 0.695 s is ")
 
 
 def test_sides_are_judged_by_their_own_median():
