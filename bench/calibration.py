@@ -22,6 +22,9 @@ simulate-board`` and ``gaitcap calibrate --compare`` do).
     python bench/calibration.py --real-only --sync-every 20   # that session thinned as in the tests: a minute
     python bench/calibration.py --small-board --sync-every 20 [--json]   # small boards, intrinsics from the clip
     python bench/calibration.py --small-board --sync-every 20 --folds 5 [--choose-intrinsics]   # + held-out
+    python bench/calibration.py --small-board --folds 5 --session caliscope-4cam   # one session
+    (with caliscope's scripting API installed, pip install -e '.[caliscope]', caliscope's own calibration is
+    also fitted on each fold's frame sets and judged on the same held-out ones: the comparison on equal terms)
 
 Real recordings (installed by deploy/bootstrap.sh; skipped when absent): caliscope's 4-webcam session of
 a hand-held inverted ChArUco board (its own corner detections, calibrated here with caliscope's
@@ -349,20 +352,70 @@ def _real(sync_every: int = 1) -> dict:
     }
 
 
+def _equal_terms(obs, ref, clip, given, known_config, holdout) -> dict:
+    """gaitcap's held-out error against caliscope's own calibration fitted on the same folds' frame sets
+    (its scripting API) and judged on the same held-out ones, each side given the same intrinsic inputs:
+    ``clip`` the board clip alone (gaitcap's default rule; caliscope's intrinsic calibration of the clip),
+    ``given`` caliscope's intrinsics (from its separate intrinsics session, in its camera_array.toml) held
+    by both (cross_validate comparisons with ``refitted``); then gaitcap's fit chosen by held-out error
+    (loss; caliscope's intrinsics held or the clip's) against caliscope's pipeline with its intrinsics,
+    the two as a user would run them."""
+    from gaitcap.acquisition.importers.caliscope import calibrate_with_caliscope
+    from gaitcap.reconstruction.calibration import calibrate_from_observations
+    from gaitcap.reconstruction.calibration.holdout import cross_validate
+    from gaitcap.reconstruction.calibration.model_choice import choose_fit
+
+    def pair(cmp) -> dict:
+        return {"gaitcap": _figures(cmp.own), "caliscope": _figures(cmp.refitted), "frame_sets": cmp.own.frame_sets,
+                "fold_errors": list(cmp.own.fold_errors), "gaitcap_seconds": cmp.own.seconds,
+                "caliscope_seconds": cmp.refitted.seconds}
+
+    out = {"clip": pair(clip), "given": pair(given)}
+    t0 = time.perf_counter()
+    # the default fit with and without caliscope's intrinsics was cross-validated above (not reused where
+    # a fold was left out because caliscope's fit failed: gaitcap's figure would then miss that fold)
+    done = {label: cmp.own for label, cmp in (("given intrinsics held, soft-L1 (1 px)", given),
+                                              ("intrinsics from the clip, soft-L1 (1 px)", clip))
+            if not any(cmp.refitted.label in e for e in cmp.own.fold_errors)}
+    chosen_config, fit = choose_fit(obs, known_config, holdout=holdout, evaluated=done)
+    out["fit_choice"] = {**fit.to_dict(), "seconds": time.perf_counter() - t0}
+    if fit.chosen == "given intrinsics held, soft-L1 (1 px)":
+        out["chosen"] = out["given"]
+    else:
+        out["chosen"] = pair(cross_validate(obs, lambda o: calibrate_from_observations(o, config=chosen_config).rig,
+                                           config=holdout, refit=lambda o: calibrate_with_caliscope(o, ref),
+                                           refit_label="caliscope's calibration, its intrinsics"))
+    return out
+
+
+def _figures(e) -> dict:
+    return {"rms_px": [c.rms_px for c in e.cameras], "rms_inlier_px": [c.rms_inlier_px for c in e.cameras],
+            "rig_rms_px": e.rms_px, "square_mm": e.board.square_mm, "square_error_rms_mm": e.board.square_error_rms_mm,
+            "flatness_rms_mm": e.board.flatness_rms_mm, "problems": list(e.problems)}
+
+
 def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | None:
     """The session's held-out error (``folds`` in time): gaitcap's calibration (intrinsics from the clip,
     held by coverage or, with ``choose``, chosen per camera by held-out error) fitted on the other folds,
     and caliscope's calibration judged the same way on the same frame sets (made from all of them)."""
-    from gaitcap.acquisition.importers.caliscope import read_session
+    from gaitcap.acquisition.importers.caliscope import (
+        calibrate_with_caliscope,
+        caliscope_available,
+        read_session,
+    )
     from gaitcap.reconstruction.calibration import CalibrationConfig, calibrate_from_observations
     from gaitcap.reconstruction.calibration.compare import compare_similar
     from gaitcap.reconstruction.calibration.holdout import HoldoutConfig, cross_validate, evaluate_rig
-    from gaitcap.reconstruction.calibration.model_choice import choose_intrinsics
+    from gaitcap.reconstruction.calibration.model_choice import choose_intrinsics, fit_candidates
     from gaitcap.reconstruction.calibration.motion import MotionConfig
 
     folder = _testdata() / name
     if not (folder / "camera_array.toml").exists():
         return None
+    fair = caliscope_available()
+    if not fair:
+        logging.warning("caliscope's scripting API is not installed (pip install -e '.[caliscope]'): its "
+                        "calibration is judged only as made from every frame set (in-sample), not per fold")
     _, obs, ref, _ = read_session(folder, sync_every=sync_every)
     holdout = HoldoutConfig(folds=folds)
     config, choice, choice_error = CalibrationConfig(), None, None
@@ -374,13 +427,19 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
     t0 = time.perf_counter()
     rig = calibrate_from_observations(obs, config=config).rig
     fit_s = time.perf_counter() - t0
+    # with caliscope's scripting API, caliscope's own calibration is fitted on the same folds too (from the
+    # clip alone; with its intrinsics below): judged on equal terms
     cmp = cross_validate(obs, lambda o: calibrate_from_observations(o, config=config).rig, reference=ref,
-                         reference_label="caliscope's", config=holdout)
+                         reference_label="caliscope's", config=holdout,
+                         refit=calibrate_with_caliscope if fair else None,
+                         refit_label="caliscope's calibration, intrinsics from the clip")
     # caliscope's intrinsics held, the poses fitted here on the same folds: caliscope's intrinsics judged on
     # equal terms (held out), and what the poses alone leave
     known = CalibrationConfig(known_intrinsics={c.name: (c.matrix_px, c.dist) for c in ref.cameras})
-    their_intr = cross_validate(obs, lambda o: calibrate_from_observations(o, config=known).rig,
-                                config=holdout).own
+    given = cross_validate(obs, lambda o: calibrate_from_observations(o, config=known).rig, config=holdout,
+                           refit=(lambda o: calibrate_with_caliscope(o, ref)) if fair else None,
+                           refit_label="caliscope's calibration, its intrinsics")
+    their_intr = given.own
     moving = replace(config, motion=MotionConfig())  # the board's motion modelled (time offsets, speed weights)
     motion = calibrate_from_observations(obs, config=moving).report.motion
     with_motion = (cross_validate(obs, lambda o: calibrate_from_observations(o, config=moving).rig,
@@ -389,12 +448,21 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
     in_sample = evaluate_rig(obs, rig, label="gaitcap (all frame sets)")
     similar = compare_similar(ref, rig)
     own, theirs = cmp.own, cmp.reference
+    equal = _equal_terms(obs, ref, cmp, given, known, holdout) if fair and not choose else None
+    if equal is not None:  # the chosen fit's rig (every frame set) against caliscope's, and who holds out better
+        fit_config = next(c for lab, c in fit_candidates(known).items() if lab == equal["fit_choice"]["chosen"])
+        chosen_similar = compare_similar(ref, calibrate_from_observations(obs, config=fit_config).rig)
+        c = equal["chosen"]
+        equal["chosen_vs_caliscope"] = {
+            "centre_diff_mm_max": chosen_similar.centre_mm_max, "rotation_diff_deg_max": chosen_similar.rotation_deg_max,
+            "rigs_apart": bool(chosen_similar.centre_mm_max > REAL_TARGET_CENTRE_MM
+                               or chosen_similar.rotation_deg_max > REAL_TARGET_ROTATION_DEG),
+            "better_held_out": "gaitcap" if c["gaitcap"]["rig_rms_px"] <= c["caliscope"]["rig_rms_px"] else "caliscope",
+            "meets_target_rig": bool(c["gaitcap"]["rig_rms_px"] <= c["caliscope"]["rig_rms_px"]),
+            "cameras_at_or_below": int(sum(a <= b for a, b in zip(c["gaitcap"]["rms_px"], c["caliscope"]["rms_px"],
+                                                                   strict=True)))}
 
-    def figures(e) -> dict:
-        return {"rms_px": [c.rms_px for c in e.cameras], "rms_inlier_px": [c.rms_inlier_px for c in e.cameras],
-                "rig_rms_px": e.rms_px, "square_mm": e.board.square_mm, "square_error_rms_mm": e.board.square_error_rms_mm,
-                "flatness_rms_mm": e.board.flatness_rms_mm, "problems": list(e.problems)}
-
+    figures = _figures
     apart = similar.centre_mm_max > REAL_TARGET_CENTRE_MM or similar.rotation_deg_max > REAL_TARGET_ROTATION_DEG
     return {
         "recording": {**REAL_SESSIONS, **LARGE_SESSIONS}[name], "sync_every": sync_every, "folds": folds,
@@ -414,16 +482,18 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
         "centre_diff_mm_max": similar.centre_mm_max,
         "rotation_diff_deg_max": similar.rotation_deg_max, "rigs_apart": bool(apart),
         "better_held_out": "gaitcap" if own.rms_px < theirs.rms_px else "caliscope",
+        "equal_terms": equal,
         "meets_target": bool(all(a <= b for a, b in zip(figures(own)["rms_px"], figures(theirs)["rms_px"],
                                                             strict=True))),
     }
 
 
-def _small_board(sync_every: int, folds: int = 0, choose: bool = False) -> list[dict]:
+def _small_board(sync_every: int, folds: int = 0, choose: bool = False, only: list[str] | None = None) -> list[dict]:
     """The real small-board sessions (the board in 10-28 % of the images), intrinsics from the clip alone:
     what was held, refused or not, and each camera against the session's reference calibration; with
-    ``folds`` also the held-out error, gaitcap's against caliscope's on the same frame sets."""
-    names = (*REAL_SESSIONS, *LARGE_SESSIONS)
+    ``folds`` also the held-out error, gaitcap's against caliscope's on the same frame sets (``only``: these
+    sessions)."""
+    names = tuple(n for n in (*REAL_SESSIONS, *LARGE_SESSIONS) if not only or n in only)
     out = [r for r in (_real_session(n, False, 0.0, sync_every if n in LARGE_SESSIONS else 1) for n in names)
            if r is not None]
     if folds:
@@ -465,9 +535,40 @@ def _held_out_lines(h: dict) -> list[str]:
                  f"{'met' if h['meets_target'] else 'NOT met'} (caliscope's calibration was made from these frame "
                  "sets: in-sample for it)")
     lines += [f"    fold not fitted: {e}" for e in h["fold_errors"]]
+    if h.get("equal_terms"):
+        lines += _equal_lines(h["equal_terms"], h["cameras"])
     lines += [f"    {h['choice_fallback']}"] if h.get("choice_fallback") else []
     lines += [f"    {h['shared_focal']}"] if h.get("shared_focal") else []
     lines += [f"    intrinsics not chosen: {h['choice_error']}"] if h.get("choice_error") else []
+    return lines
+
+
+def _equal_lines(e: dict, cameras: list[str]) -> list[str]:
+    """The held-out error on equal terms: caliscope's own calibration fitted per fold (its scripting API)."""
+    rows = (("clip", "from the clip alone (gaitcap: the default rule; caliscope: its calibrate_intrinsics of the clip)"),
+            ("given", "caliscope's intrinsics (its intrinsics session) held by both"),
+            ("chosen", f"gaitcap's fit chosen by held-out error ({e['fit_choice']['chosen']}) vs caliscope with its "
+                       "intrinsics"))
+    lines = ["    on equal terms: caliscope's own calibration (scripting API) fitted on each fold's frame sets as "
+             "gaitcap's is, both judged on the same held-out sets (RMS px, gaitcap / caliscope):"]
+    for key, what in rows:
+        r = e[key]
+        per = "  ".join(f"{cam} {g:.3f}/{c:.3f}" for cam, g, c in zip(cameras, r["gaitcap"]["rms_px"], r["caliscope"]["rms_px"],
+                                                                      strict=True))
+        lines.append(f"      {what}: rig {r['gaitcap']['rig_rms_px']:.3f} / {r['caliscope']['rig_rms_px']:.3f} "
+                     f"({r['frame_sets']} frame sets; fits {r['gaitcap_seconds']:.0f} / {r['caliscope_seconds']:.0f} s)")
+        lines.append(f"        {per}")
+        lines += [f"        fold not judged: {x}" for x in r["fold_errors"]]
+    f = e["fit_choice"]
+    lines.append("      fit candidates, rig RMS held out: " + "; ".join(
+        f"{lab} " + (f"{r:.3f}" if r is not None and np.isfinite(r) else "not fitted in every fold")
+        for lab, r in zip(f["candidates"], f["rig_rms_px"], strict=True)) + f" ({f['seconds']:.0f} s)")
+    v = e["chosen_vs_caliscope"]
+    lines.append(f"      chosen fit's rig vs caliscope's: {v['centre_diff_mm_max']:.1f} mm / {v['rotation_diff_deg_max']:.2f} deg"
+                 + (f" apart (beyond 15 mm / 1 deg): the held-out error favours {v['better_held_out']}" if v["rigs_apart"]
+                    else " (within 15 mm / 1 deg)")
+                 + f"; target (gaitcap's held-out RMS <= caliscope's, rig): {'met' if v['meets_target_rig'] else 'NOT met'}"
+                 f", {v['cameras_at_or_below']} of {len(cameras)} cameras at or below")
     return lines
 
 
@@ -626,10 +727,12 @@ def main(argv: list[str] | None = None) -> None:
                     help="--small-board: also the held-out error, K folds in time (gaitcap's vs caliscope's)")
     ap.add_argument("--choose-intrinsics", action="store_true",
                     help="--small-board --folds K: gaitcap's intrinsics chosen per camera by held-out error")
+    ap.add_argument("--session", action="append", choices=[*REAL_SESSIONS, *LARGE_SESSIONS],
+                    help="--small-board: only this session (repeatable; default: all three)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     if args.small_board:
-        small = _small_board(args.sync_every, args.folds, args.choose_intrinsics)
+        small = _small_board(args.sync_every, args.folds, args.choose_intrinsics, args.session)
         print(json.dumps(jsonable({"small_board": small})) if args.json else _small_board_table(small))
         return
     if args.real_only:

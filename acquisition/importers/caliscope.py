@@ -263,3 +263,93 @@ def read_session(folder: str | os.PathLike, points: str | None = None,
                               image_sizes_px={c.name: c.size_px for c in rig.cameras})
     return board, obs, rig, moving
 
+
+
+# caliscope's own calibration, run here through its scripting API (caliscope >= 0.11; the optional extra
+# ``gaitcap[caliscope]``), so that it can be fitted on exactly the frame sets a gaitcap calibration is
+# fitted on (each fold of the held-out error) instead of being judged on views it was made from.
+CALISCOPE_API_VERSION = "0.11.8"  # the version measured (pyproject.toml's extra pins it)
+
+
+def caliscope_available() -> bool:
+    """Whether caliscope's scripting API can be imported (the optional extra ``gaitcap[caliscope]``)."""
+    try:
+        import caliscope.api  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _caliscope_api():
+    try:
+        import caliscope.api as api
+    except ImportError as exc:
+        raise ValueError(f"caliscope's calibration needs caliscope {CALISCOPE_API_VERSION} (its scripting API): "
+                         "pip install -e '.[caliscope]' in gaitcap's checkout") from exc
+    return api
+
+
+def image_points_frame(obs: BoardObservations):
+    """The observations as caliscope's ImagePoints table (pandas): one row per corner seen, ``sync_index``
+    the frame set, ``cam_id`` the camera's position in ``obs``, ``keypoint_id`` the corner id, ``obj_loc``
+    its position on the board (m), ``frame_time`` the frame set's time (s)."""
+    import pandas as pd
+
+    c, f, n = np.nonzero(np.all(np.isfinite(obs.corners_px), -1))
+    board_m = obs.board.object_points_mm / 1000.0
+    return pd.DataFrame({
+        "sync_index": f.astype(np.int64), "cam_id": c.astype(np.int64), "frame_time": obs.times_s[f],
+        "object_id": np.zeros(len(c), dtype=np.int64), "keypoint_id": n.astype(np.int64),
+        "img_loc_x": obs.corners_px[c, f, n, 0], "img_loc_y": obs.corners_px[c, f, n, 1],
+        "obj_loc_x": board_m[n, 0], "obj_loc_y": board_m[n, 1], "obj_loc_z": board_m[n, 2]})
+
+
+def rig_from_camera_array(array, names: tuple[str, ...] | list[str]) -> Rig:
+    """caliscope's CameraArray (cameras by their position in ``names``; rotation world -> camera, metres)
+    as a Rig named ``names`` (ValueError naming the cameras it left unposed)."""
+    unposed = [n for c, n in enumerate(names) if c not in array.cameras or array.cameras[c].rotation is None
+               or array.cameras[c].translation is None]
+    if unposed:
+        raise ValueError(f"caliscope's calibration left cameras {unposed} without a pose")
+    out = []
+    for c, name in enumerate(names):
+        cam = array.cameras[c]
+        dist = np.asarray(cam.distortions, dtype=np.float64).ravel()
+        out.append(Camera(name, tuple(int(v) for v in cam.size), np.asarray(cam.matrix, dtype=np.float64),
+                          np.pad(dist, (0, 5 - dist.size)), matrix_to_rodrigues(np.asarray(cam.rotation, float)),
+                          1000.0 * np.asarray(cam.translation, dtype=np.float64).ravel(), ""))
+    return Rig(tuple(out))
+
+
+def calibrate_with_caliscope(obs: BoardObservations, intrinsics: Rig | None = None) -> Rig:
+    """caliscope's own calibration of these board observations, through its scripting API.
+
+    intrinsics: a calibration whose cameras' K and distortion caliscope starts from (caliscope's
+    ``camera_array.toml``, whose intrinsics come from its separate intrinsics session), as its extrinsic
+    calibration does (``calibrate_extrinsics``: poses bootstrapped from camera pairs, then its bundle
+    adjustment; it refines focal length, k1 and k2 only where its depth-ratio gate allows). None: each
+    camera's intrinsics from these views first (caliscope's ``calibrate_intrinsics``: its frame selection
+    and OpenCV's five-term model), as caliscope would calibrate from this clip alone.
+    ValueError with caliscope's message when it cannot calibrate them (or is not installed)."""
+    api = _caliscope_api()
+    points = api.ImagePoints(image_points_frame(obs))
+    cameras = {}
+    for c, (name, size) in enumerate(zip(obs.camera_names, obs.image_sizes_px, strict=True)):
+        size = (int(size[0]), int(size[1]))
+        if intrinsics is None:
+            try:
+                cameras[c] = api.calibrate_intrinsics(points, api.CameraData(cam_id=c, size=size)).camera
+            except api.CalibrationError as exc:
+                raise ValueError(f"caliscope's intrinsic calibration of {name}: {exc}") from exc
+            continue
+        if name not in intrinsics.names:
+            raise ValueError(f"caliscope's calibration: no intrinsics given for camera {name} "
+                             f"(given: {list(intrinsics.names)})")
+        given = intrinsics[name]
+        cameras[c] = api.CameraData(cam_id=c, size=size, matrix=np.array(given.matrix_px, dtype=np.float64),
+                                    distortions=np.array(given.dist, dtype=np.float64))
+    try:
+        run = api.calibrate_extrinsics(points, api.CameraArray(cameras), None)
+    except (api.CalibrationError, ValueError, np.linalg.LinAlgError) as exc:
+        raise ValueError(f"caliscope's extrinsic calibration: {exc}") from exc
+    return rig_from_camera_array(run.capture_volume.camera_array, obs.camera_names)

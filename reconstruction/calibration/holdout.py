@@ -9,7 +9,10 @@ it (the bundle adjustment's robust loss and outlier rounds, nothing else free), 
 reprojection RMS over all its corners (outliers included) and over the inliers, and the board triangulated
 from the inlier corners and measured in 3D (:mod:`gaitcap.reconstruction.calibration.board_check`). An
 imported calibration (caliscope's, Pose2Sim's, anipose's) is judged the same way on the same frame sets,
-so the two compare on equal terms; it was made from every frame set (these included), which favours it.
+so the two compare on the same frames; but it was made from every frame set (these included), which
+favours it. Judged on equal terms, the other tool's calibration is fitted on each fold's training frame
+sets as ours is (``cross_validate(..., refit=)``; caliscope's through its scripting API:
+:func:`gaitcap.acquisition.importers.caliscope.calibrate_with_caliscope`).
 
 Folds are contiguous in time: neighbouring frames of a hand-held board nearly repeat each other, so a
 random split would judge a calibration on near-copies of views it fitted. ``guard_frames`` frame sets on
@@ -190,46 +193,70 @@ def _summary(label: str, obs: BoardObservations, judged: list[_Judged], held_vie
 @dataclass(frozen=True)
 class HoldoutComparison:
     """The held-out error of calibrations fitted here (``own``) and, on the same frame sets, of a given one
-    (``reference``, None when none was given)."""
+    (``reference``, None when none was given: made from every frame set, so in-sample for it when it was
+    made from this recording) and of another tool's calibration fitted on each fold's frame sets as ours
+    is (``refitted``, None when not asked: held out for it as for ours)."""
 
     own: HoldoutEvaluation
     reference: HoldoutEvaluation | None
+    refitted: HoldoutEvaluation | None = None
 
     def to_dict(self) -> dict:
-        return {"own": self.own.to_dict(), "reference": self.reference.to_dict() if self.reference else None}
+        return {"own": self.own.to_dict(), "reference": self.reference.to_dict() if self.reference else None,
+                "refitted": self.refitted.to_dict() if self.refitted else None}
 
 
 def cross_validate(
     obs: BoardObservations, calibrate: Callable[[BoardObservations], Rig], *, reference: Rig | None = None,
     reference_label: str = "the reference calibration", config: HoldoutConfig | None = None,
     bundle: BundleConfig | None = None, progress: Callable[[int, int], None] | None = None,
+    refit: Callable[[BoardObservations], Rig] | None = None, refit_label: str = "the other calibration",
 ) -> HoldoutComparison:
     """k-fold held-out error of ``calibrate`` (board observations -> rig; a ValueError it raises for a fold
-    is reported in ``fold_errors``), and of ``reference`` on the same held-out frame sets."""
+    is reported in ``fold_errors``), and of ``reference`` on the same held-out frame sets. ``refit``:
+    another calibration procedure (e.g. caliscope's own, :func:`gaitcap.acquisition.importers.caliscope.
+    calibrate_with_caliscope`) fitted on each fold's training frame sets exactly as ``calibrate`` is and
+    judged on the same held-out ones (``refitted``); a fold either could not fit is judged for none, and
+    is named in both evaluations' ``fold_errors`` with whose fit failed."""
     config, bundle = config or HoldoutConfig(), bundle or BundleConfig()
     merged, _ = merge_still_frames(obs)
     fold_of = time_folds(merged, config.folds)
     views = merged.views()
-    own, ref, errors = [], [], []
+    own, ref, other, errors = [], [], [], []
     held = np.zeros(merged.shape[0], dtype=int)
-    t_own = t_ref = 0.0
+    t_own = t_ref = t_other = 0.0
     sets = 0
     for k in range(config.folds):
         test = fold_of == k
+        train = frames_of(merged, _training(fold_of, merged.times_s, k, config.guard_frames))
+        where = f"fold {k + 1} of {config.folds} (frame sets {np.flatnonzero(test).min()}-{np.flatnonzero(test).max()} left out)"
         t0 = time.perf_counter()
         try:
-            rig = calibrate(frames_of(merged, _training(fold_of, merged.times_s, k, config.guard_frames)))
+            rig = calibrate(train)
         except ValueError as exc:
-            errors.append(f"fold {k + 1} of {config.folds} (frame sets {np.flatnonzero(test).min()}-"
-                          f"{np.flatnonzero(test).max()} left out): {exc}")
+            errors.append(f"{where}: {exc}")
             log.warning("held-out error: %s", errors[-1])
             continue
+        t1 = time.perf_counter()
+        if refit is not None:
+            try:
+                refitted = refit(train)
+            except ValueError as exc:
+                errors.append(f"{where}: {refit_label} not fitted: {exc}")
+                log.warning("held-out error: %s", errors[-1])
+                t_own, t_other = t_own + t1 - t0, t_other + time.perf_counter() - t1
+                continue
+        t2 = time.perf_counter()
         held_out = frames_of(merged, test)
         own.append(_judge(held_out, rig, bundle))
-        t1 = time.perf_counter()
+        t3 = time.perf_counter()
+        if refit is not None:
+            other.append(_judge(held_out, refitted, bundle))
+        t4 = time.perf_counter()
         if reference is not None:
             ref.append(_judge(held_out, reference, bundle))
-        t_own, t_ref = t_own + t1 - t0, t_ref + time.perf_counter() - t1
+        t_own, t_other = t_own + (t1 - t0) + (t3 - t2), t_other + (t2 - t1) + (t4 - t3)
+        t_ref += time.perf_counter() - t4
         held += views[:, test].sum(1)
         sets += int(test.sum())
         if progress is not None:
@@ -238,7 +265,9 @@ def cross_validate(
     mine = _summary("this calibration", merged, own, held, config.folds, errors, sets, t_own, config)
     theirs = (_summary(reference_label, merged, ref, held, config.folds, errors, sets, t_ref, config)
               if reference is not None else None)
-    return HoldoutComparison(mine, theirs)
+    refitted = (_summary(refit_label, merged, other, held, config.folds, errors, sets, t_other, config)
+                if refit is not None else None)
+    return HoldoutComparison(mine, theirs, refitted)
 
 
 def evaluate_rig(obs: BoardObservations, rig: Rig, *, label: str = "the calibration",

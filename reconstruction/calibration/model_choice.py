@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 from gaitcap.reconstruction.calibration.geometry import BoardObservations
-from gaitcap.reconstruction.calibration.holdout import HoldoutConfig, cross_validate
+from gaitcap.reconstruction.calibration.holdout import HoldoutConfig, HoldoutEvaluation, cross_validate
 from gaitcap.reconstruction.calibration.intrinsics import DistortionModel, PrincipalPoint
 from gaitcap.reconstruction.calibration.pipeline import CalibrationConfig, calibrate_from_observations
 
@@ -192,3 +192,91 @@ def _shared_focal(obs: BoardObservations, config: CalibrationConfig, holdout: Ho
     share = bool(np.isfinite(rms[1]) and (not np.isfinite(rms[0]) or rms[1] < rms[0]))
     return share, (f"focal length prior shared by identical cameras {'chosen' if share else 'not chosen'} by "
                    f"held-out error: rig RMS {rms[1]:.3f} px with it, {rms[0]:.3f} px without")
+
+
+# The fit itself chosen by held-out error: the bundle adjustment's loss and, where intrinsics are given
+# (e.g. from a separate intrinsics session), whether to hold them or estimate the cameras' own from the
+# board clip. Every candidate is judged by the same yardstick (the default BundleConfig's board-pose fit
+# on the held-out frame sets), whatever loss it was fitted with.
+LOSSES = (("soft-L1 (1 px)", None), ("least squares", "linear"))
+
+
+@dataclass(frozen=True)
+class FitChoice:
+    """The fit candidates (labels), each one's held-out reprojection RMS over the rig and per camera (px,
+    NaN: not fitted in every fold, ``failures`` says why), the label chosen with the reason, the folds and
+    the time the choice took (s)."""
+
+    candidates: tuple[str, ...]
+    rig_rms_px: tuple[float, ...]
+    camera_rms_px: dict[str, tuple[float, ...]]
+    failures: dict[str, tuple[str, ...]]
+    chosen: str
+    reason: str
+    folds: int
+    seconds: float
+
+    def to_dict(self) -> dict:
+        return {"candidates": list(self.candidates), "rig_rms_px": list(self.rig_rms_px),
+                "camera_rms_px": {k: list(v) for k, v in self.camera_rms_px.items()},
+                "failures": {k: list(v) for k, v in self.failures.items()}, "chosen": self.chosen,
+                "reason": self.reason, "folds": self.folds, "seconds": self.seconds}
+
+
+def fit_candidates(base: CalibrationConfig) -> dict[str, CalibrationConfig]:
+    """The fits :func:`choose_fit` tries, ``base`` first: each loss of :data:`LOSSES`, and where ``base``
+    gives intrinsics, each with them held and with the cameras' own from the clip (``base.intrinsics``'
+    rules)."""
+    sources = [("", base)]
+    if base.known_intrinsics is not None:
+        sources = [("given intrinsics held, ", base), ("intrinsics from the clip, ", replace(base, known_intrinsics=None))]
+    out = {}
+    for prefix, config in sources:
+        for label, loss in LOSSES:
+            bundle = config.bundle if loss is None else replace(config.bundle, loss=loss)
+            out[prefix + label] = replace(config, bundle=bundle)
+    return out
+
+
+def choose_fit(obs: BoardObservations, base: CalibrationConfig | None = None, *,
+               holdout: HoldoutConfig | None = None, tolerance: float = 0.01,
+               progress: Callable[[int, int], None] | None = None,
+               evaluated: Mapping[str, HoldoutEvaluation] | None = None) -> tuple[CalibrationConfig, FitChoice]:
+    """The fit (:func:`fit_candidates`) whose calibrations hold out best over the rig: the lowest held-out
+    reprojection RMS among the candidates fitted in every fold, or the first listed within ``tolerance``
+    (relative) of it (``base`` comes first). Returns that candidate's config and the figures; ValueError
+    when no candidate could be fitted in every fold. The figure of the candidate chosen is the best of a
+    few on the same folds: slightly optimistic for it. ``evaluated``: {candidate label: its held-out
+    evaluation with the same ``holdout``, measured already} (not cross-validated again)."""
+    base, holdout = base or CalibrationConfig(), holdout or HoldoutConfig()
+    t0 = time.perf_counter()
+    configs = fit_candidates(base)
+    labels = tuple(configs)
+    rig = np.full(len(labels), np.nan)
+    per_cam = np.full((len(obs.camera_names), len(labels)), np.nan)
+    failures: dict[str, tuple[str, ...]] = {}
+    for i, (label, config) in enumerate(configs.items()):
+        result = (evaluated or {}).get(label) or cross_validate(
+            obs, lambda o, config=config: calibrate_from_observations(o, config=config).rig, config=holdout).own
+        if result.fold_errors:
+            failures[label] = result.fold_errors
+        else:
+            rig[i] = result.rms_px
+            per_cam[:, i] = [result.camera(n).rms_px for n in obs.camera_names]
+        log.info("fit candidate %s: held-out RMS %.3f px", label, rig[i])
+        if progress is not None:
+            progress(i + 1, len(labels))
+    if np.isnan(rig).all():
+        raise ValueError("fit choice: no candidate could be calibrated in every fold: "
+                         + "; ".join(f"{k}: {v[0]}" for k, v in failures.items()))
+    best = float(np.nanmin(rig))
+    pick = next(i for i in range(len(labels)) if np.isfinite(rig[i]) and rig[i] <= best * (1 + tolerance))
+    others = ", ".join(f"{lab} {r:.3f}" if np.isfinite(r) else f"{lab} not fitted in every fold"
+                       for lab, r in zip(labels, rig, strict=True) if lab != labels[pick])
+    reason = (f"fit {labels[pick]} chosen by held-out error ({holdout.folds} folds in time): rig RMS "
+              f"{rig[pick]:.3f} px; {others}")
+    log.info("%s", reason)
+    choice = FitChoice(labels, tuple(float(r) for r in rig),
+                       {n: tuple(float(v) for v in per_cam[c]) for c, n in enumerate(obs.camera_names)}, failures,
+                       labels[pick], reason, holdout.folds, time.perf_counter() - t0)
+    return configs[labels[pick]], choice

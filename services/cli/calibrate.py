@@ -55,24 +55,30 @@ def _board_line(board: dict) -> str:
 
 
 def _held_out(cmp) -> str:
-    """The held-out table: per camera this calibration's figures and, on the same frame sets, the reference's."""
-    own, ref = cmp.own, cmp.reference
+    """The held-out table: per camera this calibration's figures and, on the same frame sets, the reference's
+    (made from every frame set) and another tool's calibration fitted per fold (``--caliscope-folds``)."""
+    own, ref, other = cmp.own, cmp.reference, cmp.refitted
     head = (f"held-out error ({own.folds} folds in time, {own.frame_sets} frame sets judged; fits {own.seconds:.0f} s): "
             "reprojection RMS over all held-out corners / inliers (px), 3D square error (mm)")
+    cols = [("reference", ref), ("caliscope per fold", other)]
     lines = [head, f"{'camera':<10} {'views':>6} {'RMS px':>7} {'inlier':>7} {'sq mm':>6}"
-             + (f"  | reference: {'RMS px':>7} {'inlier':>7} {'sq mm':>6}" if ref else "")]
+             + "".join(f"  | {who}: {'RMS px':>7} {'inlier':>7} {'sq mm':>6}" for who, e in cols if e is not None)]
     for c in own.cameras:
         row = f"{c.name:<10} {c.views_judged:>6} {c.rms_px:>7.3f} {c.rms_inlier_px:>7.3f} {c.square_error_rms_mm:>6.2f}"
-        if ref is not None:
-            r = ref.camera(c.name)
-            row += f"  | {'':>10} {r.rms_px:>7.3f} {r.rms_inlier_px:>7.3f} {r.square_error_rms_mm:>6.2f}"
+        for who, e in cols:
+            if e is not None:
+                r = e.camera(c.name)
+                row += f"  | {'':>{len(who) + 1}} {r.rms_px:>7.3f} {r.rms_inlier_px:>7.3f} {r.square_error_rms_mm:>6.2f}"
         lines.append(row)
     lines.append(f"rig: RMS {own.rms_px:.3f} px; board in 3D: {_board_line(_board_dict(own.board))}")
     if ref is not None:
         lines.append(f"{ref.label} on the same frame sets (if it was made from this recording, they are in-sample for it): RMS "
                      f"{ref.rms_px:.3f} px; board in 3D: {_board_line(_board_dict(ref.board))}")
+    if other is not None:
+        lines.append(f"{other.label}, fitted on each fold's frame sets as this calibration is (held out for it too): "
+                     f"RMS {other.rms_px:.3f} px; board in 3D: {_board_line(_board_dict(other.board))}")
     lines += [f"fold not fitted: {e}" for e in own.fold_errors]
-    lines += [f"PROBLEM ({e.label}): {p}" for e in (own, ref) if e is not None for p in e.problems]
+    lines += [f"PROBLEM ({e.label}): {p}" for e in (own, ref, other) if e is not None for p in e.problems]
     return "\n".join(lines)
 
 
@@ -97,6 +103,15 @@ def _choice(choice) -> str:
     return "\n".join(lines)
 
 
+def _fit_choice(fit) -> str:
+    lines = [f"fit chosen by held-out error ({fit.folds} folds in time, {len(fit.candidates)} candidates, "
+             f"{fit.seconds:.0f} s): rig RMS px per candidate"]
+    for label, rms in zip(fit.candidates, fit.rig_rms_px, strict=True):
+        lines.append(f"  {label}: {rms:.3f}" + ("  <- chosen" if label == fit.chosen else ""))
+    lines += [f"candidate {k} not fitted in every fold: {v[0]}" for k, v in fit.failures.items()]
+    return "\n".join(lines)
+
+
 def _comparison(cmp) -> str:
     lines = [f"{'camera':<10} {'centre mm':>10} {'rotation deg':>13} {'focal %':>8} {'rig shape mm':>13}"]
     for c in cmp.cameras:
@@ -113,6 +128,29 @@ def _similar(cmp) -> str:
                                                                     strict=True))
     return (f"after a similarity alignment (scale {cmp.scale:.4f}): centres max {cmp.centre_mm_max:.2f} mm, "
             f"rotations max {cmp.rotation_deg_max:.3f} deg ({per})")
+
+
+APART_MM, APART_DEG = 15.0, 1.0  # rigs this far apart (after a similarity alignment) differ in substance
+
+
+def _which_is_right(similar, held_out) -> str:
+    """Where this rig and the --compare one differ by more than APART_MM or APART_DEG: which one the
+    held-out error favours, on equal terms when caliscope's calibration was fitted per fold
+    (``--caliscope-folds``), else against the reference as given (in-sample for it if made from this
+    recording, which the line says)."""
+    if similar.centre_mm_max <= APART_MM and similar.rotation_deg_max <= APART_DEG:
+        return ""
+    head = (f"the rigs differ by {similar.centre_mm_max:.1f} mm / {similar.rotation_deg_max:.2f} deg (more than "
+            f"{APART_MM:g} mm or {APART_DEG:g} deg): ")
+    if held_out is None or isinstance(held_out, str):
+        return head + "measure the held-out error (--folds K, --caliscope-folds) to tell which is right"
+    own, other = held_out.own, held_out.refitted or held_out.reference
+    if other is None:
+        return head + "give the reference's cameras to judge it on the same held-out frame sets"
+    better = "this calibration" if own.rms_px <= other.rms_px else other.label
+    how = ("both fitted on each fold, judged on the same held-out frame sets" if held_out.refitted is not None
+           else "the reference judged on the same frame sets, in-sample for it if made from this recording")
+    return head + f"the held-out error favours {better} ({own.rms_px:.3f} against {other.rms_px:.3f} px; {how})"
 
 
 def _stereo(diff, first: str, second: str) -> str:
@@ -151,9 +189,12 @@ def _views(recording: Path, cfg, flags_given: bool, selection, pairing, progress
                              f"{'by time' if found.timed else 'by order'})\n{found.table()}")
 
 
-def _cross_validate(obs, config, folds: int, reference, reference_path: Path | None):
-    """The held-out comparison (this calibration's folds, the reference on the same frame sets), or a line
-    saying why it could not be measured (the calibration itself stands)."""
+def _cross_validate(obs, config, folds: int, reference, reference_path: Path | None, refit=None,
+                    refit_label: str = ""):
+    """The held-out comparison (this calibration's folds, the reference on the same frame sets, ``refit``:
+    another tool's calibration fitted on each fold's frame sets), or a line saying why it could not be
+    measured (the calibration itself stands). The judge is the default bundle adjustment's board-pose fit,
+    whatever loss the calibration was fitted with."""
     from gaitcap.reconstruction.calibration import calibrate_from_observations
     from gaitcap.reconstruction.calibration.holdout import HoldoutConfig, cross_validate
 
@@ -163,10 +204,32 @@ def _cross_validate(obs, config, folds: int, reference, reference_path: Path | N
         with progress(total=folds, desc="held-out folds", unit="fold") as bar:
             return cross_validate(obs, lambda o: calibrate_from_observations(o, config=config).rig,
                                   reference=reference, reference_label=f"reference {reference_path}",
-                                  config=HoldoutConfig(folds=folds), bundle=config.bundle,
+                                  config=HoldoutConfig(folds=folds), refit=refit, refit_label=refit_label,
                                   progress=lambda done, total: bar.update(1))
     except ValueError as exc:
         return f"held-out error not measured: {exc}"
+
+
+def _caliscope_refit(mode: str | None, known, reference):
+    """(``refit``, label) for ``--caliscope-folds``: caliscope's own calibration of each fold's frame sets,
+    with the given intrinsics (``--intrinsics``, else the ``--compare`` calibration's) or from the clip."""
+    if mode is None:
+        return None, ""
+    from gaitcap.acquisition.importers.caliscope import calibrate_with_caliscope, caliscope_available
+
+    if mode not in ("given", "clip"):
+        raise ValueError(f"--caliscope-folds: given (caliscope starts from the --intrinsics, else the --compare "
+                         f"calibration's intrinsics) or clip (its own intrinsic calibration from these views), got {mode!r}")
+    if not caliscope_available():
+        raise ValueError("--caliscope-folds needs caliscope's scripting API: pip install -e '.[caliscope]' in "
+                         "gaitcap's checkout")
+    if mode == "clip":
+        return (lambda o: calibrate_with_caliscope(o)), "caliscope's calibration (intrinsics from the clip)"
+    given = known if known is not None else reference
+    if given is None:
+        raise ValueError("--caliscope-folds given: give the intrinsics (--intrinsics, or --compare caliscope's "
+                         "camera_array.toml)")
+    return (lambda o: calibrate_with_caliscope(o, given)), "caliscope's calibration (intrinsics given)"
 
 
 def register(app: typer.Typer) -> None:
@@ -190,6 +253,8 @@ def register(app: typer.Typer) -> None:
         strict_intrinsics: bool = typer.Option(False, "--strict-intrinsics", help="Hold nothing the board views cannot determine: refuse a camera whose board covered too little of its image or whose focal length is uncertain, instead of holding its principal point at the image centre and only k1."),
         folds: int = typer.Option(5, "--folds", help="Held-out error: split the board frame sets in time into K folds, fit on the rest, judge on each (K more calibrations; 0: skip). A --compare calibration is judged on the same frame sets."),
         choose_intrinsics: bool = typer.Option(False, "--choose-intrinsics", help="Choose each camera's lens model (k1; k1k2; k1k2p1p2k3) and principal point (held at the image centre or free) by held-out error (6 x K more calibrations)."),
+        choose_fit: bool = typer.Option(False, "--choose-fit", help="Choose the fit by held-out error: the bundle adjustment's loss (soft-L1 or least squares) and, with --intrinsics, those intrinsics held or the cameras' own from the clip (2 or 4 x K more calibrations)."),
+        caliscope_folds: str | None = typer.Option(None, "--caliscope-folds", help="Also fit caliscope's own calibration (pip install -e '.[caliscope]') on each fold's frame sets and judge it on the same held-out ones: 'given' starts it from the --intrinsics (else the --compare calibration's) intrinsics, 'clip' from its own intrinsic calibration of these views."),
         motion: bool = typer.Option(False, "--motion", help="Model the hand-held board's motion: each camera's time offset (webcams are not synchronised) adjusted from the board's motion and views weighted by its speed; the offsets are in the report."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
@@ -210,6 +275,7 @@ def register(app: typer.Typer) -> None:
             stereo_difference,
         )
         from gaitcap.reconstruction.calibration.holdout import HoldoutConfig
+        from gaitcap.reconstruction.calibration.model_choice import choose_fit as choose_fit_model
         from gaitcap.reconstruction.calibration.model_choice import choose_intrinsics as choose_model
         from gaitcap.reconstruction.calibration.motion import MotionConfig
 
@@ -235,6 +301,9 @@ def register(app: typer.Typer) -> None:
                                                PairingConfig(tolerance_ms=sync_tolerance_ms, readout_ms=readout_ms),
                                                lambda done, total: bar.update(1))
             typer.echo(f"board {cfg.describe()}: {what}", err=True)
+            refit, refit_label = _caliscope_refit(caliscope_folds, known, reference)
+            if refit is not None and not folds:
+                raise ValueError("--caliscope-folds: the held-out error is off (--folds 0)")
             if found is not None:
                 found.check(config.intrinsics.min_views)
             choice = None
@@ -247,9 +316,14 @@ def register(app: typer.Typer) -> None:
                                                       progress=lambda done, total: bar.update(1))
                 except ValueError as exc:  # no candidate fitted in every fold: the default rule stands, said
                     typer.echo(f"intrinsics not chosen by held-out error ({exc}); the coverage rule is used", err=True)
+            fit = None
+            if choose_fit:
+                with progress(total=4 if known is not None else 2, desc="choosing the fit", unit="candidate") as bar:
+                    config, fit = choose_fit_model(obs, config, holdout=HoldoutConfig(folds=max(folds, 2)),
+                                                   progress=lambda done, total: bar.update(1))
             result = calibrate_from_observations(obs, config=config,
                                                  views_removed=found.views_removed if found is not None else None)
-            held_out = _cross_validate(obs, config, folds, reference, compare) if folds else None
+            held_out = _cross_validate(obs, config, folds, reference, compare, refit, refit_label) if folds else None
             refused = bool(result.report.failed_cameras) and not accept_failed
             target = out.with_name(out.stem + ".refused" + out.suffix) if refused else out
             save_rig(result.rig, target, metadata={"error": result.report.reprojection_rms_px})
@@ -257,6 +331,7 @@ def register(app: typer.Typer) -> None:
             report = result.report.to_dict()
             report["held_out"] = held_out.to_dict() if held_out is not None and not isinstance(held_out, str) else held_out
             report["intrinsics_choice"] = choice.to_dict() if choice is not None else None
+            report["fit_choice"] = fit.to_dict() if fit is not None else None
             atomic_write_text(report_file, json.dumps(report, indent=2))
             comparison = compare_rigs(reference, result.rig) if reference is not None else None
             similar = compare_similar(reference, result.rig) if reference is not None and len(reference) >= 3 else None
@@ -264,6 +339,8 @@ def register(app: typer.Typer) -> None:
             stereo = stereo_difference(reference, result.rig, first=pair[0], second=pair[1]) if pair else None
         if choice is not None:
             typer.echo(_choice(choice))
+        if fit is not None:
+            typer.echo(_fit_choice(fit))
         typer.echo(_summary(result.report))
         for note in result.report.motion.get("notes", ()):
             typer.echo(f"the board's motion: {note}")
@@ -274,6 +351,9 @@ def register(app: typer.Typer) -> None:
             typer.echo(_comparison(comparison))
         if similar is not None:
             typer.echo(_similar(similar))
+            verdict = _which_is_right(similar, held_out)
+            if verdict:
+                typer.echo(verdict)
         if stereo is not None:
             typer.echo(_stereo(stereo, *pair))
         typer.echo(f"wrote {target} and {report_file}")

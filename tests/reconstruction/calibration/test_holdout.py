@@ -99,6 +99,32 @@ def test_a_failing_fold_is_named_and_its_frame_sets_judged_for_neither(room):
     assert cmp.reference.frame_sets == cmp.own.frame_sets < (time_folds(obs, 4) >= 0).sum()
 
 
+def test_another_calibration_refitted_per_fold_is_fitted_on_the_same_frame_sets_and_judged_on_the_same(room):
+    rig, obs = room
+    seen = {"own": [], "other": []}
+
+    def spy(who):
+        def fit(train: BoardObservations):
+            seen[who].append(np.round(train.times_s, 6).tolist())
+            if who == "other" and len(seen[who]) == 3:  # the other procedure cannot fit the third fold
+                raise ValueError("no stereo pair")
+            return rig
+        return fit
+
+    cmp = cross_validate(obs, spy("own"), config=HoldoutConfig(folds=4), refit=spy("other"),
+                         refit_label="the other tool's calibration")
+    assert seen["own"] == seen["other"]  # the same training frame sets, fold by fold
+    own, other = cmp.own, cmp.refitted
+    assert other.label == "the other tool's calibration" and cmp.reference is None
+    # the fold the other could not fit is judged for neither, and named with whose fit failed
+    assert own.fold_errors == other.fold_errors and len(own.fold_errors) == 1
+    assert own.fold_errors[0].startswith("fold 3 of 4") and "the other tool's calibration not fitted: no stereo pair" \
+        in own.fold_errors[0]
+    assert own.frame_sets == other.frame_sets < (time_folds(merge_still_frames(obs)[0], 4) >= 0).sum()
+    assert [c.rms_px for c in other.cameras] == [c.rms_px for c in own.cameras]  # the same rig on the same sets
+    assert cmp.to_dict()["refitted"]["label"] == "the other tool's calibration"
+
+
 @pytest.fixture(scope="module")
 def caliscope():
     return read_session(SESSION)

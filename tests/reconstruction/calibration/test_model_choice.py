@@ -15,7 +15,13 @@ from gaitcap.reconstruction.calibration import (
 )
 from gaitcap.reconstruction.calibration.holdout import HoldoutConfig
 from gaitcap.reconstruction.calibration.intrinsics import DistortionModel, PrincipalPoint
-from gaitcap.reconstruction.calibration.model_choice import Candidate, best_single_fallback, choose_intrinsics
+from gaitcap.reconstruction.calibration.model_choice import (
+    Candidate,
+    best_single_fallback,
+    choose_fit,
+    choose_intrinsics,
+    fit_candidates,
+)
 from gaitcap.reconstruction.camera import Rig
 from gaitcap.simulator.board import BoardMotion, board_trajectory, observe_board
 from gaitcap.simulator.room import build_rig
@@ -66,3 +72,20 @@ def test_the_best_single_candidate_replaces_choices_that_hold_out_worse_together
     assert best_single_fallback([0, 1], np.array([1.10, 1.05]), 1.00, cands) == ([0, 1], 1.00, "")
     assert best_single_fallback([0, 1], np.array([np.nan, 1.05]), np.nan, cands)[0] == [1, 1]  # the mix failed
     assert best_single_fallback([1, 1], np.array([1.10, 1.05]), 1.05, cands) == ([1, 1], 1.05, "")
+
+
+def test_the_fit_is_chosen_by_held_out_error_among_the_losses_and_the_given_intrinsics(shifted):
+    rig, obs = shifted
+    known = CalibrationConfig(known_intrinsics={c.name: (c.matrix_px, c.dist) for c in rig})
+    assert list(fit_candidates(CalibrationConfig())) == ["soft-L1 (1 px)", "least squares"]
+    candidates = fit_candidates(known)
+    assert list(candidates) == ["given intrinsics held, soft-L1 (1 px)", "given intrinsics held, least squares",
+                                "intrinsics from the clip, soft-L1 (1 px)", "intrinsics from the clip, least squares"]
+    assert candidates["intrinsics from the clip, least squares"].known_intrinsics is None
+    assert candidates["given intrinsics held, least squares"].bundle.loss == "linear"
+    config, fit = choose_fit(obs, known, holdout=HoldoutConfig(folds=3))
+    # the true intrinsics held explain unseen views at the noise, better than the clip's estimates
+    assert fit.chosen.startswith("given intrinsics held") and config.known_intrinsics is not None
+    assert np.all(np.isfinite(fit.rig_rms_px)) and min(fit.rig_rms_px[:2]) <= min(fit.rig_rms_px[2:])
+    assert fit.rig_rms_px[0] < 1.2 * 0.3 * np.sqrt(2) and fit.reason.startswith(f"fit {fit.chosen} chosen")
+    assert "intrinsics from the clip, least squares" in fit.reason and fit.to_dict()["chosen"] == fit.chosen

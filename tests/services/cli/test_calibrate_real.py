@@ -107,3 +107,48 @@ def test_the_intrinsics_choice_prints_the_rig_figures_and_a_fallback():
                               {}, {}, 3, 12.0, "", (1.10, 1.05), 1.05, fallback)
     text = _choice(choice).splitlines()
     assert "rig         1.100  1.050  -> 1.050 with the intrinsics chosen" in text and fallback in text
+
+
+def test_caliscope_per_fold_needs_its_scripting_api_or_given_intrinsics(tmp_path):
+    from gaitcap.acquisition.importers.caliscope import caliscope_available
+
+    out = tmp_path / "c.toml"
+    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out), "--caliscope-folds", "both"])
+    assert result.exit_code == 2 and "--caliscope-folds: given (caliscope starts from" in result.output
+    result = CliRunner().invoke(app, ["calibrate", str(SESSION), "--out", str(out), "--caliscope-folds", "given"])
+    assert result.exit_code == 2 and not out.exists()
+    assert ("--caliscope-folds given: give the intrinsics" if caliscope_available()
+            else "pip install -e '.[caliscope]'") in result.output
+
+
+def test_the_fit_choice_prints_every_candidate_and_the_one_chosen():
+    from gaitcap.reconstruction.calibration.model_choice import FitChoice
+    from gaitcap.services.cli.calibrate import _fit_choice
+
+    fit = FitChoice(("given intrinsics held, soft-L1 (1 px)", "given intrinsics held, least squares"), (1.011, 0.995),
+                    {"cam_0": (1.0, 0.99)}, {}, "given intrinsics held, least squares", "", 5, 30.0)
+    text = _fit_choice(fit).splitlines()
+    assert text[0].startswith("fit chosen by held-out error (5 folds in time, 2 candidates")
+    assert "  given intrinsics held, least squares: 0.995  <- chosen" in text
+    assert "  given intrinsics held, soft-L1 (1 px): 1.011" in text
+
+
+def test_where_the_rigs_differ_the_held_out_error_on_equal_terms_says_which_is_right():
+    from types import SimpleNamespace
+
+    from gaitcap.services.cli.calibrate import _which_is_right
+
+    near = SimpleNamespace(centre_mm_max=1.3, rotation_deg_max=0.22)
+    apart = SimpleNamespace(centre_mm_max=16.3, rotation_deg_max=2.49)
+    own = SimpleNamespace(rms_px=1.075, label="this calibration")
+    theirs = SimpleNamespace(rms_px=1.014, label="caliscope's calibration (intrinsics given)")
+    given = SimpleNamespace(rms_px=0.896, label="reference camera_array.toml")
+    assert _which_is_right(near, SimpleNamespace(own=own, reference=given, refitted=theirs)) == ""
+    line = _which_is_right(apart, SimpleNamespace(own=own, reference=given, refitted=theirs))
+    assert line.startswith("the rigs differ by 16.3 mm / 2.49 deg (more than 15 mm or 1 deg)")
+    assert "favours caliscope's calibration (intrinsics given) (1.075 against 1.014 px; both fitted on each fold" in line
+    line = _which_is_right(apart, SimpleNamespace(own=SimpleNamespace(rms_px=0.85, label=""), reference=given,
+                                                  refitted=None))
+    assert "favours this calibration (0.850 against 0.896 px; the reference judged on the same frame sets, " \
+        "in-sample for it" in line
+    assert "--caliscope-folds" in _which_is_right(apart, "held-out error not measured: too few frame sets")
