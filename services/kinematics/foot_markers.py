@@ -1,10 +1,10 @@
 """The model's foot markers placed in the patient's foot shape (``reconstruction.kinematics.foot``).
 
 On the scaled model in its zero pose, the keypoints' foot template goes on the ankle joint centre (the
-talus's origin) with the foot line at right angles to the shank (knee to ankle joint centre) and facing
-the model's forward (its x axis); the heel and toe markers move there, on the calcaneus: the keypoints'
-foot is one rigid segment (heel and toes of a detector, or a marker protocol's heel and forefoot), so the
-toes' joint (mtp) carries no marker and is held at 0 by the fit (``opensim_engine.PRIORS``).
+talus's origin) with the foot line at right angles to the shank (knee joint centre to ankle joint centre)
+and facing the model's forward (its x axis); the heel and toe markers move there, on the calcaneus: the
+keypoints' foot is one rigid segment (heel and toes of a detector, or a marker protocol's heel and
+forefoot), so the toes' joint (mtp) carries no marker and is held at 0 by the fit (``opensim_engine.PRIORS``).
 """
 
 from __future__ import annotations
@@ -23,10 +23,21 @@ from gaitcap.reconstruction.kinematics.frames import room_to_opensim
 log = logging.getLogger(__name__)
 SIDES = {"L": "l", "R": "r"}
 FOOT_BODY = "calcn_{}"
+KNEE_JOINT = "walker_knee_{}"
 
 
 def _location(model, state, body: str) -> np.ndarray:
     return model.getBodySet().get(body).getPositionInGround(state).to_numpy()
+
+
+def _knee_centre(model, state, side: str) -> np.ndarray:
+    """The knee joint's centre (its frame on the femur: the knee marker, ``model_setup``), else the tibia's
+    origin (10 mm above it in Pose2Sim's model)."""
+    joints = model.getJointSet()
+    name = KNEE_JOINT.format(side)
+    if joints.contains(name):
+        return joints.get(name).getParentFrame().getPositionInGround(state).to_numpy()
+    return _location(model, state, f"tibia_{side}")
 
 
 def place_foot_markers(osim, model, points_mm: np.ndarray, names: tuple[str, ...]) -> dict[str, list[float]]:
@@ -61,7 +72,7 @@ def place_foot_markers(osim, model, points_mm: np.ndarray, names: tuple[str, ...
             torsion = 0.0
         body = model.getBodySet().get(FOOT_BODY.format(s))
         where = template_on_model(template, ankle_centre=_location(model, state, f"talus_{s}"),
-                                  knee_centre=_location(model, state, f"tibia_{s}"), forward=np.array([1.0, 0, 0]),
+                                  knee_centre=_knee_centre(model, state, s), forward=np.array([1.0, 0, 0]),
                                   torsion_deg=torsion)
         torsions[letter] = round(torsion, 1)
         for part, p in where.items():

@@ -1,5 +1,5 @@
-"""The model as the keypoints see it: the marker set with the hip and ankle markers on their joint centres,
-and the pelvis scaled in width by the hips' distance and otherwise by the patient's overall size."""
+"""The model as the keypoints see it: the marker set with the hip, knee and ankle markers on their joint
+centres, and the pelvis scaled in width by the hips' distance and otherwise by the patient's overall size."""
 
 from __future__ import annotations
 
@@ -12,8 +12,15 @@ import numpy as np
 # joint), not the skin points below and beside them where the Pose2Sim marker sets put them (15 mm lower,
 # 7 mm forward, 20 mm lateral): there, tilting the pelvis moved the hip markers against the thighs and the fit used the pelvis's
 # tilt to absorb the difference. The ankle keypoint is the ankle joint centre too (between the malleoli; the
-# foot's markers are placed around it in the keypoints' foot shape, ``foot_markers``).
+# foot's markers are placed around it in the keypoints' foot shape, ``foot_markers``). So is the knee
+# keypoint (a detector's knee, Plug-in-Gait's knee joint centre, the walker's hinge): Pose2Sim's knee marker
+# sits on the femur 10 mm above the knee's axis (and 3 mm in front of it), so the model's shank (the tibia,
+# turning about that axis) was not the keypoints' knee -> ankle line once the knee bent, and the rigid
+# thigh and shank fitted to the markers read the knee's and the ankle's angles off by as much (real walks'
+# joint centres: knee RMSE 1.05 / 1.73 -> 0.77 / 1.34 deg on PiG_Motion-FlatFoot-Full, ankle r 0.979 /
+# 0.971 -> 0.982 / 0.976; the synthetic walker's exact keypoints: knee 0.49 -> 0.29 deg; docs/kinematics.md).
 JOINT_CENTRE_MARKERS = {"LHip": ("hip_l",), "RHip": ("hip_r",), "Hip": ("hip_l", "hip_r"), "CHip": ("hip_l", "hip_r"),
+                        "LKnee": ("walker_knee_l",), "RKnee": ("walker_knee_r",),
                         "LAnkle": ("ankle_l",), "RAnkle": ("ankle_r",)}
 
 
@@ -56,8 +63,8 @@ def hinged_knees(osim, model) -> None:
 
 
 def model_with_markers(osim, files: dict[str, Path]):
-    """The layout's model with its marker set, hip and ankle markers at their joint centres, the knees
-    hinges."""
+    """The layout's model with its marker set, hip, knee and ankle markers at their joint centres, the
+    knees hinges."""
     model = osim.Model(str(files["model"]))
     model.set_MarkerSet(osim.MarkerSet(str(files["markers"])))
     markers_at_joint_centres(osim, model)
