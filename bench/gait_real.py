@@ -15,6 +15,12 @@ detector's errors are also listed per walk and foot (every error of the 5 phases
     python bench/gait_real.py --methods truth robust implicit explicit --json
     python bench/gait_real.py --criteria --methods markers truth robust implicit
     python bench/gait_real.py --walks c3d:FunctionalWalk --methods truth implicit
+    python bench/gait_real.py --methods truth implicit --preset clean    # no detector noise: the fit alone
+
+``--preset clean`` films the walks with a noise-free detector (what the fit alone does to the events;
+``--seed`` draws other noise). The C3D walks' heel strikes are also scored on their plate-confirmed Foot
+Strikes only (annotated within ``PLATE_MATCH_S`` of a force plate's onset, read from the C3D's analog
+channels), against the annotation and against the onset itself.
 
 ``--criteria`` compares heel-strike criteria instead (``CRITERIA``): each is evaluated on the approach of
 every contact the default detector finds (its rest points, the same continuous trajectory), per walk and
@@ -37,10 +43,15 @@ import numpy as np
 
 MATCH_S = 0.25
 FPS = 30.0
+PLATE_ONSET_N = 20.0  # force onset: vertical force this far above the unloaded plate (N; the shared data's README)
+PLATE_QUIET_S = 0.05  # ... after at least this long unloaded
+PLATE_MATCH_S = 0.015  # an annotated Foot Strike this close to a plate's onset is plate-confirmed
 
 
-def _match(detected: np.ndarray, annotated: np.ndarray, excluded: np.ndarray) -> tuple[list[float], int, int]:
-    """(errors s of matched annotations, found count, invented count) for one foot and event kind."""
+def _match(detected: np.ndarray, annotated: np.ndarray, excluded: np.ndarray,
+           matched: list | None = None) -> tuple[list[float], int, int]:
+    """(errors s of matched annotations, found count, invented count) for one foot and event kind; the
+    matched annotations' times are appended to ``matched`` when given (in the errors' order)."""
     detected = np.sort(detected[np.isfinite(detected)])
     errors, used = [], set()
     for t in annotated:
@@ -51,6 +62,8 @@ def _match(detected: np.ndarray, annotated: np.ndarray, excluded: np.ndarray) ->
         if abs(detected[k] - t) <= MATCH_S:
             used.add(k)
             errors.append(float(detected[k] - t))
+            if matched is not None:
+                matched.append(float(t))
     invented = 0
     if len(annotated):
         lo, hi = annotated.min() - MATCH_S, annotated.max() + MATCH_S
@@ -63,20 +76,57 @@ def _match(detected: np.ndarray, annotated: np.ndarray, excluded: np.ndarray) ->
     return errors, len(errors), invented
 
 
-def _score(events, walk) -> dict:
+def _score(events, walk, onsets_s: np.ndarray = np.zeros(0)) -> dict:
+    """Errors, found, annotated and invented events of each kind, and by foot; ``plates``: the heel-strike
+    errors (s) of the annotated strikes within ``PLATE_MATCH_S`` of a force plate's onset (``onsets_s``),
+    and ``vs_onset``: the same detections minus those onsets."""
     out = {}
     for kind in ("heel_strike", "toe_off"):
-        errors, found, invented, annotated, by_foot = [], 0, 0, 0, {}
+        errors, found, invented, annotated, by_foot, plates, vs_onset = [], 0, 0, 0, {}, [], []
         for side in ("left", "right"):
             truth = getattr(walk, f"{kind}_s")[side]
             excl = np.array([t for k, s, t, _ in walk.excluded if k == kind and s == side])
-            e, f, i = _match(np.asarray(events[kind][side], dtype=float), truth, excl)
+            matched: list[float] = []
+            e, f, i = _match(np.asarray(events[kind][side], dtype=float), truth, excl, matched)
             errors += e
             by_foot[side] = e
             found, invented, annotated = found + f, invented + i, annotated + len(truth)
+            for err, t in zip(e, matched, strict=True):
+                if kind == "heel_strike" and len(onsets_s) and np.min(np.abs(onsets_s - t)) <= PLATE_MATCH_S:
+                    plates.append(err)
+                    vs_onset.append(err + t - float(onsets_s[np.argmin(np.abs(onsets_s - t))]))
         out[kind] = {"errors_s": errors, "found": found, "annotated": annotated, "invented": invented,
-                     "by_foot": by_foot}
+                     "by_foot": by_foot, "plates": plates, "vs_onset": vs_onset}
     return out
+
+
+def plate_onsets_s(path) -> np.ndarray:
+    """Force onsets (s, on the C3D file's clock from its first frame) of every loading of its force plates:
+    where a plate's vertical force first rises ``PLATE_ONSET_N`` above its unloaded level (the median of the
+    record: one pass over the plates loads each of them briefly) after ``PLATE_QUIET_S`` below it. Type-2
+    plates (the Fz channel of FORCE_PLATFORM:CHANNEL, in newtons once ezc3d has scaled it); empty
+    without plates."""
+    import ezc3d
+
+    c = ezc3d.c3d(str(path))
+    params = c["parameters"]
+    plates = params.get("FORCE_PLATFORM", {})
+    if not plates or "CHANNEL" not in plates:
+        return np.zeros(0)
+    rate = float(np.ravel(params["ANALOG"]["RATE"]["value"])[0])
+    analogs = np.asarray(c["data"]["analogs"])[0]  # (channels, samples)
+    types = np.ravel(plates.get("TYPE", {}).get("value", []))
+    channels = np.asarray(plates["CHANNEL"]["value"]).reshape(-1, len(types)).T if len(types) else []
+    quiet = int(round(PLATE_QUIET_S * rate))
+    out = []
+    for kind, chans in zip(types, channels, strict=True):
+        if int(kind) != 2:
+            continue
+        fz = analogs[int(chans[2]) - 1]
+        loaded = np.abs(fz - np.median(fz)) > PLATE_ONSET_N
+        rises = np.flatnonzero(loaded[1:] & ~loaded[:-1]) + 1
+        out += [k / rate for k in rises if k >= quiet and not loaded[k - quiet:k].any()]
+    return np.sort(np.array(out))
 
 
 def _default_events(report) -> dict:
@@ -97,16 +147,16 @@ def _temporal_errors(report, walk) -> dict:
     return errors
 
 
-def _trajectory(walk, *, method: str, phase: int, seed: int):
+def _trajectory(walk, *, method: str, phase: int, seed: int, preset: str = "paper"):
     """(times_s, points_mm, joint names, continuous sample or None, reconstruction s) of one walk seen at
-    30 fps from ``phase`` and reconstructed by ``method`` (``truth``: the sampled markers; ``markers``:
-    every marker frame, no rig)."""
+    30 fps from ``phase`` with the detector noise ``preset`` and reconstructed by ``method`` (``truth``: the
+    sampled markers; ``markers``: every marker frame, no rig)."""
     from gaitcap.reconstruction.methods import METHODS, reconstruct
     from gaitcap.simulator.mocap import SKELETON, halpe26_points, rig_view
 
     if method == "markers":
         return walk.times_s, halpe26_points(walk), SKELETON.joint_names, None, 0.0
-    view = rig_view(walk, phase=phase, seed=seed)
+    view = rig_view(walk, phase=phase, seed=seed, preset=preset)
     names = view.detections.skeleton.joint_names
     t0 = time.perf_counter()
     if method == "truth":
@@ -117,15 +167,16 @@ def _trajectory(walk, *, method: str, phase: int, seed: int):
     return view.times_s, points, names, sample, time.perf_counter() - t0
 
 
-def run_walk(walk, *, method: str, phase: int, seed: int) -> dict:
+def run_walk(walk, *, method: str, phase: int, seed: int, onsets_s: np.ndarray = np.zeros(0),
+             preset: str = "paper") -> dict:
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.gait.baselines import BASELINES
     from gaitcap.reconstruction.gait.tracks import FootTracks
 
-    times, points, names, sample, seconds = _trajectory(walk, method=method, phase=phase, seed=seed)
+    times, points, names, sample, seconds = _trajectory(walk, method=method, phase=phase, seed=seed, preset=preset)
     report = analyze_gait(points, times, names, sample=sample)
     tracks = FootTracks.from_points(points, times, names, sample=sample)
-    scores = {"gaitcap": _score(_default_events(report), walk)}
+    scores = {"gaitcap": _score(_default_events(report), walk, onsets_s)}
     for name, fn in BASELINES.items():
         scores[name] = _score(fn(tracks), walk)
     return {"scores": scores, "temporal": _temporal_errors(report, walk), "seconds_reconstruction": seconds,
@@ -156,6 +207,13 @@ def _walk_names() -> list[str]:
     return available_walks() + [f"c3d:{name}" for name in available_pig_walks()]
 
 
+def _plate_onsets(name: str) -> np.ndarray:
+    """The force plates' onsets of a ``c3d:`` walk (s, the walk's clock); empty for the others."""
+    from gaitcap.simulator.pig_walks import C3D_DIR
+
+    return plate_onsets_s(C3D_DIR / f"{name[4:]}.c3d") if name.startswith("c3d:") else np.zeros(0)
+
+
 def _load_walk(name: str):
     from gaitcap.simulator.mocap import load_walk
     from gaitcap.simulator.pig_walks import C3D_DIR, load_pig_walk
@@ -163,24 +221,30 @@ def _load_walk(name: str):
     return load_pig_walk(C3D_DIR / f"{name[4:]}.c3d").walk if name.startswith("c3d:") else load_walk(name)
 
 
-def run(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | None = None) -> dict:
+def run(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | None = None,
+        preset: str = "paper") -> dict:
     from gaitcap.simulator.mocap import rig_phases
 
     walks = [w for w in _walk_names() if walk_filter is None or w in walk_filter]
     if not walks:
         raise SystemExit("no real walks installed: run deploy/bootstrap.sh (install_gait_mocap)")
-    rows, temporal, info, feet = [], {}, {}, []
+    rows, temporal, info, feet, plates = [], {}, {}, [], []
     for method in methods:
         everything: dict = {}
         for name in walks:
             walk = _load_walk(name)
+            onsets = _plate_onsets(name)
             info[name] = {"source": walk.source, "seconds": walk.duration_s,
-                          "excluded_annotations": [list(e) for e in walk.excluded]}
+                          "excluded_annotations": [list(e) for e in walk.excluded],
+                          "plate_onsets_s": [round(float(t), 4) for t in onsets]}
+            on_plates: dict = {"plates": [], "vs_onset": []}
             pooled: dict = {}
             foot_errors: dict = {}
             temp = {"stance_pct": [], "double_support_pct": []}
             for phase in range(min(phases, rig_phases(walk, FPS))):
-                r = run_walk(walk, method=method, phase=phase, seed=seed + phase)
+                r = run_walk(walk, method=method, phase=phase, seed=seed + phase, onsets_s=onsets, preset=preset)
+                for key in on_plates:
+                    on_plates[key] += r["scores"]["gaitcap"]["heel_strike"][key]
                 for det, sc in r["scores"].items():
                     for kind, s in sc.items():
                         p = pooled.setdefault((det, kind), {"errors_s": [], "found": 0, "annotated": 0,
@@ -204,9 +268,13 @@ def run(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | 
                 for key, value in p.items():
                     total[key] += value
             temporal[f"{method}/{name}"] = {k: _summary(vals, scale=1.0) for k, vals in temp.items()}
+            if len(onsets):
+                plates.append({"reconstruction": method, "walk": name, **{
+                    key: {f"{k}_ms" if k != "n" else k: v for k, v in _summary(e).items()}
+                    for key, e in (("vs_annotation", on_plates["plates"]), ("vs_onset", on_plates["vs_onset"]))}})
         rows += [_row(method, "all", det, kind, p) for (det, kind), p in everything.items()]
-    return {"fps": FPS, "phases": phases, "seed": seed, "rows": rows, "by_foot": feet, "temporal_pct": temporal,
-            "walks": info}
+    return {"fps": FPS, "phases": phases, "seed": seed, "preset": preset, "rows": rows, "by_foot": feet,
+            "temporal_pct": temporal, "plates": plates, "walks": info}
 
 
 # Heel-strike criteria compared on the same contacts (``--criteria``).
@@ -357,7 +425,8 @@ def _criteria_errors(approaches, truth: dict, into: dict, walk: str) -> None:
                     (1000.0 * ((found if np.isfinite(found) else t) - t_true), not np.isfinite(found)))
 
 
-def run_criteria(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | None = None) -> dict:
+def run_criteria(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | None = None,
+                 preset: str = "paper") -> dict:
     """Errors of every heel-strike criterion (``CRITERIA``) per input, walk and foot (see the module
     docstring); the walker's patterns (simulated, ground-truth frames) as input ``walker``."""
     from gaitcap.simulator import make_trial
@@ -376,7 +445,8 @@ def run_criteria(*, methods: list[str], phases: int, seed: int, walk_filter: lis
         into = errors.setdefault(method, {})
         for name, walk in walks.items():
             for phase in range(1 if method == "markers" else min(phases, rig_phases(walk, FPS))):
-                times, points, names, sample, _ = _trajectory(walk, method=method, phase=phase, seed=seed + phase)
+                times, points, names, sample, _ = _trajectory(walk, method=method, phase=phase, seed=seed + phase,
+                                                              preset=preset)
                 _criteria_errors(_approaches(times, points, names, sample), walk.heel_strike_s, into, name)
     for name, params in WALKERS.items():
         trial = make_trial("paper", seconds=20.0, seed=seed, walk=params())
@@ -412,13 +482,18 @@ def _criteria_table(r: dict) -> str:
     return "\n".join(lines)
 
 
-def _f(x, d=0) -> str:
-    return "-" if x is None else f"{x:.{d}f}"
+def _f(x, d=0, sign=False) -> str:
+    return "-" if x is None else f"{x:{'+' if sign else ''}.{d}f}"
+
+
+def _frames(ms: float | None) -> float | None:
+    return None if ms is None else ms * FPS / 1000.0
 
 
 def _table(r: dict) -> str:
     ms_frame = 1000.0 / FPS
-    lines = [f"gait events on real walks: 30 fps rig, paper noise, {r['phases']} sampling phases each",
+    lines = [f"gait events on real walks: 30 fps rig, {r['preset']} noise, seed {r['seed']}, {r['phases']} sampling "
+             "phases each",
              f"{'recon':<9}{'walk':<10}{'detector':<9}{'event':<12}{'n':>4}{'med|e| ms':>10}{'(fr)':>6}"
              f"{'median ms':>10}{'(fr)':>6}{'mean ms':>8}{'p90 ms':>8}{'(fr)':>6}{'found':>9}{'invented':>9}"]
     for row in r["rows"]:
@@ -434,6 +509,15 @@ def _table(r: dict) -> str:
         lines.append(f"  {f['reconstruction']:<9}{f['walk']:<10}{f['event']:<12}{f['foot']:<6}{f['n']:>3}"
                      f"{_f(f['median_ms']):>6}{_f(f['median_abs_ms']):>6}   "
                      + " ".join(f"{e:+.0f}" for e in f["errors_ms"]))
+    if r["plates"]:
+        lines.append(f"default detector's heel strikes at the plate-confirmed Foot Strikes (within {1000 * PLATE_MATCH_S:.0f} ms "
+                     f"of a plate's {PLATE_ONSET_N:.0f} N onset): n, signed median / median |e| ms (frames), vs the "
+                     "annotation; vs the onset")
+    for p in r["plates"]:
+        a, o = p["vs_annotation"], p["vs_onset"]
+        lines.append(f"  {p['reconstruction']:<9}{p['walk']:<30}{a['n']:>3}  " + ";  ".join(
+            f"{_f(x['median_ms'], sign=True):>4} / {_f(x['median_abs_ms']):<3}({_f(_frames(x['median_ms']), 2, True)} / "
+            f"{_f(_frames(x['median_abs_ms']), 2)})" for x in (a, o)))
     lines.append("temporal parameters of the default detector vs the annotations (percentage points of the stride)")
     for key, t in r["temporal_pct"].items():
         for name, s in t.items():
@@ -455,13 +539,16 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--walks", nargs="+", default=None,
                     help="only these walks (healthy, parkinson, c3d:FunctionalWalk, c3d:PiG_Motion3_FF, ...)")
+    ap.add_argument("--preset", default="paper", help="the simulated detector's noise (simulator/noise.py: "
+                    "paper, clean, ...)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr)
     if "markers" in args.methods and not args.criteria:
         ap.error("--methods markers: only with --criteria")
     runner, table = (run_criteria, _criteria_table) if args.criteria else (run, _table)
-    result = runner(methods=args.methods, phases=args.phases, seed=args.seed, walk_filter=args.walks)
+    result = runner(methods=args.methods, phases=args.phases, seed=args.seed, walk_filter=args.walks,
+                    preset=args.preset)
     if args.json:
         from _common import jsonable
 

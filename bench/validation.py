@@ -29,6 +29,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "bench"))
 from _common import emit  # noqa: E402
+from gait_real import PLATE_MATCH_S, plate_onsets_s  # noqa: E402
 
 C3D_DIR = ROOT.parent / "shared" / "data" / "c3d"
 WALKS = ("FunctionalWalk", "PiG_Motion3_FF", "PiG_Motion-FlatFoot-Full")
@@ -84,10 +85,17 @@ def _simulator_pair(work: Path) -> tuple[str, str, str]:
     return "simulator", str(folder), str(folder / "truth.c3d")
 
 
-def _pooled(result: dict, kind: str) -> dict:
-    """Both sides' matched errors of one event kind (frames at the trial's rate): n, signed and |e| median."""
-    e = np.array([(t - r) * result["fps"] for x in result["events"] if x["kind"] == kind
-                  for t, r in zip(x["trial_s"], x["reference_s"], strict=True)])
+def _pooled(result: dict, kind: str, onsets_s: np.ndarray | None = None, *, vs_onset: bool = False) -> dict:
+    """Both sides' matched errors of one event kind (frames at the trial's rate): n, signed and |e| median.
+    ``onsets_s``: only the events whose reference lies within ``PLATE_MATCH_S`` of one of these force-plate
+    onsets (s, on the trial's clock as the events' reference times are), measured against that onset when
+    ``vs_onset``."""
+    pairs = [(t, r) for x in result["events"] if x["kind"] == kind
+             for t, r in zip(x["trial_s"], x["reference_s"], strict=True)]
+    if onsets_s is not None:
+        near = [(t, r, float(onsets_s[np.argmin(np.abs(onsets_s - r))])) for t, r in pairs if len(onsets_s)]
+        pairs = [(t, on if vs_onset else r) for t, r, on in near if abs(on - r) <= PLATE_MATCH_S]
+    e = np.array([(t - r) * result["fps"] for t, r in pairs])
     return {"n": len(e), "signed_median_frames": float(np.median(e)) if len(e) else None,
             "abs_median_frames": float(np.median(np.abs(e))) if len(e) else None,
             "errors_frames": [round(float(x), 2) for x in e]}
@@ -108,6 +116,8 @@ def run(refine: bool) -> dict:
                     for p in items if (work / "study" / p.name / "validation.json").is_file()}
     pairs_out = {}
     for name, r in per_pair.items():
+        # the plates' onsets on the trial's clock, as the events' reference times are (reference - lag)
+        onsets = plate_onsets_s(C3D_DIR / f"{name}.c3d") - r["alignment"]["lag_s"] if name != "simulator" else None
         a = r["alignment"]
         pairs_out[name] = {"lag_s": a["lag_s"], "true_lag_s": START_S if name != "simulator" else -0.3,
                            "residual_mm": a["residual_mm"], "rotation_deg": a["rotation_deg"],
@@ -119,6 +129,9 @@ def run(refine: bool) -> dict:
                                       for x in r["angles"]],
                            "not_compared": r["not_compared"], "process_s": seconds[name],
                            "heel_strike": _pooled(r, "heel_strike"), "toe_off": _pooled(r, "toe_off")}
+        if onsets is not None:
+            pairs_out[name]["heel_strike_plates"] = _pooled(r, "heel_strike", onsets)
+            pairs_out[name]["heel_strike_vs_onset"] = _pooled(r, "heel_strike", onsets, vs_onset=True)
     return {"refine": refine, "start_s": START_S, "fps": 30.0, "study": study, "pairs": pairs_out}
 
 
@@ -145,11 +158,15 @@ def _table(r: dict) -> str:
             lines.append(f"    {e['side']:<6}{e['kind']:<12}{e['n']:>3}{_f(e['signed_median_frames']):>7}"
                          f"{_f(e['abs_median_frames']):>6}{e['missed']:>3}{e['extra']:>3}")
     lines.append("per walk, both sides (frames at 30 fps): n, signed median, |e| median (target +-0.3 / 0.5 for "
-                 "heel strikes), each error")
+                 "heel strikes), each error; heel_strike_plates: the strikes whose Foot Strike lies within "
+                 f"{1000 * PLATE_MATCH_S:.0f} ms of a force plate's onset, vs that Foot Strike; heel_strike_vs_onset: "
+                 "the same strikes vs the plate's onset")
     for name, p in r["pairs"].items():
-        for kind in ("heel_strike", "toe_off"):
+        for kind in ("heel_strike", "toe_off", "heel_strike_plates", "heel_strike_vs_onset"):
+            if kind not in p:
+                continue
             e = p[kind]
-            lines.append(f"  {name:<26}{kind:<12}{e['n']:>3}{_f(e['signed_median_frames']):>7}"
+            lines.append(f"  {name:<26}{kind:<21}{e['n']:>3}{_f(e['signed_median_frames']):>7}"
                          f"{_f(e['abs_median_frames']):>6}   " + " ".join(f"{x:+.2f}" for x in e["errors_frames"]))
     lines.append("joint angles vs Plug-in-Gait (deg): RMSE, offset (gaitcap - PiG), RMSE after offset, r, "
                  "min gaitcap / min PiG (ankle: peak plantarflexion)")

@@ -51,7 +51,11 @@ toe off +15 ms; feet that roll less than that distance after contact are found e
 take to cover the difference, feet that roll more late (the walker's Parkinsonian pattern, 15 mm at
 0.78 m/s: -15 ms; slow, 25 mm at 0.83 m/s: +9 ms). On the real walks of ``bench/gait_real.py`` see
 docs/gait.md. Noise raises the rest points' spread; noisy frames are smoothed (``smoothing_window_s``),
-which blurs the events; so does a trajectory fit that rounds the foot's stop and push-off.
+which blurs the events; so does a trajectory fit that rounds the foot's stop and push-off: the implicit
+fit's 8 Hz time model finds heel-first landings 4-15 ms late even from noise-free detections, and a
+reconstruction whose heel is off by about the dip (5-7 mm near contact on the real walks with the paper's
+detector noise) flips the heel-first test between contacts of one walk (docs/gait.md, "What limits the
+heel-strike target per walk").
 """
 
 from __future__ import annotations
