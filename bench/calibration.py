@@ -435,7 +435,7 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
                          refit_label="caliscope's calibration, intrinsics from the clip")
     # caliscope's intrinsics held, the poses fitted here on the same folds: caliscope's intrinsics judged on
     # equal terms (held out), and what the poses alone leave
-    known = CalibrationConfig(known_intrinsics={c.name: (c.matrix_px, c.dist) for c in ref.cameras})
+    known = replace(config, known_intrinsics={c.name: (c.matrix_px, c.dist) for c in ref.cameras})
     given = cross_validate(obs, lambda o: calibrate_from_observations(o, config=known).rig, config=holdout,
                            refit=(lambda o: calibrate_with_caliscope(o, ref)) if fair else None,
                            refit_label="caliscope's calibration, its intrinsics")
@@ -448,7 +448,8 @@ def _held_out(name: str, sync_every: int, folds: int, choose: bool) -> dict | No
     in_sample = evaluate_rig(obs, rig, label="gaitcap (all frame sets)")
     similar = compare_similar(ref, rig)
     own, theirs = cmp.own, cmp.reference
-    equal = _equal_terms(obs, ref, cmp, given, known, holdout) if fair and not choose else None
+    # with ``choose``, gaitcap's clip candidates carry the intrinsics chosen per camera (``config``)
+    equal = _equal_terms(obs, ref, cmp, given, known, holdout) if fair else None
     if equal is not None:  # the chosen fit's rig (every frame set) against caliscope's, and who holds out better
         fit_config = next(c for lab, c in fit_candidates(known).items() if lab == equal["fit_choice"]["chosen"])
         chosen_similar = compare_similar(ref, calibrate_from_observations(obs, config=fit_config).rig)
@@ -545,7 +546,8 @@ def _held_out_lines(h: dict) -> list[str]:
 
 def _equal_lines(e: dict, cameras: list[str]) -> list[str]:
     """The held-out error on equal terms: caliscope's own calibration fitted per fold (its scripting API)."""
-    rows = (("clip", "from the clip alone (gaitcap: the default rule; caliscope: its calibrate_intrinsics of the clip)"),
+    rows = (("clip", "from the clip alone (gaitcap: its intrinsics rule, above; caliscope: its calibrate_intrinsics of "
+                     "the clip)"),
             ("given", "caliscope's intrinsics (its intrinsics session) held by both"),
             ("chosen", f"gaitcap's fit chosen by held-out error ({e['fit_choice']['chosen']}) vs caliscope with its "
                        "intrinsics"))

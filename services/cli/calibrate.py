@@ -253,11 +253,13 @@ def register(app: typer.Typer) -> None:
         strict_intrinsics: bool = typer.Option(False, "--strict-intrinsics", help="Hold nothing the board views cannot determine: refuse a camera whose board covered too little of its image or whose focal length is uncertain, instead of holding its principal point at the image centre and only k1."),
         folds: int = typer.Option(5, "--folds", help="Held-out error: split the board frame sets in time into K folds, fit on the rest, judge on each (K more calibrations; 0: skip). A --compare calibration is judged on the same frame sets."),
         choose_intrinsics: bool = typer.Option(False, "--choose-intrinsics", help="Choose each camera's lens model (k1; k1k2; k1k2p1p2k3) and principal point (held at the image centre or free) by held-out error (6 x K more calibrations)."),
-        choose_fit: bool = typer.Option(False, "--choose-fit", help="Choose the fit by held-out error: the bundle adjustment's loss (soft-L1 or least squares) and, with --intrinsics, those intrinsics held or the cameras' own from the clip (2 or 4 x K more calibrations)."),
+        choose_fit: bool = typer.Option(False, "--choose-fit", help="Choose the fit by held-out error: the bundle adjustment's loss (soft-L1 or least squares) and, with --intrinsics, those intrinsics held or the cameras' own from the clip (with --choose-intrinsics: as chosen there) (2 or 4 x K more calibrations)."),
         caliscope_folds: str | None = typer.Option(None, "--caliscope-folds", help="Also fit caliscope's own calibration (pip install -e '.[caliscope]') on each fold's frame sets and judge it on the same held-out ones: 'given' starts it from the --intrinsics (else the --compare calibration's) intrinsics, 'clip' from its own intrinsic calibration of these views."),
         motion: bool = typer.Option(False, "--motion", help="Model the hand-held board's motion: each camera's time offset (webcams are not synchronised) adjusted from the board's motion and views weighted by its speed; the offsets are in the report."),
     ) -> None:
         """Calibrate all cameras from a board recording; writes the calibration and its quality report."""
+        from dataclasses import replace
+
         from gaitcap.acquisition.boards.pairing import PairingConfig
         from gaitcap.acquisition.boards.recording import FrameSelection
         from gaitcap.acquisition.fileio import atomic_write_text
@@ -308,12 +310,15 @@ def register(app: typer.Typer) -> None:
                 found.check(config.intrinsics.min_views)
             choice = None
             if choose_intrinsics:
-                if known is not None:
-                    raise ValueError("--choose-intrinsics: the intrinsics are given (--intrinsics); nothing to choose")
+                if known is not None and not choose_fit:
+                    raise ValueError("--choose-intrinsics: the intrinsics are given (--intrinsics); nothing to choose "
+                                     "(with --choose-fit too, the clip's are chosen, then compared with the given ones)")
                 try:
                     with progress(total=6, desc="choosing intrinsics", unit="candidate") as bar:
-                        config, choice = choose_model(obs, config, holdout=HoldoutConfig(folds=max(folds, 2)),
+                        chosen, choice = choose_model(obs, replace(config, known_intrinsics=None),
+                                                      holdout=HoldoutConfig(folds=max(folds, 2)),
                                                       progress=lambda done, total: bar.update(1))
+                    config = replace(chosen, known_intrinsics=config.known_intrinsics)
                 except ValueError as exc:  # no candidate fitted in every fold: the default rule stands, said
                     typer.echo(f"intrinsics not chosen by held-out error ({exc}); the coverage rule is used", err=True)
             fit = None

@@ -70,19 +70,23 @@ def test_without_caliscope_its_calibration_says_how_to_install_it(room):
 
 
 @pytest.mark.skipif(not caliscope_available() or not (SESSION / "camera_array.toml").exists(),
-                    reason="caliscope's scripting API (pip install -e '.[caliscope]') or its session not installed")
-def test_on_equal_terms_gaitcap_holds_out_at_or_below_caliscope_on_its_4_webcams():
+                    reason="caliscope's scripting API (pip install -e '.[caliscope]') or its sessions not installed")
+@pytest.mark.parametrize("name, frame_sets", [("caliscope-4cam", 50), ("caliscope-4cam-2", 58)])
+def test_on_equal_terms_gaitcap_holds_out_at_or_below_caliscope_on_its_webcam_sessions(name, frame_sets):
     # both given caliscope's intrinsics (its separate intrinsics session), both fitted on each fold's frame
     # sets, both judged on the same held-out ones; gaitcap's fit chosen by held-out error (measured with
-    # caliscope 0.11.8: least squares chosen, rig 0.995 px against caliscope's 1.014 px)
-    _, obs, ref, _ = read_session(SESSION)
+    # caliscope 0.11.8: least squares chosen, rig 0.995 px against caliscope's 1.014 px on the 4 webcams,
+    # 2.763 against 2.889 px on post_optimization)
+    _, obs, ref, _ = read_session(SESSION.parent / name)
     known = CalibrationConfig(known_intrinsics={c.name: (c.matrix_px, c.dist) for c in ref.cameras})
     holdout = HoldoutConfig(folds=5)
     config, fit = choose_fit(obs, known, holdout=holdout)
     cmp = cross_validate(obs, lambda o: calibrate_from_observations(o, config=config).rig, config=holdout,
                          refit=lambda o: calibrate_with_caliscope(o, ref), refit_label="caliscope's")
-    assert cmp.own.fold_errors == () and cmp.own.frame_sets == cmp.refitted.frame_sets == 50
+    assert cmp.own.fold_errors == () and cmp.own.frame_sets == cmp.refitted.frame_sets == frame_sets
     assert cmp.own.rms_px <= cmp.refitted.rms_px, (fit.reason, cmp.own.rms_px, cmp.refitted.rms_px)
+    if name != "caliscope-4cam":
+        return
     # caliscope's calibration of the clip alone (its own intrinsic calibration of views covering 10-20 % of
     # each image) holds out far worse than gaitcap's default rule (measured 1.96 against 1.08 px)
     clip = cross_validate(obs, lambda o: calibrate_from_observations(o).rig, config=holdout,
