@@ -103,12 +103,16 @@ def _table(r: dict) -> str:
     for name, c in r["cameras"].items():
         lines.append(f"  {name:8s}                      {c['frames']:7d} {c['missing_ids']:12d} "
                      f"{c['longest_missing_run']:12d} {c['longest_pause_s']:16.2f} {c['restarted_count']:18d}")
-    lines.append(f"process        RSS MB first   last    max   restarts  slope MB/trial after {r['warm_up']}")
+    lines.append(f"process        RSS MB first   last    max   restarts  slope MB/trial after {r['warm_up']} (steepest life)")
     for name, (first, last, peak) in r["rss_mb"].items():
         lines.append(f"  {name:12s} {first:9.0f} {last:6.0f} {peak:6.0f} {r['restarts'].get(name, 0):10d}"
                      f"  {r['rss_slope_mb_per_trial'].get(name, 0.0):+.2f}")
     for name, series in r["rss_series_mb"].items():
         lines.append(f"  {name:12s} after each trial: {' '.join(f'{v:.0f}' for v in series)}")
+    for name, runs in r.get("rss_lives", {}).items():
+        lines.append(f"  {name:12s} lives after {r['warm_up']}: " + "; ".join(
+            f"{life['samples']} samples {life['first_mb']:.0f} -> {life['last_mb']:.0f} MB, "
+            f"{life['slope_mb_per_trial']:+.2f}/trial" for life in runs))
     if r["config"]["faults"]:
         lines.append(f"read routes while the worker was stopped: p99 {r['read_p99_s']} s; next trial done after "
                      f"each fault: {r['next_trial_done_after_each_fault']}")

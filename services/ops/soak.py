@@ -142,6 +142,7 @@ class SoakReport:
     orphans: tuple[str, ...] = ()
     warm_up: int = 10
     trials_planned: int = 0
+    rss_pids: dict[str, list[int]] = field(default_factory=dict)
 
     @property
     def all_done(self) -> bool:
@@ -155,9 +156,19 @@ class SoakReport:
 
     @property
     def rss_slope_mb_per_trial(self) -> dict[str, float]:
-        """Per process, the least-squares slope of its resident memory after ``warm_up`` trials (MB per trial;
-        None-free: 0.0 when fewer than 2 samples are left)."""
-        return {name: slope(series[self.warm_up:]) for name, series in self.rss_series_mb.items()}
+        """Per process, how fast its resident memory grows after ``warm_up`` trials (MB per trial): the
+        least-squares slope over each life of the process (a restart starts a new one, ``rss_pids``), the
+        steepest of the lives with at least :data:`MIN_LIFE_SAMPLES` samples; over all the samples where no
+        life is that long. One line through a restart's drop would read a growing process as flat."""
+        return {name: life_slope(series[self.warm_up:], self.rss_pids.get(name, [])[self.warm_up:])
+                for name, series in self.rss_series_mb.items()}
+
+    @property
+    def rss_lives(self) -> dict[str, list[dict]]:
+        """Per process, each life after ``warm_up`` trials: its samples, first / last MB and slope."""
+        return {name: [{"samples": len(v), "first_mb": v[0], "last_mb": v[-1], "slope_mb_per_trial": slope(v)}
+                       for v in lives(series[self.warm_up:], self.rss_pids.get(name, [])[self.warm_up:])]
+                for name, series in self.rss_series_mb.items()}
 
     @property
     def recordings_lost(self) -> int:
@@ -175,8 +186,32 @@ class SoakReport:
         out = asdict(self)
         out.update(all_done=self.all_done, recordings_lost=self.recordings_lost,
                    longest_camera_pause_s=self.longest_camera_pause_s, missing_frame_ids=self.missing_frame_ids,
-                   all_ended_with_reason=self.all_ended_with_reason, rss_slope_mb_per_trial=self.rss_slope_mb_per_trial)
+                   all_ended_with_reason=self.all_ended_with_reason, rss_slope_mb_per_trial=self.rss_slope_mb_per_trial,
+                   rss_lives=self.rss_lives)
         return out
+
+
+MIN_LIFE_SAMPLES = 5  # a process's life shorter than this (samples) gives no slope of its own
+
+
+def lives(values: list[float], pids: list[int]) -> list[list[float]]:
+    """``values`` cut where ``pids`` (the process id at each sample, same length) changes: one list per life
+    of the process; the whole of ``values`` as one life where no ids were recorded."""
+    if len(pids) != len(values) or not values:
+        return [list(values)] if values else []
+    out = [[values[0]]]
+    for prev, pid, v in zip(pids, pids[1:], values[1:], strict=False):
+        if pid != prev:
+            out.append([])
+        out[-1].append(v)
+    return out
+
+
+def life_slope(values: list[float], pids: list[int]) -> float:
+    """The steepest least-squares slope (units per step) over the lives of :func:`lives` that have at least
+    :data:`MIN_LIFE_SAMPLES` samples; the slope over all of ``values`` where none has."""
+    long = [life for life in lives(values, pids) if len(life) >= MIN_LIFE_SAMPLES]
+    return max((slope(life) for life in long), default=slope(values))
 
 
 def slope(values: list[float]) -> float:
@@ -200,13 +235,16 @@ def _recording_kept(stack, trial_id: str) -> bool:
     return p.is_file() and p.stat().st_size > 0
 
 
-def _sample_rss(stack, into: dict[str, list[float]], series: dict[str, list[float]]) -> None:
+def _sample_rss(stack, into: dict[str, list[float]], series: dict[str, list[float]],
+                pids: dict[str, list[int]]) -> None:
     children = _children_of()
     for name in stack.supervisor.children:
-        mb = round(rss_mb(stack.supervisor.pid(name), children), 1)
+        pid = stack.supervisor.pid(name)
+        mb = round(rss_mb(pid, children), 1)
         first = into.setdefault(name, [mb, mb, mb])
         first[1], first[2] = mb, max(first[2], mb)
         series.setdefault(name, []).append(mb)
+        pids.setdefault(name, []).append(pid)
 
 
 def _orphans(stack) -> tuple[str, ...]:
@@ -288,14 +326,14 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
     if trials < 1 or every_s <= 0 or trial_s <= 0:
         raise ValueError(f"soak: need trials >= 1, every_s > 0, trial_s > 0; got {trials}, {every_s}, {trial_s}")
     plan = plan or {}
-    gaps, rss, series, done = FrameGaps(), {}, {}, []
+    gaps, rss, series, pids, done = FrameGaps(), {}, {}, {}, []
     session = stack.bus_session()
     sub = session.declare_subscriber(stack.bus.keys.image(), gaps)
     restarts0 = {n: stack.supervisor.restarts(n) for n in stack.supervisor.children}
     ctx = FaultContext(stack, stop_s=stop_s)
     t0 = time.monotonic()
     try:
-        _sample_rss(stack, rss, series)
+        _sample_rss(stack, rss, series, pids)
         disk = disk_bytes(stack.data_dir)
         for k in range(trials):
             time.sleep(max(0.0, t0 + k * every_s - time.monotonic()))
@@ -312,7 +350,7 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
                                   fault_detail=outcome.detail if outcome else "", reason=_reason(trial),
                                   read_p99_s=_p99(outcome.read_times_s) if outcome else None))
             disk = now_disk
-            _sample_rss(stack, rss, series)
+            _sample_rss(stack, rss, series, pids)
             log.info("soak trial %d/%d %s%s: %s, preliminary %s s, refined %s s", k + 1, trials, trial_id,
                      f" ({outcome.fault}: {outcome.detail})" if outcome else "", trial["state"], prelim, refined)
     finally:
@@ -323,4 +361,5 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
                       restarts={n: stack.supervisor.restarts(n) - restarts0[n] for n in restarts0},
                       disk_per_trial_mb=growth[len(growth) // 2] / 1e6 if growth else 0.0,
                       frame_period_s=1.0 / stack.cfg.fps, rss_series_mb=series, orphans=_orphans(stack),
-                      warm_up=warm_up, trials_planned=trials)
+                      warm_up=warm_up, trials_planned=trials,
+                      rss_pids=pids)

@@ -4,7 +4,7 @@ count going back, the cameras' pauses short, memory and disk figures for every p
 
 import pytest
 from gaitcap.services.bus.session import free_loopback_ports
-from gaitcap.services.ops.soak import FrameGaps, run_soak
+from gaitcap.services.ops.soak import FrameGaps, SoakReport, life_slope, lives, run_soak, slope
 from gaitcap.services.ops.stack import Stack, StackConfig
 
 
@@ -15,6 +15,24 @@ def test_frame_gaps_count_missing_ids_pauses_and_restarts():
     c = gaps.snapshot()["cam01"]
     assert (c["frames"], c["missing_ids"], c["longest_missing_run"], c["restarted_count"]) == (5, 2, 2, 1)
     assert c["longest_pause_s"] == pytest.approx(1.5)
+
+
+def test_memory_growth_is_judged_over_each_life_of_a_process_not_through_its_restarts():
+    """A process growing 2 MB a trial, restarted halfway (its memory drops back): one line through the drop
+    reads 0.5 MB a trial (under a 1 MB target); each life reads 2."""
+    values = [100.0 + 2 * k for k in range(20)] + [100.0 + 2 * k for k in range(20)]
+    pids = [11] * 20 + [12] * 20
+    assert slope(values) == pytest.approx(0.5, abs=0.01)
+    assert life_slope(values, pids) == pytest.approx(2.0)
+    assert life_slope(values, []) == pytest.approx(slope(values))  # no ids: one life
+    assert [len(life) for life in lives(values, pids)] == [20, 20]
+    short = [100.0, 102.0, 50.0, 51.0, 52.0, 53.0, 54.0, 55.0]  # a life of 2 samples gives no slope of its own
+    assert life_slope(short, [1, 1, 2, 2, 2, 2, 2, 2]) == pytest.approx(1.0)
+    report = SoakReport(minutes=1.0, trials=(), cameras={}, rss_mb={}, restarts={}, disk_per_trial_mb=0.0,
+                        frame_period_s=0.1, rss_series_mb={"worker-0": [0.0] * 10 + values},
+                        rss_pids={"worker-0": [10] * 10 + pids}, warm_up=10)
+    assert report.rss_slope_mb_per_trial["worker-0"] == pytest.approx(2.0)
+    assert [life["samples"] for life in report.rss_lives["worker-0"]] == [20, 20]
 
 
 def test_a_short_soak_holds(tmp_path):
