@@ -83,7 +83,8 @@ def _check_access(bus: BusConfig, node: str, target: FetchTarget) -> None:
     """Refuse at once an identity the room's bus would not let fetch (its queries would go unanswered)."""
     from gaitcap.services.bus.security import may_send, role_of
 
-    if bus.security is not None and not may_send(node, "query", f"recorder/recording/{target.trial_id}"):
+    key = bus.keys.recording(target.trial_id).removeprefix(f"{bus.keys.prefix}/")  # as the bus's roles name it
+    if bus.security is not None and not may_send(node, "query", key):
         raise target.error(f"access refused: this worker joins the room's bus as {node} (role {role_of(node)}), "
                            "which may not fetch recordings; use a worker-* identity (--fetch-node) listed in the "
                            "bus file's security.clients", permanent=True)
