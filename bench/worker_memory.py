@@ -48,8 +48,8 @@ def run(args) -> dict:
     from gaitcap.simulator.recording import write_keypoint_recording
 
     if args.tracemalloc:
-        tracemalloc.start()
-    rows = []
+        tracemalloc.start(args.frames)
+    rows, first_snapshot, grew = [], None, []
     with tempfile.TemporaryDirectory(prefix="gaitcap-worker-memory-") as tmp:
         data = Path(tmp)
         db = cat.open_catalog(data / "catalog.sqlite")
@@ -58,7 +58,7 @@ def run(args) -> dict:
                                      compiled=CompiledCodeLimit(keep_trials=args.keep_trials)), db=db)
         start_mb = resident_mb()
         for k in range(args.trials):
-            seconds = args.seconds + k / 30.0  # one more frame each trial
+            seconds = args.seconds + k * args.frames_step / 30.0  # a new frame count each trial (by default)
             walk = make_trial("paper", seconds=seconds, cameras=args.cameras, people=1, seed=k, fps=30.0)
             trial = cat.start_trial(db, subject_id="MEM", session="bench",
                                     recording_path_for=lambda tid: trial_files(data, tid).recording)
@@ -75,14 +75,28 @@ def run(args) -> dict:
                 row["python_mb"] = round(tracemalloc.get_traced_memory()[0] / 1e6, 1)
             rows.append(row)
             logging.getLogger("bench").info("%s", row)
+            if args.tracemalloc and k + 1 == args.warm_up:
+                first_snapshot = tracemalloc.take_snapshot()
+        if first_snapshot is not None and args.top:
+            grew = _grown_lines(first_snapshot, tracemalloc.take_snapshot(), top=args.top,
+                                trials=args.trials - args.warm_up)
         db.close()
     after = [r["rss_mb"] for r in rows[args.warm_up:]]
     rss = [r["rss_mb"] for r in rows]
     family = [r["with_children_mb"] for r in rows]
-    return {"with_children_first_last_max_mb": [family[0], family[-1], max(family)],
+    return {"python_grown_after_warm_up": grew, "with_children_first_last_max_mb": [family[0], family[-1], max(family)],
             "with_children_slope_mb_per_trial": slope_per_trial(family[args.warm_up:]),"trials": rows, "warm_s": warm_s, "start_rss_mb": start_mb, "first_rss_mb": rss[0], "last_rss_mb": rss[-1],
             "max_rss_mb": max(rss), "slope_mb_per_trial": slope_per_trial(after), "warm_up": args.warm_up,
             "cameras": args.cameras, "seconds": args.seconds, "keep_trials": args.keep_trials}
+
+
+def _grown_lines(before, after, *, top: int, trials: int) -> list[dict]:
+    """The ``top`` tracebacks whose Python allocations grew most between two snapshots (kB per trial)."""
+    keep = [tracemalloc.Filter(False, tracemalloc.__file__)]
+    stats = after.filter_traces(keep).compare_to(before.filter_traces(keep), "traceback")
+    return [{"kb_per_trial": round(s.size_diff / 1e3 / max(trials, 1), 1), "blocks": s.count_diff,
+             "where": [f"{f.filename}:{f.lineno}" for f in s.traceback][-8:]}
+            for s in sorted(stats, key=lambda s: -s.size_diff)[:top]]
 
 
 def _table(r: dict) -> str:
@@ -98,6 +112,9 @@ def _table(r: dict) -> str:
                  f"slope after {r['warm_up']} trials: {r['slope_mb_per_trial']:+.2f} MB per trial; with children "
                  f"{' / '.join(f'{v:.0f}' for v in r['with_children_first_last_max_mb'])} MB, "
                  f"{r['with_children_slope_mb_per_trial']:+.2f} MB per trial")
+    for g in r.get("python_grown_after_warm_up", []):
+        lines.append(f"python allocations {g['kb_per_trial']:+.1f} kB per trial ({g['blocks']:+d} blocks) at "
+                     + " <- ".join(reversed(g["where"])))
     return "\n".join(lines)
 
 
@@ -107,6 +124,8 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--trials", type=int, default=12)
     p.add_argument("--seconds", type=float, default=6.0, help="The first trial's walk (s); each next one a frame longer.")
+    p.add_argument("--frames-step", type=int, default=1,
+                   help="Frames added to each next trial (0: every trial as long as the first).")
     p.add_argument("--cameras", type=int, default=10)
     p.add_argument("--warm-up", type=int, default=3, help="Trials left out of the slope.")
     p.add_argument("--no-refine", action="store_true")
@@ -114,6 +133,9 @@ def main() -> None:
                    help="Jobs whose compiled code the worker keeps (the default is the worker's; a large number: "
                         "never dropped, as before the bound).")
     p.add_argument("--tracemalloc", action="store_true", help="Also Python's own allocations (slower).")
+    p.add_argument("--top", type=int, default=0,
+                   help="With --tracemalloc: the N places whose allocations grew most after the warm-up.")
+    p.add_argument("--frames", type=int, default=12, help="With --tracemalloc: stack frames kept per allocation.")
     p.add_argument("--json", action="store_true")
     args = p.parse_args()
     logging.basicConfig(level=logging.WARNING if args.json else logging.INFO, stream=sys.stderr,
