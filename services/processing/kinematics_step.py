@@ -11,6 +11,7 @@ import json
 import logging
 
 from gaitcap.reconstruction.result import Reconstruction
+from gaitcap.services.processing.apart import call_apart
 from gaitcap.services.processing.artifacts import TrialFiles
 
 log = logging.getLogger(__name__)
@@ -28,9 +29,9 @@ def kinematics_step(files: TrialFiles, stage: str, traj: Reconstruction, *, age_
     from gaitcap.services.kinematics.trial import trial_kinematics, write_unavailable
 
     out = files.stage_file(stage, "kinematics_json").parent
-    try:
-        trial_kinematics(traj.points_mm, traj.times_s, traj.joint_names, steps=_steps(files, stage),
-                         quality=traj.quality, out_dir=out, age_years=age_years)
+    try:  # in a child process: OpenSim keeps native memory for every frame it fits (``apart``)
+        call_apart(trial_kinematics, traj.points_mm, traj.times_s, traj.joint_names, steps=_steps(files, stage),
+                   quality=traj.quality, out_dir=out, age_years=age_years, what=f"{files.root.name} {stage} kinematics")
     except KinematicsUnavailable as exc:
         log.warning("%s %s: kinematics are unavailable: %s", files.root.name, stage, exc)
         return False

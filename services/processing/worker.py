@@ -351,15 +351,15 @@ def resident_mb() -> float:
 
 def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path | None = None) -> float:
     """Compile the preliminary stage for ``cameras`` cameras, load the plotting code and start the .rrd
-    writers' server; seconds spent."""
+    writers' and kinematics' server (``apart``); seconds spent."""
     import gaitcap.reconstruction.gait  # noqa: F401
     import rerun  # noqa: F401  (first import is slow)
     from gaitcap.reconstruction.skeletons import get_skeleton
     from gaitcap.services.processing.outputs import report_png
-    from gaitcap.services.processing.viewers.apart import start_writer_server
+    from gaitcap.services.processing.apart import start_apart_server
 
     t0 = time.perf_counter()
-    start_writer_server()  # its own process: starts while this one compiles
+    start_apart_server()  # its own process: starts while this one compiles
     if cache_dir is not None:
         enable_compile_cache(cache_dir)
     warm_up(ring_rig(cameras), get_skeleton(skeleton))

@@ -228,8 +228,9 @@ def test_the_rrd_is_written_by_a_child_process_so_reruns_memory_never_stays_in_t
     (tmp_path / "view.pkl").write_bytes(pickle.dumps(view))
     out = tmp_path / "apart.rrd"
     code = ("import dataclasses, pickle, sys\n"
-            "from gaitcap.services.processing.viewers.apart import start_writer_server, write_rrd_apart\n"
-            "start_writer_server()\n"  # as a worker's warm-up does: the server is up before the first file
+            "from gaitcap.services.processing.apart import start_apart_server\n"
+            "from gaitcap.services.processing.viewers.apart import write_rrd_apart\n"
+            "start_apart_server()\n"  # as a worker's warm-up does: the server is up before the first file
             f"view = pickle.loads(open({str(tmp_path / 'view.pkl')!r}, 'rb').read())\n"
             "def fitted():\n"  # a fit's trajectory carries its continuous function, a closure (not picklable)
             "    def sampled(t): return view.trajectory.points_mm[:len(t)]\n"
