@@ -157,17 +157,20 @@ class SoakReport:
     @property
     def rss_slope_mb_per_trial(self) -> dict[str, float]:
         """Per process, how fast its resident memory grows after ``warm_up`` trials (MB per trial): the
-        least-squares slope over each life of the process (a restart starts a new one, ``rss_pids``), the
-        steepest of the lives with at least :data:`MIN_LIFE_SAMPLES` samples; over all the samples where no
-        life is that long. One line through a restart's drop would read a growing process as flat."""
-        return {name: life_slope(series[self.warm_up:], self.rss_pids.get(name, [])[self.warm_up:])
+        least-squares slope over each life of the process (a restart starts a new one, ``rss_pids``) after
+        the life's own first ``warm_up`` trials (a restarted process warms up again, as the stack's first one
+        did), the steepest of the lives with at least :data:`MIN_LIFE_SAMPLES` samples after that; over all
+        the samples after the stack's warm-up where no life is that long. One line through a restart's drop
+        would read a growing process as flat."""
+        return {name: life_slope(series, self.rss_pids.get(name, []), warm_up=self.warm_up)
                 for name, series in self.rss_series_mb.items()}
 
     @property
     def rss_lives(self) -> dict[str, list[dict]]:
-        """Per process, each life after ``warm_up`` trials: its samples, first / last MB and slope."""
+        """Per process, each life after its first ``warm_up`` trials (the lives that ended within them left
+        out): its samples, first / last MB and slope."""
         return {name: [{"samples": len(v), "first_mb": v[0], "last_mb": v[-1], "slope_mb_per_trial": slope(v)}
-                       for v in lives(series[self.warm_up:], self.rss_pids.get(name, [])[self.warm_up:])]
+                       for v in (life[self.warm_up:] for life in lives(series, self.rss_pids.get(name, []))) if v]
                 for name, series in self.rss_series_mb.items()}
 
     @property
@@ -207,11 +210,12 @@ def lives(values: list[float], pids: list[int]) -> list[list[float]]:
     return out
 
 
-def life_slope(values: list[float], pids: list[int]) -> float:
-    """The steepest least-squares slope (units per step) over the lives of :func:`lives` that have at least
-    :data:`MIN_LIFE_SAMPLES` samples; the slope over all of ``values`` where none has."""
-    long = [life for life in lives(values, pids) if len(life) >= MIN_LIFE_SAMPLES]
-    return max((slope(life) for life in long), default=slope(values))
+def life_slope(values: list[float], pids: list[int], *, warm_up: int = 0) -> float:
+    """The steepest least-squares slope (units per step) over the lives of :func:`lives`, each without its
+    first ``warm_up`` samples, that keep at least :data:`MIN_LIFE_SAMPLES` samples; the slope over
+    ``values[warm_up:]`` where none does."""
+    long = [life[warm_up:] for life in lives(values, pids) if len(life) - warm_up >= MIN_LIFE_SAMPLES]
+    return max((slope(life) for life in long), default=slope(values[warm_up:]))
 
 
 def slope(values: list[float]) -> float:

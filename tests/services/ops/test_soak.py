@@ -32,7 +32,19 @@ def test_memory_growth_is_judged_over_each_life_of_a_process_not_through_its_res
                         frame_period_s=0.1, rss_series_mb={"worker-0": [0.0] * 10 + values},
                         rss_pids={"worker-0": [10] * 10 + pids}, warm_up=10)
     assert report.rss_slope_mb_per_trial["worker-0"] == pytest.approx(2.0)
-    assert [life["samples"] for life in report.rss_lives["worker-0"]] == [20, 20]
+    assert [life["samples"] for life in report.rss_lives["worker-0"]] == [10, 10]  # each after its warm-up
+
+
+def test_a_restarted_process_warms_up_again_before_its_growth_is_judged():
+    """A worker killed at trial 30 and restarted: its new life grows 5 MB a trial over its own first 10
+    trials (compiling, loading), then stays flat, as the stack's first life did: flat, not 5 or 1.7."""
+    warm = [500.0 + 5 * k for k in range(10)]
+    values, pids = warm + [550.0] * 20 + warm + [550.0] * 20, [1] * 30 + [2] * 30
+    assert life_slope(values, pids, warm_up=10) == pytest.approx(0.0)
+    assert life_slope(values, pids) > 1.0  # without each life's warm-up its early growth reads as a leak
+    grows = warm + [550.0 + 2 * k for k in range(20)]  # a life still growing after its warm-up is judged
+    assert life_slope(grows + warm + [550.0] * 20, pids, warm_up=10) == pytest.approx(2.0)
+    assert life_slope(values[:33], pids[:33], warm_up=10) == pytest.approx(0.0)  # 3 samples: no life of its own
 
 
 def test_a_short_soak_holds(tmp_path):
