@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 from gaitcap.reconstruction.jsonable import json_ready as jsonable
 
-__all__ = ["add_trial_args", "emit", "jsonable"]
+__all__ = ["add_foot_arg", "add_trial_args", "emit", "implicit_method", "jsonable"]
 
 
 def add_trial_args(ap: argparse.ArgumentParser, *, seconds: float = 30.0, preset: str = "paper") -> None:
@@ -17,6 +17,25 @@ def add_trial_args(ap: argparse.ArgumentParser, *, seconds: float = 30.0, preset
     ap.add_argument("--seconds", type=float, default=seconds)
     ap.add_argument("--cameras", type=int, default=10)
     ap.add_argument("--seed", type=int, default=0)
+
+
+def add_foot_arg(ap: argparse.ArgumentParser) -> None:
+    """--foot-hz: the implicit fit's feet (ankles, heels, toes) on a knot grid of their own at that band limit."""
+    ap.add_argument("--foot-hz", type=float, default=None,
+                    help="the implicit fit's feet on their own knot grid at this band limit (Hz; default: the body's)")
+
+
+def implicit_method(foot_hz: float | None = None):
+    """The default implicit fit; with ``foot_hz`` its B-spline model's ``foot_max_freq_hz`` set to it."""
+    import dataclasses
+
+    from gaitcap.reconstruction.methods import Implicit
+
+    method = Implicit()
+    if foot_hz is None:
+        return method
+    model = dataclasses.replace(method.fit.model, foot_max_freq_hz=foot_hz)
+    return dataclasses.replace(method, fit=dataclasses.replace(method.fit, model=model))
 
 
 def emit(result: dict, *, as_json: bool, table: Callable[[dict], object]) -> None:

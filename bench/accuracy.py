@@ -20,7 +20,7 @@ import sys
 import time
 
 import numpy as np
-from _common import add_trial_args, emit
+from _common import add_foot_arg, add_trial_args, emit, implicit_method
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -75,7 +75,7 @@ def _clip(trial, seconds: float):
 
 
 def run(*, preset: str, seconds: float, cameras: int, seed: int, anipose: bool, paper_steps: int,
-        clip_seconds: float) -> dict:
+        clip_seconds: float, foot_hz: float | None = None) -> dict:
     from gaitcap.reconstruction.methods import DLT, Explicit, Implicit, Robust, reconstruct
     from gaitcap.reconstruction.metrics import compute_metrics
     from gaitcap.simulator.trial import make_trial
@@ -83,7 +83,8 @@ def run(*, preset: str, seconds: float, cameras: int, seed: int, anipose: bool, 
     trial = make_trial(preset, seconds=seconds, cameras=cameras, seed=seed)
     det, rig, truth = trial.detections, trial.rig, trial.points_mm
     rows: dict[str, dict] = {"ground truth": compute_metrics(truth, det, rig, truth_mm=truth)}
-    for name, method in (("dlt", DLT()), ("robust", Robust()), ("explicit", Explicit()), ("implicit", Implicit())):
+    for name, method in (("dlt", DLT()), ("robust", Robust()), ("explicit", Explicit()),
+                         ("implicit", implicit_method(foot_hz))):
         t0 = time.perf_counter()
         rec = reconstruct(det, rig, method=method, truth_mm=truth)
         rows[name] = dict(rec.metrics, seconds=time.perf_counter() - t0)
@@ -103,7 +104,7 @@ def run(*, preset: str, seconds: float, cameras: int, seed: int, anipose: bool, 
     for row in rows.values():
         row.pop("camera_error_px", None)
     return {
-        "setup": {"preset": preset, "seconds": seconds, "cameras": cameras, "seed": seed,
+        "setup": {"preset": preset, "seconds": seconds, "cameras": cameras, "seed": seed, "foot_hz": foot_hz,
                   "frames": int(det.shape[1]), "joints": int(det.shape[3])},
         "methods": rows,
         "targets": targets(rows),
@@ -125,7 +126,8 @@ def targets(rows: dict) -> dict:
 def print_table(result: dict) -> None:
     s = result["setup"]
     print(f"synthetic '{s['preset']}' trial: {s['cameras']} cameras, {s['frames']} frames x {s['joints']} joints "
-          f"(seed {s['seed']}); errors in mm, L_reproj in px (Huber), L_smooth mm/frame")
+          f"(seed {s['seed']}); errors in mm, L_reproj in px (Huber), L_smooth mm/frame"
+          + (f"; implicit: the feet at {s['foot_hz']:g} Hz" if s.get("foot_hz") else ""))
     width = max(len(k) for k in result["methods"]) + 2
     print("method".ljust(width) + "".join(f"{c:>12s}" for c in COLUMNS))
     for name, row in result["methods"].items():
@@ -144,11 +146,13 @@ def main(argv=None) -> None:
     ap.add_argument("--no-anipose", action="store_true", help="skip aniposelib (optional bench dependency)")
     ap.add_argument("--paper-steps", type=int, default=0, help="also train the paper's MLP this many steps")
     ap.add_argument("--clip-seconds", type=float, default=3.0, help="clip for aniposelib and --paper-steps")
+    add_foot_arg(ap)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     result = run(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed,
-                 anipose=not args.no_anipose, paper_steps=args.paper_steps, clip_seconds=args.clip_seconds)
+                 anipose=not args.no_anipose, paper_steps=args.paper_steps, clip_seconds=args.clip_seconds,
+                 foot_hz=args.foot_hz)
     emit(result, as_json=args.json, table=print_table)
 
 

@@ -4,6 +4,7 @@ and the walkway alignment on a synthetic walkway export.
     python bench/gait.py                              # paper preset, robust triangulation, a table
     python bench/gait.py --preset clean --method truth
     python bench/gait.py --method implicit --json     # one JSON object on stdout
+    python bench/gait.py --method implicit --foot-hz 15   # the implicit fit's feet on a 15 Hz knot grid
 
 Timings are wall-clock on whatever machine runs it (noisy on shared CPUs).
 """
@@ -56,7 +57,7 @@ def _step_errors(report, steps) -> dict:
     return {name: _stats(v) for name, v in errs.items()}
 
 
-def run(*, preset: str, seconds: float, method: str, seed: int, config=None) -> dict:
+def run(*, preset: str, seconds: float, method: str, seed: int, config=None, foot_hz: float | None = None) -> dict:
     from gaitcap.reconstruction.gait import GaitConfig, TrajectoryQuality, analyze_gait, compare_with_walkway
     from gaitcap.reconstruction.methods import METHODS, reconstruct
     from gaitcap.simulator import make_trial
@@ -69,7 +70,10 @@ def run(*, preset: str, seconds: float, method: str, seed: int, config=None) -> 
     if method == "truth":
         points = trial.points_mm
     else:
-        rec = reconstruct(trial.detections, trial.rig, method=METHODS[method]())
+        from _common import implicit_method
+
+        config_ = implicit_method(foot_hz) if method == "implicit" else METHODS[method]()
+        rec = reconstruct(trial.detections, trial.rig, method=config_)
         points = rec.points_mm
         sample = rec.trajectory
         quality = TrajectoryQuality(rec.quality, np.full(rec.quality.shape, np.nan))
@@ -85,7 +89,7 @@ def run(*, preset: str, seconds: float, method: str, seed: int, config=None) -> 
     t_walkway = time.perf_counter() - t0
     steps = trial.truth.steps
     return {
-        "preset": preset, "seconds": seconds, "method": method, "seed": seed,
+        "preset": preset, "seconds": seconds, "method": method, "seed": seed, "foot_hz": foot_hz,
         "steps_found": len(report.steps), "edge_steps": sum(not s.steady for s in report.steps),
         "truth_straight_steps": int(np.sum(steps.pass_index >= 0)),
         "events": {**_event_errors(report, trial.truth, in_passes=False),
@@ -132,10 +136,13 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=float, default=20.0)
     ap.add_argument("--method", default="robust", choices=["truth", "dlt", "robust", "explicit", "implicit"])
     ap.add_argument("--seed", type=int, default=0)
+    from _common import add_foot_arg
+
+    add_foot_arg(ap)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr)
-    result = run(preset=args.preset, seconds=args.seconds, method=args.method, seed=args.seed)
+    result = run(preset=args.preset, seconds=args.seconds, method=args.method, seed=args.seed, foot_hz=args.foot_hz)
     print(json.dumps(result) if args.json else _table(result))
     return 0
 

@@ -16,8 +16,10 @@ detector's errors are also listed per walk and foot (every error of the 5 phases
     python bench/gait_real.py --criteria --methods markers truth robust implicit
     python bench/gait_real.py --walks c3d:FunctionalWalk --methods truth implicit
     python bench/gait_real.py --methods truth implicit --preset clean    # no detector noise: the fit alone
+    python bench/gait_real.py --methods implicit --foot-hz 15            # the feet on a 15 Hz knot grid
 
-``--preset clean`` films the walks with a noise-free detector (what the fit alone does to the events;
+``--foot-hz HZ`` gives the implicit fit's feet (ankles, heels, toes) their own knot grid at that band
+limit (``BSplineBasis.foot_max_freq_hz``; the body keeps 8 Hz). ``--preset clean`` films the walks with a noise-free detector (what the fit alone does to the events;
 ``--seed`` draws other noise). The C3D walks' heel strikes are also scored on their plate-confirmed Foot
 Strikes only (annotated within ``PLATE_MATCH_S`` of a force plate's onset, read from the C3D's analog
 channels), against the annotation and against the onset itself.
@@ -147,11 +149,20 @@ def _temporal_errors(report, walk) -> dict:
     return errors
 
 
-def _trajectory(walk, *, method: str, phase: int, seed: int, preset: str = "paper"):
+def method_config(method: str, foot_hz: float | None = None):
+    """The reconstruction config of ``method`` (METHODS name); ``foot_hz``: the implicit fit's feet on a knot
+    grid of their own at that band limit (Hz)."""
+    from _common import implicit_method
+    from gaitcap.reconstruction.methods import METHODS
+
+    return implicit_method(foot_hz) if method == "implicit" else METHODS[method]()
+
+
+def _trajectory(walk, *, method: str, phase: int, seed: int, preset: str = "paper", foot_hz: float | None = None):
     """(times_s, points_mm, joint names, continuous sample or None, reconstruction s) of one walk seen at
     30 fps from ``phase`` with the detector noise ``preset`` and reconstructed by ``method`` (``truth``: the
-    sampled markers; ``markers``: every marker frame, no rig)."""
-    from gaitcap.reconstruction.methods import METHODS, reconstruct
+    sampled markers; ``markers``: every marker frame, no rig; ``foot_hz``: see :func:`method_config`)."""
+    from gaitcap.reconstruction.methods import reconstruct
     from gaitcap.simulator.mocap import SKELETON, halpe26_points, rig_view
 
     if method == "markers":
@@ -162,18 +173,19 @@ def _trajectory(walk, *, method: str, phase: int, seed: int, preset: str = "pape
     if method == "truth":
         points, sample = view.points_mm, None
     else:
-        rec = reconstruct(view.detections, view.rig, method=METHODS[method]())
+        rec = reconstruct(view.detections, view.rig, method=method_config(method, foot_hz))
         points, sample = rec.points_mm, rec.trajectory
     return view.times_s, points, names, sample, time.perf_counter() - t0
 
 
 def run_walk(walk, *, method: str, phase: int, seed: int, onsets_s: np.ndarray = np.zeros(0),
-             preset: str = "paper") -> dict:
+             preset: str = "paper", foot_hz: float | None = None) -> dict:
     from gaitcap.reconstruction.gait import analyze_gait
     from gaitcap.reconstruction.gait.baselines import BASELINES
     from gaitcap.reconstruction.gait.tracks import FootTracks
 
-    times, points, names, sample, seconds = _trajectory(walk, method=method, phase=phase, seed=seed, preset=preset)
+    times, points, names, sample, seconds = _trajectory(walk, method=method, phase=phase, seed=seed, preset=preset,
+                                                        foot_hz=foot_hz)
     report = analyze_gait(points, times, names, sample=sample)
     tracks = FootTracks.from_points(points, times, names, sample=sample)
     scores = {"gaitcap": _score(_default_events(report), walk, onsets_s)}
@@ -222,7 +234,7 @@ def _load_walk(name: str):
 
 
 def run(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | None = None,
-        preset: str = "paper") -> dict:
+        preset: str = "paper", foot_hz: float | None = None) -> dict:
     from gaitcap.simulator.mocap import rig_phases
 
     walks = [w for w in _walk_names() if walk_filter is None or w in walk_filter]
@@ -242,7 +254,8 @@ def run(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | 
             foot_errors: dict = {}
             temp = {"stance_pct": [], "double_support_pct": []}
             for phase in range(min(phases, rig_phases(walk, FPS))):
-                r = run_walk(walk, method=method, phase=phase, seed=seed + phase, onsets_s=onsets, preset=preset)
+                r = run_walk(walk, method=method, phase=phase, seed=seed + phase, onsets_s=onsets, preset=preset,
+                             foot_hz=foot_hz)
                 for key in on_plates:
                     on_plates[key] += r["scores"]["gaitcap"]["heel_strike"][key]
                 for det, sc in r["scores"].items():
@@ -273,7 +286,8 @@ def run(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | 
                     key: {f"{k}_ms" if k != "n" else k: v for k, v in _summary(e).items()}
                     for key, e in (("vs_annotation", on_plates["plates"]), ("vs_onset", on_plates["vs_onset"]))}})
         rows += [_row(method, "all", det, kind, p) for (det, kind), p in everything.items()]
-    return {"fps": FPS, "phases": phases, "seed": seed, "preset": preset, "rows": rows, "by_foot": feet,
+    return {"fps": FPS, "phases": phases, "seed": seed, "preset": preset, "foot_hz": foot_hz, "rows": rows,
+            "by_foot": feet,
             "temporal_pct": temporal, "plates": plates, "walks": info}
 
 
@@ -426,7 +440,7 @@ def _criteria_errors(approaches, truth: dict, into: dict, walk: str) -> None:
 
 
 def run_criteria(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | None = None,
-                 preset: str = "paper") -> dict:
+                 preset: str = "paper", foot_hz: float | None = None) -> dict:
     """Errors of every heel-strike criterion (``CRITERIA``) per input, walk and foot (see the module
     docstring); the walker's patterns (simulated, ground-truth frames) as input ``walker``."""
     from gaitcap.simulator import make_trial
@@ -446,7 +460,7 @@ def run_criteria(*, methods: list[str], phases: int, seed: int, walk_filter: lis
         for name, walk in walks.items():
             for phase in range(1 if method == "markers" else min(phases, rig_phases(walk, FPS))):
                 times, points, names, sample, _ = _trajectory(walk, method=method, phase=phase, seed=seed + phase,
-                                                              preset=preset)
+                                                              preset=preset, foot_hz=foot_hz)
                 _criteria_errors(_approaches(times, points, names, sample), walk.heel_strike_s, into, name)
     for name, params in WALKERS.items():
         trial = make_trial("paper", seconds=20.0, seed=seed, walk=params())
@@ -493,7 +507,7 @@ def _frames(ms: float | None) -> float | None:
 def _table(r: dict) -> str:
     ms_frame = 1000.0 / FPS
     lines = [f"gait events on real walks: 30 fps rig, {r['preset']} noise, seed {r['seed']}, {r['phases']} sampling "
-             "phases each",
+             "phases each" + (f", the implicit fit's feet at {r['foot_hz']:g} Hz" if r.get("foot_hz") else ""),
              f"{'recon':<9}{'walk':<10}{'detector':<9}{'event':<12}{'n':>4}{'med|e| ms':>10}{'(fr)':>6}"
              f"{'median ms':>10}{'(fr)':>6}{'mean ms':>8}{'p90 ms':>8}{'(fr)':>6}{'found':>9}{'invented':>9}"]
     for row in r["rows"]:
@@ -530,6 +544,8 @@ def _table(r: dict) -> str:
 
 
 def main(argv=None) -> int:
+    from _common import add_foot_arg
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--methods", nargs="+", default=["implicit"],
                     choices=["truth", "dlt", "robust", "explicit", "implicit", "markers"],
@@ -541,6 +557,7 @@ def main(argv=None) -> int:
                     help="only these walks (healthy, parkinson, c3d:FunctionalWalk, c3d:PiG_Motion3_FF, ...)")
     ap.add_argument("--preset", default="paper", help="the simulated detector's noise (simulator/noise.py: "
                     "paper, clean, ...)")
+    add_foot_arg(ap)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr)
@@ -548,7 +565,7 @@ def main(argv=None) -> int:
         ap.error("--methods markers: only with --criteria")
     runner, table = (run_criteria, _criteria_table) if args.criteria else (run, _table)
     result = runner(methods=args.methods, phases=args.phases, seed=args.seed, walk_filter=args.walks,
-                    preset=args.preset)
+                    preset=args.preset, foot_hz=args.foot_hz)
     if args.json:
         from _common import jsonable
 

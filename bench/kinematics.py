@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import add_trial_args, emit  # noqa: E402
+from _common import add_foot_arg, add_trial_args, emit  # noqa: E402
 
 VARIABLES = ("hip_flexion", "hip_adduction", "knee_flexion", "ankle_dorsiflexion")
 # reported beside them: the thigh's inclination in the progression plane (model: hip flexion minus anterior
@@ -82,9 +82,9 @@ def compare(ik: dict, truth: dict, standing: np.ndarray) -> dict:
     return out
 
 
-def run(*, preset: str, seconds: float, cameras: int, seed: int) -> dict:
+def run(*, preset: str, seconds: float, cameras: int, seed: int, foot_hz: float | None = None) -> dict:
     from gaitcap.reconstruction.kinematics.markers import layout_for
-    from gaitcap.reconstruction.methods import Implicit, Robust, reconstruct
+    from gaitcap.reconstruction.methods import Robust, reconstruct
     from gaitcap.services.kinematics import get_engine
     from gaitcap.simulator.trial import make_trial
 
@@ -94,7 +94,9 @@ def run(*, preset: str, seconds: float, cameras: int, seed: int) -> dict:
     truth = true_angles(trial.points_mm, names)
     standing = trial.times_s < trial.plan.walk_start_s - 0.2
     inputs = {"ground truth": (trial.points_mm, None)}
-    for label, method in (("robust triangulation", Robust()), ("default fit", Implicit())):
+    from _common import implicit_method
+
+    for label, method in (("robust triangulation", Robust()), ("default fit", implicit_method(foot_hz))):
         rec = reconstruct(trial.detections, trial.rig, method=method)
         inputs[label] = (rec.points_mm, rec.quality)
     rows = {}
@@ -112,7 +114,7 @@ def run(*, preset: str, seconds: float, cameras: int, seed: int) -> dict:
                for v, lim in TARGETS_DEG.items()}
     targets[f"scale + IK of the default fit, {seconds:g} s at {trial.fps:g} fps <= {SPEED_TARGET_S:g} s"] = {
         "value": speed, "met": bool(speed <= SPEED_TARGET_S)}
-    return {"setup": {"preset": preset, "seconds": seconds, "cameras": cameras, "seed": seed,
+    return {"setup": {"preset": preset, "seconds": seconds, "cameras": cameras, "seed": seed, "foot_hz": foot_hz,
                       "frames": int(trial.num_frames), "fps": trial.fps, "engine": engine.name,
                       "model": layout.setup},
             "rows": rows, "targets": targets}
@@ -152,7 +154,8 @@ def real(npz: Path) -> dict:
 def print_table(result: dict) -> None:
     s = result["setup"]
     print(f"synthetic '{s['preset']}' trial: {s['cameras']} cameras, {s['frames']} frames at {s['fps']:g} fps "
-          f"(seed {s['seed']}); {s['engine']} model {s['model']}; angles in deg, marker errors in mm")
+          f"(seed {s['seed']}); {s['engine']} model {s['model']}; angles in deg, marker errors in mm"
+          + (f"; the fit's feet at {s['foot_hz']:g} Hz" if s.get("foot_hz") else ""))
     print(f"{'input':<22}{'variable':<20}{'RMSE':>7}{'bias':>7}{'SD':>7}{'standing IK':>12}{'truth':>7}")
     for label, row in result["rows"].items():
         for v, a in row["angles"].items():
@@ -178,10 +181,11 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_trial_args(ap)
     ap.add_argument("--real", type=Path, default=None, help="also check a reconstructed real walk (NPZ)")
+    add_foot_arg(ap)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
-    result = run(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed)
+    result = run(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed, foot_hz=args.foot_hz)
     if args.real is not None:
         result["real"] = real(args.real)
     emit(result, as_json=args.json, table=print_table)

@@ -85,7 +85,7 @@ def _run_fit(name, fit, robust: Robust, use_confidence: bool, det: MultiViewKeyp
     weights = conf if use_confidence else tri.camera_weights
     problem = fit_problem(det, rig, weights, gamma=robust.gamma)
     init = fill_gaps(reject_spikes(tri.points_mm), det.times_s, det.skeleton.joint_names)
-    out = fit.fit(problem, init, det.times_s, progress)
+    out = fit.fit(problem, init, det.times_s, progress, joint_names=tuple(det.skeleton.joint_names))
     err = np.nan_to_num(reprojection_errors_px(out.points_mm, det, rig), nan=np.inf)
     view_w = np.exp(-err / FIT_WEIGHT_SCALE_PX) * conf
     losses = dict(out.parts, steps=len(out.history), seconds=time.perf_counter() - t0)

@@ -35,8 +35,10 @@ class ExplicitFit:
         solver = Adam(learning_rate=0.1, steps=steps, reg_start=steps // 10, chunk=500)
         return cls(solver=solver, loss=LossConfig())
 
-    def fit(self, problem: Problem, init_mm: np.ndarray, times_s: np.ndarray, progress: Progress | None = None):
-        """init_mm: (T, J, 3) NaN-free start. Returns :class:`FitOutput`."""
+    def fit(self, problem: Problem, init_mm: np.ndarray, times_s: np.ndarray, progress: Progress | None = None,
+            *, joint_names: tuple[str, ...] = ()):
+        """init_mm: (T, J, 3) NaN-free start (``joint_names``: unused, every point is free). Returns
+        :class:`FitOutput`."""
         objective = _PointsObjective(self.loss)
         params, history = self.solver.minimize(objective, to_fit_layout(init_mm), problem, progress)
         _, parts = jax.jit(objective)(params, problem, 1.0)

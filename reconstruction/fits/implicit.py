@@ -3,7 +3,8 @@
 Three models of time -> pose (J x 3 mm):
 
 - :class:`~gaitcap.reconstruction.fits.bspline.BSplineBasis` (default): uniform cubic B-splines with
-  knots at the band limit (8 Hz, 62.5 ms apart). Local support: each frame depends on 4 control points,
+  knots at the band limit (8 Hz, 62.5 ms apart; optionally a denser grid for the feet,
+  ``foot_max_freq_hz``). Local support: each frame depends on 4 control points,
   so cost and memory grow linearly with the trial. The control points start at the banded penalised
   least-squares fit to the robust triangulation, then L-BFGS minimises the paper's loss.
 - :class:`FourierBasis`: a linear model on band-limited global time features [1, tau, cos(pi k tau),
@@ -63,7 +64,8 @@ class FourierBasis:
         ang = np.pi * tau[:, None] * k[None]
         return np.concatenate([np.ones_like(tau)[:, None], tau[:, None], np.cos(ang), np.sin(ang)], 1)
 
-    def init(self, times_s: np.ndarray, init_mm: np.ndarray, key):
+    def init(self, times_s: np.ndarray, init_mm: np.ndarray, key, *, joint_names=()):
+        """Weights, features and span (``joint_names``: unused, every joint has the same basis)."""
         t0, duration = float(times_s[0]), max(float(times_s[-1] - times_s[0]), 1e-3)
         phi = self.features(times_s, t0, duration)
         t, j, _ = init_mm.shape
@@ -137,7 +139,8 @@ class PaperMLP:
                "b": jnp.zeros(3 * num_joints)}
         return {"layers": layers, "out": out}
 
-    def init(self, times_s: np.ndarray, init_mm: np.ndarray, key):
+    def init(self, times_s: np.ndarray, init_mm: np.ndarray, key, *, joint_names=()):
+        """Parameters, inputs and span (``joint_names``: unused, one network for every joint)."""
         t0, duration = float(times_s[0]), max(float(times_s[-1] - times_s[0]), 1e-3)
         tin = jnp.asarray(np.pi * (times_s - t0) / duration, jnp.float32)[:, None]
         return self.init_params(init_mm.shape[1]), tin, (t0, duration)
@@ -232,9 +235,12 @@ class ImplicitFit:
         )
         return cls(model=PaperMLP(), solver=solver, loss=LossConfig())
 
-    def fit(self, problem: Problem, init_mm: np.ndarray, times_s: np.ndarray, progress: Progress | None = None):
-        """init_mm: (T, J, 3) NaN-free (the robust triangulation). Returns :class:`FitOutput`."""
-        params, features, span = self.model.init(times_s, init_mm, None)
+    def fit(self, problem: Problem, init_mm: np.ndarray, times_s: np.ndarray, progress: Progress | None = None,
+            *, joint_names: tuple[str, ...] = ()):
+        """init_mm: (T, J, 3) NaN-free (the robust triangulation); ``joint_names`` (J,): the skeleton's
+        (a B-spline model with ``foot_max_freq_hz`` gives the feet their own grid by name). Returns
+        :class:`FitOutput`."""
+        params, features, span = self.model.init(times_s, init_mm, None, joint_names=joint_names)
         objective = _ModelObjective(self.model, self.loss)
         params, history = self.solver.minimize(objective, params, (problem, features), progress)
         points, parts = evaluate(objective, self.model)(params, (problem, features))
