@@ -12,6 +12,7 @@ its ground truth (joints and true events; no model angles). The study table pool
     python bench/validation.py            # a table
     python bench/validation.py --json     # one JSON object
     python bench/validation.py --refine   # also the implicit fit (slower)
+    python bench/validation.py --refine --foot-hz 15   # its feet on a 15 Hz knot grid (process_input in-process)
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "bench"))
-from _common import emit  # noqa: E402
+from _common import add_foot_arg, emit  # noqa: E402
 from gait_real import PLATE_MATCH_S, plate_onsets_s  # noqa: E402
 
 C3D_DIR = ROOT.parent / "shared" / "data" / "c3d"
@@ -37,14 +38,37 @@ START_S = 0.25
 GAITCAP = str(Path(sys.executable).parent / "gaitcap")
 
 
-def _process(folder: Path, refine: bool) -> float:
+def _process(folder: Path, refine: bool, foot_hz: float | None = None) -> float:
     t0 = time.perf_counter()
+    if foot_hz is not None:
+        _process_feet(folder, foot_hz)
+        return time.perf_counter() - t0
     cmd = [GAITCAP, "process", str(folder / "kp.npz"), "--calibration", str(folder / "calib.json"), "--out",
            str(folder / "proc"), "--refine" if refine else "--no-refine", "--json"]
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
         raise RuntimeError(f"gaitcap process {folder.name}: {run.stderr[-2000:]}")
     return time.perf_counter() - t0
+
+
+def _process_feet(folder: Path, foot_hz: float) -> None:
+    """What ``gaitcap process --refine`` does (``process_input``, in this process), with the refined stage's
+    feet on a knot grid of their own at ``foot_hz`` (``BSplineBasis.foot_max_freq_hz``)."""
+    from dataclasses import dataclass, replace
+
+    from _common import implicit_method
+    from gaitcap.services.processing.offline import OfflineOptions, load_input, process_input
+
+    @dataclass(frozen=True)
+    class FeetOptions(OfflineOptions):
+        def trial_options(self):
+            options = super().trial_options()
+            return replace(options, stages=tuple(replace(s, method=implicit_method(foot_hz)) if s.name == "refined"
+                                                 else s for s in options.stages))
+
+    options = FeetOptions(refine=True)
+    data = load_input(folder / "kp.npz", calibration=folder / "calib.json", options=options)
+    process_input(data, folder / "proc", options=options)
 
 
 def _real_pair(name: str, work: Path) -> tuple[str, str, str]:
@@ -101,13 +125,13 @@ def _pooled(result: dict, kind: str, onsets_s: np.ndarray | None = None, *, vs_o
             "errors_frames": [round(float(x), 2) for x in e]}
 
 
-def run(refine: bool) -> dict:
+def run(refine: bool, foot_hz: float | None = None) -> dict:
     from gaitcap.services.validation.study import Pair, run_study
 
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         pairs = [_real_pair(n, work) for n in WALKS if (C3D_DIR / f"{n}.c3d").is_file()] + [_simulator_pair(work)]
-        seconds = {name: _process(Path(folder), refine) for name, folder, _ in pairs}
+        seconds = {name: _process(Path(folder), refine, foot_hz) for name, folder, _ in pairs}
         items = [Pair(name, str(Path(folder) / "proc"), ref) for name, folder, ref in pairs]
         study = run_study(items, work / "study", executor="inline")
         import json
@@ -132,7 +156,7 @@ def run(refine: bool) -> dict:
         if onsets is not None:
             pairs_out[name]["heel_strike_plates"] = _pooled(r, "heel_strike", onsets)
             pairs_out[name]["heel_strike_vs_onset"] = _pooled(r, "heel_strike", onsets, vs_onset=True)
-    return {"refine": refine, "start_s": START_S, "fps": 30.0, "study": study, "pairs": pairs_out}
+    return {"refine": refine, "foot_hz": foot_hz, "start_s": START_S, "fps": 30.0, "study": study, "pairs": pairs_out}
 
 
 def _f(x, spec=".2f") -> str:
@@ -142,7 +166,8 @@ def _f(x, spec=".2f") -> str:
 def _table(r: dict) -> str:
     s = r["study"]
     lines = [f"validate-study: {s['pairs_ok']} pairs ({', '.join(r['pairs'])}), gaitcap process "
-             f"{'with' if r['refine'] else 'without'} the implicit refinement; {s['icc_form']}",
+             f"{'with' if r['refine'] else 'without'} the implicit refinement"
+             + (f" (its feet at {r['foot_hz']:g} Hz)" if r.get("foot_hz") else "") + f"; {s['icc_form']}",
              f"{'parameter':<20}{'n':>4}{'pairs':>6}{'bias':>9}{'LoA low':>9}{'LoA high':>9}{'ICC':>6}{'MAE':>8}  dominant"]
     for row in s["table"]:
         lines.append(f"{row['parameter']:<20}{row['n']:>4}{row['pairs']:>6}{_f(row['bias']):>9}{_f(row['loa_low']):>9}"
@@ -181,10 +206,13 @@ def _table(r: dict) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--refine", action="store_true", help="also run the implicit fit (slower)")
+    add_foot_arg(ap)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    if args.foot_hz is not None and not args.refine:
+        ap.error("--foot-hz: the feet's knot grid is the implicit refinement's; give --refine too")
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr)
-    emit(run(args.refine), as_json=args.json, table=_table)
+    emit(run(args.refine, args.foot_hz), as_json=args.json, table=_table)
     return 0
 
 
