@@ -254,8 +254,13 @@ def run(*, methods: list[str], phases: int, seed: int, walk_filter: list[str] | 
             foot_errors: dict = {}
             temp = {"stance_pct": [], "double_support_pct": []}
             for phase in range(min(phases, rig_phases(walk, FPS))):
-                r = run_walk(walk, method=method, phase=phase, seed=seed + phase, onsets_s=onsets, preset=preset,
-                             foot_hz=foot_hz)
+                try:
+                    r = run_walk(walk, method=method, phase=phase, seed=seed + phase, onsets_s=onsets, preset=preset,
+                                 foot_hz=foot_hz)
+                except ValueError as exc:  # e.g. "no steps found": the phase counts as failed, the rest goes on
+                    info[name].setdefault("failed_phases", []).append(
+                        {"reconstruction": method, "phase": phase, "error": str(exc)})
+                    continue
                 for key in on_plates:
                     on_plates[key] += r["scores"]["gaitcap"]["heel_strike"][key]
                 for det, sc in r["scores"].items():
@@ -540,6 +545,8 @@ def _table(r: dict) -> str:
     for name, w in r["walks"].items():
         lines.append(f"{name}: {w['seconds']:.2f} s, {w['source']}; {len(w['excluded_annotations'])} annotation(s) "
                      "excluded by the screening")
+        for f in w.get("failed_phases", []):
+            lines.append(f"  {f['reconstruction']} phase {f['phase']} FAILED: {f['error']}")
     return "\n".join(lines)
 
 
