@@ -19,22 +19,30 @@ def add_trial_args(ap: argparse.ArgumentParser, *, seconds: float = 30.0, preset
     ap.add_argument("--seed", type=int, default=0)
 
 
-def add_foot_arg(ap: argparse.ArgumentParser) -> None:
-    """--foot-hz: the implicit fit's feet (ankles, heels, toes) on a knot grid of their own at that band limit."""
-    ap.add_argument("--foot-hz", type=float, default=None,
-                    help="the implicit fit's feet on their own knot grid at this band limit (Hz; default: the body's)")
+def add_foot_arg(ap: argparse.ArgumentParser, *, knees: bool = False) -> None:
+    """--foot-hz (and with ``knees`` --knee-hz): the implicit fit's feet (ankles, heels, toes) or knees on a
+    knot grid of their own at that band limit (one of them: the B-spline model has one fast grid)."""
+    grid = ap.add_mutually_exclusive_group()
+    grid.add_argument("--foot-hz", type=float, default=None,
+                      help="the implicit fit's feet on their own knot grid at this band limit (Hz; default: the body's)")
+    if knees:
+        grid.add_argument("--knee-hz", type=float, default=None,
+                          help="the implicit fit's knees on their own knot grid at this band limit (Hz; default: the body's)")
 
 
-def implicit_method(foot_hz: float | None = None):
-    """The default implicit fit; with ``foot_hz`` its B-spline model's ``foot_max_freq_hz`` set to it."""
+def implicit_method(foot_hz: float | None = None, *, knee_hz: float | None = None):
+    """The default implicit fit; with ``foot_hz`` (or ``knee_hz``) the feet (or knees) of its B-spline model on
+    a grid of their own at that band limit (``fast_max_freq_hz``, ``fast_joints``)."""
     import dataclasses
 
+    from gaitcap.reconstruction.fits.bspline import FOOT_JOINTS, KNEE_JOINTS
     from gaitcap.reconstruction.methods import Implicit
 
     method = Implicit()
-    if foot_hz is None:
+    if foot_hz is None and knee_hz is None:
         return method
-    model = dataclasses.replace(method.fit.model, foot_max_freq_hz=foot_hz)
+    hz, joints = (foot_hz, FOOT_JOINTS) if foot_hz is not None else (knee_hz, KNEE_JOINTS)
+    model = dataclasses.replace(method.fit.model, fast_max_freq_hz=hz, fast_joints=joints)
     return dataclasses.replace(method, fit=dataclasses.replace(method.fit, model=model))
 
 

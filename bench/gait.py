@@ -57,7 +57,8 @@ def _step_errors(report, steps) -> dict:
     return {name: _stats(v) for name, v in errs.items()}
 
 
-def run(*, preset: str, seconds: float, method: str, seed: int, config=None, foot_hz: float | None = None) -> dict:
+def run(*, preset: str, seconds: float, method: str, seed: int, config=None, foot_hz: float | None = None,
+        knee_hz: float | None = None) -> dict:
     from gaitcap.reconstruction.gait import GaitConfig, TrajectoryQuality, analyze_gait, compare_with_walkway
     from gaitcap.reconstruction.methods import METHODS, reconstruct
     from gaitcap.simulator import make_trial
@@ -72,7 +73,7 @@ def run(*, preset: str, seconds: float, method: str, seed: int, config=None, foo
     else:
         from _common import implicit_method
 
-        config_ = implicit_method(foot_hz) if method == "implicit" else METHODS[method]()
+        config_ = implicit_method(foot_hz, knee_hz=knee_hz) if method == "implicit" else METHODS[method]()
         rec = reconstruct(trial.detections, trial.rig, method=config_)
         points = rec.points_mm
         sample = rec.trajectory
@@ -89,7 +90,7 @@ def run(*, preset: str, seconds: float, method: str, seed: int, config=None, foo
     t_walkway = time.perf_counter() - t0
     steps = trial.truth.steps
     return {
-        "preset": preset, "seconds": seconds, "method": method, "seed": seed, "foot_hz": foot_hz,
+        "preset": preset, "seconds": seconds, "method": method, "seed": seed, "foot_hz": foot_hz, "knee_hz": knee_hz,
         "steps_found": len(report.steps), "edge_steps": sum(not s.steady for s in report.steps),
         "truth_straight_steps": int(np.sum(steps.pass_index >= 0)),
         "events": {**_event_errors(report, trial.truth, in_passes=False),
@@ -138,11 +139,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     from _common import add_foot_arg
 
-    add_foot_arg(ap)
+    add_foot_arg(ap, knees=True)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr)
-    result = run(preset=args.preset, seconds=args.seconds, method=args.method, seed=args.seed, foot_hz=args.foot_hz)
+    result = run(preset=args.preset, seconds=args.seconds, method=args.method, seed=args.seed, foot_hz=args.foot_hz,
+                 knee_hz=args.knee_hz)
     print(json.dumps(result) if args.json else _table(result))
     return 0
 

@@ -19,7 +19,7 @@ detector's errors are also listed per walk and foot (every error of the 5 phases
     python bench/gait_real.py --methods implicit --foot-hz 15            # the feet on a 15 Hz knot grid
 
 ``--foot-hz HZ`` gives the implicit fit's feet (ankles, heels, toes) their own knot grid at that band
-limit (``BSplineBasis.foot_max_freq_hz``; the body keeps 8 Hz). ``--preset clean`` films the walks with a noise-free detector (what the fit alone does to the events;
+limit (``BSplineBasis.fast_max_freq_hz``; the body keeps 8 Hz). ``--preset clean`` films the walks with a noise-free detector (what the fit alone does to the events;
 ``--seed`` draws other noise). The C3D walks' heel strikes are also scored on their plate-confirmed Foot
 Strikes only (annotated within ``PLATE_MATCH_S`` of a force plate's onset, read from the C3D's analog
 channels), against the annotation and against the onset itself.

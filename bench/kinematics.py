@@ -82,7 +82,8 @@ def compare(ik: dict, truth: dict, standing: np.ndarray) -> dict:
     return out
 
 
-def run(*, preset: str, seconds: float, cameras: int, seed: int, foot_hz: float | None = None) -> dict:
+def run(*, preset: str, seconds: float, cameras: int, seed: int, foot_hz: float | None = None,
+        knee_hz: float | None = None) -> dict:
     from gaitcap.reconstruction.kinematics.markers import layout_for
     from gaitcap.reconstruction.methods import Robust, reconstruct
     from gaitcap.services.kinematics import get_engine
@@ -96,7 +97,7 @@ def run(*, preset: str, seconds: float, cameras: int, seed: int, foot_hz: float 
     inputs = {"ground truth": (trial.points_mm, None)}
     from _common import implicit_method
 
-    for label, method in (("robust triangulation", Robust()), ("default fit", implicit_method(foot_hz))):
+    for label, method in (("robust triangulation", Robust()), ("default fit", implicit_method(foot_hz, knee_hz=knee_hz))):
         rec = reconstruct(trial.detections, trial.rig, method=method)
         inputs[label] = (rec.points_mm, rec.quality)
     rows = {}
@@ -114,7 +115,7 @@ def run(*, preset: str, seconds: float, cameras: int, seed: int, foot_hz: float 
                for v, lim in TARGETS_DEG.items()}
     targets[f"scale + IK of the default fit, {seconds:g} s at {trial.fps:g} fps <= {SPEED_TARGET_S:g} s"] = {
         "value": speed, "met": bool(speed <= SPEED_TARGET_S)}
-    return {"setup": {"preset": preset, "seconds": seconds, "cameras": cameras, "seed": seed, "foot_hz": foot_hz,
+    return {"setup": {"preset": preset, "seconds": seconds, "cameras": cameras, "seed": seed, "foot_hz": foot_hz, "knee_hz": knee_hz,
                       "frames": int(trial.num_frames), "fps": trial.fps, "engine": engine.name,
                       "model": layout.setup},
             "rows": rows, "targets": targets}
@@ -155,7 +156,8 @@ def print_table(result: dict) -> None:
     s = result["setup"]
     print(f"synthetic '{s['preset']}' trial: {s['cameras']} cameras, {s['frames']} frames at {s['fps']:g} fps "
           f"(seed {s['seed']}); {s['engine']} model {s['model']}; angles in deg, marker errors in mm"
-          + (f"; the fit's feet at {s['foot_hz']:g} Hz" if s.get("foot_hz") else ""))
+          + (f"; the fit's feet at {s['foot_hz']:g} Hz" if s.get("foot_hz") else "")
+          + (f"; the fit's knees at {s['knee_hz']:g} Hz" if s.get("knee_hz") else ""))
     print(f"{'input':<22}{'variable':<20}{'RMSE':>7}{'bias':>7}{'SD':>7}{'standing IK':>12}{'truth':>7}")
     for label, row in result["rows"].items():
         for v, a in row["angles"].items():
@@ -181,11 +183,12 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_trial_args(ap)
     ap.add_argument("--real", type=Path, default=None, help="also check a reconstructed real walk (NPZ)")
-    add_foot_arg(ap)
+    add_foot_arg(ap, knees=True)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
-    result = run(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed, foot_hz=args.foot_hz)
+    result = run(preset=args.preset, seconds=args.seconds, cameras=args.cameras, seed=args.seed, foot_hz=args.foot_hz,
+                 knee_hz=args.knee_hz)
     if args.real is not None:
         result["real"] = real(args.real)
     emit(result, as_json=args.json, table=print_table)

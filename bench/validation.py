@@ -53,7 +53,7 @@ def _process(folder: Path, refine: bool, foot_hz: float | None = None) -> float:
 
 def _process_feet(folder: Path, foot_hz: float) -> None:
     """What ``gaitcap process --refine`` does (``process_input``, in this process), with the refined stage's
-    feet on a knot grid of their own at ``foot_hz`` (``BSplineBasis.foot_max_freq_hz``)."""
+    feet on a knot grid of their own at ``foot_hz`` (``BSplineBasis.fast_max_freq_hz``)."""
     from dataclasses import dataclass, replace
 
     from _common import implicit_method

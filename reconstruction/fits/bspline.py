@@ -11,10 +11,12 @@ The start is penalised least squares on the second differences of the control po
 it keeps the system well posed where frames are sparse (low frame rates, gaps) without pulling positions
 towards zero as a plain ridge would.
 
-The feet may have a knot grid of their own (``foot_max_freq_hz``): a foot lands in about 20 ms, faster
-than the body's 8 Hz band, and the 8 Hz grid rounds the heel's 7-13 mm dip at landing so that heel strikes
-come 4-15 ms late even without detector noise (docs/gait.md). Each grid is a group of joints with its own
-control points; the model's points are the groups' points put back in the skeleton's joint order.
+Some joints may have a knot grid of their own, faster than the body's (``fast_max_freq_hz`` for
+``fast_joints``; off by default): a foot lands in about 20 ms, and the 8 Hz grid rounds the heel's 7-13 mm
+dip at landing so that heel strikes come 4-15 ms late even without detector noise (docs/gait.md); the knee
+extends quickly before heel strike, which the 8 Hz grid lags (docs/kinematics.md). Each grid is a group of
+joints with its own control points; the model's points are the groups' points put back in the skeleton's
+joint order.
 """
 
 from __future__ import annotations
@@ -31,7 +33,9 @@ from gaitcap.reconstruction.fits.common import check_span
 
 MM_PER_M = 1000.0
 ORDER = 4  # cubic: 4 control points per frame
-#: the joints of the feet (those of them the skeleton has): what ``foot_max_freq_hz`` gives a denser grid
+#: the knees: ``fast_joints`` for the knees' own grid
+KNEE_JOINTS: tuple[str, ...] = ("left_knee", "right_knee")
+#: the joints of the feet (those of them the skeleton has): ``fast_joints`` for the feet's own grid
 FOOT_JOINTS: tuple[str, ...] = tuple(f"{side}_{part}" for side in ("left", "right")
                                      for part in ("ankle", "heel", "big_toe", "small_toe", "foot_index"))
 
@@ -71,25 +75,25 @@ class BSplineBasis:
         knots_per_cycle: knots per period of ``max_freq_hz`` (2: the Nyquist spacing).
         smooth_penalty: weight of the second-difference penalty of the least-squares start, relative
             to the mean diagonal of B^T B.
-        foot_max_freq_hz: band limit, Hz, of the feet's own knot grid (``foot_joints``); None: the feet
-            share the body's grid.
-        foot_joints: the joints that ``foot_max_freq_hz`` applies to (names the skeleton lacks are
-            ignored).
+        fast_max_freq_hz: band limit, Hz, of the knot grid of ``fast_joints``; None: every joint on the
+            body's grid.
+        fast_joints: the joints that ``fast_max_freq_hz`` applies to (:data:`FOOT_JOINTS`,
+            :data:`KNEE_JOINTS` or both; names the skeleton lacks are ignored).
     """
 
     max_freq_hz: float = 8.0
     knots_per_cycle: float = 2.0
     smooth_penalty: float = 1e-3
-    foot_max_freq_hz: float | None = None
-    foot_joints: tuple[str, ...] = FOOT_JOINTS
+    fast_max_freq_hz: float | None = None
+    fast_joints: tuple[str, ...] = FOOT_JOINTS
 
     def __post_init__(self) -> None:
         if not self.max_freq_hz > 0:
             raise ValueError(f"max_freq_hz: must be > 0 Hz, got {self.max_freq_hz}")
         if not self.knots_per_cycle > 0:
             raise ValueError(f"knots_per_cycle: must be > 0, got {self.knots_per_cycle}")
-        if self.foot_max_freq_hz is not None and not self.foot_max_freq_hz > 0:
-            raise ValueError(f"foot_max_freq_hz: must be > 0 Hz or None, got {self.foot_max_freq_hz}")
+        if self.fast_max_freq_hz is not None and not self.fast_max_freq_hz > 0:
+            raise ValueError(f"fast_max_freq_hz: must be > 0 Hz or None, got {self.fast_max_freq_hz}")
 
     def intervals(self, duration_s: float, max_freq_hz: float | None = None) -> int:
         """Number of knot intervals over a trial of ``duration_s`` s (at least 1) at ``max_freq_hz``
@@ -99,18 +103,18 @@ class BSplineBasis:
 
     def grids(self, num_joints: int, joint_names: Sequence[str] = ()) -> tuple[Grid, ...]:
         """The knot grids of a skeleton of ``num_joints`` joints named ``joint_names`` (without names:
-        one grid): the body's, then the feet's where ``foot_max_freq_hz`` is set; empty grids left out."""
-        fast = self.foot_max_freq_hz
-        feet = tuple(j for j, name in enumerate(joint_names) if fast is not None and name in self.foot_joints)
+        one grid): the body's, then the fast joints' where ``fast_max_freq_hz`` is set; empty grids left out."""
+        fast = self.fast_max_freq_hz
+        feet = tuple(j for j, name in enumerate(joint_names) if fast is not None and name in self.fast_joints)
         body = tuple(j for j in range(num_joints) if j not in feet)
         return tuple(Grid(hz, joints) for hz, joints in ((self.max_freq_hz, body), (fast, feet)) if joints)
 
     def model_bytes(self, frames: int, duration_s: float, joints: int) -> int:
         """Bytes of the model's own arrays in a fit: per-frame features and the float32 control points
-        with the solver's copies of them (L-BFGS keeps 20), linear in the trial; the feet's grid, when
-        set, counted as if it carried all of ``foot_joints``."""
-        feet = min(len(self.foot_joints), joints) if self.foot_max_freq_hz is not None else 0
-        grids = [(self.max_freq_hz, joints)] + ([(self.foot_max_freq_hz, feet)] if feet else [])
+        with the solver's copies of them (L-BFGS keeps 20), linear in the trial; the fast joints' grid,
+        when set, counted as if it carried all of ``fast_joints``."""
+        feet = min(len(self.fast_joints), joints) if self.fast_max_freq_hz is not None else 0
+        grids = [(self.max_freq_hz, joints)] + ([(self.fast_max_freq_hz, feet)] if feet else [])
         return sum(32 * frames + 4 * 32 * (self.intervals(duration_s, hz) + ORDER - 1) * 3 * n for hz, n in grids)
 
     def locate(self, times_s: np.ndarray, t0: float, duration: float,

@@ -3,8 +3,8 @@
 Three models of time -> pose (J x 3 mm):
 
 - :class:`~gaitcap.reconstruction.fits.bspline.BSplineBasis` (default): uniform cubic B-splines with
-  knots at the band limit (8 Hz, 62.5 ms apart; optionally a denser grid for the feet,
-  ``foot_max_freq_hz``). Local support: each frame depends on 4 control points,
+  knots at the band limit (8 Hz, 62.5 ms apart; optionally a denser grid for some
+  joints, the feet or the knees: ``fast_max_freq_hz``, ``fast_joints``). Local support: each frame depends on 4 control points,
   so cost and memory grow linearly with the trial. The control points start at the banded penalised
   least-squares fit to the robust triangulation, then L-BFGS minimises the paper's loss.
 - :class:`FourierBasis`: a linear model on band-limited global time features [1, tau, cos(pi k tau),
@@ -238,7 +238,7 @@ class ImplicitFit:
     def fit(self, problem: Problem, init_mm: np.ndarray, times_s: np.ndarray, progress: Progress | None = None,
             *, joint_names: tuple[str, ...] = ()):
         """init_mm: (T, J, 3) NaN-free (the robust triangulation); ``joint_names`` (J,): the skeleton's
-        (a B-spline model with ``foot_max_freq_hz`` gives the feet their own grid by name). Returns
+        (a B-spline model with ``fast_max_freq_hz`` gives its ``fast_joints`` their own grid by name). Returns
         :class:`FitOutput`."""
         params, features, span = self.model.init(times_s, init_mm, None, joint_names=joint_names)
         objective = _ModelObjective(self.model, self.loss)

@@ -91,7 +91,7 @@ def _landing_walk(times_s: np.ndarray, names: tuple[str, ...], land_s: float) ->
 
 
 def test_feet_on_their_own_grid_keep_the_landing_the_body_grid_rounds():
-    """foot_max_freq_hz: the feet's 15 Hz grid places the heel's lowest point (where a heel-first landing's
+    """fast_max_freq_hz: the feet's 15 Hz grid places the heel's lowest point (where a heel-first landing's
     strike is found) nearer the truth than the body's 8 Hz grid, and the rest of the body is fitted exactly as
     without it."""
     from gaitcap.reconstruction.skeletons import get_skeleton
@@ -104,7 +104,7 @@ def test_feet_on_their_own_grid_keep_the_landing_the_body_grid_rounds():
     heel = names.index("left_heel")
     fitted, lowest = {}, {}
     for hz in (None, 15.0):
-        basis = BSplineBasis(foot_max_freq_hz=hz)
+        basis = BSplineBasis(fast_max_freq_hz=hz)
         weights, _, span = basis.init(times, truth, None, joint_names=names)
         fitted[hz] = basis.trajectory(weights, span, len(names))(fine)
         lowest[hz] = fine[np.argmin(fitted[hz][:, heel, 2])] - land_s
@@ -116,6 +116,6 @@ def test_feet_on_their_own_grid_keep_the_landing_the_body_grid_rounds():
     assert np.allclose(fitted[15.0][:, body], fitted[None][:, body], atol=1e-6)
     assert not np.allclose(fitted[15.0][:, feet], fitted[None][:, feet], atol=0.5)
     # without joint names (or without the option) one grid carries every joint
-    assert [g.joints for g in BSplineBasis(foot_max_freq_hz=15.0).grids(len(names))] == [tuple(range(len(names)))]
-    with pytest.raises(ValueError, match="foot_max_freq_hz"):
-        BSplineBasis(foot_max_freq_hz=0.0)
+    assert [g.joints for g in BSplineBasis(fast_max_freq_hz=15.0).grids(len(names))] == [tuple(range(len(names)))]
+    with pytest.raises(ValueError, match="fast_max_freq_hz"):
+        BSplineBasis(fast_max_freq_hz=0.0)
