@@ -355,8 +355,8 @@ def warm_worker(*, cameras: int = 10, skeleton: str = "halpe26", cache_dir: Path
     import gaitcap.reconstruction.gait  # noqa: F401
     import rerun  # noqa: F401  (first import is slow)
     from gaitcap.reconstruction.skeletons import get_skeleton
-    from gaitcap.services.processing.outputs import report_png
     from gaitcap.services.processing.apart import start_apart_server
+    from gaitcap.services.processing.outputs import report_png
 
     t0 = time.perf_counter()
     start_apart_server()  # its own process: starts while this one compiles
