@@ -20,19 +20,20 @@ def add_trial_args(ap: argparse.ArgumentParser, *, seconds: float = 30.0, preset
 
 
 def add_foot_arg(ap: argparse.ArgumentParser, *, knees: bool = False) -> None:
-    """--foot-hz (and with ``knees`` --knee-hz): the implicit fit's feet (ankles, heels, toes) or knees on a
-    knot grid of their own at that band limit (one of them: the B-spline model has one fast grid)."""
+    """--foot-hz (and with ``knees`` --knee-hz): the implicit fit's fast grid (by default the knees at 12 Hz)
+    with the feet (ankles, heels, toes) on it too at that band limit, or the knees' grid at that band limit
+    (``--knee-hz 8``: the body's band, as before the knees had a grid of their own)."""
     grid = ap.add_mutually_exclusive_group()
     grid.add_argument("--foot-hz", type=float, default=None,
-                      help="the implicit fit's feet on their own knot grid at this band limit (Hz; default: the body's)")
+                      help="the implicit fit's feet (with the knees) on their own knot grid at this band limit (Hz)")
     if knees:
         grid.add_argument("--knee-hz", type=float, default=None,
-                          help="the implicit fit's knees on their own knot grid at this band limit (Hz; default: the body's)")
+                          help="the implicit fit's knees' own knot grid at this band limit (Hz; default 12)")
 
 
 def implicit_method(foot_hz: float | None = None, *, knee_hz: float | None = None):
-    """The default implicit fit; with ``foot_hz`` (or ``knee_hz``) the feet (or knees) of its B-spline model on
-    a grid of their own at that band limit (``fast_max_freq_hz``, ``fast_joints``)."""
+    """The default implicit fit; with ``foot_hz`` the feet on its B-spline model's fast grid with the knees at
+    that band limit, with ``knee_hz`` the knees' grid at that band limit (``fast_max_freq_hz``, ``fast_joints``)."""
     import dataclasses
 
     from gaitcap.reconstruction.fits.bspline import FOOT_JOINTS, KNEE_JOINTS
@@ -41,7 +42,7 @@ def implicit_method(foot_hz: float | None = None, *, knee_hz: float | None = Non
     method = Implicit()
     if foot_hz is None and knee_hz is None:
         return method
-    hz, joints = (foot_hz, FOOT_JOINTS) if foot_hz is not None else (knee_hz, KNEE_JOINTS)
+    hz, joints = (foot_hz, KNEE_JOINTS + FOOT_JOINTS) if foot_hz is not None else (knee_hz, KNEE_JOINTS)
     model = dataclasses.replace(method.fit.model, fast_max_freq_hz=hz, fast_joints=joints)
     return dataclasses.replace(method, fit=dataclasses.replace(method.fit, model=model))
 

@@ -12,7 +12,7 @@ its ground truth (joints and true events; no model angles). The study table pool
     python bench/validation.py            # a table
     python bench/validation.py --json     # one JSON object
     python bench/validation.py --refine   # also the implicit fit (slower)
-    python bench/validation.py --refine --foot-hz 15   # its feet on a 15 Hz knot grid (process_input in-process)
+    python bench/validation.py --refine --foot-hz 15   # its feet (with the knees) on a 15 Hz knot grid (process_input in-process)
 """
 
 from __future__ import annotations

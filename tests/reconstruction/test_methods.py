@@ -56,7 +56,7 @@ def test_implicit_puts_the_feet_on_their_own_grid_by_name(scene):
     from gaitcap.reconstruction.fits.bspline import FOOT_JOINTS, BSplineBasis
 
     rig, det, gt = scene(cameras=4, frames=30, noise_px=1.0, rigid=True)
-    model = BSplineBasis(max_freq_hz=3.0, fast_max_freq_hz=6.0)
+    model = BSplineBasis(max_freq_hz=3.0, fast_max_freq_hz=6.0, fast_joints=FOOT_JOINTS)
     fit = ImplicitFit(model=model, solver=Adam(learning_rate=1e-4, steps=2, chunk=2))  # the start, barely moved
     rec = reconstruct(det, rig, method=Implicit(fit=fit), truth_mm=gt)
     names = det.skeleton.joint_names
