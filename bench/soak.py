@@ -73,10 +73,11 @@ def run(args) -> dict:
         reads = [t.read_p99_s for t in report.trials if t.read_p99_s is not None]
         out["read_p99_s"] = max(reads) if reads else None
         out["next_trial_done_after_each_fault"] = all(after_fault)
-        out["meets_target"] = (report.all_ended_with_reason and report.recordings_lost == 0 and not report.orphans
+        out["meets_target"] = (not report.ended_early and report.all_ended_with_reason and report.recordings_lost == 0
+                               and not report.orphans
                                and all(after_fault) and all(r <= READ_P99_TARGET_S for r in reads) and memory_flat)
         return out
-    out["meets_target"] = (report.all_done and report.recordings_lost == 0 and not any(report.restarts.values())
+    out["meets_target"] = (not report.ended_early and report.all_done and report.recordings_lost == 0 and not any(report.restarts.values())
                            and report.missing_frame_ids == 0
                            and not any(c["restarted_count"] for c in report.cameras.values())
                            and report.longest_camera_pause_s <= PAUSE_TARGET_S and memory_flat)
@@ -86,7 +87,8 @@ def run(args) -> dict:
 def _table(r: dict) -> str:
     lines = [f"soak: {r['minutes']:.1f} min, {len(r['trials'])} of {r['trials_planned']} trials planned, all done: {r['all_done']}, "
              f"recordings lost: {r['recordings_lost']}, orphaned: {len(r['orphans'])}, "
-             f"disk per trial: {r['disk_per_trial_mb']:.1f} MB",
+             f"disk per trial: {r['disk_per_trial_mb']:.1f} MB"
+             + (f"\nENDED EARLY at {r['ended_early']}" if r.get("ended_early") else ""),
              "trial                              state               preliminary s  refined s  fault"]
     for t in r["trials"]:
         fmt = lambda v: "-" if v is None else f"{v:.1f}"  # noqa: E731

@@ -143,6 +143,7 @@ class SoakReport:
     warm_up: int = 10
     trials_planned: int = 0
     rss_pids: dict[str, list[int]] = field(default_factory=dict)
+    ended_early: str = ""  # why the day ended before its time (a trial that could not be started or followed)
 
     @property
     def all_done(self) -> bool:
@@ -330,7 +331,7 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
     if trials < 1 or every_s <= 0 or trial_s <= 0:
         raise ValueError(f"soak: need trials >= 1, every_s > 0, trial_s > 0; got {trials}, {every_s}, {trial_s}")
     plan = plan or {}
-    gaps, rss, series, pids, done = FrameGaps(), {}, {}, {}, []
+    gaps, rss, series, pids, done, ended_early = FrameGaps(), {}, {}, {}, [], ""
     session = stack.bus_session()
     sub = session.declare_subscriber(stack.bus.keys.image(), gaps)
     restarts0 = {n: stack.supervisor.restarts(n) for n in stack.supervisor.children}
@@ -346,8 +347,13 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
                 break
             fault = FAULTS[plan[k]] if k in plan else None
             outcome = FaultOutcome(fault.name) if fault else None
-            trial_id, trial, prelim, refined, why = _one_trial(stack, ctx, fault, outcome, subject_id=subject_id,
-                                                               trial_s=trial_s, stall_s=stall_s)
+            try:
+                trial_id, trial, prelim, refined, why = _one_trial(stack, ctx, fault, outcome, subject_id=subject_id,
+                                                                   trial_s=trial_s, stall_s=stall_s)
+            except RuntimeError as exc:  # e.g. Start refused: the day ends here, and what it saw is reported
+                ended_early = f"trial {k + 1}: {exc}"
+                log.error("soak: the day ends early at %s", ended_early)
+                break
             now_disk = disk_bytes(stack.data_dir)
             done.append(SoakTrial(trial_id, trial["state"], prelim, refined, _recording_kept(stack, trial_id),
                                   now_disk - disk, why, fault=outcome.fault if outcome else "",
@@ -366,4 +372,4 @@ def run_soak(stack, *, trials: int, every_s: float = 60.0, trial_s: float = 20.0
                       disk_per_trial_mb=growth[len(growth) // 2] / 1e6 if growth else 0.0,
                       frame_period_s=1.0 / stack.cfg.fps, rss_series_mb=series, orphans=_orphans(stack),
                       warm_up=warm_up, trials_planned=trials,
-                      rss_pids=pids)
+                      rss_pids=pids, ended_early=ended_early)

@@ -65,3 +65,33 @@ def test_a_short_soak_holds(tmp_path):
     assert set(report.rss_mb) == {"recorder", "detector", "camera-0", "worker-0", "api"}
     assert all(first > 10 and last > 10 for first, last, _ in report.rss_mb.values()), report.rss_mb
     assert report.disk_per_trial_mb > 0.1 and d["missing_frame_ids"] == report.missing_frame_ids
+
+
+def test_a_trial_that_cannot_start_ends_the_day_with_its_report(monkeypatch, tmp_path):
+    """A Start refused (here: the disk below the API's threshold) ends the day early, and the report of the
+    trials before it is still returned, saying where and why it ended (it used to raise and lose the day)."""
+    import types
+
+    import gaitcap.services.ops.soak as soak
+
+    calls = []
+
+    def one_trial(stack, ctx, fault, outcome, **_kw):
+        calls.append(1)
+        if len(calls) == 3:
+            raise RuntimeError("start failed (409): Start refused: data disk: 44.8 GB free (below 44.8 GB)")
+        return f"T{len(calls)}", {"state": "done"}, 1.0, 4.0, ""
+
+    monkeypatch.setattr(soak, "_one_trial", one_trial)
+    monkeypatch.setattr(soak, "_sample_rss", lambda stack, rss, series, pids: series.setdefault("worker-0", []).append(500.0))
+    monkeypatch.setattr(soak, "_recording_kept", lambda stack, trial_id: True)
+    monkeypatch.setattr(soak, "_orphans", lambda stack: ())
+    session = types.SimpleNamespace(declare_subscriber=lambda key, cb: types.SimpleNamespace(undeclare=lambda: None),
+                                    close=lambda: None)
+    stack = types.SimpleNamespace(bus_session=lambda: session, bus=types.SimpleNamespace(keys=types.SimpleNamespace(
+        image=lambda: "gaitcap/x/image/*")), supervisor=types.SimpleNamespace(children={}, restarts=lambda n: 0),
+        data_dir=tmp_path, cfg=types.SimpleNamespace(fps=30.0))
+    report = soak.run_soak(stack, trials=5, every_s=0.01, trial_s=0.01, warm_up=0)
+    assert [t.trial_id for t in report.trials] == ["T1", "T2"] and report.trials_planned == 5
+    assert report.ended_early.startswith("trial 3: start failed (409): Start refused: data disk")
+    assert report.to_dict()["ended_early"] == report.ended_early
