@@ -199,8 +199,8 @@ def zenoh_config(bus: BusConfig, node: str | None):
     conf.insert_json5("transport/link/tx/lease", str(int(bus.lease_ms)))
     # Zenoh's shared-memory transport (on by default) maps each local sender's 16 MB pool into every receiver
     # of its large messages and keeps it after the sender dies: +19 MB in the recorder, detector and API for
-    # each restart of the camera process (docs/benchmarks.md, "The working day with faults"). Loopback TCP
-    # carries the clinic's images (10 x 30 fps x ~30 kB) easily.
+    # each restart of the camera process (docs/benchmarks.md, "What the recorder, detector, API and worker kept
+    # over the 120-minute day"). Loopback TCP carries the clinic's images (10 x 30 fps x ~30 kB) easily.
     conf.insert_json5("transport/shared_memory/enabled", "false")
     if bus.security is not None:
         if node is None:

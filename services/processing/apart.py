@@ -7,7 +7,8 @@ Two libraries the worker calls for every trial keep native memory Python cannot 
 - OpenSim's inverse kinematics keeps about 1.5 kB per frame fitted (+0.9 MB per call on a 20 s, 600-frame
   walk; both stages of a trial are fitted), whatever Python collects afterwards.
 
-Measured in ``docs/benchmarks.md`` ("Worker memory over many trials", "The working day with faults").
+Measured in ``docs/benchmarks.md`` ("Memory per process over many trials, and Rerun's share", "What the
+recorder, detector, API and worker kept over the 120-minute day").
 :func:`call_apart` runs a function in a child forked from a small server process (multiprocessing's
 ``forkserver``, started once per process, with those libraries and their callers already imported, never
 itself doing the work), so the child starts in a fraction of a second and everything it allocated is returned
@@ -96,9 +97,10 @@ def _run_and_exit(conn, level: int, env: dict[str, str], fn: Callable[..., Any],
 
 
 def call_apart(fn: Callable[..., T], *args: Any, what: str, **kwargs: Any) -> T:
-    """``fn(*args, **kwargs)`` in a child process that exits afterwards; its value. The child's exception is
-    raised here and its log records are logged here; it sees this process's environment variables; a child that died without an answer is a RuntimeError
-    naming ``what`` it was doing and its exit code. ``fn`` and its arguments must pickle."""
+    """``fn(*args, **kwargs)`` in a child process that exits afterwards; its value. The child sees this
+    process's environment variables; its exception is raised here and its log records are logged here; a child
+    that died without an answer is a RuntimeError naming ``what`` it was doing and its exit code. ``fn``, its
+    arguments and its value must pickle."""
     ctx = _forkserver()
     ours, theirs = ctx.Pipe(duplex=False)
     level = logging.getLogger().getEffectiveLevel()

@@ -22,15 +22,22 @@ def _steps(files: TrialFiles, stage: str) -> list[dict]:
     return json.loads(path.read_text()).get("steps", []) if path.is_file() else []
 
 
+def _fit_files(*args, **kwargs) -> None:
+    """``trial_kinematics`` for its files only: the report stays in the child (nothing to send back)."""
+    from gaitcap.services.kinematics.trial import trial_kinematics
+
+    trial_kinematics(*args, **kwargs)
+
+
 def kinematics_step(files: TrialFiles, stage: str, traj: Reconstruction, *, age_years: int | None = None) -> bool:
     """Fit, report and export the stage's joint kinematics; True when they were computed. ``age_years``:
     the patient's age at the trial (None when not recorded) picks the normal-gait band of the files."""
     from gaitcap.services.kinematics import KinematicsUnavailable
-    from gaitcap.services.kinematics.trial import trial_kinematics, write_unavailable
+    from gaitcap.services.kinematics.trial import write_unavailable
 
     out = files.stage_file(stage, "kinematics_json").parent
     try:  # in a child process: OpenSim keeps native memory for every frame it fits (``apart``)
-        call_apart(trial_kinematics, traj.points_mm, traj.times_s, traj.joint_names, steps=_steps(files, stage),
+        call_apart(_fit_files, traj.points_mm, traj.times_s, traj.joint_names, steps=_steps(files, stage),
                    quality=traj.quality, out_dir=out, age_years=age_years, what=f"{files.root.name} {stage} kinematics")
     except KinematicsUnavailable as exc:
         log.warning("%s %s: kinematics are unavailable: %s", files.root.name, stage, exc)
