@@ -108,16 +108,16 @@ class BSplineBasis:
         """The knot grids of a skeleton of ``num_joints`` joints named ``joint_names`` (without names:
         one grid): the body's, then the fast joints' where ``fast_max_freq_hz`` is set; empty grids left out."""
         fast = self.fast_max_freq_hz
-        feet = tuple(j for j, name in enumerate(joint_names) if fast is not None and name in self.fast_joints)
-        body = tuple(j for j in range(num_joints) if j not in feet)
-        return tuple(Grid(hz, joints) for hz, joints in ((self.max_freq_hz, body), (fast, feet)) if joints)
+        quick = tuple(j for j, name in enumerate(joint_names) if fast is not None and name in self.fast_joints)
+        body = tuple(j for j in range(num_joints) if j not in quick)
+        return tuple(Grid(hz, joints) for hz, joints in ((self.max_freq_hz, body), (fast, quick)) if joints)
 
     def model_bytes(self, frames: int, duration_s: float, joints: int) -> int:
         """Bytes of the model's own arrays in a fit: per-frame features and the float32 control points
         with the solver's copies of them (L-BFGS keeps 20), linear in the trial; the fast joints' grid,
         when set, counted as if it carried all of ``fast_joints``."""
-        feet = min(len(self.fast_joints), joints) if self.fast_max_freq_hz is not None else 0
-        grids = [(self.max_freq_hz, joints)] + ([(self.fast_max_freq_hz, feet)] if feet else [])
+        quick = min(len(self.fast_joints), joints) if self.fast_max_freq_hz is not None else 0
+        grids = [(self.max_freq_hz, joints)] + ([(self.fast_max_freq_hz, quick)] if quick else [])
         return sum(32 * frames + 4 * 32 * (self.intervals(duration_s, hz) + ORDER - 1) * 3 * n for hz, n in grids)
 
     def locate(self, times_s: np.ndarray, t0: float, duration: float,
@@ -132,7 +132,7 @@ class BSplineBasis:
     def init(self, times_s: np.ndarray, init_mm: np.ndarray, key, *, joint_names: Sequence[str] = ()):
         """Control points of each grid (a tuple of (n_g + 3, 3 J_g) m) fitted to ``init_mm`` (T, J, 3),
         the frames' features ((index, weights) per grid, and the joint order), and the span
-        (:class:`SplineSpan`). ``joint_names`` (J,) places the feet on their own grid."""
+        (:class:`SplineSpan`). ``joint_names`` (J,) places ``fast_joints`` on their own grid."""
         t0, duration = float(times_s[0]), max(float(times_s[-1] - times_s[0]), 1e-3)
         t, j, _ = init_mm.shape
         grids = self.grids(j, joint_names)

@@ -3,8 +3,8 @@
 Three models of time -> pose (J x 3 mm):
 
 - :class:`~gaitcap.reconstruction.fits.bspline.BSplineBasis` (default): uniform cubic B-splines with
-  knots at the band limit (8 Hz, 62.5 ms apart; optionally a denser grid for some
-  joints, the feet or the knees: ``fast_max_freq_hz``, ``fast_joints``). Local support: each frame depends on 4 control points,
+  knots at the band limit (8 Hz, 62.5 ms apart; the knees on a 12 Hz
+  grid of their own by default: ``fast_max_freq_hz``, ``fast_joints``). Local support: each frame depends on 4 control points,
   so cost and memory grow linearly with the trial. The control points start at the banded penalised
   least-squares fit to the robust triangulation, then L-BFGS minimises the paper's loss.
 - :class:`FourierBasis`: a linear model on band-limited global time features [1, tau, cos(pi k tau),
