@@ -52,8 +52,14 @@ def test_the_first_frame_of_each_half_second_is_looked_at_while_watched():
                                        sent_ns=0)
                 pub.put(msg.payload, attachment=msg.meta.to_bytes())
 
+    delivered = threading.Event()  # the detector's session has run every callback of the frames before it
+    sentinel = sd.declare_subscriber(bus.keys.status("cam01"), lambda s: delivered.set())
     try:
         send(range(5))
+        # one link delivers in order: once the sentinel put after the frames is received, the watcher's
+        # callbacks of those frames have all returned (a slow host once delivered them after the watch began)
+        sc.put(bus.keys.status("cam01"), b"after frames 0-4")
+        assert delivered.wait(30), "the frames sent before the watch were not delivered"
         assert watcher.watching is None
         # the looking thread takes spare CPU only: its niceness is the process's + NICE
         nice = min(19, os.getpriority(os.PRIO_PROCESS, 0) + NICE)
@@ -71,6 +77,7 @@ def test_the_first_frame_of_each_half_second_is_looked_at_while_watched():
     finally:
         watcher.close()
         sub.undeclare()
+        sentinel.undeclare()
         views.close()
         for s in (sc, sd, sa):
             s.close()
