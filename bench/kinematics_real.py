@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import emit  # noqa: E402
+from _common import add_foot_arg, emit, implicit_method  # noqa: E402
 
 WALKS = ("FunctionalWalk", "PiG_Motion-FlatFoot-Full", "PiG_Motion3_FF")
 VARIABLES = ("hip_flexion", "knee_flexion", "ankle_dorsiflexion")
@@ -94,9 +94,12 @@ def compare(pw, times_s: np.ndarray, angles: dict) -> dict:
     return out
 
 
-def film_and_process(pw, *, phase: int, seed: int, preset: str, out: Path):
+def film_and_process(pw, *, phase: int, seed: int, preset: str, out: Path, method=None):
     """The walk filmed by the rig and processed by ``process_trial`` (gaitcap process's stages, files under
-    ``out``); returns (times s, reported angles, kinematics.json, seconds)."""
+    ``out``; ``method``: the last stage's, else its default); returns (times s, reported angles,
+    kinematics.json, seconds)."""
+    from dataclasses import replace
+
     from gaitcap.acquisition.importers.keypoint_input import KeypointInput
     from gaitcap.services.processing.artifacts import TrialFiles
     from gaitcap.services.processing.trial import TrialInput, TrialOptions, ViewerFiles, process_trial
@@ -104,8 +107,11 @@ def film_and_process(pw, *, phase: int, seed: int, preset: str, out: Path):
 
     view = rig_view(pw.walk, phase=phase, seed=seed, preset=preset)
     data = TrialInput(KeypointInput(view.detections, "halpe26", view.rig, f"{pw.file} filmed"), view.rig)
+    options = TrialOptions(checks=(), viewer_files=ViewerFiles.NONE)
+    if method is not None:
+        options = replace(options, stages=(*options.stages[:-1], replace(options.stages[-1], method=method)))
     t0 = time.perf_counter()
-    result = process_trial(data, TrialOptions(checks=(), viewer_files=ViewerFiles.NONE), files=TrialFiles(out))
+    result = process_trial(data, options, files=TrialFiles(out))
     seconds = time.perf_counter() - t0
     return (*reported_angles(out / result.last.name / "kinematics"), seconds)
 
@@ -125,7 +131,8 @@ def fit_markers(pw, out: Path):
     return (*reported_angles(out), seconds)
 
 
-def run(*, walks, inputs, phases: int, seed: int, preset: str) -> dict:
+def run(*, walks, inputs, phases: int, seed: int, preset: str, foot_hz: float | None = None,
+        knee_hz: float | None = None) -> dict:
     from gaitcap.simulator.pig_walks import C3D_DIR, load_pig_walk
 
     rows = []
@@ -135,8 +142,10 @@ def run(*, walks, inputs, phases: int, seed: int, preset: str) -> dict:
             for phase in range(phases if inp == "rig" else 1):
                 with tempfile.TemporaryDirectory() as tmp:
                     if inp == "rig":
-                        times, angles, d, hits, secs = film_and_process(pw, phase=phase, seed=seed + phase,
-                                                                        preset=preset, out=Path(tmp))
+                        times, angles, d, hits, secs = film_and_process(
+                            pw, phase=phase, seed=seed + phase, preset=preset, out=Path(tmp),
+                            method=None if foot_hz is None and knee_hz is None else implicit_method(
+                                foot_hz, knee_hz=knee_hz))
                     else:
                         times, angles, d, hits, secs = fit_markers(pw, Path(tmp))
                 rows.append({"walk": name, "input": inp, "phase": phase, "seconds": secs,
@@ -147,7 +156,7 @@ def run(*, walks, inputs, phases: int, seed: int, preset: str) -> dict:
     met = all(r["angles"][v][s]["met"] for r in rows if r["input"] == "rig" for v in VARIABLES
               for s in ("left", "right"))
     return {"setup": {"preset": preset, "fps": 30, "cameras": 10, "phases": phases, "seed": seed,
-                      "c3d_dir": str(C3D_DIR)},
+                      "foot_hz": foot_hz, "knee_hz": knee_hz, "c3d_dir": str(C3D_DIR)},
             "targets": {f"{v}: RMSE after offset <= {lim:g} deg, r >= {r:g}" + (
                 f", peak plantarflexion within {PEAK_PF_DEG:g} deg" if v == "ankle_dorsiflexion" else ""): None
                 for v, (lim, r) in TARGETS.items()},
@@ -157,7 +166,9 @@ def run(*, walks, inputs, phases: int, seed: int, preset: str) -> dict:
 def print_table(result: dict) -> None:
     s = result["setup"]
     print(f"real Plug-in-Gait walks ({s['c3d_dir']}); rig: {s['cameras']} cameras, {s['fps']} fps, "
-          f"'{s['preset']}' noise, {s['phases']} phase(s); degrees (offset = ours - Plug-in-Gait)")
+          f"'{s['preset']}' noise, {s['phases']} phase(s); degrees (offset = ours - Plug-in-Gait)"
+          + (f"; implicit fit's feet and knees at {s['foot_hz']:g} Hz" if s.get("foot_hz") else "")
+          + (f"; implicit fit's knees at {s['knee_hz']:g} Hz" if s.get("knee_hz") else ""))
     print(f"{'walk':<26}{'input':<8}{'variable':<20}{'side':<6}{'offset':>7}{'RMSE':>6}{'r':>7}"
           f"{'peak PF':>8}{'PiG':>7}{'PiG full':>9}  met")
     for row in result["rows"]:
@@ -184,10 +195,12 @@ def main(argv=None) -> None:
     ap.add_argument("--phases", type=int, default=1, help="rig sampling phases per walk (4 at 120 Hz)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--preset", default="paper", choices=["clean", "paper", "hard"])
+    add_foot_arg(ap, knees=True)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
-    emit(run(walks=args.walks, inputs=args.inputs, phases=args.phases, seed=args.seed, preset=args.preset),
+    emit(run(walks=args.walks, inputs=args.inputs, phases=args.phases, seed=args.seed, preset=args.preset,
+             foot_hz=args.foot_hz, knee_hz=args.knee_hz),
          as_json=args.json, table=print_table)
 
 
