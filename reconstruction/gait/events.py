@@ -287,13 +287,21 @@ def _contact_runs(tracks: FootTracks, side: str, speed: np.ndarray, v_rest: floa
 
 def _first_below(grid: np.ndarray, dist: np.ndarray, level: float, anchor: int) -> float:
     """Time where ``dist`` (N,) last falls below ``level`` at or before grid index ``anchor`` (the foot
-    arriving); NaN when it is below over the whole window (the arrival is not in it)."""
+    arriving), or first falls below after it when it is still above there (a foot that pivots into its
+    rest, as in a turn); NaN when it is below over the whole window up to ``anchor`` (the arrival is not in
+    it) or never falls below after it. Always between two samples that bracket the level: a time
+    extrapolated from two samples above it would lie anywhere (seconds before the window)."""
     above = np.flatnonzero(dist[: anchor + 1] >= level)
     if len(above) == 0:
         return float("nan")
     j = above[-1]
     if j + 1 >= len(grid):
         return float(grid[j])
+    if j == anchor and not dist[j + 1] < level:
+        below = np.flatnonzero(dist[j + 1:] < level)
+        if len(below) == 0:
+            return float("nan")
+        j += int(below[0])
     f0, f1 = dist[j] - level, dist[j + 1] - level
     return float(grid[j] + (f0 / (f0 - f1) if f0 != f1 else 0.0) * (grid[j + 1] - grid[j]))
 

@@ -107,3 +107,26 @@ def test_heel_strikes_at_the_force_plates_onset(name, signed_frames):
     assert np.all(np.abs(e) <= 15.0), f"{name}: {np.round(e)} ms from the plates' onsets"
     lo, hi = signed_frames
     assert lo <= np.median(e) / FRAME_MS <= hi, f"{name}: signed median {np.median(e) / FRAME_MS:+.2f} frame"
+
+
+def test_a_foot_still_arriving_at_its_run_has_its_crossing_after_it_never_extrapolated():
+    """The distance crossing is interpolated between two samples that bracket the level. A foot still
+    farther than the level from its rest point at the first at-rest frame (a turn's pivot on the soak's
+    walker) once had its crossing extrapolated from two samples above it: heel strikes 4 s before the
+    contact and at -174 s, each making a step no walker takes."""
+    from gaitcap.reconstruction.gait.events import _first_below
+
+    grid = np.arange(0.0, 1.0005, 0.001)
+    dist = 100.0 * (1.0 - grid)  # mm from the rest point, falling to 0 at 1 s
+    anchor = 500  # the run's first frame: still 50 mm away, above a level of 20 mm
+    assert _first_below(grid, dist, 20.0, anchor) == pytest.approx(0.8, abs=1e-6)
+    assert np.isnan(_first_below(grid, np.full_like(grid, 50.0), 20.0, anchor))  # it never arrives
+    assert np.isnan(_first_below(grid, np.full_like(grid, 5.0), 20.0, anchor))  # at rest over the window
+    arriving = np.where(grid < 0.3, 100.0 - 300.0 * grid, 10.0)  # below from 0.2667 s, before the anchor
+    assert _first_below(grid, arriving, 20.0, anchor) == pytest.approx(80.0 / 300.0, abs=1e-6)
+    # toe off: the same search on the reversed window (the last time the toe is near its rest point)
+    leaving = np.maximum(0.0, 200.0 * (grid - 0.2))  # mm, leaving at 0.2 s: 20 mm at 0.3 s
+    back = _first_below(grid[::-1], leaving[::-1], 20.0, len(grid) - 1 - 100)  # anchored at 0.1 s
+    assert back == pytest.approx(0.3, abs=1e-6)
+    for level in (20.0, 60.0, 99.0):  # every crossing lies inside the window
+        assert grid[0] <= _first_below(grid, dist, level, anchor) <= grid[-1]
