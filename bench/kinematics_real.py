@@ -14,6 +14,7 @@ the MOT, at least 3 frames within 0.5 deg) and the fit's own warnings are listed
 joint centres themselves (no rig), shows what the model fit alone costs.
 
     python bench/kinematics_real.py [--json] [--phases 1] [--seed 0] [--inputs rig markers]
+    python bench/kinematics_real.py --inputs rig --foot-hz 12   # the implicit fit's feet (with the knees) at 12 Hz
 
 Targets (issue 38): knee and hip flexion RMSE after the offset <= 2 deg with r >= 0.99; ankle <= 3 deg
 with r >= 0.98 and the peak plantarflexion within 5 deg of Plug-in-Gait's; every coordinate resting on a
