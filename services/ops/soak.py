@@ -160,9 +160,8 @@ class SoakReport:
         """Per process, how fast its resident memory grows after ``warm_up`` trials (MB per trial): the
         least-squares slope over each life of the process (a restart starts a new one, ``rss_pids``) after
         the life's own first ``warm_up`` trials (a restarted process warms up again, as the stack's first one
-        did), the steepest of the lives with at least :data:`MIN_LIFE_SAMPLES` samples after that; over all
-        the samples after the stack's warm-up where no life is that long. One line through a restart's drop
-        would read a growing process as flat."""
+        did): see :func:`life_slope`. One line through a restart's drop would read a growing process as
+        flat."""
         return {name: life_slope(series, self.rss_pids.get(name, []), warm_up=self.warm_up)
                 for name, series in self.rss_series_mb.items()}
 
@@ -195,7 +194,10 @@ class SoakReport:
         return out
 
 
-MIN_LIFE_SAMPLES = 5  # a process's life shorter than this (samples) gives no slope of its own
+MIN_LIFE_SAMPLES = 20  # a life with fewer samples (after its warm-up) is not judged alone: the worker's memory
+# scatters by 19-45 MB from trial to trial (the 120-minute day, docs/benchmarks.md), so the slope of 5 samples
+# has a standard error of 6-14 MB a trial; of 20, 0.7-1.7
+MIN_POOLED_SAMPLES = 3  # ... but pooled with the others (a slope of its own, an intercept of its own) from this many
 
 
 def lives(values: list[float], pids: list[int]) -> list[list[float]]:
@@ -212,11 +214,26 @@ def lives(values: list[float], pids: list[int]) -> list[list[float]]:
 
 
 def life_slope(values: list[float], pids: list[int], *, warm_up: int = 0) -> float:
-    """The steepest least-squares slope (units per step) over the lives of :func:`lives`, each without its
-    first ``warm_up`` samples, that keep at least :data:`MIN_LIFE_SAMPLES` samples; the slope over
-    ``values[warm_up:]`` where none does."""
-    long = [life[warm_up:] for life in lives(values, pids) if len(life) - warm_up >= MIN_LIFE_SAMPLES]
-    return max((slope(life) for life in long), default=slope(values[warm_up:]))
+    """How fast ``values`` grow (units per step) over the lives of :func:`lives`, each without its first
+    ``warm_up`` samples: the larger of the steepest least-squares slope of a life that keeps at least
+    :data:`MIN_LIFE_SAMPLES` samples (one leaking life is not averaged away by flat ones) and the slope
+    common to all the lives that keep at least :data:`MIN_POOLED_SAMPLES` (each with an intercept of its
+    own: a restart's drop reads as neither growth nor fall; a short life counts by its length); the slope
+    over ``values[warm_up:]`` where no life keeps that many."""
+    kept = [life[warm_up:] for life in lives(values, pids) if len(life) - warm_up >= MIN_POOLED_SAMPLES]
+    if not kept:
+        return slope(values[warm_up:])
+    return max([pooled_slope(kept), *(slope(v) for v in kept if len(v) >= MIN_LIFE_SAMPLES)])
+
+
+def pooled_slope(parts: list[list[float]]) -> float:
+    """The least-squares slope common to ``parts`` (units per step), each part with its own intercept."""
+    num = den = 0.0
+    for v in parts:
+        mx, my = (len(v) - 1) / 2, sum(v) / len(v)
+        num += sum((i - mx) * (y - my) for i, y in enumerate(v))
+        den += sum((i - mx) ** 2 for i in range(len(v)))
+    return num / den if den else 0.0
 
 
 def slope(values: list[float]) -> float:

@@ -47,6 +47,21 @@ def test_a_restarted_process_warms_up_again_before_its_growth_is_judged():
     assert life_slope(values[:33], pids[:33], warm_up=10) == pytest.approx(0.0)  # 3 samples: no life of its own
 
 
+def test_a_short_life_is_judged_with_the_others_not_alone():
+    """The 120-minute day's worker: killed at trials 56 and 71, its middle life kept 5 samples after its own
+    warm-up, rising 976 -> 998 MB within the worker's ordinary scatter (19-45 MB from trial to trial): alone it
+    read +3.9 MB a trial. Pooled with the long flat lives it reads flat; a long leaking life still reads as
+    it grows, and short lives that all grow read as growing."""
+    flat = [990.0, 1010.0, 985.0, 1005.0] * 10  # 40 samples, no growth, +-10 MB
+    short = [976.0, 994.0, 986.0, 989.0, 998.0]
+    values, pids = flat + short + flat, [1] * 40 + [2] * 5 + [3] * 40
+    assert slope(short) > 3.0 and life_slope(values, pids) < 0.2
+    leaks = [990.0 + 2 * k for k in range(40)]
+    assert life_slope(leaks + short + flat, pids) == pytest.approx(2.0)  # one long leaking life is not averaged away
+    growing = [500.0 + 3 * k for k in range(8)]
+    assert life_slope(growing * 3, [1] * 8 + [2] * 8 + [3] * 8) == pytest.approx(3.0)  # short lives only: pooled
+
+
 def test_a_short_soak_holds(tmp_path):
     base = free_loopback_ports(12)[0]
     cfg = StackConfig(data_dir=tmp_path / "clinic", token="soak-test-password-42", port=base, bus_base_port=base + 1,
