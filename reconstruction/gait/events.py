@@ -290,7 +290,7 @@ def _first_below(grid: np.ndarray, dist: np.ndarray, level: float, anchor: int) 
     arriving), or first falls below after it when it is still above there (a foot that pivots into its
     rest, as in a turn); NaN when it is below over the whole window up to ``anchor`` (the arrival is not in
     it) or never falls below after it. Always between two samples that bracket the level: a time
-    extrapolated from two samples above it would lie anywhere (seconds before the window)."""
+    extrapolated from two samples above it would lie anywhere (seconds outside the window)."""
     above = np.flatnonzero(dist[: anchor + 1] >= level)
     if len(above) == 0:
         return float("nan")

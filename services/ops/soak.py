@@ -197,7 +197,7 @@ class SoakReport:
 MIN_LIFE_SAMPLES = 20  # a life with fewer samples (after its warm-up) is not judged alone: the worker's memory
 # scatters by 19-45 MB from trial to trial (the 120-minute day, docs/benchmarks.md), so the slope of 5 samples
 # has a standard error of 6-14 MB a trial; of 20, 0.7-1.7
-MIN_POOLED_SAMPLES = 3  # ... but pooled with the others (a slope of its own, an intercept of its own) from this many
+MIN_POOLED_SAMPLES = 3  # ... but pooled with the others (one slope for all, an intercept each) from this many
 
 
 def lives(values: list[float], pids: list[int]) -> list[list[float]]:
