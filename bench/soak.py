@@ -105,7 +105,7 @@ def _table(r: dict) -> str:
     for name, c in r["cameras"].items():
         lines.append(f"  {name:8s}                      {c['frames']:7d} {c['missing_ids']:12d} "
                      f"{c['longest_missing_run']:12d} {c['longest_pause_s']:16.2f} {c['restarted_count']:18d}")
-    lines.append(f"process        RSS MB first   last    max   restarts  slope MB/trial after {r['warm_up']} (each life's own)")
+    lines.append(f"process        RSS MB first   last    max   restarts  slope MB/trial after {r['warm_up']} (judged: a life of 20+ alone, or all pooled)")
     for name, (first, last, peak) in r["rss_mb"].items():
         lines.append(f"  {name:12s} {first:9.0f} {last:6.0f} {peak:6.0f} {r['restarts'].get(name, 0):10d}"
                      f"  {r['rss_slope_mb_per_trial'].get(name, 0.0):+.2f}")
