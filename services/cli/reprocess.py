@@ -25,11 +25,12 @@ def _executor(ray: str, workers: int, ray_retries: int):
 def _run(db, data_dir: Path, trials: str, specs, *, ray: str, workers: int, ray_retries: int,
          gpus_per_fit: float | None, retry_failed: bool, write_files: bool = True):
     """Plan, run with a progress bar, return (plan, summary)."""
+    from gaitcap.services.processing.pipeline import compile_cache_dir
     from gaitcap.services.research.reprocess import TrialSelection, plan_reprocess, run_plan, task_resources
 
     in_process = not ray and workers == 0
     plan = plan_reprocess(db, data_dir, TrialSelection.parse(trials), specs, retry_failed=retry_failed,
-                          write_files=write_files, compile_cache=None if in_process else data_dir / ".jax-cache")
+                          write_files=write_files, compile_cache=None if in_process else compile_cache_dir(data_dir))
     for tid in plan.missing:
         typer.echo(f"warning: trial {tid}: recording file missing; left out", err=True)
     typer.echo(f"{len(plan.trials)} trial(s) x {len(plan.specs)} method(s): {plan.already_done} already done, "

@@ -71,6 +71,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Process recorded trials (preliminary then refined gait metrics, files, progress in the catalog) and
         compute the calibrations of stopped board recordings, as jobs taken from the catalog under a lease."""
+        from gaitcap.services.processing.pipeline import compile_cache_dir
         from gaitcap.services.processing.viewers.rerun_trial import RerunSettings
         from gaitcap.services.processing.worker import Worker, WorkerConfig, warm_worker
 
@@ -103,7 +104,7 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"worker {cfg.worker_id}: {line}", err=True)
         if warm_up:
             typer.echo(f"worker {cfg.worker_id}: warming up (compiling) ...", err=True)
-            typer.echo(f"worker {cfg.worker_id}: warm in {warm_worker(cache_dir=data_dir / '.jax-cache'):.1f} s", err=True)
+            typer.echo(f"worker {cfg.worker_id}: warm in {warm_worker(cache_dir=compile_cache_dir(data_dir)):.1f} s", err=True)
         typer.echo(f"worker {cfg.worker_id}: ready", err=True)
         ended = w.run(stop)
         if session is not None:

@@ -12,6 +12,7 @@ trial length.
 from __future__ import annotations
 
 import logging
+import os
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -258,6 +259,14 @@ def ring_rig(num_cameras: int = 10, *, radius_mm: float = 5000.0, height_mm: flo
                            matrix_px=np.array([[600.0, 0, 320], [0, 600.0, 240], [0, 0, 1]]),
                            dist=np.zeros(5), rvec=matrix_to_rodrigues(rot), tvec_mm=-rot @ center))
     return Rig(cameras=tuple(cams))
+
+
+def compile_cache_dir(data_dir: Path) -> Path:
+    """Where a worker keeps JAX's persistent compilation cache: JAX's own ``JAX_COMPILATION_CACHE_DIR`` where
+    the host sets one (the workers of one host, or its rooms, then share what any of them compiled), else
+    ``DATA_DIR/.jax-cache``."""
+    shared = os.environ.get("JAX_COMPILATION_CACHE_DIR", "")
+    return Path(shared) if shared else Path(data_dir) / ".jax-cache"
 
 
 def enable_compile_cache(path: Path) -> None:

@@ -1,5 +1,5 @@
 """The worker's computation helpers: chunked triangulation equals the whole-trial one; the dense sampler
-reproduces a smooth trajectory."""
+reproduces a smooth trajectory; the compilation cache's folder."""
 
 import numpy as np
 from gaitcap.reconstruction.keypoints import MultiViewKeypoints
@@ -7,6 +7,7 @@ from gaitcap.reconstruction.skeletons import get_skeleton
 from gaitcap.reconstruction.triangulation import robust_triangulate
 from gaitcap.services.processing.pipeline import (
     FRAME_CHUNK,
+    compile_cache_dir,
     dense_sampler,
     pad_detections,
     preliminary,
@@ -49,3 +50,12 @@ def test_dense_sampler_matches_a_smooth_trajectory_and_clips_the_ends():
     t = np.linspace(0, times[-1], 777)
     assert np.max(np.abs(sampler(t) - truth(t))) < 0.05
     np.testing.assert_allclose(sampler(np.array([times[-1] + 1e-3])), truth(times[-1:]), atol=1e-6)
+
+
+def test_the_compilation_cache_is_the_hosts_where_it_sets_one_else_in_the_data_folder(tmp_path, monkeypatch):
+    monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
+    assert compile_cache_dir(tmp_path / "data") == tmp_path / "data" / ".jax-cache"
+    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", str(tmp_path / "shared"))
+    assert compile_cache_dir(tmp_path / "data") == tmp_path / "shared"
+    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", "")
+    assert compile_cache_dir(tmp_path / "data") == tmp_path / "data" / ".jax-cache"
