@@ -5,8 +5,8 @@ GVS of one variable and side: the RMS difference (degrees) between the side's me
 mean curve at every 2 % of the cycle (51 points, 0-100 %). GPS of a side: the RMS of its GVS; overall: the
 RMS of both sides' GVS. Baker's GPS uses nine variables (pelvic tilt, obliquity and rotation, hip
 flexion, abduction and rotation, knee flexion, ankle dorsiflexion, foot progression); here only the
-variables that are measured and have a band enter, and the others are named (``not_included``) with the
-reason, so a score over fewer variables is never read as Baker's full GPS. Pure computation.
+variables that are measured, validated and have a band enter, and the others are named (``not_included``)
+with the reason, so a score over fewer variables is never read as Baker's full GPS. Pure computation.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from gaitcap.reconstruction.kinematics.key_norms import UNVALIDATED_ZERO
+from gaitcap.reconstruction.kinematics.key_norms import UNVALIDATED_COURSE, UNVALIDATED_ZERO
 
 #: Baker 2009's nine variables, as this package names them (foot progression has no such angle here).
 BAKER_VARIABLES = ("pelvis_tilt", "pelvis_obliquity", "pelvis_rotation", "hip_flexion", "hip_adduction",
@@ -65,6 +65,9 @@ def gait_profile(kinematics: Mapping[str, Any]) -> GaitProfile:
             continue
         if var in UNVALIDATED_ZERO:
             left_out[var] = "zero not validated"
+            continue
+        if var in UNVALIDATED_COURSE:
+            left_out[var] = f"not validated ({UNVALIDATED_COURSE[var]})"
             continue
         if var not in curves:
             left_out[var] = "not computed by this model"

@@ -184,6 +184,25 @@ def test_gait_profile_score_is_zero_on_the_band_and_names_what_it_leaves_out():
     assert moved.to_dict()["source"].startswith("Baker")
 
 
+def test_hip_rotation_is_never_judged_against_the_band_not_drawn_nor_in_the_profile_score():
+    """Against Plug-in-Gait on the real walks our hip rotation does not follow (key_norms.UNVALIDATED_COURSE):
+    the children's band has it, the chart leaves it out saying why, and the Gait Profile Score names it left
+    out; a far-off hip rotation moves no score."""
+    from gaitcap.reconstruction.kinematics.gait_profile import gait_profile
+
+    norms = _norm_set("children")
+    bands = norms["bands"]
+    assert "hip_rotation" in bands and norms["not_drawn"]["hip_rotation"].startswith("band not drawn: this angle is "
+                                                                                    "not validated (against Plug-in-Gait")
+    curves = {var: {side: {"mean_deg": list(b["mean_deg"])} for side in ("left", "right")} for var, b in bands.items()}
+    curves["hip_rotation"] = {side: {"mean_deg": [v + 20.0 for v in bands["hip_rotation"]["mean_deg"]]}
+                              for side in ("left", "right")}
+    profile = gait_profile({"curves": curves, "norms": norms, "not_measured": {}})
+    assert profile.not_included["hip_rotation"].startswith("not validated (against Plug-in-Gait")
+    assert "hip_rotation" not in profile.gvs_deg["left"] and profile.overall_gps_deg == pytest.approx(0.0, abs=1e-9)
+    assert {"knee_flexion", "hip_adduction", "pelvis_obliquity"} <= set(profile.gvs_deg["left"])
+
+
 @pytest.mark.parametrize("who", ["children", "adults"])
 def test_every_angle_with_a_band_hip_and_ankle_included_reads_its_sources_mean_curve_as_z_zero(who):
     """The sign and zero convention holds for every angle that has a band, also those shown as "no
