@@ -28,6 +28,8 @@ FIT_JOINTS = ("heel", "ankle", "hip")
 # clinical variable -> (model output label stem, component): Plug-in-Gait angles, degrees, flexion,
 # adduction, internal rotation and dorsiflexion positive (the signs of gaitcap's clinical angles).
 ANGLE_LABELS = {
+    "pelvis_obliquity": ("PelvisAngles", 1),
+    "pelvis_rotation": ("PelvisAngles", 2),
     "hip_flexion": ("HipAngles", 0),
     "hip_adduction": ("HipAngles", 1),
     "hip_rotation": ("HipAngles", 2),

@@ -13,14 +13,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from gaitcap.reconstruction.kinematics.angles import VARIABLES
+from gaitcap.reconstruction.kinematics.angles import VARIABLES, pelvis_in_progression
 from gaitcap.reconstruction.kinematics.mot import parse_mot
 from gaitcap.reconstruction.kinematics.report import with_zero_offsets
 from gaitcap.services.processing.artifacts import STAGE_FILES, STAGES
 from gaitcap.services.processing.outputs import read_npz
 
 SIDES = ("left", "right")
-ANGLE_VARIABLES = ("hip_flexion", "hip_adduction", "hip_rotation", "knee_flexion", "ankle_dorsiflexion")
+ANGLE_VARIABLES = ("pelvis_obliquity", "pelvis_rotation", "hip_flexion", "hip_adduction", "hip_rotation",
+                   "knee_flexion", "ankle_dorsiflexion")
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,6 +68,7 @@ def _angles(folder: Path) -> tuple[np.ndarray, dict, str]:
     times, coords, in_degrees = parse_mot(mot.read_text())
     if not in_degrees:
         coords = {k: np.degrees(v) for k, v in coords.items()}
+    coords = pelvis_in_progression(coords, times)  # as the page's curves: the pelvis against the walk, not the room
     out = {}
     for var in ANGLE_VARIABLES:
         try:
