@@ -169,3 +169,28 @@ def test_pelvis_angles_relative_to_progression():
     assert np.allclose(out["pelvis_list"][mid], 3.0 * wave[mid], atol=0.05)
     # the room's rotation coordinate mixes in tilt and obliquity, so its mean misses the heading by ~0.1 deg
     assert np.allclose(out["pelvis_rotation"][mid], 4.0 * wave[mid], atol=0.2)
+
+
+def test_the_progression_is_the_pelvis_s_direction_of_travel_whatever_the_stride():
+    """With the pelvis's floor position the heading is where it travels (as a laboratory's progression axis),
+    not its own heading averaged over 1.1 s, which keeps part of a stride's swing that is not 1.1 s long."""
+    from gaitcap.reconstruction.kinematics.angles import PELVIS, _rx, _ry, _rz, pelvis_in_progression
+
+    t = np.arange(0, 6.0, 0.01)
+    heading = np.radians(135.0)
+    wave = np.sin(2 * np.pi * t / 0.8)  # a stride of 0.8 s
+    anat = _rz(np.full(t.size, np.radians(5.0))) @ _rx(np.radians(3.0) * wave) @ _ry(np.radians(4.0) * wave)
+    room = _ry(np.full(t.size, heading)) @ anat
+    coords = {"pelvis_tilt": np.degrees(np.arctan2(-room[:, 0, 1], room[:, 1, 1])),
+              "pelvis_list": np.degrees(np.arcsin(room[:, 2, 1])),
+              "pelvis_rotation": np.degrees(np.arctan2(-room[:, 2, 0], room[:, 2, 2])),
+              "pelvis_tx": 1.2 * t * np.cos(heading), "pelvis_tz": -1.2 * t * np.sin(heading)}  # m, 1.2 m/s
+    mid = slice(100, 500)
+    out = pelvis_in_progression(coords, t)
+    assert np.allclose(out["pelvis_rotation"][mid], 4.0 * wave[mid], atol=0.05)
+    assert np.allclose(out["pelvis_list"][mid], 3.0 * wave[mid], atol=0.05)
+    assert np.allclose(out["pelvis_tilt"][mid], 5.0, atol=0.05)
+    own = pelvis_in_progression({k: coords[k] for k in PELVIS}, t)  # no position: the pelvis's own heading
+    assert np.max(np.abs(own["pelvis_rotation"][mid] - 4.0 * wave[mid])) > 0.5
+    still = pelvis_in_progression({**coords, "pelvis_tx": 0 * t, "pelvis_tz": 0 * t}, t)  # standing: its own
+    assert np.allclose(still["pelvis_rotation"], own["pelvis_rotation"], equal_nan=True)
