@@ -66,8 +66,8 @@ def _angles(folder: Path) -> tuple[np.ndarray, dict, str]:
         why = json.loads(status.read_text()).get("reason", "") if status.is_file() else "no kinematics.mot"
         return np.zeros(0), {}, f"joint angles (kinematics not computed: {why or 'no kinematics.mot'})"
     times, coords, in_degrees = parse_mot(mot.read_text())
-    if not in_degrees:
-        coords = {k: np.degrees(v) for k, v in coords.items()}
+    if not in_degrees:  # the rotations; the translations (pelvis_tx, ...) stay in m
+        coords = {k: v if k.endswith(("_tx", "_ty", "_tz")) else np.degrees(v) for k, v in coords.items()}
     coords = pelvis_in_progression(coords, times)  # as the page's curves: the pelvis against the walk, not the room
     out = {}
     for var in ANGLE_VARIABLES:
