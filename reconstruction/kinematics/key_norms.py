@@ -46,8 +46,9 @@ UNVALIDATED_ZERO = {
 
 # variable -> why its curve is never judged against a band (neither drawn over one nor in the Gait Profile
 # Score): against a laboratory's reference its course does not follow. Hip rotation (the thigh's turn about
-# its own axis) is seen only through the knee's bend and the foot, and a nearly straight knee leaves it loose: against
-# Plug-in-Gait on the three real walks (`python bench/validation.py --refine`, docs/kinematics.md) r 0.03-0.75
+# its own axis) is seen only through the knee's bend and the foot, and a nearly straight knee leaves it
+# loose: against Plug-in-Gait on the three real walks (`python bench/validation.py --refine`,
+# docs/validation.md) r 0.03-0.75
 # and offsets of 5-19 deg (RMSE after them 4-7 deg), where hip flexion and the knee follow at r 0.98-0.999 and
 # hip adduction within 2.5 deg after offsets of at most 1.8 deg (r 0.68-0.95).
 UNVALIDATED_COURSE = {
