@@ -227,9 +227,10 @@ def life_slope(values: list[float], pids: list[int], *, warm_up: int = 0) -> flo
 
 
 def pooled_slope(parts: list[list[float]]) -> float:
-    """The least-squares slope common to ``parts`` (units per step), each part with its own intercept."""
+    """The least-squares slope common to ``parts`` (units per step), each part with its own intercept (a part
+    of fewer than 2 values adds nothing); 0.0 when none has 2."""
     num = den = 0.0
-    for v in parts:
+    for v in (p for p in parts if len(p) >= 2):
         mx, my = (len(v) - 1) / 2, sum(v) / len(v)
         num += sum((i - mx) * (y - my) for i, y in enumerate(v))
         den += sum((i - mx) ** 2 for i in range(len(v)))
@@ -238,11 +239,7 @@ def pooled_slope(parts: list[list[float]]) -> float:
 
 def slope(values: list[float]) -> float:
     """Least-squares slope of ``values`` over their index (units per step); 0.0 for fewer than 2."""
-    n = len(values)
-    if n < 2:
-        return 0.0
-    mx, my = (n - 1) / 2, sum(values) / n
-    return sum((i - mx) * (v - my) for i, v in enumerate(values)) / sum((i - mx) ** 2 for i in range(n))
+    return pooled_slope([values])
 
 
 def _recording_kept(stack, trial_id: str) -> bool:
